@@ -1,0 +1,33 @@
+# Quick start: `make run` and `make test` work on a fresh machine with only Python.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: run test lint typecheck bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[dev,nxt,cluster]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+run: $(STAMP)
+	mkdir -p out
+	$(BIN)/nxtnav maps show map1 -o out/map1.png
+	$(BIN)/nxtnav scan --map map1 --pose 20,85,0 --sonar nxt --seed 1 -o out/scan.png --json out/scan.json
+
+test: $(STAMP)
+	$(BIN)/ruff check toolkit planners localisation tests
+	$(BIN)/mypy
+	$(BIN)/python -m pytest -q
+
+bench: $(STAMP)
+	$(BIN)/nxtnav bench world --map map1
+
+clean:
+	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,39 @@
+"""The error hierarchy of nxtnav: every error the toolkit raises on purpose derives from `NxtnavError`."""
+
+from __future__ import annotations
+
+__all__ = [
+    "LocalisationError",
+    "MapError",
+    "NxtnavError",
+    "PlanningError",
+    "RegistryError",
+    "RobotError",
+]
+
+
+class NxtnavError(Exception):
+    """Base class of every error nxtnav raises on purpose; the CLI prints its message as one line."""
+
+
+class MapError(NxtnavError):
+    """A map file or map geometry is missing, malformed or invalid."""
+
+
+class PlanningError(NxtnavError):
+    """A planning problem is malformed (planners report an unreachable goal as a failed result instead)."""
+
+
+class LocalisationError(NxtnavError):
+    """A localiser was used wrongly (for example a tracker without a prior)."""
+
+
+class RobotError(NxtnavError):
+    """The robot (simulated or real) cannot carry out a command or lost its connection."""
+
+
+class RegistryError(NxtnavError, KeyError):
+    """An unknown or duplicate plug-in name."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""

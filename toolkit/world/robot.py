@@ -1,0 +1,172 @@
+"""The Robot protocol shared by the simulator and the NXT, and the data it exchanges.
+
+These are the paper's four functions: Move (forward, with the collision watchdog), Turn (about the
+wheel-axis centre), Turnback (back off to a safe distance) and Ultrascan (a 360-degree turret sweep).
+Only a simulator knows the true pose; localisers and planners never see it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "NO_ECHO",
+    "MoveOutcome",
+    "Robot",
+    "RobotGeometry",
+    "Scan",
+    "default_scan_angles",
+]
+
+NO_ECHO = 255.0
+"""The LEGO ultrasonic sensor's reading when no echo returns (cm)."""
+
+
+def default_scan_angles(n: int = 360) -> NDArray[np.float64]:
+    """`n` sensor angles (rad) evenly spaced over a full turn, starting straight ahead."""
+    return np.arange(n) * (2.0 * np.pi / n)
+
+
+@dataclass(frozen=True)
+class RobotGeometry:
+    """Physical constants of the robot (cm), with defaults for a typical NXT build.
+
+    Parameters
+    ----------
+    radius_cm : float
+        Radius of the disc that contains the robot, centred on the wheel axis midpoint.
+    wheel_diameter_cm : float
+        Drive wheel diameter (the standard NXT wheel is 5.6 cm).
+    track_width_cm : float
+        Distance between the wheel contact points (a calibration value, 11-14 cm on typical builds).
+    sensor_offset_cm : float
+        Distance from the turret axis to the sensor face; the paper's turret is homocentric with
+        the wheel axis and readings are taken from the centre, so the default is 0.
+    turret_gear_ratio : float
+        Turret motor degrees per degree of sensor rotation.
+    """
+
+    radius_cm: float = 8.0
+    wheel_diameter_cm: float = 5.6
+    track_width_cm: float = 12.0
+    sensor_offset_cm: float = 0.0
+    turret_gear_ratio: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("radius_cm", "wheel_diameter_cm", "track_width_cm", "turret_gear_ratio"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+                raise ValueError(f"RobotGeometry.{name} must be a positive number, got {v!r}")
+
+    @property
+    def wheel_circumference_cm(self) -> float:
+        """Distance driven per wheel revolution (cm)."""
+        return float(np.pi * self.wheel_diameter_cm)
+
+    def to_dict(self) -> dict[str, float]:
+        return {k: float(getattr(self, k)) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True, eq=False)
+class Scan:
+    """One turret sweep.
+
+    Attributes
+    ----------
+    angles : (n,) ndarray
+        Sensor directions relative to the robot heading (rad).
+    ranges : (n,) ndarray
+        Readings (cm); ``inf`` (simulated, no wall) or 255 (NXT, no echo) where `valid` is False.
+    valid : (n,) bool ndarray
+        Whether each reading is a usable echo.
+    """
+
+    angles: NDArray[np.float64]
+    ranges: NDArray[np.float64]
+    valid: NDArray[np.bool_]
+
+    @classmethod
+    def from_readings(cls, angles: ArrayLike, ranges: ArrayLike, max_range: float = NO_ECHO) -> Scan:
+        """A scan whose invalid readings are the non-finite ones and those >= `max_range`."""
+        a = np.asarray(angles, dtype=float).ravel()
+        r = np.asarray(ranges, dtype=float).ravel()
+        if a.shape != r.shape:
+            raise ValueError(f"{a.size} angles but {r.size} ranges")
+        return cls(a, r, np.isfinite(r) & (r < max_range) & (r >= 0))
+
+    def __len__(self) -> int:
+        return int(self.angles.size)
+
+    def subset(self, mask: ArrayLike) -> Scan:
+        """The readings where `mask` is True."""
+        m = np.asarray(mask, dtype=bool)
+        return Scan(self.angles[m], self.ranges[m], self.valid[m])
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON form: angles in degrees, ranges in cm with ``None`` where there is no echo."""
+        return {
+            "angles_deg": np.degrees(self.angles).tolist(),
+            "ranges_cm": [float(r) if v else None for r, v in zip(self.ranges, self.valid, strict=True)],
+        }
+
+
+@dataclass(frozen=True)
+class MoveOutcome:
+    """What a Move reported.
+
+    Attributes
+    ----------
+    requested_cm : float
+        Commanded distance (negative = backwards).
+    distance_cm : float
+        Distance the robot believes it drove (wheel odometry, not the truth).
+    watchdog : bool
+        True when the forward sonar stopped the motion early (a potential collision).
+    """
+
+    requested_cm: float
+    distance_cm: float
+    watchdog: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"requested_cm": self.requested_cm, "distance_cm": self.distance_cm, "watchdog": self.watchdog}
+
+
+@runtime_checkable
+class Robot(Protocol):
+    """What every robot (simulated or NXT) offers the localisation procedure and the mission."""
+
+    geometry: RobotGeometry
+
+    def move(self, distance_cm: float) -> MoveOutcome:
+        """Drive straight; forward moves stop early when the sonar reads closer than the watchdog."""
+        ...
+
+    def turn(self, angle_rad: float) -> None:
+        """Spin in place about the wheel-axis centre (counter-clockwise positive)."""
+        ...
+
+    def ultrascan(self, angles: ArrayLike | None = None) -> Scan:
+        """Sweep the turret (default 360 readings, 1 degree apart) and return it to the front."""
+        ...
+
+    def turnback(self) -> MoveOutcome:
+        """Back off from a wall to the safe distance."""
+        ...
+
+    def stop(self) -> None:
+        """Stop all motors now."""
+        ...
+
+    def close(self) -> None:
+        """Stop and release the robot."""
+        ...
+
+    @property
+    def robot_time_s(self) -> float:
+        """Time the robot has spent acting so far (modelled on the simulator, measured on the NXT)."""
+        ...
