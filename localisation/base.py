@@ -1,0 +1,132 @@
+"""The localiser interface: `Localiser` (a registry of plug-ins), `Motion` and `PoseEstimate`.
+
+A localiser is built for one map (``Localiser(map, rng=..., **options)``) and then driven by
+``reset(prior)``, ``predict(motion)`` after every robot action and ``update(scan)`` after every scan;
+``estimate()`` reports the current belief. Global localisers accept ``prior=None`` (uniform over the
+free space); pose trackers (EKF, UKF) need a prior and raise `LocalisationError` without one.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from toolkit.world import Map, Pose, Registry, RngLike, Scan, as_rng
+
+__all__ = ["LOCALISERS", "Localiser", "Motion", "PoseEstimate", "Prior", "make_localiser"]
+
+FloatArray = NDArray[np.float64]
+
+LOCALISERS: Registry[Localiser] = Registry("localiser")
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A commanded action, as the robot executed it: turn in place by `turn_rad`, then drive `distance_cm`.
+
+    `distance_cm` is what the robot reports it drove (its `MoveOutcome.distance_cm`), negative
+    for reversing.
+    """
+
+    turn_rad: float = 0.0
+    distance_cm: float = 0.0
+
+    def to_dict(self) -> dict[str, float]:
+        return {"turn_rad": self.turn_rad, "distance_cm": self.distance_cm}
+
+
+@dataclass(frozen=True)
+class Prior:
+    """A Gaussian prior on the pose: `mean` and 3x3 `cov` (cm^2, rad^2)."""
+
+    mean: Pose
+    cov: FloatArray = field(default_factory=lambda: np.diag([4.0, 4.0, math.radians(5.0) ** 2]))
+
+
+@dataclass(frozen=True, eq=False)
+class PoseEstimate:
+    """A localiser's belief.
+
+    Attributes
+    ----------
+    pose : Pose
+        Mean pose (circular mean for the heading).
+    cov : (3, 3) ndarray
+        Covariance of (x cm, y cm, heading rad).
+    converged : bool
+        Whether the localiser considers the belief narrow enough to act on.
+    iterations : int
+        Filter iterations (updates) since the last reset.
+    """
+
+    pose: Pose
+    cov: FloatArray
+    converged: bool
+    iterations: int = 0
+
+    @property
+    def std_xy_cm(self) -> float:
+        """Root of the summed x and y variances (cm): one number for the position spread."""
+        return float(math.sqrt(max(self.cov[0, 0] + self.cov[1, 1], 0.0)))
+
+    @property
+    def std_heading_rad(self) -> float:
+        return float(math.sqrt(max(self.cov[2, 2], 0.0)))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "pose": self.pose.to_list_deg(),
+            "cov": np.asarray(self.cov).tolist(),
+            "converged": self.converged,
+            "iterations": self.iterations,
+        }
+
+
+class Localiser(ABC):
+    """Base class of localisers; subclasses set `name` and implement the four methods.
+
+    Parameters
+    ----------
+    map : Map
+        The map the robot is in.
+    rng : None, int or Generator
+        Seed of every random draw.
+    """
+
+    name: ClassVar[str]
+    needs_prior: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__:
+            LOCALISERS.add(cls.name, cls)
+
+    def __init__(self, map: Map, *, rng: RngLike = None) -> None:
+        self.map = map
+        self.rng = as_rng(rng)
+
+    @abstractmethod
+    def reset(self, prior: Prior | None = None) -> None:
+        """Forget everything; start from `prior` (None: uniform over the free space)."""
+
+    @abstractmethod
+    def predict(self, motion: Motion) -> None:
+        """Move the belief by a commanded action."""
+
+    @abstractmethod
+    def update(self, scan: Scan) -> None:
+        """Weigh the belief by a scan (angles relative to the robot heading)."""
+
+    @abstractmethod
+    def estimate(self) -> PoseEstimate:
+        """The current belief."""
+
+
+def make_localiser(name: str, map: Map, *, rng: RngLike = None, **options: Any) -> Localiser:
+    """A localiser by registry name for `map`, with its options."""
+    return LOCALISERS.get(name)(map, rng=rng, **options)

@@ -1,0 +1,182 @@
+"""The planner interface: `Planner` (a registry of plug-ins), `PlanningProblem` and `PlanResult`.
+
+A planner is configured once (constructor keyword arguments) and queried many times with
+`plan(problem)`. It validates states and motions only through ``problem.checker`` (the shared FCL
+`CollisionChecker`), never raises for an unreachable goal (it returns a failed `PlanResult` with a
+status) and draws its randomness only from ``problem.rng``.
+
+Writing a planner is one file with one class::
+
+    class Straight(Planner):
+        name = "straight"
+
+        def _solve(self, problem):
+            path = np.array([problem.start, problem.goal])
+            ok = problem.checker.segment_free(problem.start, problem.goal)
+            return path if ok else None, "exact" if ok else "no straight path"
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng
+
+__all__ = ["PLANNERS", "PlanResult", "Planner", "PlanningProblem", "make_planner"]
+
+FloatArray = NDArray[np.float64]
+
+PLANNERS: Registry[Planner] = Registry("planner")
+
+
+@dataclass(eq=False)
+class PlanningProblem:
+    """One query: get a disc robot from `start` to `goal` in `map`.
+
+    Parameters
+    ----------
+    map : Map
+    checker : CollisionChecker
+        The shared checker (its radius is the robot radius); planners use nothing else for validity.
+    start, goal : (2,) array_like
+        Positions in cm.
+    time_limit : float
+        Planning budget in seconds.
+    rng : None, int or Generator
+        Seed of every random draw of the planner (normalised to a Generator).
+    """
+
+    map: Map
+    checker: CollisionChecker
+    start: FloatArray
+    goal: FloatArray
+    time_limit: float = 1.0
+    rng: np.random.Generator = field(default_factory=np.random.default_rng)
+
+    def __post_init__(self) -> None:
+        self.start = np.asarray(self.start, dtype=float).reshape(2)
+        self.goal = np.asarray(self.goal, dtype=float).reshape(2)
+        self.rng = as_rng(self.rng)
+        for label, p in (("start", self.start), ("goal", self.goal)):
+            if not np.all(np.isfinite(p)):
+                raise PlanningError(f"{label} {p.tolist()} is not finite")
+        if not (math.isfinite(self.time_limit) and self.time_limit > 0):
+            raise PlanningError(f"time limit must be a positive number of seconds, got {self.time_limit!r}")
+
+    @classmethod
+    def create(cls, map: Map, robot_radius: float, start: ArrayLike, goal: ArrayLike, time_limit: float = 1.0,
+               rng: RngLike = None, checker: CollisionChecker | None = None) -> PlanningProblem:
+        """A problem with a new checker for `robot_radius` (or the given one)."""
+        return cls(map, checker or CollisionChecker(map, robot_radius), np.asarray(start, float),
+                   np.asarray(goal, float), time_limit, as_rng(rng))
+
+    @property
+    def robot_radius(self) -> float:
+        return self.checker.robot_radius
+
+
+@dataclass(frozen=True, eq=False)
+class PlanResult:
+    """What a planner returns.
+
+    Attributes
+    ----------
+    planner : str
+        Registry name of the planner.
+    path : (k, 2) ndarray
+        Waypoints from start to goal in cm (empty (0, 2) when it failed).
+    success : bool
+        True when `path` joins start and goal and is collision-free.
+    status : str
+        "exact" on success, otherwise why it failed ("timeout", "start in collision", ...).
+    time_s : float
+        Planning wall-clock time (s).
+    collision_checks : int
+        Checks the planner asked of the shared checker.
+    info : dict
+        Planner-specific extras (e.g. path length before simplification).
+    """
+
+    planner: str
+    path: FloatArray
+    success: bool
+    status: str
+    time_s: float
+    collision_checks: int = 0
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def length(self) -> float:
+        """Path length (cm); inf when the plan failed."""
+        if not self.success or len(self.path) < 2:
+            return 0.0 if self.success else math.inf
+        return float(np.sum(np.hypot(*np.diff(self.path, axis=0).T)))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "planner": self.planner,
+            "success": self.success,
+            "status": self.status,
+            "time_s": self.time_s,
+            "collision_checks": self.collision_checks,
+            "length_cm": self.length if self.success else None,
+            "path": self.path.tolist(),
+            "info": self.info,
+        }
+
+
+class Planner(ABC):
+    """Base class of planners. Subclasses set `name` and implement `_solve`.
+
+    Subclasses with a `name` register themselves; `make_planner(name, **options)` builds one.
+    """
+
+    name: ClassVar[str]
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__:
+            PLANNERS.add(cls.name, cls)
+
+    def plan(self, problem: PlanningProblem) -> PlanResult:
+        """Solve `problem`; never raises for an unsolvable query (a failed result says why)."""
+        checker = problem.checker
+        checks0 = checker.checks
+        t0 = time.perf_counter()
+        if not checker.point_free(problem.start):
+            path, status, info = None, "start in collision", {}
+        elif not checker.point_free(problem.goal):
+            path, status, info = None, "goal in collision", {}
+        else:
+            out = self._solve(problem)
+            path, status = out[0], out[1]
+            info = out[2] if len(out) > 2 else {}
+        elapsed = time.perf_counter() - t0
+        checks = checker.checks - checks0
+        if path is None:
+            return PlanResult(self.name, np.empty((0, 2)), False, status, elapsed, checks, info)
+        arr = np.asarray(path, dtype=float).reshape(-1, 2)
+        return PlanResult(self.name, arr, True, status, elapsed, checks, info)
+
+    @abstractmethod
+    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+        """Return ``(path or None, status)`` or ``(path or None, status, info_dict)``.
+
+        Start and goal are already known to be collision-free when this is called.
+        """
+
+
+def make_planner(name: str, **options: Any) -> Planner:
+    """A planner by registry name with its options (``ompl:NAME`` reaches any OMPL geometric planner)."""
+    if name.startswith("ompl:"):
+        from .ompl_planners import OmplPlanner
+
+        return OmplPlanner(planner=name.split(":", 1)[1], **options)
+    return PLANNERS.get(name)(**options)
