@@ -1,0 +1,1 @@
+"""Benchmark runners and result writers (they combine planners, localisers and robots)."""

@@ -1,0 +1,104 @@
+"""Running independent benchmark tasks: in-process, over a process pool, or on a Dask cluster.
+
+Results come back as they finish (not in task order); each task should carry its own identifiers.
+Progress is reported through a callback so that the CLI owns the progress bar.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from typing import Any, TypeVar
+
+__all__ = ["default_workers", "run_tasks"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def default_workers() -> int:
+    """Worker processes by default: the usable cores."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def run_tasks(
+    func: Callable[[T], R],
+    tasks: Sequence[T],
+    *,
+    workers: int = 1,
+    dask_address: str | None = None,
+    on_done: Callable[[R], None] | None = None,
+) -> Iterator[R]:
+    """Yield ``func(task)`` for every task, as each finishes.
+
+    Parameters
+    ----------
+    func : callable
+        A picklable top-level function.
+    tasks : sequence
+        Picklable task descriptions.
+    workers : int
+        1 runs in this process (simplest to debug); more uses a process pool of that size.
+    dask_address : str or None
+        Scheduler address (``tcp://host:8786``) of a Dask cluster, or ``"local"`` for a local
+        cluster of `workers` processes; needs the ``cluster`` extra.
+    on_done : callable or None
+        Called with each result as it arrives (progress bars).
+    """
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    if dask_address is not None:
+        yield from _run_dask(func, tasks, workers, dask_address, on_done)
+        return
+    if workers == 1 or len(tasks) <= 1:
+        for t in tasks:
+            r = func(t)
+            if on_done:
+                on_done(r)
+            yield r
+        return
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        pending: set[Future[R]] = {pool.submit(func, t) for t in tasks}
+        try:
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for f in done:
+                    r = f.result()
+                    if on_done:
+                        on_done(r)
+                    yield r
+        finally:
+            for f in pending:
+                f.cancel()
+
+
+def _run_dask(
+    func: Callable[[T], R], tasks: Sequence[T], workers: int, address: str, on_done: Callable[[R], None] | None
+) -> Iterator[R]:
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError as exc:  # pragma: no cover - depends on the extra
+        from ..world import NxtnavError
+
+        raise NxtnavError("--dask needs the 'cluster' extra: pip install 'nxtnav[cluster]'") from exc
+    cluster: Any = None
+    if address == "local":
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+    else:
+        client = Client(address)
+    try:
+        futures = client.map(func, list(tasks), pure=False)
+        for f in as_completed(futures):
+            r = f.result()
+            if on_done:
+                on_done(r)
+            yield r
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
