@@ -150,10 +150,11 @@ class Planner(ABC):
         checker = problem.checker
         checks0 = checker.checks
         t0 = time.perf_counter()
+        info: dict[str, Any] = {}
         if not checker.point_free(problem.start):
-            path, status, info = None, "start in collision", {}
+            path, status = None, "start in collision"
         elif not checker.point_free(problem.goal):
-            path, status, info = None, "goal in collision", {}
+            path, status = None, "goal in collision"
         else:
             out = self._solve(problem)
             path, status = out[0], out[1]

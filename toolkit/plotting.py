@@ -13,16 +13,16 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg", force=False)
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.patches import Circle, PathPatch  # noqa: E402
-from matplotlib.path import Path as MplPath  # noqa: E402
-from numpy.typing import ArrayLike  # noqa: E402
-from shapely.geometry.base import BaseGeometry  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, PathPatch
+from matplotlib.path import Path as MplPath
+from numpy.typing import ArrayLike
+from shapely.geometry.base import BaseGeometry
 
-from .world import Map, Pose, Scan, ray_cast  # noqa: E402
+from .world import Map, Pose, Scan, ray_cast
 
 __all__ = [
     "draw_cspace",
@@ -39,8 +39,8 @@ __all__ = [
 
 def new_axes(ncols: int = 1, size: float = 5.0, polar: bool = False) -> tuple[Figure, Any]:
     """A figure with `ncols` axes side by side."""
-    kw = {"subplot_kw": {"projection": "polar"}} if polar else {}
-    fig, axes = plt.subplots(1, ncols, figsize=(size * ncols, size), squeeze=True, **kw)
+    subplot_kw = {"projection": "polar"} if polar else None
+    fig, axes = plt.subplots(1, ncols, figsize=(size * ncols, size), squeeze=True, subplot_kw=subplot_kw)
     return fig, axes
 
 
@@ -65,7 +65,7 @@ def _geometry_patch(geom: BaseGeometry, **kw: Any) -> list[PathPatch]:
         if poly.is_empty or poly.geom_type != "Polygon":
             continue
         verts: list[Any] = []
-        codes: list[int] = []
+        codes: list[Any] = []
         for ring in (poly.exterior, *poly.interiors):
             xy = np.asarray(ring.coords)
             verts.extend(xy)
@@ -153,7 +153,7 @@ def draw_scan_rays(pose: Pose, scan: Scan, ax: Axes | None = None, color: str = 
     return out
 
 
-def draw_radar(scan: Scan, ax: Axes, expected: ArrayLike | None = None, max_range: float | None = None,
+def draw_radar(scan: Scan, ax: Any, expected: ArrayLike | None = None, max_range: float | None = None,
                label: str = "measured", expected_label: str = "simulated") -> list[Any]:
     """The paper's radar chart (Fig. 3): readings against sensor angle on polar axes.
 

@@ -11,7 +11,16 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..plotting import draw_cspace, draw_map, draw_pose, draw_radar, draw_scan_rays, expected_ranges, new_axes, save_figure
+from ..plotting import (
+    draw_cspace,
+    draw_map,
+    draw_pose,
+    draw_radar,
+    draw_scan_rays,
+    expected_ranges,
+    new_axes,
+    save_figure,
+)
 from ..world import (
     SONAR_MODELS,
     CollisionChecker,

@@ -5,7 +5,16 @@ Planners and localisers import from here and nowhere else in `toolkit`.
 
 from .collision import CollisionChecker
 from .errors import LocalisationError, MapError, NxtnavError, PlanningError, RegistryError, RobotError
-from .geometry import Pose, RngLike, angle_diff, as_rng, circular_mean, ray_cast, ray_wall_distances, wrap_angle
+from .geometry import (
+    Pose,
+    RngLike,
+    angle_diff,
+    as_rng,
+    circular_mean,
+    ray_cast,
+    ray_wall_distances,
+    wrap_angle,
+)
 from .maps import Map, list_maps, load_map, map_from_dict
 from .registry import Registry
 from .robot import NO_ECHO, MoveOutcome, Robot, RobotGeometry, Scan, default_scan_angles

@@ -28,7 +28,7 @@ NO_ECHO = 255.0
 
 def default_scan_angles(n: int = 360) -> NDArray[np.float64]:
     """`n` sensor angles (rad) evenly spaced over a full turn, starting straight ahead."""
-    return np.arange(n) * (2.0 * np.pi / n)
+    return np.arange(n, dtype=np.float64) * (2.0 * np.pi / n)
 
 
 @dataclass(frozen=True)

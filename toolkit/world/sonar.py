@@ -19,7 +19,7 @@ Two models, both seeded through an ``rng`` argument:
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, is_dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -70,8 +70,9 @@ class SonarModel(ABC):
         """
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, **asdict(self)} if hasattr(self, "__dataclass_fields__") else {
-            "name": self.name}
+        """The model's name and parameters."""
+        params: dict[str, Any] = asdict(self) if is_dataclass(self) else {}
+        return {"name": self.name, **params}
 
 
 @dataclass
