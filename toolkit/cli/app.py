@@ -7,8 +7,8 @@ import os
 import sys
 from collections.abc import Sequence
 
-import click
 import typer
+from typer.exceptions import TyperException
 
 from ..world import NxtnavError
 
@@ -72,13 +72,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     except NxtnavError as exc:
         typer.echo(f"nxtnav: error: {exc}", err=True)
         code = 2
-    except click.exceptions.Exit as exc:
+    except typer.Exit as exc:
         code = exc.exit_code
-    except click.exceptions.Abort:
+    except typer.Abort:
         typer.echo("nxtnav: aborted", err=True)
         code = 130
-    except click.ClickException as exc:
-        exc.show()
+    except TyperException as exc:  # usage errors and bad parameters: one line, exit 2
+        message = exc.format_message() if hasattr(exc, "format_message") else str(exc)
+        typer.echo(f"nxtnav: error: {' '.join(str(message).split())}", err=True)
         code = 2
     except KeyboardInterrupt:
         typer.echo("nxtnav: interrupted", err=True)

@@ -226,7 +226,7 @@ class SimRobot:
             return MoveOutcome(0.0, 0.0, False)
         heading = wrap_angle(self._pose.theta + self.rng.standard_normal() * self.noise.turn)
         eps = self.rng.standard_normal() * self.noise.motion
-        true_d = d + (d * eps if self.noise.model == "botsim" else math.copysign(eps, d) * 1.0)
+        true_d = d + (d * eps if self.noise.model == "botsim" else eps)
         scale = true_d / d  # true cm per commanded cm
         direction = np.array([math.cos(heading), math.sin(heading)])
         self._pose = Pose(self._pose.x, self._pose.y, heading)

@@ -155,7 +155,7 @@ class CollisionChecker:
         """Distance (cm) from the robot disc's edge to the nearest wall: negative when it collides.
 
         Uses FCL's sphere-to-mesh distance for discs that stay clear of the walls and the exact
-        planar distance otherwise (FCL reports no penetration depth for meshes). Points outside the
+        planar distance otherwise (FCL's distance query returns no penetration depth for meshes). Points outside the
         free area get ``-inf``. (2,) -> float; (n, 2) -> (n,) array.
         """
         p = np.asarray(xy, dtype=float)
@@ -163,11 +163,10 @@ class CollisionChecker:
         inside = self._inside(pts)
         out = np.full(len(pts), -np.inf)
         for i in np.flatnonzero(inside):
-            self._sphere.setTranslation(np.array([pts[i, 0], pts[i, 1], 0.0]))
-            d = fcl.distance(self._sphere, self._walls, self._dist_request, fcl.DistanceResult())
-            if d <= 0.0:
-                d = float(shapely.distance(shapely.Point(pts[i]), self.map.wall_lines)) - self.robot_radius
-            out[i] = d
+            if self._sphere_hits(pts[i, 0], pts[i, 1]):  # sets the sphere's position too
+                out[i] = float(shapely.distance(shapely.Point(pts[i]), self.map.wall_lines)) - self.robot_radius
+            else:
+                out[i] = fcl.distance(self._sphere, self._walls, self._dist_request, fcl.DistanceResult())
         self.point_checks += len(pts)
         return float(out[0]) if p.ndim == 1 else out
 

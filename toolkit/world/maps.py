@@ -120,10 +120,11 @@ def _ring(value: Any, where: str) -> FloatArray:
         j = (i + 1) % len(ring)
         if np.array_equal(ring[i], ring[j]):
             raise MapError(f"{where}: vertices {i} and {j} are the same point {ring[i].tolist()}")
-    poly = shapely.Polygon(ring)
-    if not poly.area > 0.0:
-        raise MapError(f"{where}: polygon has zero area")
+    if np.linalg.matrix_rank(ring - ring.mean(axis=0), tol=1e-9) < 2:
+        raise MapError(f"{where}: polygon has zero area (all vertices on one line)")
     _check_simple(ring, where)
+    if not shapely.Polygon(ring).area > 0.0:
+        raise MapError(f"{where}: polygon has zero area")
     return ring
 
 

@@ -1,0 +1,82 @@
+"""`nxtnav maps`, `nxtnav scan` and `nxtnav bench world` from the command line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from toolkit.cli import main
+from toolkit.world import load_map, ray_cast
+
+
+def run(args: list[str]) -> int:
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def test_maps_list(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run(["maps", "list"]) == 0
+    out = capsys.readouterr().out
+    for name in ("map1", "map2", "map3"):
+        assert name in out
+
+
+def test_maps_show_writes_png(tmp_path: Path) -> None:
+    out = tmp_path / "sub" / "m.png"
+    assert run(["maps", "show", "map3", "-o", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_scan_json(tmp_path: Path) -> None:
+    png, js = tmp_path / "s.png", tmp_path / "s.json"
+    assert run(["scan", "--map", "map1", "--pose", "20,85,0", "--sonar", "ideal", "--seed", "3",
+                "-o", str(png), "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    assert doc["pose"] == [20.0, 85.0, 0.0]
+    assert len(doc["angles_deg"]) == len(doc["ranges_cm"]) == 360
+    exact = ray_cast(load_map("map1").walls, [20, 85], np.radians(doc["angles_deg"]))
+    assert np.max(np.abs(np.array(doc["ranges_cm"]) - exact)) < 5.0  # 1 cm noise, 5 sigma
+    assert png.exists()
+
+
+def test_scan_nxt_has_nulls_for_no_echo(tmp_path: Path) -> None:
+    js = tmp_path / "s.json"
+    assert run(["scan", "--map", "map1", "--pose", "20,85,0", "--sonar", "nxt", "-o", str(tmp_path / "s.png"),
+                "--json", str(js)]) == 0
+    ranges = json.loads(js.read_text())["ranges_cm"]
+    assert None in ranges and all(r is None or r == int(r) for r in ranges)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["scan", "--map", "map1", "--pose", "20,85", "-o", "x.png"], "--pose: expected 3"),
+        (["scan", "--map", "nomap", "--pose", "1,1,0", "-o", "x.png"], "unknown map 'nomap'"),
+        (["scan", "--map", "map1", "--pose", "500,1,0", "-o", "x.png"], "outside the free area"),
+        (["scan", "--map", "map1", "--pose", "20,20,0", "--sonar", "laser", "-o", "x.png"], "unknown sonar model"),
+        (["maps", "show", "missing.yaml", "-o", "x.png"], "not found"),
+    ],
+)
+def test_errors_are_one_line_exit_2(tmp_path: Path, args: list[str], message: str) -> None:
+    proc = subprocess.run([sys.executable, "-m", "toolkit.cli", *args], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, proc.stderr
+    assert message in lines[0]
+    assert "Traceback" not in proc.stderr
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_bench_world_prints_rates(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run(["bench", "world", "--poses", "50", "--repeats", "1", "--segments", "200"]) == 0
+    out = capsys.readouterr().out
+    assert "M rays/s" in out and "checks/s" in out
