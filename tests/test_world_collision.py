@@ -72,7 +72,6 @@ def test_segments_agree_with_shapely(name: str) -> None:
     m = get_map(name)
     cc = CollisionChecker(m, RADIUS)
     rng = np.random.default_rng(7)
-    xmin, ymin, xmax, ymax = m.bounds
     a = m.sample_free(N, clearance=RADIUS, rng=rng)  # starts mostly free, so the sweep decides
     b = a + rng.normal(0.0, 25.0, (N, 2))
     got = cc.segments_free(a, b)

@@ -94,7 +94,7 @@ def test_precise_errors(tmp_path: Path, text: str, message: str) -> None:
 def test_missing_file_and_unknown_name(tmp_path: Path) -> None:
     with pytest.raises(MapError, match="not found"):
         load_map(tmp_path / "nope.yaml")
-    with pytest.raises(MapError, match="unknown map 'nomap'; known: .*map1"):
+    with pytest.raises(MapError, match=r"unknown map 'nomap'; known: .*map1"):
         load_map("nomap")
 
 
