@@ -27,7 +27,6 @@ from .maps import Map
 __all__ = ["CollisionChecker"]
 
 _HALF_HEIGHT = 50.0
-_Y_TO_X = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # capsule axis z -> x
 
 
 def _wall_mesh(walls: NDArray[np.float64]) -> fcl.BVHModel:
@@ -108,7 +107,8 @@ class CollisionChecker:
         if length < 1e-12:
             return self._sphere_hits(ax, ay)
         c, s = dx / length, dy / length
-        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ _Y_TO_X
+        # rotation taking the capsule's axis (z) onto the segment direction (c, s, 0)
+        rot = np.array([[0.0, -s, c], [0.0, c, s], [-1.0, 0.0, 0.0]])
         tf = fcl.Transform(rot, np.array([(ax + bx) / 2.0, (ay + by) / 2.0, 0.0]))
         capsule = fcl.CollisionObject(fcl.Capsule(self.robot_radius, length), tf)
         return fcl.collide(capsule, self._walls, self._request, fcl.CollisionResult()) > 0
