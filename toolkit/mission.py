@@ -1,0 +1,749 @@
+"""The mission stack: localise, plan, drive with the watchdog, re-localise and re-plan, final correction.
+
+`run_mission` runs any registered localiser and planner on any `toolkit.world.Robot` (the simulator
+or a real NXT) from an unknown start pose to a target, the way the paper's system does:
+
+1. **Localise** globally with `localisation.procedure.localise` (scan, align, rescan, iterate).
+2. **Plan** in the configuration space from the estimate with the chosen planner and the shared FCL
+   `CollisionChecker` (planned with a small safety margin on the robot radius when the map allows it).
+3. **Drive** the path segment by segment: Turn to the segment heading (from the estimate), then Move in
+   steps with the collision watchdog on; the localiser predicts after every action. At each waypoint the
+   robot re-localises (tracking from the current belief) and re-plans when the next segment is no
+   longer collision-free from where it believes it is.
+4. On a **watchdog stop**: Turnback, re-localise, re-plan from the new estimate.
+5. At the **target**: re-localise and correct (turn + move toward the target from the estimate) until
+   the estimate is within `MissionConfig.goal_tolerance_cm` of the target or the retry limit is hit.
+
+Every action is recorded in a trace (action, estimate, and the true pose when the robot exposes one,
+as `SimRobot` does). Nothing here raises for an unreachable target, a target in a wall or a lost
+robot: the `MissionReport` says so in `status`.
+
+Examples
+--------
+>>> from toolkit.robots.sim import SimRobot
+>>> from toolkit.world import Pose, load_map
+>>> m = load_map("map1")
+>>> robot = SimRobot(m, Pose(20, 20, 1.0), rng=1)
+>>> report = run_mission(robot, m, (80, 80), rng=1)   # doctest: +SKIP
+>>> report.success, round(report.final_error_cm, 1)   # doctest: +SKIP
+(True, 0.4)
+"""
+
+from __future__ import annotations
+
+import inspect
+import logging
+import math
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+from numpy.typing import ArrayLike, NDArray
+from shapely.ops import nearest_points
+
+from localisation.base import Localiser, Motion, PoseEstimate, Prior, make_localiser
+from planners.base import Planner, PlanningProblem, PlanResult, make_planner
+
+from .world import (
+    CollisionChecker,
+    Map,
+    NxtnavError,
+    Pose,
+    RngLike,
+    Robot,
+    angle_diff,
+    as_rng,
+    load_map,
+)
+
+__all__ = ["MissionConfig", "MissionReport", "TraceStep", "run_mission"]
+
+log = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+_TURN_EPS = math.radians(0.5)  # turns smaller than this are not counted as turns
+
+
+@dataclass(frozen=True)
+class MissionConfig:
+    """How a mission is run (all lengths in cm, angles in rad, times in s).
+
+    Parameters
+    ----------
+    planning_time_s : float
+        Time budget of each planner query.
+    planner_options, localiser_options : mapping
+        Keyword arguments for `make_planner` / `make_localiser` when the stack is given by name.
+    localise_options : mapping
+        Extra keyword arguments for `localisation.procedure.localise` (those it does not accept are
+        dropped with a debug log line).
+    safety_margin_cm : float
+        Extra clearance added to the robot radius when planning; the mission tries half the margin and
+        then the bare radius when no path exists with it (narrow passages). Starts and targets closer
+        to a wall than the margin are joined to the path by a short straight leg.
+    move_step_cm : float
+        Longest single Move command; a segment is driven as several Moves, the localiser predicting
+        after each one (the watchdog runs inside every Move).
+    relocalise_every_cm : float or None
+        Re-localise (tracking) after driving this far along one segment, then re-aim at the waypoint;
+        None re-localises at the waypoints only.
+    waypoint_tolerance_cm : float
+        A waypoint counts as reached when the estimate is this close to it.
+    goal_tolerance_cm : float
+        The final correction stops when the estimate is this close to the target.
+    max_corrections : int
+        Correction moves at the target before giving up on the tolerance (the mission still counts
+        as a success when the estimate ends within `success_radius_cm`).
+    success_radius_cm : float
+        The estimate must end within this distance of the target for the mission to succeed.
+    final_scans : int
+        Scans fused at the target before each correction decision (more scans, tighter estimate).
+    max_replans : int
+        Re-plans (after watchdog stops or deviations) before the mission gives up.
+    max_localisation_attempts : int
+        Global localisation attempts before the robot is declared lost.
+    tracking_std_cm, tracking_std_deg : float
+        Minimum standard deviations of the prior handed to a tracking re-localisation.
+    max_actions : int
+        Hard limit on Turn/Move commands (guards against endless loops).
+    """
+
+    planning_time_s: float = 1.0
+    planner_options: Mapping[str, Any] = field(default_factory=dict)
+    localiser_options: Mapping[str, Any] = field(default_factory=dict)
+    localise_options: Mapping[str, Any] = field(default_factory=dict)
+    safety_margin_cm: float = 2.0
+    move_step_cm: float = 10.0
+    relocalise_every_cm: float | None = 40.0
+    waypoint_tolerance_cm: float = 2.0
+    goal_tolerance_cm: float = 0.5
+    max_corrections: int = 6
+    success_radius_cm: float = 3.0
+    final_scans: int = 1
+    max_replans: int = 12
+    max_localisation_attempts: int = 3
+    tracking_std_cm: float = 4.0
+    tracking_std_deg: float = 8.0
+    max_actions: int = 400
+
+    def __post_init__(self) -> None:
+        positive = ("planning_time_s", "move_step_cm", "waypoint_tolerance_cm", "goal_tolerance_cm",
+                    "success_radius_cm", "tracking_std_cm", "tracking_std_deg")
+        for name in positive:
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise ValueError(f"MissionConfig.{name} must be a positive number, got {v!r}")
+        if not (math.isfinite(self.safety_margin_cm) and self.safety_margin_cm >= 0):
+            raise ValueError(f"MissionConfig.safety_margin_cm must be >= 0, got {self.safety_margin_cm!r}")
+        if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:
+            raise ValueError(f"MissionConfig.relocalise_every_cm must be > 0 or None, got {self.relocalise_every_cm!r}")
+        for name in ("max_corrections", "max_replans", "max_localisation_attempts", "max_actions", "final_scans"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= (0 if name in ("max_corrections", "max_replans") else 1)):
+                raise ValueError(f"MissionConfig.{name} must be a non-negative integer, got {v!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in self.__dict__.items()}
+
+
+@dataclass(frozen=True)
+class TraceStep:
+    """One recorded step of a mission.
+
+    Attributes
+    ----------
+    action : str
+        ``localise``, ``relocalise``, ``plan``, ``turn``, ``move``, ``turnback``, ``correct-turn``,
+        ``correct-move`` or ``stop``.
+    estimate : Pose or None
+        The localiser's mean pose after the action.
+    true_pose : Pose or None
+        The robot's true pose after the action, when the robot knows it (simulator).
+    turn_rad : float
+        Commanded turn (rad), for turns.
+    distance_cm : float
+        Distance the robot reported driving (cm), for moves.
+    watchdog : bool
+        Whether the watchdog stopped this move.
+    robot_time_s : float
+        The robot's clock after the action (s).
+    note : str
+        Free text (planner status, localisation result, ...).
+    """
+
+    action: str
+    estimate: Pose | None = None
+    true_pose: Pose | None = None
+    turn_rad: float = 0.0
+    distance_cm: float = 0.0
+    watchdog: bool = False
+    robot_time_s: float = 0.0
+    note: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "action": self.action,
+            "estimate": None if self.estimate is None else self.estimate.to_list_deg(),
+            "true_pose": None if self.true_pose is None else self.true_pose.to_list_deg(),
+            "turn_deg": math.degrees(self.turn_rad),
+            "distance_cm": self.distance_cm,
+            "watchdog": self.watchdog,
+            "robot_time_s": self.robot_time_s,
+            "note": self.note,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class MissionReport:
+    """What a mission did and how well.
+
+    Attributes
+    ----------
+    success : bool
+        The mission ended with the estimate within the success radius of the target.
+    status : str
+        One line: ``reached target`` or why the mission ended early.
+    final_error_cm : float or None
+        TRUE distance from the robot to the target at the end (cm), when the robot knows its pose;
+        otherwise None.
+    estimate_error_cm : float or None
+        Distance between the final estimate and the target (cm).
+    completion_s : float
+        Wall-clock time of the whole run (s).
+    robot_time_s : float
+        Time the robot spent acting (modelled on the simulator) (s).
+    path_length_cm : float
+        Distance driven, from odometry (forward and backward moves) (cm).
+    planned_length_cm : float
+        Length of the first successful plan (cm); 0 when nothing was planned.
+    turns : int
+        Turn commands of the mission (above half a degree; those of the localisation procedure excluded).
+    collisions : int or None
+        True contacts with walls (simulator), None when unknown.
+    watchdog_stops, relocalisations, replans : int
+        Counters of the run (relocalisations exclude the first global localisation).
+    map, planner, localiser : str
+    seed : int or None
+    start : Pose or None
+        True start pose when known.
+    target : (2,) ndarray
+    final_pose, final_estimate : Pose or None
+    plans : list of (k, 2) ndarray
+        Every planned path, in order.
+    trace : list of TraceStep
+    """
+
+    success: bool
+    status: str
+    final_error_cm: float | None
+    estimate_error_cm: float | None
+    completion_s: float
+    robot_time_s: float
+    path_length_cm: float
+    planned_length_cm: float
+    turns: int
+    collisions: int | None
+    watchdog_stops: int
+    relocalisations: int
+    replans: int
+    map: str
+    planner: str
+    localiser: str
+    seed: int | None
+    start: Pose | None
+    target: FloatArray
+    final_pose: Pose | None
+    final_estimate: Pose | None
+    plans: list[FloatArray] = field(default_factory=list)
+    trace: list[TraceStep] = field(default_factory=list)
+
+    def to_dict(self, trace: bool = True) -> dict[str, Any]:
+        """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
+        d: dict[str, Any] = {
+            "success": self.success,
+            "status": self.status,
+            "final_error_cm": self.final_error_cm,
+            "estimate_error_cm": self.estimate_error_cm,
+            "completion_s": self.completion_s,
+            "robot_time_s": self.robot_time_s,
+            "path_length_cm": self.path_length_cm,
+            "planned_length_cm": self.planned_length_cm,
+            "turns": self.turns,
+            "collisions": self.collisions,
+            "watchdog_stops": self.watchdog_stops,
+            "relocalisations": self.relocalisations,
+            "replans": self.replans,
+            "map": self.map,
+            "planner": self.planner,
+            "localiser": self.localiser,
+            "seed": self.seed,
+            "start": None if self.start is None else self.start.to_list_deg(),
+            "target": [float(v) for v in self.target],
+            "final_pose": None if self.final_pose is None else self.final_pose.to_list_deg(),
+            "final_estimate": None if self.final_estimate is None else self.final_estimate.to_list_deg(),
+        }
+        if trace:
+            d["plans"] = [p.tolist() for p in self.plans]
+            d["trace"] = [s.to_dict() for s in self.trace]
+        return d
+
+    @property
+    def true_trajectory(self) -> FloatArray:
+        """(n, 2) true positions along the trace (cm); empty when the robot does not know its pose."""
+        pts = [s.true_pose.xy for s in self.trace if s.true_pose is not None]
+        if self.start is not None:
+            pts.insert(0, self.start.xy)
+        return np.array(pts).reshape(-1, 2)
+
+    @property
+    def estimates(self) -> FloatArray:
+        """(n, 3) estimated poses [x, y, theta] recorded along the trace."""
+        pts = [s.estimate.as_array() for s in self.trace if s.estimate is not None]
+        return np.array(pts).reshape(-1, 3)
+
+    def summary(self) -> str:
+        """A few human-readable lines."""
+        err = "unknown" if self.final_error_cm is None else f"{self.final_error_cm:.2f} cm"
+        coll = "unknown" if self.collisions is None else str(self.collisions)
+        lines = [
+            f"{'SUCCESS' if self.success else 'FAILED'}: {self.status}",
+            f"map {self.map}, planner {self.planner}, localiser {self.localiser}, seed {self.seed}",
+            f"final error {err} (estimate {_fmt(self.estimate_error_cm)} cm from target), "
+            f"collisions {coll}",
+            f"completion {self.completion_s:.3f} s wall-clock, robot time {self.robot_time_s:.1f} s",
+            f"driven {self.path_length_cm:.1f} cm (planned {self.planned_length_cm:.1f} cm), turns {self.turns}, "
+            f"watchdog stops {self.watchdog_stops}, re-localisations {self.relocalisations}, "
+            f"re-plans {self.replans}",
+        ]
+        return "\n".join(lines)
+
+
+def _fmt(v: float | None) -> str:
+    return "?" if v is None else f"{v:.2f}"
+
+
+class _MissionEnded(Exception):
+    """Internal: the mission stops with `status` (success or not)."""
+
+    def __init__(self, status: str, success: bool = False) -> None:
+        super().__init__(status)
+        self.status = status
+        self.success = success
+
+
+def _localise_procedure() -> Callable[..., Any]:
+    from localisation.procedure import localise
+
+    return localise
+
+
+def _estimate_of(result: Any, localiser: Localiser) -> PoseEstimate:
+    est = getattr(result, "estimate", None)
+    return est if isinstance(est, PoseEstimate) else localiser.estimate()
+
+
+class _Mission:
+    """The mutable state of one run (counters, trace, current estimate)."""
+
+    def __init__(self, robot: Robot, m: Map, target: FloatArray, planner: Planner, localiser: Localiser,
+                 rng: np.random.Generator, config: MissionConfig) -> None:
+        self.robot = robot
+        self.map = m
+        self.target = target
+        self.planner = planner
+        self.localiser = localiser
+        self.rng = rng
+        self.cfg = config
+        radius = float(robot.geometry.radius_cm)
+        self.radius = radius
+        shared = getattr(robot, "checker", None)
+        if isinstance(shared, CollisionChecker) and shared.map is m and shared.robot_radius == radius:
+            self.checker = shared
+        else:
+            self.checker = CollisionChecker(m, radius)
+        margin = config.safety_margin_cm
+        # planning checkers with the full margin, then half of it; the bare radius is the last resort
+        self.safe_checkers = [CollisionChecker(m, radius + f * margin) for f in (1.0, 0.5) if margin > 0]
+        self.trace: list[TraceStep] = []
+        self.plans: list[FloatArray] = []
+        self.planned_length = 0.0
+        self.turns = 0
+        self.watchdog_stops = 0
+        self.relocalisations = 0
+        self.replans = 0
+        self.path_length = 0.0
+        self.actions = 0
+        self.estimate: PoseEstimate | None = None
+        self._localise = _localise_procedure()
+        params = inspect.signature(self._localise).parameters
+        self._localise_kw = set(params) if not any(p.kind is p.VAR_KEYWORD for p in params.values()) else None
+
+    # -- recording ------------------------------------------------------------------------------
+    def true_pose(self) -> Pose | None:
+        p = getattr(self.robot, "true_pose", None)
+        return p if isinstance(p, Pose) else None
+
+    def record(self, action: str, **kw: Any) -> None:
+        est = self.estimate.pose if self.estimate is not None else None
+        self.trace.append(TraceStep(action, est, self.true_pose(), robot_time_s=float(self.robot.robot_time_s), **kw))
+
+    def _count_action(self) -> None:
+        self.actions += 1
+        if self.actions > self.cfg.max_actions:
+            raise _MissionEnded(f"gave up after {self.cfg.max_actions} actions")
+
+    # -- localisation ---------------------------------------------------------------------------
+    def _call_localise(self, prior: Prior | None) -> PoseEstimate:
+        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **dict(self.cfg.localise_options)}
+        if self._localise_kw is not None:
+            dropped = [k for k in kwargs if k not in self._localise_kw]
+            if dropped:
+                log.debug("localise() does not take %s; dropped", ", ".join(dropped))
+            kwargs = {k: v for k, v in kwargs.items() if k in self._localise_kw}
+        result = self._localise(self.robot, self.localiser, **kwargs)
+        return _estimate_of(result, self.localiser)
+
+    def localise_global(self) -> PoseEstimate:
+        """Global localisation with retries; ends the mission when the robot stays lost."""
+        for attempt in range(1, self.cfg.max_localisation_attempts + 1):
+            est = self._call_localise(None)
+            self.estimate = est
+            ok = est.converged and bool(self.map.contains(est.pose.xy))
+            self.record("localise", note=f"global attempt {attempt}: {'converged' if ok else 'not converged'}, "
+                                         f"spread {est.std_xy_cm:.2f} cm")
+            if ok:
+                return est
+        raise _MissionEnded(f"robot lost: global localisation did not converge in "
+                            f"{self.cfg.max_localisation_attempts} attempts")
+
+    def relocalise(self, reason: str) -> PoseEstimate:
+        """Tracking re-localisation from the current belief; falls back to a global one."""
+        self.relocalisations += 1
+        if self.estimate is None:
+            return self.localise_global()
+        prior = self._prior(self.estimate)
+        est = self._call_localise(prior)
+        self.estimate = est
+        ok = est.converged and bool(self.map.contains(est.pose.xy))
+        self.record("relocalise", note=f"{reason}: {'converged' if ok else 'not converged'}, "
+                                       f"spread {est.std_xy_cm:.2f} cm")
+        if ok:
+            return est
+        return self.localise_global()
+
+    def _prior(self, est: PoseEstimate) -> Prior:
+        cov = np.array(est.cov, dtype=float, copy=True)
+        floor = np.array([self.cfg.tracking_std_cm ** 2, self.cfg.tracking_std_cm ** 2,
+                          math.radians(self.cfg.tracking_std_deg) ** 2])
+        d = np.maximum(np.diag(cov), floor)
+        if not np.all(np.isfinite(cov)):
+            cov = np.diag(d)
+        else:
+            cov[np.diag_indices(3)] = d
+        return Prior(est.pose, cov)
+
+    # -- actions --------------------------------------------------------------------------------
+    def turn(self, angle: float, action: str = "turn") -> None:
+        self._count_action()
+        self.robot.turn(angle)
+        self.localiser.predict(Motion(turn_rad=angle))
+        self.estimate = self.localiser.estimate()
+        if abs(angle) > _TURN_EPS:
+            self.turns += 1
+        self.record(action, turn_rad=angle)
+
+    def move(self, distance: float, action: str = "move") -> bool:
+        """Move `distance` cm; returns True when the watchdog stopped it."""
+        self._count_action()
+        out = self.robot.move(distance)
+        self.localiser.predict(Motion(distance_cm=out.distance_cm))
+        self.estimate = self.localiser.estimate()
+        self.path_length += abs(out.distance_cm)
+        if out.watchdog:
+            self.watchdog_stops += 1
+        self.record(action, distance_cm=out.distance_cm, watchdog=out.watchdog)
+        return bool(out.watchdog)
+
+    def turnback(self) -> None:
+        self._count_action()
+        out = self.robot.turnback()
+        self.localiser.predict(Motion(distance_cm=out.distance_cm))
+        self.estimate = self.localiser.estimate()
+        self.path_length += abs(out.distance_cm)
+        self.record("turnback", distance_cm=out.distance_cm)
+
+    def after_watchdog(self) -> None:
+        self.turnback()
+        self.relocalise("after watchdog stop")
+        self.replans += 1
+        if self.replans > self.cfg.max_replans:
+            raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
+
+    def drive_to(self, goal: FloatArray) -> str:
+        """Turn toward `goal` from the estimate and drive there in steps.
+
+        Returns ``arrived``, ``watchdog`` or ``deviated`` (the straight line from the new estimate to
+        the goal is no longer collision-free).
+        """
+        assert self.estimate is not None
+        while True:
+            pose = self.estimate.pose
+            delta = goal - pose.xy
+            dist = float(np.hypot(*delta))
+            if dist <= self.cfg.waypoint_tolerance_cm:
+                return "arrived"
+            if not self.checker.segment_free(pose.xy, goal):
+                return "deviated"
+            turn = float(angle_diff(math.atan2(delta[1], delta[0]), pose.theta))
+            if abs(turn) > 1e-9:
+                self.turn(turn)
+            every = self.cfg.relocalise_every_cm
+            leg = dist if every is None or dist <= 1.25 * every else every
+            driven = 0.0
+            while leg - driven > 1e-9:
+                step = min(self.cfg.move_step_cm, leg - driven)
+                if self.move(step):
+                    return "watchdog"
+                driven += step
+            if leg >= dist:
+                return "arrived"
+            self.relocalise("along segment")
+
+    # -- planning -------------------------------------------------------------------------------
+    def plan(self) -> FloatArray:
+        """A path from the current estimate to the target; ends the mission when none exists.
+
+        The path is planned with the safety margin when it can be: a start or target closer to a wall
+        than the margin is joined by a short straight leg to the nearest point with the margin.
+        Without such a path, it is planned with the bare robot radius.
+        """
+        assert self.estimate is not None
+        start = self.estimate.pose.xy
+        prefix: list[FloatArray] = []
+        if not self.checker.point_free(start):
+            escape = self._nearest_free(start, self.checker, self.radius + 0.5)
+            if escape is None:
+                raise _MissionEnded(f"robot lost: estimate ({start[0]:.1f}, {start[1]:.1f}) is in a wall "
+                                    "and no free space is near")
+            prefix = [start]
+            start = escape
+        path: FloatArray | None = None
+        result: PlanResult | None = None
+        for checker in self.safe_checkers:
+            s2 = self._nearest_free(start, checker, checker.robot_radius + 0.1)
+            g2 = self._nearest_free(self.target, checker, checker.robot_radius + 0.1)
+            if s2 is None or g2 is None:
+                continue
+            problem = PlanningProblem(self.map, checker, s2, g2, self.cfg.planning_time_s, self.rng)
+            result = self.planner.plan(problem)
+            if result.success:
+                path = np.vstack([start, result.path, self.target])
+                break
+        if path is None:
+            problem = PlanningProblem(self.map, self.checker, start, self.target, self.cfg.planning_time_s, self.rng)
+            result = self.planner.plan(problem)
+            if result.success:
+                path = result.path
+        assert result is not None
+        if path is None:
+            self.record("plan", note=f"failed: {result.status}")
+            raise _MissionEnded(f"target unreachable: planner {self.planner.name} found no path from "
+                                f"({start[0]:.1f}, {start[1]:.1f}) to ({self.target[0]:.1f}, {self.target[1]:.1f}) "
+                                f"({result.status})")
+        if prefix:
+            path = np.vstack([*prefix, path])
+        keep = np.ones(len(path), dtype=bool)
+        keep[1:] = np.hypot(*np.diff(path, axis=0).T) > 1e-6
+        path = path[keep]
+        self.plans.append(path)
+        length = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
+        if len(self.plans) == 1:
+            self.planned_length = length
+        self.record("plan", note=f"{len(path) - 2} intermediate point(s), {length:.1f} cm, "
+                                 f"{result.time_s * 1e3:.1f} ms")
+        return path
+
+    def _nearest_free(self, xy: FloatArray, checker: CollisionChecker, buffer: float) -> FloatArray | None:
+        """`xy` when `checker` finds it free, else the nearest point of the c-space of radius `buffer`
+        reachable from `xy` in a straight line with the bare radius (None when there is none)."""
+        if checker.point_free(xy):
+            return xy
+        region = self.map.free_space(buffer)
+        if region.is_empty:
+            return None
+        _, near = nearest_points(shapely.Point(xy), region)
+        p = np.array([near.x, near.y])
+        if not checker.point_free(p):
+            return None
+        if checker is not self.checker and not self.checker.segment_free(xy, p):
+            return None
+        return p
+
+    # -- the whole run --------------------------------------------------------------------------
+    def run(self) -> tuple[str, bool]:
+        t = self.target
+        if not self.map.contains(t):
+            raise _MissionEnded(f"target ({t[0]:.1f}, {t[1]:.1f}) is outside the free area of map {self.map.name}")
+        if not self.checker.point_free(t):
+            raise _MissionEnded(f"target ({t[0]:.1f}, {t[1]:.1f}) is in a wall: closer than the robot radius "
+                                f"({self.radius:g} cm) to a wall of map {self.map.name}")
+        self.localise_global()
+        self.navigate()
+        return self.final_correction()
+
+    def navigate(self) -> None:
+        """Plan and drive until the estimate is at the target."""
+        while True:
+            path = self.plan()
+            outcome = "arrived"
+            for i, wp in enumerate(path[1:], start=1):
+                final = i == len(path) - 1
+                outcome = self.drive_to(wp)
+                if outcome != "arrived":
+                    break
+                if not final:
+                    self.relocalise("at waypoint")
+            if outcome == "arrived":
+                return
+            if outcome == "watchdog":
+                self.after_watchdog()
+            else:
+                self.replans += 1
+                if self.replans > self.cfg.max_replans:
+                    raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
+
+    def final_correction(self) -> tuple[str, bool]:
+        """Re-localise at the target and correct until the estimate is within the tolerance."""
+        cfg = self.cfg
+        for k in range(cfg.max_corrections + 1):
+            est = self.relocalise("at target")
+            for _ in range(cfg.final_scans - 1):
+                est = self.relocalise("at target (extra scan)")
+            delta = self.target - est.pose.xy
+            dist = float(np.hypot(*delta))
+            if dist <= cfg.goal_tolerance_cm:
+                return f"reached target (estimate {dist:.2f} cm from it after {k} correction(s))", True
+            if k == cfg.max_corrections:
+                break
+            if not self.checker.segment_free(est.pose.xy, self.target):
+                self.navigate()
+                continue
+            turn = float(angle_diff(math.atan2(delta[1], delta[0]), est.pose.theta))
+            self.turn(turn, action="correct-turn")
+            if self.move(dist, action="correct-move"):
+                self.after_watchdog()
+                self.navigate()
+        dist = float(np.hypot(*(self.target - self.estimate.pose.xy))) if self.estimate else math.inf
+        if dist <= cfg.success_radius_cm:
+            return (f"reached target (estimate {dist:.2f} cm from it; tolerance {cfg.goal_tolerance_cm:g} cm "
+                    f"not met in {cfg.max_corrections} corrections)"), True
+        return f"stopped {dist:.1f} cm from the target after {cfg.max_corrections} corrections", False
+
+
+def _robot_counters(robot: Robot) -> dict[str, float]:
+    """The robot's own counters (simulator: collisions, watchdog stops, odometry), where it has them."""
+    out: dict[str, float] = {}
+    for name in ("collisions", "watchdog_stops", "odometry_cm"):
+        v = getattr(robot, name, None)
+        if isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool):
+            out[name] = float(v)
+    return out
+
+
+def run_mission(
+    robot: Robot,
+    map: Map | str,
+    target: ArrayLike,
+    *,
+    planner: str | Planner = "min-turn",
+    localiser: str | Localiser = "paper-pf",
+    rng: RngLike = None,
+    config: MissionConfig | None = None,
+) -> MissionReport:
+    """Run the stack on `robot` from its unknown pose to `target`.
+
+    Parameters
+    ----------
+    robot : Robot
+        A `SimRobot`, an NXT robot, or anything implementing the protocol. A robot with a
+        ``true_pose`` (the simulator) gets the true final error and true trajectory in the report;
+        one with a ``collisions`` counter gets the true collision count.
+    map : Map or str
+        The map the robot is in (or its name/path).
+    target : (2,) array_like
+        Target position (cm).
+    planner : str or Planner
+        Registry name (``min-turn``, ``rrtstar``, ``ompl:BITstar``, ...) or a configured planner.
+    localiser : str or Localiser
+        Registry name (``paper-pf``, ...) or a localiser built for `map`.
+    rng : None, int or Generator
+        Seeds the planner's and the localiser's draws (the simulator has its own `rng`).
+    config : MissionConfig or None
+        Tolerances and limits; the defaults are tuned for the paper's setting.
+
+    Returns
+    -------
+    MissionReport
+        Never raises for an unreachable target, a target in a wall or a lost robot: ``status`` says
+        what happened and ``success`` is False. Malformed arguments (unknown planner name, a target
+        that is not two finite numbers) raise `NxtnavError`/`ValueError`.
+    """
+    t0 = time.perf_counter()
+    cfg = config or MissionConfig()
+    m = map if isinstance(map, Map) else load_map(map)
+    tgt = np.asarray(target, dtype=float).ravel()
+    if tgt.shape != (2,) or not np.all(np.isfinite(tgt)):
+        raise NxtnavError(f"target must be two finite numbers (x, y) in cm, got {np.asarray(target).tolist()!r}")
+    seed = int(rng) if isinstance(rng, int | np.integer) else None
+    gen = as_rng(rng)
+    plan_rng, loc_rng = gen.spawn(2)
+    plan_obj = planner if isinstance(planner, Planner) else make_planner(planner, **dict(cfg.planner_options))
+    loc_obj = (localiser if isinstance(localiser, Localiser)
+               else make_localiser(localiser, m, rng=loc_rng, **dict(cfg.localiser_options)))
+    start_pose = getattr(robot, "true_pose", None)
+    start = start_pose if isinstance(start_pose, Pose) else None
+    time0 = float(robot.robot_time_s)
+    counters0 = _robot_counters(robot)
+    mission = _Mission(robot, m, tgt, plan_obj, loc_obj, plan_rng, cfg)
+    try:
+        status, success = mission.run()
+    except _MissionEnded as end:
+        status, success = end.status, end.success
+    except NxtnavError as exc:
+        status, success = f"aborted: {exc}", False
+    log.info("mission on %s: %s", m.name, status)
+    final = mission.true_pose()
+    est = mission.estimate.pose if mission.estimate is not None else None
+    counters1 = _robot_counters(robot)
+    delta = {k: counters1[k] - counters0[k] for k in counters0 if k in counters1}
+    collisions = delta.get("collisions")
+    path_length = float(delta.get("odometry_cm", mission.path_length))
+    return MissionReport(
+        success=success,
+        status=status,
+        final_error_cm=None if final is None else final.distance_to(tgt),
+        estimate_error_cm=None if est is None else est.distance_to(tgt),
+        completion_s=time.perf_counter() - t0,
+        robot_time_s=float(robot.robot_time_s) - time0,
+        path_length_cm=path_length,
+        planned_length_cm=mission.planned_length,
+        turns=mission.turns,
+        collisions=None if collisions is None else int(collisions),
+        watchdog_stops=int(delta.get("watchdog_stops", mission.watchdog_stops)),
+        relocalisations=mission.relocalisations,
+        replans=mission.replans,
+        map=m.name,
+        planner=plan_obj.name,
+        localiser=loc_obj.name,
+        seed=seed,
+        start=start,
+        target=tgt,
+        final_pose=final,
+        final_estimate=est,
+        plans=mission.plans,
+        trace=mission.trace,
+    )
