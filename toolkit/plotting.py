@@ -10,9 +10,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg", force=False)
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
@@ -21,6 +18,7 @@ from matplotlib.patches import Circle, PathPatch
 from matplotlib.path import Path as MplPath
 from numpy.typing import ArrayLike
 from shapely.geometry.base import BaseGeometry
+from shapely.geometry.polygon import orient
 
 from .world import Map, Pose, Scan, ray_cast
 
@@ -64,6 +62,7 @@ def _geometry_patch(geom: BaseGeometry, **kw: Any) -> list[PathPatch]:
     for poly in polys:
         if poly.is_empty or poly.geom_type != "Polygon":
             continue
+        poly = orient(poly, 1.0)  # exterior counter-clockwise, holes clockwise: holes stay unfilled
         verts: list[Any] = []
         codes: list[Any] = []
         for ring in (poly.exterior, *poly.interiors):

@@ -60,7 +60,7 @@ def maps_show(
     fig, ax = new_axes()
     draw_map(m, ax)
     draw_cspace(m, radius, ax)
-    ax.legend(loc="best", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, fontsize=8, frameon=False)
     save_figure(fig, output)
     typer.echo(f"wrote {output}")
 
