@@ -1,0 +1,233 @@
+"""Writing OMPL's benchmark log format, so that ``ompl_benchmark_statistics`` and Planner Arena read our results.
+
+The format is the one of OMPL's ``doc/markdown/benchmark.md`` ("The benchmark logfile format"): a
+preamble (version, experiment name, optional experiment properties, host, date, setup, random seed,
+limits, run count, total time, enum types, planner count) followed, per planner, by its common
+properties, the names and types of its per-run properties, one line per run (values each followed by
+``"; "``) and a closing ``"."``. One log file holds one experiment; ``ompl_benchmark_statistics``
+reads several files into one database.
+
+The log is written from our own results (not with ``ompl.tools.Benchmark``, which drops properties
+set from Python and stops at the first Python exception).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import socket
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "OMPL_STATUS",
+    "OmplExperiment",
+    "OmplPlannerData",
+    "format_ompl_log",
+    "ompl_status",
+    "write_ompl_log",
+]
+
+#: OMPL's `ompl::base::PlannerStatus` values, in enum order (the ``status`` enum of OMPL's logs).
+OMPL_STATUS = (
+    "Unknown status",
+    "Invalid start",
+    "Invalid goal",
+    "Unrecognized goal type",
+    "Timeout",
+    "Approximate solution",
+    "Exact solution",
+    "Crash",
+    "Abort",
+    "Infeasible",
+)
+
+_TYPES = ("REAL", "INTEGER", "BOOLEAN", "ENUM", "VARCHAR(512)")
+_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_ ]*$")
+
+
+def ompl_status(success: bool, status: str) -> int:
+    """The OMPL status enum value for one of our results (`PlanResult.success`, `.status`)."""
+    if success:
+        return OMPL_STATUS.index("Exact solution")
+    s = status.lower()
+    for key, label in (("start", "Invalid start"), ("goal", "Invalid goal"), ("time", "Timeout"),
+                       ("error", "Crash"), ("crash", "Crash"), ("infeasible", "Infeasible"),
+                       ("no path", "Infeasible"), ("unreachable", "Infeasible")):
+        if key in s:
+            return OMPL_STATUS.index(label)
+    return OMPL_STATUS.index("Unknown status")
+
+
+@dataclass(frozen=True)
+class OmplPlannerData:
+    """One planner's block of an OMPL log.
+
+    Parameters
+    ----------
+    name : str
+        Planner (configuration) name; no line breaks.
+    properties : sequence of (name, type)
+        Per-run property names (letters, digits, spaces, underscores) and their types
+        (``REAL``, ``INTEGER``, ``BOOLEAN``, ``ENUM`` or ``VARCHAR(512)``).
+    runs : sequence of sequences
+        One row of values per run, in `properties` order; None or NaN are written empty.
+    common : dict
+        Planner settings written as its common properties (``name = value``).
+    """
+
+    name: str
+    properties: Sequence[tuple[str, str]]
+    runs: Sequence[Sequence[Any]]
+    common: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.name or "\n" in self.name:
+            raise ValueError(f"planner name must be one non-empty line, got {self.name!r}")
+        for pname, ptype in self.properties:
+            if not _NAME_RE.match(pname):
+                raise ValueError(f"property name {pname!r}: use letters, digits, spaces and underscores")
+            if ptype not in _TYPES:
+                raise ValueError(f"property {pname!r}: type {ptype!r} is not one of {', '.join(_TYPES)}")
+        for i, row in enumerate(self.runs):
+            if len(row) != len(self.properties):
+                raise ValueError(f"planner {self.name!r} run {i}: {len(row)} values for "
+                                 f"{len(self.properties)} properties")
+
+
+@dataclass(frozen=True)
+class OmplExperiment:
+    """One OMPL experiment (one log file).
+
+    Parameters
+    ----------
+    name : str
+        Experiment name: one word (``ompl_benchmark_statistics`` keeps only the last word of the line;
+        runs of whitespace become underscores).
+    planners : sequence of OmplPlannerData
+        The planner blocks.
+    time_limit_s : float
+        Planning budget per run (s).
+    total_time_s : float
+        Wall-clock time spent on the whole experiment (s).
+    seed : int
+        The experiment's random seed.
+    run_count : int
+        Runs per planner.
+    setup : str
+        Multi-line description of the problem (map, queries, robot, noise).
+    properties : dict
+        Experiment properties ``name -> (type, value)``; names become database columns.
+    enums : dict
+        Enum types ``name -> labels`` (``status`` with OMPL's labels is always included).
+    memory_limit_mb : float
+        Memory limit per run (MB); informative only.
+    library, version : str
+        The version line (``nxtnav version 0.1.0``).
+    date : datetime or None
+        Start of the experiment (default: now).
+    hostname : str or None
+        Host name (default: this machine's).
+    cpuinfo : str or None
+        Optional multi-line CPU description.
+    """
+
+    name: str
+    planners: Sequence[OmplPlannerData]
+    time_limit_s: float
+    total_time_s: float
+    seed: int = 0
+    run_count: int = 0
+    setup: str = ""
+    properties: dict[str, tuple[str, Any]] = field(default_factory=dict)
+    enums: dict[str, Sequence[str]] = field(default_factory=dict)
+    memory_limit_mb: float = 0.0
+    library: str = "nxtnav"
+    version: str = "0.1.0"
+    date: datetime | None = None
+    hostname: str | None = None
+    cpuinfo: str | None = None
+
+
+def _value(v: Any) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "1" if v else "0"
+    if isinstance(v, float):
+        if math.isnan(v) or math.isinf(v):
+            return ""
+        return repr(v)
+    if hasattr(v, "item"):  # numpy scalars
+        return _value(v.item())
+    text = str(v)
+    if ";" in text or "\n" in text:
+        raise ValueError(f"value {text!r} may not contain ';' or a line break")
+    return text
+
+
+def _one_token(text: str, what: str) -> str:
+    token = re.sub(r"\s+", "_", text.strip()) or "unknown"
+    if not re.match(r"^[A-Za-z0-9_.:\-]+$", token):
+        raise ValueError(f"{what} {text!r} must be a single word")
+    return token
+
+
+def _multiline(text: str) -> list[str]:
+    lines = [ln for ln in text.splitlines() if not ln.startswith("|>>>")]
+    return ["<<<|", *lines, "|>>>"]
+
+
+def format_ompl_log(exp: OmplExperiment) -> str:
+    """The text of `exp` in OMPL's benchmark log format."""
+    lines = [f"{_one_token(exp.library, 'library')} version {_one_token(exp.version, 'version')}",
+             f"Experiment {_one_token(exp.name, 'experiment name')}"]
+    if exp.properties:
+        lines.append(f"{len(exp.properties)} experiment properties")
+        for pname, (ptype, pvalue) in exp.properties.items():
+            if not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", pname):
+                raise ValueError(f"experiment property {pname!r}: use one word of letters, digits, underscores")
+            if ptype not in _TYPES:
+                raise ValueError(f"experiment property {pname!r}: type {ptype!r} is not one of {', '.join(_TYPES)}")
+            lines.append(f"{pname} {ptype} = {_value(pvalue)}")
+    host = exp.hostname if exp.hostname is not None else socket.gethostname()
+    lines.append(f"Running on {_one_token(host, 'hostname')}")
+    date = exp.date or datetime.now()
+    lines.append(f"Starting at {date.strftime('%Y-%m-%d %H:%M:%S')}")
+    lines.extend(_multiline(exp.setup))
+    if exp.cpuinfo:
+        lines.extend(_multiline(exp.cpuinfo))
+    lines.append(f"{int(exp.seed)} is the random seed")
+    lines.append(f"{float(exp.time_limit_s)!r} seconds per run")
+    lines.append(f"{float(exp.memory_limit_mb)!r} MB per run")
+    lines.append(f"{int(exp.run_count)} runs per planner")
+    lines.append(f"{float(exp.total_time_s)!r} seconds spent to collect the data")
+    enums: dict[str, Sequence[str]] = {"status": OMPL_STATUS, **exp.enums}
+    lines.append(f"{len(enums)} enum types")
+    for ename, labels in enums.items():
+        for label in (ename, *labels):
+            if "|" in label or "\n" in label:
+                raise ValueError(f"enum {ename!r}: label {label!r} may not contain '|' or a line break")
+        lines.append("|".join([ename, *labels]))
+    lines.append(f"{len(exp.planners)} planners")
+    for p in exp.planners:
+        lines.append(p.name)
+        lines.append(f"{len(p.common)} common properties")
+        lines.extend(f"{k} = {_value(v)}" for k, v in p.common.items())
+        lines.append(f"{len(p.properties)} properties for each run")
+        lines.extend(f"{pname} {ptype}" for pname, ptype in p.properties)
+        lines.append(f"{len(p.runs)} runs")
+        lines.extend("".join(f"{_value(v)}; " for v in row) for row in p.runs)
+        lines.append(".")
+    return "\n".join(lines) + "\n"
+
+
+def write_ompl_log(path: str | Path, exp: OmplExperiment) -> Path:
+    """Write `exp` to `path` (parent folders created) and return the path."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(format_ompl_log(exp), encoding="utf-8")
+    return p
