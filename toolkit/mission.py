@@ -36,7 +36,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -59,7 +59,15 @@ from .world import (
     load_map,
 )
 
-__all__ = ["MissionConfig", "MissionReport", "TraceStep", "run_mission"]
+__all__ = [
+    "MissionConfig",
+    "MissionReport",
+    "TraceStep",
+    "mission_seeds",
+    "random_start",
+    "run_mission",
+    "run_sim_mission",
+]
 
 log = logging.getLogger(__name__)
 
@@ -747,3 +755,81 @@ def run_mission(
         plans=mission.plans,
         trace=mission.trace,
     )
+
+
+def mission_seeds(seed: int) -> tuple[int, int, int]:
+    """The three seeds one mission seed expands to: (start heading/pose, simulator, stack)."""
+    a, b, c = np.random.SeedSequence(int(seed)).generate_state(3)
+    return int(a), int(b), int(c)
+
+
+def random_start(m: Map, rng: RngLike = None, clearance_cm: float = 10.0) -> Pose:
+    """A random pose: position uniform over the free area at least `clearance_cm` from every wall
+    (robot centre), heading uniform."""
+    gen = as_rng(rng)
+    xy = m.sample_free(1, clearance=clearance_cm, rng=gen)[0]
+    return Pose(float(xy[0]), float(xy[1]), float(gen.uniform(-math.pi, math.pi)))
+
+
+def run_sim_mission(
+    map: Map | str,
+    *,
+    seed: int = 0,
+    start: Pose | ArrayLike | None = None,
+    random_start_pose: bool = False,
+    target: ArrayLike | None = None,
+    planner: str | Planner = "min-turn",
+    localiser: str | Localiser = "paper-pf",
+    noise_model: str = "botsim",
+    sensor_noise: float = 1.0,
+    motion_noise: float = 0.1,
+    turn_noise: float = 0.005,
+    sonar: str = "ideal",
+    config: MissionConfig | None = None,
+) -> MissionReport:
+    """One seeded mission on the simulator, as `nxtnav run` and `nxtnav paper` run it.
+
+    Parameters
+    ----------
+    map : Map or str
+    seed : int
+        Expands (`mission_seeds`) into the start heading (or random start), the simulator's noise and
+        the stack's draws: the same seed gives the same mission.
+    start : Pose, (x, y) or None
+        True start pose; (x, y) gets a seeded random heading; None is the map's preset start with a
+        seeded random heading.
+    random_start_pose : bool
+        Ignore `start` and draw a free pose at least 10 cm from every wall.
+    target : (2,) array_like or None
+        Target (cm); None is the map's preset.
+    planner, localiser : str or plug-in
+    noise_model : {"botsim", "absolute"}
+    sensor_noise, motion_noise, turn_noise : float
+        Sonar noise (cm), motion noise (fraction or cm) and turn noise (fraction or rad); the paper's by default.
+    sonar : {"ideal", "nxt"}
+    config : MissionConfig or None
+    """
+    from .robots.sim import MotionNoise, SimRobot
+
+    m = map if isinstance(map, Map) else load_map(map)
+    s_start, s_sim, s_stack = mission_seeds(seed)
+    start_rng = np.random.default_rng(s_start)
+    if random_start_pose:
+        pose = random_start(m, start_rng)
+    elif isinstance(start, Pose):
+        pose = start
+    else:
+        xy = m.start if start is None else np.asarray(start, dtype=float).ravel()
+        if xy is None:
+            raise NxtnavError(f"map {m.name} has no preset start: give one")
+        if xy.shape != (2,) or not np.all(np.isfinite(xy)):
+            raise NxtnavError(f"start must be (x, y) or a Pose, got {np.asarray(start).tolist()!r}")
+        pose = Pose(float(xy[0]), float(xy[1]), float(start_rng.uniform(-math.pi, math.pi)))
+    if target is None:
+        if m.target is None:
+            raise NxtnavError(f"map {m.name} has no preset target: give one")
+        target = m.target
+    noise = MotionNoise(noise_model, motion_noise, turn_noise)  # type: ignore[arg-type]
+    robot = SimRobot(m, pose, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
+    report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=config)
+    return replace(report, seed=int(seed))

@@ -1,5 +1,6 @@
 """The `nxtnav` command line. Each command group lives in its own module and registers on import."""
 
+from . import mission_cmds  # noqa: F401  (registers run/paper)
 from . import world_cmds  # noqa: F401  (registers maps/scan/bench world)
 from .app import app, main
 

@@ -1,0 +1,275 @@
+"""The paper's Table I regenerated: whole missions on the three BotSim maps over seeded trials.
+
+For each noise model (``botsim`` proportional and ``absolute``, the two readings of the paper's
+"motion error 0.1 cm"), each stack (planner/localiser pair) and each map, `run_paper` runs `trials`
+missions from the map's preset start with a seeded random heading to the preset target and reports
+the mean completion time (wall-clock), mean true final error, mean driven path length, the total of
+true collisions, the success rate and the mean robot time, beside the paper's numbers.
+
+Trial ``i`` of map ``k`` has the mission seed ``SeedSequence([seed, k, i])``: the same on every
+noise model and stack (common random numbers), and `nxtnav run --map MAP --seed SEED` replays one
+trial exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..mission import MissionConfig, run_sim_mission
+from .executors import run_tasks
+
+__all__ = [
+    "PAPER_MAPS",
+    "PAPER_TABLE",
+    "PaperRow",
+    "PaperTable",
+    "PaperTrial",
+    "TrialResult",
+    "paper_tasks",
+    "run_paper",
+    "run_trial",
+    "summarise",
+    "tables_to_markdown",
+    "trial_seed",
+]
+
+PAPER_MAPS = ("map1", "map2", "map3")
+
+PAPER_TABLE: dict[str, dict[str, float]] = {
+    "map1": {"completion_s": 15.22, "final_error_cm": 1.79, "path_length_cm": 116.9, "collisions": 0},
+    "map2": {"completion_s": 16.69, "final_error_cm": 1.83, "path_length_cm": 120.1, "collisions": 0},
+    "map3": {"completion_s": 23.48, "final_error_cm": 2.11, "path_length_cm": 276.2, "collisions": 0},
+}
+"""Table I of Liu et al. (completion time on a Core i7 in MATLAB, distance from target, path length,
+detected collisions)."""
+
+
+def trial_seed(seed: int, map_index: int, trial: int) -> int:
+    """The mission seed of trial `trial` on the `map_index`-th map for the table seed `seed`."""
+    return int(np.random.SeedSequence([int(seed), int(map_index), int(trial)]).generate_state(1)[0])
+
+
+@dataclass(frozen=True)
+class PaperTrial:
+    """One mission of the table (a picklable task)."""
+
+    map: str
+    trial: int
+    seed: int
+    noise_model: str
+    planner: str = "min-turn"
+    localiser: str = "paper-pf"
+    sonar: str = "ideal"
+    sensor_noise: float = 1.0
+    motion_noise: float = 0.1
+    turn_noise: float = 0.005
+
+    @property
+    def stack(self) -> str:
+        return f"{self.planner}/{self.localiser}"
+
+
+@dataclass(frozen=True)
+class TrialResult:
+    """What one trial gave (the mission report's numbers, with its task)."""
+
+    task: PaperTrial
+    success: bool
+    status: str
+    completion_s: float
+    final_error_cm: float
+    path_length_cm: float
+    collisions: int
+    robot_time_s: float
+    watchdog_stops: int
+    relocalisations: int
+    replans: int
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {k: v for k, v in self.__dict__.items() if k != "task"}
+        d.update(self.task.__dict__)
+        return d
+
+
+def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> TrialResult:
+    """Run one trial's mission on the simulator (top-level, so it pickles for process pools)."""
+    try:
+        r = run_sim_mission(
+            task.map, seed=task.seed, planner=task.planner, localiser=task.localiser,
+            noise_model=task.noise_model, sensor_noise=task.sensor_noise, motion_noise=task.motion_noise,
+            turn_noise=task.turn_noise, sonar=task.sonar, config=config,
+        )
+    except Exception as exc:  # a crash in one trial is a failed trial, not a lost table
+        return TrialResult(task, False, f"crashed: {type(exc).__name__}: {exc}", math.nan, math.nan, math.nan,
+                           0, math.nan, 0, 0, 0)
+    return TrialResult(
+        task, r.success, r.status, r.completion_s,
+        math.nan if r.final_error_cm is None else r.final_error_cm,
+        r.path_length_cm, int(r.collisions or 0), r.robot_time_s, r.watchdog_stops, r.relocalisations, r.replans,
+    )
+
+
+def paper_tasks(
+    trials: int,
+    seed: int = 0,
+    *,
+    maps: Sequence[str] = PAPER_MAPS,
+    noise_models: Sequence[str] = ("botsim", "absolute"),
+    stacks: Sequence[tuple[str, str]] = (("min-turn", "paper-pf"),),
+    sonar: str = "ideal",
+    sensor_noise: float = 1.0,
+    motion_noise: float = 0.1,
+    turn_noise: float = 0.005,
+) -> list[PaperTrial]:
+    """Every trial of the table, in a fixed order."""
+    if trials < 1:
+        raise ValueError(f"trials must be >= 1, got {trials}")
+    return [
+        PaperTrial(m, i, trial_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise)
+        for nm in noise_models
+        for p, lo in stacks
+        for k, m in enumerate(maps)
+        for i in range(trials)
+    ]
+
+
+@dataclass(frozen=True)
+class PaperRow:
+    """One map's line of the table (means over the trials; collisions summed)."""
+
+    map: str
+    trials: int
+    success_rate: float
+    completion_s: float
+    final_error_cm: float
+    path_length_cm: float
+    collisions: int
+    robot_time_s: float
+    final_error_max_cm: float
+    completion_max_s: float
+    failures: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "map": self.map,
+            "trials": self.trials,
+            "success_rate": self.success_rate,
+            "completion_s": self.completion_s,
+            "final_error_cm": self.final_error_cm,
+            "path_length_cm": self.path_length_cm,
+            "collisions": self.collisions,
+            "robot_time_s": self.robot_time_s,
+            "final_error_max_cm": self.final_error_max_cm,
+            "completion_max_s": self.completion_max_s,
+            "failures": list(self.failures),
+            "paper": dict(PAPER_TABLE.get(self.map, {})),
+        }
+
+
+@dataclass(frozen=True)
+class PaperTable:
+    """The table for one noise model and one stack."""
+
+    noise_model: str
+    planner: str
+    localiser: str
+    sonar: str
+    rows: list[PaperRow]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "noise_model": self.noise_model,
+            "planner": self.planner,
+            "localiser": self.localiser,
+            "sonar": self.sonar,
+            "rows": [r.to_dict() for r in self.rows],
+        }
+
+
+def _mean(values: Iterable[float]) -> float:
+    v = np.array([x for x in values if not math.isnan(x)], dtype=float)
+    return float(v.mean()) if v.size else math.nan
+
+
+def _max(values: Iterable[float]) -> float:
+    v = np.array([x for x in values if not math.isnan(x)], dtype=float)
+    return float(v.max()) if v.size else math.nan
+
+
+def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:
+    """Group trial results into tables (noise model x stack), one row per map in the paper's order."""
+    groups: dict[tuple[str, str, str, str], dict[str, list[TrialResult]]] = {}
+    for r in results:
+        t = r.task
+        groups.setdefault((t.noise_model, t.planner, t.localiser, t.sonar), {}).setdefault(t.map, []).append(r)
+    tables = []
+    for (nm, p, lo, so), by_map in groups.items():
+        order = sorted(by_map, key=lambda m: (PAPER_MAPS.index(m) if m in PAPER_MAPS else len(PAPER_MAPS), m))
+        rows = []
+        for m in order:
+            rs = sorted(by_map[m], key=lambda r: r.task.trial)
+            rows.append(PaperRow(
+                map=m,
+                trials=len(rs),
+                success_rate=sum(r.success for r in rs) / len(rs),
+                completion_s=_mean(r.completion_s for r in rs),
+                final_error_cm=_mean(r.final_error_cm for r in rs),
+                path_length_cm=_mean(r.path_length_cm for r in rs),
+                collisions=int(sum(r.collisions for r in rs)),
+                robot_time_s=_mean(r.robot_time_s for r in rs),
+                final_error_max_cm=_max(r.final_error_cm for r in rs),
+                completion_max_s=_max(r.completion_s for r in rs),
+                failures=[f"trial {r.task.trial} (seed {r.task.seed}): {r.status}" for r in rs if not r.success],
+            ))
+        tables.append(PaperTable(nm, p, lo, so, rows))
+    model_order = {"botsim": 0, "absolute": 1}
+    tables.sort(key=lambda t: (model_order.get(t.noise_model, 2), t.noise_model))
+    return tables
+
+
+def run_paper(
+    tasks: Sequence[PaperTrial],
+    *,
+    workers: int = 1,
+    on_done: Callable[[TrialResult], None] | None = None,
+) -> tuple[list[PaperTable], list[TrialResult]]:
+    """Run the trials (over a process pool when `workers` > 1) and summarise them."""
+    results = list(run_tasks(run_trial, list(tasks), workers=workers, on_done=on_done))
+    return summarise(results), results
+
+
+def _num(v: float, digits: int = 2) -> str:
+    return "-" if math.isnan(v) else f"{v:.{digits}f}"
+
+
+def tables_to_markdown(tables: Sequence[PaperTable]) -> str:
+    """The tables as Markdown, ours beside the paper's (paper values in parentheses)."""
+    out: list[str] = []
+    for t in tables:
+        out.append(f"### Noise model `{t.noise_model}`, stack `{t.planner}/{t.localiser}`, sonar `{t.sonar}`\n")
+        out.append("| Map | Trials | Success | Completion (s) | Distance from target (cm) | Path length (cm) "
+                   "| Collisions | Robot time (s) |")
+        out.append("|---|---:|---:|---:|---:|---:|---:|---:|")
+        for r in t.rows:
+            p = PAPER_TABLE.get(r.map, {})
+
+            def paper(key: str, digits: int = 2, p: dict[str, float] = p) -> str:
+                return f" ({p[key]:.{digits}f})" if key in p else ""
+
+            out.append(
+                f"| {r.map} | {r.trials} | {100 * r.success_rate:.0f} % "
+                f"| {_num(r.completion_s, 3)}{paper('completion_s')} "
+                f"| {_num(r.final_error_cm)}{paper('final_error_cm')} "
+                f"| {_num(r.path_length_cm, 1)}{paper('path_length_cm', 1)} "
+                f"| {r.collisions}{paper('collisions', 0)} | {_num(r.robot_time_s, 1)} |"
+            )
+        out.append("")
+    out.append("Means over the trials (collisions: total); the paper's Table I in parentheses (completion time "
+               "on a Core i7 in MATLAB; ours is the wall-clock time of the whole mission in Python, robot time "
+               "is the modelled time a real NXT would take).")
+    return "\n".join(out) + "\n"

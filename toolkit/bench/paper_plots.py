@@ -1,0 +1,135 @@
+"""Drawing missions like the paper's figures: map, c-space, planned path(s), estimates, true trajectory.
+
+Functions take an optional ``ax`` and return the artists they drew (nothing calls ``plt.show()``);
+`animate_mission` writes a GIF with matplotlib's Pillow writer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from ..mission import MissionReport
+from ..plotting import draw_cspace, draw_map, draw_path, draw_pose
+from ..world import Map, RobotGeometry
+
+__all__ = ["animate_mission", "draw_error_spread", "draw_mission"]
+
+
+def _ax(ax: Axes | None) -> Axes:
+    return ax if ax is not None else plt.subplots(figsize=(6, 6))[1]
+
+
+def draw_mission(report: MissionReport, m: Map, ax: Axes | None = None, radius: float | None = None,
+                 legend: bool = True) -> list[Any]:
+    """The whole mission on its map.
+
+    Draws the walls, the c-space of the robot disc, every planned path (the first solid, re-plans
+    dashed), the estimates after each action (small dots), the true trajectory (when known), the
+    true start and end poses and the target.
+    """
+    ax = _ax(ax)
+    r = RobotGeometry().radius_cm if radius is None else radius
+    out: list[Any] = []
+    out.extend(draw_map(m, ax, presets=False, title=False))
+    out.extend(draw_cspace(m, r, ax))
+    for i, path in enumerate(report.plans):
+        if i == 0:
+            out.extend(draw_path(path, ax, color="tab:red", label="planned path"))
+        else:
+            out.extend(ax.plot(path[:, 0], path[:, 1], "--", color="tab:red", lw=1, alpha=0.6,
+                               label="re-planned" if i == 1 else None, zorder=5))
+    est = report.estimates
+    if len(est):
+        out.append(ax.scatter(est[:, 0], est[:, 1], s=10, c="tab:purple", zorder=6, label="estimates"))
+    traj = report.true_trajectory
+    if len(traj):
+        out.extend(ax.plot(traj[:, 0], traj[:, 1], "-", color="tab:blue", lw=1.5, label="true trajectory",
+                           zorder=6))
+    if report.start is not None:
+        out.extend(draw_pose(report.start, ax, radius=r, color="tab:green", label="start"))
+    if report.final_pose is not None:
+        out.extend(draw_pose(report.final_pose, ax, radius=r, color="tab:blue", label="end"))
+    out.extend(ax.plot(*report.target, marker="*", color="tab:red", ms=15, ls="", label="target", zorder=9))
+    err = "?" if report.final_error_cm is None else f"{report.final_error_cm:.2f} cm"
+    ax.set_title(f"{report.map}: {report.planner}/{report.localiser}, seed {report.seed}\n"
+                 f"{'reached' if report.success else 'failed'}, final error {err}, "
+                 f"{report.path_length_cm:.0f} cm driven, {report.collisions} collisions", fontsize=9)
+    if legend:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=4, fontsize=7, frameon=False)
+    return out
+
+
+def draw_error_spread(errors: dict[str, Sequence[float]], ax: Axes | None = None,
+                      paper: dict[str, float] | None = None) -> list[Any]:
+    """Box plots (with the points) of final errors per label, with the paper's means as stars."""
+    ax = _ax(ax)
+    labels = list(errors)
+    data = [np.asarray(errors[k], dtype=float) for k in labels]
+    out: list[Any] = [ax.boxplot(data, tick_labels=labels, showmeans=True)]
+    rng = np.random.default_rng(0)
+    for i, d in enumerate(data, start=1):
+        out.append(ax.scatter(i + rng.uniform(-0.12, 0.12, d.size), d, s=6, alpha=0.5, c="tab:blue"))
+    if paper:
+        xs = [i for i, k in enumerate(labels, start=1) if k in paper]
+        out.append(ax.scatter(xs, [paper[labels[i - 1]] for i in xs], marker="*", s=120, c="tab:red", zorder=5,
+                              label="paper (mean)"))
+        ax.legend(fontsize=8)
+    ax.set_ylabel("final distance from target (cm)")
+    return out
+
+
+def animate_mission(report: MissionReport, m: Map, path: str | Path, radius: float | None = None,
+                    fps: int = 8, max_frames: int = 120) -> Path:
+    """Write the mission as an animated GIF (Pillow writer): the robot and its estimate step by step."""
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    r = RobotGeometry().radius_cm if radius is None else radius
+    steps = report.trace
+    idx = np.unique(np.linspace(0, max(len(steps) - 1, 0), min(len(steps), max_frames)).astype(int))
+    fig: Figure
+    fig, ax = plt.subplots(figsize=(6, 6))
+    draw_map(m, ax, presets=False, title=False)
+    draw_cspace(m, r, ax)
+    ax.plot(*report.target, marker="*", color="tab:red", ms=15, ls="", zorder=9)
+    traj_line, = ax.plot([], [], "-", color="tab:blue", lw=1.5, zorder=6)
+    est_dots = ax.scatter([], [], s=10, c="tab:purple", zorder=6)
+    plan_line, = ax.plot([], [], "-o", color="tab:red", ms=3, lw=1.5, zorder=5)
+    robot_circle = plt.Circle((np.nan, np.nan), r, fill=False, ec="tab:blue", lw=1.5, zorder=7)
+    ax.add_patch(robot_circle)
+    title = ax.set_title("", fontsize=9)
+    plan_steps = [k for k, s in enumerate(steps) if s.action == "plan" and not s.note.startswith("failed")]
+    truth = [s.true_pose for s in steps]
+    start = report.start
+
+    def frame(j: int) -> list[Any]:
+        k = int(idx[j])
+        pts = [p.xy for p in truth[: k + 1] if p is not None]
+        if start is not None:
+            pts.insert(0, start.xy)
+        if pts:
+            a = np.array(pts)
+            traj_line.set_data(a[:, 0], a[:, 1])
+            robot_circle.center = (a[-1, 0], a[-1, 1])
+        ests = np.array([s.estimate.xy for s in steps[: k + 1] if s.estimate is not None]).reshape(-1, 2)
+        est_dots.set_offsets(ests)
+        n_plans = sum(1 for p in plan_steps if p <= k)
+        if n_plans and n_plans <= len(report.plans):
+            p = report.plans[n_plans - 1]
+            plan_line.set_data(p[:, 0], p[:, 1])
+        s = steps[k] if steps else None
+        title.set_text(f"{report.map}: step {k + 1}/{len(steps)} {s.action if s else ''}")
+        return [traj_line, est_dots, plan_line, robot_circle, title]
+
+    anim = FuncAnimation(fig, frame, frames=len(idx), blit=False)
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    anim.save(str(p), writer=PillowWriter(fps=fps))
+    plt.close(fig)
+    return p

@@ -1,0 +1,225 @@
+"""`nxtnav run` (one mission, simulated or on a real NXT) and `nxtnav paper` (the paper's Table I)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from ..world import SONAR_MODELS, NxtnavError, Pose, load_map
+from .app import app
+from .options import parse_floats, parse_pose, parse_xy
+
+__all__: list[str] = []
+
+
+def _planner_names() -> list[str]:
+    from planners import PLANNERS
+
+    return PLANNERS.names()
+
+
+def _localiser_names() -> list[str]:
+    from localisation import LOCALISERS
+
+    return LOCALISERS.names()
+
+
+def _check_name(value: str, option: str, known: list[str], allow_ompl: bool = False) -> str:
+    if value in known or (allow_ompl and value.startswith("ompl:")):
+        return value
+    raise typer.BadParameter(f"unknown {option.lstrip('-')} {value!r}; known: {', '.join(known) or 'none'}",
+                             param_hint=option)
+
+
+def _noise(text: str) -> tuple[float, float, float]:
+    sensor, motion, turn = parse_floats(text, "--noise", (3,))
+    if min(sensor, motion, turn) < 0:
+        raise typer.BadParameter(f"noise values must be >= 0, got {text!r}", param_hint="--noise")
+    return sensor, motion, turn
+
+
+def _connect_nxt(backend: str, host: str, port: int, profile: Path | None) -> Any:
+    try:
+        from ..robots.nxt import connect_robot
+    except ImportError as exc:
+        raise NxtnavError(f"the NXT backend is not available ({exc}); install the 'nxt' extra") from None
+    return connect_robot(backend, host=host, port=port, profile=profile)
+
+
+@app.command("run")
+def run(
+    map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
+    start_text: str | None = typer.Option(
+        None, "--start", metavar="X,Y[,HEADING_DEG]",
+        help="True start (simulator): default the map's preset with a seeded random heading."),
+    random_start: bool = typer.Option(False, "--random-start",
+                                      help="Start from a random free pose at least 10 cm from every wall."),
+    target_text: str | None = typer.Option(None, "--target", metavar="X,Y", help="Target (default: the preset)."),
+    planner: str = typer.Option("min-turn", help="Planner (registry name or ompl:NAME)."),
+    localiser: str = typer.Option("paper-pf", help="Localiser (registry name)."),
+    robot_kind: str = typer.Option("sim", "--robot", help="sim or nxt."),
+    sonar: str = typer.Option("ideal", help=f"Sonar model of the simulator: {', '.join(SONAR_MODELS.names())}."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help="botsim (proportional) or absolute."),
+    noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
+                                   help="Sonar noise (cm), motion noise, turn noise (the paper's by default)."),
+    seed: int = typer.Option(0, help="Random seed (start heading, simulator noise, stack)."),
+    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the report as JSON."),
+    plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png", help="Draw the mission."),
+    animate: Path | None = typer.Option(None, "--animate", metavar="FILE.gif", help="Animate the mission (GIF)."),
+    nxt_backend: str = typer.Option("usb", "--nxt-backend", help="NXT link: usb, bluetooth or socket."),
+    server_host: str = typer.Option("localhost", "--server-host", help="nxt-server / virtual brick host (socket)."),
+    server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket)."),
+    profile: Path | None = typer.Option(None, "--profile", metavar="FILE", help="NXT calibration profile."),
+) -> None:
+    """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
+    from ..mission import run_mission, run_sim_mission
+
+    m = load_map(map_name)
+    planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
+    localiser = _check_name(localiser, "--localiser", _localiser_names())
+    if robot_kind not in ("sim", "nxt"):
+        raise typer.BadParameter(f"expected sim or nxt, got {robot_kind!r}", param_hint="--robot")
+    if sonar not in SONAR_MODELS:
+        raise typer.BadParameter(f"unknown sonar {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
+                                 param_hint="--sonar")
+    if noise_model not in ("botsim", "absolute"):
+        raise typer.BadParameter(f"expected botsim or absolute, got {noise_model!r}", param_hint="--noise-model")
+    if nxt_backend not in ("usb", "bluetooth", "socket"):
+        raise typer.BadParameter(f"expected usb, bluetooth or socket, got {nxt_backend!r}",
+                                 param_hint="--nxt-backend")
+    sensor_noise, motion_noise, turn_noise = _noise(noise_text)
+    if start_text is not None and random_start:
+        raise typer.BadParameter("give either --start or --random-start", param_hint="--start")
+    target = np.array(parse_xy(target_text, "--target")) if target_text is not None else m.target
+    if target is None:
+        raise typer.BadParameter(f"map {m.name} has no preset target; give --target X,Y", param_hint="--target")
+    if robot_kind == "nxt":
+        if start_text is not None or random_start:
+            raise typer.BadParameter("the start of a real robot is unknown; --start/--random-start are for the "
+                                     "simulator", param_hint="--start")
+        robot = _connect_nxt(nxt_backend, server_host, server_port, profile)
+        try:
+            report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed)
+        finally:
+            robot.close()
+    else:
+        start: Any = None
+        if start_text is not None:
+            start = parse_pose(start_text, "--start", heading_required=False)
+            xy = start.xy if isinstance(start, Pose) else np.array(start)
+            if not m.contains(xy):
+                raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
+                                         param_hint="--start")
+        report = run_sim_mission(
+            m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
+            localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
+            turn_noise=turn_noise, sonar=sonar,
+        )
+    typer.echo(report.summary())
+    if json_out is not None:
+        doc = report.to_dict()
+        doc["robot"] = robot_kind
+        if robot_kind == "sim":
+            doc["simulator"] = {"sonar": sonar, "noise_model": noise_model, "sensor_noise": sensor_noise,
+                                "motion_noise": motion_noise, "turn_noise": turn_noise}
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(_no_nan(doc), indent=1, allow_nan=False))
+        typer.echo(f"wrote {json_out}")
+    if plot is not None or animate is not None:
+        from ..bench.paper_plots import animate_mission, draw_mission
+        from ..plotting import new_axes, save_figure
+
+        if plot is not None:
+            fig, ax = new_axes(size=6.0)
+            draw_mission(report, m, ax)
+            save_figure(fig, plot)
+            typer.echo(f"wrote {plot}")
+        if animate is not None:
+            animate_mission(report, m, animate)
+            typer.echo(f"wrote {animate}")
+    if not report.success:
+        raise typer.Exit(1)
+
+
+def _no_nan(obj: Any) -> Any:
+    """The object with every NaN or infinite float replaced by None (strict JSON)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _no_nan(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_no_nan(v) for v in obj]
+    return obj
+
+
+def _parse_stacks(stacks: list[str] | None) -> list[tuple[str, str]]:
+    if not stacks:
+        return [("min-turn", "paper-pf")]
+    out = []
+    planners, localisers = _planner_names(), _localiser_names()
+    for s in stacks:
+        for item in s.split(","):
+            parts = item.strip().split("/")
+            if len(parts) != 2 or not all(parts):
+                raise typer.BadParameter(f"expected PLANNER/LOCALISER, got {item!r}", param_hint="--stack")
+            out.append((_check_name(parts[0], "--planner", planners, allow_ompl=True),
+                        _check_name(parts[1], "--localiser", localisers)))
+    return out
+
+
+@app.command("paper")
+def paper(
+    trials: int = typer.Option(20, "--trials", min=1, help="Missions per map and noise model."),
+    seed: int = typer.Option(0, help="Seed of the table (each trial's seed derives from it)."),
+    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the tables as JSON."),
+    markdown: Path | None = typer.Option(None, "--markdown", metavar="FILE", help="Write the tables as Markdown."),
+    stack: list[str] | None = typer.Option(None, "--stack", metavar="PLANNER/LOCALISER",
+                                           help="Stack(s) to run (repeatable; default min-turn/paper-pf)."),
+    sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
+    noise_model: list[str] | None = typer.Option(None, "--noise-model",
+                                                 help="Noise model(s) (default both: botsim and absolute)."),
+    maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
+    workers: int = typer.Option(1, "--workers", min=1, help="Worker processes."),
+) -> None:
+    """The paper's Table I regenerated: mean completion time, final error, path length, collisions."""
+    from ..bench.paper import paper_tasks, run_paper, tables_to_markdown
+
+    if sonar not in SONAR_MODELS:
+        raise typer.BadParameter(f"unknown sonar {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
+                                 param_hint="--sonar")
+    models = noise_model or ["botsim", "absolute"]
+    for nm in models:
+        if nm not in ("botsim", "absolute"):
+            raise typer.BadParameter(f"expected botsim or absolute, got {nm!r}", param_hint="--noise-model")
+    map_names = [s.strip() for s in maps.split(",") if s.strip()]
+    for name in map_names:
+        load_map(name)
+    stacks = _parse_stacks(stack)
+    tasks = paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=sonar)
+    console = Console(stderr=True)
+    with Progress(TextColumn("[bold]missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=console, transient=True) as progress:
+        bar = progress.add_task("missions", total=len(tasks))
+        tables, _ = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
+    text = tables_to_markdown(tables)
+    typer.echo(text)
+    for t in tables:
+        for r in t.rows:
+            for f in r.failures[:5]:
+                typer.echo(f"{t.noise_model} {r.map}: {f}", err=True)
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        doc = _no_nan([t.to_dict() for t in tables])
+        json_out.write_text(json.dumps(doc, indent=1, allow_nan=False))
+        typer.echo(f"wrote {json_out}")
+    if markdown is not None:
+        markdown.parent.mkdir(parents=True, exist_ok=True)
+        markdown.write_text(text)
+        typer.echo(f"wrote {markdown}")
