@@ -1,0 +1,103 @@
+"""Whole missions with the real stack (min-turn planner, paper-pf localiser) on the simulator.
+
+Every check compares the report with the simulator's own truth (true pose, contact counter,
+watchdog counter, odometry, clock).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from toolkit.mission import MissionConfig, mission_seeds, random_start, run_mission, run_sim_mission
+from toolkit.robots.sim import MotionNoise, SimRobot
+from toolkit.world import Pose, load_map
+
+pytest.importorskip("localisation.procedure")
+import localisation
+import planners
+
+if "paper-pf" not in localisation.LOCALISERS or "min-turn" not in planners.PLANNERS:
+    pytest.skip("the paper's stack is not registered", allow_module_level=True)
+
+
+def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "ideal",
+                 start: Pose | None = None) -> tuple[object, SimRobot]:
+    m = load_map(name)
+    s_start, s_sim, s_stack = mission_seeds(seed)
+    assert m.start is not None and m.target is not None
+    pose = start or Pose(*m.start, np.random.default_rng(s_start).uniform(-math.pi, math.pi))
+    robot = SimRobot(m, pose, noise=MotionNoise(model), sonar=sonar, rng=s_sim)
+    report = run_mission(robot, m, m.target, rng=s_stack)
+    return report, robot
+
+
+def _check_against_truth(report: object, robot: SimRobot) -> None:
+    from toolkit.mission import MissionReport
+
+    assert isinstance(report, MissionReport)
+    assert report.success, report.status
+    assert report.final_pose == robot.true_pose
+    assert report.final_error_cm == pytest.approx(robot.true_pose.distance_to(report.target))
+    assert report.final_error_cm < 2.5
+    assert report.collisions == robot.collisions == 0
+    assert report.watchdog_stops == robot.watchdog_stops
+    assert report.path_length_cm == pytest.approx(robot.odometry_cm)
+    assert report.robot_time_s == pytest.approx(robot.robot_time_s)
+    assert report.final_estimate is not None
+    # the estimate the mission stopped on is close to the truth (the localiser's accuracy)
+    assert report.final_estimate.distance_to(robot.true_pose) < 2.0
+    # the first plan starts where the first estimate was and ends at the target
+    assert report.plans and np.allclose(report.plans[0][-1], report.target)
+    assert report.trace[0].action == "localise"
+    assert report.trace[-1].true_pose == robot.true_pose
+
+
+@pytest.mark.parametrize("name", ["map1", "map2", "map3"])
+@pytest.mark.parametrize("model", ["botsim", "absolute"])
+def test_whole_mission_against_the_simulator(name: str, model: str) -> None:
+    report, robot = _sim_mission(name, seed=11, model=model)
+    _check_against_truth(report, robot)
+
+
+def test_mission_with_the_nxt_sonar() -> None:
+    report, robot = _sim_mission("map1", seed=4, sonar="nxt")
+    _check_against_truth(report, robot)
+
+
+@pytest.mark.parametrize("name", ["map2", "map3"])
+def test_mission_from_a_random_start(name: str) -> None:
+    m = load_map(name)
+    start = random_start(m, rng=7)
+    assert m.wall_distance(start.xy) >= 10.0
+    report, robot = _sim_mission(name, seed=7, start=start)
+    _check_against_truth(report, robot)
+
+
+def test_run_sim_mission_is_reproducible() -> None:
+    a = run_sim_mission("map1", seed=3)
+    b = run_sim_mission("map1", seed=3)
+    assert a.seed == b.seed == 3
+    assert a.final_pose == b.final_pose
+    assert a.path_length_cm == b.path_length_cm
+    assert [s.action for s in a.trace] == [s.action for s in b.trace]
+
+
+def test_target_in_wall_with_the_real_stack() -> None:
+    report = run_sim_mission("map2", seed=0, target=(1.0, 1.0))
+    assert not report.success
+    assert "outside the free area" in report.status or "in a wall" in report.status
+
+
+def test_unreachable_target_with_the_real_stack() -> None:
+    from toolkit.world import map_from_dict
+
+    m = map_from_dict({"name": "split", "boundary": [[0, 0], [60, 0], [60, 25], [65, 25], [65, 0], [120, 0],
+                                                      [120, 60], [65, 60], [65, 35], [60, 35], [60, 60], [0, 60]]})
+    cfg = MissionConfig(planning_time_s=0.2)
+    report = run_sim_mission(m, seed=1, start=Pose(25, 30, 0.0), target=(95.0, 30.0), config=cfg)
+    assert not report.success
+    assert "unreachable" in report.status or "lost" in report.status
+    assert report.collisions == 0

@@ -1,0 +1,116 @@
+"""`nxtnav run` and `nxtnav paper` end to end (in-process), and their option errors (exit code 2)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from toolkit.cli import main
+
+pytest.importorskip("localisation.procedure")
+import localisation
+import planners
+
+if "paper-pf" not in localisation.LOCALISERS or "min-turn" not in planners.PLANNERS:
+    pytest.skip("the paper's stack is not registered", allow_module_level=True)
+
+
+def _exit_code(argv: list[str]) -> int:
+    try:
+        main(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def test_run_with_defaults_writes_json_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out_json, out_png = tmp_path / "m.json", tmp_path / "out" / "m.png"
+    assert _exit_code(["run", "--json", str(out_json), "--plot", str(out_png)]) == 0
+    doc = json.loads(out_json.read_text())
+    assert doc["success"] is True
+    assert doc["map"] == "map1" and doc["planner"] == "min-turn" and doc["localiser"] == "paper-pf"
+    assert doc["seed"] == 0
+    assert doc["start"][:2] == [20.0, 20.0] and doc["target"] == [80.0, 80.0]
+    assert doc["collisions"] == 0
+    assert doc["final_error_cm"] < 2.5
+    assert doc["trace"] and doc["plans"]
+    assert out_png.stat().st_size > 10_000
+    assert "SUCCESS" in capsys.readouterr().out
+
+
+def test_run_same_seed_same_mission(tmp_path: Path) -> None:
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    for f in (a, b):
+        assert _exit_code(["run", "--map", "map2", "--seed", "5", "--noise-model", "absolute", "--json", str(f)]) == 0
+    da, db = json.loads(a.read_text()), json.loads(b.read_text())
+    assert da["final_pose"] == db["final_pose"] and da["trace"] == db["trace"]
+
+
+def test_run_random_start_and_animation(tmp_path: Path) -> None:
+    gif, js = tmp_path / "m.gif", tmp_path / "m.json"
+    assert _exit_code(["run", "--map", "map1", "--random-start", "--seed", "2", "--animate", str(gif),
+                       "--json", str(js)]) == 0
+    assert gif.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
+    doc = json.loads(js.read_text())
+    assert doc["start"][:2] != [20.0, 20.0]
+
+
+def test_run_explicit_start_with_heading(tmp_path: Path) -> None:
+    js = tmp_path / "m.json"
+    assert _exit_code(["run", "--start", "30,30,90", "--target", "20,90", "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    assert doc["start"] == pytest.approx([30.0, 30.0, 90.0])
+    assert doc["target"] == [20.0, 90.0]
+
+
+def test_run_target_in_wall_reports_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    js = tmp_path / "m.json"
+    assert _exit_code(["run", "--target", "3,50", "--json", str(js)]) == 1
+    doc = json.loads(js.read_text())
+    assert doc["success"] is False and "in a wall" in doc["status"]
+    assert "FAILED" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", "--noise", "1,2"],
+    ["run", "--noise", "1,-0.1,0"],
+    ["run", "--planner", "no-such-planner"],
+    ["run", "--localiser", "no-such-localiser"],
+    ["run", "--map", "no-such-map"],
+    ["run", "--start", "2,2"],
+    ["run", "--start", "20,20", "--random-start"],
+    ["run", "--start", "abc"],
+    ["run", "--target", "1"],
+    ["run", "--robot", "lego"],
+    ["run", "--sonar", "perfect"],
+    ["run", "--noise-model", "gaussian"],
+    ["run", "--robot", "nxt", "--start", "20,20"],
+    ["paper", "--trials", "0"],
+    ["paper", "--stack", "min-turn"],
+    ["paper", "--stack", "min-turn/nope"],
+    ["paper", "--sonar", "laser"],
+])
+def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    assert _exit_code(argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.strip()
+
+
+def test_paper_json_shape(tmp_path: Path) -> None:
+    js, md = tmp_path / "t.json", tmp_path / "t.md"
+    assert _exit_code(["paper", "--trials", "1", "--seed", "3", "--json", str(js), "--markdown", str(md)]) == 0
+    doc = json.loads(js.read_text())
+    assert isinstance(doc, list) and [t["noise_model"] for t in doc] == ["botsim", "absolute"]
+    for table in doc:
+        assert [r["map"] for r in table["rows"]] == ["map1", "map2", "map3"]
+        for row in table["rows"]:
+            for key in ("trials", "success_rate", "completion_s", "final_error_cm", "path_length_cm", "collisions",
+                        "robot_time_s", "paper"):
+                assert key in row
+            assert row["trials"] == 1
+            assert 0.0 <= row["success_rate"] <= 1.0
+            assert set(row["paper"]) >= {"completion_s", "final_error_cm", "path_length_cm", "collisions"}
+    assert doc[0]["rows"][0]["paper"]["final_error_cm"] == 1.79
+    assert "| map3 |" in md.read_text()
