@@ -1,0 +1,27 @@
+"""Execute notebooks/paper_reproduction.ipynb (a small Table I, a mission per map, the error spread)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+nbformat = pytest.importorskip("nbformat")
+nbclient = pytest.importorskip("nbclient")
+pytest.importorskip("localisation.procedure")
+
+NOTEBOOK = Path(__file__).resolve().parents[1] / "notebooks" / "paper_reproduction.ipynb"
+
+
+@pytest.mark.slow
+def test_paper_reproduction_notebook_runs() -> None:
+    nb = nbformat.read(NOTEBOOK, as_version=4)
+    client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3",
+                                     resources={"metadata": {"path": str(NOTEBOOK.parent)}})
+    client.execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    assert not [o for o in outputs if o.get("output_type") == "error"]
+    text = "".join(o.get("data", {}).get("text/markdown", "") for o in outputs)
+    assert "| map1 |" in text and "| map3 |" in text
+    images = [o for o in outputs if "image/png" in o.get("data", {})]
+    assert len(images) >= 3
