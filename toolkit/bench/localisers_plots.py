@@ -1,0 +1,248 @@
+"""Figures of the localiser benchmark and of single localisations.
+
+Every ``plot_*`` function takes the trial results (or one outcome) and an optional axes, and returns
+the artists it drew; `write_plots` saves the standard set into a folder. Nothing calls ``plt.show()``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from toolkit.plotting import draw_map, draw_particles, draw_pose, save_figure
+from toolkit.world import Map, Pose, RobotGeometry
+
+from .localisers import SUCCESS_CM, GlobalRun, KidnappedRun, LocalisationOutcome, TrackingRun, TrialResult
+
+__all__ = [
+    "draw_localisation",
+    "iteration_snapshots",
+    "plot_error_ecdf",
+    "plot_kidnapped",
+    "plot_success",
+    "plot_times",
+    "plot_tracking",
+    "write_plots",
+]
+
+
+def _ax(ax: Axes | None, size: tuple[float, float] = (6.0, 4.0)) -> Axes:
+    return ax if ax is not None else plt.subplots(figsize=size)[1]
+
+
+def _colours(names: Sequence[str]) -> dict[str, Any]:
+    cmap = plt.get_cmap("tab10")
+    return {n: cmap(i % 10) for i, n in enumerate(names)}
+
+
+def _of(results: Sequence[TrialResult], kind: type, map_name: str | None = None) -> list[Any]:
+    return [r for r in results if isinstance(r, kind) and (map_name is None or r.map == map_name)]
+
+
+def plot_error_ecdf(results: Sequence[TrialResult], map_name: str, localisers: Sequence[str],
+                    ax: Axes | None = None) -> list[Any]:
+    """Empirical CDF of the final position error (cm, log axis) per localiser on one map."""
+    ax = _ax(ax)
+    rs = _of(results, GlobalRun, map_name)
+    col = _colours(localisers)
+    artists: list[Any] = []
+    for n in localisers:
+        e = np.sort([r.error_cm for r in rs if r.localiser == n])
+        if e.size == 0:
+            continue
+        y = np.arange(1, e.size + 1) / e.size
+        artists.extend(ax.step(np.maximum(e, 1e-2), y, where="post", color=col[n], label=n))
+    artists.append(ax.axvline(SUCCESS_CM, color="0.3", ls="--", lw=1, label=f"{SUCCESS_CM:g} cm"))
+    ax.set_xscale("log")
+    ax.set_xlabel("final position error (cm)")
+    ax.set_ylabel("fraction of trials")
+    ax.set_ylim(0, 1.02)
+    ax.set_title(f"{map_name}: error distribution")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7, loc="lower right")
+    return artists
+
+
+def plot_times(results: Sequence[TrialResult], map_name: str, localisers: Sequence[str],
+               ax: Axes | None = None) -> list[Any]:
+    """Box plot of the localisation time (ms, log axis) per localiser on one map."""
+    ax = _ax(ax)
+    rs = _of(results, GlobalRun, map_name)
+    names = [n for n in localisers if any(r.localiser == n for r in rs)]
+    data = [[1e3 * r.time_s for r in rs if r.localiser == n] for n in names]
+    if not data:
+        return []
+    bp = ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
+    ax.set_xticks(range(1, len(names) + 1), names, rotation=30, ha="right", fontsize=8)
+    ax.set_yscale("log")
+    ax.set_ylabel("localisation time (ms)")
+    ax.set_title(f"{map_name}: time per localisation")
+    ax.grid(alpha=0.3, axis="y", which="both")
+    return [bp]
+
+
+def plot_success(results: Sequence[TrialResult], maps: Sequence[str], localisers: Sequence[str],
+                 ax: Axes | None = None) -> list[Any]:
+    """Grouped bars: success rate (%) per map and localiser."""
+    ax = _ax(ax, (7.0, 4.0))
+    col = _colours(localisers)
+    width = 0.8 / max(len(localisers), 1)
+    artists: list[Any] = []
+    for j, n in enumerate(localisers):
+        rates = []
+        for m in maps:
+            rs = [r for r in _of(results, GlobalRun, m) if r.localiser == n]
+            rates.append(100.0 * np.mean([r.success for r in rs]) if rs else np.nan)
+        artists.append(ax.bar(np.arange(len(maps)) + j * width - 0.4 + width / 2, rates, width, color=col[n],
+                              label=n))
+    ax.set_xticks(range(len(maps)), list(maps))
+    ax.set_ylabel("success rate (%)")
+    ax.set_ylim(0, 105)
+    ax.set_title(f"success (within {SUCCESS_CM:g} cm and 3 degrees)")
+    ax.legend(fontsize=7, ncol=2)
+    return artists
+
+
+def plot_tracking(results: Sequence[TrialResult], map_name: str, localisers: Sequence[str],
+                  ax: Axes | None = None) -> list[Any]:
+    """Median (line) and 90th percentile (band) of the tracking error after each action, per localiser."""
+    ax = _ax(ax)
+    rs = _of(results, TrackingRun, map_name)
+    col = _colours(localisers)
+    artists: list[Any] = []
+    for n in localisers:
+        e = [r.errors_cm for r in rs if r.localiser == n and r.errors_cm]
+        if not e:
+            continue
+        k = min(len(x) for x in e)
+        a = np.array([x[:k] for x in e])
+        steps = np.arange(1, k + 1)
+        artists.extend(ax.plot(steps, np.median(a, axis=0), color=col[n], label=n))
+        artists.append(ax.fill_between(steps, np.percentile(a, 10, axis=0), np.percentile(a, 90, axis=0),
+                                       color=col[n], alpha=0.15))
+    ax.set_yscale("log")
+    ax.set_xlabel("action")
+    ax.set_ylabel("position error (cm)")
+    ax.set_title(f"{map_name}: tracking error (median, 10-90 %)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    return artists
+
+
+def plot_kidnapped(results: Sequence[TrialResult], maps: Sequence[str], localisers: Sequence[str],
+                   ax: Axes | None = None) -> list[Any]:
+    """Grouped bars: kidnapped-robot recovery rate (%) per map and localiser."""
+    ax = _ax(ax, (7.0, 4.0))
+    col = _colours(localisers)
+    width = 0.8 / max(len(localisers), 1)
+    artists: list[Any] = []
+    for j, n in enumerate(localisers):
+        rates = []
+        for m in maps:
+            rs = [r for r in _of(results, KidnappedRun, m) if r.localiser == n and r.localised]
+            rates.append(100.0 * np.mean([r.recovered for r in rs]) if rs else np.nan)
+        artists.append(ax.bar(np.arange(len(maps)) + j * width - 0.4 + width / 2, rates, width, color=col[n],
+                              label=n))
+    ax.set_xticks(range(len(maps)), list(maps))
+    ax.set_ylabel("recovered (%)")
+    ax.set_ylim(0, 105)
+    ax.set_title("kidnapped robot: recovery without reset")
+    ax.legend(fontsize=7, ncol=2)
+    return artists
+
+
+def write_plots(results: Sequence[TrialResult], out_dir: str | Path, maps: Sequence[str],
+                localisers: Sequence[str]) -> list[Path]:
+    """Save the standard figures of whichever scenarios `results` holds; returns the files."""
+    out = Path(out_dir)
+    files: list[Path] = []
+    if _of(results, GlobalRun):
+        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False)
+        for m, ax in zip(maps, axes[0], strict=True):
+            plot_error_ecdf(results, m, localisers, ax)
+        files.append(save_figure(fig, out / "errors.png"))
+        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False)
+        for m, ax in zip(maps, axes[0], strict=True):
+            plot_times(results, m, localisers, ax)
+        files.append(save_figure(fig, out / "times.png"))
+        fig, ax = plt.subplots(figsize=(7, 4))
+        plot_success(results, maps, localisers, ax)
+        files.append(save_figure(fig, out / "success.png"))
+    if _of(results, TrackingRun):
+        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False)
+        for m, ax in zip(maps, axes[0], strict=True):
+            plot_tracking(results, m, localisers, ax)
+        files.append(save_figure(fig, out / "tracking.png"))
+    if _of(results, KidnappedRun):
+        fig, ax = plt.subplots(figsize=(7, 4))
+        plot_kidnapped(results, maps, localisers, ax)
+        files.append(save_figure(fig, out / "kidnapped.png"))
+    return files
+
+
+# -- one localisation ------------------------------------------------------------------------------
+
+
+def iteration_snapshots(result: Any) -> list[tuple[Any, Pose | None]]:
+    """(particles or None, mean pose or None) per iteration of a procedure's trace, in order.
+
+    Reads the trace defensively: each step may carry ``particles`` ((n, 2+) array) and an
+    ``estimate`` (a `PoseEstimate` or a `Pose`) or ``pose``.
+    """
+    trace = getattr(result, "trace", None) or []
+    out: list[tuple[Any, Pose | None]] = []
+    for step in trace:
+        parts = getattr(step, "particles", None)
+        est = getattr(step, "estimate", None)
+        if est is None:
+            est = getattr(step, "pose", None)
+        pose = getattr(est, "pose", est)
+        out.append((None if parts is None else np.asarray(parts, dtype=float),
+                    pose if isinstance(pose, Pose) else None))
+    return out
+
+
+def draw_localisation(m: Map, outcome: LocalisationOutcome, title: str = "", max_panels: int = 6) -> Figure:
+    """Small multiples of a localisation: particles and mean at chosen iterations, then the final estimate.
+
+    Each panel shows one iteration of the procedure's trace (the first, the last and evenly spaced
+    ones between, at most `max_panels` - 1) with its particles (orange) and mean pose (blue); the last
+    panel shows the final estimate against the simulator's true pose (green).
+    """
+    snaps = iteration_snapshots(outcome.result)
+    k = max_panels - 1
+    idx = sorted({round(i) for i in np.linspace(0, len(snaps) - 1, min(k, len(snaps)))}) if snaps else []
+    n = len(idx) + 1
+    cols = min(n, 3)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 4.0 * rows), squeeze=False)
+    flat = list(axes.ravel())
+    radius = RobotGeometry().radius_cm
+    for ax, i in zip(flat, idx, strict=False):
+        parts, pose = snaps[i]
+        draw_map(m, ax, presets=False, title=False)
+        if parts is not None and len(parts):
+            draw_particles(parts[:, :2], ax, size=3.0, alpha=0.35)
+        if pose is not None:
+            draw_pose(pose, ax, color="tab:blue")
+        ax.set_title(f"iteration {i + 1} of {len(snaps)}" + ("" if parts is None else f", {len(parts)} particles"),
+                     fontsize=9)
+    ax = flat[len(idx)]
+    draw_map(m, ax, presets=False, title=False)
+    draw_pose(outcome.truth, ax, radius=radius, color="tab:green", label="truth")
+    draw_pose(outcome.estimate, ax, color="tab:blue", label="estimate")
+    ax.set_title(f"final: error {outcome.error_cm:.2f} cm, {outcome.heading_error_deg:+.2f}°", fontsize=9)
+    ax.legend(fontsize=7, loc="best")
+    for extra in flat[n:]:
+        extra.set_visible(False)
+    if title:
+        fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,192 @@
+"""`nxtnav localise` (one localisation in the simulator, drawn) and `nxtnav bench localisers`."""
+
+from __future__ import annotations
+
+import json
+import math
+import shlex
+import time
+from pathlib import Path
+from typing import Any
+
+import typer
+import yaml
+
+from localisation.base import LOCALISERS
+from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
+
+from .app import app, bench_app
+from .options import parse_list, parse_pose
+
+__all__: list[str] = []
+
+
+def _localiser_names() -> list[str]:
+    """Registered localisers (importing the implementations registers them)."""
+    for mod in ("localisation.particle_filter", "localisation.filterpy_variants"):
+        try:
+            __import__(mod)
+        except ImportError:  # pragma: no cover - not every build ships every module
+            pass
+    return LOCALISERS.names()
+
+
+def _check_sonar(sonar: str) -> str:
+    if sonar not in SONAR_MODELS:
+        raise NxtnavError(f"--sonar: unknown sonar model {sonar!r}; known: {', '.join(SONAR_MODELS.names())}")
+    return sonar
+
+
+def _parse_sets(values: list[str], option: str) -> dict[str, dict[str, Any]]:
+    """``NAME.KEY=VALUE`` (or ``KEY=VALUE`` for every localiser, under ``*``) with YAML-typed values."""
+    out: dict[str, dict[str, Any]] = {}
+    for text in values:
+        key, sep, raw = text.partition("=")
+        if not sep or not key.strip():
+            raise NxtnavError(f"{option}: expected KEY=VALUE or LOCALISER.KEY=VALUE, got {text!r}")
+        name, dot, k = key.strip().rpartition(".")
+        try:
+            value = yaml.safe_load(raw)
+        except yaml.YAMLError:
+            value = raw
+        out.setdefault(name if dot else "*", {})[k] = value
+    return out
+
+
+def _options_for(sets: dict[str, dict[str, Any]], names: list[str]) -> dict[str, dict[str, Any]]:
+    unknown = [n for n in sets if n != "*" and n not in names]
+    if unknown:
+        raise NxtnavError(f"--set: options for {', '.join(unknown)}, which is not among {', '.join(names)}")
+    return {n: {**sets.get("*", {}), **sets.get(n, {})} for n in names if sets.get("*") or sets.get(n)}
+
+
+@app.command("localise")
+def localise_cmd(
+    map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
+    pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="True start pose (cm, cm, deg)."),
+    localiser: str = typer.Option("paper-pf", "--localiser", help="Registered localiser."),
+    sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
+    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm)."),
+    noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
+    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf."),
+    seed: int = typer.Option(0, help="Random seed."),
+    sets: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="Localiser option (repeatable)."),
+    output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
+    json_out: Path | None = typer.Option(None, "--json", help="Write the result as JSON."),
+) -> None:
+    """Localise once in the simulator from a known true pose and draw the particles per iteration."""
+    from ..bench.localisers import BenchConfig, localise_once
+    from ..bench.localisers_plots import draw_localisation
+    from ..plotting import save_figure
+
+    names = _localiser_names()
+    parse_list(localiser, "--localiser", names)
+    _check_sonar(sonar)
+    m = load_map(map_name)
+    pose = parse_pose(pose_text, "--pose")
+    assert isinstance(pose, Pose)
+    if not m.contains(pose.xy):
+        raise NxtnavError(f"--pose: ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
+    cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
+                      localiser_options=_options_for(_parse_sets(sets, "--set"), [localiser]))
+    out, _, _ = localise_once(m, pose, localiser, config=cfg, rng=seed)
+    fig = draw_localisation(m, out, title=f"{m.name}: {localiser}, sonar {sonar}, seed {seed}")
+    save_figure(fig, output)
+    typer.echo(f"{localiser}: error {out.error_cm:.2f} cm, heading {out.heading_error_deg:+.2f}°, "
+               f"{out.iterations} iterations, {out.scans} scans, {1e3 * out.time_s:.1f} ms "
+               f"({'success' if out.success else 'failure'})")
+    typer.echo(f"wrote {output}")
+    if json_out is not None:
+        doc = {"map": m.name, "localiser": localiser, "sonar": sonar, "seed": seed, **out.to_dict()}
+        json_out.write_text(json.dumps(doc, indent=1))
+        typer.echo(f"wrote {json_out}")
+
+
+def _scenarios(text: str) -> list[str]:
+    from ..bench.localisers import SCENARIOS
+
+    if text.strip() == "all":
+        return list(SCENARIOS)
+    return parse_list(text, "--scenario", list(SCENARIOS))
+
+
+@bench_app.command("localisers")
+def bench_localisers(
+    maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps."),
+    localisers_text: str = typer.Option("all", "--localisers", help="Comma-separated localisers, or all."),
+    trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser."),
+    sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
+    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm)."),
+    noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
+    scenario: str = typer.Option("global", help="global, tracking, kidnapped, a comma list, or all."),
+    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf (paper-pf's "
+                                                          "first estimate)."),
+    tracking_steps: int = typer.Option(12, help="Actions of the tracking drive."),
+    recovery_rounds: int = typer.Option(10, help="Rounds (turn, scan, update) to recover from a kidnapping."),
+    seed: int = typer.Option(0, help="Random seed."),
+    sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
+                                   help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
+    out: Path = typer.Option(..., "--out", help="Output folder (must be empty or new, unless --force)."),
+    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
+    workers: int = typer.Option(1, help="Worker processes (1 = in this process)."),
+    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
+) -> None:
+    """Benchmark localisers on random true poses: runs.csv, summary.md and plots in --out."""
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from ..bench.executors import run_tasks
+    from ..bench.localisers import FILES, BenchConfig, TrialResult, make_tasks, run_trial, write_csv, write_summary
+    from ..bench.localisers_plots import write_plots
+
+    names = _localiser_names()
+    locs = names if localisers_text.strip() == "all" else parse_list(localisers_text, "--localisers", names)
+    maps = parse_list(maps_text, "--maps")
+    for m in maps:
+        load_map(m)
+    _check_sonar(sonar)
+    scenarios = _scenarios(scenario)
+    if trials < 1:
+        raise NxtnavError(f"--trials must be >= 1, got {trials}")
+    if workers < 1:
+        raise NxtnavError(f"--workers must be >= 1, got {workers}")
+    if out.exists() and not out.is_dir():
+        raise NxtnavError(f"--out: {out} exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not force:
+        raise NxtnavError(f"--out: {out} is not empty (use --force to write into it)")
+    if not math.isfinite(sensor_noise) or sensor_noise < 0:
+        raise NxtnavError(f"--sensor-noise must be a non-negative number, got {sensor_noise}")
+    cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
+                      tracking_steps=tracking_steps, recovery_rounds=recovery_rounds,
+                      localiser_options=_options_for(_parse_sets(sets, "--set"), locs))
+    tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
+    out.mkdir(parents=True, exist_ok=True)
+    results: list[TrialResult] = []
+    t0 = time.perf_counter()
+    columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+               TextColumn("eta"), TimeRemainingColumn())
+    with Progress(*columns, transient=False) as progress:
+        bar = progress.add_task(f"{', '.join(scenarios)} on {', '.join(maps)}", total=len(tasks))
+        for r in run_tasks(run_trial, tasks, workers=workers, dask_address=dask,
+                           on_done=lambda _r: progress.advance(bar)):
+            results.append(r)
+    wall = time.perf_counter() - t0
+    written = [write_csv(results, out / FILES[s], s) for s in scenarios]
+    command = " ".join(shlex.quote(a) for a in [
+        "nxtnav", "bench", "localisers", "--maps", ",".join(maps), "--localisers", ",".join(locs),
+        "--trials", str(trials), "--sonar", sonar, "--scenario", ",".join(scenarios), "--seed", str(seed),
+        "--tracker-prior", tracker_prior, "--out", str(out), "--workers", str(workers),
+        *(["--dask", dask] if dask else []), *[a for s in sets for a in ("--set", s)]])
+    written.append(write_summary(results, out / "summary.md", config=cfg, maps=maps, localisers=locs,
+                                 trials=trials, seed=seed, command=command, wall_time_s=wall))
+    written.extend(write_plots(results, out, maps, locs))
+    (out / "config.json").write_text(json.dumps({"maps": maps, "localisers": locs, "trials": trials, "seed": seed,
+                                                 "scenarios": scenarios, **cfg.to_dict()}, indent=1, default=str))
+    typer.echo((out / "summary.md").read_text())
+    typer.echo(f"wrote {', '.join(str(p) for p in written)} ({len(results)} trials in {wall:.1f} s)")
