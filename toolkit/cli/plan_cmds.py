@@ -1,0 +1,189 @@
+"""`nxtnav plan` (one query, drawn with its metrics) and `nxtnav bench planners` (the planner benchmark)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+from ..world import CollisionChecker, NxtnavError, PlanningError, RobotGeometry, load_map
+from .app import app, bench_app, fail
+from .options import parse_list, parse_xy
+
+__all__: list[str] = []
+
+
+def _noise(model: str, motion: float, turn: float) -> Any:
+    from ..robots.sim import MotionNoise
+
+    try:
+        return MotionNoise(model, motion, turn)  # type: ignore[arg-type]
+    except ValueError as exc:
+        raise NxtnavError(f"--noise-model/--motion-noise/--turn-noise: {exc}") from None
+
+
+def _finite(v: float) -> float | None:
+    return v if v is not None and math.isfinite(v) else None
+
+
+def _json_safe(obj: Any) -> Any:
+    if isinstance(obj, float):
+        return _finite(obj)
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_json_safe(v) for v in obj]
+    return obj
+
+
+@app.command("plan")
+def plan(
+    map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
+    planner: str = typer.Option("min-turn", "--planner", help="Planner: a registry name or ompl:NAME."),
+    start_text: str | None = typer.Option(None, "--start", metavar="X,Y", help="Start in cm (default: preset)."),
+    goal_text: str | None = typer.Option(None, "--goal", metavar="X,Y", help="Goal in cm (default: preset)."),
+    seed: int = typer.Option(0, "--seed", help="Random seed of the planner and of the execution error."),
+    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SEC", help="Planning budget (s)."),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm)."),
+    exec_repeats: int = typer.Option(100, "--exec-repeats", min=0,
+                                     help="Open-loop drives for the execution error (0 skips it)."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
+    motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move."),
+    turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad."),
+    output: Path = typer.Option(..., "-o", "--output", metavar="FILE.png", help="Figure to write."),
+    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write path, metrics and status."),
+) -> None:
+    """Plan one query and draw the path on the map with its metrics."""
+    from planners import PlanningProblem, make_planner
+    from planners.metrics import path_metrics
+
+    from ..bench.execution import execution_error
+    from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, check_planner_names
+    from ..plotting import draw_cspace, draw_map, draw_path, new_axes, save_figure
+
+    if not (math.isfinite(time_limit) and time_limit > 0):
+        raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
+    nz = _noise(noise_model, motion_noise, turn_noise)
+    check_planner_names([planner])
+    m = load_map(map_name)
+    checker = CollisionChecker(m, radius)
+
+    def point(text: str | None, option: str, preset: Any) -> np.ndarray:
+        if text is None:
+            if preset is None:
+                raise NxtnavError(f"{option}: map {m.name!r} has no preset; give {option} X,Y")
+            return np.asarray(preset, dtype=float)
+        p = np.array(parse_xy(text, option))
+        if not checker.point_free(p):
+            raise PlanningError(f"{option} ({p[0]:g}, {p[1]:g}) puts the robot (radius {radius:g} cm) in a wall "
+                                f"or outside map {m.name!r}")
+        return p
+
+    start = point(start_text, "--start", m.start)
+    goal = point(goal_text, "--goal", m.target)
+    problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed))
+    result = make_planner(planner).plan(problem)
+    refs: dict[str, Any] = {}
+    for name in REFERENCE_PLANNERS:
+        try:
+            ref = make_planner(name).plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
+                                                          np.random.default_rng(0)))
+        except NxtnavError:
+            continue
+        if ref.success:
+            refs[name] = ref.path
+    doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
+                           "robot_radius_cm": radius, "start": start.tolist(), "goal": goal.tolist(),
+                           **{k: v for k, v in result.to_dict().items() if k != "planner"}}
+    fig, ax = new_axes(size=6.0)
+    draw_map(m, ax, presets=False, title=False)
+    draw_cspace(m, radius, ax)
+    ax.plot(*start, "o", color="tab:green", ms=9, label="start", zorder=6)
+    ax.plot(*goal, "*", color="tab:red", ms=14, label="goal", zorder=6)
+    lines = [f"{planner} on {m.name}: {result.status} in {1e3 * result.time_s:.2f} ms"]
+    if result.success:
+        from planners.metrics import count_turns, path_length
+
+        sp, ml = refs.get("shortest"), refs.get("min-link")
+        met = path_metrics(result.path, checker,
+                           reference_length=path_length(sp) if sp is not None else None,
+                           reference_turns=count_turns(ml) if ml is not None else None)
+        doc["metrics"] = met.to_dict()
+        draw_path(result.path, ax, label=planner)
+        ratio = f" (x{met.length_ratio:.3f} shortest)" if math.isfinite(met.length_ratio) else ""
+        lines.append(f"length {met.length_cm:.1f} cm{ratio}, {met.turns} turns "
+                     f"({math.degrees(met.turn_angle_rad):.0f} deg), min clearance {met.min_clearance_cm:.1f} cm")
+        if exec_repeats > 0 and len(result.path) >= 2:
+            ex = execution_error(result.path, checker, goal=goal, repeats=exec_repeats, noise=nz, rng=seed)
+            doc["execution"] = ex.to_dict()
+            lines.append(f"execution error {ex.mean_cm:.2f} cm mean, {ex.median_cm:.2f} cm median "
+                         f"({ex.repeats} drives, {nz.model} noise), touched a wall in "
+                         f"{100 * ex.collision_fraction:.0f}%")
+        lines.append(f"{result.collision_checks} collision checks")
+    doc["references"] = {k: {"path": v.tolist(), "length_cm": float(np.sum(np.hypot(*np.diff(v, axis=0).T)))}
+                         for k, v in refs.items()}
+    ax.set_title("\n".join(lines), fontsize=9)
+    ax.legend(loc="upper left", fontsize=8, bbox_to_anchor=(1.01, 1.0))
+    save_figure(fig, output)
+    typer.echo(f"wrote {output}")
+    if json_out is not None:
+        json_out.write_text(json.dumps(_json_safe(doc), indent=1), encoding="utf-8")
+        typer.echo(f"wrote {json_out}")
+    for line in lines:
+        typer.echo(line)
+    if not result.success:
+        raise fail(f"{planner} found no path on {m.name}: {result.status}", code=1)
+
+
+@bench_app.command("planners")
+def bench_planners(
+    maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
+    planners: str = typer.Option("min-turn,rrtstar,prm,astar", "--planners",
+                                 help="Comma-separated planners (registry names or ompl:NAME)."),
+    runs: int = typer.Option(50, "--runs", min=1, help="Runs per planner and map."),
+    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", help="Planning budget per run (s)."),
+    seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it)."),
+    out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder (must be new or empty)."),
+    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),
+    workers: int = typer.Option(1, "--workers", min=1, help="Worker processes."),
+    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
+                                    help="Run on a Dask cluster (tcp://host:8786) or 'local' (extra 'cluster')."),
+    queries: str = typer.Option("presets", "--queries", help="presets (the map's start/target) or random."),
+    exec_repeats: int = typer.Option(100, "--exec-repeats", min=0,
+                                     help="Open-loop drives per run for the execution error (0 skips it)."),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm)."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
+    motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move."),
+    turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad."),
+    plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
+) -> None:
+    """Benchmark planners on maps: runs.csv, paths.jsonl, summary.md, box plots and an OMPL benchmark.log."""
+    from ..bench.planners import BenchmarkConfig, check_out_dir, check_planner_names, run_benchmark, write_results
+
+    if queries not in ("presets", "random"):
+        raise NxtnavError(f"--queries must be presets or random, got {queries!r}")
+    map_list = parse_list(maps, "--maps")
+    planner_list = parse_list(planners, "--planners")
+    check_planner_names(planner_list)
+    for name in map_list:
+        load_map(name)  # a bad map name fails before any work
+    config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs, time_limit=time_limit,
+                             seed=seed, queries=queries,  # type: ignore[arg-type]
+                             exec_repeats=exec_repeats, robot_radius=radius,
+                             noise=_noise(noise_model, motion_noise, turn_noise))
+    out_dir = check_out_dir(out, force)
+    console = Console(stderr=True)
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TimeRemainingColumn(), console=console, transient=False) as progress:
+        task = progress.add_task("references and runs", total=config.n_tasks())
+        result = run_benchmark(config, workers=workers, dask_address=dask,
+                               on_done=lambda _: progress.advance(task))
+    files = write_results(result, out_dir, plots=plots)
+    typer.echo((out_dir / "summary.md").read_text(encoding="utf-8"))
+    typer.echo(f"wrote {len(files)} files to {out_dir} in {result.total_time_s:.1f} s")
