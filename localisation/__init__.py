@@ -1,5 +1,36 @@
-"""Localisation from ultrasonic scans: the paper's particle filter and filterpy variants."""
+"""Localisation from ultrasonic scans: the paper's particle filter and filterpy variants.
+
+Importing the package registers every localiser (``paper-pf`` and the filterpy variants) in
+`LOCALISERS`; `localise` is the paper's procedure that drives a robot.
+"""
 
 from .base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from .models import MotionModel, RangeLikelihood, RangeTable, exact_ranges, range_table
+from .particle_filter import Mode, ParticleFilter, Snapshot
+from .procedure import LocalisationResult, TraceStep, localise
+from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan, raw_scan
 
-__all__ = ["LOCALISERS", "Localiser", "Motion", "PoseEstimate", "Prior", "make_localiser"]
+__all__ = [
+    "LOCALISERS",
+    "LocalisationResult",
+    "Localiser",
+    "Mode",
+    "Motion",
+    "MotionModel",
+    "ParticleFilter",
+    "PoseEstimate",
+    "Prior",
+    "ProcessedScan",
+    "RangeLikelihood",
+    "RangeTable",
+    "ScanProcessing",
+    "Snapshot",
+    "TraceStep",
+    "exact_ranges",
+    "localise",
+    "make_localiser",
+    "min_reading",
+    "process_scan",
+    "range_table",
+    "raw_scan",
+]

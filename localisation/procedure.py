@@ -1,0 +1,273 @@
+"""The paper's localisation procedure, driving any `toolkit.world.Robot`.
+
+One iteration: Ultrascan; turn toward the minimum reading (the sonar then faces the nearest wall
+nearly perpendicularly) and tell the localiser (``predict``); rescan; keep the readings within the
+windows around 0/90/180/270 degrees (`localisation.scan`); ``update``. When the belief is not
+converged (wide, or several plausible modes such as the identical rooms of map3) the robot turns
+toward its largest reading (free space), drives part of the way, tells the localiser, and iterates.
+
+Only the Robot protocol is used (`move`, `turn`, `ultrascan`, `turnback`), so the procedure runs
+unchanged on the simulator and on a real NXT.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from toolkit.world import RngLike, Robot, Scan, angle_diff, as_rng
+
+from .base import Localiser, Motion, PoseEstimate, Prior
+from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan
+
+__all__ = ["LocalisationResult", "TraceStep", "localise"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class TraceStep:
+    """One iteration of the procedure, for plots and reports.
+
+    Attributes
+    ----------
+    iteration : int
+        1-based procedure iteration.
+    scan : ProcessedScan
+        The processed scan given to the localiser.
+    aligned_turn_rad : float
+        Turn toward the minimum reading before the rescan (0 when alignment is off).
+    snapshots : tuple
+        The localiser's per-filter-iteration snapshots during this update (particle filters; each has
+        ``particles``, ``weights``, ``beta`` and ``estimate``), empty for Kalman filters.
+    estimate : PoseEstimate
+        The belief after the update.
+    explore : Motion or None
+        The exploration move made after this iteration (turn, distance driven), if any.
+    """
+
+    iteration: int
+    scan: ProcessedScan
+    aligned_turn_rad: float
+    snapshots: tuple[Any, ...]
+    estimate: PoseEstimate
+    explore: Motion | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "iteration": self.iteration,
+            "scan": self.scan.to_dict(),
+            "aligned_turn_deg": math.degrees(self.aligned_turn_rad),
+            "snapshots": [s.to_dict() for s in self.snapshots],
+            "estimate": self.estimate.to_dict(),
+            "explore": None if self.explore is None else self.explore.to_dict(),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class LocalisationResult:
+    """Outcome of `localise`.
+
+    Attributes
+    ----------
+    estimate : PoseEstimate
+        The final belief (pose at the end of the procedure).
+    scans : int
+        Ultrascans taken (each iteration takes two when aligning).
+    iterations : int
+        Procedure iterations (updates of the localiser).
+    converged : bool
+        Whether the localiser reported convergence.
+    trace : tuple of TraceStep
+    moves : int
+        Exploration moves made to break ambiguity.
+    robot_time_s : float
+        Robot time spent (the robot's own clock).
+    compute_time_s : float
+        Wall-clock time spent in the localiser's reset/predict/update calls.
+    localiser : str
+    """
+
+    estimate: PoseEstimate
+    scans: int
+    iterations: int
+    converged: bool
+    trace: tuple[TraceStep, ...] = field(default=())
+    moves: int = 0
+    robot_time_s: float = 0.0
+    compute_time_s: float = 0.0
+    localiser: str = ""
+
+    @property
+    def pose(self) -> Any:
+        return self.estimate.pose
+
+    def to_dict(self, trace: bool = False) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "localiser": self.localiser,
+            "estimate": self.estimate.to_dict(),
+            "scans": self.scans,
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "moves": self.moves,
+            "robot_time_s": self.robot_time_s,
+            "compute_time_s": self.compute_time_s,
+        }
+        if trace:
+            d["trace"] = [t.to_dict() for t in self.trace]
+        return d
+
+
+def _explore_direction(scan: Scan, rng: np.random.Generator, avoid_rad: float | None) -> tuple[float, float]:
+    """Direction (rad, relative) and reading (cm) of the largest usable reading, avoiding `avoid_rad`.
+
+    Among readings within 2 cm of the largest, one is picked at random (so repeated attempts do not
+    oscillate); readings pointing back where the robot came from (within 45 degrees of `avoid_rad`)
+    are used only when nothing else is open.
+    """
+    ok = scan.valid & np.isfinite(scan.ranges)
+    if not ok.any():
+        return 0.0, 0.0
+    r = np.where(ok, scan.ranges, -np.inf)
+    if avoid_rad is not None:
+        back = np.abs(angle_diff(scan.angles, avoid_rad)) < math.radians(45.0)
+        if (ok & ~back).any():
+            r = np.where(back, -np.inf, r)
+    best = float(np.max(r))
+    cand = np.flatnonzero(r >= best - 2.0)
+    k = int(rng.choice(cand))
+    return float(angle_diff(scan.angles[k], 0.0)), float(scan.ranges[k])
+
+
+def localise(
+    robot: Robot,
+    localiser: Localiser,
+    *,
+    max_iterations: int = 6,
+    rng: RngLike = None,
+    prior: Prior | None = None,
+    reset: bool = True,
+    align: bool = True,
+    processing: ScanProcessing | None = None,
+    process: bool = True,
+    scan_angles: Any = None,
+    min_valid_readings: int = 8,
+    max_move_cm: float = 30.0,
+    move_fraction: float = 0.5,
+    safety_cm: float | None = None,
+) -> LocalisationResult:
+    """Localise `robot` with `localiser` the paper's way (see the module docstring).
+
+    Parameters
+    ----------
+    robot : Robot
+        Any implementation of the protocol (simulator, NXT).
+    localiser : Localiser
+        Built for the robot's map.
+    max_iterations : int
+        Scan-update iterations at most (exploration moves happen between them).
+    rng : None, int or Generator
+        Randomness of the procedure itself (choice among equally open directions).
+    prior : Prior, optional
+        Start belief (None: global localisation). Trackers (EKF, UKF) need one.
+    reset : bool
+        Reset the localiser with `prior` first (False continues from its current belief).
+    align : bool
+        Turn toward the minimum reading and rescan before processing (the paper's method).
+    processing : ScanProcessing, optional
+        The window selection (the paper's by default).
+    process : bool
+        False gives the localiser every usable reading of the scan (the raw baseline).
+    scan_angles : array_like, optional
+        Turret angles (rad, relative) for `Robot.ultrascan` (default: its 360 one-degree readings).
+    min_valid_readings : int
+        When the processed scan keeps fewer readings, all usable readings are used instead.
+    max_move_cm, move_fraction : float
+        An exploration move drives ``min(max_move_cm, move_fraction * (reading - safety))``.
+    safety_cm : float, optional
+        Distance kept from the wall ahead (default: the robot radius + 5 cm).
+
+    Returns
+    -------
+    LocalisationResult
+    """
+    gen = as_rng(rng)
+    if max_iterations < 1:
+        raise ValueError(f"max_iterations must be >= 1, got {max_iterations}")
+    settings = processing or ScanProcessing()
+    radius = float(getattr(getattr(robot, "geometry", None), "radius_cm", 8.0))
+    safety = radius + 5.0 if safety_cm is None else float(safety_cm)
+    t_robot0 = float(robot.robot_time_s)
+    compute = 0.0
+
+    def timed(fn: Any, *args: Any) -> Any:
+        nonlocal compute
+        t0 = time.perf_counter()
+        out = fn(*args)
+        compute += time.perf_counter() - t0
+        return out
+
+    if reset:
+        timed(localiser.reset, prior)
+    trace: list[TraceStep] = []
+    scans = 0
+    moves = 0
+    came_from: float | None = None
+    est = localiser.estimate()
+    for it in range(1, max_iterations + 1):
+        scan = robot.ultrascan(scan_angles)
+        scans += 1
+        turn = 0.0
+        if align:
+            turn, _ = min_reading(scan, settings.min_range_cm)
+            if abs(turn) > 1e-9:
+                robot.turn(turn)
+                timed(localiser.predict, Motion(turn_rad=turn))
+                if came_from is not None:
+                    came_from = float(angle_diff(came_from, turn))
+            scan = robot.ultrascan(scan_angles)
+            scans += 1
+        processed = process_scan(scan, settings) if process else process_scan(
+            scan, settings, centres_deg=(0.0,), window_deg=180.0)
+        used = processed.scan
+        if len(used) < min_valid_readings:
+            log.info("processed scan kept %d readings; using all usable readings", len(used))
+            used = process_scan(scan, settings, centres_deg=(0.0,), window_deg=180.0).scan
+        n_snap = len(getattr(localiser, "snapshots", ()))
+        timed(localiser.update, used)
+        est = localiser.estimate()
+        snaps = tuple(getattr(localiser, "snapshots", ())[n_snap:])
+        step = TraceStep(it, processed, turn, snaps, est)
+        if est.converged or it == max_iterations:
+            trace.append(step)
+            break
+        # ambiguous or wide: drive toward free space and try again
+        direction, reading = _explore_direction(scan, gen, came_from)
+        distance = max(0.0, min(max_move_cm, move_fraction * (reading - safety)))
+        robot.turn(direction)
+        outcome = robot.move(distance) if distance > 0 else None
+        driven = outcome.distance_cm if outcome is not None else 0.0
+        motion = Motion(turn_rad=direction, distance_cm=driven)
+        timed(localiser.predict, motion)
+        if outcome is not None and outcome.watchdog:
+            back = robot.turnback()
+            timed(localiser.predict, Motion(distance_cm=back.distance_cm))
+        came_from = math.pi  # behind the robot now
+        moves += 1
+        trace.append(TraceStep(it, processed, turn, snaps, est, motion))
+    return LocalisationResult(
+        estimate=est,
+        scans=scans,
+        iterations=len(trace),
+        converged=bool(est.converged),
+        trace=tuple(trace),
+        moves=moves,
+        robot_time_s=float(robot.robot_time_s) - t_robot0,
+        compute_time_s=compute,
+        localiser=getattr(localiser, "name", type(localiser).__name__),
+    )

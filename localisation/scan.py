@@ -1,0 +1,210 @@
+"""The paper's scan processing (DESIGN.md section 4).
+
+A sonar reads well only when it faces a wall nearly perpendicularly. The paper therefore turns the
+robot toward the minimum reading of a 360-degree scan (the nearest wall is then close to
+perpendicular), rescans, and keeps the readings within +-15 degrees of 0, 90, 180 and 270 degrees,
+dropping those without an echo (255 on the NXT, ``inf`` in the simulator) and those out of range.
+
+`process_scan` does the selection on a scan already aligned (the robot has turned), or aligns
+virtually (``reference="min"``: the windows are centred on the minimum reading's direction), which is
+what a localiser can do with a scan it cannot ask the robot to repeat.
+
+>>> import numpy as np
+>>> from toolkit.world import Scan, default_scan_angles
+>>> scan = Scan.from_readings(default_scan_angles(), np.full(360, 50.0))
+>>> len(process_scan(scan).scan)
+124
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from toolkit.world import NO_ECHO, Scan, angle_diff
+
+__all__ = [
+    "PAPER_CENTRES_DEG",
+    "PAPER_WINDOW_DEG",
+    "ProcessedScan",
+    "ScanProcessing",
+    "min_reading",
+    "process_scan",
+    "raw_scan",
+    "window_mask",
+]
+
+PAPER_CENTRES_DEG = (0.0, 90.0, 180.0, 270.0)
+PAPER_WINDOW_DEG = 15.0
+
+
+def min_reading(scan: Scan, min_range_cm: float = 0.0) -> tuple[float, float]:
+    """Direction (rad, relative to the heading) and value (cm) of the smallest valid reading.
+
+    Readings below `min_range_cm` (unreliable on the NXT) are ignored. Returns ``(0.0, inf)`` when
+    the scan has no usable reading.
+    """
+    ok = scan.valid & np.isfinite(scan.ranges) & (scan.ranges >= min_range_cm)
+    if not ok.any():
+        return 0.0, math.inf
+    r = np.where(ok, scan.ranges, np.inf)
+    k = int(np.argmin(r))
+    return float(angle_diff(scan.angles[k], 0.0)), float(r[k])
+
+
+@dataclass(frozen=True)
+class ScanProcessing:
+    """Settings of the paper's scan processing.
+
+    Parameters
+    ----------
+    centres_deg : sequence of float
+        Window centres, relative to the reference direction (the paper: 0, 90, 180, 270).
+    window_deg : float
+        Half-width of each window (the paper: 15 degrees).
+    min_range_cm : float
+        Readings below this are dropped (the NXT is unreliable under about 5-7 cm).
+    max_range_cm : float
+        Readings at or above this are dropped (255 = no echo on the NXT).
+    reference : {"heading", "min"}
+        ``heading``: windows around the robot's heading (the robot has turned toward the minimum
+        and rescanned); ``min``: windows around the minimum reading's direction of this scan.
+    """
+
+    centres_deg: Sequence[float] = PAPER_CENTRES_DEG
+    window_deg: float = PAPER_WINDOW_DEG
+    min_range_cm: float = 0.0
+    max_range_cm: float = NO_ECHO
+    reference: Literal["heading", "min"] = "heading"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "centres_deg", tuple(float(c) for c in self.centres_deg))
+        if not self.centres_deg:
+            raise ValueError("ScanProcessing needs at least one window centre")
+        if not (0.0 <= self.window_deg <= 180.0):
+            raise ValueError(f"window_deg must be in [0, 180], got {self.window_deg!r}")
+        if not (0.0 <= self.min_range_cm < self.max_range_cm):
+            raise ValueError(f"need 0 <= min_range_cm < max_range_cm, got {self.min_range_cm}, {self.max_range_cm}")
+        if self.reference not in ("heading", "min"):
+            raise ValueError(f"reference must be 'heading' or 'min', got {self.reference!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "centres_deg": list(self.centres_deg),
+            "window_deg": self.window_deg,
+            "min_range_cm": self.min_range_cm,
+            "max_range_cm": self.max_range_cm,
+            "reference": self.reference,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class ProcessedScan:
+    """The outcome of `process_scan`.
+
+    Attributes
+    ----------
+    scan : Scan
+        The kept readings (all valid), angles relative to the robot heading.
+    raw : Scan
+        The scan that was processed.
+    reference_rad : float
+        Direction (rad, relative to the heading) the window centres were measured from.
+    min_angle_rad, min_range_cm : float
+        Direction and value of the scan's minimum usable reading.
+    kept : (n,) bool ndarray
+        Which readings of `raw` were kept.
+    in_window, dropped_invalid, dropped_range : int
+        Readings inside the windows, and of those the ones dropped as no echo and as out of range.
+    settings : ScanProcessing
+    """
+
+    scan: Scan
+    raw: Scan
+    reference_rad: float
+    min_angle_rad: float
+    min_range_cm: float
+    kept: NDArray[np.bool_]
+    in_window: int
+    dropped_invalid: int
+    dropped_range: int
+    settings: ScanProcessing = field(default_factory=ScanProcessing)
+
+    def __len__(self) -> int:
+        return len(self.scan)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "kept": len(self.scan),
+            "raw": len(self.raw),
+            "in_window": self.in_window,
+            "dropped_invalid": self.dropped_invalid,
+            "dropped_range": self.dropped_range,
+            "reference_deg": math.degrees(self.reference_rad),
+            "min_angle_deg": math.degrees(self.min_angle_rad),
+            "min_range_cm": self.min_range_cm if math.isfinite(self.min_range_cm) else None,
+            "settings": self.settings.to_dict(),
+            "scan": self.scan.to_dict(),
+        }
+
+
+def window_mask(angles: NDArray[np.float64], reference_rad: float = 0.0,
+                centres_deg: Sequence[float] = PAPER_CENTRES_DEG,
+                window_deg: float = PAPER_WINDOW_DEG) -> NDArray[np.bool_]:
+    """Which `angles` (rad) lie within `window_deg` of a centre (degrees from `reference_rad`)."""
+    a = np.asarray(angles, dtype=float)
+    centres = reference_rad + np.radians(np.asarray(centres_deg, dtype=float))
+    off = np.abs(angle_diff(a[:, None], centres[None, :]))
+    return np.asarray((off <= math.radians(window_deg) + 1e-9).any(axis=1))
+
+
+def process_scan(scan: Scan, settings: ScanProcessing | None = None, **overrides: Any) -> ProcessedScan:
+    """The paper's processing of one scan: keep valid readings within the windows around 0/90/180/270.
+
+    Parameters
+    ----------
+    scan : Scan
+        A sweep, angles relative to the robot heading.
+    settings : ScanProcessing, optional
+        The processing (the paper's by default); keyword `overrides` replace its fields.
+
+    Returns
+    -------
+    ProcessedScan
+        The kept subset and what was dropped.
+    """
+    s = settings or ScanProcessing()
+    if overrides:
+        s = ScanProcessing(**{**s.to_dict(), **overrides})
+    a_min, r_min = min_reading(scan, s.min_range_cm)
+    reference = a_min if s.reference == "min" else 0.0
+    in_win = window_mask(scan.angles, reference, s.centres_deg, s.window_deg)
+    r = scan.ranges
+    usable = scan.valid & np.isfinite(r) & (r != NO_ECHO)
+    in_range = (r >= s.min_range_cm) & (r < s.max_range_cm)
+    kept = in_win & usable & in_range
+    return ProcessedScan(
+        scan=scan.subset(kept),
+        raw=scan,
+        reference_rad=float(reference),
+        min_angle_rad=a_min,
+        min_range_cm=r_min,
+        kept=kept,
+        in_window=int(in_win.sum()),
+        dropped_invalid=int((in_win & ~usable).sum()),
+        dropped_range=int((in_win & usable & ~in_range).sum()),
+        settings=s,
+    )
+
+
+def raw_scan(scan: Scan, min_range_cm: float = 0.0, max_range_cm: float = NO_ECHO) -> Scan:
+    """All usable readings of `scan` (no window selection): the baseline the processing is compared with."""
+    r = scan.ranges
+    ok = scan.valid & np.isfinite(r) & (r != NO_ECHO) & (r >= min_range_cm) & (r < max_range_cm)
+    return scan.subset(ok)
+
