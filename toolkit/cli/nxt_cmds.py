@@ -1,0 +1,175 @@
+"""`nxtnav brick serve` (the virtual NXT brick), `nxtnav nxt check` and `nxtnav nxt calibrate`."""
+
+from __future__ import annotations
+
+import math
+import signal
+import sys
+from pathlib import Path
+from types import FrameType
+
+import typer
+
+from ..robots.nxt import BACKENDS, NxtProfile, NxtRobot, connect_robot
+from ..robots.nxt_profile import calibrated_track_width, calibrated_wheel_diameter
+from ..robots.virtual_brick import BrickServer
+from ..robots.virtual_brick_world import BrickConfig, BrickWorld
+from ..world import SONAR_MODELS, Pose, RobotGeometry, load_map
+from .app import brick_app, nxt_app
+from .options import parse_pose
+
+__all__: list[str] = []
+
+
+def _echo(text: str) -> None:
+    typer.echo(text)
+    sys.stdout.flush()
+
+
+def _backend(value: str) -> str:
+    if value not in BACKENDS:
+        raise typer.BadParameter(f"expected one of {', '.join(BACKENDS)}, got {value!r}", param_hint="--nxt-backend")
+    return value
+
+
+_BACKEND_OPT = typer.Option("usb", "--nxt-backend", help=f"How to reach the brick: {', '.join(BACKENDS)}.",
+                            callback=_backend)
+_HOST_OPT = typer.Option("127.0.0.1", "--server-host", help="Brick server host (socket backend).")
+_PORT_OPT = typer.Option(2727, "--server-port", help="Brick server port (socket backend).")
+_ADDRESS_OPT = typer.Option(None, "--bt-address", help="Bluetooth address of the brick (00:16:53:xx:xx:xx).")
+_NAME_OPT = typer.Option(None, "--brick-name", help="Only use the brick with this name.")
+
+
+def _connect(backend: str, host: str, port: int, address: str | None, name: str | None,
+             profile: NxtProfile | Path | None) -> NxtRobot:
+    return connect_robot(backend, host=host, port=port, profile=profile, name=name, address=address)
+
+
+@brick_app.command("serve")
+def brick_serve(
+    map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
+    pose_text: str | None = typer.Option(None, "--pose", metavar="X,Y,HEADING_DEG",
+                                         help="True start pose (cm, cm, deg); default: the map's start, heading 0."),
+    port: int = typer.Option(2727, "--port", help="TCP port (0 = any free port, printed at start)."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address to listen on."),
+    time_factor: float = typer.Option(1.0, "--time-factor", help="Brick seconds per wall second (>1 = faster)."),
+    max_step: float = typer.Option(0.02, "--max-step", help="Largest brick-time step per exchange (s)."),
+    sonar: str = typer.Option("ideal", "--sonar", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
+    sensor_noise: float = typer.Option(1.0, "--sensor-noise", help="Sonar noise (cm)."),
+    seed: int | None = typer.Option(None, "--seed", help="Random seed of the sonar noise."),
+    log: Path | None = typer.Option(None, "--log", help="Truth log: one JSON line (t, pose, collisions) per motion."),
+    wheel_diameter: float = typer.Option(RobotGeometry().wheel_diameter_cm, "--wheel-diameter",
+                                         help="True wheel diameter of the simulated robot (cm)."),
+    track_width: float = typer.Option(RobotGeometry().track_width_cm, "--track-width",
+                                      help="True track width of the simulated robot (cm)."),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot disc radius (cm)."),
+) -> None:
+    """Serve a simulated NXT robot to nxt-python clients (socket backend) until Ctrl-C."""
+    if sonar not in SONAR_MODELS.names():
+        raise typer.BadParameter(f"expected one of {', '.join(SONAR_MODELS.names())}, got {sonar!r}",
+                                 param_hint="--sonar")
+    m = load_map(map_name)
+    if pose_text is None:
+        if m.start is None:
+            raise typer.BadParameter(f"map {m.name} has no start preset; give --pose", param_hint="--pose")
+        pose = Pose(float(m.start[0]), float(m.start[1]), 0.0)
+    else:
+        parsed = parse_pose(pose_text, "--pose")
+        assert isinstance(parsed, Pose)
+        pose = parsed
+    try:
+        geometry = RobotGeometry(radius_cm=radius, wheel_diameter_cm=wheel_diameter, track_width_cm=track_width)
+        config = BrickConfig(geometry=geometry, time_factor=time_factor, max_step_s=max_step)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from None
+    world = BrickWorld(m, pose, config, sonar=sonar, sensor_noise=sensor_noise, rng=seed, log=log)
+    try:
+        server = BrickServer(world, host=host, port=port)
+    except OSError as exc:
+        world.close()
+        raise typer.BadParameter(f"cannot listen on {host}:{port}: {exc.strerror or exc}", param_hint="--port") \
+            from None
+
+    def _terminate(signum: int, frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    _echo(f"virtual NXT brick on {server.host}:{server.port}: map {m.name}, pose ({pose.x:g}, {pose.y:g}, "
+          f"{pose.heading_deg:g} deg), time factor {time_factor:g}, sonar {sonar}; Ctrl-C stops")
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        server.stop()
+    p = world.pose
+    _echo(f"stopped: {server.clients} connection(s), brick time {world.time_s:.1f} s, pose ({p.x:.1f}, {p.y:.1f}, "
+          f"{p.heading_deg:.1f} deg), {world.collisions} collision(s)")
+
+
+@nxt_app.command("check")
+def nxt_check(
+    backend: str = _BACKEND_OPT,
+    server_host: str = _HOST_OPT,
+    server_port: int = _PORT_OPT,
+    bt_address: str | None = _ADDRESS_OPT,
+    brick_name: str | None = _NAME_OPT,
+    profile: Path | None = typer.Option(None, "--profile", help="Robot profile YAML (ports, calibration)."),
+    readings: int = typer.Option(3, "--readings", min=1, help="Sonar readings to take."),
+) -> None:
+    """Connect to the brick; print its name, battery, firmware and a live sonar reading."""
+    with _connect(backend, server_host, server_port, bt_address, brick_name, profile) as robot:
+        info = robot.info()
+        _echo(f"brick {info['name']!r} over {info['link']}, firmware {info['firmware']}, "
+              f"protocol {info['protocol']}")
+        volts = info["battery_mv"] / 1000.0
+        low = " (low: replace or charge the batteries)" if volts < 7.0 else ""
+        _echo(f"battery {volts:.2f} V{low}")
+        values = [robot.read_sonar() for _ in range(readings)]
+        shown = ", ".join("no echo" if v >= 255 else f"{v:g} cm" for v in values)
+        _echo(f"sonar on port {robot.profile.sonar_port}: {shown}")
+        _echo(f"clock: {robot.clock_source}")
+
+
+@nxt_app.command("calibrate")
+def nxt_calibrate(
+    backend: str = _BACKEND_OPT,
+    server_host: str = _HOST_OPT,
+    server_port: int = _PORT_OPT,
+    bt_address: str | None = _ADDRESS_OPT,
+    brick_name: str | None = _NAME_OPT,
+    profile: Path = typer.Option(Path("nxt-profile.yaml"), "--profile",
+                                 help="Profile YAML to update (read if it exists, then written)."),
+    distance: float = typer.Option(50.0, "--distance", help="Distance to drive (cm)."),
+    angle: float = typer.Option(360.0, "--angle", help="Angle to spin (deg)."),
+) -> None:
+    """Measure the wheel diameter and track width: drive a known distance, spin a known angle."""
+    if not (math.isfinite(distance) and distance > 0):
+        raise typer.BadParameter("must be a positive number of cm", param_hint="--distance")
+    if not (math.isfinite(angle) and angle > 0):
+        raise typer.BadParameter("must be a positive number of degrees", param_hint="--angle")
+    current = NxtProfile.load(profile) if profile.exists() else NxtProfile()
+    with _connect(backend, server_host, server_port, bt_address, brick_name, current) as robot:
+        _echo(f"Step 1 of 2: put the robot on the floor with at least {distance + 20:g} cm free ahead and "
+              "mark where a wheel touches the floor.")
+        typer.prompt("Press Enter to drive", default="", show_default=False)
+        outcome = robot.move(distance)
+        if outcome.watchdog:
+            raise typer.BadParameter(f"the watchdog stopped the drive after {outcome.distance_cm:.1f} cm: "
+                                     "give the robot more room and run the calibration again")
+        measured = typer.prompt("Distance the robot drove, measured on the floor (cm)", type=float)
+        diameter = calibrated_wheel_diameter(current.wheel_diameter_cm, outcome.distance_cm, measured)
+        updated = current.updated(wheel_diameter_cm=round(diameter, 4))
+        robot.set_profile(updated)
+        _echo(f"wheel diameter {current.wheel_diameter_cm:g} -> {updated.wheel_diameter_cm:g} cm")
+        _echo(f"Step 2 of 2: mark the robot's heading; it will spin {angle:g} degrees counter-clockwise.")
+        typer.prompt("Press Enter to spin", default="", show_default=False)
+        robot.turn(math.radians(angle))
+        turned = typer.prompt("Angle the robot spun, measured (deg)", type=float)
+        track = calibrated_track_width(current.track_width_cm, angle, turned)
+        updated = updated.updated(track_width_cm=round(track, 4))
+        robot.set_profile(updated)
+        _echo(f"track width {current.track_width_cm:g} -> {updated.track_width_cm:g} cm")
+    updated.save(profile)
+    _echo(f"wrote {profile}")

@@ -1,0 +1,406 @@
+"""The virtual NXT brick: a TCP server speaking nxt-python's socket protocol, backed by the simulator.
+
+Any nxt-python client (its ``nxt-test`` command, `toolkit.robots.nxt.NxtRobot`, your own scripts)
+connects with the socket backend (``server_host``/``server_port``) and drives a simulated robot in
+a map as it would drive a real brick: motors turn at a realistic speed, the turret carries the
+ultrasonic sensor, the sensor answers through its I2C registers from a sonar model, and the true pose
+and collisions are logged (see `toolkit.robots.virtual_brick_world`).
+
+Supported commands: the direct commands play tone, set/get output state, reset motor position,
+set input mode, get input values, reset input scaled value, get battery level, keep alive, stop
+sound, low-speed (I2C) write/read/status; the system commands firmware version, device info,
+set brick name, Bluetooth address, and IO-map read of the command module's tick (offset 20 of module
+0x00010001, milliseconds of brick time). Program, file, mailbox and module commands answer with
+the firmware's "not found" or "no active program" statuses; anything else gets an error status.
+Malformed bytes never stop the server, and a client that disconnects leaves the motors braked.
+
+Example
+-------
+>>> from toolkit.world import Pose, load_map
+>>> server = BrickServer(BrickWorld(load_map("map1"), Pose(20, 20, 0)), port=0)
+>>> server.start(); port = server.port   # doctest: +SKIP
+>>> # nxt.locator.find(backends=["socket"], server_host="127.0.0.1", server_port=port)
+>>> server.stop()                          # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import socketserver
+import struct
+import threading
+from collections.abc import Callable
+
+from .virtual_brick_protocol import (
+    TYPE_SYSTEM,
+    Direct,
+    Frame,
+    Status,
+    System,
+    error_reply,
+    ok_reply,
+    split_telegrams,
+)
+from .virtual_brick_world import BrickConfig, BrickWorld, SensorType
+
+__all__ = [
+    "COMMAND_MODULE_ID",
+    "CONNECTION_TYPE_NAME",
+    "TICK_OFFSET",
+    "BrickConfig",
+    "BrickServer",
+    "BrickWorld",
+    "VirtualBrick",
+]
+
+_log = logging.getLogger(__name__)
+
+CONNECTION_TYPE_NAME = "virtual"
+"""What the brick answers to the socket link's connection-type query (clients see ``ipvirtual``)."""
+COMMAND_MODULE_ID = 0x00010001
+"""Module id of the NXT firmware's command module, whose IO map holds the system tick."""
+TICK_OFFSET = 20
+"""Offset of the tick (u32, ms) in the command module's IO map."""
+
+_PROTOCOL_VERSION = (1, 124)  # (major, minor), as the LEGO firmware 1.31 reports
+_FIRMWARE_VERSION = (1, 31)
+_SLEEP_TIMEOUT_MS = 600_000
+_FREE_FLASH = 110_000
+
+
+class _BadTelegram(Exception):
+    def __init__(self, status: int) -> None:
+        super().__init__(f"status {status:#04x}")
+        self.status = status
+
+
+class VirtualBrick:
+    """Executes NXT telegrams against a `BrickWorld` (one instance per server, shared by clients).
+
+    Parameters
+    ----------
+    world : BrickWorld
+        The simulated robot.
+    """
+
+    def __init__(self, world: BrickWorld) -> None:
+        self.world = world
+        self.name = world.config.name
+        self.telegrams = 0
+        self.errors = 0
+        self.tones = 0
+        self._handlers: dict[tuple[int, int], Callable[[bytes], bytes]] = {
+            (0, Direct.PLAY_TONE): self._play_tone,
+            (0, Direct.SET_OUTPUT_STATE): self._set_output_state,
+            (0, Direct.SET_INPUT_MODE): self._set_input_mode,
+            (0, Direct.GET_OUTPUT_STATE): self._get_output_state,
+            (0, Direct.GET_INPUT_VALUES): self._get_input_values,
+            (0, Direct.RESET_INPUT_SCALED_VALUE): self._input_port_only,
+            (0, Direct.RESET_MOTOR_POSITION): self._reset_motor_position,
+            (0, Direct.GET_BATTERY_LEVEL): lambda t: struct.pack("<H", self.world.config.battery_mv),
+            (0, Direct.STOP_SOUND_PLAYBACK): lambda t: b"",
+            (0, Direct.KEEP_ALIVE): lambda t: struct.pack("<I", _SLEEP_TIMEOUT_MS),
+            (0, Direct.LS_GET_STATUS): self._ls_get_status,
+            (0, Direct.LS_WRITE): self._ls_write,
+            (0, Direct.LS_READ): self._ls_read,
+            (0, Direct.START_PROGRAM): self._fail(Status.REQUEST_FAILED),
+            (0, Direct.STOP_PROGRAM): self._fail(Status.NO_ACTIVE_PROGRAM),
+            (0, Direct.PLAY_SOUND_FILE): self._fail(Status.REQUEST_FAILED),
+            (0, Direct.MESSAGE_WRITE): self._fail(Status.NO_ACTIVE_PROGRAM),
+            (0, Direct.MESSAGE_READ): self._fail(Status.NO_ACTIVE_PROGRAM),
+            (0, Direct.GET_CURRENT_PROGRAM_NAME): self._fail(Status.NO_ACTIVE_PROGRAM),
+            (1, System.VERSIONS): self._versions,
+            (1, System.DEVICE_INFO): self._device_info,
+            (1, System.SET_BRICK_NAME): self._set_brick_name,
+            (1, System.BT_GET_ADDRESS): lambda t: bytes(7) + bytes(1),
+            (1, System.IOMAP_READ): self._iomap_read,
+            (1, System.OPEN_READ): self._fail(Status.FILE_NOT_FOUND),
+            (1, System.OPEN_READ_LINEAR): self._fail(Status.FILE_NOT_FOUND),
+            (1, System.OPEN_APPEND_DATA): self._fail(Status.FILE_NOT_FOUND),
+            (1, System.DELETE): self._fail(Status.FILE_NOT_FOUND),
+            (1, System.FIND_FIRST): self._fail(Status.FILE_NOT_FOUND),
+            (1, System.FIND_NEXT): self._fail(Status.ILLEGAL_HANDLE),
+            (1, System.CLOSE): self._fail(Status.ILLEGAL_HANDLE),
+            (1, System.READ): self._fail(Status.ILLEGAL_HANDLE),
+            (1, System.FIND_FIRST_MODULE): self._fail(Status.MODULE_NOT_FOUND),
+            (1, System.FIND_NEXT_MODULE): self._fail(Status.ILLEGAL_HANDLE),
+            (1, System.CLOSE_MODULE_HANDLE): self._fail(Status.ILLEGAL_HANDLE),
+        }
+
+    # -- dispatch ---------------------------------------------------------------------------------
+    def handle(self, frame: Frame) -> bytes | None:
+        """Execute one telegram; return the reply bytes, or None when the sender wants none."""
+        self.telegrams += 1
+        data = frame.data
+        wants = frame.wants_reply
+        try:
+            if frame.kind != "telegram":
+                raise _BadTelegram(Status.UNKNOWN_OPCODE if len(data) >= 2 else Status.INSANE_PACKET)
+            handler = self._handlers.get((data[0] & TYPE_SYSTEM, data[1]))
+            if handler is None:
+                raise _BadTelegram(Status.UNKNOWN_OPCODE)
+            with self.world.lock:
+                if wants:
+                    self.world.advance()
+                payload = handler(data)
+        except _BadTelegram as exc:
+            self.errors += 1
+            _log.debug("telegram %s refused with status %#04x", data.hex(), exc.status)
+            return error_reply(frame.opcode, exc.status) if wants else None
+        except (struct.error, IndexError, ValueError) as exc:  # malformed arguments
+            self.errors += 1
+            _log.debug("telegram %s malformed: %s", data.hex(), exc)
+            return error_reply(frame.opcode, Status.INSANE_PACKET) if wants else None
+        return ok_reply(frame.opcode, payload) if wants else None
+
+    @staticmethod
+    def _fail(status: int) -> Callable[[bytes], bytes]:
+        def refuse(_: bytes) -> bytes:
+            raise _BadTelegram(status)
+
+        return refuse
+
+    def _output_port(self, t: bytes) -> int:
+        if t[2] > 2:
+            raise _BadTelegram(Status.OUT_OF_RANGE)
+        return t[2]
+
+    def _input_port(self, t: bytes) -> int:
+        if t[2] > 3:
+            raise _BadTelegram(Status.OUT_OF_RANGE)
+        return t[2]
+
+    def _input_port_only(self, t: bytes) -> bytes:
+        self._input_port(t)
+        return b""
+
+    # -- direct commands --------------------------------------------------------------------------
+    def _play_tone(self, t: bytes) -> bytes:
+        struct.unpack_from("<HH", t, 2)
+        self.tones += 1
+        return b""
+
+    def _set_output_state(self, t: bytes) -> bytes:
+        port = t[2]
+        power, mode, regulation, turn_ratio, run_state, limit = struct.unpack_from("<bBBbBI", t, 3)
+        ports = [0, 1, 2] if port == 0xFF else [self._output_port(t)]
+        for p in ports:
+            self.world.motors[p].command(power, mode, regulation, turn_ratio, run_state, limit)
+        return b""
+
+    def _get_output_state(self, t: bytes) -> bytes:
+        port = self._output_port(t)
+        m = self.world.motors[port]
+        tacho, block, rotation = m.counts()
+        return struct.pack("<BbBBbBIiii", port, m.power, m.mode, m.regulation, m.turn_ratio, m.run_state,
+                           m.tacho_limit, tacho, block, rotation)
+
+    def _reset_motor_position(self, t: bytes) -> bytes:
+        m = self.world.motors[self._output_port(t)]
+        if t[3]:
+            m.block_origin = m.position
+        else:
+            m.rotation_origin = m.position
+        return b""
+
+    def _set_input_mode(self, t: bytes) -> bytes:
+        inp = self.world.inputs[self._input_port(t)]
+        inp.sensor_type, inp.mode = t[3], t[4]
+        inp.rx, inp.status = b"", 0
+        return b""
+
+    def _get_input_values(self, t: bytes) -> bytes:
+        port = self._input_port(t)
+        inp = self.world.inputs[port]
+        digital = inp.sensor_type in (SensorType.LOW_SPEED, SensorType.LOW_SPEED_9V)
+        raw = 0 if digital else 1023  # an open analog input reads full scale
+        valid = inp.sensor_type != SensorType.NO_SENSOR
+        return struct.pack("<B??BBHHhh", port, valid, False, inp.sensor_type, inp.mode, raw, raw, raw, raw)
+
+    def _lowspeed_port(self, t: bytes) -> int:
+        port = self._input_port(t)
+        if self.world.inputs[port].sensor_type not in (SensorType.LOW_SPEED, SensorType.LOW_SPEED_9V):
+            raise _BadTelegram(Status.CHANNEL_NOT_CONFIGURED)
+        return port
+
+    def _ls_write(self, t: bytes) -> bytes:
+        port = self._lowspeed_port(t)
+        tx_len, rx_len = t[3], t[4]
+        tx = t[5:5 + tx_len]
+        if len(tx) != tx_len or not 1 <= tx_len <= 16 or rx_len > 16:
+            raise _BadTelegram(Status.ILLEGAL_SIZE)
+        self.world.sonar_transaction(port, tx, rx_len)
+        return b""
+
+    def _ls_get_status(self, t: bytes) -> bytes:
+        inp = self.world.inputs[self._lowspeed_port(t)]
+        if inp.status:
+            raise _BadTelegram(inp.status)
+        return bytes((len(inp.rx),))
+
+    def _ls_read(self, t: bytes) -> bytes:
+        inp = self.world.inputs[self._lowspeed_port(t)]
+        if inp.status:
+            status, inp.status = inp.status, 0
+            raise _BadTelegram(status)
+        rx, inp.rx = inp.rx, b""
+        return bytes((len(rx),)) + rx.ljust(16, b"\0")
+
+    # -- system commands --------------------------------------------------------------------------
+    def _versions(self, t: bytes) -> bytes:
+        (pmaj, pmin), (fmaj, fmin) = _PROTOCOL_VERSION, _FIRMWARE_VERSION
+        return bytes((pmin, pmaj, fmin, fmaj))
+
+    def _device_info(self, t: bytes) -> bytes:
+        name = self.name.encode("ascii", "replace")[:14].ljust(15, b"\0")
+        return name + bytes(7) + bytes(4) + struct.pack("<I", _FREE_FLASH)
+
+    def _set_brick_name(self, t: bytes) -> bytes:
+        raw = t[2:17].split(b"\0", 1)[0]
+        try:
+            self.name = raw.decode("ascii")[:14]
+        except UnicodeDecodeError:
+            raise _BadTelegram(Status.OUT_OF_RANGE) from None
+        return b""
+
+    def _iomap_read(self, t: bytes) -> bytes:
+        module, offset, size = struct.unpack_from("<IHH", t, 2)
+        if module != COMMAND_MODULE_ID:
+            raise _BadTelegram(Status.MODULE_NOT_FOUND)
+        if size > 58:
+            raise _BadTelegram(Status.ILLEGAL_SIZE)
+        iomap = bytearray(offset + size + 4)
+        if offset <= TICK_OFFSET + 3 and offset + size > TICK_OFFSET:
+            tick = int(self.world.time_s * 1000.0) & 0xFFFFFFFF
+            iomap[TICK_OFFSET:TICK_OFFSET + 4] = struct.pack("<I", tick)
+        return struct.pack("<IH", module, size) + bytes(iomap[offset:offset + size])
+
+
+def _quick_ack(sock: socket.socket) -> None:
+    """Acknowledge at once (Linux): nxt-python's socket keeps Nagle's algorithm on, so a command that
+    needs no reply followed by one that does would otherwise wait for a delayed ACK (~40 ms)."""
+    opt = getattr(socket, "TCP_QUICKACK", None)
+    if opt is not None:
+        try:
+            sock.setsockopt(socket.IPPROTO_TCP, opt, 1)
+        except OSError:
+            pass
+
+
+class _Handler(socketserver.BaseRequestHandler):
+    server: _TCPServer
+
+    def handle(self) -> None:
+        sock: socket.socket = self.request
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        brick = self.server.brick
+        peer = self.client_address
+        _log.info("client %s connected", peer)
+        self.server.clients += 1
+        self.server.live.add(sock)
+        try:
+            while not self.server.stopping:
+                try:
+                    chunk = sock.recv(1024)
+                    _quick_ack(sock)
+                except OSError:
+                    break
+                if not chunk:
+                    break
+                closing = False
+                for frame in split_telegrams(chunk):
+                    if frame.kind == "type":
+                        sock.sendall(CONNECTION_TYPE_NAME.encode("ascii"))
+                    elif frame.kind == "close":
+                        closing = True
+                        break
+                    else:
+                        reply = brick.handle(frame)
+                        if reply is not None:
+                            sock.sendall(reply)
+                if closing:
+                    break
+        except OSError as exc:
+            _log.info("client %s: %s", peer, exc)
+        finally:
+            self.server.live.discard(sock)
+            brick.world.stop_all()
+            _log.info("client %s gone; motors stopped", peer)
+
+
+class _TCPServer(socketserver.ThreadingTCPServer):
+    daemon_threads = True
+    allow_reuse_address = True
+    brick: VirtualBrick
+    stopping: bool = False
+    clients: int = 0
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self.live: set[socket.socket] = set()
+
+
+class BrickServer:
+    """Serve a `BrickWorld` on ``host:port`` (port 0 picks a free one) to nxt-python clients.
+
+    Parameters
+    ----------
+    world : BrickWorld
+        The simulated robot.
+    host : str
+        Address to bind (the loopback interface by default).
+    port : int
+        TCP port (nxt-python's default is 2727; 0 = any free port, see `port` after `start`).
+    """
+
+    def __init__(self, world: BrickWorld, host: str = "127.0.0.1", port: int = 2727) -> None:
+        self.world = world
+        self.brick = VirtualBrick(world)
+        self._server = _TCPServer((host, port), _Handler, bind_and_activate=True)
+        self._server.brick = self.brick
+        self._thread: threading.Thread | None = None
+
+    @property
+    def host(self) -> str:
+        return str(self._server.server_address[0])
+
+    @property
+    def port(self) -> int:
+        return int(self._server.server_address[1])
+
+    @property
+    def clients(self) -> int:
+        """Connections accepted so far."""
+        return self._server.clients
+
+    def start(self) -> BrickServer:
+        """Serve in a background thread; returns self."""
+        self._thread = threading.Thread(target=self._server.serve_forever, kwargs={"poll_interval": 0.05},
+                                        name=f"virtual-brick-{self.port}", daemon=True)
+        self._thread.start()
+        return self
+
+    def serve_forever(self) -> None:
+        """Serve in this thread until `stop` (or Ctrl-C in the caller)."""
+        self._server.serve_forever(poll_interval=0.1)
+
+    def stop(self) -> None:
+        """Stop serving, brake the motors and close the truth log."""
+        self._server.stopping = True
+        self._server.shutdown()
+        self._server.server_close()
+        for sock in list(self._server.live):
+            try:
+                sock.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        self.world.close()
+
+    def __enter__(self) -> BrickServer:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
