@@ -190,31 +190,40 @@ def write_plots(results: Sequence[TrialResult], out_dir: str | Path, maps: Seque
 # -- one localisation ------------------------------------------------------------------------------
 
 
-def iteration_snapshots(result: Any) -> list[tuple[Any, Pose | None]]:
-    """(particles or None, mean pose or None) per iteration of a procedure's trace, in order.
+def iteration_snapshots(result: Any) -> list[tuple[str, Any, Pose | None]]:
+    """(label, particles or None, mean pose or None) per filter iteration of a procedure's trace.
 
-    Reads the trace defensively: each step may carry ``particles`` ((n, 2+) array) and an
-    ``estimate`` (a `PoseEstimate` or a `Pose`) or ``pose``.
+    A `localisation.procedure.LocalisationResult` holds one `TraceStep` per procedure iteration
+    (scan, update), each with the particle filter's snapshots of that update (one per annealed
+    filter iteration: ``particles`` and ``estimate``); Kalman filters have none, and their step's
+    estimate stands for the iteration.
     """
-    trace = getattr(result, "trace", None) or []
-    out: list[tuple[Any, Pose | None]] = []
-    for step in trace:
-        parts = getattr(step, "particles", None)
-        est = getattr(step, "estimate", None)
-        if est is None:
-            est = getattr(step, "pose", None)
-        pose = getattr(est, "pose", est)
-        out.append((None if parts is None else np.asarray(parts, dtype=float),
-                    pose if isinstance(pose, Pose) else None))
+    out: list[tuple[str, Any, Pose | None]] = []
+    for step in getattr(result, "trace", None) or ():
+        k = getattr(step, "iteration", len(out) + 1)
+        snaps = tuple(getattr(step, "snapshots", ()) or ())
+        if not snaps:
+            est = getattr(step, "estimate", None)
+            pose = getattr(est, "pose", est)
+            out.append((f"scan {k}", None, pose if isinstance(pose, Pose) else None))
+            continue
+        for j, sn in enumerate(snaps, 1):
+            parts = getattr(sn, "particles", None)
+            est = getattr(sn, "estimate", None)
+            pose = getattr(est, "pose", est)
+            out.append((f"scan {k}, filter iteration {j}/{len(snaps)}",
+                        None if parts is None else np.asarray(parts, dtype=float),
+                        pose if isinstance(pose, Pose) else None))
     return out
 
 
 def draw_localisation(m: Map, outcome: LocalisationOutcome, title: str = "", max_panels: int = 6) -> Figure:
     """Small multiples of a localisation: particles and mean at chosen iterations, then the final estimate.
 
-    Each panel shows one iteration of the procedure's trace (the first, the last and evenly spaced
-    ones between, at most `max_panels` - 1) with its particles (orange) and mean pose (blue); the last
-    panel shows the final estimate against the simulator's true pose (green).
+    Each panel shows one filter iteration of the procedure's trace (the first, the last and evenly
+    spaced ones between, at most `max_panels` - 1) with its particles (orange) and mean pose (blue);
+    the last panel shows the final estimate against the simulator's true pose (green). The robot
+    turns and may drive during the procedure, so earlier panels show the belief about earlier poses.
     """
     snaps = iteration_snapshots(outcome.result)
     k = max_panels - 1
@@ -226,14 +235,13 @@ def draw_localisation(m: Map, outcome: LocalisationOutcome, title: str = "", max
     flat = list(axes.ravel())
     radius = RobotGeometry().radius_cm
     for ax, i in zip(flat, idx, strict=False):
-        parts, pose = snaps[i]
+        label, parts, pose = snaps[i]
         draw_map(m, ax, presets=False, title=False)
         if parts is not None and len(parts):
             draw_particles(parts[:, :2], ax, size=3.0, alpha=0.35)
         if pose is not None:
             draw_pose(pose, ax, color="tab:blue")
-        ax.set_title(f"iteration {i + 1} of {len(snaps)}" + ("" if parts is None else f", {len(parts)} particles"),
-                     fontsize=9)
+        ax.set_title(label + ("" if parts is None else f" ({len(parts)} particles shown)"), fontsize=9)
     ax = flat[len(idx)]
     draw_map(m, ax, presets=False, title=False)
     draw_pose(outcome.truth, ax, radius=radius, color="tab:green", label="truth")

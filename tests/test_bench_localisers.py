@@ -1,0 +1,341 @@
+"""The localiser benchmark: CSV layout, success against the simulator's truth, scenarios, CLI errors.
+
+The plumbing is checked with two test-only localisers that read the simulator's true pose (which a
+real localiser never sees): ``test-oracle`` reports the truth shifted by a fixed offset, so its
+success is known in advance; ``test-dead-reckoning`` starts at the truth and only integrates the
+commanded motions, so it cannot notice a kidnapping. They are registered for one test at a time
+(monkeypatched into the registry) so that tests parametrised over the registry never see them.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+
+import toolkit.robots.sim as sim
+from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior
+from toolkit.bench import localisers as bench
+from toolkit.cli import main
+from toolkit.world import Map, Pose, Scan, angle_diff, load_map, wrap_angle
+
+_ROBOTS: list[sim.SimRobot] = []
+
+
+class _Oracle(Localiser):
+    """The simulator's true pose moved `offset_cm` along +x and turned by `offset_deg`."""
+
+    offset_cm: ClassVar[float] = 1.5
+    offset_deg: ClassVar[float] = 2.5
+
+    def __init__(self, map: Map, *, rng: Any = None) -> None:
+        super().__init__(map, rng=rng)
+        self.robot = _ROBOTS[-1]
+        self.iterations = 0
+
+    def reset(self, prior: Prior | None = None) -> None:
+        self.iterations = 0
+
+    def predict(self, motion: Motion) -> None:
+        pass
+
+    def update(self, scan: Scan) -> None:
+        self.iterations += 1
+
+    def estimate(self) -> PoseEstimate:
+        t = self.robot.true_pose
+        pose = Pose(t.x + self.offset_cm, t.y, t.theta + math.radians(self.offset_deg))
+        return PoseEstimate(pose, np.eye(3) * 1e-4, True, self.iterations)
+
+
+class _FarOracle(_Oracle):
+    offset_cm = 2.5
+    offset_deg = 0.0
+
+
+class _TurnedOracle(_Oracle):
+    offset_cm = 0.0
+    offset_deg = -3.5
+
+
+class _DeadReckoning(Localiser):
+    """Starts at the true pose and integrates the commanded motions; never looks at a scan."""
+
+    def __init__(self, map: Map, *, rng: Any = None) -> None:
+        super().__init__(map, rng=rng)
+        self.robot = _ROBOTS[-1]
+        self.pose = self.robot.true_pose
+        self.iterations = 0
+
+    def reset(self, prior: Prior | None = None) -> None:
+        self.pose = self.robot.true_pose
+        self.iterations = 0
+
+    def predict(self, motion: Motion) -> None:
+        th = wrap_angle(self.pose.theta + motion.turn_rad)
+        self.pose = Pose(self.pose.x + motion.distance_cm * math.cos(th),
+                         self.pose.y + motion.distance_cm * math.sin(th), th)
+
+    def update(self, scan: Scan) -> None:
+        self.iterations += 1
+
+    def estimate(self) -> PoseEstimate:
+        return PoseEstimate(self.pose, np.eye(3) * 1e-4, True, self.iterations)
+
+
+TEST_LOCALISERS = {
+    "test-oracle": _Oracle,
+    "test-oracle-far": _FarOracle,
+    "test-oracle-turned": _TurnedOracle,
+    "test-dead-reckoning": _DeadReckoning,
+}
+
+
+@pytest.fixture
+def oracles(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Register the test localisers and record every SimRobot built, for this test only."""
+    for name, cls in TEST_LOCALISERS.items():
+        monkeypatch.setattr(cls, "name", name, raising=False)
+        monkeypatch.setitem(LOCALISERS._classes, name, cls)
+    original = sim.SimRobot.__init__
+
+    def recording_init(self: sim.SimRobot, *args: Any, **kwargs: Any) -> None:
+        original(self, *args, **kwargs)
+        _ROBOTS.append(self)
+
+    monkeypatch.setattr(sim.SimRobot, "__init__", recording_init)
+    yield list(TEST_LOCALISERS)
+    _ROBOTS.clear()
+
+
+def run(args: list[str]) -> int:
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def rows(path: Path) -> tuple[list[str], list[dict[str, str]]]:
+    with path.open(newline="") as fh:
+        reader = csv.DictReader(fh)
+        return list(reader.fieldnames or []), list(reader)
+
+
+# -- success criterion ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("err", "herr", "ok"),
+    [(0.0, 0.0, True), (2.0, 3.0, True), (2.0, -3.0, True), (2.001, 0.0, False), (0.0, 3.001, False),
+     (0.0, -3.5, False), (math.nan, 0.0, False)],
+)
+def test_success_is_2cm_and_3deg(err: float, herr: float, ok: bool) -> None:
+    assert bench.is_success(err, herr) is ok
+
+
+def test_trial_seeds_do_not_depend_on_localiser_or_map_order() -> None:
+    cfg = bench.BenchConfig()
+    a = bench.make_tasks("global", ["map1", "map2"], ["paper-pf"] if "paper-pf" in LOCALISERS else [], 3, 7, cfg)
+    b = bench.make_tasks("global", ["map2", "map1"], [], 3, 7, cfg)
+    assert not b  # no localiser, no task
+    seeds = {(t.map, t.trial): t.seed for t in a}
+    for t in range(3):
+        assert bench.trial_seed(7, "map1", t) == bench.trial_seed(7, "map1", t)
+        assert bench.trial_seed(7, "map1", t) != bench.trial_seed(8, "map1", t)
+        if seeds:
+            assert seeds[("map1", t)] == bench.trial_seed(7, "map1", t)
+    m = load_map("map3")
+    poses = [bench.random_pose(m, np.random.default_rng(s), 10.0) for s in range(200)]
+    xy = np.array([p.xy for p in poses])
+    assert np.all(m.contains(xy)) and np.min(m.wall_distance(xy)) >= 10.0 - 1e-9
+
+
+# -- the global scenario through the CLI ----------------------------------------------------------
+
+
+def test_global_runs_csv_success_against_truth(tmp_path: Path, oracles: list[str]) -> None:
+    out = tmp_path / "bench"
+    locs = "test-oracle,test-oracle-far,test-oracle-turned"
+    assert run(["bench", "localisers", "--maps", "map1,map3", "--localisers", locs, "--trials", "3",
+                "--seed", "5", "--out", str(out)]) == 0
+    cols, data = rows(out / "runs.csv")
+    assert tuple(cols) == bench.RUNS_COLUMNS
+    assert len(data) == 2 * 3 * 3
+    by = {(r["map"], r["localiser"], int(r["trial"])): r for r in data}
+    assert len(by) == len(data)
+    for (m, loc, t), r in by.items():
+        assert int(r["seed"]) == bench.trial_seed(5, m, t)
+        err, herr = float(r["error_cm"]), float(r["heading_error_deg"])
+        cls = TEST_LOCALISERS[loc]
+        # the oracle's offset is measured against the simulator's truth at the end of the procedure
+        assert err == pytest.approx(cls.offset_cm, abs=1e-6)
+        assert herr == pytest.approx(cls.offset_deg, abs=1e-6)
+        assert (r["success"] == "true") is (loc == "test-oracle")
+        assert r["converged"] == "true"
+        assert int(r["scans"]) >= 1 and int(r["iterations"]) >= 1 and float(r["time_s"]) > 0
+    summary = (out / "summary.md").read_text()
+    for m in ("map1", "map3"):
+        assert f"### {m}" in summary
+    assert "| test-oracle | 3 | 100.0 % |" in summary
+    assert "| test-oracle-far | 3 | 0.0 % |" in summary
+    for png in ("errors.png", "times.png", "success.png"):
+        assert (out / png).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_same_true_poses_for_every_localiser(tmp_path: Path, oracles: list[str]) -> None:
+    cfg = bench.BenchConfig()
+    starts: dict[tuple[str, int], list[Pose]] = {}
+    for task in bench.make_tasks("global", ["map2"], ["test-oracle", "test-oracle-far"], 2, 3, cfg):
+        n = len(_ROBOTS)
+        bench.run_trial(task)
+        first = _ROBOTS[n]
+        starts.setdefault(("map2", task.trial), []).append(first.true_pose)
+    assert all(len(v) == 2 for v in starts.values())
+
+
+def test_non_empty_out_needs_force(tmp_path: Path, oracles: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "keep.txt").write_text("x")
+    args = ["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle", "--trials", "1", "--out", str(out)]
+    assert run(args) == 2
+    err = capsys.readouterr().err
+    assert "not empty" in err and len(err.strip().splitlines()) == 1
+    assert not (out / "runs.csv").exists()
+    assert run([*args, "--force"]) == 0
+    assert (out / "keep.txt").exists() and (out / "runs.csv").exists()
+
+
+# -- tracking and kidnapped scenarios ----------------------------------------------------------------
+
+
+def test_tracking_scenario_rmse_against_truth(tmp_path: Path, oracles: list[str]) -> None:
+    out = tmp_path / "t"
+    assert run(["bench", "localisers", "--maps", "map1,map2", "--localisers", "test-oracle,test-dead-reckoning",
+                "--trials", "2", "--scenario", "tracking", "--tracking-steps", "6", "--out", str(out)]) == 0
+    assert not (out / "runs.csv").exists()
+    cols, data = rows(out / "tracking.csv")
+    assert tuple(cols) == bench.TRACKING_COLUMNS
+    assert len(data) == 2 * 2 * 2
+    for r in data:
+        assert int(r["steps"]) == 6
+        if r["localiser"] == "test-oracle":  # exactly its offset after every action
+            assert float(r["rmse_cm"]) == pytest.approx(1.5, abs=1e-6)
+            assert float(r["rmse_heading_deg"]) == pytest.approx(2.5, abs=1e-6)
+        else:  # dead reckoning drifts with the motion noise, and never below zero
+            assert float(r["rmse_cm"]) > 0.0
+        assert int(r["collisions"]) == 0
+    assert "## Tracking" in (out / "summary.md").read_text()
+    assert (out / "tracking.png").exists()
+
+
+def test_scripted_drive_is_collision_free_without_noise() -> None:
+    m = load_map("map3")
+    rng = np.random.default_rng(4)
+    start = bench.random_pose(m, rng, 10.0)
+    drive = bench.scripted_drive(m, start, 20, (6.0, 15.0), rng)
+    robot = sim.SimRobot(m, start, noise=sim.MotionNoise("absolute", 0.0, 0.0), rng=1)
+    pose = start
+    for mv in drive:
+        robot.turn(mv.turn_rad)
+        out = robot.move(mv.distance_cm)
+        th = wrap_angle(pose.theta + mv.turn_rad)
+        pose = Pose(pose.x + mv.distance_cm * math.cos(th), pose.y + mv.distance_cm * math.sin(th), th)
+        assert not out.watchdog
+    assert robot.collisions == 0
+    assert robot.true_pose.distance_to(pose) < 1e-6
+    assert abs(angle_diff(robot.true_pose.theta, pose.theta)) < 1e-9
+
+
+def test_kidnapped_scenario_recovery(tmp_path: Path, oracles: list[str]) -> None:
+    out = tmp_path / "k"
+    assert run(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-dead-reckoning",
+                "--trials", "3", "--scenario", "kidnapped", "--recovery-rounds", "4", "--out", str(out)]) == 0
+    cols, data = rows(out / "kidnapped.csv")
+    assert tuple(cols) == bench.KIDNAPPED_COLUMNS
+    assert len(data) == 2 * 3
+    for r in data:
+        assert float(r["kidnap_cm"]) >= 30.0
+        if r["localiser"] == "test-oracle":  # it follows the truth: recovers in the first iteration
+            assert r["localised"] == "true" and r["recovered"] == "true"
+            assert int(r["recovery_iterations"]) == 1 and int(r["recovery_scans"]) == 2  # scan, align, rescan
+        else:  # it never looks at the scans: still where the robot was before the teleport
+            assert r["recovered"] == "false" and int(r["recovery_scans"]) == -1
+            assert float(r["error_cm"]) >= 30.0 - 3.0
+    summary = (out / "summary.md").read_text()
+    assert "## Kidnapped robot" in summary
+    assert (out / "kidnapped.png").exists()
+
+
+def test_all_scenarios_write_all_files(tmp_path: Path, oracles: list[str]) -> None:
+    out = tmp_path / "all"
+    assert run(["bench", "localisers", "--maps", "map2", "--localisers", "test-oracle", "--trials", "1",
+                "--scenario", "all", "--tracking-steps", "3", "--recovery-rounds", "2", "--out", str(out)]) == 0
+    for f in ("runs.csv", "tracking.csv", "kidnapped.csv", "summary.md", "config.json"):
+        assert (out / f).exists(), f
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["scenarios"] == ["global", "tracking", "kidnapped"] and cfg["sonar"] == "ideal"
+
+
+# -- bad input -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--maps", "nomap"], "nomap"),
+        (["--localisers", "nope"], "unknown nope"),
+        (["--trials", "0"], "trials"),
+        (["--workers", "0"], "workers"),
+        (["--sonar", "laser"], "laser"),
+        (["--scenario", "lost"], "unknown lost"),
+        (["--tracker-prior", "oracle"], "tracker prior"),
+        (["--set", "novalue"], "KEY=VALUE"),
+        (["--set", "other.n=3"], "--set"),
+        (["--trials", "x"], "x"),
+    ],
+)
+def test_bench_bad_input_exits_2(tmp_path: Path, oracles: list[str], capsys: pytest.CaptureFixture[str],
+                                 extra: list[str], message: str) -> None:
+    args = ["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle", "--trials", "1",
+            "--out", str(tmp_path / "o")]
+    for i in range(0, len(extra), 2):  # replace or add the option
+        if extra[i] in args:
+            args[args.index(extra[i]) + 1] = extra[i + 1]
+        else:
+            args += extra[i:i + 2]
+    assert run(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("nxtnav: error:")
+    assert message in err
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--pose", "1,2"], "--pose"),
+        (["--pose", "500,500,0"], "outside"),
+        (["--pose", "60.5,50,0"], "outside"),  # in the notch of map1: outside the free area
+        (["--pose", "3,3,0"], "collision"),  # inside, but the robot disc overlaps the walls
+        (["--map", "nomap"], "nomap"),
+        (["--localiser", "nope"], "unknown nope"),
+        (["--sonar", "laser"], "laser"),
+    ],
+)
+def test_localise_bad_input_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str],
+                                    message: str) -> None:
+    args = ["localise", "--map", "map1", "--pose", "20,20,0", "--localiser", "paper-pf", "--sonar", "ideal",
+            "-o", str(tmp_path / "l.png")]
+    for i in range(0, len(extra), 2):
+        args[args.index(extra[i]) + 1] = extra[i + 1]
+    assert run(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("nxtnav: error:")
+    assert message in err
+    assert not (tmp_path / "l.png").exists()
