@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
+import matplotlib.ticker as mticker
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
@@ -35,6 +36,13 @@ __all__ = [
 
 def _ax(ax: Axes | None, size: tuple[float, float] = (6.0, 4.0)) -> Axes:
     return ax if ax is not None else plt.subplots(figsize=size)[1]
+
+
+def _plain_log(axis: Any) -> None:
+    """Log axis with plain numbers (1, 2, 5, 10, ...) instead of powers of ten."""
+    axis.set_major_locator(mticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(mticker.FuncFormatter(lambda v, _pos: f"{v:g}"))
+    axis.set_minor_formatter(mticker.NullFormatter())
 
 
 def _colours(names: Sequence[str]) -> dict[str, Any]:
@@ -61,6 +69,7 @@ def plot_error_ecdf(results: Sequence[TrialResult], map_name: str, localisers: S
         artists.extend(ax.step(np.maximum(e, 1e-2), y, where="post", color=col[n], label=n))
     artists.append(ax.axvline(SUCCESS_CM, color="0.3", ls="--", lw=1, label=f"{SUCCESS_CM:g} cm"))
     ax.set_xscale("log")
+    _plain_log(ax.xaxis)
     ax.set_xlabel("final position error (cm)")
     ax.set_ylabel("fraction of trials")
     ax.set_ylim(0, 1.02)
@@ -82,6 +91,7 @@ def plot_times(results: Sequence[TrialResult], map_name: str, localisers: Sequen
     bp = ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
     ax.set_xticks(range(1, len(names) + 1), names, rotation=30, ha="right", fontsize=8)
     ax.set_yscale("log")
+    _plain_log(ax.yaxis)
     ax.set_ylabel("localisation time (ms)")
     ax.set_title(f"{map_name}: time per localisation")
     ax.grid(alpha=0.3, axis="y", which="both")
@@ -128,6 +138,7 @@ def plot_tracking(results: Sequence[TrialResult], map_name: str, localisers: Seq
         artists.append(ax.fill_between(steps, np.percentile(a, 10, axis=0), np.percentile(a, 90, axis=0),
                                        color=col[n], alpha=0.15))
     ax.set_yscale("log")
+    _plain_log(ax.yaxis)
     ax.set_xlabel("action")
     ax.set_ylabel("position error (cm)")
     ax.set_title(f"{map_name}: tracking error (median, 10-90 %)")
@@ -164,24 +175,27 @@ def write_plots(results: Sequence[TrialResult], out_dir: str | Path, maps: Seque
     out = Path(out_dir)
     files: list[Path] = []
     if _of(results, GlobalRun):
-        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False)
+        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False,
+                                 layout="constrained")
         for m, ax in zip(maps, axes[0], strict=True):
             plot_error_ecdf(results, m, localisers, ax)
         files.append(save_figure(fig, out / "errors.png"))
-        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False)
+        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False,
+                                 layout="constrained")
         for m, ax in zip(maps, axes[0], strict=True):
             plot_times(results, m, localisers, ax)
         files.append(save_figure(fig, out / "times.png"))
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
         plot_success(results, maps, localisers, ax)
         files.append(save_figure(fig, out / "success.png"))
     if _of(results, TrackingRun):
-        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False)
+        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False,
+                                 layout="constrained")
         for m, ax in zip(maps, axes[0], strict=True):
             plot_tracking(results, m, localisers, ax)
         files.append(save_figure(fig, out / "tracking.png"))
     if _of(results, KidnappedRun):
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
         plot_kidnapped(results, maps, localisers, ax)
         files.append(save_figure(fig, out / "kidnapped.png"))
     return files
@@ -238,13 +252,13 @@ def draw_localisation(m: Map, outcome: LocalisationOutcome, title: str = "", max
         label, parts, pose = snaps[i]
         draw_map(m, ax, presets=False, title=False)
         if parts is not None and len(parts):
-            draw_particles(parts[:, :2], ax, size=3.0, alpha=0.35)
+            draw_particles(parts[:, :2], ax, size=5.0, alpha=0.45)
         if pose is not None:
             draw_pose(pose, ax, color="tab:blue")
         ax.set_title(label + ("" if parts is None else f" ({len(parts)} particles shown)"), fontsize=9)
     ax = flat[len(idx)]
     draw_map(m, ax, presets=False, title=False)
-    draw_pose(outcome.truth, ax, radius=radius, color="tab:green", label="truth")
+    draw_pose(outcome.truth, ax, radius=radius, color="tab:green", label="truth", length=14.0)
     draw_pose(outcome.estimate, ax, color="tab:blue", label="estimate")
     ax.set_title(f"final: error {outcome.error_cm:.2f} cm, {outcome.heading_error_deg:+.2f}°", fontsize=9)
     ax.legend(fontsize=7, loc="best")

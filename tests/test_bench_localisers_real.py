@@ -1,0 +1,88 @@
+"""The localiser benchmark and `nxtnav localise` with the real localisers, against the simulator's truth."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import localisation  # noqa: F401  (registers every localiser)
+from localisation.base import LOCALISERS
+from toolkit.bench import localisers as bench
+from toolkit.cli import main
+from toolkit.robots.sim import SimRobot
+from toolkit.world import Pose, angle_diff, load_map
+
+
+def run(args: list[str]) -> int:
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def test_localise_cli_json_matches_truth(tmp_path: Path) -> None:
+    png, js = tmp_path / "l.png", tmp_path / "l.json"
+    assert run(["localise", "--map", "map1", "--pose", "20,20,30", "--localiser", "paper-pf", "--sonar", "ideal",
+                "--seed", "1", "-o", str(png), "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    for key in ("estimate", "truth", "error_cm", "heading_error_deg", "iterations", "scans", "time_s"):
+        assert key in doc
+    est, truth = np.array(doc["estimate"]), np.array(doc["truth"])
+    if doc["scans"] == 2:  # one iteration: the robot only turned in place, so the truth is still at (20, 20)
+        assert truth[:2] == pytest.approx([20.0, 20.0], abs=1e-9)
+    assert doc["error_cm"] == pytest.approx(float(np.hypot(*(est[:2] - truth[:2]))))
+    assert doc["heading_error_deg"] == pytest.approx(math.degrees(angle_diff(math.radians(est[2]),
+                                                                             math.radians(truth[2]))))
+    assert doc["success"] is (doc["error_cm"] <= 2.0 and abs(doc["heading_error_deg"]) <= 3.0)
+    assert doc["success"]  # the ideal sonar on map1 from a roomy pose
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_localise_once_truth_is_the_simulators() -> None:
+    m = load_map("map2")
+    out, robot, _ = bench.localise_once(m, Pose(30, 20, 1.0), "paper-pf", rng=3)
+    assert isinstance(robot, SimRobot)
+    assert out.truth == robot.true_pose
+    assert out.error_cm == pytest.approx(out.estimate.distance_to(robot.true_pose))
+    assert out.success is bench.is_success(out.error_cm, out.heading_error_deg)
+
+
+@pytest.mark.parametrize("name", [n for n in ("ekf", "ukf") if n in LOCALISERS])
+def test_trackers_get_a_noisy_truth_prior(name: str) -> None:
+    m = load_map("map1")
+    cfg = bench.BenchConfig(tracker_prior="noisy-truth")
+    out, _, _ = bench.localise_once(m, Pose(25, 80, 0.3), name, config=cfg, rng=2)
+    assert out.prior == "noisy-truth"
+    assert out.error_cm < 10.0  # it tracks from a 3 cm / 5 degree prior; it does not get lost
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_process_pool_matches_in_process(tmp_path: Path) -> None:
+    args = ["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "2", "--seed", "4"]
+    assert run([*args, "--out", str(tmp_path / "a")]) == 0
+    assert run([*args, "--out", str(tmp_path / "b"), "--workers", "2"]) == 0
+    a, b = _rows(tmp_path / "a" / "runs.csv"), _rows(tmp_path / "b" / "runs.csv")
+    assert len(a) == len(b) == 2
+    for ra, rb in zip(a, b, strict=True):  # same seeds, same results, whatever the executor
+        for k in ("trial", "seed", "success", "error_cm", "heading_error_deg", "iterations", "scans"):
+            assert ra[k] == rb[k]
+
+
+def test_dask_local_tiny_run(tmp_path: Path) -> None:
+    pytest.importorskip("dask.distributed")
+    out = tmp_path / "d"
+    assert run(["bench", "localisers", "--maps", "map2", "--localisers", "paper-pf", "--trials", "2", "--seed", "4",
+                "--workers", "1", "--dask", "local", "--out", str(out)]) == 0
+    rows = _rows(out / "runs.csv")
+    assert [int(r["trial"]) for r in rows] == [0, 1]
+    assert all(int(r["seed"]) == bench.trial_seed(4, "map2", int(r["trial"])) for r in rows)
