@@ -37,6 +37,7 @@ import logging
 import math
 import struct
 import time
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
@@ -226,6 +227,7 @@ class NxtRobot:
         try:
             for port in (self._left, self._right, self._turret):
                 self._brake(port)
+            self._state(self._left)  # a reply proves the brick has taken the brake commands
         except Exception as exc:  # the link itself is gone
             return f"could not stop the motors: {_describe(exc)}"
         return "motors stopped"
@@ -364,6 +366,7 @@ class NxtRobot:
         try:
             for port in (self._left, self._right, self._turret):
                 self._brake(port)
+            self._state(self._left)
         except Exception as exc:
             raise RobotError(f"could not stop the motors: {_describe(exc)}") from exc
 
@@ -374,8 +377,16 @@ class NxtRobot:
         self._safe_stop()
         self.closed = True
         if self.owns_brick:
-            with contextlib.suppress(Exception):
+            try:
                 self.brick.close()
+            except Exception:  # the link is already gone: release it without a goodbye
+                link = getattr(self.brick, "_sock", None)
+                raw = getattr(link, "_sock", None)
+                if raw is not None:
+                    with contextlib.suppress(OSError):
+                        raw.close()
+                    link._sock = None
+                self.brick._sock = None
 
     def __enter__(self) -> NxtRobot:
         return self
@@ -463,7 +474,10 @@ def find_brick(backend: str, *, host: str | None = None, port: int | None = None
     sock_log = logging.getLogger("nxt.backend.socket")
     sock_log.addFilter(mute)
     try:
-        return nxt.locator.find(backends=[backend], config=None, **kwargs)
+        with warnings.catch_warnings():
+            # nxt-python's socket backend leaves the socket of a refused connection to the collector
+            warnings.simplefilter("ignore", ResourceWarning)
+            return nxt.locator.find(backends=[backend], config=None, **kwargs)
     except nxt.locator.BrickNotFoundError:
         raise RobotError(_no_brick_message(backend, host, port)) from None
     except Exception as exc:

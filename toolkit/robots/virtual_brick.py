@@ -135,8 +135,8 @@ class VirtualBrick:
         data = frame.data
         wants = frame.wants_reply
         try:
-            if frame.kind != "telegram":
-                raise _BadTelegram(Status.UNKNOWN_OPCODE if len(data) >= 2 else Status.INSANE_PACKET)
+            if frame.kind != "telegram":  # cut short (a known opcode) or not a command at all
+                raise _BadTelegram(Status.INSANE_PACKET if frame.truncated else Status.UNKNOWN_OPCODE)
             handler = self._handlers.get((data[0] & TYPE_SYSTEM, data[1]))
             if handler is None:
                 raise _BadTelegram(Status.UNKNOWN_OPCODE)

@@ -225,6 +225,18 @@ class Frame:
         return self.data[0] not in (TYPE_DIRECT | TYPE_NO_REPLY, TYPE_SYSTEM | TYPE_NO_REPLY)
 
     @property
+    def truncated(self) -> bool:
+        """Whether these bytes start a known command but stop before its end (or hold one byte)."""
+        if len(self.data) < 2:
+            return True
+        n = expected_length(self.data)
+        if n is None:
+            kind = self.data[0] & ~TYPE_NO_REPLY
+            table = _DIRECT_LENGTHS if kind == TYPE_DIRECT else _SYSTEM_LENGTHS if kind == TYPE_SYSTEM else {}
+            return self.data[1] in table  # a variable-length header cut short
+        return n > len(self.data)
+
+    @property
     def opcode(self) -> int:
         return self.data[1] if len(self.data) > 1 else 0
 
