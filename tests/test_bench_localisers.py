@@ -88,11 +88,26 @@ class _DeadReckoning(Localiser):
         return PoseEstimate(self.pose, np.eye(3) * 1e-4, True, self.iterations)
 
 
+class _PriorRecorder(_DeadReckoning):
+    """A pose tracker (needs a prior) that reports its prior's mean and remembers it."""
+
+    needs_prior = True
+    priors: ClassVar[list[Prior | None]] = []
+
+    def reset(self, prior: Prior | None = None) -> None:
+        type(self).priors.append(prior)
+        if prior is None:
+            raise AssertionError("a tracker must get a prior")
+        self.pose = prior.mean
+        self.iterations = 0
+
+
 TEST_LOCALISERS = {
     "test-oracle": _Oracle,
     "test-oracle-far": _FarOracle,
     "test-oracle-turned": _TurnedOracle,
     "test-dead-reckoning": _DeadReckoning,
+    "test-tracker": _PriorRecorder,
 }
 
 
@@ -111,6 +126,7 @@ def oracles(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     monkeypatch.setattr(sim.SimRobot, "__init__", recording_init)
     yield list(TEST_LOCALISERS)
     _ROBOTS.clear()
+    _PriorRecorder.priors.clear()
 
 
 def run(args: list[str]) -> int:
@@ -210,6 +226,33 @@ def test_non_empty_out_needs_force(tmp_path: Path, oracles: list[str], capsys: p
     assert not (out / "runs.csv").exists()
     assert run([*args, "--force"]) == 0
     assert (out / "keep.txt").exists() and (out / "runs.csv").exists()
+
+
+@pytest.mark.parametrize("kind", ["noisy-truth", "pf"])
+def test_tracker_prior(kind: str, oracles: list[str]) -> None:
+    m = load_map("map1")
+    truth = Pose(80.0, 85.0, 0.5)
+    cfg = bench.BenchConfig(tracker_prior=kind, prior_sd_cm=3.0, prior_sd_deg=5.0)
+    out, robot, _ = bench.localise_once(m, truth, "test-tracker", config=cfg, rng=9)
+    assert out.prior == kind
+    (prior,) = _PriorRecorder.priors
+    assert prior is not None
+    if kind == "noisy-truth":  # the start pose plus noise of the configured size
+        assert prior.mean.distance_to(truth) < 5 * 3.0 * math.sqrt(2)
+        assert np.sqrt(np.diag(prior.cov)) == pytest.approx([3.0, 3.0, math.radians(5.0)])
+    else:  # paper-pf's estimate; its procedure and the tracker's only turned the robot in place here
+        assert "paper-pf" in LOCALISERS
+        assert robot.true_pose.distance_to(truth) < 1e-9
+        assert prior.mean.distance_to(truth) < 2.0
+
+
+def test_summary_says_how_trackers_were_initialised(tmp_path: Path, oracles: list[str]) -> None:
+    for kind, needle in (("noisy-truth", "true pose plus Gaussian noise"), ("pf", "first estimate of a `paper-pf`")):
+        out = tmp_path / kind
+        assert run(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-tracker",
+                    "--trials", "1", "--tracker-prior", kind, "--out", str(out)]) == 0
+        text = (out / "summary.md").read_text()
+        assert "pose trackers (test-tracker)" in text and needle in text
 
 
 # -- tracking and kidnapped scenarios ----------------------------------------------------------------
