@@ -8,6 +8,7 @@ import math
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -33,7 +34,7 @@ class Rig:
         self.server = BrickServer(self.world, port=0).start()
         self.robot = connect_robot("socket", host="127.0.0.1", port=self.server.port, profile=profile)
 
-    def records(self) -> list[dict[str, object]]:
+    def records(self) -> list[dict[str, Any]]:
         return [json.loads(line) for line in self.log.getvalue().splitlines()]
 
     def close(self) -> None:
@@ -60,12 +61,12 @@ def test_move_drives_the_tacho_distance_and_the_truth_agrees(rig: Rig) -> None:
     rec = rig.records()[-1]
     assert not out.watchdog and out.requested_cm == 30.0
     assert out.distance_cm == pytest.approx(30.0, abs=0.05)  # whole tacho degrees: 0.05 cm each
-    x, y, heading = rec["pose"]  # type: ignore[misc]
+    x, y, heading = rec["pose"]
     assert (x, y) == pytest.approx((20.0, 50.0), abs=0.1) and heading == pytest.approx(90.0, abs=0.1)
     assert y - 20.0 == pytest.approx(out.distance_cm, abs=1e-3)  # odometry = truth on a non-slipping brick
     back = rig.robot.turnback()
     assert back.distance_cm == pytest.approx(-10.0, abs=0.05)
-    assert rig.records()[-1]["pose"][1] == pytest.approx(40.0, abs=0.1)  # type: ignore[index]
+    assert rig.records()[-1]["pose"][1] == pytest.approx(40.0, abs=0.1)
     assert rig.world.collisions == 0
 
 

@@ -18,19 +18,21 @@ from toolkit.robots.virtual_brick_protocol import Frame, Status, split_telegrams
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld, MotorMode, RunState
 from toolkit.world import CollisionChecker, Pose, RobotError, RobotGeometry, load_map, ray_cast
 
-nxt = pytest.importorskip("nxt")
-import nxt.error  # noqa: E402
-import nxt.locator  # noqa: E402
-import nxt.motor  # noqa: E402
-import nxt.sensor  # noqa: E402
-import nxt.sensor.generic  # noqa: E402
+pytest.importorskip("nxt")
+import nxt.brick
+import nxt.error
+import nxt.locator
+import nxt.motor
+import nxt.sensor
+import nxt.sensor.generic
 
 FAST = BrickConfig(time_factor=1000.0, max_step_s=0.01)
 HOLD = MotorMode.ON | MotorMode.BRAKE | MotorMode.REGULATED
 
 
-def _world(pose: Pose = Pose(20.0, 20.0, 0.0), **kw: object) -> BrickWorld:
+def _world(pose: Pose | None = None, **kw: object) -> BrickWorld:
     kw.setdefault("sensor_noise", 0.0)
+    pose = pose or Pose(20.0, 20.0, 0.0)
     return BrickWorld(load_map("map1"), pose, kw.pop("config", FAST), rng=0, **kw)  # type: ignore[arg-type]
 
 
@@ -227,7 +229,7 @@ def test_nxt_python_reads_info_sensor_and_motors(server: BrickServer) -> None:
     w = server.world
     with _brick(server.port) as b:
         assert b._sock.type == "ipvirtual"
-        name, host, _, flash = b.get_device_info()
+        name, _, _, flash = b.get_device_info()
         assert name == "nxtnav-virtual" and flash > 0
         assert b.get_firmware_version() == ((1, 124), (1, 31))
         assert b.get_battery_level() == 8000
@@ -285,7 +287,7 @@ def test_client_dropping_mid_move_leaves_the_motors_stopped(server: BrickServer)
         assert state[1] == 0 and state[5] == nxt.motor.RunState.IDLE
         assert b2.get_output_state(nxt.motor.Port.B)[7] == b2.get_output_state(nxt.motor.Port.B)[7]
     assert w.pose == stopped_at and w.collisions == 0
-    rec = json.loads(server.log.getvalue().splitlines()[-1])  # type: ignore[attr-defined]
+    rec = json.loads(server.log.getvalue().splitlines()[-1])
     assert rec["pose"][0] == pytest.approx(stopped_at.x, abs=1e-3)
 
 

@@ -380,7 +380,7 @@ class NxtRobot:
             try:
                 self.brick.close()
             except Exception:  # the link is already gone: release it without a goodbye
-                link = getattr(self.brick, "_sock", None)
+                link: Any = getattr(self.brick, "_sock", None)
                 raw = getattr(link, "_sock", None)
                 if raw is not None:
                     with contextlib.suppress(OSError):
