@@ -1,0 +1,57 @@
+"""The whole map1 mission through `nxtnav run --robot nxt --nxt-backend socket` against the virtual brick.
+
+The brick's own truth log (not the mission's estimate) decides: the robot must end within 2 cm of the
+target with no collision.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from toolkit.cli import main
+from toolkit.robots.virtual_brick import BrickServer
+from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
+from toolkit.world import Pose, load_map
+
+pytest.importorskip("nxt")
+pytest.importorskip("planners.min_turn")  # registers the paper's planner
+pytest.importorskip("localisation.procedure")
+import localisation  # noqa: E402
+import planners  # noqa: E402
+
+if "paper-pf" not in localisation.LOCALISERS or "min-turn" not in planners.PLANNERS:
+    pytest.skip("the paper's stack is not registered", allow_module_level=True)
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.mark.parametrize(("heading_deg", "seed"), [(30.0, 0), (-135.0, 1)])
+def test_map1_mission_on_the_virtual_brick(tmp_path: Path, heading_deg: float, seed: int) -> None:
+    m = load_map("map1")
+    assert m.start is not None and m.target is not None
+    log = io.StringIO()
+    world = BrickWorld(m, Pose.from_deg(float(m.start[0]), float(m.start[1]), heading_deg),
+                       BrickConfig(time_factor=1000.0, max_step_s=0.01), rng=seed, log=log)
+    report = tmp_path / "mission.json"
+    with BrickServer(world, port=0) as server:
+        try:
+            main(["run", "--robot", "nxt", "--nxt-backend", "socket", "--server-host", "127.0.0.1",
+                  "--server-port", str(server.port), "--seed", str(seed), "--json", str(report)])
+        except SystemExit as exc:
+            assert exc.code in (0, None), report.read_text() if report.exists() else exc
+    records = [json.loads(line) for line in log.getvalue().splitlines()]
+    assert len(records) > 5
+    final = records[-1]
+    error = math.hypot(final["pose"][0] - m.target[0], final["pose"][1] - m.target[1])
+    assert error < 2.0, final
+    assert all(r["collisions"] == 0 for r in records)
+    assert np.all(np.diff([r["t"] for r in records]) > 0)
+    doc = json.loads(report.read_text())
+    assert doc["success"] is True and doc["robot"] == "nxt"
+    assert doc["robot_time_s"] == pytest.approx(world.time_s, rel=0.05)  # measured on the brick's clock
