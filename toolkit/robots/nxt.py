@@ -63,6 +63,7 @@ _US_DISTANCE = 0x42
 _US_COMMAND = 0x41
 _US_CONTINUOUS = 0x02
 _VIRTUAL_LINK = "ipvirtual"
+_ARRIVAL_TOLERANCE_DEG = 3
 
 
 def _import_nxt() -> ModuleType:
@@ -256,13 +257,15 @@ class NxtRobot:
         Returns why the wait ended (``done``, ``watchdog`` or ``stalled``) and the last positions read.
         """
         last = list(start)
+        sense = [1 if t >= s else -1 for s, t in zip(start, targets, strict=True)]
         still_since: tuple[str, float] | None = None
         deadline = time.monotonic() + self.profile.motion_timeout_s
         threshold = self.profile.watchdog_distance_cm
         while True:
             states = [self._state(p) for p in ports]
             pos = [s[0] for s in states]
-            if all(s[1] for s in states) or pos == targets:
+            reached = all(d * (q - t) >= 0 for d, q, t in zip(sense, pos, targets, strict=True))
+            if reached or all(s[1] for s in states):  # at (or past) the limit, or the firmware is done
                 return "done", pos
             if watchdog and self.read_sonar() < threshold:
                 return "watchdog", pos
@@ -271,7 +274,9 @@ class NxtRobot:
             elif still_since is None:
                 still_since = self._clock()
             elif self._elapsed(still_since, self._clock()) > self.profile.stall_s:
-                return "stalled", pos
+                # regulation may give up a degree or two short of the limit: that is arrival
+                near = all(abs(q - t) <= _ARRIVAL_TOLERANCE_DEG for q, t in zip(pos, targets, strict=True))
+                return ("done" if near else "stalled"), pos
             if time.monotonic() > deadline:
                 raise RobotError(f"motion did not finish within {self.profile.motion_timeout_s:g} s")
 
@@ -477,7 +482,9 @@ def find_brick(backend: str, *, host: str | None = None, port: int | None = None
         with warnings.catch_warnings():
             # nxt-python's socket backend leaves the socket of a refused connection to the collector
             warnings.simplefilter("ignore", ResourceWarning)
-            return nxt.locator.find(backends=[backend], config=None, **kwargs)
+            # usb/bluetooth read nxt-python's own config file (~/.nxt-python.conf: name, host)
+            config = None if backend == "socket" else "default"
+            return nxt.locator.find(backends=[backend], config=config, **kwargs)
     except nxt.locator.BrickNotFoundError:
         raise RobotError(_no_brick_message(backend, host, port)) from None
     except Exception as exc:
