@@ -102,12 +102,22 @@ class _PriorRecorder(_DeadReckoning):
         self.iterations = 0
 
 
+class _Broken(_Oracle):
+    """Raises on its second update (a numerical failure in the middle of a run)."""
+
+    def update(self, scan: Scan) -> None:
+        super().update(scan)
+        if self.iterations >= 2:
+            raise np.linalg.LinAlgError("matrix is not positive definite")
+
+
 TEST_LOCALISERS = {
     "test-oracle": _Oracle,
     "test-oracle-far": _FarOracle,
     "test-oracle-turned": _TurnedOracle,
     "test-dead-reckoning": _DeadReckoning,
     "test-tracker": _PriorRecorder,
+    "test-broken": _Broken,
 }
 
 
@@ -324,6 +334,22 @@ def test_all_scenarios_write_all_files(tmp_path: Path, oracles: list[str]) -> No
         assert (out / f).exists(), f
     cfg = json.loads((out / "config.json").read_text())
     assert cfg["scenarios"] == ["global", "tracking", "kidnapped"] and cfg["sonar"] == "ideal"
+
+
+def test_a_raising_localiser_is_a_failed_trial_not_a_crash(tmp_path: Path, oracles: list[str]) -> None:
+    out = tmp_path / "b"
+    assert run(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-broken", "--trials", "2",
+                "--scenario", "global,tracking", "--tracking-steps", "3", "--out", str(out)]) == 0
+    _, data = rows(out / "runs.csv")
+    broken = [r for r in data if r["localiser"] == "test-broken"]
+    # one update in the global procedure (the oracle converges at once): no failure there
+    assert all(r["success"] == "true" for r in broken)
+    _, tdata = rows(out / "tracking.csv")
+    tb = [r for r in tdata if r["localiser"] == "test-broken"]
+    assert len(tb) == 2 and all(r["rmse_cm"] == "nan" for r in tb)
+    summary = (out / "summary.md").read_text()
+    assert "## Trials that raised" in summary and "LinAlgError: matrix is not positive definite" in summary
+    assert "| test-oracle | 2 | 1.50 |" in summary  # the oracle's tracking RMSE is untouched
 
 
 # -- bad input -------------------------------------------------------------------------------------

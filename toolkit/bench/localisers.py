@@ -468,6 +468,7 @@ class GlobalRun:
     scans: int
     converged: bool
     cpu_time_s: float = field(default=math.nan, repr=False)
+    failure: str = field(default="", repr=False)
     scenario: str = field(default="global", repr=False)
 
     def to_dict(self) -> dict[str, Any]:
@@ -490,6 +491,7 @@ class TrackingRun:
     time_s: float
     collisions: int
     errors_cm: tuple[float, ...] = field(default=(), repr=False)
+    failure: str = field(default="", repr=False)
     scenario: str = field(default="tracking", repr=False)
 
     def to_dict(self) -> dict[str, Any]:
@@ -518,6 +520,7 @@ class KidnappedRun:
     error_cm: float
     heading_error_deg: float
     time_s: float
+    failure: str = field(default="", repr=False)
     scenario: str = field(default="kidnapped", repr=False)
 
     def to_dict(self) -> dict[str, Any]:
@@ -563,14 +566,33 @@ def _map(name: str) -> Map:
 
 
 def run_trial(task: TrialTask) -> TrialResult:
-    """Run one trial (a top-level function, so it pickles for process pools and Dask)."""
+    """Run one trial (a top-level function, so it pickles for process pools and Dask).
+
+    A localiser that raises (a numerical failure, say) does not end the benchmark: the trial counts
+    as a failure, with NaN errors and the exception in its `failure` field (the summary lists them).
+    """
+    runners: dict[str, Callable[[TrialTask], TrialResult]] = {
+        "global": _run_global, "tracking": _run_tracking, "kidnapped": _run_kidnapped}
+    if task.scenario not in runners:
+        raise NxtnavError(f"unknown scenario {task.scenario!r}; known: {', '.join(SCENARIOS)}")
+    try:
+        return runners[task.scenario](task)
+    except (KeyboardInterrupt, MemoryError):
+        raise
+    except Exception as exc:
+        msg = f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:300]
+        log.warning("trial %s/%s/%s/%d raised %s", task.scenario, task.map, task.localiser, task.trial, msg)
+        return _failed(task, msg)
+
+
+def _failed(task: TrialTask, msg: str) -> TrialResult:
+    nan = math.nan
+    head = (task.map, task.localiser, task.trial, task.seed)
     if task.scenario == "global":
-        return _run_global(task)
+        return GlobalRun(*head, False, nan, nan, nan, 0, 0, False, nan, failure=msg)
     if task.scenario == "tracking":
-        return _run_tracking(task)
-    if task.scenario == "kidnapped":
-        return _run_kidnapped(task)
-    raise NxtnavError(f"unknown scenario {task.scenario!r}; known: {', '.join(SCENARIOS)}")
+        return TrackingRun(*head, 0, nan, nan, nan, nan, nan, 0, failure=msg)
+    return KidnappedRun(*head, False, nan, False, -1, -1, nan, nan, nan, failure=msg)
 
 
 def _trial_streams(task: TrialTask) -> tuple[np.random.Generator, np.random.Generator]:
@@ -748,8 +770,16 @@ def read_csv(path: str | Path) -> list[dict[str, Any]]:
 
 
 def _median(values: Sequence[float]) -> float:
+    """Median of the finite values (NaN marks a trial that raised); NaN when there are none."""
     a = np.asarray(values, dtype=float)
+    a = a[np.isfinite(a)]
     return float(np.median(a)) if a.size else math.nan
+
+
+def _rms(values: Sequence[float]) -> float:
+    a = np.asarray(values, dtype=float)
+    a = a[np.isfinite(a)]
+    return float(np.sqrt(np.mean(a**2))) if a.size else math.nan
 
 
 def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str], dict[str, float]]]:
@@ -776,8 +806,8 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str],
             elif scen == "tracking":
                 table[key] = {
                     "trials": n,
-                    "rmse_cm": float(np.sqrt(np.mean([r.rmse_cm**2 for r in rs]))),
-                    "rmse_heading_deg": float(np.sqrt(np.mean([r.rmse_heading_deg**2 for r in rs]))),
+                    "rmse_cm": _rms([r.rmse_cm for r in rs]),
+                    "rmse_heading_deg": _rms([r.rmse_heading_deg for r in rs]),
                     "median_final_error_cm": _median([r.final_error_cm for r in rs]),
                     "median_time_s": _median([r.time_s / max(r.steps, 1) for r in rs]),
                 }
@@ -898,6 +928,15 @@ def write_summary(
                 lines.append(f"| {n} | {row['trials']:.0f} | {row['localised']:.0f} | "
                              f"{_pct(row['recovery_rate'])} | {_num(row['median_recovery_scans'], '', 0)} |")
             lines.append("")
+    failed = [r for r in results if r.failure]
+    if failed:
+        lines += ["## Trials that raised", "",
+                  f"{len(failed)} trial(s) raised an exception and count as failures (NaN errors in the CSV):", ""]
+        for r in failed[:20]:
+            lines.append(f"- {r.scenario} {r.map} {r.localiser} trial {r.trial} (seed {r.seed}): `{r.failure}`")
+        if len(failed) > 20:
+            lines.append(f"- ... and {len(failed) - 20} more")
+        lines.append("")
     p = Path(path)
     p.write_text("\n".join(lines))
     return p

@@ -85,7 +85,7 @@ def plot_times(results: Sequence[TrialResult], map_name: str, localisers: Sequen
     ax = _ax(ax)
     rs = _of(results, GlobalRun, map_name)
     names = [n for n in localisers if any(r.localiser == n for r in rs)]
-    data = [[1e3 * r.time_s for r in rs if r.localiser == n] for n in names]
+    data = [[1e3 * r.time_s for r in rs if r.localiser == n and np.isfinite(r.time_s)] for n in names]
     if not data:
         return []
     bp = ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
