@@ -305,3 +305,28 @@ def test_robot_from_profile_path(tmp_path: Path) -> None:
         assert not r.robot.closed
     finally:
         r.close()
+
+
+def test_real_motor_overshoot_and_wheel_slip_are_measured_not_assumed() -> None:
+    # motors that brake past their limits, wheels that slip 1 %: odometry reports what the tachos
+    # turned (overshoot included), the truth differs by the slip, and every motion ends at rest
+    cfg = BrickConfig(time_factor=1000.0, max_step_s=0.01, brake_decel_deg_s2=20000.0, wheel_slip=0.01)
+    r = Rig(Pose.from_deg(20.0, 20.0, 90.0), config=cfg)
+    try:
+        out = r.robot.move(30.0)
+        assert not r.world.moving
+        assert 0.0 < out.distance_cm - 30.0 < 0.5  # ~4 degrees past the limit at 400 deg/s
+        true_d = r.world.pose.y - 20.0
+        assert true_d == pytest.approx(out.distance_cm, rel=0.04) and true_d != pytest.approx(out.distance_cm,
+                                                                                               abs=1e-3)
+        h0 = r.world.pose.theta
+        r.robot.turn(math.radians(90.0))
+        assert math.degrees(float(angle_diff(r.world.pose.theta, h0))) == pytest.approx(90.0, abs=4.0)
+        pose = r.world.pose
+        scan = r.robot.ultrascan(np.radians(np.arange(0, 360, 30)))
+        assert not r.world.moving and abs(r.world.motors[2].counts()[2]) <= 5
+        assert np.all(np.diff(scan.angles) > 0)
+        truth = ray_cast(r.world.map.walls, pose.xy, pose.theta + scan.angles)
+        assert np.max(np.abs(scan.ranges - truth)) < 2.0  # read where the turret really pointed
+    finally:
+        r.close()

@@ -316,3 +316,26 @@ def test_brick_geometry_is_its_own() -> None:
     assert w.geometry.wheel_diameter_cm == 5.8
     with pytest.raises(ValueError, match="motor ports"):
         BrickConfig(left_port=0, right_port=0)
+
+
+def test_real_motor_brakes_past_its_limit() -> None:
+    cfg = BrickConfig(time_factor=1000.0, brake_decel_deg_s2=40000.0)
+    w = _world(config=cfg)
+    m = w.motors[2]
+    w.command_motor(2, 50, HOLD, 1, 0, RunState.RUNNING, 360)
+    w.run_for(3.0)
+    v = 50 * cfg.deg_per_s_per_power
+    assert m.run_state == RunState.IDLE and m.speed == 0.0
+    assert m.position == pytest.approx(360.0 + v * v / (2 * 40000.0), abs=0.5)
+
+
+def test_wheel_slip_moves_the_truth_off_the_tachos() -> None:
+    w = _world(Pose(20.0, 20.0, math.pi / 2), config=BrickConfig(time_factor=1000.0, wheel_slip=0.05))
+    for port in (0, 1):
+        w.command_motor(port, 50, HOLD, 1, 0, RunState.RUNNING, 720)
+    w.run_for(5.0)
+    tacho_cm = 720 / 360 * w.geometry.wheel_circumference_cm
+    assert w.pose.distance_to(Pose(20.0, 20.0 + tacho_cm, math.pi / 2)) > 0.05
+    assert w.pose.y - 20.0 == pytest.approx(tacho_cm, rel=0.2)
+    with pytest.raises(ValueError, match="wheel_slip"):
+        BrickConfig(wheel_slip=-0.1)

@@ -63,6 +63,11 @@ def brick_serve(
     track_width: float = typer.Option(RobotGeometry().track_width_cm, "--track-width",
                                       help="True track width of the simulated robot (cm)."),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot disc radius (cm)."),
+    wheel_slip: float = typer.Option(0.0, "--wheel-slip",
+                                     help="Wheel slip: sd of the fraction a wheel's travel differs from its tachos."),
+    brake_decel: float | None = typer.Option(None, "--brake-decel",
+                                             help="Motor braking (deg/s^2): motors overshoot their limits like "
+                                                  "real ones; default: ideal stops on the limit."),
 ) -> None:
     """Serve a simulated NXT robot to nxt-python clients (socket backend) until Ctrl-C."""
     if sonar not in SONAR_MODELS.names():
@@ -79,7 +84,8 @@ def brick_serve(
         pose = parsed
     try:
         geometry = RobotGeometry(radius_cm=radius, wheel_diameter_cm=wheel_diameter, track_width_cm=track_width)
-        config = BrickConfig(geometry=geometry, time_factor=time_factor, max_step_s=max_step)
+        config = BrickConfig(geometry=geometry, time_factor=time_factor, max_step_s=max_step, wheel_slip=wheel_slip,
+                             brake_decel_deg_s2=brake_decel)
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from None
     world = BrickWorld(m, pose, config, sonar=sonar, sensor_noise=sensor_noise, rng=seed, log=log)

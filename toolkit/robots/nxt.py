@@ -64,6 +64,7 @@ _US_COMMAND = 0x41
 _US_CONTINUOUS = 0x02
 _VIRTUAL_LINK = "ipvirtual"
 _ARRIVAL_TOLERANCE_DEG = 3
+_SETTLE_POLLS = 50
 
 
 def _import_nxt() -> ModuleType:
@@ -280,6 +281,16 @@ class NxtRobot:
             if time.monotonic() > deadline:
                 raise RobotError(f"motion did not finish within {self.profile.motion_timeout_s:g} s")
 
+    def _settle(self, ports: list[Any], pos: list[int]) -> list[int]:
+        """Positions once the motors have come to rest (a real motor runs on a little past its
+        limit or after the brake): two equal readings in a row, or after a bounded number of polls."""
+        for _ in range(_SETTLE_POLLS):
+            now = [self._state(p)[0] for p in ports]
+            if now == pos:
+                break
+            pos = now
+        return pos
+
     # -- the paper's functions --------------------------------------------------------------------
     def _wheels(self, left_deg: float, right_deg: float, power: int, watchdog: bool) -> tuple[float, float, str]:
         """Turn the wheels by the given angles (deg, robot sense); returns what they turned and why."""
@@ -299,7 +310,7 @@ class NxtRobot:
             why, _ = self._wait(ports, start, [s + w for s, w in zip(start, wanted, strict=True)], watchdog)
         for port in ports:
             self._brake(port)
-        end = [self._state(p)[0] for p in ports]
+        end = self._settle(ports, [self._state(p)[0] for p in ports])
         return (end[0] - start[0]) * sgn, (end[1] - start[1]) * sgn, why
 
     def move(self, distance_cm: float) -> MoveOutcome:
@@ -338,6 +349,7 @@ class NxtRobot:
             power = self.profile.turret_power
             self._run(self._turret, power if delta > 0 else -power, abs(delta))
             _, (pos,) = self._wait([self._turret], [pos], [target], watchdog=False)
+            (pos,) = self._settle([self._turret], [pos])
         return pos
 
     def ultrascan(self, angles: ArrayLike | None = None) -> Scan:

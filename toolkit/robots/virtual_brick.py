@@ -152,6 +152,10 @@ class VirtualBrick:
             self.errors += 1
             _log.debug("telegram %s malformed: %s", data.hex(), exc)
             return error_reply(frame.opcode, Status.INSANE_PACKET) if wants else None
+        except Exception:  # a fault of the simulation itself: refuse the telegram, keep serving
+            self.errors += 1
+            _log.exception("telegram %s failed", data.hex())
+            return error_reply(frame.opcode, Status.BAD_ARGUMENTS) if wants else None
         return ok_reply(frame.opcode, payload) if wants else None
 
     @staticmethod
@@ -186,7 +190,7 @@ class VirtualBrick:
         power, mode, regulation, turn_ratio, run_state, limit = struct.unpack_from("<bBBbBI", t, 3)
         ports = [0, 1, 2] if port == 0xFF else [self._output_port(t)]
         for p in ports:
-            self.world.motors[p].command(power, mode, regulation, turn_ratio, run_state, limit)
+            self.world.command_motor(p, power, mode, regulation, turn_ratio, run_state, limit)
         return b""
 
     def _get_output_state(self, t: bytes) -> bytes:

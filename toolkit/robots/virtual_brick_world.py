@@ -110,6 +110,13 @@ class BrickConfig:
         Brick seconds per wall second (> 1 runs faster than real time).
     max_step_s : float
         Largest brick-time advance at one exchange (s), see the module docstring.
+    wheel_slip : float
+        Standard deviation of the fraction by which a drive wheel's ground travel differs from its
+        tacho count; drawn per wheel for every new motor command (0 = no slip).
+    brake_decel_deg_s2 : float or None
+        None: ideal regulation, a tacho-limited motor stops exactly on its limit and a brake stops a
+        motor at once. A number: the motor runs at speed up to its limit and then brakes at this
+        deceleration (deg/s^2), overshooting by speed^2 / (2 * decel) as a real NXT motor does.
     battery_mv : int
         Battery voltage reported (mV).
     name : str
@@ -127,6 +134,8 @@ class BrickConfig:
     substep_s: float = 0.005
     time_factor: float = 1.0
     max_step_s: float = 0.02
+    wheel_slip: float = 0.0
+    brake_decel_deg_s2: float | None = None
     battery_mv: int = 8000
     name: str = "nxtnav-virtual"
 
@@ -137,10 +146,14 @@ class BrickConfig:
         if self.sonar_port not in (0, 1, 2, 3):
             raise ValueError(f"sonar_port must be 0..3, got {self.sonar_port}")
         for k in ("deg_per_s_per_power", "accel_deg_s2", "coast_decel_deg_s2", "substep_s", "time_factor",
-                  "max_step_s"):
+                  "max_step_s", "brake_decel_deg_s2"):
             v = getattr(self, k)
-            if not (math.isfinite(v) and v > 0):
+            if v is None and k == "brake_decel_deg_s2":
+                continue
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise ValueError(f"BrickConfig.{k} must be a positive number, got {v!r}")
+        if not (math.isfinite(self.wheel_slip) and 0 <= self.wheel_slip < 0.5):
+            raise ValueError(f"BrickConfig.wheel_slip must be in [0, 0.5), got {self.wheel_slip!r}")
         if len(self.name.encode("ascii", "replace")) > 14:
             raise ValueError(f"brick name must be at most 14 characters, got {self.name!r}")
 
@@ -177,8 +190,6 @@ class Motor:
         self.mode, self.regulation, self.turn_ratio = int(mode), int(regulation), int(turn_ratio)
         self.run_state, self.tacho_limit = int(run_state), int(tacho_limit)
         self.goal_origin = self.position
-        if self.mode & MotorMode.ON and self.mode & MotorMode.BRAKE and not self.driven:
-            self.speed = 0.0
 
     def stop(self) -> None:
         """Brake to a standstill now (what the brick does when its client vanishes)."""
@@ -193,6 +204,7 @@ class Motor:
     def step(self, dt: float, cfg: BrickConfig) -> float:
         """Advance `dt` brick seconds; return the angle turned (deg)."""
         a = cfg.accel_deg_s2
+        exact = cfg.brake_decel_deg_s2 is None
         if self.driven:
             sign = 1.0 if self.power > 0 else -1.0
             target = self.power * cfg.deg_per_s_per_power
@@ -200,33 +212,43 @@ class Motor:
             if self.tacho_limit > 0:
                 remaining = self.tacho_limit - sign * (self.position - self.goal_origin)
                 if remaining <= 1e-9:
-                    self._reach_limit()
-                    return 0.0
-                target = sign * min(abs(target), math.sqrt(2.0 * a * remaining) + a * dt)
+                    self._reach_limit(exact)
+                    return self.step(dt, cfg) if self.speed else 0.0
+                if exact:  # ideal regulation: slow down to stop on the limit
+                    target = sign * min(abs(target), math.sqrt(2.0 * a * remaining) + a * dt)
             new_speed = self.speed + max(-a * dt, min(a * dt, target - self.speed))
             turned = 0.5 * (self.speed + new_speed) * dt
+            self.speed = new_speed
             if sign * turned >= remaining:
                 turned = sign * remaining
-                self._reach_limit()
-            else:
-                self.speed = new_speed
+                self._reach_limit(exact)
             self.position += turned
             return turned
         if self.mode & MotorMode.ON and self.mode & MotorMode.BRAKE:
-            self.speed = 0.0
-            return 0.0
+            if exact or cfg.brake_decel_deg_s2 is None:
+                self.speed = 0.0
+                return 0.0
+            return self._slow(dt, cfg.brake_decel_deg_s2)
         if self.speed == 0.0:
             return 0.0
-        d = cfg.coast_decel_deg_s2 * dt
+        return self._slow(dt, cfg.coast_decel_deg_s2)
+
+    def _slow(self, dt: float, decel: float) -> float:
+        d = decel * dt
         new_speed = 0.0 if abs(self.speed) <= d else self.speed - math.copysign(d, self.speed)
         turned = 0.5 * (self.speed + new_speed) * dt
+        if new_speed == 0.0 and self.speed != 0.0:  # stops within the step
+            turned = 0.5 * self.speed * abs(self.speed) / decel
         self.speed = new_speed
         self.position += turned
         return turned
 
-    def _reach_limit(self) -> None:
-        self.speed = 0.0
+    def _reach_limit(self, exact: bool) -> None:
+        """The tacho limit is reached: the firmware reports idle; an ideal motor stops on the spot,
+        a real one brakes (or coasts) past the limit."""
         self.run_state = RunState.IDLE
+        if exact:
+            self.speed = 0.0
 
 
 # The LEGO ultrasonic sensor's I2C registers (device address 0x02). The identification strings are
@@ -334,6 +356,8 @@ class BrickWorld:
             )
         self.sonar = make_sonar(sonar, noise_sd=sensor_noise) if isinstance(sonar, str) else sonar
         self.rng = as_rng(rng)
+        self._slip_rng = self.rng.spawn(1)[0]
+        self._slip = [0.0, 0.0, 0.0]
         self.lock = threading.RLock()
         self._clock: Callable[[], float] = clock if clock is not None else time.monotonic
         self._pose = pose
@@ -409,7 +433,8 @@ class BrickWorld:
             return
         self._was_moving = True
         per_deg = self.geometry.wheel_circumference_cm / 360.0
-        dl, dr = dl_deg * per_deg, dr_deg * per_deg
+        dl = dl_deg * per_deg * (1.0 + self._slip[cfg.left_port])
+        dr = dr_deg * per_deg * (1.0 + self._slip[cfg.right_port])
         ds = 0.5 * (dl + dr)
         dth = (dr - dl) / self.geometry.track_width_cm
         p = self._pose
@@ -450,6 +475,16 @@ class BrickWorld:
                 self._log.flush()
 
     # -- commands ---------------------------------------------------------------------------------
+    def command_motor(self, port: int, power: int, mode: int, regulation: int, turn_ratio: int, run_state: int,
+                      tacho_limit: int) -> None:
+        """SET_OUTPUT_STATE on output `port` (0-2); a new drive command draws the wheel's slip."""
+        with self.lock:
+            m = self.motors[port]
+            m.command(power, mode, regulation, turn_ratio, run_state, tacho_limit)
+            if port in (self.config.left_port, self.config.right_port) and m.driven:
+                slip = self.config.wheel_slip
+                self._slip[port] = float(self._slip_rng.normal(0.0, slip)) if slip > 0 else 0.0
+
     def stop_all(self) -> None:
         """Brake every motor now (a client vanished or asked for it)."""
         with self.lock:
