@@ -530,7 +530,8 @@ class BrickWorld:
 
     def close(self) -> None:
         """Stop the motors and close the truth log if this world opened it."""
-        self.stop_all()
-        if self._own_log and self._log is not None:
-            self._log.close()
-            self._log = None
+        with self.lock:
+            self.stop_all()
+            if self._own_log and self._log is not None:
+                self._log.close()
+                self._log = None
