@@ -339,3 +339,14 @@ def test_wheel_slip_moves_the_truth_off_the_tachos() -> None:
     assert w.pose.y - 20.0 == pytest.approx(tacho_cm, rel=0.2)
     with pytest.raises(ValueError, match="wheel_slip"):
         BrickConfig(wheel_slip=-0.1)
+
+
+def test_real_time_brick_runs_its_motors_while_the_client_is_silent() -> None:
+    world = BrickWorld(load_map("map1"), Pose(20.0, 20.0, 0.0), BrickConfig(time_factor=1.0, max_step_s=0.25))
+    assert world.free_running and not _world().free_running  # real time ticks; fast bricks wait for clients
+    with BrickServer(world, port=0) as srv, _raw(srv.port) as s:
+        s.sendall(bytes([0x80, 0x04, 2, 30, HOLD, 1, 0, 0x20]) + struct.pack("<I", 0))  # turret, no reply
+        deadline = time.monotonic() + 5.0
+        while world.motors[2].position <= 10.0 and time.monotonic() < deadline:
+            time.sleep(0.01)  # no telegram: only the brick's own clock can move the motor
+        assert world.motors[2].position > 10.0

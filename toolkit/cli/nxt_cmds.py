@@ -53,7 +53,9 @@ def brick_serve(
     port: int = typer.Option(2727, "--port", help="TCP port (0 = any free port, printed at start)."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address to listen on."),
     time_factor: float = typer.Option(1.0, "--time-factor", help="Brick seconds per wall second (>1 = faster)."),
-    max_step: float = typer.Option(0.02, "--max-step", help="Largest brick-time step per exchange (s)."),
+    max_step: float | None = typer.Option(
+        None, "--max-step", help="Largest brick-time step per exchange (s); default 0.25 in real time, "
+                                 "0.02 when faster."),
     sonar: str = typer.Option("ideal", "--sonar", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
     sensor_noise: float = typer.Option(1.0, "--sensor-noise", help="Sonar noise (cm)."),
     seed: int | None = typer.Option(None, "--seed", help="Random seed of the sonar noise."),
@@ -82,6 +84,8 @@ def brick_serve(
         parsed = parse_pose(pose_text, "--pose")
         assert isinstance(parsed, Pose)
         pose = parsed
+    if max_step is None:
+        max_step = 0.25 if time_factor <= 1.0 else 0.02
     try:
         geometry = RobotGeometry(radius_cm=radius, wheel_diameter_cm=wheel_diameter, track_width_cm=track_width)
         config = BrickConfig(geometry=geometry, time_factor=time_factor, max_step_s=max_step, wheel_slip=wheel_slip,

@@ -67,6 +67,7 @@ _PROTOCOL_VERSION = (1, 124)  # (major, minor), as the LEGO firmware 1.31 report
 _FIRMWARE_VERSION = (1, 31)
 _SLEEP_TIMEOUT_MS = 600_000
 _FREE_FLASH = 110_000
+_TICK_S = 0.005  # wall seconds between clock ticks of a free-running brick
 
 
 class _BadTelegram(Exception):
@@ -364,6 +365,8 @@ class BrickServer:
         self._server = _TCPServer((host, port), _Handler, bind_and_activate=True)
         self._server.brick = self.brick
         self._thread: threading.Thread | None = None
+        self._ticker: threading.Thread | None = None
+        self._ticking = threading.Event()
 
     @property
     def host(self) -> str:
@@ -383,15 +386,29 @@ class BrickServer:
         self._thread = threading.Thread(target=self._server.serve_forever, kwargs={"poll_interval": 0.05},
                                         name=f"virtual-brick-{self.port}", daemon=True)
         self._thread.start()
+        self._start_ticker()
         return self
+
+    def _start_ticker(self) -> None:
+        if self.world.free_running and self._ticker is None:
+            self._ticker = threading.Thread(target=self._tick, name=f"virtual-brick-clock-{self.port}", daemon=True)
+            self._ticker.start()
+
+    def _tick(self) -> None:
+        while not self._ticking.wait(_TICK_S):
+            self.world.advance()
 
     def serve_forever(self) -> None:
         """Serve in this thread until `stop` (or Ctrl-C in the caller)."""
+        self._start_ticker()
         self._server.serve_forever(poll_interval=0.1)
 
     def stop(self) -> None:
         """Stop serving, brake the motors and close the truth log."""
         self._server.stopping = True
+        self._ticking.set()
+        if self._ticker is not None:
+            self._ticker.join(timeout=5)
         self._server.shutdown()
         self._server.server_close()
         for sock in list(self._server.live):

@@ -12,9 +12,10 @@ wheels stall there, and the contact counts as one collision.
 The clock
 ---------
 Brick time advances when a client waits on the brick (every telegram that wants a reply, see
-`advance`): by the wall time since the previous advance times ``time_factor``, but by at most
-``max_step_s``. The cap keeps fast simulations faithful when the machine is busy: a client that is
-descheduled does not come back to find its robot through the wall. Telegrams that need no reply
+`advance`), and in real time also on its own (``free_run``): by the wall time since the previous
+advance times ``time_factor``, but by at most ``max_step_s``. The cap keeps fast simulations
+faithful when the machine is busy: a client that is descheduled does not come back to find its
+robot far along its path, unwatched. Telegrams that need no reply
 (set output state, set input mode) act at the current brick instant, so two motors started by two
 consecutive commands start together, as they do on a brick.
 """
@@ -110,6 +111,10 @@ class BrickConfig:
         Brick seconds per wall second (> 1 runs faster than real time).
     max_step_s : float
         Largest brick-time advance at one exchange (s), see the module docstring.
+    free_run : bool or None
+        Whether brick time also advances while no client talks (a server thread ticks the clock every
+        few milliseconds), as on a real brick. None: only in real time or slower (time_factor <= 1),
+        where scripts that sleep while the motors run expect them to keep turning.
     wheel_slip : float
         Standard deviation of the fraction by which a drive wheel's ground travel differs from its
         tacho count; drawn per wheel for every new motor command (0 = no slip).
@@ -134,6 +139,7 @@ class BrickConfig:
     substep_s: float = 0.005
     time_factor: float = 1.0
     max_step_s: float = 0.02
+    free_run: bool | None = None
     wheel_slip: float = 0.0
     brake_decel_deg_s2: float | None = None
     battery_mv: int = 8000
@@ -390,6 +396,12 @@ class BrickWorld:
     def turret_angle(self) -> float:
         """Sensor direction relative to the robot heading (rad)."""
         return math.radians(self.motors[self.config.turret_port].position / self.geometry.turret_gear_ratio)
+
+    @property
+    def free_running(self) -> bool:
+        """Whether the clock should also tick without client traffic (see `BrickConfig.free_run`)."""
+        fr = self.config.free_run
+        return self.config.time_factor <= 1.0 if fr is None else bool(fr)
 
     @property
     def moving(self) -> bool:
