@@ -58,7 +58,7 @@ def brick_serve(
                                  "0.02 when faster."),
     sonar: str = typer.Option("ideal", "--sonar", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
     sensor_noise: float = typer.Option(1.0, "--sensor-noise", help="Sonar noise (cm)."),
-    seed: int | None = typer.Option(None, "--seed", help="Random seed of the sonar noise."),
+    seed: int | None = typer.Option(None, "--seed", help="Random seed (sonar noise, wheel slip)."),
     log: Path | None = typer.Option(None, "--log", help="Truth log: one JSON line (t, pose, collisions) per motion."),
     wheel_diameter: float = typer.Option(RobotGeometry().wheel_diameter_cm, "--wheel-diameter",
                                          help="True wheel diameter of the simulated robot (cm)."),
