@@ -1,5 +1,29 @@
-"""Path planners for a disc robot in a polygonal map, all validated by the shared FCL checker."""
+"""Path planners for a disc robot in a polygonal map, all validated by the shared FCL checker.
 
+Importing the package registers every bundled planner in `PLANNERS`: ``min-turn`` (the paper's
+Algorithm 1), ``rrtstar`` and ``prm`` (OMPL; any OMPL planner as ``ompl:NAME`` through
+`make_planner`), ``astar`` (grid A*), and the exact references ``shortest`` and ``min-link``.
+"""
+
+from . import min_turn, ompl_planners
 from .base import PLANNERS, Planner, PlanningProblem, PlanResult, make_planner
+from .metrics import PathMetrics, count_turns, path_length, path_metrics, turn_angle
+from .min_turn import MinTurnPlanner
+from .ompl_planners import OmplPlanner
 
-__all__ = ["PLANNERS", "PlanResult", "Planner", "PlanningProblem", "make_planner"]
+__all__ = [
+    "PLANNERS",
+    "MinTurnPlanner",
+    "OmplPlanner",
+    "PathMetrics",
+    "PlanResult",
+    "Planner",
+    "PlanningProblem",
+    "count_turns",
+    "make_planner",
+    "min_turn",
+    "ompl_planners",
+    "path_length",
+    "path_metrics",
+    "turn_angle",
+]
