@@ -40,10 +40,12 @@ from .base import Motion
 __all__ = [
     "NOISE_MODELS",
     "MotionModel",
+    "RangeLattice",
     "RangeLikelihood",
     "RangeTable",
     "clear_range_table_cache",
     "exact_ranges",
+    "range_lattice",
     "range_table",
 ]
 
@@ -242,6 +244,73 @@ class RangeTable:
         return self._flat[idx], inside
 
 
+class RangeLattice:
+    """Exhaustive scoring of a lattice of poses (every `step` cells x every table direction) by FFT.
+
+    For a scan with beams at table directions ``a_j`` (relative) and readings ``m_j``, the sum of
+    squared residuals of the pose (cell c, heading h) is
+    ``sum_j (E[c, h + a_j] - m_j)^2 = (E^2 * I)(h) - 2 (E * M)(h) + sum_j m_j^2`` where ``*`` is the
+    circular cross-correlation over directions, ``I`` counts beams per direction and ``M`` sums their
+    readings. The spectra of ``E`` and ``E^2`` are computed once per lattice, so scoring every
+    heading of every lattice cell costs one complex product and one inverse real FFT per scan.
+
+    Parameters
+    ----------
+    table : RangeTable
+    step : int
+        Lattice spacing in table cells (2 with a 1 cm table: a 2 cm lattice).
+    clearance_cm : float
+        Only cells at least this far from every wall.
+    """
+
+    def __init__(self, table: RangeTable, step: int = 2, clearance_cm: float = 0.0) -> None:
+        if step < 1:
+            raise ValueError(f"lattice step must be >= 1 cell, got {step}")
+        nx, ny = table.shape
+        ix, iy = np.meshgrid(np.arange(0, nx, step), np.arange(0, ny, step), indexing="ij")
+        flat = (ix * ny + iy).ravel()
+        rows = table.cell_row[flat]
+        ok = (rows >= 0) & (table.clearance[flat] >= clearance_cm)
+        self.table = table
+        self.step = int(step)
+        self.rows = rows[ok]
+        self.xy = table.origin + (np.column_stack([ix.ravel()[ok], iy.ravel()[ok]]) + 0.5) * table.resolution_cm
+        e = np.minimum(table.ranges[self.rows].astype(np.float64), 1e4)
+        self._fe = np.fft.rfft(e, axis=1)
+        self._fe2 = np.fft.rfft(e * e, axis=1)
+
+    def __len__(self) -> int:
+        return int(self.rows.size)
+
+    def ssd(self, rel_angles: ArrayLike, measured: ArrayLike) -> FloatArray:
+        """Sum of squared residuals (cm^2) of every lattice cell x every heading: (P, n_angles)."""
+        n = self.table.n_angles
+        k = n / TWO_PI
+        a = np.mod(np.rint(np.asarray(rel_angles, dtype=float).ravel() * k).astype(np.int64), n)
+        m = np.asarray(measured, dtype=float).ravel()
+        count = np.bincount(a, minlength=n).astype(float)
+        total = np.bincount(a, weights=m, minlength=n)
+        fi = np.conj(np.fft.rfft(count))
+        fm = np.conj(np.fft.rfft(total))
+        out = np.fft.irfft(self._fe2 * fi[None, :] - 2.0 * self._fe * fm[None, :], n=n, axis=1)
+        out += float(np.sum(m * m))
+        return np.asarray(np.maximum(out, 0.0))
+
+
+_LATTICES: dict[tuple[int, int, float], RangeLattice] = {}
+
+
+def range_lattice(table: RangeTable, step: int = 2, clearance_cm: float = 0.0) -> RangeLattice:
+    """The `RangeLattice` of a table (cached per table, step and clearance)."""
+    key = (id(table), int(step), float(clearance_cm))
+    with _TABLES_LOCK:
+        lat = _LATTICES.get(key)
+        if lat is None or lat.table is not table:
+            lat = RangeLattice(table, step, clearance_cm)
+            _LATTICES[key] = lat
+        return lat
+
+
 _TABLES: dict[tuple[str, float, int], RangeTable] = {}
 _TABLES_LOCK = threading.Lock()
 
@@ -301,6 +370,7 @@ def clear_range_table_cache() -> None:
     """Forget the tables built in this process."""
     with _TABLES_LOCK:
         _TABLES.clear()
+        _LATTICES.clear()
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from toolkit.world import LocalisationError, Map, Pose, RngLike, Scan, angle_diff, circular_mean, wrap_angle
 
 from .base import Localiser, Motion, PoseEstimate, Prior
-from .models import MotionModel, RangeLikelihood, RangeTable, exact_ranges, range_table
+from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import effective_sample_size, log_normalise, systematic_resample
 
 __all__ = ["Mode", "ParticleFilter", "Snapshot"]
@@ -136,11 +136,31 @@ class ParticleFilter(Localiser):
     mode_radius_cm, mode_heading_deg : float
         Particles within both of a mode's best particle belong to that mode.
     ambiguity_nats : float
-        A mode stays plausible while its best log-likelihood (at beta 1) is within this of the best
-        mode's; below it, it is dropped.
+        At the full likelihood, a mode stays plausible while its best log-likelihood is within this
+        of the best mode's (twins of a symmetric map score alike; their weights are too noisy to
+        judge by). More than one plausible mode makes the belief ambiguous (not converged).
+    cluster_coverage : float
+        Modes are tracked separately once the `max_modes` heaviest clusters hold this fraction of the
+        weight (before that the cloud is resampled as a whole).
+    mode_share : float
+        Fraction of the particles shared equally among the tracked modes (the rest in proportion
+        to their weights): every candidate, however light, is refined before it is judged.
+    per_mode_ess : bool
+        Choose each ``beta`` so that every mode keeps the target ESS (slower; refines light twins as
+        carefully as the heavy mode) instead of the cloud as a whole.
     recovery_threshold : float or None
-        When the best particle's mean squared normalised residual exceeds this, the filter restarts
-        globally (kidnapped robot); None disables it.
+        When, after the iterations on a scan, the best particle's mean squared normalised residual
+        per beam still exceeds this, the filter restarts globally on the same scan (kidnapped robot);
+        None disables it.
+    global_init : {"lattice", "uniform"}
+        How a global start draws its first particles. ``uniform``: `n_global` particles uniform over
+        the free space and headings, as in the paper. ``lattice``: every cell of a lattice
+        (`lattice_step` table cells apart) at every table direction is scored against the scan at
+        once (`RangeLattice`, an FFT correlation), and the `n_particles` best lattice poses, jittered
+        within their lattice cell, start the iterations. The lattice is the uniform start made
+        exhaustive and deterministic; it finds every mode, including twins.
+    lattice_step : int
+        Lattice spacing in table cells.
     use_table : bool
         Expected ranges from the precomputed `RangeTable` (fast) or exact ray casting (slow).
     table_resolution_cm, table_angles : float, int
@@ -170,16 +190,21 @@ class ParticleFilter(Localiser):
         motion_noise: float = 0.1,
         turn_noise: float = 0.005,
         motion_inflation: float = 1.5,
-        ess_target: float = 0.5,
+        ess_target: float = 0.3,
         max_iterations: int = 40,
         converged_xy_cm: float = 1.5,
         converged_heading_deg: float = 2.0,
         global_beams: int = 48,
-        max_modes: int = 6,
+        max_modes: int = 8,
         mode_radius_cm: float = 10.0,
         mode_heading_deg: float = 20.0,
-        ambiguity_nats: float = 30.0,
-        recovery_threshold: float | None = 9.0,
+        ambiguity_nats: float = 15.0,
+        cluster_coverage: float = 0.9,
+        per_mode_ess: bool = False,
+        mode_share: float = 0.5,
+        recovery_threshold: float | None = 5.0,
+        global_init: str = "lattice",
+        lattice_step: int = 2,
         use_table: bool = True,
         table_resolution_cm: float = 1.0,
         table_angles: int = 360,
@@ -208,12 +233,26 @@ class ParticleFilter(Localiser):
         self.mode_radius_cm = float(mode_radius_cm)
         self.mode_heading_rad = math.radians(mode_heading_deg)
         self.ambiguity_nats = float(ambiguity_nats)
+        self.cluster_coverage = float(cluster_coverage)
+        self.per_mode_ess = bool(per_mode_ess)
+        if not 0.0 <= mode_share <= 1.0:
+            raise ValueError(f"mode_share must be in [0, 1], got {mode_share}")
+        self.mode_share = float(mode_share)
         self.recovery_threshold = recovery_threshold
         self.use_table = bool(use_table)
         self.refine_exact = bool(refine_exact)
         self.snapshot_size = int(snapshot_size)
         self.table: RangeTable | None = (
             range_table(map, table_resolution_cm, table_angles, cache_dir) if use_table else None
+        )
+        if global_init not in ("lattice", "uniform"):
+            raise ValueError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
+        if global_init == "lattice" and self.table is None:
+            raise ValueError("global_init='lattice' needs use_table=True")
+        self.global_init = global_init
+        self.lattice: RangeLattice | None = (
+            range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
+            if self.table is not None and global_init == "lattice" else None
         )
         self.particles: FloatArray = np.zeros((0, 3))
         self.log_weights: FloatArray = np.zeros(0)
@@ -223,6 +262,7 @@ class ParticleFilter(Localiser):
         self.restarts = 0
         self._global = True
         self._converged = False
+        self._best_fit = 0.0
         self._modes: list[Mode] = []
         self._estimate: PoseEstimate | None = None
         self.reset()
@@ -250,12 +290,16 @@ class ParticleFilter(Localiser):
             self._global = False
         self._estimate = self._make_estimate()
 
+    _move_cap: tuple[float, float] = (math.inf, math.inf)
+
     def _reset_global(self) -> None:
-        xy = self._sample_free(self.n_global)
-        theta = self.rng.uniform(-math.pi, math.pi, self.n_global)
+        # with the lattice start the uniform cloud only stands for the belief until the first scan
+        n = self.n_particles if self.global_init == "lattice" else self.n_global
+        xy = self._sample_free(n)
+        theta = self.rng.uniform(-math.pi, math.pi, n)
         self.particles = np.column_stack([xy, theta])
-        self.log_weights = np.full(self.n_global, -math.log(self.n_global))
-        self.labels = np.zeros(self.n_global, dtype=np.int64)
+        self.log_weights = np.full(n, -math.log(n))
+        self.labels = np.zeros(n, dtype=np.int64)
         self._global = True
 
     def _sample_free(self, n: int) -> FloatArray:
@@ -276,8 +320,9 @@ class ParticleFilter(Localiser):
     def predict(self, motion: Motion) -> None:
         if motion.turn_rad == 0.0 and motion.distance_cm == 0.0:
             return
+        if self._global:
+            return  # a uniform belief stays uniform; the first scan will start the global search
         self.particles = self.motion_model.sample(self.particles, motion, self.rng)
-        self._global = False
         self._converged = False
         self._estimate = self._make_estimate()
 
@@ -288,11 +333,54 @@ class ParticleFilter(Localiser):
         if meas.size == 0:
             log.warning("scan without usable readings: belief unchanged")
             return
-        if not self._global and self.recovery_threshold is not None and self._lost(rel, meas):
-            log.info("no particle explains the scan: restarting global localisation")
+        tracking = not self._global
+        if self._global and self.lattice is not None:
+            self._lattice_start(rel, meas)
+        self._iterate(rel, meas)
+        if tracking and self.recovery_threshold is not None and self._best_fit > self.recovery_threshold:
+            # no pose near the belief explains the scan: the robot was kidnapped (or the belief was wrong)
+            log.info("best mean squared residual %.1f > %.1f: restarting global localisation",
+                     self._best_fit, self.recovery_threshold)
             self.restarts += 1
             self._reset_global()
-        self._iterate(rel, meas)
+            if self.lattice is not None:
+                self._lattice_start(rel, meas)
+            self._iterate(rel, meas)
+
+    def _lattice_start(self, rel: FloatArray, meas: FloatArray) -> None:
+        """Replace the uniform cloud by the best lattice poses for this scan (see `global_init`)."""
+        assert self.lattice is not None and self.table is not None
+        ssd = self.lattice.ssd(rel, meas).ravel()
+        n_ang = self.table.n_angles
+        k = min(self.n_particles, ssd.size)
+        # the best lattice poses, at most `per_bin` from each coarse bin (mode_radius x mode_heading),
+        # so that a twin slightly worse on the lattice is not crowded out by the best mode's neighbours
+        m = min(20 * k, ssd.size)
+        cand = np.argpartition(ssd, m - 1)[:m]
+        cand = cand[np.argsort(ssd[cand], kind="stable")]
+        c_cell, c_head = np.divmod(cand, n_ang)
+        xy = self.lattice.xy[c_cell]
+        bx = np.floor(xy[:, 0] / self.mode_radius_cm).astype(np.int64)
+        by = np.floor(xy[:, 1] / self.mode_radius_cm).astype(np.int64)
+        bh = (c_head * (360 // n_ang if n_ang <= 360 else 1)) // max(int(math.degrees(self.mode_heading_rad)), 1)
+        bins = (bx * 100_003 + by) * 1009 + bh
+        order = np.argsort(bins, kind="stable")
+        sb = bins[order]
+        start = np.r_[0, np.flatnonzero(np.diff(sb)) + 1]
+        rank = np.arange(sb.size) - np.repeat(start, np.diff(np.r_[start, sb.size]))
+        keep = np.zeros(cand.size, dtype=bool)
+        keep[order[rank < max(4, k // 100)]] = True
+        best = cand[keep][:k]
+        k = best.size
+        cell, head = np.divmod(best, n_ang)
+        half = 0.5 * self.lattice.step * self.table.resolution_cm
+        xy = self.lattice.xy[cell] + self.rng.uniform(-half, half, size=(k, 2))
+        dth = math.pi / n_ang
+        theta = wrap_angle(head * (2.0 * math.pi / n_ang) + self.rng.uniform(-dth, dth, size=k))
+        self.particles = np.column_stack([xy, theta])
+        self.log_weights = np.full(k, -math.log(k))
+        self._global = False
+        self._move_cap = (half, 2.0 * dth)
 
     def estimate(self) -> PoseEstimate:
         if self._estimate is None:
@@ -325,26 +413,33 @@ class ParticleFilter(Localiser):
             s = self.likelihood.sq_residuals(expected32, meas)
         return np.where(inside, s, np.inf)
 
-    def _lost(self, rel: FloatArray, meas: FloatArray) -> bool:
-        s = self._sq_residuals(self.particles, rel, meas)
-        best = float(np.min(s)) / meas.size
-        return not best <= float(self.recovery_threshold or np.inf)
+    def _next_beta(self, log_w: FloatArray, s: FloatArray, beta: float, groups: IntArray | None = None) -> float:
+        """Largest beta' in (beta, 1] whose incremental weights keep the ESS at or above the target.
 
-    def _next_beta(self, log_w: FloatArray, s: FloatArray, beta: float) -> float:
-        """Largest beta' in (beta, 1] whose incremental weights keep the ESS at or above the target."""
+        With `groups` (the mode of each particle), the ESS of every mode must stay at the target, so
+        that a light twin mode is refined as carefully as the heavy one.
+        """
         finite = np.isfinite(s) & np.isfinite(log_w)
-        n_target = self.ess_target * np.count_nonzero(finite)
         s0 = np.where(finite, s, np.inf)
+        if groups is None:
+            parts = [np.arange(s.size)]
+        else:
+            parts = [np.flatnonzero(groups == g) for g in np.unique(groups)]
+        parts = [ix for ix in parts if np.isfinite(s0[ix]).any()]
+        targets = [self.ess_target * np.count_nonzero(finite[ix]) for ix in parts]
 
-        def ess(b: float) -> float:
-            return effective_sample_size(log_normalise(log_w - 0.5 * (b - beta) * s0))
+        def ok(b: float) -> bool:
+            return all(
+                effective_sample_size(log_normalise(log_w[ix] - 0.5 * (b - beta) * s0[ix])) >= t
+                for ix, t in zip(parts, targets, strict=True)
+            )
 
-        if ess(1.0) >= n_target:
+        if ok(1.0):
             return 1.0
         a, b = beta, 1.0
         for _ in range(40):
             mid = math.sqrt(max(a, 1e-12) * b) if a > 0 else (1e-9 if b > 1e-8 else 0.5 * b)
-            if ess(mid) >= n_target:
+            if ok(mid):
                 a = mid
             else:
                 b = mid
@@ -371,38 +466,70 @@ class ParticleFilter(Localiser):
         beta = 0.0
         self._converged = False
         self._modes = []
+        groups: IntArray | None = None
+        # after a lattice start the particles sit next to the lattice's optima: keep the moves local
+        # (within a lattice cell and a table direction) so that narrow optima are not diffused away
+        cap_xy, cap_th = self._move_cap
         for _ in range(self.max_iterations):
-            new_beta = self._next_beta(log_w, s, beta)
+            new_beta = self._next_beta(log_w, s, beta, groups if self.per_mode_ess else None)
             log_w = log_w - 0.5 * (new_beta - beta) * s
             beta = new_beta
-            w = log_normalise(log_w)
+            log_w = log_w - np.max(log_w)
             self.iterations += 1
-            self.particles, self.log_weights = p, np.log(np.maximum(w, 1e-300))
+            labels, log_masses = self._cluster(p, log_w)
+            total = math.log(float(np.exp(log_w).sum()))
+            clustered = bool(np.exp(log_masses - total).sum() >= self.cluster_coverage)
+            keep = np.zeros(0, dtype=np.int64)
+            log_mode_w = np.zeros(0)
+            if clustered:
+                best_ll = np.array([-0.5 * float(np.min(s[labels == k])) for k in range(log_masses.size)])
+                ok = np.isfinite(log_masses)
+                if beta >= 1.0:
+                    # judge the modes by their best fit: twins fit alike, and their weights are too
+                    # noisy to judge by; the plausible ones then get weights from the fit alone.
+                    ok &= best_ll >= np.max(best_ll[ok]) - self.ambiguity_nats
+                keep = np.flatnonzero(ok)
+                log_mode_w = best_ll[keep] if beta >= 1.0 else log_masses[keep]
+                inside = np.isin(labels, keep)
+                log_w = np.where(inside, log_w, -np.inf)
+                for lmk, k in zip(log_mode_w, keep, strict=True):
+                    mk = labels == k
+                    log_w[mk] += lmk - log_masses[k]
+            w = log_normalise(log_w)
             mean, cov = _cloud_stats(p, w)
-            if beta >= 1.0:
-                self._modes = self._find_modes(p, w, s)
-                narrow = (math.sqrt(cov[0, 0] + cov[1, 1]) < self.converged_xy_cm
-                          and math.sqrt(cov[2, 2]) < self.converged_heading_rad)
-                self._converged = narrow and len(self._modes) <= 1
+            self.particles, self.log_weights = p, np.log(np.maximum(w, 1e-300))
+            stds = self._mode_stds(p, w, labels, keep) if clustered else np.zeros((0, 2))
+            if beta >= 1.0 and clustered:
+                self._modes = self._describe_modes(p, w, s, labels, keep)
+                narrow = bool(np.all(stds[:, 0] < self.converged_xy_cm)
+                              and np.all(stds[:, 1] < self.converged_heading_rad))
+                if narrow:
+                    self._converged = keep.size == 1
+                    self._record(p, w, beta, mean, cov)
+                    break
             self._record(p, w, beta, mean, cov)
-            if self._converged:
-                break
-            # resample
-            n = self.n_particles
-            idx = self.resample(w, n)
+            # resample (each mode on its own once the cloud has split into modes)
+            if clustered:
+                idx, log_w, j_std = self._resample_modes(w, labels, keep, log_mode_w, stds)
+                groups = labels[idx]
+            else:
+                groups = None
+                idx = self.resample(w, self.n_particles)
+                log_w = np.full(idx.size, -math.log(idx.size))
+                j_std = np.array([[math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))]])
             p, s = p[idx], s[idx]
-            log_w = np.full(n, -math.log(n))
+            n = idx.size
             if subset:
                 s = self._sq_residuals(p, rel, meas)
                 subset = False
-            # Metropolis move with a jitter kernel that shrinks with the cloud and the tempered likelihood
-            std_xy = math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0) / 2.0)
-            std_th = math.sqrt(max(cov[2, 2], 0.0))
+            # Metropolis move; the kernel shrinks with the mode's spread and the tempered likelihood
             sigma_b = self.likelihood.sigma_cm / math.sqrt(beta)
             local_xy = 2.0 * sigma_b / math.sqrt(n_beams)
-            j_xy = max(min(0.5 * std_xy, local_xy), 0.02)
-            j_th = max(min(0.5 * std_th, 2.0 * local_xy / max(typical_range, 1.0)), math.radians(0.05))
-            q = p + self.rng.standard_normal(p.shape) * np.array([j_xy, j_xy, j_th])
+            j_xy = np.maximum(np.minimum(np.minimum(0.5 * j_std[:, 0] / math.sqrt(2.0), local_xy), cap_xy), 0.02)
+            j_th = np.maximum(np.minimum(np.minimum(0.5 * j_std[:, 1], 2.0 * local_xy / max(typical_range, 1.0)),
+                                         cap_th), math.radians(0.05))
+            scale = np.column_stack([j_xy, j_xy, j_th])
+            q = p + self.rng.standard_normal(p.shape) * scale
             q[:, 2] = wrap_angle(q[:, 2])
             s_q = self._sq_residuals(q, rel, meas)
             if self.table is not None and clear > 0:
@@ -410,11 +537,91 @@ class ParticleFilter(Localiser):
             accept = np.log(self.rng.random(n)) < -0.5 * beta * (s_q - s)
             p = np.where(accept[:, None], q, p)
             s = np.where(accept, s_q, s)
+        keep_p = self.log_weights > math.log(1e-300)
+        if not keep_p.all():
+            self.particles, self.log_weights = self.particles[keep_p], self.log_weights[keep_p]
+        self._best_fit = float(np.min(s)) / n_beams if np.isfinite(s).any() else math.inf
         self._global = False
+        self._move_cap = (math.inf, math.inf)
         self._estimate = self._make_estimate()
 
-    def _find_modes(self, p: FloatArray, w: FloatArray, s: FloatArray) -> list[Mode]:
-        return []
+    def _mode_stds(self, p: FloatArray, w: FloatArray, labels: IntArray, keep: IntArray) -> FloatArray:
+        """(K, 2) spread of each kept mode: sqrt(var x + var y) (cm) and heading std (rad)."""
+        out = np.zeros((keep.size, 2))
+        for i, k in enumerate(keep):
+            members = labels == k
+            wk = w[members]
+            wk = wk / wk.sum() if wk.sum() > 0 else np.full(wk.size, 1.0 / wk.size)
+            _, c = _cloud_stats(p[members], wk)
+            out[i] = math.sqrt(max(c[0, 0] + c[1, 1], 0.0)), math.sqrt(max(c[2, 2], 0.0))
+        return out
+
+    def _cluster(self, p: FloatArray, log_w: FloatArray) -> tuple[IntArray, FloatArray]:
+        """Greedy clustering: the heaviest unassigned particle seeds a mode of its neighbours.
+
+        Returns a label per particle (-1: in none of the `max_modes` clusters) and the clusters' log
+        weights (log-sum-exp of their members' log weights, so a twin of negligible weight is still
+        seen).
+        """
+        labels = np.full(p.shape[0], -1, dtype=np.int64)
+        log_masses: list[float] = []
+        order = np.argsort(-log_w, kind="stable")
+        free = np.isfinite(log_w)
+        r2 = self.mode_radius_cm**2
+        pos = 0
+        for k in range(self.max_modes):
+            while pos < order.size and not free[order[pos]]:
+                pos += 1
+            if pos >= order.size:
+                break
+            seed = p[order[pos]]
+            member = free & ((p[:, 0] - seed[0]) ** 2 + (p[:, 1] - seed[1]) ** 2 <= r2)
+            member &= np.abs(angle_diff(p[:, 2], seed[2])) <= self.mode_heading_rad
+            labels[member] = k
+            free &= ~member
+            lw = log_w[member]
+            top = float(lw.max())
+            log_masses.append(top + math.log(float(np.exp(lw - top).sum())))
+        return labels, np.asarray(log_masses, dtype=float)
+
+    def _resample_modes(self, w: FloatArray, labels: IntArray, keep: IntArray, log_mode_w: FloatArray,
+                        stds: FloatArray) -> tuple[IntArray, FloatArray, FloatArray]:
+        """Resample each kept mode on its own, keeping its weight (the mode survives resampling).
+
+        Each kept mode gets an equal part of `mode_share` of the budget plus a part of the rest in
+        proportion to its weight, so a symmetric twin is not lost to resampling noise. Returns the indices, the new
+        log weights (mode log weight - log copies) and each new particle's mode spread (for the jitter).
+        """
+        lm = log_mode_w - np.max(log_mode_w)
+        lm = lm - math.log(float(np.exp(lm).sum()))
+        floor = max(int(self.mode_share * self.n_particles) // keep.size, 10)
+        counts = np.maximum(np.rint(np.exp(lm) * self.n_particles * (1.0 - self.mode_share)).astype(np.int64), 0)
+        counts += floor
+        idx_parts: list[IntArray] = []
+        lw_parts: list[FloatArray] = []
+        std_parts: list[FloatArray] = []
+        for i, (k, ck) in enumerate(zip(keep, counts, strict=True)):
+            members = np.flatnonzero(labels == k)
+            wk = w[members]
+            sub = wk / wk.sum() if wk.sum() > 0 else np.full(members.size, 1.0 / members.size)
+            idx_parts.append(members[self.resample(sub, int(ck))])
+            lw_parts.append(np.full(int(ck), lm[i] - math.log(int(ck))))
+            std_parts.append(np.broadcast_to(stds[i], (int(ck), 2)))
+        return np.concatenate(idx_parts), np.concatenate(lw_parts), np.concatenate(std_parts)
+
+    def _describe_modes(self, p: FloatArray, w: FloatArray, s: FloatArray, labels: IntArray,
+                        keep: IntArray) -> list[Mode]:
+        modes = []
+        total = sum(float(w[labels == k].sum()) for k in keep)
+        for k in keep:
+            members = labels == k
+            wk = w[members]
+            mass = float(wk.sum())
+            wk = wk / mass if mass > 0 else np.full(wk.size, 1.0 / wk.size)
+            mean, _ = _cloud_stats(p[members], wk)
+            modes.append(Mode(Pose.from_array(mean), mass / total,
+                              float(-0.5 * np.min(s[members])), int(members.sum())))
+        return sorted(modes, key=lambda md: -md.weight)
 
     def _record(self, p: FloatArray, w: FloatArray, beta: float, mean: FloatArray, cov: FloatArray) -> None:
         if self.snapshot_size <= 0:

@@ -157,8 +157,8 @@ def localise(
     process: bool = True,
     scan_angles: Any = None,
     min_valid_readings: int = 8,
-    max_move_cm: float = 30.0,
-    move_fraction: float = 0.5,
+    max_move_cm: float = 40.0,
+    move_fraction: float = 0.7,
     safety_cm: float | None = None,
 ) -> LocalisationResult:
     """Localise `robot` with `localiser` the paper's way (see the module docstring).
