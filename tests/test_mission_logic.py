@@ -187,7 +187,13 @@ def test_lost_robot() -> None:
     assert not report.success
     assert "lost" in report.status
     assert report.relocalisations == 0
-    assert [s.action for s in report.trace] == ["localise"] * MissionConfig().max_localisation_attempts
+    cfg = MissionConfig()
+    finals = [s for s in report.trace if s.action == "localise" and "not converged" in s.note]
+    assert len(finals) == cfg.max_localisation_attempts
+    assert "plan" not in [s.action for s in report.trace]
+    # between attempts the mission explored, within the limit of moves per attempt
+    moves = [s for s in report.trace if s.action == "explore-move"]
+    assert 0 < len(moves) <= cfg.max_localisation_attempts * cfg.max_explore_moves
 
 
 @pytest.mark.usefixtures("standin_procedure")

@@ -44,7 +44,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 from shapely.ops import nearest_points
 
-from localisation.base import Localiser, Motion, PoseEstimate, Prior, make_localiser
+from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from planners.base import Planner, PlanningProblem, PlanResult, make_planner
 
 from .world import (
@@ -54,6 +54,7 @@ from .world import (
     Pose,
     RngLike,
     Robot,
+    Scan,
     angle_diff,
     as_rng,
     load_map,
@@ -63,6 +64,7 @@ __all__ = [
     "MissionConfig",
     "MissionReport",
     "TraceStep",
+    "explore_direction",
     "mission_seeds",
     "random_start",
     "run_mission",
@@ -100,7 +102,9 @@ class MissionConfig:
         Re-localise (tracking) after driving this far along one segment, then re-aim at the waypoint;
         None re-localises at the waypoints only.
     waypoint_tolerance_cm : float
-        A waypoint counts as reached when the estimate is this close to it.
+        A waypoint counts as reached when the estimate is this close to it (after re-localising there).
+    max_legs : int
+        Legs (re-aimed after each re-localisation) toward one waypoint before re-planning.
     goal_tolerance_cm : float
         The final correction stops when the estimate is this close to the target.
     max_corrections : int
@@ -114,6 +118,18 @@ class MissionConfig:
         Re-plans (after watchdog stops or deviations) before the mission gives up.
     max_localisation_attempts : int
         Global localisation attempts before the robot is declared lost.
+    max_explore_moves, explore_step_cm : int, float
+        While a global belief stays ambiguous, up to this many moves of at most this length toward
+        open space (chosen from the scan with room for the robot disc and the margin).
+    confirm_global : bool
+        Confirm a global fix that rests on scans from one place with a second, independent one
+        (guards against a localiser that collapses on one of several identical places); fixes further apart than
+        `confirm_tolerance_cm` count as ambiguous.
+    confirm_tolerance_cm : float
+    tracking : {"continue", "prior"}
+        How a re-localisation starts: from the localiser's current (predicted) belief, or reset to a
+        Gaussian prior around the last estimate (`tracking_std_cm`, `tracking_std_deg`). Either falls
+        back to the other, then to a global localisation, when it does not converge.
     tracking_std_cm, tracking_std_deg : float
         Minimum standard deviations of the prior handed to a tracking re-localisation.
     max_actions : int
@@ -128,12 +144,18 @@ class MissionConfig:
     move_step_cm: float = 10.0
     relocalise_every_cm: float | None = 40.0
     waypoint_tolerance_cm: float = 2.0
+    max_legs: int = 8
     goal_tolerance_cm: float = 0.5
     max_corrections: int = 6
     success_radius_cm: float = 3.0
     final_scans: int = 1
     max_replans: int = 12
     max_localisation_attempts: int = 3
+    max_explore_moves: int = 6
+    explore_step_cm: float = 30.0
+    tracking: str = "continue"
+    confirm_global: bool = True
+    confirm_tolerance_cm: float = 5.0
     tracking_std_cm: float = 4.0
     tracking_std_deg: float = 8.0
     max_actions: int = 400
@@ -147,11 +169,15 @@ class MissionConfig:
                 raise ValueError(f"MissionConfig.{name} must be a positive number, got {v!r}")
         if not (math.isfinite(self.safety_margin_cm) and self.safety_margin_cm >= 0):
             raise ValueError(f"MissionConfig.safety_margin_cm must be >= 0, got {self.safety_margin_cm!r}")
+        if self.tracking not in ("continue", "prior"):
+            raise ValueError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
         if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:
             raise ValueError(f"MissionConfig.relocalise_every_cm must be > 0 or None, got {self.relocalise_every_cm!r}")
-        for name in ("max_corrections", "max_replans", "max_localisation_attempts", "max_actions", "final_scans"):
+        for name in ("max_corrections", "max_replans", "max_localisation_attempts", "max_actions", "final_scans",
+                     "max_legs", "max_explore_moves"):
             v = getattr(self, name)
-            if not (isinstance(v, int) and v >= (0 if name in ("max_corrections", "max_replans") else 1)):
+            lowest = 0 if name in ("max_corrections", "max_replans", "max_explore_moves") else 1
+            if not (isinstance(v, int) and v >= lowest):
                 raise ValueError(f"MissionConfig.{name} must be a non-negative integer, got {v!r}")
 
     def to_dict(self) -> dict[str, Any]:
@@ -343,6 +369,53 @@ class _MissionEnded(Exception):
         self.success = success
 
 
+def _raw_scan_of(result: Any) -> Scan | None:
+    """The last raw scan of a localisation result (`LocalisationResult.trace[-1].scan.raw`), if any."""
+    trace = getattr(result, "trace", None)
+    if not trace:
+        return None
+    scan = getattr(getattr(trace[-1], "scan", None), "raw", None)
+    return scan if isinstance(scan, Scan) else None
+
+
+def explore_direction(scan: Scan, clearance_cm: float, rng: np.random.Generator | None = None,
+                      avoid_rad: float | None = None, max_step_cm: float = 30.0) -> tuple[float, float]:
+    """Where to drive to break an ambiguous belief, from one scan alone (no pose needed).
+
+    For every usable reading direction, the free run of a disc of radius `clearance_cm` along it is
+    the distance before any scan point comes within the radius of the disc's centre line. The
+    direction with the longest run wins (ties within 2 cm broken at random; directions within 45
+    degrees of `avoid_rad`, where the robot came from, only when nothing else is open).
+
+    Returns
+    -------
+    (float, float)
+        Turn (rad, relative to the heading) and distance (cm): half the free run, at most
+        `max_step_cm`; (0, 0) when no direction is open.
+    """
+    ok = scan.valid & np.isfinite(scan.ranges)
+    if not ok.any():
+        return 0.0, 0.0
+    a, r = scan.angles[ok], scan.ranges[ok]
+    d = a[None, :] - a[:, None]
+    along = r[None, :] * np.cos(d)
+    lateral = np.abs(r[None, :] * np.sin(d))
+    blocking = (lateral < clearance_cm) & (along > 0.0)
+    reach = np.maximum(along - np.sqrt(np.maximum(clearance_cm**2 - lateral**2, 0.0)), 0.0)
+    free = np.where(blocking, reach, np.inf).min(axis=1)
+    free = np.where(np.isfinite(free), free, r)
+    if avoid_rad is not None:
+        back = np.abs(angle_diff(a, avoid_rad)) < math.radians(45.0)
+        if (free[~back] > 2.0).any():
+            free = np.where(back, -np.inf, free)
+    best = float(free.max())
+    if best <= 2.0:
+        return 0.0, 0.0
+    cand = np.flatnonzero(free >= best - 2.0)
+    k = int(as_rng(rng).choice(cand))
+    return float(angle_diff(a[k], 0.0)), float(min(max_step_cm, 0.5 * free[k]))
+
+
 def _localise_procedure() -> Callable[..., Any]:
     from localisation.procedure import localise
 
@@ -386,6 +459,7 @@ class _Mission:
         self.path_length = 0.0
         self.actions = 0
         self.estimate: PoseEstimate | None = None
+        self._last_raw_scan: Scan | None = None
         self._localise = _localise_procedure()
         params = inspect.signature(self._localise).parameters
         self._localise_kw = set(params) if not any(p.kind is p.VAR_KEYWORD for p in params.values()) else None
@@ -405,42 +479,98 @@ class _Mission:
             raise _MissionEnded(f"gave up after {self.cfg.max_actions} actions")
 
     # -- localisation ---------------------------------------------------------------------------
-    def _call_localise(self, prior: Prior | None) -> PoseEstimate:
-        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **dict(self.cfg.localise_options)}
+    def _call_localise(self, prior: Prior | None, **extra: Any) -> PoseEstimate:
+        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **dict(self.cfg.localise_options), **extra}
         if self._localise_kw is not None:
             dropped = [k for k in kwargs if k not in self._localise_kw]
             if dropped:
                 log.debug("localise() does not take %s; dropped", ", ".join(dropped))
             kwargs = {k: v for k, v in kwargs.items() if k in self._localise_kw}
         result = self._localise(self.robot, self.localiser, **kwargs)
+        self._last_raw_scan = _raw_scan_of(result)
         return _estimate_of(result, self.localiser)
 
+    def _ok(self, est: PoseEstimate) -> bool:
+        return bool(est.converged) and bool(self.map.contains(est.pose.xy))
+
     def localise_global(self) -> PoseEstimate:
-        """Global localisation with retries; ends the mission when the robot stays lost."""
-        for attempt in range(1, self.cfg.max_localisation_attempts + 1):
-            est = self._call_localise(None)
+        """Global localisation with retries; ends the mission when the robot stays lost.
+
+        Each attempt runs one iteration of the localisation procedure at a time. A converged fix is
+        confirmed by a second, independent global localisation on a fresh scan (`confirm_global`):
+        two fixes that disagree reveal a symmetric place the localiser collapsed on too early. While
+        the belief is ambiguous the mission drives toward open space along a direction where the scan
+        shows room for the whole robot disc, and localises again from there.
+        """
+        cfg = self.cfg
+        for attempt in range(1, cfg.max_localisation_attempts + 1):
+            est = self._call_localise(None, reset=True, max_iterations=1)
             self.estimate = est
-            ok = est.converged and bool(self.map.contains(est.pose.xy))
+            explores = 0
+            fresh = False
+            from_one_place = True  # the fix rests on scans from one place only
+            while True:
+                if self._ok(est):
+                    if not (cfg.confirm_global and from_one_place):
+                        break
+                    est2 = self._call_localise(None, reset=True, max_iterations=1)
+                    self.estimate = est2
+                    if self._ok(est2) and est2.pose.distance_to(est.pose) <= cfg.confirm_tolerance_cm:
+                        est = est2
+                        break
+                    self.record("localise", note=f"global attempt {attempt}: two fixes disagree "
+                                                 f"({est.pose.x:.0f}, {est.pose.y:.0f}) vs "
+                                                 f"({est2.pose.x:.0f}, {est2.pose.y:.0f})")
+                    est = est2
+                    fresh = True
+                if explores >= cfg.max_explore_moves:
+                    break
+                scan = self._last_raw_scan if self._last_raw_scan is not None else self.robot.ultrascan()
+                direction, distance = explore_direction(scan, self.radius + 0.5 * cfg.safety_margin_cm + 0.5,
+                                                        self.rng, math.pi if explores else None,
+                                                        cfg.explore_step_cm)
+                if distance < 1.0:
+                    break
+                self.record("localise", note=f"global attempt {attempt}: ambiguous (spread "
+                                             f"{est.std_xy_cm:.1f} cm), exploring")
+                self.turn(direction, action="explore-turn")
+                if self.move(distance, action="explore-move"):
+                    self.turnback()
+                explores += 1
+                est = self._call_localise(None, reset=fresh, max_iterations=1)
+                self.estimate = est
+                from_one_place = fresh
+                fresh = False
+            ok = self._ok(est)
             self.record("localise", note=f"global attempt {attempt}: {'converged' if ok else 'not converged'}, "
                                          f"spread {est.std_xy_cm:.2f} cm")
             if ok:
                 return est
         raise _MissionEnded(f"robot lost: global localisation did not converge in "
-                            f"{self.cfg.max_localisation_attempts} attempts")
+                            f"{cfg.max_localisation_attempts} attempts")
 
     def relocalise(self, reason: str) -> PoseEstimate:
         """Tracking re-localisation from the current belief; falls back to a global one."""
         self.relocalisations += 1
         if self.estimate is None:
             return self.localise_global()
-        prior = self._prior(self.estimate)
-        est = self._call_localise(prior)
+        if self.cfg.tracking == "prior":
+            est = self._call_localise(self._prior(self.estimate), reset=True, max_iterations=1)
+        else:
+            est = self._call_localise(None, reset=False, max_iterations=1)
         self.estimate = est
-        ok = est.converged and bool(self.map.contains(est.pose.xy))
+        ok = self._ok(est)
         self.record("relocalise", note=f"{reason}: {'converged' if ok else 'not converged'}, "
                                        f"spread {est.std_xy_cm:.2f} cm")
         if ok:
             return est
+        if self.cfg.tracking != "prior":
+            est = self._call_localise(self._prior(self.estimate), reset=True, max_iterations=1)
+            self.estimate = est
+            ok = self._ok(est)
+            self.record("relocalise", note=f"{reason}, from a wider prior: {'converged' if ok else 'not converged'}")
+            if ok:
+                return est
         return self.localise_global()
 
     def _prior(self, est: PoseEstimate) -> Prior:
@@ -491,35 +621,50 @@ class _Mission:
         if self.replans > self.cfg.max_replans:
             raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
 
-    def drive_to(self, goal: FloatArray) -> str:
-        """Turn toward `goal` from the estimate and drive there in steps.
+    def guard_checker(self, xy: FloatArray) -> CollisionChecker:
+        """The checker a straight leg from `xy` must pass: half the margin when `xy` has it, else bare."""
+        half = self.safe_checkers[-1] if self.safe_checkers else self.checker
+        return half if half.point_free(xy) else self.checker
 
-        Returns ``arrived``, ``watchdog`` or ``deviated`` (the straight line from the new estimate to
-        the goal is no longer collision-free).
+    def drive_to(self, goal: FloatArray, *, final: bool = False) -> str:
+        """Turn toward `goal` from the estimate and drive there in steps, re-localising on the way.
+
+        Legs longer than `relocalise_every_cm` are split; after each leg the robot re-localises and
+        re-aims, until the estimate is within `waypoint_tolerance_cm` of `goal` (for the `final`
+        goal the final correction re-localises instead).
+
+        Returns ``arrived``, ``watchdog`` (the watchdog stopped a move), ``blocked`` (a move made
+        almost no progress: a contact) or ``deviated`` (the straight line from the estimate to the
+        goal is no longer free, or the goal is not reached in a few legs).
         """
         assert self.estimate is not None
-        while True:
+        cfg = self.cfg
+        for _ in range(cfg.max_legs):
             pose = self.estimate.pose
             delta = goal - pose.xy
             dist = float(np.hypot(*delta))
-            if dist <= self.cfg.waypoint_tolerance_cm:
+            if dist <= cfg.waypoint_tolerance_cm:
                 return "arrived"
-            if not self.checker.segment_free(pose.xy, goal):
+            if not self.guard_checker(pose.xy).segment_free(pose.xy, goal):
                 return "deviated"
             turn = float(angle_diff(math.atan2(delta[1], delta[0]), pose.theta))
             if abs(turn) > 1e-9:
                 self.turn(turn)
-            every = self.cfg.relocalise_every_cm
+            every = cfg.relocalise_every_cm
             leg = dist if every is None or dist <= 1.25 * every else every
             driven = 0.0
             while leg - driven > 1e-9:
-                step = min(self.cfg.move_step_cm, leg - driven)
+                step = min(cfg.move_step_cm, leg - driven)
+                before = self.path_length
                 if self.move(step):
                     return "watchdog"
+                if self.path_length - before < 0.5 * step:
+                    return "blocked"
                 driven += step
-            if leg >= dist:
+            if final and leg >= dist:
                 return "arrived"
-            self.relocalise("along segment")
+            self.relocalise("at waypoint" if leg >= dist else "along segment")
+        return "deviated"
 
     # -- planning -------------------------------------------------------------------------------
     def plan(self) -> FloatArray:
@@ -609,15 +754,12 @@ class _Mission:
             path = self.plan()
             outcome = "arrived"
             for i, wp in enumerate(path[1:], start=1):
-                final = i == len(path) - 1
-                outcome = self.drive_to(wp)
+                outcome = self.drive_to(wp, final=i == len(path) - 1)
                 if outcome != "arrived":
                     break
-                if not final:
-                    self.relocalise("at waypoint")
             if outcome == "arrived":
                 return
-            if outcome == "watchdog":
+            if outcome in ("watchdog", "blocked"):
                 self.after_watchdog()
             else:
                 self.replans += 1
@@ -830,6 +972,15 @@ def run_sim_mission(
             raise NxtnavError(f"map {m.name} has no preset target: give one")
         target = m.target
     noise = MotionNoise(noise_model, motion_noise, turn_noise)  # type: ignore[arg-type]
+    cfg = config or MissionConfig()
+    if isinstance(localiser, str):
+        # the localiser's motion (and, for the ideal sonar, sensor) model matches the simulator's
+        known = {"noise_model": noise_model, "motion_noise": motion_noise, "turn_noise": turn_noise}
+        if sonar == "ideal" and sensor_noise > 0:
+            known["sensor_sigma_cm"] = sensor_noise
+        params = inspect.signature(LOCALISERS.get(localiser).__init__).parameters
+        opts = {k: v for k, v in known.items() if k in params}
+        cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
     robot = SimRobot(m, pose, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
-    report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=config)
+    report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg)
     return replace(report, seed=int(seed))
