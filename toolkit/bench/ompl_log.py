@@ -54,8 +54,8 @@ def ompl_status(success: bool, status: str) -> int:
     if success:
         return OMPL_STATUS.index("Exact solution")
     s = status.lower()
-    for key, label in (("start", "Invalid start"), ("goal", "Invalid goal"), ("time", "Timeout"),
-                       ("error", "Crash"), ("crash", "Crash"), ("infeasible", "Infeasible"),
+    for key, label in (("error", "Crash"), ("crash", "Crash"), ("start", "Invalid start"), ("goal", "Invalid goal"),
+                       ("timeout", "Timeout"), ("time limit", "Timeout"), ("infeasible", "Infeasible"),
                        ("no path", "Infeasible"), ("unreachable", "Infeasible")):
         if key in s:
             return OMPL_STATUS.index(label)
