@@ -212,7 +212,7 @@ def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
             loc.pose = Pose(loc.pose.x, loc.pose.y - 20.0, loc.pose.theta)
 
     loc.update = biased  # type: ignore[method-assign]
-    cfg = MissionConfig(relocalise_every_cm=None)
+    cfg = MissionConfig(relocalise_every_cm=None, confirm_global=False)
     report = run_mission(robot, m, (20.0, 88.0), planner=VisibilityPlanner(), localiser=loc, rng=0, config=cfg)
     assert robot.true_pose.distance_to((20.0, 88.0)) < 2.0
     assert report.success, report.status
@@ -238,3 +238,27 @@ def test_report_to_dict_is_json() -> None:
     assert d["start"] == [20.0, 20.0, pytest.approx(math.degrees(0.3))]
     assert d["turns"] == sum(1 for s in report.trace if s.action in ("turn", "correct-turn")
                              and abs(s.turn_rad) > math.radians(0.5))
+
+
+@pytest.mark.usefixtures("standin_procedure")
+def test_a_wrong_single_place_fix_is_caught_by_the_confirmation() -> None:
+    # map3's rooms are identical: a localiser that collapses on the twin room (90 cm off) on its first
+    # fix must not send the robot "home" in the wrong room
+    m = load_map("map3")
+    assert m.start is not None and m.target is not None
+    robot = SimRobot(m, Pose(*m.start, 0.5), rng=2)
+    loc = OracleLocaliser(m, robot, sd_cm=0.2, rng=3)
+    original = loc.update
+    calls = {"n": 0}
+
+    def twin(scan: Scan) -> None:
+        original(scan)
+        calls["n"] += 1
+        if calls["n"] == 1:
+            loc.pose = Pose(loc.pose.x + 90.0, loc.pose.y, loc.pose.theta)
+
+    loc.update = twin  # type: ignore[method-assign]
+    report = run_mission(robot, m, m.target, planner=VisibilityPlanner(), localiser=loc, rng=0)
+    assert report.success, report.status
+    assert robot.true_pose.distance_to(m.target) < 2.0
+    assert any("disagree" in s.note for s in report.trace)

@@ -143,7 +143,7 @@ class MissionConfig:
     safety_margin_cm: float = 2.0
     move_step_cm: float = 10.0
     relocalise_every_cm: float | None = 40.0
-    waypoint_tolerance_cm: float = 2.0
+    waypoint_tolerance_cm: float = 1.0
     max_legs: int = 8
     goal_tolerance_cm: float = 0.5
     max_corrections: int = 6
@@ -621,11 +621,6 @@ class _Mission:
         if self.replans > self.cfg.max_replans:
             raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
 
-    def guard_checker(self, xy: FloatArray) -> CollisionChecker:
-        """The checker a straight leg from `xy` must pass: half the margin when `xy` has it, else bare."""
-        half = self.safe_checkers[-1] if self.safe_checkers else self.checker
-        return half if half.point_free(xy) else self.checker
-
     def drive_to(self, goal: FloatArray, *, final: bool = False) -> str:
         """Turn toward `goal` from the estimate and drive there in steps, re-localising on the way.
 
@@ -639,13 +634,13 @@ class _Mission:
         """
         assert self.estimate is not None
         cfg = self.cfg
-        for _ in range(cfg.max_legs):
+        for legs in range(cfg.max_legs):
             pose = self.estimate.pose
             delta = goal - pose.xy
             dist = float(np.hypot(*delta))
-            if dist <= cfg.waypoint_tolerance_cm:
+            if dist <= cfg.waypoint_tolerance_cm and (legs > 0 or dist < 1e-6):
                 return "arrived"
-            if not self.guard_checker(pose.xy).segment_free(pose.xy, goal):
+            if not self.checker.segment_free(pose.xy, goal):
                 return "deviated"
             turn = float(angle_diff(math.atan2(delta[1], delta[0]), pose.theta))
             if abs(turn) > 1e-9:
