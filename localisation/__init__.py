@@ -5,6 +5,7 @@ Importing the package registers every localiser (``paper-pf`` and the filterpy v
 """
 
 from .base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from .filterpy_variants import EkfLocaliser, UkfLocaliser, filterpy_resample
 from .models import MotionModel, RangeLikelihood, RangeTable, exact_ranges, range_table
 from .particle_filter import Mode, ParticleFilter, Snapshot
 from .procedure import LocalisationResult, TraceStep, localise
@@ -12,6 +13,7 @@ from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan, raw_
 
 __all__ = [
     "LOCALISERS",
+    "EkfLocaliser",
     "LocalisationResult",
     "Localiser",
     "Mode",
@@ -26,7 +28,9 @@ __all__ = [
     "ScanProcessing",
     "Snapshot",
     "TraceStep",
+    "UkfLocaliser",
     "exact_ranges",
+    "filterpy_resample",
     "localise",
     "make_localiser",
     "min_reading",
