@@ -5,7 +5,7 @@ Algorithm 1), ``rrtstar`` and ``prm`` (OMPL; any OMPL planner as ``ompl:NAME`` t
 `make_planner`), ``astar`` (grid A*), and the exact references ``shortest`` and ``min-link``.
 """
 
-from . import min_turn, ompl_planners
+from . import astar, min_turn, ompl_planners, reference
 from .base import PLANNERS, Planner, PlanningProblem, PlanResult, make_planner
 from .metrics import PathMetrics, count_turns, path_length, path_metrics, turn_angle
 from .min_turn import MinTurnPlanner
@@ -19,11 +19,13 @@ __all__ = [
     "PlanResult",
     "Planner",
     "PlanningProblem",
+    "astar",
     "count_turns",
     "make_planner",
     "min_turn",
     "ompl_planners",
     "path_length",
     "path_metrics",
+    "reference",
     "turn_angle",
 ]

@@ -1,0 +1,354 @@
+"""Reference planners: ``shortest`` (visibility graph) and ``min-link`` (fewest segments, then shortest).
+
+They are the yardsticks the benchmark divides by (length / shortest, turns / min-link). Both build
+their graphs on a polygonal approximation of the configuration space and validate every edge with
+the shared checker, so every path they return is collision-free for the true robot disc.
+
+The polygonal configuration space
+---------------------------------
+The exact configuration space of a disc of radius ``r`` is the free area minus the walls grown by
+``r``: its boundary has straight parts and circular arcs of radius ``r`` around the corners that
+stick into the free area. Shapely's negative buffer approximates those arcs by chords *inside* the
+arc, i.e. partly in collision. Here each wall segment is instead grown by a regular ``n``-gon that
+*circumscribes* the circle of radius ``r + eps`` (circumradius ``R = (r + eps) / cos(pi / n)``), so
+every boundary point of the approximation is at least ``r + eps`` from every wall, and
+
+    C(R) ⊆ approximation ⊆ C(r)
+
+where ``C(x)`` is the exact configuration space of a disc of radius ``x``. With the defaults
+(``n = 64``, ``eps = 1e-4`` cm) and ``r = 8`` cm, ``R - r ≈ 0.0098`` cm.
+
+What is exact and what is approximate
+-------------------------------------
+``shortest``: the visibility graph over start, goal and the reflex vertices of the approximation
+(edges kept only when tangent at both ends, then checked by the checker) gives the exact shortest
+path for the polygonal approximation, so its length ``L`` satisfies ``L* <= L <= L*(R)``, where
+``L*`` is the true shortest length for the disc of radius ``r`` and ``L*(R)`` that for radius ``R``.
+To first order ``L*(R) - L* = (R - r) * Θ`` with ``Θ`` the total turning angle of the path (the
+length of a taut path around arcs grows by the turned angle per unit of radius). ``info`` reports
+the bound ``length_tolerance_cm = (R - r) * (Θ + 2 pi)`` (the ``2 pi`` covers the change of ``Θ``
+between radii); any collision-free path is at least ``L - length_tolerance_cm`` long. The
+approximation can also close a passage whose width lies between ``2 r`` and ``2 R`` (a window of
+0.02 cm with the defaults); ``shortest`` then reports no path or a longer one.
+
+``min-link``: the fewest segments over the graph whose nodes are start, goal, every vertex of the
+approximation, points along its boundary every ``boundary_spacing`` cm and an interior grid every
+``grid_spacing`` cm, all validated with the checker; among the paths with that many segments, the
+shortest (exact over that graph). The true minimum number of links may bend at points that are in
+none of these sets, so the link count is an *upper bound* on the true minimum (exact whenever it is 1
+or 2 segments: 1 is a direct check; for 2 the bend must see both ends, and the bound is exact when
+the visible regions' intersection contains a node, which the dense nodes make very likely), and
+the length is the shortest among the graph's min-link paths, not among all min-link paths.
+
+Graphs over the map's nodes are cached per (map, radius) in the planner instance, so only the
+start and goal edges are checked for later queries on the same map (the reported collision checks
+are then the query's share only).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+from shapely.geometry import polygon as shapely_polygon
+from shapely.geometry.base import BaseGeometry
+
+from toolkit.world import CollisionChecker, Map
+
+from .base import Planner, PlanningProblem
+from .metrics import turn_angle
+from .min_turn import hop_shortest_path
+
+__all__ = [
+    "MinLinkPlanner",
+    "ShortestPathPlanner",
+    "circumradius",
+    "cspace_polygon",
+    "polygon_vertices",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def circumradius(radius: float, n_sides: int = 64, eps: float = 1e-4) -> float:
+    """Circumradius (cm) of the regular `n_sides`-gon whose edges are tangent to a circle of ``radius + eps``."""
+    return (float(radius) + eps) / math.cos(math.pi / n_sides)
+
+
+def cspace_polygon(map: Map, radius: float, n_sides: int = 64, eps: float = 1e-4) -> BaseGeometry:
+    """Polygonal configuration space inside the exact one: free area minus walls grown by a circumscribed n-gon.
+
+    Every boundary point of the result is at least ``radius + eps`` cm from every wall. The result
+    is a Polygon or MultiPolygon (empty when the disc fits nowhere), oriented with exteriors
+    counter-clockwise and holes clockwise.
+    """
+    big = circumradius(radius, n_sides, eps)
+    ang = (np.arange(n_sides) + 0.5) * (2.0 * math.pi / n_sides)
+    ngon = big * np.column_stack([np.cos(ang), np.sin(ang)])
+    walls = map.walls
+    pts = np.concatenate([walls[:, None, :2] + ngon[None], walls[:, None, 2:] + ngon[None]], axis=1)
+    hulls = shapely.convex_hull(shapely.multipoints(pts))
+    blocked = shapely.union_all(hulls)
+    free = shapely.difference(map.polygon, blocked)
+    parts = [g for g in getattr(free, "geoms", [free]) if isinstance(g, shapely.Polygon) and g.area > 1e-9]
+    return shapely.MultiPolygon([shapely_polygon.orient(p, 1.0) for p in parts])
+
+
+def polygon_vertices(cspace: BaseGeometry) -> tuple[FloatArray, NDArray[np.bool_], FloatArray, FloatArray]:
+    """Vertices of an oriented (multi)polygon, whether each is reflex, and each vertex's two neighbours.
+
+    Free space lies to the left of every ring (exteriors counter-clockwise, holes clockwise), so a
+    vertex is reflex (the free angle exceeds 180 degrees) where its ring turns right.
+
+    Returns
+    -------
+    (v, reflex, prev, next)
+        (m, 2) vertices, (m,) reflex flags, (m, 2) previous and (m, 2) next vertices.
+    """
+    vs, rs, ps, ns = [], [], [], []
+    for poly in getattr(cspace, "geoms", [cspace]):
+        for ring in (poly.exterior, *poly.interiors):
+            c = np.asarray(ring.coords)[:-1]
+            if len(c) < 3:
+                continue
+            prv, nxt = np.roll(c, 1, axis=0), np.roll(c, -1, axis=0)
+            a, b = c - prv, nxt - c
+            cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+            vs.append(c)
+            rs.append(cross < 0)
+            ps.append(prv)
+            ns.append(nxt)
+    if not vs:
+        return np.empty((0, 2)), np.empty(0, dtype=bool), np.empty((0, 2)), np.empty((0, 2))
+    return np.vstack(vs), np.concatenate(rs), np.vstack(ps), np.vstack(ns)
+
+
+def _cross(u: FloatArray, v: FloatArray) -> FloatArray:
+    return np.asarray(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0])
+
+
+def _tangent(v: FloatArray, prv: FloatArray, nxt: FloatArray, w: FloatArray) -> NDArray[np.bool_]:
+    """Whether the lines v -> w leave both ring neighbours of v on one side (rows broadcast)."""
+    d = w - v
+    a = _cross(d, prv - v)
+    b = _cross(d, nxt - v)
+    tol = 1e-9 * (np.hypot(d[..., 0], d[..., 1]) + 1.0)
+    return np.asarray((a * b >= -tol) | (np.abs(a) <= tol) | (np.abs(b) <= tol))
+
+
+@dataclass
+class _Graph:
+    """Nodes of a map for one radius and which node pairs the checker found free."""
+
+    map: Map
+    radius: float
+    nodes: FloatArray
+    visible: NDArray[np.bool_]  # (m, m) symmetric, checked with the checker
+    extra: dict[str, Any]
+
+
+def _pairwise_visibility(checker: CollisionChecker, nodes: FloatArray, allowed: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    m = len(nodes)
+    iu, ju = np.triu_indices(m, k=1)
+    keep = allowed[iu, ju]
+    iu, ju = iu[keep], ju[keep]
+    ok = checker.segments_free(nodes[iu], nodes[ju]) if len(iu) else np.empty(0, dtype=bool)
+    vis = np.zeros((m, m), dtype=bool)
+    vis[iu[ok], ju[ok]] = True
+    vis |= vis.T
+    return vis
+
+
+class _ReferencePlanner(Planner):
+    """Shared machinery: the polygonal configuration space and a per-(map, radius) graph cache."""
+
+    def __init__(self, n_sides: int = 64, eps: float = 1e-4) -> None:
+        if int(n_sides) < 8:
+            raise ValueError(f"n_sides must be >= 8, got {n_sides!r}")
+        if not (math.isfinite(eps) and eps >= 0):
+            raise ValueError(f"eps must be a non-negative number of cm, got {eps!r}")
+        self.n_sides = int(n_sides)
+        self.eps = float(eps)
+        self._cache: dict[tuple[int, float], _Graph] = {}
+
+    def _graph(self, problem: PlanningProblem) -> _Graph:
+        key = (id(problem.map), problem.robot_radius)
+        g = self._cache.get(key)
+        if g is None or g.map is not problem.map:
+            g = self._build(problem)
+            self._cache[key] = g
+        return g
+
+    def _build(self, problem: PlanningProblem) -> _Graph:
+        raise NotImplementedError
+
+    def _query_edges(self, checker: CollisionChecker, g: _Graph, start: FloatArray, goal: FloatArray,
+                     mask_start: NDArray[np.bool_] | None = None,
+                     mask_goal: NDArray[np.bool_] | None = None) -> tuple[NDArray[np.bool_], NDArray[np.bool_], bool]:
+        m = len(g.nodes)
+        s_idx = np.flatnonzero(mask_start) if mask_start is not None else np.arange(m)
+        g_idx = np.flatnonzero(mask_goal) if mask_goal is not None else np.arange(m)
+        s_ok = np.zeros(m, dtype=bool)
+        g_ok = np.zeros(m, dtype=bool)
+        if len(s_idx):
+            s_ok[s_idx] = checker.segments_free(np.repeat(start[None], len(s_idx), axis=0), g.nodes[s_idx])
+        if len(g_idx):
+            g_ok[g_idx] = checker.segments_free(g.nodes[g_idx], np.repeat(goal[None], len(g_idx), axis=0))
+        direct = bool(checker.segment_free(start, goal))
+        return s_ok, g_ok, direct
+
+    def _length_tolerance(self, problem: PlanningProblem, path: FloatArray) -> float:
+        big = circumradius(problem.robot_radius, self.n_sides, self.eps)
+        return (big - problem.robot_radius) * (turn_angle(path) + 2.0 * math.pi)
+
+
+class ShortestPathPlanner(_ReferencePlanner):
+    """Shortest path for the disc: visibility graph over the polygonal configuration space's reflex vertices.
+
+    Parameters
+    ----------
+    n_sides : int
+        Sides of the circumscribed polygon that stands in for the robot disc when growing the walls.
+    eps : float
+        Extra clearance (cm) so that boundary edges pass the checker despite rounding.
+
+    Notes
+    -----
+    See the module docstring for the guarantee: ``L* <= length <= L* + info["length_tolerance_cm"]``
+    (to first order), where ``L*`` is the true shortest length.
+    """
+
+    name = "shortest"
+
+    def _build(self, problem: PlanningProblem) -> _Graph:
+        cs = cspace_polygon(problem.map, problem.robot_radius, self.n_sides, self.eps)
+        v, reflex, prv, nxt = polygon_vertices(cs)
+        v, prv, nxt = v[reflex], prv[reflex], nxt[reflex]
+        # an interior vertex of a shortest path is a reflex vertex where the path is tangent
+        vi, wi = v[:, None, :], v[None, :, :]
+        allowed = _tangent(vi, prv[:, None, :], nxt[:, None, :], wi) & _tangent(wi, prv[None], nxt[None], vi)
+        vis = _pairwise_visibility(problem.checker, v, allowed)
+        return _Graph(problem.map, problem.robot_radius, v, vis, {"prev": prv, "next": nxt})
+
+    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+        checker = problem.checker
+        g = self._graph(problem)
+        start, goal = problem.start, problem.goal
+        prv, nxt = g.extra["prev"], g.extra["next"]
+        m = len(g.nodes)
+        s_tan = _tangent(g.nodes, prv, nxt, np.broadcast_to(start, g.nodes.shape))
+        g_tan = _tangent(g.nodes, prv, nxt, np.broadcast_to(goal, g.nodes.shape))
+        s_ok, g_ok, direct = self._query_edges(checker, g, start, goal, s_tan, g_tan)
+        info: dict[str, Any] = {"graph_nodes": m}
+        if direct:
+            path = np.array([start, goal])
+            info["length_tolerance_cm"] = self._length_tolerance(problem, path)
+            return path, "exact", info
+        n = m + 2  # nodes: 0..m-1 vertices, m start, m+1 goal
+        allp = np.vstack([g.nodes, start, goal])
+        w = np.zeros((n, n))
+        iu, ju = np.nonzero(g.visible)
+        w[iu, ju] = np.hypot(*(g.nodes[iu] - g.nodes[ju]).T)
+        si = np.flatnonzero(s_ok)
+        gi = np.flatnonzero(g_ok)
+        w[m, si] = np.hypot(*(g.nodes[si] - start).T)
+        w[gi, m + 1] = np.hypot(*(g.nodes[gi] - goal).T)
+        dist, pred = dijkstra(csr_matrix(w), directed=True, indices=m, return_predecessors=True)
+        if not math.isfinite(dist[m + 1]):
+            return None, "no path", info
+        seq = [m + 1]
+        while seq[-1] != m:
+            seq.append(int(pred[seq[-1]]))
+        path = allp[seq[::-1]]
+        info["length_tolerance_cm"] = self._length_tolerance(problem, path)
+        return path, "exact", info
+
+
+class MinLinkPlanner(_ReferencePlanner):
+    """Fewest straight segments (then shortest) over a dense visibility graph of the configuration space.
+
+    Parameters
+    ----------
+    boundary_spacing : float
+        Spacing (cm) of the nodes placed along the boundary of the polygonal configuration space.
+    grid_spacing : float or None
+        Spacing (cm) of an interior grid of nodes (None: no interior nodes).
+    n_sides, eps
+        As for `ShortestPathPlanner`.
+
+    Notes
+    -----
+    The number of segments is an upper bound on the true minimum (see the module docstring);
+    ``info["links"]`` is the number of segments, ``info["graph_nodes"]`` the node count.
+    """
+
+    name = "min-link"
+
+    def __init__(self, boundary_spacing: float = 5.0, grid_spacing: float | None = 10.0, n_sides: int = 64,
+                 eps: float = 1e-4) -> None:
+        super().__init__(n_sides, eps)
+        if not (math.isfinite(boundary_spacing) and boundary_spacing > 0):
+            raise ValueError(f"boundary_spacing must be a positive number of cm, got {boundary_spacing!r}")
+        if grid_spacing is not None and not (math.isfinite(grid_spacing) and grid_spacing > 0):
+            raise ValueError(f"grid_spacing must be a positive number of cm or None, got {grid_spacing!r}")
+        self.boundary_spacing = float(boundary_spacing)
+        self.grid_spacing = None if grid_spacing is None else float(grid_spacing)
+
+    def _build(self, problem: PlanningProblem) -> _Graph:
+        cs = cspace_polygon(problem.map, problem.robot_radius, self.n_sides, self.eps)
+        v, _, _, _ = polygon_vertices(cs)
+        pts = [v]
+        for poly in getattr(cs, "geoms", [cs]):
+            for ring in (poly.exterior, *poly.interiors):
+                k = max(math.ceil(ring.length / self.boundary_spacing), 3)
+                pts.append(shapely.get_coordinates(
+                    shapely.line_interpolate_point(ring, np.linspace(0.0, 1.0, k, endpoint=False), normalized=True)))
+        if self.grid_spacing is not None and not cs.is_empty:
+            xmin, ymin, xmax, ymax = cs.bounds
+            s = self.grid_spacing
+            gx, gy = np.meshgrid(np.arange(xmin + s / 2, xmax, s), np.arange(ymin + s / 2, ymax, s), indexing="ij")
+            grid = np.column_stack([gx.ravel(), gy.ravel()])
+            pts.append(grid[shapely.contains_xy(cs, grid[:, 0], grid[:, 1])])
+        nodes = np.asarray(np.unique(np.round(np.vstack(pts), 9), axis=0), dtype=np.float64)
+        nodes = nodes[np.asarray(problem.checker.point_free(nodes), dtype=bool)] if len(nodes) else nodes
+        vis = _pairwise_visibility(problem.checker, nodes, np.ones((len(nodes), len(nodes)), dtype=bool))
+        return _Graph(problem.map, problem.robot_radius, nodes, vis, {})
+
+    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+        checker = problem.checker
+        g = self._graph(problem)
+        start, goal = problem.start, problem.goal
+        m = len(g.nodes)
+        info: dict[str, Any] = {"graph_nodes": m}
+        s_ok, g_ok, direct = self._query_edges(checker, g, start, goal)
+        if direct:
+            info["links"] = 1
+            return np.array([start, goal]), "exact", info
+        # fewest hops by breadth-first search over the (fully checked) visibility graph
+        n = m + 2
+        adj = np.zeros((n, n), dtype=bool)
+        adj[:m, :m] = g.visible
+        adj[m, :m] = s_ok
+        adj[:m, m + 1] = g_ok
+        seen = np.zeros(n, dtype=bool)
+        seen[m] = True
+        frontier = seen.copy()
+        hops = 0
+        while frontier.any() and not seen[m + 1]:
+            hops += 1
+            frontier = np.any(adj[frontier], axis=0) & ~seen
+            seen |= frontier
+        if not seen[m + 1]:
+            return None, "no path", info
+        allp = np.vstack([g.nodes, start, goal])
+        diff = allp[:, None, :] - allp[None, :, :]
+        cost = np.where(adj, np.hypot(diff[..., 0], diff[..., 1]), np.inf)
+        _, seq = hop_shortest_path(cost, m, m + 1, hops)
+        info["links"] = hops
+        return allp[seq], "exact", info
