@@ -330,3 +330,13 @@ def test_real_motor_overshoot_and_wheel_slip_are_measured_not_assumed() -> None:
         assert np.max(np.abs(scan.ranges - truth)) < 2.0  # read where the turret really pointed
     finally:
         r.close()
+
+
+def test_pending_i2c_transactions_are_waited_for() -> None:
+    cfg = BrickConfig(time_factor=1000.0, max_step_s=0.01, i2c_pending_polls=2)
+    r = Rig(Pose.from_deg(20.0, 20.0, 90.0), config=cfg)
+    try:
+        assert r.robot.read_sonar() == 85.0
+        assert r.robot.ultrascan(np.radians([90.0])).ranges.tolist() == [20.0]
+    finally:
+        r.close()

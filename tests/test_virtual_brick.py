@@ -350,3 +350,13 @@ def test_real_time_brick_runs_its_motors_while_the_client_is_silent() -> None:
         while world.motors[2].position <= 10.0 and time.monotonic() < deadline:
             time.sleep(0.01)  # no telegram: only the brick's own clock can move the motor
         assert world.motors[2].position > 10.0
+
+
+def test_nxt_python_waits_out_a_pending_bus() -> None:
+    world = _world(config=BrickConfig(time_factor=1000.0, max_step_s=0.01, i2c_pending_polls=3))
+    with BrickServer(world, port=0) as srv, _brick(srv.port) as b:
+        us = nxt.sensor.generic.Ultrasonic(b, nxt.sensor.Port.S4)
+        assert us.get_distance() == 40
+        b.ls_write(nxt.sensor.Port.S4, bytes([0x02, 0x42]), 1)
+        with pytest.raises(nxt.error.I2CPendingError):
+            b.ls_read(nxt.sensor.Port.S4)

@@ -242,6 +242,9 @@ class VirtualBrick:
         inp = self.world.inputs[self._lowspeed_port(t)]
         if inp.status:
             raise _BadTelegram(inp.status)
+        if inp.pending:
+            inp.pending -= 1
+            raise _BadTelegram(Status.PENDING)
         return bytes((len(inp.rx),))
 
     def _ls_read(self, t: bytes) -> bytes:
@@ -249,6 +252,8 @@ class VirtualBrick:
         if inp.status:
             status, inp.status = inp.status, 0
             raise _BadTelegram(status)
+        if inp.pending:
+            raise _BadTelegram(Status.PENDING)
         rx, inp.rx = inp.rx, b""
         return bytes((len(rx),)) + rx.ljust(16, b"\0")
 

@@ -115,6 +115,9 @@ class BrickConfig:
         Whether brick time also advances while no client talks (a server thread ticks the clock every
         few milliseconds), as on a real brick. None: only in real time or slower (time_factor <= 1),
         where scripts that sleep while the motors run expect them to keep turning.
+    i2c_pending_polls : int
+        How many status polls after an I2C read request still answer "transaction pending", as a
+        real bus does for a few milliseconds (0 = the answer is ready at once).
     wheel_slip : float
         Standard deviation of the fraction by which a drive wheel's ground travel differs from its
         tacho count; drawn per wheel for every new motor command (0 = no slip).
@@ -140,6 +143,7 @@ class BrickConfig:
     time_factor: float = 1.0
     max_step_s: float = 0.02
     free_run: bool | None = None
+    i2c_pending_polls: int = 0
     wheel_slip: float = 0.0
     brake_decel_deg_s2: float | None = None
     battery_mv: int = 8000
@@ -158,6 +162,8 @@ class BrickConfig:
                 continue
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise ValueError(f"BrickConfig.{k} must be a positive number, got {v!r}")
+        if not (isinstance(self.i2c_pending_polls, int) and 0 <= self.i2c_pending_polls <= 20):
+            raise ValueError(f"BrickConfig.i2c_pending_polls must be 0..20, got {self.i2c_pending_polls!r}")
         if not (math.isfinite(self.wheel_slip) and 0 <= self.wheel_slip < 0.5):
             raise ValueError(f"BrickConfig.wheel_slip must be in [0, 0.5), got {self.wheel_slip!r}")
         if len(self.name.encode("ascii", "replace")) > 14:
@@ -314,6 +320,7 @@ class InputPort:
     mode: int = 0
     rx: bytes = b""
     status: int = 0
+    pending: int = 0
 
 
 class BrickWorld:
@@ -539,6 +546,7 @@ class BrickWorld:
                 if reg <= US_REG_DISTANCE + 7 and reg + rx_len > US_REG_DISTANCE and us.command == US_CMD_CONTINUOUS:
                     us.store(self.measure_sonar())
                 inp.rx = us.read(reg, rx_len)
+                inp.pending = self.config.i2c_pending_polls
 
     def close(self) -> None:
         """Stop the motors and close the truth log if this world opened it."""
