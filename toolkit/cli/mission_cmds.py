@@ -19,6 +19,10 @@ from .options import parse_floats, parse_pose, parse_xy
 __all__: list[str] = []
 
 
+class MissionFailed(NxtnavError):
+    """The mission ran but did not reach the target (the report says why); exit code 2."""
+
+
 def _planner_names() -> list[str]:
     from planners import PLANNERS
 
@@ -145,7 +149,7 @@ def run(
             animate_mission(report, m, animate)
             typer.echo(f"wrote {animate}")
     if not report.success:
-        raise typer.Exit(1)
+        raise MissionFailed(f"mission failed: {report.status}")
 
 
 def _no_nan(obj: Any) -> Any:
