@@ -132,7 +132,7 @@ def test_registry_and_unknown_names() -> None:
     from toolkit.world import RegistryError
 
     assert {"min-turn", "rrtstar", "prm", "astar", "shortest", "min-link"} <= set(PLANNERS.names())
-    with pytest.raises(RegistryError, match="known: .*min-turn"):
+    with pytest.raises(RegistryError, match=r"known: .*min-turn"):
         make_planner("no-such-planner")
     with pytest.raises(RegistryError, match="RRTConnect"):
         make_planner("ompl:NoSuchPlanner")
