@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import Map, RngLike, as_rng, ray_cast, wrap_angle
@@ -45,6 +46,7 @@ __all__ = [
     "RangeTable",
     "clear_range_table_cache",
     "exact_ranges",
+    "lobe_minimum",
     "range_lattice",
     "range_table",
 ]
@@ -153,6 +155,20 @@ def _default_cache_dir() -> Path | None:
     return None
 
 
+def lobe_minimum(ranges: ArrayLike, beam_width_deg: float) -> NDArray[np.float32]:
+    """Circular minimum over each row's directions within +-beam_width_deg/2 (rows: positions).
+
+    A row holds the ranges along ``n`` evenly spaced directions from one position; the result is
+    what a sonar with that lobe reads if every ray of the lobe echoes (specular loss is not modelled).
+    """
+    r = np.asarray(ranges, dtype=np.float32)
+    n = r.shape[1]
+    half = round(beam_width_deg / 2.0 / (360.0 / n))
+    if half <= 0:
+        return r
+    return np.asarray(scipy.ndimage.minimum_filter1d(r, size=2 * half + 1, axis=1, mode="wrap"), dtype=np.float32)
+
+
 class RangeTable:
     """Precomputed expected ranges on a grid of positions x absolute directions for one map.
 
@@ -161,6 +177,9 @@ class RangeTable:
     n_angles``) is ray cast once from the cell centre. Lookups are nearest-cell, nearest-direction:
     with 1 cm cells and 1-degree directions the table's error is a few millimetres except at range
     discontinuities (corners), and the final refinement of a filter can switch to `exact_ranges`.
+
+    With ``beam_width_deg > 0`` each entry is the smallest range within the lobe around its direction
+    (`lobe_minimum`): a wide sonar such as the NXT's reports the nearest echo in its lobe.
 
     Build it with `range_table` (cached per map and resolution), not directly.
 
@@ -172,11 +191,13 @@ class RangeTable:
     n_angles : int
         Directions per cell.
     ranges : (n_inside, n_angles) float32 ndarray, optional
-        Precomputed table (from the disk cache).
+        Precomputed table of centre-ray ranges (from the disk cache).
+    beam_width_deg : float
+        Full lobe width (0: a thin ray).
     """
 
     def __init__(self, map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
-                 ranges: NDArray[np.float32] | None = None) -> None:
+                 ranges: NDArray[np.float32] | None = None, beam_width_deg: float = 0.0) -> None:
         if not (resolution_cm > 0 and math.isfinite(resolution_cm)):
             raise ValueError(f"resolution_cm must be a positive number, got {resolution_cm!r}")
         if n_angles < 4:
@@ -201,6 +222,9 @@ class RangeTable:
             ranges = np.asarray(ray_cast(map.walls, self.centres, directions), dtype=np.float32)
         if ranges.shape != (self.centres.shape[0], self.n_angles):
             raise ValueError(f"range table shape {ranges.shape} does not match the grid")
+        self.beam_width_deg = float(beam_width_deg)
+        if self.beam_width_deg > 0:
+            ranges = lobe_minimum(ranges, self.beam_width_deg)
         self.ranges = np.ascontiguousarray(ranges, dtype=np.float32)
         self._flat = self.ranges.ravel()
         self._k = self.n_angles / TWO_PI
@@ -311,7 +335,7 @@ def range_lattice(table: RangeTable, step: int = 2, clearance_cm: float = 0.0) -
         return lat
 
 
-_TABLES: dict[tuple[str, float, int], RangeTable] = {}
+_TABLES: dict[tuple[Any, ...], RangeTable] = {}
 _TABLES_LOCK = threading.Lock()
 
 
@@ -322,7 +346,7 @@ def _map_key(map: Map) -> str:
 
 
 def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
-                cache_dir: str | os.PathLike[str] | None = None) -> RangeTable:
+                cache_dir: str | os.PathLike[str] | None = None, beam_width_deg: float = 0.0) -> RangeTable:
     """The `RangeTable` of `map`, built once per process (and per map geometry, resolution, directions).
 
     Parameters
@@ -335,7 +359,18 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
     cache_dir : path, optional
         Folder for a disk cache of the table (``.npy``); default ``$NXTNAV_CACHE_DIR`` when set,
         otherwise memory only. Building takes about 0.5 s for map1 and 3 s for map3.
+    beam_width_deg : float
+        Lobe width (see `RangeTable`); the lobe table is derived from the thin-ray one.
     """
+    if beam_width_deg > 0:
+        base = range_table(map, resolution_cm, n_angles, cache_dir)
+        key_lobe = (_map_key(map), float(resolution_cm), int(n_angles), float(beam_width_deg))
+        with _TABLES_LOCK:
+            lobe = _TABLES.get(key_lobe)
+            if lobe is None:
+                lobe = RangeTable(map, resolution_cm, n_angles, base.ranges, beam_width_deg)
+                _TABLES[key_lobe] = lobe
+            return lobe
     key = (_map_key(map), float(resolution_cm), int(n_angles))
     with _TABLES_LOCK:
         table = _TABLES.get(key)

@@ -165,6 +165,9 @@ class ParticleFilter(Localiser):
         Expected ranges from the precomputed `RangeTable` (fast) or exact ray casting (slow).
     table_resolution_cm, table_angles : float, int
         Cell size and directions of the table.
+    beam_width_deg : float
+        Sonar lobe width for the expected ranges (0: a thin ray, right for the ``ideal`` sonar; about
+        20 for the NXT, whose reading is the nearest echo in its lobe). Table lookups only.
     refine_exact : bool
         Run the last iterations with exact ray casting (removes the table's quantisation).
     cache_dir : path, optional
@@ -208,6 +211,7 @@ class ParticleFilter(Localiser):
         use_table: bool = True,
         table_resolution_cm: float = 1.0,
         table_angles: int = 360,
+        beam_width_deg: float = 0.0,
         refine_exact: bool = False,
         cache_dir: str | None = None,
         snapshot_size: int = 300,
@@ -243,7 +247,7 @@ class ParticleFilter(Localiser):
         self.refine_exact = bool(refine_exact)
         self.snapshot_size = int(snapshot_size)
         self.table: RangeTable | None = (
-            range_table(map, table_resolution_cm, table_angles, cache_dir) if use_table else None
+            range_table(map, table_resolution_cm, table_angles, cache_dir, beam_width_deg) if use_table else None
         )
         if global_init not in ("lattice", "uniform"):
             raise ValueError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")

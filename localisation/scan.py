@@ -43,18 +43,31 @@ PAPER_CENTRES_DEG = (0.0, 90.0, 180.0, 270.0)
 PAPER_WINDOW_DEG = 15.0
 
 
-def min_reading(scan: Scan, min_range_cm: float = 0.0) -> tuple[float, float]:
+def min_reading(scan: Scan, min_range_cm: float = 0.0, tolerance_cm: float = 1.0) -> tuple[float, float]:
     """Direction (rad, relative to the heading) and value (cm) of the smallest valid reading.
 
-    Readings below `min_range_cm` (unreliable on the NXT) are ignored. Returns ``(0.0, inf)`` when
-    the scan has no usable reading.
+    A wide sonar lobe reads the same perpendicular distance over several degrees; the direction
+    returned is the middle of the run of consecutive readings within `tolerance_cm` of the minimum
+    around it (the wall normal), not the run's first reading. Readings below `min_range_cm`
+    (unreliable on the NXT) are ignored. Returns ``(0.0, inf)`` when the scan has no usable reading.
     """
     ok = scan.valid & np.isfinite(scan.ranges) & (scan.ranges >= min_range_cm)
     if not ok.any():
         return 0.0, math.inf
     r = np.where(ok, scan.ranges, np.inf)
     k = int(np.argmin(r))
-    return float(angle_diff(scan.angles[k], 0.0)), float(r[k])
+    low = r <= r[k] + tolerance_cm
+    n = r.size
+    lo = hi = 0
+    while lo < n - 1 and low[(k - lo - 1) % n]:
+        lo += 1
+    while hi < n - 1 - lo and low[(k + hi + 1) % n]:
+        hi += 1
+    if lo + hi >= n - 1:  # the whole sweep is flat: keep the argmin
+        return float(angle_diff(scan.angles[k], 0.0)), float(r[k])
+    a0 = scan.angles[(k - lo) % n]
+    span = angle_diff(scan.angles[(k + hi) % n], a0)
+    return float(angle_diff(a0 + 0.5 * span, 0.0)), float(r[k])
 
 
 @dataclass(frozen=True)
