@@ -145,3 +145,15 @@ def test_calibrate_rejects_nonsense(served: tuple[BrickServer, io.StringIO], tmp
     assert result.exit_code != 0
     assert "measured distance must be a positive number" in str(result.exception)
     assert not (tmp_path / "p.yaml").exists()
+
+
+def test_nxt_check_names_a_silent_sensor_port(served: tuple[BrickServer, io.StringIO], tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    server, _ = served
+    profile = NxtProfile(sonar_port=1).save(tmp_path / "wrong-port.yaml")  # the sensor is on port 4
+    code = _exit_code(["nxt", "check", "--nxt-backend", "socket", "--server-port", str(server.port),
+                       "--profile", str(profile)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "the ultrasonic sensor on port 1 does not answer" in err and "sonar_port" in err
+    assert server.clients == 1 and not server.world.moving
