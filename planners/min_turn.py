@@ -143,6 +143,8 @@ class MinTurnPlanner(Planner):
                                        info, direct_known_blocked=True)
             if found is not None:
                 return found, "exact", info
+        if self.max_rounds is not None and rounds >= self.max_rounds:
+            return None, "no path in max_rounds", info
         return None, "timeout", info
 
 
