@@ -1,10 +1,7 @@
 """The `nxtnav` command line. Each command group lives in its own module and registers on import."""
 
-from . import localise_cmds  # noqa: F401  (registers localise/bench localisers)
-from . import mission_cmds  # noqa: F401  (registers run/paper)
-from . import nxt_cmds  # noqa: F401  (registers brick serve, nxt check/calibrate)
-from . import plan_cmds  # noqa: F401  (registers plan and bench planners)
-from . import world_cmds  # noqa: F401  (registers maps/scan/bench world)
+# imported for their side effect: each module adds its commands to the Typer app
+from . import localise_cmds, mission_cmds, nxt_cmds, plan_cmds, world_cmds  # noqa: F401
 from .app import app, main
 
 __all__ = ["app", "main"]
