@@ -1,0 +1,92 @@
+"""Motion and measurement models: simulator semantics, range table, FFT lattice, log-space likelihood."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from localisation.base import Motion
+from localisation.models import MotionModel, RangeLikelihood, exact_ranges, range_lattice, range_table
+from localisation.resampling import log_normalise
+from toolkit.robots.sim import MotionNoise, SimRobot
+from toolkit.world import Pose, angle_diff, load_map
+
+
+@pytest.mark.parametrize("model,motion,turn", [("botsim", 0.1, 0.005), ("absolute", 0.5, 0.02)])
+def test_motion_model_matches_simulator(model: str, motion: float, turn: float) -> None:
+    """Sampled end poses have the simulator's spread (independent ground truth: SimRobot)."""
+    m = load_map("map1")
+    start = Pose(30.0, 80.0, 0.3)
+    act = Motion(turn_rad=-0.8, distance_cm=25.0)
+    sim_end = []
+    robot = SimRobot(m, start, noise=MotionNoise(model, motion, turn), rng=1)  # type: ignore[arg-type]
+    for _ in range(400):
+        robot.teleport(start)
+        robot.turn(act.turn_rad)
+        robot.move(act.distance_cm)
+        sim_end.append(robot.true_pose.as_array())
+    sim = np.array(sim_end)
+    mm = MotionModel(model, motion, turn)
+    ours = mm.sample(np.tile(start.as_array(), (4000, 1)), act, rng=2)
+    for k in range(2):
+        assert abs(ours[:, k].mean() - sim[:, k].mean()) < 0.5
+        assert ours[:, k].std() == pytest.approx(sim[:, k].std(), rel=0.2)
+    dth_o = angle_diff(ours[:, 2], start.theta + act.turn_rad)
+    dth_s = angle_diff(sim[:, 2], start.theta + act.turn_rad)
+    assert np.std(dth_o) == pytest.approx(np.std(dth_s), rel=0.2)
+    # the linearised covariance agrees with the samples
+    cov = mm.covariance(start.as_array(), act)
+    assert math.sqrt(cov[0, 0] + cov[1, 1]) == pytest.approx(math.sqrt(ours[:, 0].var() + ours[:, 1].var()), rel=0.15)
+
+
+def test_motion_model_rejects_unknown_noise_model() -> None:
+    with pytest.raises(ValueError, match="noise model"):
+        MotionModel("gaussian")
+
+
+@pytest.mark.parametrize("name", ["map1", "map3"])
+def test_range_table_agrees_with_ray_casting(name: str) -> None:
+    m = load_map(name)
+    table = range_table(m)
+    rng = np.random.default_rng(0)
+    xy = m.sample_free(200, 8.0, rng)
+    poses = np.column_stack([xy, rng.uniform(-math.pi, math.pi, 200)])
+    rel = np.radians(np.arange(0, 360, 7.0))
+    got, inside = table.lookup(poses, rel)
+    exact = exact_ranges(m, poses, rel)
+    assert inside.all()
+    err = np.abs(got - exact)
+    assert np.median(err) < 0.6  # nearest cell (1 cm) and nearest degree
+    assert np.mean(err < 3.0) > 0.97  # large errors only at range discontinuities (corners)
+
+
+def test_lattice_ssd_equals_direct_sum() -> None:
+    m = load_map("map2")
+    table = range_table(m)
+    lat = range_lattice(table, step=3, clearance_cm=5.0)
+    rng = np.random.default_rng(1)
+    rel = np.radians(rng.choice(360, size=50, replace=False).astype(float))
+    meas = rng.uniform(5, 80, size=50)
+    ssd = lat.ssd(rel, meas)
+    for _ in range(20):
+        c, h = int(rng.integers(len(lat))), int(rng.integers(360))
+        pose = np.array([[*lat.xy[c], math.radians(h)]])
+        e, _ = table.lookup(pose, rel)
+        assert ssd[c, h] == pytest.approx(float(np.sum((e[0] - meas) ** 2)), rel=1e-6, abs=1e-3)
+
+
+def test_log_space_weights_survive_360_beams() -> None:
+    lik = RangeLikelihood(sigma_cm=1.0, cap=5.0)
+    meas = np.full(360, 50.0)
+    expected = np.vstack([np.full(360, 53.0), np.full(360, 53.2), np.full(360, 80.0)])
+    ll = lik.log_likelihood(expected, meas)
+    assert np.all(np.isfinite(ll))
+    assert np.all(np.exp(ll) == 0.0)  # the likelihoods themselves underflow...
+    w = log_normalise(ll)  # ...but the normalised weights are exact
+    assert w.sum() == pytest.approx(1.0)
+    assert w[0] == pytest.approx(1.0) and w[1] > 0.0
+    assert w[1] == pytest.approx(math.exp(ll[1] - ll[0]), rel=1e-9)
+    # the cap bounds one beam's cost
+    assert ll[2] == pytest.approx(-0.5 * 360 * 25.0)
