@@ -93,7 +93,7 @@ def test_update_with_360_raw_beams_stays_finite() -> None:
 def test_kidnapped_robot_recovers() -> None:
     m = load_map("map1")
     robot = SimRobot(m, Pose(25.0, 25.0, 0.0), rng=4)
-    loc = make_localiser("paper-pf", m, rng=4)
+    loc = ParticleFilter(m, rng=4)
     assert localise(robot, loc, rng=4).converged
     robot.teleport(Pose(80.0, 85.0, 2.0))
     res = localise(robot, loc, rng=4, reset=False)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -16,7 +19,7 @@ SCHEMES = ("systematic", "stratified", "multinomial", "residual")
 WEIGHTS = np.array([0.31, 0.02, 0.17, 0.0, 0.123, 0.077, 0.2, 0.1])
 
 
-def _mean_copies(draw, n: int, reps: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+def _mean_copies(draw: Callable[[], np.ndarray], n: int, reps: int) -> np.ndarray:
     total = np.zeros(WEIGHTS.size)
     for _ in range(reps):
         idx = draw()
@@ -56,7 +59,7 @@ def test_filterpy_residual_resample_is_biased_and_workaround_is_not() -> None:
     """Upstream issue 290: the remainder is drawn from w - floor(N w) instead of N w - floor(N w)."""
     w = np.array([0.35, 0.35, 0.3])  # N w = 1.05, 1.05, 0.9: one copy each of 0 and 1, the third draw
     reps = 2000                      # should be particle 2 with probability 0.9
-    np.random.seed(0)  # filterpy draws from the global state (defect 3); seeded for a stable demonstration
+    np.random.seed(0)  # noqa: NPY002 - filterpy draws from the global state (defect 3)
     raw = np.mean([np.bincount(fp.residual_resample(w), minlength=3) for _ in range(reps)], axis=0)
     fixed = np.mean([np.bincount(filterpy_resample("residual", w, rng=np.random.default_rng(k)), minlength=3)
                      for k in range(reps)], axis=0)
@@ -81,15 +84,15 @@ def test_filterpy_global_rng_is_replaced_by_ours(scheme: str) -> None:
     # the defect: filterpy's output follows numpy's global state
     outs = []
     for seed in (1, 1, 2, 3, 4, 5):
-        np.random.seed(seed)
+        np.random.seed(seed)  # noqa: NPY002 - the defect under test
         outs.append(np.asarray(FP[scheme](w)))
     assert np.array_equal(outs[0], outs[1])
     assert any(not np.array_equal(outs[0], o) for o in outs[2:])
     # the workaround: the global state is neither used nor advanced; our seed decides
-    state = np.random.get_state()
+    state: Any = np.random.get_state()  # noqa: NPY002
     a = filterpy_resample(scheme, w, rng=5)
     b = filterpy_resample(scheme, w, rng=5)
-    after = np.random.get_state()
+    after: Any = np.random.get_state()  # noqa: NPY002
     assert np.array_equal(a, b)
     assert np.array_equal(state[1], after[1]) and state[2] == after[2]
     assert fp.random is np.random.random  # the module is restored
