@@ -128,7 +128,7 @@ def test_cspace_polygon_lies_inside_the_true_cspace(map_name: str) -> None:
     # and it contains the true c-space of the circumscribed radius (points with clearance >= R')
     pts = m.sample_free(2000, clearance=big + 1e-6, rng=0)
     assert np.all(shapely.covers(cs, shapely.points(pts)))
-    v, reflex, _, _ = polygon_vertices(cs)
+    _, reflex, _, _ = polygon_vertices(cs)
     assert reflex.any() and not reflex.all()
 
 
