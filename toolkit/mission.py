@@ -207,6 +207,8 @@ class TraceStep:
         The robot's clock after the action (s).
     note : str
         Free text (planner status, localisation result, ...).
+    spread_cm : float or None
+        The estimate's position spread (root of the summed x and y variances, cm).
     """
 
     action: str
@@ -217,10 +219,12 @@ class TraceStep:
     watchdog: bool = False
     robot_time_s: float = 0.0
     note: str = ""
+    spread_cm: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "action": self.action,
+            "spread_cm": self.spread_cm,
             "estimate": None if self.estimate is None else self.estimate.to_list_deg(),
             "true_pose": None if self.true_pose is None else self.true_pose.to_list_deg(),
             "turn_deg": math.degrees(self.turn_rad),
@@ -337,6 +341,13 @@ class MissionReport:
     def estimates(self) -> FloatArray:
         """(n, 3) estimated poses [x, y, theta] recorded along the trace."""
         pts = [s.estimate.as_array() for s in self.trace if s.estimate is not None]
+        return np.array(pts).reshape(-1, 3)
+
+    def confident_estimates(self, max_spread_cm: float = 5.0) -> FloatArray:
+        """(n, 3) estimated poses whose position spread is under `max_spread_cm` (ambiguous global
+        beliefs left out: their mean lies between the candidate places)."""
+        pts = [s.estimate.as_array() for s in self.trace if s.estimate is not None
+               and (s.spread_cm is None or s.spread_cm <= max_spread_cm)]
         return np.array(pts).reshape(-1, 3)
 
     def summary(self) -> str:
@@ -471,7 +482,9 @@ class _Mission:
 
     def record(self, action: str, **kw: Any) -> None:
         est = self.estimate.pose if self.estimate is not None else None
-        self.trace.append(TraceStep(action, est, self.true_pose(), robot_time_s=float(self.robot.robot_time_s), **kw))
+        spread = self.estimate.std_xy_cm if self.estimate is not None else None
+        self.trace.append(TraceStep(action, est, self.true_pose(), robot_time_s=float(self.robot.robot_time_s),
+                                    spread_cm=spread, **kw))
 
     def _count_action(self) -> None:
         self.actions += 1

@@ -45,7 +45,7 @@ def draw_mission(report: MissionReport, m: Map, ax: Axes | None = None, radius: 
         else:
             out.extend(ax.plot(path[:, 0], path[:, 1], "--", color="tab:red", lw=1, alpha=0.6,
                                label="re-planned" if i == 1 else None, zorder=5))
-    est = report.estimates
+    est = report.confident_estimates()
     if len(est):
         out.append(ax.scatter(est[:, 0], est[:, 1], s=10, c="tab:purple", zorder=6, label="estimates"))
     traj = report.true_trajectory
@@ -62,7 +62,7 @@ def draw_mission(report: MissionReport, m: Map, ax: Axes | None = None, radius: 
                  f"{'reached' if report.success else 'failed'}, final error {err}, "
                  f"{report.path_length_cm:.0f} cm driven, {report.collisions} collisions", fontsize=9)
     if legend:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=4, fontsize=7, frameon=False)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.26), ncol=4, fontsize=7, frameon=False)
     return out
 
 
@@ -117,7 +117,8 @@ def animate_mission(report: MissionReport, m: Map, path: str | Path, radius: flo
             a = np.array(pts)
             traj_line.set_data(a[:, 0], a[:, 1])
             robot_circle.center = (a[-1, 0], a[-1, 1])
-        ests = np.array([s.estimate.xy for s in steps[: k + 1] if s.estimate is not None]).reshape(-1, 2)
+        ests = np.array([s.estimate.xy for s in steps[: k + 1] if s.estimate is not None
+                         and (s.spread_cm is None or s.spread_cm <= 5.0)]).reshape(-1, 2)
         est_dots.set_offsets(ests)
         n_plans = sum(1 for p in plan_steps if p <= k)
         if n_plans and n_plans <= len(report.plans):
