@@ -45,7 +45,14 @@ from toolkit.world import (
 from .base import make_localiser
 from .scan import ScanProcessing, min_reading, process_scan, raw_scan
 
-__all__ = ["ReadingStats", "ScanProcessingComparison", "VariantStats", "compare_scan_processing"]
+__all__ = [
+    "ReadingStats",
+    "ScanProcessingComparison",
+    "SingleScanBenchmark",
+    "VariantStats",
+    "compare_scan_processing",
+    "single_scan_benchmark",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -258,4 +265,107 @@ def compare_scan_processing(
         raw=stats["raw"],
         processed=stats["processed"],
         errors_cm=errors,
+    )
+
+
+@dataclass(frozen=True)
+class SingleScanBenchmark:
+    """Global localisation from one processed scan per random pose (see `single_scan_benchmark`).
+
+    Attributes
+    ----------
+    map, localiser, sonar : str, str, dict
+    n_poses : int
+    success_rate : float
+        Fraction within `success_cm` and `success_deg`.
+    median_time_s, p90_time_s : float
+        Wall-clock time of ``reset()`` + ``update(scan)`` (the range table is built beforehand).
+    median_error_cm, median_heading_error_deg : float
+    converged_rate : float
+        Fraction the localiser reported as converged (ambiguous twins are not).
+    errors_cm, heading_errors_deg, times_s : tuple of float
+        Per pose, in pose order.
+    """
+
+    map: str
+    localiser: str
+    sonar: dict[str, Any]
+    n_poses: int
+    seed: int | None
+    success_cm: float
+    success_deg: float
+    success_rate: float
+    converged_rate: float
+    median_time_s: float
+    p90_time_s: float
+    median_error_cm: float
+    median_heading_error_deg: float
+    errors_cm: tuple[float, ...] = field(repr=False, default=())
+    heading_errors_deg: tuple[float, ...] = field(repr=False, default=())
+    times_s: tuple[float, ...] = field(repr=False, default=())
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def single_scan_benchmark(
+    map: Map,
+    *,
+    n_poses: int = 100,
+    localiser: str = "paper-pf",
+    localiser_options: dict[str, Any] | None = None,
+    sonar: str | SonarModel = "ideal",
+    sonar_options: dict[str, Any] | None = None,
+    processing: ScanProcessing | None = None,
+    clearance_cm: float = 8.0,
+    success_cm: float = 2.0,
+    success_deg: float = 3.0,
+    rng: RngLike = None,
+) -> SingleScanBenchmark:
+    """Time and score global localisation from one processed 360-degree scan on random poses.
+
+    For each pose: sweep, turn toward the minimum reading (exactly), sweep again, process (the
+    paper's windows), then time ``reset()`` and one ``update(scan)`` of the localiser. The
+    localiser (and its range table) is built once before the first pose.
+    """
+    gen = as_rng(rng)
+    seed = rng if isinstance(rng, int) else None
+    model = make_sonar(sonar, **(sonar_options or {})) if isinstance(sonar, str) else sonar
+    settings = processing or ScanProcessing()
+    loc = make_localiser(localiser, map, rng=gen, **(localiser_options or {}))
+    angles = default_scan_angles()
+    xy = map.sample_free(n_poses, clearance_cm, gen)
+    headings = gen.uniform(-math.pi, math.pi, n_poses)
+    errs, herrs, times, conv = [], [], [], []
+    for (x, y), th in zip(xy, headings, strict=True):
+        first = _sweep(map, model, Pose(x, y, th), angles, gen)
+        a_min, _ = min_reading(first, settings.min_range_cm)
+        truth = Pose(x, y, th + a_min)
+        scan = process_scan(_sweep(map, model, truth, angles, gen), settings).scan
+        t0 = time.perf_counter()
+        loc.reset()
+        loc.update(scan)
+        est = loc.estimate()
+        times.append(time.perf_counter() - t0)
+        errs.append(est.pose.distance_to(truth))
+        herrs.append(abs(math.degrees(angle_diff(est.pose.theta, truth.theta))))
+        conv.append(est.converged)
+    e, h, t = np.array(errs), np.array(herrs), np.array(times)
+    return SingleScanBenchmark(
+        map=map.name,
+        localiser=localiser,
+        sonar=model.to_dict(),
+        n_poses=n_poses,
+        seed=seed,
+        success_cm=success_cm,
+        success_deg=success_deg,
+        success_rate=float(np.mean((e <= success_cm) & (h <= success_deg))),
+        converged_rate=float(np.mean(conv)),
+        median_time_s=float(np.median(t)),
+        p90_time_s=float(np.percentile(t, 90)),
+        median_error_cm=float(np.median(e)),
+        median_heading_error_deg=float(np.median(h)),
+        errors_cm=tuple(float(v) for v in e),
+        heading_errors_deg=tuple(float(v) for v in h),
+        times_s=tuple(float(v) for v in t),
     )

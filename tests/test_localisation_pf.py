@@ -145,3 +145,12 @@ def test_trackers_follow_a_scripted_drive(name: str) -> None:
         d, h = _errors(loc.estimate().pose, robot.true_pose)
         worst_d, worst_h = max(worst_d, d), max(worst_h, h)
     assert worst_d < 3.0 and worst_h < 5.0, (worst_d, worst_h)
+
+
+def test_single_scan_benchmark_small() -> None:
+    from localisation.evaluation import single_scan_benchmark
+
+    b = single_scan_benchmark(load_map("map1"), n_poses=5, rng=2)
+    assert b.n_poses == 5 and len(b.times_s) == 5
+    assert b.success_rate == 1.0 and b.median_error_cm < 2.0
+    assert b.to_dict()["localiser"] == "paper-pf"
