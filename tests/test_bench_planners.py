@@ -235,10 +235,14 @@ def test_force_overwrites(tmp_path: Path) -> None:
     out = tmp_path / "o"
     out.mkdir()
     (out / "old.txt").write_text("x")
+    (out / "ompl").mkdir()
+    (out / "ompl" / "map1-presets.log").write_text("an earlier benchmark")
     assert run(["bench", "planners", "--maps", "map2", "--planners", "min-turn", "--runs", "1", "--out", str(out),
                 "--force", "--exec-repeats", "0", "--no-plots"]) == 0
     rows = read_runs(out / "runs.csv")
     assert len(rows) == 1 and rows[0]["exec_error_cm"] == ""
+    assert (out / "old.txt").read_text() == "x"  # not ours: left alone
+    assert sorted(p.name for p in (out / "ompl").iterdir()) == ["map2-presets.log"]
 
 
 def test_config_validation() -> None:

@@ -743,6 +743,9 @@ def write_results(result: BenchmarkResult, out: str | Path, *, plots: bool = Tru
     files["config"].write_text(json.dumps({"config": c.to_dict(), "started": result.started.isoformat(),
                                            "total_time_s": result.total_time_s}, indent=1), encoding="utf-8")
     write_ompl_log(files["ompl_log"], _ompl_experiment(result, c.maps, f"nxtnav-planners-{c.queries}"))
+    for stale in (d / "ompl").glob("*.log"):  # per-map logs of an earlier benchmark (--force) would mix in
+        if stale.stem.endswith(("-presets", "-random")):
+            stale.unlink()
     for m in c.maps:
         key = f"ompl_{m}"
         files[key] = write_ompl_log(d / "ompl" / f"{Path(m).stem}-{c.queries}.log",
