@@ -173,3 +173,18 @@ def test_no_path_when_the_cspace_is_split() -> None:
     for name in ("shortest", "min-link"):
         res = make_planner(name).plan(PlanningProblem(m, checker, [40, 50], [160, 50], 5.0, 0))
         assert not res.success and res.status == "no path"
+
+
+@pytest.mark.parametrize("map_name", ["map2", "map3"])
+def test_two_links_are_impossible_on_maps_2_and_3(map_name: str) -> None:
+    """No point of a 1 cm grid sees both start and target, so min-link's 3 segments are the minimum."""
+    m = load_map(map_name)
+    checker = CollisionChecker(m, R)
+    xmin, ymin, xmax, ymax = m.bounds
+    gx, gy = np.meshgrid(np.arange(xmin, xmax, 1.0), np.arange(ymin, ymax, 1.0), indexing="ij")
+    grid = np.column_stack([gx.ravel(), gy.ravel()])
+    grid = grid[m.is_free(grid, R)]
+    seen = grid[checker.segments_free(np.repeat(m.start[None], len(grid), axis=0), grid)]
+    assert len(seen) > 100
+    both = checker.segments_free(seen, np.repeat(m.target[None], len(seen), axis=0))
+    assert not both.any()
