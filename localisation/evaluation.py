@@ -285,6 +285,10 @@ class SingleScanBenchmark:
         Fraction the localiser reported as converged (ambiguous twins are not).
     errors_cm, heading_errors_deg, times_s : tuple of float
         Per pose, in pose order.
+    converged : tuple of bool
+        Per pose, whether the localiser reported convergence.
+    truths : tuple of (x, y, heading_deg)
+        The true (turned) poses.
     """
 
     map: str
@@ -303,6 +307,15 @@ class SingleScanBenchmark:
     errors_cm: tuple[float, ...] = field(repr=False, default=())
     heading_errors_deg: tuple[float, ...] = field(repr=False, default=())
     times_s: tuple[float, ...] = field(repr=False, default=())
+    converged: tuple[bool, ...] = field(repr=False, default=())
+    truths: tuple[tuple[float, float, float], ...] = field(repr=False, default=())
+
+    @property
+    def success_or_flagged_rate(self) -> float:
+        """Fraction that succeeded or that the localiser flagged as not converged (ambiguous)."""
+        ok = [(e <= self.success_cm and h <= self.success_deg) or not c
+              for e, h, c in zip(self.errors_cm, self.heading_errors_deg, self.converged, strict=True)]
+        return float(np.mean(ok)) if ok else math.nan
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -337,6 +350,7 @@ def single_scan_benchmark(
     xy = map.sample_free(n_poses, clearance_cm, gen)
     headings = gen.uniform(-math.pi, math.pi, n_poses)
     errs, herrs, times, conv = [], [], [], []
+    truths: list[tuple[float, float, float]] = []
     for (x, y), th in zip(xy, headings, strict=True):
         first = _sweep(map, model, Pose(x, y, th), angles, gen)
         a_min, _ = min_reading(first, settings.min_range_cm)
@@ -349,7 +363,8 @@ def single_scan_benchmark(
         times.append(time.perf_counter() - t0)
         errs.append(est.pose.distance_to(truth))
         herrs.append(abs(math.degrees(angle_diff(est.pose.theta, truth.theta))))
-        conv.append(est.converged)
+        conv.append(bool(est.converged))
+        truths.append((truth.x, truth.y, truth.heading_deg))
     e, h, t = np.array(errs), np.array(herrs), np.array(times)
     return SingleScanBenchmark(
         map=map.name,
@@ -368,4 +383,6 @@ def single_scan_benchmark(
         errors_cm=tuple(float(v) for v in e),
         heading_errors_deg=tuple(float(v) for v in h),
         times_s=tuple(float(v) for v in t),
+        converged=tuple(conv),
+        truths=tuple(truths),
     )
