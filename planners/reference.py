@@ -31,16 +31,15 @@ between radii); any collision-free path is at least ``L - length_tolerance_cm`` 
 approximation can also close a passage whose width lies between ``2 r`` and ``2 R`` (a window of
 0.02 cm with the defaults); ``shortest`` then reports no path or a longer one.
 
-``min-link``: the fewest segments over the graph whose nodes are start, goal, every vertex of the
-approximation, points along its boundary every ``boundary_spacing`` cm and an interior grid every
-``grid_spacing`` cm, all validated with the checker; among the paths with that many segments, the
-shortest (exact over that graph). The true minimum number of links may bend at points that are in
-none of these sets, so the link count is an *upper bound* on the true minimum (exact whenever it is 1
-or 2 segments: 1 is a direct check; for 2 the bend must see both ends, and the bound is exact when
-the visible regions' intersection contains a node, which the dense nodes make very likely), and
-the length is that of the shortest among the graph's min-link paths, then shortened by moving the
-bends (`shorten_bends`, a local pattern search validated by the checker): an upper bound on the
-shortest length among all min-link paths, not necessarily equal to it.
+``min-link``: the fewest segments over the graph whose nodes are start, goal, the corners of the
+approximation (vertices turning by more than 10 degrees), points along its boundary every
+``boundary_spacing`` cm and an interior grid every ``grid_spacing`` cm, every pair checked with the
+checker; among the graph's paths with that many segments, the shortest; then its bends are moved to
+shorten it (`shorten_bends`, a pattern search validated by the checker; the number of segments
+stays). Exact: the answer for that graph, and the true minimum whenever it is 1 segment (a direct
+check). Approximate: a true minimum-link path may bend at points that are not nodes, so the segment
+count is an *upper bound* on the true minimum, and the length an upper bound on the shortest
+minimum-link length.
 
 Graphs over the map's nodes are cached per (map, radius) in the planner instance, so only the
 start and goal edges are checked for later queries on the same map (the reported collision checks
@@ -168,6 +167,7 @@ def _pairwise_visibility(checker: CollisionChecker, nodes: FloatArray, allowed: 
     return vis
 
 
+_CORNER_DEG = 10.0  # vertices turning more than this are min-link nodes
 _DIRECTIONS = np.array([[math.cos(a), math.sin(a)] for a in np.arange(8) * math.pi / 4])
 
 
@@ -342,8 +342,11 @@ class MinLinkPlanner(_ReferencePlanner):
 
     def _build(self, problem: PlanningProblem) -> _Graph:
         cs = cspace_polygon(problem.map, problem.robot_radius, self.n_sides, self.eps)
-        v, _, _, _ = polygon_vertices(cs)
-        pts = [v]
+        v, _, prv, nxt = polygon_vertices(cs)
+        # corners of the polygonal space; the short edges approximating arcs add nothing over boundary points
+        a, b = v - prv, nxt - v
+        turn = np.abs(np.arctan2(_cross(a, b), np.einsum("ij,ij->i", a, b)))
+        pts = [v[turn > math.radians(_CORNER_DEG)]]
         for poly in getattr(cs, "geoms", [cs]):
             for ring in (poly.exterior, *poly.interiors):
                 k = max(math.ceil(ring.length / self.boundary_spacing), 3)

@@ -18,13 +18,14 @@ from toolkit.world import CollisionChecker, Map, load_map, map_from_dict
 RADIUS = 8.0
 MAPS = ("map1", "map2", "map3", "pillars")
 PLANNER_NAMES = (*PLANNERS.names(), "ompl:RRTConnect")
-OMPL_BUDGET = 0.2  # s: small, the tests check validity, not quality
+OMPL_BUDGET = 0.5  # s for planners that use their whole budget: the tests check validity, not quality
 
 
 def _budget(name: str) -> float:
-    if name == "prm":  # PRM's solution check runs in a thread that can starve on a loaded machine
-        return 3 * OMPL_BUDGET
-    return OMPL_BUDGET if name == "rrtstar" or name.startswith("ompl:") else 5.0
+    """Planning budget of a test query (s): generous where the planner stops at its first solution."""
+    if name in ("rrtstar", "prm", "ompl:BITstar"):
+        return OMPL_BUDGET
+    return 5.0  # min-turn, astar, the references and RRTConnect stop as soon as they are done
 
 
 _MAPS: dict[str, Map] = {}
@@ -123,7 +124,7 @@ def test_goal_behind_a_narrow_door_fails_cleanly(planner: str) -> None:
     assert isinstance(res.status, str) and res.status and res.status != "exact"
     assert res.path.shape == (0, 2)
     # the same map with the door in reach: a path through the room on the start side works
-    ok = make_planner(planner).plan(PlanningProblem(m, checker, m.start, [60, 80], min(5 * _budget(planner), 1.0), 3))
+    ok = make_planner(planner).plan(PlanningProblem(m, checker, m.start, [60, 80], 2 * _budget(planner), 3))
     assert ok.success
     assert_path_valid(m, ok.path, m.start, np.array([60.0, 80.0]))
 
