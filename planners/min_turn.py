@@ -292,10 +292,12 @@ def _round(checker: CollisionChecker, nodes: FloatArray, max_intermediate: int, 
             return None
     return None
 
+
 def _set(status: NDArray[np.int8], ia: NDArray[np.intp], ib: NDArray[np.intp], ok: NDArray[np.bool_]) -> None:
     val = np.where(ok, _FREE, _BLOCKED).astype(np.int8)
     status[ia, ib] = val
     status[ib, ia] = val
+
 
 def _walk(checker: CollisionChecker, nodes: FloatArray, status: NDArray[np.int8], cand: NDArray[np.intp],
           deadline: float, info: dict[str, Any]) -> NDArray[np.intp] | None:
@@ -315,12 +317,15 @@ def _walk(checker: CollisionChecker, nodes: FloatArray, status: NDArray[np.int8]
                 return win[alive[0]]
             head = alive[:_BATCH]
             edges = win[head][st[head] == _UNKNOWN]
-            edges = np.unique(np.sort(edges, axis=1), axis=0)
+            n = len(status)
+            code = np.unique(np.minimum(edges[:, 0], edges[:, 1]) * n + np.maximum(edges[:, 0], edges[:, 1]))
+            edges = np.stack([code // n, code % n], axis=1)
             ok = checker.segments_free(nodes[edges[:, 0]], nodes[edges[:, 1]])
             info["segments_checked"] += len(edges)
             _set(status, edges[:, 0], edges[:, 1], ok)
         pos += _WINDOW
     return None
+
 
 def _lazy_dp(checker: CollisionChecker, nodes: FloatArray, length: FloatArray, status: NDArray[np.int8], k: int,
              deadline: float, info: dict[str, Any]) -> list[int] | None:
