@@ -555,6 +555,10 @@ def _fmt(v: float, spec: str) -> str:
     return "–" if v is None or not math.isfinite(v) else format(v, spec)
 
 
+def _pct(v: float) -> str:
+    return "–" if v is None or not math.isfinite(v) else f"{100 * v:.0f}%"
+
+
 def format_summary(result: BenchmarkResult) -> str:
     """``summary.md``: the settings, then one Markdown table per map."""
     c = result.config
@@ -591,10 +595,10 @@ def format_summary(result: BenchmarkResult) -> str:
                   "|---|---:|---:|---:|---:|---:|---:|---:|"]
         for row in summary[m]:
             lines.append(
-                f"| {row['planner']} | {_fmt(100 * row['success_rate'], '.0f')}% | "
+                f"| {row['planner']} | {_pct(row['success_rate'])} | "
                 f"{_fmt(1e3 * row['median_time_s'], '.2f')} | {_fmt(row['median_length_ratio'], '.3f')} | "
                 f"{_fmt(row['median_turns'], 'g')} | {_fmt(row['median_exec_error_cm'], '.2f')} | "
-                f"{_fmt(100 * row['median_exec_collision_fraction'], '.0f')}% | "
+                f"{_pct(row['median_exec_collision_fraction'])} | "
                 f"{_fmt(row['median_collision_checks'], '.0f')} |")
     return "\n".join(lines) + "\n"
 
