@@ -176,6 +176,7 @@ def test_refuses_a_non_empty_out_folder(bench_dir: Path, capsys: pytest.CaptureF
     ("args", "needle"),
     [
         (["--planners", "min-turn,no-such-planner"], "no-such-planner"),
+        (["--planners", "ompl:NoSuchPlanner"], "NoSuchPlanner"),
         (["--maps", "map1,nowhere"], "nowhere"),
         (["--queries", "sometimes"], "--queries"),
         (["--time-limit", "0"], "time limit"),
@@ -194,7 +195,7 @@ def test_bench_bad_inputs_exit_2_with_one_line(args: list[str], needle: str, tmp
     err = capsys.readouterr().err.strip()
     assert code == 2
     assert len(err.splitlines()) == 1 and needle in err, err
-    assert not (tmp_path / "o" / "runs.csv").exists()
+    assert not (tmp_path / "o").exists()
 
 
 def test_random_queries_are_free_connected_and_seeded() -> None:

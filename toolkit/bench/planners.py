@@ -100,12 +100,17 @@ def known_planners() -> list[str]:
     return PLANNERS.names()
 
 
-def check_planner_names(names: Iterable[str]) -> None:
+def check_planner_names(names: Sequence[str]) -> None:
     """Raise `PlanningError` for a name that is neither registered nor ``ompl:NAME``."""
     known = known_planners()
     bad = [n for n in names if n not in known and not (n.startswith("ompl:") and len(n) > 5)]
     if bad:
         raise PlanningError(f"unknown planner {', '.join(bad)}; known: {', '.join(known)} (or ompl:NAME)")
+    from planners import make_planner
+
+    for n in names:
+        if n.startswith("ompl:"):
+            make_planner(n)  # an unknown OMPL planner name fails here, listing the known ones
 
 
 # -- seeds and queries ---------------------------------------------------------------------------
