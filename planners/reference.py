@@ -329,7 +329,7 @@ class MinLinkPlanner(_ReferencePlanner):
 
     name = "min-link"
 
-    def __init__(self, boundary_spacing: float = 5.0, grid_spacing: float | None = 10.0, refine: bool = True,
+    def __init__(self, boundary_spacing: float = 3.0, grid_spacing: float | None = 10.0, refine: bool = True,
                  n_sides: int = 64, eps: float = 1e-4) -> None:
         super().__init__(n_sides, eps)
         self.refine = bool(refine)
