@@ -86,7 +86,7 @@ def test_runs_csv_columns_and_rows(bench_dir: Path) -> None:
                 assert float(r["length_ratio"]) >= 1.0 - 1e-6  # no planner beats the shortest path
             assert int(r["turns"]) >= 0
             assert float(r["exec_error_cm"]) > 0
-            assert float(r["min_clearance_cm"]) >= -1e-6
+            assert float(r["min_clearance_cm"]) >= -1e-3  # FCL distance, to its tolerance
     # the paper's planner solves the preset queries
     assert all(r["success"] == "true" for r in rows if r["planner"] == "min-turn")
 
