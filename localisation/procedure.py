@@ -4,7 +4,8 @@ One iteration: Ultrascan; turn toward the minimum reading (the sonar then faces 
 nearly perpendicularly) and tell the localiser (``predict``); rescan; keep the readings within the
 windows around 0/90/180/270 degrees (`localisation.scan`); ``update``. When the belief is not
 converged (wide, or several plausible modes such as the identical rooms of map3) the robot turns
-toward its largest reading (free space), drives part of the way, tells the localiser, and iterates.
+toward the direction where its disc can drive furthest according to the scan (`free_travel`),
+drives part of the way, tells the localiser, and iterates.
 
 Only the Robot protocol is used (`move`, `turn`, `ultrascan`, `turnback`), so the procedure runs
 unchanged on the simulator and on a real NXT.
@@ -25,7 +26,7 @@ from toolkit.world import RngLike, Robot, Scan, angle_diff, as_rng
 from .base import Localiser, Motion, PoseEstimate, Prior
 from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan
 
-__all__ = ["LocalisationResult", "TraceStep", "localise"]
+__all__ = ["LocalisationResult", "TraceStep", "free_travel", "localise"]
 
 log = logging.getLogger(__name__)
 
@@ -123,25 +124,53 @@ class LocalisationResult:
         return d
 
 
-def _explore_direction(scan: Scan, rng: np.random.Generator, avoid_rad: float | None) -> tuple[float, float]:
-    """Direction (rad, relative) and reading (cm) of the largest usable reading, avoiding `avoid_rad`.
+def free_travel(scan: Scan, radius_cm: float, directions: Any = None) -> tuple[Any, Any]:
+    """How far a disc of `radius_cm` can drive along each direction before touching a scanned point.
 
-    Among readings within 2 cm of the largest, one is picked at random (so repeated attempts do not
-    oscillate); readings pointing back where the robot came from (within 45 degrees of `avoid_rad`)
-    are used only when nothing else is open.
+    Every usable reading is a wall point in the robot frame; along direction ``phi`` the disc meets
+    point ``p`` at ``t = p.u - sqrt(R^2 - (p x u)^2)`` when it passes within R of it. Directions
+    default to the scan's own angles. Returns (directions, free distance in cm; ``inf`` when no
+    reading limits it).
     """
+    ok = scan.valid & np.isfinite(scan.ranges)
+    phi = np.asarray(scan.angles if directions is None else directions, dtype=float)
+    if not ok.any():
+        return phi, np.full(phi.shape, np.inf)
+    px = scan.ranges[ok] * np.cos(scan.angles[ok])
+    py = scan.ranges[ok] * np.sin(scan.angles[ok])
+    ux, uy = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    along = px[None, :] * ux + py[None, :] * uy
+    across = np.abs(px[None, :] * uy - py[None, :] * ux)
+    hit = (across < radius_cm) & (along > 0.0)
+    t = along - np.sqrt(np.maximum(radius_cm**2 - across**2, 0.0))
+    free = np.where(hit, np.maximum(t, 0.0), np.inf).min(axis=1)
+    return phi, free
+
+
+def _explore_direction(scan: Scan, rng: np.random.Generator, avoid_rad: float | None,
+                       radius_cm: float) -> tuple[float, float]:
+    """Direction (rad, relative) with the longest free travel for the robot's disc, and that travel (cm).
+
+    Readings are the only information used (no pose). Among directions within 2 cm of the longest
+    travel, one is picked at random; directions pointing back where the robot came from (within 60
+    degrees of `avoid_rad`) are used only when nothing else is open. Directions limited by no
+    reading (no echo) are not trusted and count as the longest reading.
+    """
+    phi, free = free_travel(scan, radius_cm)
     ok = scan.valid & np.isfinite(scan.ranges)
     if not ok.any():
         return 0.0, 0.0
-    r = np.where(ok, scan.ranges, -np.inf)
+    cap = float(np.max(scan.ranges[ok]))
+    free = np.minimum(free, cap)
+    score = free.copy()
     if avoid_rad is not None:
-        back = np.abs(angle_diff(scan.angles, avoid_rad)) < math.radians(45.0)
-        if (ok & ~back).any():
-            r = np.where(back, -np.inf, r)
-    best = float(np.max(r))
-    cand = np.flatnonzero(r >= best - 2.0)
+        back = np.abs(angle_diff(phi, avoid_rad)) < math.radians(60.0)
+        if (score[~back] > radius_cm).any():
+            score = np.where(back, -np.inf, score)
+    best = float(np.max(score))
+    cand = np.flatnonzero(score >= best - 2.0)
     k = int(rng.choice(cand))
-    return float(angle_diff(scan.angles[k], 0.0)), float(scan.ranges[k])
+    return float(angle_diff(phi[k], 0.0)), float(free[k])
 
 
 def localise(
@@ -188,9 +217,11 @@ def localise(
     min_valid_readings : int
         When the processed scan keeps fewer readings, all usable readings are used instead.
     max_move_cm, move_fraction : float
-        An exploration move drives ``min(max_move_cm, move_fraction * (reading - safety))``.
+        An exploration move drives ``min(max_move_cm, move_fraction * (travel - (safety - radius)))``
+        where ``travel`` is how far the robot's disc can go before touching a scanned point
+        (`free_travel`).
     safety_cm : float, optional
-        Distance kept from the wall ahead (default: the robot radius + 5 cm).
+        Distance kept from the wall ahead, centre to wall (default: the robot radius + 5 cm).
 
     Returns
     -------
@@ -247,8 +278,8 @@ def localise(
             trace.append(step)
             break
         # ambiguous or wide: drive toward free space and try again
-        direction, reading = _explore_direction(scan, gen, came_from)
-        distance = max(0.0, min(max_move_cm, move_fraction * (reading - safety)))
+        direction, travel = _explore_direction(scan, gen, came_from, radius)
+        distance = max(0.0, min(max_move_cm, move_fraction * (travel - safety + radius)))
         robot.turn(direction)
         outcome = robot.move(distance) if distance > 0 else None
         driven = outcome.distance_cm if outcome is not None else 0.0

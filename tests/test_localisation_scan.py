@@ -78,3 +78,16 @@ def test_processing_reduces_nxt_reading_errors() -> None:
     assert cmp.processed.readings.gross_fraction < cmp.raw.readings.gross_fraction
     assert cmp.to_dict()["raw"]["n_poses"] == 12
     assert "processed" in cmp.summary()
+
+
+def test_free_travel_of_the_robot_disc() -> None:
+    from localisation.procedure import free_travel
+
+    # a wall 20 cm ahead (x = 20) seen by every forward reading, nothing else
+    a = default_scan_angles()
+    r = np.where(np.cos(a) > 0.05, 20.0 / np.maximum(np.cos(a), 1e-9), np.inf)
+    scan = Scan.from_readings(a, r)
+    _phi, free = free_travel(scan, 8.0, np.radians([0.0, 60.0, 180.0]))
+    assert free[0] == pytest.approx(12.0, abs=0.05)  # the disc touches the wall after 20 - 8 cm
+    assert free[1] == pytest.approx(20.0 / math.cos(math.radians(60.0)) - 8.0 / math.cos(math.radians(60.0)), abs=1.0)
+    assert math.isinf(free[2])
