@@ -216,3 +216,17 @@ def test_ompl_stop_at_first_reports_first_solution() -> None:
     assert res.info["first_solution_s"] <= res.time_s
     full = _plan("rrtstar", "map3")
     assert full.info["first_solution_length_cm"] >= full.length - 1e-9
+
+
+def test_ompl_options() -> None:
+    m = _map("map1")
+    res = make_planner("ompl:RRT", range=5.0, settings={"GoalBias": 0.2}).plan(
+        PlanningProblem(m, _CHECKERS["map1"], m.start, m.target, 2.0, 3))
+    assert res.success
+    assert np.all(np.hypot(*np.diff(res.path, axis=0).T) <= 5.0 + 1e-6)  # range caps the edge length
+    with pytest.raises(ValueError, match="no setting"):
+        make_planner("rrtstar", settings={"NoSuchThing": 1})
+    with pytest.raises(ValueError, match="range"):
+        make_planner("rrtstar", range=-1.0)
+    prm = make_planner("prm", stop_at_first=True).plan(PlanningProblem(m, _CHECKERS["map1"], m.start, m.target, 2.0, 3))
+    assert prm.success and prm.info["first_solution_s"] <= prm.time_s

@@ -188,3 +188,20 @@ def test_two_links_are_impossible_on_maps_2_and_3(map_name: str) -> None:
     assert len(seen) > 100
     both = checker.segments_free(seen, np.repeat(m.target[None], len(seen), axis=0))
     assert not both.any()
+
+
+def test_shorten_bends_keeps_links_and_never_lengthens() -> None:
+    from planners.reference import shorten_bends
+
+    m = load_map("map2")
+    checker = CollisionChecker(m, R)
+    res = MinLinkPlanner(refine=False).plan(PlanningProblem(m, checker, m.start, m.target, 5.0, 0))
+    short = shorten_bends(checker, res.path)
+    assert short.shape == res.path.shape
+    np.testing.assert_array_equal(short[[0, -1]], res.path[[0, -1]])
+    before = float(np.sum(np.hypot(*np.diff(res.path, axis=0).T)))
+    after = float(np.sum(np.hypot(*np.diff(short, axis=0).T)))
+    assert after <= before and after < before - 1.0  # the graph's bends sit on a 3 cm lattice
+    assert checker.path_free(short)
+    segs = shapely.linestrings(np.stack([short[:-1], short[1:]], axis=1))
+    assert np.all(shapely.distance(segs, m.wall_lines) >= R - 1e-7)
