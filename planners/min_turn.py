@@ -6,17 +6,23 @@ polylines with the fewest intermediate points it keeps the shortest. Fewer inter
 fewer turns, and fewer turns mean less accumulated heading error on a real differential-drive robot.
 
 This implementation gives exactly that answer for the sampled points without enumerating the
-``N! / (N - k)!`` ordered selections. With the points as nodes of a complete graph whose edge weights
-are Euclidean lengths, the shortest polyline through exactly ``k`` intermediate points is a
-hop-constrained shortest path (``k + 1`` edges), found by a ``k + 1``-layer dynamic programme over
-the whole graph at once (numpy, O(k N^2)). Edges are collision-checked lazily: the programme assumes
-unknown edges are free, the unknown edges of its best path are then checked with the shared checker
-(each segment at most once, the result is memoised), blocked ones are removed and the programme runs
-again; when every edge of the best path is known to be free, it is the shortest collision-free path
-with ``k`` intermediate points. When the programme finds no path at all with ``k`` points, no
-collision-free path with ``k`` points exists among the samples and ``k`` grows. Paths that repeat a
-point are never chosen: such a walk contains a shorter walk with fewer points, which was already
-found blocked.
+``N! / (N - k)!`` ordered selections in Python, and checks every segment at most once (memoised):
+
+- 0 points: one segment check.
+- 1 point: every start->sample and sample->goal segment in one batch (each is needed anyway to prove
+  that no one-point path exists); the shortest free one wins.
+- 2 and 3 points: the candidate polylines whose first and last segments are free, sorted by length
+  (numpy); the unknown middle segments of the next few candidates are checked in one batch; the
+  first candidate whose segments are all free is the answer.
+- 4 points and more: a lazy hop-constrained shortest path. With the points as nodes of a complete
+  graph weighted by Euclidean length, the shortest polyline through exactly ``k`` points is a
+  shortest walk with ``k + 1`` edges, found by a ``k + 1``-layer dynamic programme (numpy,
+  O(k N^2)) that assumes unknown segments free; the unknown segments of its best walk are checked,
+  blocked ones removed, and it runs again until its best walk is all free (the answer) or none is
+  left (no path with ``k`` points). Walks that repeat a point are never chosen: such a walk contains
+  a shorter one with fewer points, already found blocked.
+- Levels are skipped when a breadth-first search over the segments not known to be blocked shows
+  that start and goal are more hops apart; a round ends when they are disconnected.
 
 When no path with up to `max_intermediate` points exists among the samples, the planner draws new
 samples and tries again until the time budget ends, then returns a failed result.
@@ -31,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import CollisionChecker, MapError
+from toolkit.world import CollisionChecker
 
 from .base import Planner, PlanningProblem
 
@@ -122,8 +128,28 @@ class MinTurnPlanner(Planner):
         self.max_intermediate = None if max_intermediate is None else int(max_intermediate)
         self.max_rounds = None if max_rounds is None else int(max_rounds)
 
+    def _sample(self, problem: PlanningProblem, deadline: float) -> FloatArray:
+        """`n_samples` points uniform over the free area, one radius from the walls, confirmed by the checker.
+
+        Rejection sampling in the map's bounding box (shapely's vectorised distance test, then the
+        checker's point check); it stops at the deadline with the points it has.
+        """
+        m, rng, r = problem.map, problem.rng, problem.robot_radius
+        xmin, ymin, xmax, ymax = m.bounds
+        found: list[FloatArray] = []
+        have = 0
+        while have < self.n_samples and time.perf_counter() < deadline:
+            cand = rng.uniform([xmin, ymin], [xmax, ymax], size=(8 * self.n_samples, 2))
+            keep = cand[np.asarray(m.is_free(cand, r), dtype=bool)]
+            found.append(keep)
+            have += len(keep)
+        if not found:
+            return np.empty((0, 2))
+        pts = np.vstack(found)[: self.n_samples]
+        return pts[np.asarray(problem.checker.point_free(pts), dtype=bool)]
+
     def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
-        checker, rng = problem.checker, problem.rng
+        checker = problem.checker
         deadline = time.perf_counter() + problem.time_limit
         start, goal = problem.start, problem.goal
         info: dict[str, Any] = {"rounds": 0, "lazy_iterations": 0, "segments_checked": 1}
@@ -134,11 +160,7 @@ class MinTurnPlanner(Planner):
         while time.perf_counter() < deadline and (self.max_rounds is None or rounds < self.max_rounds):
             rounds += 1
             info["rounds"] = rounds
-            try:
-                samples = problem.map.sample_free(self.n_samples, clearance=problem.robot_radius, rng=rng)
-            except MapError:
-                return None, "no free space for the robot", info
-            samples = samples[np.asarray(checker.point_free(samples), dtype=bool)]
+            samples = self._sample(problem, deadline)
             found = fewest_points_path(checker, start, goal, samples, self.max_intermediate, deadline,
                                        info, direct_known_blocked=True)
             if found is not None:

@@ -167,12 +167,12 @@ def test_min_turn_uses_few_points_compared_with_min_link(map_name: str) -> None:
 
     min-link (dense nodes) never needs more points than min-turn's 30 random samples. The other way,
     30 uniform samples seldom fall where the fewest-link bends are, so min-turn may need more: over
-    50 seeds it needed at most 2 more on the BotSim maps and 5 more on pillars (narrow gaps between
+    50 seeds it needed at most 2 more on the BotSim maps and 4 more on pillars (narrow gaps between
     the pillars); those are the margins.
     """
     m = _map(map_name)
     links = _plan("min-link", map_name).info["links"]
-    margin = 5 if map_name == "pillars" else 2
+    margin = 4 if map_name == "pillars" else 2
     for seed in range(10):
         res = _plan("min-turn", map_name, start=m.start, goal=m.target, seed=seed, budget=2.0)
         assert res.success
