@@ -212,7 +212,7 @@ def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
             loc.pose = Pose(loc.pose.x, loc.pose.y - 20.0, loc.pose.theta)
 
     loc.update = biased  # type: ignore[method-assign]
-    cfg = MissionConfig(relocalise_every_cm=None, confirm_global=False)
+    cfg = MissionConfig(relocalise_every_cm=None, first_leg_cm=None, confirm_global=False)
     report = run_mission(robot, m, (20.0, 88.0), planner=VisibilityPlanner(), localiser=loc, rng=0, config=cfg)
     assert robot.true_pose.distance_to((20.0, 88.0)) < 2.0
     assert report.success, report.status
