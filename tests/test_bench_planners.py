@@ -246,6 +246,28 @@ def test_force_overwrites(tmp_path: Path) -> None:
     assert sorted(p.name for p in (out / "ompl").iterdir()) == ["map2-presets.log"]
 
 
+def test_turns_error_correlation_is_a_rank_correlation() -> None:
+    from datetime import datetime
+
+    from toolkit.bench.planners import BenchmarkResult, Query, RunRecord, turns_error_correlation
+
+    q = Query("map1", 0, (20.0, 20.0), (80.0, 80.0))
+
+    def rec(i: int, turns: float, err: float, success: bool = True) -> RunRecord:
+        return RunRecord("map1", "min-turn", i, 0, 0, q.start, q.goal, success, "exact", 0.01, 1, turns=turns,
+                         exec_error_cm=err)
+
+    cfg = BenchmarkConfig(maps=("map1",), planners=("min-turn",), runs=5)
+    up = [rec(0, 0, 1.0), rec(1, 1, 5.0), rec(2, 2, 5.5), rec(3, 5, 40.0), rec(4, 9, 1e9, success=False)]
+    res = BenchmarkResult(cfg, tuple(up), (), datetime.now(), 1.0)
+    assert turns_error_correlation(res, "map1") == (pytest.approx(1.0), 4)
+    down = [rec(i, t, -e) for i, t, e in ((0, 0, 1.0), (1, 1, 5.0), (2, 2, 5.5))]
+    assert turns_error_correlation(BenchmarkResult(cfg, tuple(down), (), datetime.now(), 1.0), "map1")[0] == \
+        pytest.approx(-1.0)
+    flat = [rec(i, 2, float(i)) for i in range(4)]
+    assert math.isnan(turns_error_correlation(BenchmarkResult(cfg, tuple(flat), (), datetime.now(), 1.0), "map1")[0])
+
+
 def test_config_validation() -> None:
     from toolkit.world import NxtnavError
 

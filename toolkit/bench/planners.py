@@ -65,6 +65,7 @@ __all__ = [
     "run_seed",
     "run_task",
     "summarise",
+    "turns_error_correlation",
     "write_results",
 ]
 
@@ -605,7 +606,28 @@ def format_summary(result: BenchmarkResult) -> str:
                 f"{_fmt(row['median_turns'], 'g')} | {_fmt(row['median_exec_error_cm'], '.2f')} | "
                 f"{_pct(row['median_exec_collision_fraction'])} | "
                 f"{_fmt(row['median_collision_checks'], '.0f')} |")
+        rho, n = turns_error_correlation(result, m)
+        if math.isfinite(rho):
+            lines += ["", f"Execution error vs turns over all successful runs: Spearman rank correlation "
+                          f"{rho:+.2f} (n = {n})."]
     return "\n".join(lines) + "\n"
+
+
+def turns_error_correlation(result: BenchmarkResult, map_name: str) -> tuple[float, int]:
+    """Spearman rank correlation of execution error with turns over the successful runs on a map.
+
+    Returns ``(rho, n)``; rho is NaN with fewer than 3 runs or when either quantity is constant.
+    """
+    from scipy.stats import spearmanr
+
+    pts = [(r.turns, r.exec_error_cm) for r in result.records
+           if r.map == map_name and r.success and math.isfinite(r.turns) and math.isfinite(r.exec_error_cm)]
+    if len(pts) < 3:
+        return math.nan, len(pts)
+    t, e = np.array(pts).T
+    if np.ptp(t) == 0 or np.ptp(e) == 0:
+        return math.nan, len(pts)
+    return float(spearmanr(t, e).statistic), len(pts)
 
 
 # -- writers -------------------------------------------------------------------------------------

@@ -85,10 +85,13 @@ def save_boxplots(result: BenchmarkResult, out: str | Path) -> dict[str, Path]:
 def draw_paths_grid(result: BenchmarkResult, run: int = 0, size: float = 3.6) -> Figure:
     """A figure with one row per map and one column per planner, showing the path of run `run`."""
     maps, planners = list(result.config.maps), list(result.config.planners)
-    fig, axes = plt.subplots(len(maps), len(planners), figsize=(size * len(planners), size * len(maps)),
-                             squeeze=False)
+    worlds = [load_map(m) for m in maps]
+    # each row as tall as its map's aspect ratio needs (plus room for the titles)
+    heights = [max(0.3, (b[3] - b[1]) / (b[2] - b[0])) + 0.25 for b in (w.bounds for w in worlds)]
+    fig, axes = plt.subplots(len(maps), len(planners), figsize=(size * len(planners), size * sum(heights)),
+                             squeeze=False, gridspec_kw={"height_ratios": heights})
     for i, m in enumerate(maps):
-        world = load_map(m)
+        world = worlds[i]
         for j, p in enumerate(planners):
             ax = axes[i][j]
             draw_map(world, ax, presets=False, title=False)
