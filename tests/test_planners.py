@@ -230,3 +230,22 @@ def test_ompl_options() -> None:
         make_planner("rrtstar", range=-1.0)
     prm = make_planner("prm", stop_at_first=True).plan(PlanningProblem(m, _CHECKERS["map1"], m.start, m.target, 2.0, 3))
     assert prm.success and prm.info["first_solution_s"] <= prm.time_s
+
+
+@pytest.mark.parametrize("map_name", MAPS)
+def test_random_queries(map_name: str) -> None:
+    """Random free start/goal pairs: valid paths, none shorter than `shortest`, min-link <= min-turn."""
+    m = _map(map_name)
+    checker = _CHECKERS[map_name]
+    pts = m.sample_free(6, clearance=RADIUS, rng=101)
+    pts = pts[checker.point_free(pts)]
+    names = ("shortest", "min-link", "min-turn", "astar", "ompl:RRTConnect")
+    for q in range(len(pts) // 2):
+        s, g = pts[2 * q], pts[2 * q + 1]
+        res = {n: _plan(n, map_name, start=s, goal=g, seed=q, budget=5.0) for n in names}
+        ref = res["shortest"]
+        for name, r in res.items():
+            assert r.success, f"{name}: {r.status}"
+            assert_path_valid(m, r.path, s, g)
+            assert r.length >= ref.length - ref.info["length_tolerance_cm"] - 1e-9, name
+        assert res["min-link"].info["links"] - 1 <= res["min-turn"].info["intermediate"]
