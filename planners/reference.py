@@ -41,6 +41,8 @@ check). Approximate: a true minimum-link path may bend at points that are not no
 count is an *upper bound* on the true minimum, and the length an upper bound on the shortest
 minimum-link length.
 
+Both ignore the time limit: they are yardsticks, not timed competitors.
+
 Graphs over the map's nodes are cached per (map, radius) in the planner instance, so only the
 start and goal edges are checked for later queries on the same map (the reported collision checks
 are then the query's share only).
