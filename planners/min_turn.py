@@ -47,7 +47,7 @@ FloatArray = NDArray[np.float64]
 
 _UNKNOWN, _FREE, _BLOCKED = 0, 1, -1
 _WINDOW = 512  # candidates examined at a time
-_BATCH = 4  # candidates whose unknown segments are checked in one batch
+_BATCH = 8  # candidates whose unknown segments are checked in one batch
 _MAX_ENUMERATED = 200_000  # largest three-point candidate set sorted in full
 
 
