@@ -2,23 +2,29 @@
 
 Importing the package registers every bundled planner in `PLANNERS`: ``min-turn`` (the paper's
 Algorithm 1), ``rrtstar`` and ``prm`` (OMPL; any OMPL planner as ``ompl:NAME`` through
-`make_planner`), ``astar`` (grid A*), and the exact references ``shortest`` and ``min-link``.
+`make_planner`), ``astar`` (grid A*), and the references ``shortest`` and ``min-link``.
+See ``docs/planners.md``.
 """
 
 from . import astar, min_turn, ompl_planners, reference
+from .astar import AStarPlanner
 from .base import PLANNERS, Planner, PlanningProblem, PlanResult, make_planner
 from .metrics import PathMetrics, count_turns, path_length, path_metrics, turn_angle
 from .min_turn import MinTurnPlanner
 from .ompl_planners import OmplPlanner
+from .reference import MinLinkPlanner, ShortestPathPlanner
 
 __all__ = [
     "PLANNERS",
+    "AStarPlanner",
+    "MinLinkPlanner",
     "MinTurnPlanner",
     "OmplPlanner",
     "PathMetrics",
     "PlanResult",
     "Planner",
     "PlanningProblem",
+    "ShortestPathPlanner",
     "astar",
     "count_turns",
     "make_planner",
