@@ -58,6 +58,7 @@ from .world import (
     angle_diff,
     as_rng,
     load_map,
+    ray_cast,
 )
 
 __all__ = [
@@ -130,11 +131,17 @@ class MissionConfig:
     max_explore_moves, explore_step_cm : int, float
         While a global belief stays ambiguous, up to this many moves of at most this length toward
         open space (chosen from the scan with room for the robot disc and the margin).
+    explore_heading_tolerance_deg : float
+        An exploration move planned from the localiser's modes must stay free when the modes'
+        headings are off by this much either way.
     confirm_global : bool
         Confirm a global fix that rests on scans from one place with a second, independent one
         (guards against a localiser that collapses on one of several identical places); fixes further apart than
         `confirm_tolerance_cm` count as ambiguous.
     confirm_tolerance_cm : float
+    confirm_all : bool
+        Confirm every global fix, also those reached by exploring (slower; for sonars whose
+        readings let the localiser tell places apart less reliably).
     tracking : {"continue", "prior"}
         How a re-localisation starts: from the localiser's current (predicted) belief, or reset to a
         Gaussian prior around the last estimate (`tracking_std_cm`, `tracking_std_deg`). Either falls
@@ -163,9 +170,11 @@ class MissionConfig:
     max_localisation_attempts: int = 3
     max_explore_moves: int = 6
     explore_step_cm: float = 30.0
+    explore_heading_tolerance_deg: float = 12.0
     tracking: str = "continue"
     confirm_global: bool = True
     confirm_tolerance_cm: float = 5.0
+    confirm_all: bool = False
     tracking_std_cm: float = 4.0
     tracking_std_deg: float = 8.0
     max_actions: int = 400
@@ -535,7 +544,7 @@ class _Mission:
             from_one_place = True  # the fix rests on scans from one place only
             while True:
                 if self._ok(est):
-                    if not (cfg.confirm_global and from_one_place):
+                    if not (cfg.confirm_global and (from_one_place or cfg.confirm_all)):
                         break
                     est2 = self._call_localise(None, reset=True, max_iterations=1)
                     self.estimate = est2
@@ -549,10 +558,7 @@ class _Mission:
                     fresh = True
                 if explores >= cfg.max_explore_moves:
                     break
-                scan = self._last_raw_scan if self._last_raw_scan is not None else self.robot.ultrascan()
-                direction, distance = explore_direction(scan, self.radius + 0.5 * cfg.safety_margin_cm + 0.5,
-                                                        self.rng, math.pi if explores else None,
-                                                        cfg.explore_step_cm)
+                direction, distance = self.explore_move(math.pi if explores else None)
                 if distance < 1.0:
                     break
                 self.record("localise", note=f"global attempt {attempt}: ambiguous (spread "
@@ -573,6 +579,46 @@ class _Mission:
                 return est
         raise _MissionEnded(f"robot lost: global localisation did not converge in "
                             f"{cfg.max_localisation_attempts} attempts")
+
+    def explore_move(self, avoid_rad: float | None) -> tuple[float, float]:
+        """A turn (rad) and distance (cm) toward open space while the belief is ambiguous.
+
+        With a localiser that reports its modes (candidate poses, as paper-pf does), the move must be
+        collision-free with the safety margin from every mode and heads where the nearest wall
+        (over the modes) is farthest: safe whichever candidate is the truth. Otherwise the move comes
+        from the last scan alone (`explore_direction`), which trusts the sonar's free space.
+        """
+        cfg = self.cfg
+        modes = getattr(self.localiser, "modes", None)
+        poses: list[Pose] = []
+        try:
+            listed = modes() if callable(modes) else modes
+            poses = [md.pose for md in (listed or []) if isinstance(getattr(md, "pose", None), Pose)]
+        except Exception:  # a localiser without usable modes: fall back to the scan
+            poses = []
+        poses = [p for p in poses if self.checker.point_free(p.xy)]
+        if poses:
+            rel = np.radians(np.arange(0.0, 360.0, 5.0))
+            if avoid_rad is not None:
+                rel = rel[np.abs(angle_diff(rel, avoid_rad)) >= math.radians(45.0)]
+            checker = self.safe_checkers[-1] if self.safe_checkers else self.checker
+            tol = math.radians(cfg.explore_heading_tolerance_deg)
+            for length in (cfg.explore_step_cm, 0.5 * cfg.explore_step_cm, 0.25 * cfg.explore_step_cm):
+                ok = np.ones(rel.size, dtype=bool)
+                room = np.full(rel.size, np.inf)
+                for p in poses:
+                    for dev in (-tol, 0.0, tol):  # the modes' headings may be off by the tolerance
+                        ang = p.theta + rel + dev
+                        ends = p.xy[None, :] + length * np.column_stack([np.cos(ang), np.sin(ang)])
+                        ok &= checker.segments_free(np.repeat(p.xy[None, :], rel.size, axis=0), ends)
+                        room = np.minimum(room, ray_cast(self.map.walls, p.xy, ang))
+                if ok.any():
+                    k = int(np.argmax(np.where(ok, room, -np.inf)))
+                    return float(angle_diff(rel[k], 0.0)), float(length)
+            return 0.0, 0.0
+        scan = self._last_raw_scan if self._last_raw_scan is not None else self.robot.ultrascan()
+        return explore_direction(scan, self.radius + 0.5 * cfg.safety_margin_cm + 0.5, self.rng, avoid_rad,
+                                 cfg.explore_step_cm)
 
     def relocalise(self, reason: str) -> PoseEstimate:
         """Tracking re-localisation from the current belief; falls back to a global one."""
