@@ -152,9 +152,10 @@ class ParticleFilter(Localiser):
         Choose each ``beta`` so that every mode keeps the target ESS (slower; refines light twins as
         carefully as the heavy mode) instead of the cloud as a whole.
     recovery_threshold : float or None
-        When, after the iterations on a scan, the best particle's mean squared normalised residual
-        per beam still exceeds this, the filter restarts globally on the same scan (kidnapped robot);
-        None disables it.
+        When, after the iterations on a scan, more than this fraction of the beams are off by more
+        than 3 standard deviations at the best particle, no pose near the belief explains the scan
+        and the filter restarts globally on the same scan (kidnapped robot); a fraction, not a mean,
+        so that a sonar's occasional outliers do not trigger it. None disables it.
     global_init : {"lattice", "uniform"}
         How a global start draws its first particles. ``uniform``: `n_global` particles uniform over
         the free space and headings, as in the paper. ``lattice``: every cell of a lattice
@@ -207,7 +208,7 @@ class ParticleFilter(Localiser):
         cluster_coverage: float = 0.9,
         per_mode_ess: bool = False,
         mode_share: float = 0.5,
-        recovery_threshold: float | None = 5.0,
+        recovery_threshold: float | None = 0.5,
         global_init: str = "lattice",
         lattice_step: int = 2,
         use_table: bool = True,
@@ -337,13 +338,19 @@ class ParticleFilter(Localiser):
             log.warning("scan without usable readings: belief unchanged")
             return
         tracking = not self._global
+        if tracking and not self._any_inside():
+            # every particle drove into a wall: the belief was wrong (or the robot was moved)
+            log.info("no particle inside the free space: restarting global localisation")
+            self.restarts += 1
+            self._reset_global()
+            tracking = False
         if self._global and self.lattice is not None:
             self._lattice_start(rel, meas)
         self._iterate(rel, meas)
         if tracking and self.recovery_threshold is not None and self._best_fit > self.recovery_threshold:
             # no pose near the belief explains the scan: the robot was kidnapped (or the belief was wrong)
-            log.info("best mean squared residual %.1f > %.1f: restarting global localisation",
-                     self._best_fit, self.recovery_threshold)
+            log.info("%.0f %% of the beams are outliers at the best particle: restarting global localisation",
+                     100 * self._best_fit)
             self.restarts += 1
             self._reset_global()
             if self.lattice is not None:
@@ -543,10 +550,30 @@ class ParticleFilter(Localiser):
         keep_p = self.log_weights > math.log(1e-300)
         if not keep_p.all():
             self.particles, self.log_weights = self.particles[keep_p], self.log_weights[keep_p]
-        self._best_fit = float(np.min(s)) / n_beams if np.isfinite(s).any() else math.inf
+        self._best_fit = self._outlier_fraction(self.particles[int(np.argmin(s))], rel, meas) \
+            if np.isfinite(s).any() else 1.0
         self._global = False
         self._move_cap = (math.inf, math.inf)
         self._estimate = self._make_estimate()
+
+    def _any_inside(self) -> bool:
+        xy = self.particles[:, :2]
+        inside = self.table.free(xy, 0.0) if self.table is not None else np.asarray(self.map.contains(xy), dtype=bool)
+        return bool(np.any(inside & np.isfinite(self.log_weights)))
+
+    def _outlier_fraction(self, pose: FloatArray, rel: FloatArray, meas: FloatArray) -> float:
+        """Fraction of the beams more than 3 sigma off at `pose`."""
+        p = pose.reshape(1, 3)
+        if self.table is not None:
+            e, inside = self.table.lookup(p, rel)
+            if not inside[0]:
+                return 1.0
+            expected = e[0].astype(float)
+        else:
+            expected = exact_ranges(self.map, p, rel)[0]
+        with np.errstate(invalid="ignore"):
+            off = ~(np.abs(expected - meas) <= 3.0 * self.likelihood.sigma_cm)
+        return float(np.mean(off))
 
     def _mode_stds(self, p: FloatArray, w: FloatArray, labels: IntArray, keep: IntArray) -> FloatArray:
         """(K, 2) spread of each kept mode: sqrt(var x + var y) (cm) and heading std (rad)."""

@@ -154,3 +154,15 @@ def test_single_scan_benchmark_small() -> None:
     assert b.n_poses == 5 and len(b.times_s) == 5
     assert b.success_rate == 1.0 and b.median_error_cm < 2.0
     assert b.to_dict()["localiser"] == "paper-pf"
+
+
+def test_belief_driven_into_walls_restarts_globally() -> None:
+    m = load_map("map1")
+    robot = SimRobot(m, Pose(25.0, 25.0, 0.0), rng=6)
+    pf = ParticleFilter(m, rng=6)
+    pf.reset(Prior(Pose(25.0, 25.0, math.pi)))  # a wrong heading...
+    pf.predict(Motion(0.0, 80.0))  # ...drives every particle through the wall behind the robot
+    assert not pf._any_inside()
+    pf.update(process_scan(robot.ultrascan()).scan)
+    d, h = _errors(pf.estimate().pose, robot.true_pose)
+    assert pf.restarts == 1 and d <= 2.0 and h <= 3.0
