@@ -18,7 +18,7 @@ from toolkit.world import CollisionChecker, Map, load_map, map_from_dict
 RADIUS = 8.0
 MAPS = ("map1", "map2", "map3", "pillars")
 PLANNER_NAMES = (*PLANNERS.names(), "ompl:RRTConnect")
-OMPL_BUDGET = 0.5  # s for planners that use their whole budget: the tests check validity, not quality
+OMPL_BUDGET = 1.0  # s for planners that use their whole budget (ample on a loaded machine)
 
 
 def _budget(name: str) -> float:
