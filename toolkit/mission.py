@@ -66,6 +66,7 @@ __all__ = [
     "MissionReport",
     "TraceStep",
     "explore_direction",
+    "matched_localiser_options",
     "mission_seeds",
     "random_start",
     "run_mission",
@@ -115,6 +116,10 @@ class MissionConfig:
         A waypoint counts as reached when the estimate is this close to it (after re-localising there).
     max_legs : int
         Legs (re-aimed after each re-localisation) toward one waypoint before re-planning.
+    heading_tolerance_deg, min_leg_cm : float
+        A leg ends (and the robot re-localises) where the straight drive would touch a wall if the
+        estimated heading were off by this much either way; legs are never shorter than
+        `min_leg_cm`. Bounds the damage of a heading error, the error a sonar localiser makes most.
     goal_tolerance_cm : float
         The final correction stops when the estimate is this close to the target.
     max_corrections : int
@@ -161,7 +166,9 @@ class MissionConfig:
     relocalise_every_cm: float | None = 40.0
     first_leg_cm: float | None = 6.0
     waypoint_tolerance_cm: float = 1.0
-    max_legs: int = 8
+    max_legs: int = 12
+    heading_tolerance_deg: float = 8.0
+    min_leg_cm: float = 4.0
     goal_tolerance_cm: float = 0.5
     max_corrections: int = 6
     success_radius_cm: float = 3.0
@@ -201,6 +208,16 @@ class MissionConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in self.__dict__.items()}
+
+    @classmethod
+    def for_sonar(cls, sonar: str, **overrides: Any) -> MissionConfig:
+        """Defaults for a sonar model: the ``nxt`` sensor (and a real NXT) gets a wider heading
+        tolerance (its localisation heading errs by up to ~10 degrees near slanted walls) and the
+        confirmation of every global fix."""
+        base: dict[str, Any] = {}
+        if sonar == "nxt":
+            base = {"heading_tolerance_deg": 15.0, "confirm_all": True}
+        return cls(**{**base, **overrides})
 
 
 @dataclass(frozen=True)
@@ -693,6 +710,18 @@ class _Mission:
         if self.replans > self.cfg.max_replans:
             raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
 
+    def safe_leg(self, xy: FloatArray, heading: float, leg: float) -> float:
+        """The part of a `leg` (cm) from `xy` along `heading` (rad) that stays collision-free when the
+        heading is off by `heading_tolerance_deg` either way (at least `min_leg_cm`)."""
+        tol = math.radians(self.cfg.heading_tolerance_deg)
+        if tol <= 0 or leg <= self.cfg.min_leg_cm:
+            return leg
+        length = leg
+        for dev in (-tol, tol):
+            end = xy + leg * np.array([math.cos(heading + dev), math.sin(heading + dev)])
+            length = min(length, self.checker.first_contact(xy, end, tol=0.2) * leg)
+        return max(length, self.cfg.min_leg_cm)
+
     def drive_to(self, goal: FloatArray, *, final: bool = False) -> str:
         """Turn toward `goal` from the estimate and drive there in steps, re-localising on the way.
 
@@ -721,6 +750,7 @@ class _Mission:
             if self.fresh_fix and cfg.first_leg_cm is not None:
                 every = cfg.first_leg_cm if every is None else min(every, cfg.first_leg_cm)
             leg = dist if every is None or dist <= 1.25 * every else every
+            leg = self.safe_leg(pose.xy, math.atan2(delta[1], delta[0]), leg)
             driven = 0.0
             while leg - driven > 1e-9:
                 step = min(cfg.move_step_cm, leg - driven)
@@ -982,6 +1012,24 @@ def random_start(m: Map, rng: RngLike = None, clearance_cm: float = 10.0) -> Pos
     return Pose(float(xy[0]), float(xy[1]), float(gen.uniform(-math.pi, math.pi)))
 
 
+def matched_localiser_options(localiser: str, *, sonar: str = "ideal", noise_model: str = "botsim",
+                              motion_noise: float = 0.1, turn_noise: float = 0.005,
+                              sensor_noise: float = 1.0) -> dict[str, Any]:
+    """Options that tell a localiser (by registry name) the robot's motion and sensor model.
+
+    Only the options its constructor accepts are returned (``noise_model``, ``motion_noise``,
+    ``turn_noise``, ``sensor_sigma_cm``): the ideal sonar's noise, or `NXT_SONAR_SIGMA_CM` for the
+    ``nxt`` sonar (and a real NXT).
+    """
+    known: dict[str, Any] = {"noise_model": noise_model, "motion_noise": motion_noise, "turn_noise": turn_noise}
+    if sonar == "ideal" and sensor_noise > 0:
+        known["sensor_sigma_cm"] = sensor_noise
+    elif sonar == "nxt":
+        known["sensor_sigma_cm"] = NXT_SONAR_SIGMA_CM
+    params = inspect.signature(LOCALISERS.get(localiser).__init__).parameters
+    return {k: v for k, v in known.items() if k in params}
+
+
 def run_sim_mission(
     map: Map | str,
     *,
@@ -1019,6 +1067,7 @@ def run_sim_mission(
         Sonar noise (cm), motion noise (fraction or cm) and turn noise (fraction or rad); the paper's by default.
     sonar : {"ideal", "nxt"}
     config : MissionConfig or None
+        None: `MissionConfig.for_sonar(sonar)`.
     """
     from .robots.sim import MotionNoise, SimRobot
 
@@ -1041,16 +1090,10 @@ def run_sim_mission(
             raise NxtnavError(f"map {m.name} has no preset target: give one")
         target = m.target
     noise = MotionNoise(noise_model, motion_noise, turn_noise)  # type: ignore[arg-type]
-    cfg = config or MissionConfig()
+    cfg = config or MissionConfig.for_sonar(sonar)
     if isinstance(localiser, str):
-        # the localiser's motion (and, for the ideal sonar, sensor) model matches the simulator's
-        known = {"noise_model": noise_model, "motion_noise": motion_noise, "turn_noise": turn_noise}
-        if sonar == "ideal" and sensor_noise > 0:
-            known["sensor_sigma_cm"] = sensor_noise
-        elif sonar == "nxt":
-            known["sensor_sigma_cm"] = NXT_SONAR_SIGMA_CM
-        params = inspect.signature(LOCALISERS.get(localiser).__init__).parameters
-        opts = {k: v for k, v in known.items() if k in params}
+        opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
+                                         turn_noise=turn_noise, sensor_noise=sensor_noise)
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
     robot = SimRobot(m, pose, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg)

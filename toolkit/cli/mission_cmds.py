@@ -83,7 +83,7 @@ def run(
     profile: Path | None = typer.Option(None, "--profile", metavar="FILE", help="NXT calibration profile."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
-    from ..mission import run_mission, run_sim_mission
+    from ..mission import MissionConfig, matched_localiser_options, run_mission, run_sim_mission
 
     m = load_map(map_name)
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
@@ -110,7 +110,9 @@ def run(
                                      "simulator", param_hint="--start")
         robot = _connect_nxt(nxt_backend, server_host, server_port, profile)
         try:
-            report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed)
+            opts = matched_localiser_options(localiser, sonar="nxt")
+            report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
+                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts))
         finally:
             robot.close()
     else:
