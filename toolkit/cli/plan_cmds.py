@@ -42,6 +42,13 @@ def _json_safe(obj: Any) -> Any:
     return obj
 
 
+def _to_builtin(obj: Any) -> Any:
+    """numpy scalars and arrays (planner `info` extras) as JSON values."""
+    if isinstance(obj, np.ndarray | np.generic):
+        return _json_safe(obj.tolist())
+    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
+
+
 @app.command("plan")
 def plan(
     map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
@@ -133,7 +140,7 @@ def plan(
     save_figure(fig, output)
     typer.echo(f"wrote {output}")
     if json_out is not None:
-        json_out.write_text(json.dumps(_json_safe(doc), indent=1), encoding="utf-8")
+        json_out.write_text(json.dumps(_json_safe(doc), indent=1, default=_to_builtin), encoding="utf-8")
         typer.echo(f"wrote {json_out}")
     for line in lines:
         typer.echo(line)
