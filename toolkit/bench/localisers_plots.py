@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 from toolkit.plotting import draw_map, draw_particles, draw_pose, save_figure
 from toolkit.world import Map, Pose, RobotGeometry
 
-from .localisers import SUCCESS_CM, GlobalRun, KidnappedRun, LocalisationOutcome, TrackingRun, TrialResult
+from .localisers import SUCCESS_CM, SUCCESS_DEG, GlobalRun, KidnappedRun, LocalisationOutcome, TrackingRun, TrialResult
 
 __all__ = [
     "draw_localisation",
@@ -39,8 +39,10 @@ def _ax(ax: Axes | None, size: tuple[float, float] = (6.0, 4.0)) -> Axes:
 
 
 def _plain_log(axis: Any) -> None:
-    """Log axis with plain numbers (1, 2, 5, 10, ...) instead of powers of ten."""
-    axis.set_major_locator(mticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    """Log axis with plain numbers (1, 2, 5, 10, ... or 1, 10, 100 over a wide range), not powers of ten."""
+    lo, hi = sorted(axis.get_view_interval())
+    decades = math.log10(hi / lo) if lo > 0 and hi > lo else 1.0
+    axis.set_major_locator(mticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0) if decades <= 3.0 else (1.0,)))
     axis.set_major_formatter(mticker.FuncFormatter(lambda v, _pos: f"{v:g}"))
     axis.set_minor_formatter(mticker.NullFormatter())
 
@@ -55,25 +57,33 @@ def _of(results: Sequence[TrialResult], kind: type, map_name: str | None = None)
 
 
 def plot_error_ecdf(results: Sequence[TrialResult], map_name: str, localisers: Sequence[str],
-                    ax: Axes | None = None) -> list[Any]:
-    """Empirical CDF of the final position error (cm, log axis) per localiser on one map."""
+                    ax: Axes | None = None, quantity: str = "position") -> list[Any]:
+    """Empirical CDF of the final error per localiser on one map (log axis).
+
+    `quantity` is ``position`` (cm) or ``heading`` (absolute, degrees); the success threshold is
+    drawn dashed. Trials that raised (NaN errors) keep their curve below 1.
+    """
     ax = _ax(ax)
     rs = _of(results, GlobalRun, map_name)
     col = _colours(localisers)
+    heading = quantity == "heading"
     artists: list[Any] = []
     for n in localisers:
-        e = np.sort([r.error_cm for r in rs if r.localiser == n])
-        if e.size == 0:
+        sel = [r for r in rs if r.localiser == n]
+        if not sel:
             continue
+        e = np.sort([abs(r.heading_error_deg) if heading else r.error_cm for r in sel])
         y = np.arange(1, e.size + 1) / e.size
         artists.extend(ax.step(np.maximum(e, 1e-2), y, where="post", color=col[n], label=n))
-    artists.append(ax.axvline(SUCCESS_CM, color="0.3", ls="--", lw=1, label=f"{SUCCESS_CM:g} cm"))
+    limit = SUCCESS_DEG if heading else SUCCESS_CM
+    unit = "°" if heading else " cm"
+    artists.append(ax.axvline(limit, color="0.3", ls="--", lw=1, label=f"{limit:g}{unit}"))
     ax.set_xscale("log")
     _plain_log(ax.xaxis)
-    ax.set_xlabel("final position error (cm)")
+    ax.set_xlabel("final heading error (degrees)" if heading else "final position error (cm)")
     ax.set_ylabel("fraction of trials")
     ax.set_ylim(0, 1.02)
-    ax.set_title(f"{map_name}: error distribution")
+    ax.set_title(f"{map_name}: {'heading' if heading else 'position'} error distribution")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7, loc="lower right")
     return artists
@@ -175,10 +185,11 @@ def write_plots(results: Sequence[TrialResult], out_dir: str | Path, maps: Seque
     out = Path(out_dir)
     files: list[Path] = []
     if _of(results, GlobalRun):
-        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False,
+        fig, axes = plt.subplots(2, len(maps), figsize=(5.5 * len(maps), 8.4), squeeze=False,
                                  layout="constrained")
-        for m, ax in zip(maps, axes[0], strict=True):
+        for m, ax, ax2 in zip(maps, axes[0], axes[1], strict=True):
             plot_error_ecdf(results, m, localisers, ax)
+            plot_error_ecdf(results, m, localisers, ax2, quantity="heading")
         files.append(save_figure(fig, out / "errors.png"))
         fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False,
                                  layout="constrained")
