@@ -194,7 +194,7 @@ def compare_scan_processing(
         Registry name of the localiser used for the localisation comparison (a global one).
     localiser_options : dict, optional
         Its options; for the ``nxt`` sonar by default ``sensor_sigma_cm`` 2 cm and the sonar's lobe
-        width as ``beam_width_deg``.
+        width and critical incidence as ``beam_width_deg`` and ``critical_incidence_deg``.
     processing : ScanProcessing, optional
         The paper's processing by default.
     gross_cm : float
@@ -215,6 +215,7 @@ def compare_scan_processing(
     if model.name == "nxt":
         opts.setdefault("sensor_sigma_cm", 2.0)
         opts.setdefault("beam_width_deg", float(getattr(model, "beam_width_deg", 20.0)))
+        opts.setdefault("critical_incidence_deg", float(getattr(model, "critical_incidence_deg", 40.0)))
     settings = processing or ScanProcessing()
     loc = make_localiser(localiser, map, rng=gen, **opts) if localise else None
     angles = default_scan_angles()

@@ -179,7 +179,9 @@ class RangeTable:
     discontinuities (corners), and the final refinement of a filter can switch to `exact_ranges`.
 
     With ``beam_width_deg > 0`` each entry is the smallest range within the lobe around its direction
-    (`lobe_minimum`): a wide sonar such as the NXT's reports the nearest echo in its lobe.
+    (`lobe_minimum`): a wide sonar such as the NXT's reports the nearest echo in its lobe. With a
+    `critical_incidence_deg` as well, rays meeting their wall further than that from its normal
+    do not echo (specular loss), as in `toolkit.world.NxtSonar`; ``inf`` where nothing echoes.
 
     Build it with `range_table` (cached per map and resolution), not directly.
 
@@ -194,10 +196,13 @@ class RangeTable:
         Precomputed table of centre-ray ranges (from the disk cache).
     beam_width_deg : float
         Full lobe width (0: a thin ray).
+    critical_incidence_deg : float, optional
+        Specular loss beyond this incidence (only with a lobe).
     """
 
     def __init__(self, map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
-                 ranges: NDArray[np.float32] | None = None, beam_width_deg: float = 0.0) -> None:
+                 ranges: NDArray[np.float32] | None = None, beam_width_deg: float = 0.0,
+                 critical_incidence_deg: float | None = None) -> None:
         if not (resolution_cm > 0 and math.isfinite(resolution_cm)):
             raise ValueError(f"resolution_cm must be a positive number, got {resolution_cm!r}")
         if n_angles < 4:
@@ -218,7 +223,16 @@ class RangeTable:
         self.clearance = np.full(nx * ny, -1.0, dtype=np.float32)
         self.clearance[inside] = np.asarray(map.wall_distance(self.centres), dtype=np.float32)
         directions = np.arange(self.n_angles) * (TWO_PI / self.n_angles)
-        if ranges is None:
+        self.critical_incidence_deg = critical_incidence_deg if beam_width_deg > 0 else None
+        if self.critical_incidence_deg is not None:
+            # a ray meeting its wall further than the critical angle from the normal reflects away
+            r, hit = ray_cast(map.walls, self.centres, directions, return_wall=True)
+            w = map.walls[np.maximum(hit, 0)]
+            ex, ey = w[..., 2] - w[..., 0], w[..., 3] - w[..., 1]
+            cos_inc = np.abs(np.cos(directions)[None, :] * ey - np.sin(directions)[None, :] * ex) / np.hypot(ex, ey)
+            echo = (hit >= 0) & (cos_inc >= math.cos(math.radians(self.critical_incidence_deg)))
+            ranges = np.where(echo, r, np.inf).astype(np.float32)
+        elif ranges is None:
             ranges = np.asarray(ray_cast(map.walls, self.centres, directions), dtype=np.float32)
         if ranges.shape != (self.centres.shape[0], self.n_angles):
             raise ValueError(f"range table shape {ranges.shape} does not match the grid")
@@ -346,7 +360,8 @@ def _map_key(map: Map) -> str:
 
 
 def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
-                cache_dir: str | os.PathLike[str] | None = None, beam_width_deg: float = 0.0) -> RangeTable:
+                cache_dir: str | os.PathLike[str] | None = None, beam_width_deg: float = 0.0,
+                critical_incidence_deg: float | None = None) -> RangeTable:
     """The `RangeTable` of `map`, built once per process (and per map geometry, resolution, directions).
 
     Parameters
@@ -359,16 +374,18 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
     cache_dir : path, optional
         Folder for a disk cache of the table (``.npy``); default ``$NXTNAV_CACHE_DIR`` when set,
         otherwise memory only. Building takes about 0.5 s for map1 and 3 s for map3.
-    beam_width_deg : float
-        Lobe width (see `RangeTable`); the lobe table is derived from the thin-ray one.
+    beam_width_deg, critical_incidence_deg : float
+        Lobe width and specular loss (see `RangeTable`); a lobe table without specular loss is
+        derived from the thin-ray one, with it the rays are cast again (about as long as the first).
     """
     if beam_width_deg > 0:
-        base = range_table(map, resolution_cm, n_angles, cache_dir)
-        key_lobe = (_map_key(map), float(resolution_cm), int(n_angles), float(beam_width_deg))
+        base = range_table(map, resolution_cm, n_angles, cache_dir) if critical_incidence_deg is None else None
+        key_lobe = (_map_key(map), float(resolution_cm), int(n_angles), float(beam_width_deg), critical_incidence_deg)
         with _TABLES_LOCK:
             lobe = _TABLES.get(key_lobe)
             if lobe is None:
-                lobe = RangeTable(map, resolution_cm, n_angles, base.ranges, beam_width_deg)
+                lobe = RangeTable(map, resolution_cm, n_angles, None if base is None else base.ranges, beam_width_deg,
+                                  critical_incidence_deg)
                 _TABLES[key_lobe] = lobe
             return lobe
     key = (_map_key(map), float(resolution_cm), int(n_angles))

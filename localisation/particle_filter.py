@@ -172,6 +172,9 @@ class ParticleFilter(Localiser):
     beam_width_deg : float
         Sonar lobe width for the expected ranges (0: a thin ray, right for the ``ideal`` sonar; about
         20 for the NXT, whose reading is the nearest echo in its lobe). Table lookups only.
+    critical_incidence_deg : float, optional
+        With a lobe: rays meeting a wall further than this from its normal do not echo (about 40
+        for the NXT).
     refine_exact : bool
         Run the last iterations with exact ray casting (removes the table's quantisation).
     cache_dir : path, optional
@@ -215,6 +218,7 @@ class ParticleFilter(Localiser):
         table_resolution_cm: float = 1.0,
         table_angles: int = 360,
         beam_width_deg: float = 0.0,
+        critical_incidence_deg: float | None = None,
         refine_exact: bool = False,
         cache_dir: str | None = None,
         snapshot_size: int = 300,
@@ -250,7 +254,8 @@ class ParticleFilter(Localiser):
         self.refine_exact = bool(refine_exact)
         self.snapshot_size = int(snapshot_size)
         self.table: RangeTable | None = (
-            range_table(map, table_resolution_cm, table_angles, cache_dir, beam_width_deg) if use_table else None
+            range_table(map, table_resolution_cm, table_angles, cache_dir, beam_width_deg, critical_incidence_deg)
+            if use_table else None
         )
         if global_init not in ("lattice", "uniform"):
             raise ValueError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")

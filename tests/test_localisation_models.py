@@ -90,3 +90,27 @@ def test_log_space_weights_survive_360_beams() -> None:
     assert w[1] == pytest.approx(math.exp(ll[1] - ll[0]), rel=1e-9)
     # the cap bounds one beam's cost
     assert ll[2] == pytest.approx(-0.5 * 360 * 25.0)
+
+
+def test_lobe_table_with_specular_loss_matches_nxt_sonar() -> None:
+    """The expected ranges for a wide sonar agree with toolkit.world's NxtSonar (noise-free echoes)."""
+    from toolkit.world import NxtSonar
+
+    m = load_map("map2")
+    sonar = NxtSonar()
+    table = range_table(m, beam_width_deg=sonar.beam_width_deg, critical_incidence_deg=sonar.critical_incidence_deg)
+    thin = range_table(m)
+    rng = np.random.default_rng(4)
+    xy = m.sample_free(40, 8.0, rng)
+    rel = np.radians(np.arange(0.0, 360.0, 3.0))
+    poses = np.column_stack([xy, rng.uniform(-math.pi, math.pi, 40)])
+    echo = np.asarray(sonar.echo_distance(m.walls, xy, poses[:, 2:3] + rel[None, :]))
+    got, _ = table.lookup(poses, rel)
+    flat, _ = thin.lookup(poses, rel)
+    both = np.isfinite(echo) & np.isfinite(got)
+    assert np.mean(np.isfinite(echo) == np.isfinite(got)) > 0.95
+    err = np.abs(got[both] - echo[both])
+    assert np.median(err) < 0.6 and np.mean(err < 3.0) > 0.95
+    # the thin-ray table is a much worse model of this sonar
+    thin_err = np.abs(flat[both] - echo[both])
+    assert np.mean(thin_err < 3.0) < np.mean(err < 3.0) - 0.05
