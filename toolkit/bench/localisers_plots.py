@@ -256,7 +256,10 @@ def draw_localisation(m: Map, outcome: LocalisationOutcome, title: str = "", max
     n = len(idx) + 1
     cols = min(n, 3)
     rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 4.0 * rows), squeeze=False)
+    xmin, ymin, xmax, ymax = m.bounds
+    aspect = min(max((ymax - ymin) / max(xmax - xmin, 1e-9), 0.25), 2.0)
+    width = 4.2 if aspect >= 0.6 else 5.5
+    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, (width * aspect + 1.2) * rows), squeeze=False)
     flat = list(axes.ravel())
     radius = RobotGeometry().radius_cm
     for ax, i in zip(flat, idx, strict=False):
