@@ -367,6 +367,10 @@ def test_a_raising_localiser_is_a_failed_trial_not_a_crash(tmp_path: Path, oracl
         (["--tracker-prior", "oracle"], "tracker prior"),
         (["--set", "novalue"], "KEY=VALUE"),
         (["--set", "other.n=3"], "--set"),
+        (["--set", "test-oracle.bogus=3"], "test-oracle has no option bogus"),
+        (["--set", "bogus=3"], "no chosen localiser has an option bogus"),
+        (["--noise-model", "wobbly"], "wobbly"),
+        (["--scan-processing", "magic"], "magic"),
         (["--trials", "x"], "x"),
     ],
 )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
 import shlex
@@ -54,10 +55,33 @@ def _parse_sets(values: list[str], option: str) -> dict[str, dict[str, Any]]:
 
 
 def _options_for(sets: dict[str, dict[str, Any]], names: list[str]) -> dict[str, dict[str, Any]]:
+    """Per localiser, the options that apply to it; unknown localisers or option names are errors."""
     unknown = [n for n in sets if n != "*" and n not in names]
     if unknown:
         raise NxtnavError(f"--set: options for {', '.join(unknown)}, which is not among {', '.join(names)}")
-    return {n: {**sets.get("*", {}), **sets.get(n, {})} for n in names if sets.get("*") or sets.get(n)}
+    out: dict[str, dict[str, Any]] = {}
+    for n in names:
+        accepted = _accepted_options(n)
+        common = {k: v for k, v in sets.get("*", {}).items() if accepted is None or k in accepted}
+        opts = {**common, **sets.get(n, {})}
+        bad = [k for k in sets.get(n, {}) if accepted is not None and k not in accepted]
+        if bad:
+            raise NxtnavError(f"--set: {n} has no option {', '.join(bad)}; its options: "
+                              f"{', '.join(sorted(accepted or ())) or 'none'}")
+        if opts:
+            out[n] = opts
+    stray = [k for k in sets.get("*", {}) if not any(k in out.get(n, {}) for n in names)]
+    if stray:
+        raise NxtnavError(f"--set: no chosen localiser has an option {', '.join(stray)}")
+    return out
+
+
+def _accepted_options(name: str) -> set[str] | None:
+    """Keyword options of a localiser's constructor (None when it takes any)."""
+    params = inspect.signature(LOCALISERS.get(name).__init__).parameters
+    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        return None
+    return {k for k, p in params.items() if k not in ("self", "map", "rng") and p.kind is not p.VAR_POSITIONAL}
 
 
 @app.command("localise")
