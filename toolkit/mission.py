@@ -3,14 +3,19 @@
 `run_mission` runs any registered localiser and planner on any `toolkit.world.Robot` (the simulator
 or a real NXT) from an unknown start pose to a target, the way the paper's system does:
 
-1. **Localise** globally with `localisation.procedure.localise` (scan, align, rescan, iterate).
+1. **Localise** globally with `localisation.procedure.localise` (scan, align, rescan), one iteration
+   at a time. While the belief is ambiguous (the identical rooms of map3) the mission drives toward
+   open space along a move that is collision-free from every candidate pose the localiser reports,
+   and localises again. A fix is confirmed by a second, independent global localisation.
 2. **Plan** in the configuration space from the estimate with the chosen planner and the shared FCL
-   `CollisionChecker` (planned with a small safety margin on the robot radius when the map allows it).
+   `CollisionChecker` (with a safety margin on the robot radius when the map allows it).
 3. **Drive** the path segment by segment: Turn to the segment heading (from the estimate), then Move in
-   steps with the collision watchdog on; the localiser predicts after every action. At each waypoint the
-   robot re-localises (tracking from the current belief) and re-plans when the next segment is no
-   longer collision-free from where it believes it is.
-4. On a **watchdog stop**: Turnback, re-localise, re-plan from the new estimate.
+   steps with the collision watchdog on; the localiser predicts after every action. Legs end (and the
+   robot re-localises, tracking from its belief, and re-aims) at each waypoint, every
+   `relocalise_every_cm`, after a short first leg following a global fix, and where a heading error
+   of a few degrees could bring the robot to a wall. A next segment that is no longer free from the
+   new estimate is re-planned.
+4. On a **watchdog stop** (or a move that makes no progress): Turnback, re-localise, re-plan.
 5. At the **target**: re-localise and correct (turn + move toward the target from the estimate) until
    the estimate is within `MissionConfig.goal_tolerance_cm` of the target or the retry limit is hit.
 
@@ -227,8 +232,8 @@ class TraceStep:
     Attributes
     ----------
     action : str
-        ``localise``, ``relocalise``, ``plan``, ``turn``, ``move``, ``turnback``, ``correct-turn``,
-        ``correct-move`` or ``stop``.
+        ``localise``, ``relocalise``, ``plan``, ``turn``, ``move``, ``turnback``, ``explore-turn``,
+        ``explore-move``, ``correct-turn`` or ``correct-move``.
     estimate : Pose or None
         The localiser's mean pose after the action.
     true_pose : Pose or None
