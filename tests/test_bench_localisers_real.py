@@ -86,3 +86,19 @@ def test_dask_local_tiny_run(tmp_path: Path) -> None:
     rows = _rows(out / "runs.csv")
     assert [int(r["trial"]) for r in rows] == [0, 1]
     assert all(int(r["seed"]) == bench.trial_seed(4, "map2", int(r["trial"])) for r in rows)
+
+
+def test_lobe_options_follow_the_sonar() -> None:
+    nxt = bench.BenchConfig(sonar="nxt")
+    pf = [n for n in LOCALISERS.names() if n == "paper-pf" or n.startswith("pf-")]
+    assert pf
+    for name in pf:
+        assert bench.lobe_options(nxt, name) == {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0}
+        assert bench.lobe_options(bench.BenchConfig(sonar="ideal"), name) == {}
+        assert bench.lobe_options(bench.BenchConfig(sonar="nxt", lobe="off"), name) == {}
+    # explicit options win over the lobe
+    cfg = bench.BenchConfig(sonar="nxt", localiser_options={"paper-pf": {"beam_width_deg": 10.0}})
+    assert bench.localiser_options(cfg, "paper-pf")["beam_width_deg"] == 10.0
+    for name in ("ekf", "ukf"):
+        if name in LOCALISERS:
+            assert bench.lobe_options(nxt, name) == {}

@@ -58,6 +58,7 @@ from toolkit.world import (
     Scan,
     angle_diff,
     load_map,
+    make_sonar,
     wrap_angle,
 )
 
@@ -77,7 +78,9 @@ __all__ = [
     "TrialTask",
     "call_localise",
     "is_success",
+    "lobe_options",
     "localise_once",
+    "localiser_options",
     "make_tasks",
     "random_pose",
     "read_csv",
@@ -165,8 +168,11 @@ class BenchConfig:
     scan_processing : {"paper", "raw"}
         Scans given to the localiser in the tracking and kidnapped loops: the paper's processing
         (windows around 0/90/180/270 degrees from the minimum reading) or every usable reading.
+    lobe : {"auto", "off"}
+        ``auto`` tells localisers that can model it the simulated sonar's lobe (see `lobe_options`);
+        ``off`` leaves them with their defaults (a thin ray).
     localiser_options : mapping
-        Per localiser name, keyword arguments for `make_localiser`.
+        Per localiser name, keyword arguments for `make_localiser` (they override the lobe options).
     localise_options : mapping
         Extra keyword arguments for `localisation.procedure.localise` (those it does not accept are dropped).
     """
@@ -185,6 +191,7 @@ class BenchConfig:
     kidnap_min_cm: float = 30.0
     recovery_rounds: int = 3
     scan_processing: str = "paper"
+    lobe: str = "auto"
     localiser_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     localise_options: Mapping[str, Any] = field(default_factory=dict)
 
@@ -195,6 +202,8 @@ class BenchConfig:
             v = getattr(self, k)
             if not (math.isfinite(v) and v >= 0):
                 raise NxtnavError(f"{k} must be a non-negative number, got {v!r}")
+        if self.lobe not in ("auto", "off"):
+            raise NxtnavError(f"lobe must be 'auto' or 'off', got {self.lobe!r}")
         if self.scan_processing not in ("paper", "raw"):
             raise NxtnavError(f"scan processing must be 'paper' or 'raw', got {self.scan_processing!r}")
         if self.tracking_steps < 1 or self.recovery_rounds < 1:
@@ -215,7 +224,7 @@ class BenchConfig:
             "prior_sd_deg": self.prior_sd_deg, "clearance_cm": self.clearance_cm,
             "tracking_steps": self.tracking_steps, "tracking_step_cm": list(self.tracking_step_cm),
             "kidnap_min_cm": self.kidnap_min_cm, "recovery_rounds": self.recovery_rounds,
-            "scan_processing": self.scan_processing,
+            "scan_processing": self.scan_processing, "lobe": self.lobe,
             "localiser_options": {k: dict(v) for k, v in self.localiser_options.items()},
             "localise_options": dict(self.localise_options),
         }
@@ -395,7 +404,7 @@ def localise_once(
                          rng=np.random.default_rng(robot_ss))
     if localiser is None:
         localiser = make_localiser(localiser_name, m, rng=np.random.default_rng(loc_ss),
-                                   **dict(cfg.localiser_options.get(localiser_name, {})))
+                                   **localiser_options(cfg, localiser_name))
     prior: Prior | None = None
     prior_kind = "global"
     if getattr(localiser, "needs_prior", False):
@@ -404,7 +413,7 @@ def localise_once(
             prior = _noisy_truth(robot.true_pose, cfg, np.random.default_rng(prior_ss))
         else:
             pf = make_localiser("paper-pf", m, rng=np.random.default_rng(prior_ss),
-                                **dict(cfg.localiser_options.get("paper-pf", {})))
+                                **localiser_options(cfg, "paper-pf"))
             first = call_localise(robot, pf, None, np.random.default_rng(prior_ss.spawn(1)[0]),
                                   _procedure_options(cfg))
             prior = _prior_from_estimate(_estimate_of(first, pf), cfg)
@@ -432,6 +441,33 @@ def localise_once(
         result=result,
     )
     return outcome, robot, localiser
+
+
+def lobe_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
+    """The sonar's lobe as localiser options, for localisers that take them (``lobe="auto"``).
+
+    A localiser whose constructor accepts ``beam_width_deg`` / ``critical_incidence_deg`` (the
+    particle filters' range tables) gets the simulated sonar's values (for ``nxt``: its 20-degree
+    lobe and 40-degree critical incidence; a thin ray for ``ideal``). Nothing for ``lobe="off"``.
+    """
+    if cfg.lobe == "off":
+        return {}
+    sonar = make_sonar(cfg.sonar, noise_sd=cfg.sensor_noise)
+    width = float(getattr(sonar, "beam_width_deg", 0.0))
+    if width <= 0.0:
+        return {}
+    params = inspect.signature(LOCALISERS.get(name).__init__).parameters
+    out: dict[str, Any] = {}
+    if "beam_width_deg" in params:
+        out["beam_width_deg"] = width
+        if "critical_incidence_deg" in params and hasattr(sonar, "critical_incidence_deg"):
+            out["critical_incidence_deg"] = float(sonar.critical_incidence_deg)
+    return out
+
+
+def localiser_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
+    """Constructor options of localiser `name`: the sonar's lobe (see `lobe_options`), then `--set` options."""
+    return {**lobe_options(cfg, name), **dict(cfg.localiser_options.get(name, {}))}
 
 
 def _procedure_options(cfg: BenchConfig) -> dict[str, Any]:
@@ -649,7 +685,7 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     robot = SimRobot(m, truth, noise=cfg.noise, sonar=cfg.sonar, sensor_noise=cfg.sensor_noise,
                      rng=np.random.default_rng(robot_ss))
     loc = make_localiser(task.localiser, m, rng=np.random.default_rng(loc_ss),
-                         **dict(cfg.localiser_options.get(task.localiser, {})))
+                         **localiser_options(cfg, task.localiser))
     prep = _scan_preparer(loc, cfg.scan_processing)
     errs: list[float] = []
     herrs: list[float] = []
@@ -867,6 +903,13 @@ def write_summary(
         + ("the paper's processing (align to the minimum reading, rescan, keep +-15 degrees around "
            "0/90/180/270)" if config.scan_processing == "paper" else "raw (every usable reading)"),
     ]
+    lobed = [n for n in localisers if lobe_options(config, n)]
+    if lobed:
+        ex = lobe_options(config, lobed[0])
+        lines.append(f"- sonar lobe given to the localisers that model it ({', '.join(lobed)}): "
+                     + ", ".join(f"`{k}={v:g}`" for k, v in ex.items()) + " (`--lobe auto`); the others use a thin ray")
+    elif config.lobe == "off" and config.sonar != "ideal":
+        lines.append("- localisers keep their default thin-ray range model (`--lobe off`)")
     if trackers:
         if config.tracker_prior == "noisy-truth":
             how = (f"the true pose plus Gaussian noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} "

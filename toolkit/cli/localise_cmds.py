@@ -94,6 +94,7 @@ def localise_cmd(
     noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
+    lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
     seed: int = typer.Option(0, help="Random seed."),
     sets: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="Localiser option (repeatable)."),
     output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
@@ -113,7 +114,7 @@ def localise_cmd(
     if not m.contains(pose.xy):
         raise NxtnavError(f"--pose: ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
-                      scan_processing=scan_processing,
+                      scan_processing=scan_processing, lobe=lobe,
                       localiser_options=_options_for(_parse_sets(sets, "--set"), [localiser]))
     out, _, _ = localise_once(m, pose, localiser, config=cfg, rng=seed)
     fig = draw_localisation(m, out, title=f"{m.name}: {localiser}, sonar {sonar}, seed {seed}")
@@ -151,6 +152,7 @@ def bench_localisers(
     recovery_rounds: int = typer.Option(3, help="Runs of the procedure (localiser not reset) allowed to recover "
                                                 "from a kidnapping."),
     scan_processing: str = typer.Option("paper", help="Scans for the localisers: paper (processed) or raw."),
+    lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
     seed: int = typer.Option(0, help="Random seed."),
     sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
                                    help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
@@ -192,6 +194,7 @@ def bench_localisers(
         raise NxtnavError(f"--sensor-noise must be a non-negative number, got {sensor_noise}")
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
+                      lobe=lobe,
                       localiser_options=_options_for(_parse_sets(sets, "--set"), locs))
     tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
     out.mkdir(parents=True, exist_ok=True)
@@ -209,7 +212,8 @@ def bench_localisers(
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "localisers", "--maps", ",".join(maps), "--localisers", ",".join(locs),
         "--trials", str(trials), "--sonar", sonar, "--scenario", ",".join(scenarios), "--seed", str(seed),
-        "--tracker-prior", tracker_prior, "--scan-processing", scan_processing, "--out", str(out),
+        "--tracker-prior", tracker_prior, "--scan-processing", scan_processing, "--lobe", lobe,
+        "--out", str(out),
         "--workers", str(workers),
         *(["--dask", dask] if dask else []), *[a for s in sets for a in ("--set", s)]])
     written.append(write_summary(results, out / "summary.md", config=cfg, maps=maps, localisers=locs,
