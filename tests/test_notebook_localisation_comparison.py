@@ -24,7 +24,8 @@ def test_localisation_comparison_notebook_runs() -> None:
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
     assert not [o for o in outputs if o.get("output_type") == "error"]
     text = "".join(o.get("data", {}).get("text/markdown", "") for o in outputs)
-    for needle in ("| processed (kept) |", "| raw | map1 |", "| map3 | paper-pf |", "RMSE", "recovered"):
+    for needle in ("| processed (kept) |", "| auto | raw |", "| off | paper |", "| map3 | paper-pf |", "RMSE",
+                   "recovered"):
         assert needle in text, needle
     images = [o for o in outputs if "image/png" in o.get("data", {})]
     assert len(images) >= 4  # clouds, radar, errors and times, tracking
