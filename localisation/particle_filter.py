@@ -398,6 +398,8 @@ class ParticleFilter(Localiser):
         self._move_cap = (half, 2.0 * dth)
 
     def estimate(self) -> PoseEstimate:
+        """The belief: mean pose and covariance of the cloud; when several modes are plausible, the
+        best-fitting mode's pose with the whole cloud's covariance and ``converged=False``."""
         if self._estimate is None:
             self._estimate = self._make_estimate()
         return self._estimate
@@ -674,4 +676,10 @@ class ParticleFilter(Localiser):
         return PoseEstimate(Pose.from_array(mean), cov, self._converged, self.iterations)
 
     def _make_estimate(self) -> PoseEstimate:
-        return self._estimate_from(self.particles, log_normalise(self.log_weights))
+        est = self._estimate_from(self.particles, log_normalise(self.log_weights))
+        if len(self._modes) > 1:
+            # ambiguous: the mean of distant twins is no place at all; report the best-fitting mode's
+            # pose with the covariance of the whole cloud (which shows the ambiguity)
+            best = max(self._modes, key=lambda md: (md.best_log_likelihood, md.weight))
+            est = PoseEstimate(best.pose, est.cov, False, est.iterations)
+        return est
