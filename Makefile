@@ -18,11 +18,10 @@ install: $(STAMP)
 
 run: $(STAMP)
 	mkdir -p out
-	$(BIN)/nxtnav maps show map1 -o out/map1.png
-	$(BIN)/nxtnav scan --map map1 --pose 20,85,0 --sonar nxt --seed 1 -o out/scan.png --json out/scan.json
+	$(BIN)/nxtnav run --plot out/mission.png --json out/mission.json
 
 test: $(STAMP)
-	$(BIN)/ruff check toolkit planners localisation tests
+	$(BIN)/ruff check toolkit planners localisation tests notebooks
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
 

@@ -154,14 +154,14 @@ def _explore_direction(scan: Scan, rng: np.random.Generator, avoid_rad: float | 
     Readings are the only information used (no pose). Among directions within 2 cm of the longest
     travel, one is picked at random; directions pointing back where the robot came from (within 60
     degrees of `avoid_rad`) are used only when nothing else is open. Directions limited by no
-    reading (no echo) are not trusted and count as the longest reading.
+    reading are never chosen: a missing echo (255) is as likely a wall seen at a glancing angle as open
+    space (the arrow tips of map3 read 255 to a real sensor), and driving into it explores nothing.
     """
-    phi, free = free_travel(scan, radius_cm)
     ok = scan.valid & np.isfinite(scan.ranges)
     if not ok.any():
         return 0.0, 0.0
-    cap = float(np.max(scan.ranges[ok]))
-    free = np.minimum(free, cap)
+    phi, free = free_travel(scan, radius_cm, scan.angles[ok])
+    free = np.minimum(free, scan.ranges[ok])
     score = free.copy()
     if avoid_rad is not None:
         back = np.abs(angle_diff(phi, avoid_rad)) < math.radians(60.0)

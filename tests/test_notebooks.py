@@ -1,0 +1,47 @@
+"""Execute the comparison notebooks and check that they drew their tables and figures.
+
+Set ``NXTNAV_SAVE_EXECUTED=DIR`` to keep the executed notebooks (with outputs) in DIR.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+nbformat = pytest.importorskip("nbformat")
+nbclient = pytest.importorskip("nbclient")
+
+NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
+
+# notebook -> (Markdown fragments its outputs must contain, minimum number of figures)
+EXPECTED: dict[str, tuple[tuple[str, ...], int]] = {
+    "planner_comparison": (("## map1", "## map2", "## map3", "| min-turn |"), 4),
+    "localisation_comparison": (("| processed (kept) |", "| auto | raw |", "| off | paper |", "| map3 | paper-pf |",
+                                 "RMSE", "recovered"), 4),
+    "paper_reproduction": (("| map1 |", "| map3 |"), 3),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_notebook_runs_and_shows_its_results(name: str) -> None:
+    path = NOTEBOOKS / f"{name}.ipynb"
+    nb = nbformat.read(path, as_version=4)
+    client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3",
+                                     resources={"metadata": {"path": str(NOTEBOOKS)}})
+    client.execute()
+    if os.environ.get("NXTNAV_SAVE_EXECUTED"):
+        out = Path(os.environ["NXTNAV_SAVE_EXECUTED"])
+        out.mkdir(parents=True, exist_ok=True)
+        nbformat.write(nb, out / path.name)
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    errors = [o for o in outputs if o.get("output_type") == "error"]
+    assert not errors, errors[0].get("evalue") if errors else ""
+    text = "".join(o.get("data", {}).get("text/markdown", "") for o in outputs)
+    needles, min_images = EXPECTED[name]
+    for needle in needles:
+        assert needle in text, needle
+    images = [o for o in outputs if "image/png" in o.get("data", {})]
+    assert len(images) >= min_images
