@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 from shapely.ops import nearest_points
 
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from localisation.procedure import free_travel
 from planners.base import Planner, PlanningProblem, PlanResult, make_planner
 
 from .world import (
@@ -453,14 +454,7 @@ def explore_direction(scan: Scan, clearance_cm: float, rng: np.random.Generator 
     ok = scan.valid & np.isfinite(scan.ranges)
     if not ok.any():
         return 0.0, 0.0
-    a, r = scan.angles[ok], scan.ranges[ok]
-    d = a[None, :] - a[:, None]
-    along = r[None, :] * np.cos(d)
-    lateral = np.abs(r[None, :] * np.sin(d))
-    blocking = (lateral < clearance_cm) & (along > 0.0)
-    reach = np.maximum(along - np.sqrt(np.maximum(clearance_cm**2 - lateral**2, 0.0)), 0.0)
-    free = np.where(blocking, reach, np.inf).min(axis=1)
-    free = np.where(np.isfinite(free), free, r)
+    a, free = free_travel(scan, clearance_cm, scan.angles[ok])
     if avoid_rad is not None:
         back = np.abs(angle_diff(a, avoid_rad)) < math.radians(45.0)
         if (free[~back] > 2.0).any():
