@@ -515,6 +515,7 @@ class ParticleFilter(Localiser):
             w = log_normalise(log_w)
             mean, cov = _cloud_stats(p, w)
             self.particles, self.log_weights = p, np.log(np.maximum(w, 1e-300))
+            s_kept = s  # residuals of the particles kept (p and s are resampled below)
             stds = self._mode_stds(p, w, labels, keep) if clustered else np.zeros((0, 2))
             if beta >= 1.0 and clustered:
                 self._modes = self._describe_modes(p, w, s, labels, keep)
@@ -557,8 +558,9 @@ class ParticleFilter(Localiser):
         keep_p = self.log_weights > math.log(1e-300)
         if not keep_p.all():
             self.particles, self.log_weights = self.particles[keep_p], self.log_weights[keep_p]
-        self._best_fit = self._outlier_fraction(self.particles[int(np.argmin(s))], rel, meas) \
-            if np.isfinite(s).any() else 1.0
+            s_kept = s_kept[keep_p]
+        self._best_fit = self._outlier_fraction(self.particles[int(np.argmin(s_kept))], rel, meas) \
+            if np.isfinite(s_kept).any() else 1.0
         self._global = False
         self._move_cap = (math.inf, math.inf)
         self._estimate = self._make_estimate()

@@ -102,3 +102,12 @@ def test_lobe_options_follow_the_sonar() -> None:
     for name in ("ekf", "ukf"):
         if name in LOCALISERS:
             assert bench.lobe_options(nxt, name) == {}
+
+
+def test_kidnapped_recovery_does_not_raise() -> None:
+    # regression: after a kidnapping the filter pruned dead particles but looked up its best fit with
+    # residuals of the resampled cloud (IndexError); this trial of the benchmark (seed 0) hit it
+    task = bench.make_tasks("kidnapped", ["map1"], ["paper-pf"], 19, 0, bench.BenchConfig())[18]
+    r = bench.run_trial(task)
+    assert not r.failure, r.failure
+    assert r.localised and r.recovered and math.isfinite(r.error_cm) and r.error_cm <= 2.0
