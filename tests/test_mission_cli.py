@@ -118,3 +118,23 @@ def test_paper_json_shape(tmp_path: Path) -> None:
             assert set(row["paper"]) >= {"completion_s", "final_error_cm", "path_length_cm", "collisions"}
     assert doc[0]["rows"][0]["paper"]["final_error_cm"] == 1.79
     assert "| map3 |" in md.read_text()
+
+
+def test_paper_random_starts(tmp_path: Path) -> None:
+    js, md = tmp_path / "t.json", tmp_path / "t.md"
+    assert _exit_code(["paper", "--trials", "2", "--seed", "5", "--maps", "map1", "--noise-model", "absolute",
+                       "--random-start", "--json", str(js), "--markdown", str(md)]) == 0
+    (table,) = json.loads(js.read_text())
+    assert table["starts"] == "random" and table["rows"][0]["trials"] == 2
+    assert table["rows"][0]["success_rate"] == 1.0 and table["rows"][0]["collisions"] == 0
+    assert "random starts" in md.read_text()
+
+
+def test_paper_random_start_trials_start_off_the_preset() -> None:
+    from toolkit.bench.paper import paper_tasks
+    from toolkit.mission import run_sim_mission
+
+    (task,) = paper_tasks(1, 5, maps=("map1",), noise_models=("absolute",), random_start=True)
+    assert task.random_start
+    report = run_sim_mission(task.map, seed=task.seed, random_start_pose=True, noise_model="absolute")
+    assert report.start is not None and report.start.distance_to((20.0, 20.0)) > 1.0

@@ -8,6 +8,9 @@ true collisions, the success rate and the mean robot time, beside the paper's nu
 succeeds when the mission reports success and the robot is truly within the mission's success radius
 (3 cm by default) of the target.
 
+With ``random_start`` each trial starts instead from a seeded random free pose at least 10 cm from
+every wall (``nxtnav paper --random-start``); those tables say so (``starts``: ``random``).
+
 Trial ``i`` of map ``k`` has the mission seed ``SeedSequence([seed, k, i])``: the same on every
 noise model and stack (common random numbers), and `nxtnav run --map MAP --seed SEED` replays one
 trial exactly.
@@ -70,6 +73,7 @@ class PaperTrial:
     sensor_noise: float = 1.0
     motion_noise: float = 0.1
     turn_noise: float = 0.005
+    random_start: bool = False
 
     @property
     def stack(self) -> str:
@@ -104,7 +108,7 @@ def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> TrialRes
         r = run_sim_mission(
             task.map, seed=task.seed, planner=task.planner, localiser=task.localiser,
             noise_model=task.noise_model, sensor_noise=task.sensor_noise, motion_noise=task.motion_noise,
-            turn_noise=task.turn_noise, sonar=task.sonar, config=config,
+            turn_noise=task.turn_noise, sonar=task.sonar, config=config, random_start_pose=task.random_start,
         )
     except Exception as exc:  # a crash in one trial is a failed trial, not a lost table
         return TrialResult(task, False, f"crashed: {type(exc).__name__}: {exc}", math.nan, math.nan, math.nan,
@@ -132,12 +136,15 @@ def paper_tasks(
     sensor_noise: float = 1.0,
     motion_noise: float = 0.1,
     turn_noise: float = 0.005,
+    random_start: bool = False,
 ) -> list[PaperTrial]:
-    """Every trial of the table, in a fixed order."""
+    """Every trial of the table, in a fixed order (`random_start`: a seeded random free start pose
+    at least 10 cm from the walls instead of the preset start)."""
     if trials < 1:
         raise ValueError(f"trials must be >= 1, got {trials}")
     return [
-        PaperTrial(m, i, trial_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise)
+        PaperTrial(m, i, trial_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise,
+                   random_start)
         for nm in noise_models
         for p, lo in stacks
         for k, m in enumerate(maps)
@@ -189,6 +196,7 @@ class PaperTable:
     localiser: str
     sonar: str
     rows: list[PaperRow]
+    starts: str = "preset"
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -196,6 +204,7 @@ class PaperTable:
             "planner": self.planner,
             "localiser": self.localiser,
             "sonar": self.sonar,
+            "starts": self.starts,
             "rows": [r.to_dict() for r in self.rows],
         }
 
@@ -217,12 +226,13 @@ def _max(values: Iterable[float]) -> float:
 
 def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:
     """Group trial results into tables (noise model x stack), one row per map in the paper's order."""
-    groups: dict[tuple[str, str, str, str], dict[str, list[TrialResult]]] = {}
+    groups: dict[tuple[str, str, str, str, bool], dict[str, list[TrialResult]]] = {}
     for r in results:
         t = r.task
-        groups.setdefault((t.noise_model, t.planner, t.localiser, t.sonar), {}).setdefault(t.map, []).append(r)
+        key = (t.noise_model, t.planner, t.localiser, t.sonar, t.random_start)
+        groups.setdefault(key, {}).setdefault(t.map, []).append(r)
     tables = []
-    for (nm, p, lo, so), by_map in groups.items():
+    for (nm, p, lo, so, rs_), by_map in groups.items():
         order = sorted(by_map, key=lambda m: (PAPER_MAPS.index(m) if m in PAPER_MAPS else len(PAPER_MAPS), m))
         rows = []
         for m in order:
@@ -241,7 +251,7 @@ def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:
                 completion_median_s=_median(r.completion_s for r in rs),
                 failures=[f"trial {r.task.trial} (seed {r.task.seed}): {r.status}" for r in rs if not r.success],
             ))
-        tables.append(PaperTable(nm, p, lo, so, rows))
+        tables.append(PaperTable(nm, p, lo, so, rows, "random" if rs_ else "preset"))
     model_order = {"botsim": 0, "absolute": 1}
     tables.sort(key=lambda t: (model_order.get(t.noise_model, 2), t.noise_model))
     return tables
@@ -266,7 +276,8 @@ def tables_to_markdown(tables: Sequence[PaperTable]) -> str:
     """The tables as Markdown, ours beside the paper's (paper values in parentheses)."""
     out: list[str] = []
     for t in tables:
-        out.append(f"### Noise model `{t.noise_model}`, stack `{t.planner}/{t.localiser}`, sonar `{t.sonar}`\n")
+        starts = ", random starts" if t.starts == "random" else ""
+        out.append(f"### Noise model `{t.noise_model}`, stack `{t.planner}/{t.localiser}`, sonar `{t.sonar}`{starts}\n")
         out.append("| Map | Trials | Success | Completion (s) | Median completion (s) | Distance from target (cm) "
                    "| Path length (cm) | Collisions | Robot time (s) |")
         out.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|")

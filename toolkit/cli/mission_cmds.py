@@ -193,6 +193,8 @@ def paper(
                                                  help="Noise model(s) (default both: botsim and absolute)."),
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
     workers: int = typer.Option(1, "--workers", min=1, help="Worker processes."),
+    random_start: bool = typer.Option(False, "--random-start",
+                                      help="Start each trial from a seeded random free pose (>= 10 cm from walls)."),
 ) -> None:
     """The paper's Table I regenerated: mean completion time, final error, path length, collisions."""
     from ..bench.paper import paper_tasks, run_paper, tables_to_markdown
@@ -208,7 +210,8 @@ def paper(
     for name in map_names:
         load_map(name)
     stacks = _parse_stacks(stack)
-    tasks = paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=sonar)
+    tasks = paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=sonar,
+                        random_start=random_start)
     console = Console(stderr=True)
     with Progress(TextColumn("[bold]missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=console, transient=True) as progress:
