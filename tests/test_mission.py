@@ -101,3 +101,24 @@ def test_unreachable_target_with_the_real_stack() -> None:
     assert not report.success
     assert "unreachable" in report.status or "lost" in report.status
     assert report.collisions == 0
+
+
+def test_nxt_sonar_localisers_are_told_the_lobe() -> None:
+    from toolkit.mission import NXT_SONAR_SIGMA_CM, matched_localiser_options
+
+    nxt = matched_localiser_options("paper-pf", sonar="nxt")
+    assert nxt["beam_width_deg"] == 20.0 and nxt["critical_incidence_deg"] == 40.0
+    assert nxt["sensor_sigma_cm"] == NXT_SONAR_SIGMA_CM
+    ideal = matched_localiser_options("paper-pf", sonar="ideal", sensor_noise=1.5)
+    assert "beam_width_deg" not in ideal and ideal["sensor_sigma_cm"] == 1.5
+    if "ekf" in localisation.LOCALISERS:
+        assert "beam_width_deg" not in matched_localiser_options("ekf", sonar="nxt")
+
+
+def test_nxt_sonar_mission_among_the_slanted_walls_of_map2() -> None:
+    # Table I trial 0 of map2 (absolute noise): with a thin-ray model the filter settled 8 degrees off
+    # in the wedge bay and the robot stopped 4.2 cm from the target while believing it was there
+    report = run_sim_mission("map2", seed=3964924996, sonar="nxt", noise_model="absolute")
+    assert report.success, report.status
+    assert report.final_error_cm is not None and report.final_error_cm <= 3.0
+    assert report.collisions == 0

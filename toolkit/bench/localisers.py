@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from toolkit.mission import lobe_options as mission_lobe_options
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.world import (
     LocalisationError,
@@ -58,7 +59,6 @@ from toolkit.world import (
     Scan,
     angle_diff,
     load_map,
-    make_sonar,
     wrap_angle,
 )
 
@@ -452,17 +452,7 @@ def lobe_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
     """
     if cfg.lobe == "off":
         return {}
-    sonar = make_sonar(cfg.sonar, noise_sd=cfg.sensor_noise)
-    width = float(getattr(sonar, "beam_width_deg", 0.0))
-    if width <= 0.0:
-        return {}
-    params = inspect.signature(LOCALISERS.get(name).__init__).parameters
-    out: dict[str, Any] = {}
-    if "beam_width_deg" in params:
-        out["beam_width_deg"] = width
-        if "critical_incidence_deg" in params and hasattr(sonar, "critical_incidence_deg"):
-            out["critical_incidence_deg"] = float(sonar.critical_incidence_deg)
-    return out
+    return mission_lobe_options(name, cfg.sonar, cfg.sensor_noise)
 
 
 def localiser_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
