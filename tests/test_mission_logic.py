@@ -262,3 +262,17 @@ def test_a_wrong_single_place_fix_is_caught_by_the_confirmation() -> None:
     assert report.success, report.status
     assert robot.true_pose.distance_to(m.target) < 2.0
     assert any("disagree" in s.note for s in report.trace)
+
+
+def test_target_in_a_wall_is_reported_before_the_localiser_is_built(monkeypatch: pytest.MonkeyPatch) -> None:
+    def no_localiser(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the localiser should not be built for a target in a wall")
+
+    monkeypatch.setattr(mission_mod, "make_localiser", no_localiser)
+    m = load_map("map1")
+    robot = SimRobot(m, Pose(20.0, 20.0, 0.0), rng=0)
+    report = mission_mod.run_mission(robot, m, (3.0, 50.0), rng=0)
+    assert not report.success and "in a wall" in report.status
+    assert report.localiser == "paper-pf" and robot.robot_time_s == 0.0
+    with pytest.raises(KeyError):  # an unknown localiser name still fails at once
+        mission_mod.run_mission(robot, m, (80.0, 80.0), localiser="no-such-filter", rng=0)

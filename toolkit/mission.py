@@ -482,13 +482,14 @@ def _estimate_of(result: Any, localiser: Localiser) -> PoseEstimate:
 class _Mission:
     """The mutable state of one run (counters, trace, current estimate)."""
 
-    def __init__(self, robot: Robot, m: Map, target: FloatArray, planner: Planner, localiser: Localiser,
-                 rng: np.random.Generator, config: MissionConfig) -> None:
+    def __init__(self, robot: Robot, m: Map, target: FloatArray, planner: Planner,
+                 localiser: Callable[[], Localiser], rng: np.random.Generator, config: MissionConfig) -> None:
         self.robot = robot
         self.map = m
         self.target = target
         self.planner = planner
-        self.localiser = localiser
+        self._make_localiser = localiser
+        self._localiser: Localiser | None = None
         self.rng = rng
         self.cfg = config
         radius = float(robot.geometry.radius_cm)
@@ -518,6 +519,18 @@ class _Mission:
         self._localise = _localise_procedure()
         params = inspect.signature(self._localise).parameters
         self._localise_kw = set(params) if not any(p.kind is p.VAR_KEYWORD for p in params.values()) else None
+
+    @property
+    def localiser(self) -> Localiser:
+        """The localiser, built at its first use (a target in a wall is reported before any range table
+        is computed)."""
+        if self._localiser is None:
+            self._localiser = self._make_localiser()
+        return self._localiser
+
+    @property
+    def built_localiser(self) -> bool:
+        return self._localiser is not None
 
     # -- recording ------------------------------------------------------------------------------
     def true_pose(self) -> Pose | None:
@@ -959,13 +972,19 @@ def run_mission(
     gen = as_rng(rng)
     plan_rng, loc_rng = gen.spawn(2)
     plan_obj = planner if isinstance(planner, Planner) else make_planner(planner, **dict(cfg.planner_options))
-    loc_obj = (localiser if isinstance(localiser, Localiser)
-               else make_localiser(localiser, m, rng=loc_rng, **dict(cfg.localiser_options)))
+    if not isinstance(localiser, Localiser):
+        LOCALISERS.get(localiser)  # an unknown name fails here, before anything runs
+
+    def build_localiser() -> Localiser:
+        if isinstance(localiser, Localiser):
+            return localiser
+        return make_localiser(localiser, m, rng=loc_rng, **dict(cfg.localiser_options))
+
     start_pose = getattr(robot, "true_pose", None)
     start = start_pose if isinstance(start_pose, Pose) else None
     time0 = float(robot.robot_time_s)
     counters0 = _robot_counters(robot)
-    mission = _Mission(robot, m, tgt, plan_obj, loc_obj, plan_rng, cfg)
+    mission = _Mission(robot, m, tgt, plan_obj, build_localiser, plan_rng, cfg)
     try:
         status, success = mission.run()
     except _MissionEnded as end:
@@ -995,7 +1014,8 @@ def run_mission(
         replans=mission.replans,
         map=m.name,
         planner=plan_obj.name,
-        localiser=loc_obj.name,
+        localiser=mission.localiser.name if mission.built_localiser else
+        (localiser.name if isinstance(localiser, Localiser) else str(localiser)),
         seed=seed,
         start=start,
         target=tgt,
