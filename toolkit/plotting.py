@@ -1,7 +1,7 @@
 """Matplotlib drawing of maps, c-space, poses, paths, particles and scans.
 
-Every function takes an optional ``ax`` and returns the artists it drew; nothing here calls
-``plt.show()``. `save_figure` writes a figure to a file and closes it.
+Every function takes an optional ``ax`` and returns the artists it drew; nothing here opens a
+window. `save_figure` writes a figure to a file and closes it.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Figures of the localiser benchmark and of single localisations.
 
 Every ``plot_*`` function takes the trial results (or one outcome) and an optional axes, and returns
-the artists it drew; `write_plots` saves the standard set into a folder. Nothing calls ``plt.show()``.
+the artists it drew; `write_plots` saves the standard set into a folder. Nothing opens a window.
 """
 
 from __future__ import annotations

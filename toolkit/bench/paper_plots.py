@@ -1,6 +1,6 @@
 """Drawing missions like the paper's figures: map, c-space, planned path(s), estimates, true trajectory.
 
-Functions take an optional ``ax`` and return the artists they drew (nothing calls ``plt.show()``);
+Functions take an optional ``ax`` and return the artists they drew (nothing opens a window);
 `animate_mission` writes a GIF with matplotlib's Pillow writer.
 """
 

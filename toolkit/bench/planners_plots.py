@@ -1,7 +1,7 @@
 """Figures of the planner benchmark: box plots per metric and map, paths side by side, error vs turns.
 
-Drawing functions take an ``ax`` (or a figure) and return the artists; nothing here calls
-``plt.show()``. `save_boxplots` writes the PNGs of ``nxtnav bench planners``.
+Drawing functions take an ``ax`` (or a figure) and return the artists; nothing here opens a
+window. `save_boxplots` writes the PNGs of ``nxtnav bench planners``.
 """
 
 from __future__ import annotations
