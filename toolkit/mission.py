@@ -42,6 +42,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -528,10 +529,6 @@ class _Mission:
             self._localiser = self._make_localiser()
         return self._localiser
 
-    @property
-    def built_localiser(self) -> bool:
-        return self._localiser is not None
-
     # -- recording ------------------------------------------------------------------------------
     def true_pose(self) -> Pose | None:
         p = getattr(self.robot, "true_pose", None)
@@ -972,14 +969,11 @@ def run_mission(
     gen = as_rng(rng)
     plan_rng, loc_rng = gen.spawn(2)
     plan_obj = planner if isinstance(planner, Planner) else make_planner(planner, **dict(cfg.planner_options))
-    if not isinstance(localiser, Localiser):
-        LOCALISERS.get(localiser)  # an unknown name fails here, before anything runs
-
-    def build_localiser() -> Localiser:
-        if isinstance(localiser, Localiser):
-            return localiser
-        return make_localiser(localiser, m, rng=loc_rng, **dict(cfg.localiser_options))
-
+    if isinstance(localiser, Localiser):
+        loc_name, build_localiser = localiser.name, lambda: localiser
+    else:  # built at first use; an unknown name fails here, before anything runs
+        loc_name = LOCALISERS.get(localiser).name
+        build_localiser = partial(make_localiser, localiser, m, rng=loc_rng, **dict(cfg.localiser_options))
     start_pose = getattr(robot, "true_pose", None)
     start = start_pose if isinstance(start_pose, Pose) else None
     time0 = float(robot.robot_time_s)
@@ -1014,8 +1008,7 @@ def run_mission(
         replans=mission.replans,
         map=m.name,
         planner=plan_obj.name,
-        localiser=mission.localiser.name if mission.built_localiser else
-        (localiser.name if isinstance(localiser, Localiser) else str(localiser)),
+        localiser=loc_name,
         seed=seed,
         start=start,
         target=tgt,
@@ -1052,13 +1045,16 @@ def lobe_options(localiser: str, sonar: str, sensor_noise: float = 1.0) -> dict[
     width = float(getattr(model, "beam_width_deg", 0.0))
     if width <= 0.0:
         return {}
+    lobe = {"beam_width_deg": width}
+    if hasattr(model, "critical_incidence_deg"):
+        lobe["critical_incidence_deg"] = float(model.critical_incidence_deg)
+    return _accepted(localiser, lobe)
+
+
+def _accepted(localiser: str, options: Mapping[str, Any]) -> dict[str, Any]:
+    """The `options` that the constructor of the localiser registered as `localiser` takes."""
     params = inspect.signature(LOCALISERS.get(localiser).__init__).parameters
-    out: dict[str, Any] = {}
-    if "beam_width_deg" in params:
-        out["beam_width_deg"] = width
-        if "critical_incidence_deg" in params and hasattr(model, "critical_incidence_deg"):
-            out["critical_incidence_deg"] = float(model.critical_incidence_deg)
-    return out
+    return {k: v for k, v in options.items() if k in params}
 
 
 def matched_localiser_options(localiser: str, *, sonar: str = "ideal", noise_model: str = "botsim",
@@ -1078,8 +1074,7 @@ def matched_localiser_options(localiser: str, *, sonar: str = "ideal", noise_mod
         known["sensor_sigma_cm"] = sensor_noise
     elif sonar == "nxt":
         known["sensor_sigma_cm"] = NXT_SONAR_SIGMA_CM
-    params = inspect.signature(LOCALISERS.get(localiser).__init__).parameters
-    return {**{k: v for k, v in known.items() if k in params}, **lobe_options(localiser, sonar, sensor_noise)}
+    return {**_accepted(localiser, known), **lobe_options(localiser, sonar, sensor_noise)}
 
 
 def run_sim_mission(

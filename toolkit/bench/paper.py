@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..mission import MissionConfig, run_sim_mission
 from .executors import run_tasks
@@ -209,19 +210,10 @@ class PaperTable:
         }
 
 
-def _mean(values: Iterable[float]) -> float:
+def _stat(func: Callable[[NDArray[np.float64]], Any], values: Iterable[float]) -> float:
+    """`func` (np.mean, np.median, np.max) of the values that are not NaN; NaN when none is."""
     v = np.array([x for x in values if not math.isnan(x)], dtype=float)
-    return float(v.mean()) if v.size else math.nan
-
-
-def _median(values: Iterable[float]) -> float:
-    v = np.array([x for x in values if not math.isnan(x)], dtype=float)
-    return float(np.median(v)) if v.size else math.nan
-
-
-def _max(values: Iterable[float]) -> float:
-    v = np.array([x for x in values if not math.isnan(x)], dtype=float)
-    return float(v.max()) if v.size else math.nan
+    return float(func(v)) if v.size else math.nan
 
 
 def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:
@@ -241,14 +233,14 @@ def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:
                 map=m,
                 trials=len(rs),
                 success_rate=sum(r.success for r in rs) / len(rs),
-                completion_s=_mean(r.completion_s for r in rs),
-                final_error_cm=_mean(r.final_error_cm for r in rs),
-                path_length_cm=_mean(r.path_length_cm for r in rs),
+                completion_s=_stat(np.mean, [r.completion_s for r in rs]),
+                final_error_cm=_stat(np.mean, [r.final_error_cm for r in rs]),
+                path_length_cm=_stat(np.mean, [r.path_length_cm for r in rs]),
                 collisions=int(sum(r.collisions for r in rs)),
-                robot_time_s=_mean(r.robot_time_s for r in rs),
-                final_error_max_cm=_max(r.final_error_cm for r in rs),
-                completion_max_s=_max(r.completion_s for r in rs),
-                completion_median_s=_median(r.completion_s for r in rs),
+                robot_time_s=_stat(np.mean, [r.robot_time_s for r in rs]),
+                final_error_max_cm=_stat(np.max, [r.final_error_cm for r in rs]),
+                completion_max_s=_stat(np.max, [r.completion_s for r in rs]),
+                completion_median_s=_stat(np.median, [r.completion_s for r in rs]),
                 failures=[f"trial {r.task.trial} (seed {r.task.seed}): {r.status}" for r in rs if not r.success],
             ))
         tables.append(PaperTable(nm, p, lo, so, rows, "random" if rs_ else "preset"))
