@@ -27,7 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng
+from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng, make_checker
 
 __all__ = ["PLANNERS", "PlanResult", "Planner", "PlanningProblem", "make_planner"]
 
@@ -73,8 +73,8 @@ class PlanningProblem:
     @classmethod
     def create(cls, map: Map, robot_radius: float, start: ArrayLike, goal: ArrayLike, time_limit: float = 1.0,
                rng: RngLike = None, checker: CollisionChecker | None = None) -> PlanningProblem:
-        """A problem with a new checker for `robot_radius` (or the given one)."""
-        return cls(map, checker or CollisionChecker(map, robot_radius), np.asarray(start, float),
+        """A problem with a new checker for `robot_radius` (or the given one); radius 0 is a point robot."""
+        return cls(map, checker or make_checker(map, robot_radius), np.asarray(start, float),
                    np.asarray(goal, float), time_limit, as_rng(rng))
 
     @property
@@ -155,6 +155,8 @@ class Planner(ABC):
             path, status = None, "start in collision"
         elif not checker.point_free(problem.goal):
             path, status = None, "goal in collision"
+        elif len(problem.map.regions) > 1 and problem.map.region_of(problem.start) != problem.map.region_of(problem.goal):
+            path, status = None, "unreachable: start and goal lie in different free regions"
         else:
             out = self._solve(problem)
             path, status = out[0], out[1]

@@ -15,7 +15,10 @@ from .geometry import (
     ray_wall_distances,
     wrap_angle,
 )
-from .maps import Map, list_maps, load_map, map_from_dict
+from .grids import OccupancyGrid, grid_to_map, polygonise
+from .importers import import_map
+from .maps import GridSpec, Map, Region, list_maps, load_map, map_from_dict
+from .point_collision import PointCollisionChecker, make_checker
 from .registry import Registry
 from .robot import NO_ECHO, MoveOutcome, Robot, RobotGeometry, Scan, default_scan_angles
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
@@ -24,6 +27,7 @@ __all__ = [
     "NO_ECHO",
     "SONAR_MODELS",
     "CollisionChecker",
+    "GridSpec",
     "IdealSonar",
     "LocalisationError",
     "Map",
@@ -31,9 +35,12 @@ __all__ = [
     "MoveOutcome",
     "NxtSonar",
     "NxtnavError",
+    "OccupancyGrid",
     "PlanningError",
+    "PointCollisionChecker",
     "Pose",
     "Registry",
+    "Region",
     "RegistryError",
     "RngLike",
     "Robot",
@@ -45,10 +52,14 @@ __all__ = [
     "as_rng",
     "circular_mean",
     "default_scan_angles",
+    "grid_to_map",
+    "import_map",
     "list_maps",
     "load_map",
+    "make_checker",
     "make_sonar",
     "map_from_dict",
+    "polygonise",
     "ray_cast",
     "ray_wall_distances",
     "wrap_angle",

@@ -9,6 +9,18 @@ A map file is YAML with the fields (units: cm)::
     start: [20, 20]                 # optional preset, must lie in free space
     target: [80, 80]                # optional preset, must lie in free space
 
+A map with several disjoint free regions (an imported grid map, say) lists them instead of
+``boundary`` and ``obstacles``::
+
+    regions:                        # each a polygon with holes; holes may touch the boundary or each
+      - boundary: [[0, 0], ...]     # other at single points (as in a grid map's double corners)
+        holes: [[[2, 2], ...], ...]
+      - boundary: [[50, 0], ...]
+    grid: {cell_cm: 1.0, origin: [0, 0], width: 281, height: 209}   # optional: the cells it came from
+
+Points where the free space's boundary touches itself (``Map.pinch_points``) close the passage:
+no motion may pass through one.
+
 Names such as ``map1`` resolve to the files in the repository's ``maps/`` folder, and to files in the
 folders listed in the environment variable ``NXTNAV_MAPS`` (separated like ``PATH``).
 """
@@ -31,9 +43,9 @@ from shapely.geometry.base import BaseGeometry
 from .errors import MapError
 from .geometry import RngLike, as_rng
 
-__all__ = ["MAP_FIELDS", "Map", "list_maps", "load_map", "map_from_dict", "map_search_path"]
+__all__ = ["MAP_FIELDS", "GridSpec", "Map", "Region", "list_maps", "load_map", "map_from_dict", "map_search_path"]
 
-MAP_FIELDS = ("name", "description", "boundary", "obstacles", "start", "target")
+MAP_FIELDS = ("name", "description", "boundary", "obstacles", "regions", "grid", "start", "target")
 _BUNDLED = Path(__file__).resolve().parents[2] / "maps"
 
 FloatArray = NDArray[np.float64]
@@ -67,8 +79,12 @@ def _resolve(name_or_path: str | os.PathLike[str]) -> Path:
     raise MapError(f"unknown map {str(name_or_path)!r}; known: {', '.join(known) or 'none'} (or give a path)")
 
 
-def load_map(name_or_path: str | os.PathLike[str]) -> Map:
+def load_map(name_or_path: str | os.PathLike[str] | Map) -> Map:
     """Load and validate a map by name (``map1``) or path (``maps/map1.yaml``).
+
+    A Moving AI ``.map`` file or a ROS map_server YAML (one with an ``image`` field) is imported with
+    the defaults of `toolkit.world.importers.import_map` (1 cm per Moving AI cell; unknown ROS cells
+    are obstacles); call that function for other options.
 
     Raises
     ------
@@ -78,18 +94,32 @@ def load_map(name_or_path: str | os.PathLike[str]) -> Map:
     if isinstance(name_or_path, Map):
         return name_or_path
     path = _resolve(name_or_path)
+    if path.suffix == ".map":
+        from .importers import import_map
+
+        return import_map(path)
+    data = _read_yaml(path)
+    if isinstance(data, dict) and "image" in data and "boundary" not in data and "regions" not in data:
+        from .importers import import_map
+
+        return import_map(path)
+    return map_from_dict(data, source=path, default_name=path.stem)
+
+
+def _read_yaml(path: Path) -> Any:
+    """Parse a YAML file (the C parser when PyYAML has it) or raise a one-line `MapError`."""
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise MapError(f"{path}: cannot read map file: {exc}") from None
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
-        data = yaml.safe_load(text)
+        return yaml.load(text, Loader=loader)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or "syntax error"
         raise MapError(f"{path}: not valid YAML{where}: {problem}") from None
-    return map_from_dict(data, source=path, default_name=path.stem)
 
 
 def _number(value: Any, where: str) -> float:
@@ -129,22 +159,88 @@ def _ring(value: Any, where: str) -> FloatArray:
 
 
 def _check_simple(ring: FloatArray, where: str) -> None:
-    """Raise when two non-adjacent edges of the ring meet (or adjacent edges overlap)."""
+    """Raise when two non-adjacent edges of the ring meet (or adjacent edges overlap).
+
+    Candidate edge pairs come from a shapely STRtree, so a ring of many thousand vertices (an imported
+    grid map) is checked in about n log n time.
+    """
     n = len(ring)
-    edges = [shapely.LineString([ring[i], ring[(i + 1) % n]]) for i in range(n)]
-    for i in range(n):
-        for j in range(i + 1, n):
-            adjacent = j == i + 1 or (i == 0 and j == n - 1)
-            inter = edges[i].intersection(edges[j])
-            if inter.is_empty:
-                continue
-            if adjacent and inter.geom_type == "Point":
-                continue  # the shared vertex
-            pt = inter.representative_point()
-            raise MapError(
-                f"{where}: self-intersecting, edge {i} ({i}->{(i + 1) % n}) meets edge {j} "
-                f"({j}->{(j + 1) % n}) at ({pt.x:.6g}, {pt.y:.6g})"
-            )
+    nxt = np.roll(ring, -1, axis=0)
+    edges = shapely.linestrings(np.stack([ring, nxt], axis=1))
+    pairs = shapely.STRtree(edges).query(edges, predicate="intersects")
+    pairs = pairs[:, pairs[0] < pairs[1]]
+    for i, j in sorted(zip(pairs[0].tolist(), pairs[1].tolist(), strict=True)):
+        adjacent = j == i + 1 or (i == 0 and j == n - 1)
+        inter = edges[i].intersection(edges[j])
+        if adjacent and inter.geom_type == "Point":
+            continue  # the shared vertex
+        pt = inter.representative_point()
+        raise MapError(
+            f"{where}: self-intersecting, edge {i} ({i}->{(i + 1) % n}) meets edge {j} "
+            f"({j}->{(j + 1) % n}) at ({pt.x:.6g}, {pt.y:.6g})"
+        )
+
+
+def _rings(value: Any, where: str, what: str) -> tuple[FloatArray, ...]:
+    if value is None:
+        return ()
+    if not isinstance(value, list):
+        raise MapError(f"{where}: field '{what}' must be a list of polygons, got {type(value).__name__}")
+    return tuple(_ring(o, f"{where}: {what[:-1]} {k}") for k, o in enumerate(value))
+
+
+def _check_obstacles(label: str, boundary: FloatArray, obstacles: tuple[FloatArray, ...]) -> None:
+    """The simple form's rule: obstacles strictly inside the boundary and apart from each other."""
+    outer = shapely.Polygon(boundary)
+    obs_polys = [shapely.Polygon(o) for o in obstacles]
+    for k, op in enumerate(obs_polys):
+        if not outer.contains(op) or outer.exterior.intersects(op):
+            raise MapError(f"{label}: obstacle {k} is not strictly inside the boundary")
+        for m in range(k):
+            if op.intersects(obs_polys[m]):
+                raise MapError(f"{label}: obstacles {m} and {k} overlap or touch")
+
+
+def _regions(value: Any, label: str) -> tuple[Region, ...]:
+    """The ``regions`` form: polygons with holes (OGC-valid: holes may touch at points), disjoint."""
+    if not isinstance(value, list) or not value:
+        raise MapError(f"{label}: field 'regions' must be a non-empty list of {{boundary, holes}} mappings")
+    out: list[Region] = []
+    for k, item in enumerate(value):
+        where = f"{label}: region {k}"
+        if not isinstance(item, dict):
+            raise MapError(f"{where}: expected a mapping with 'boundary' and optional 'holes', got {item!r}")
+        extra = sorted(str(x) for x in item if x not in ("boundary", "holes"))
+        if extra:
+            raise MapError(f"{where}: unknown field(s) {', '.join(extra)}; allowed: boundary, holes")
+        if "boundary" not in item:
+            raise MapError(f"{where}: missing field 'boundary'")
+        region = Region(_ring(item["boundary"], f"{where}: boundary"), _rings(item.get("holes"), where, "holes"))
+        reason = shapely.is_valid_reason(region.polygon)
+        if reason != "Valid Geometry":
+            raise MapError(f"{where}: invalid polygon: {reason}")
+        out.append(region)
+    polys = [r.polygon for r in out]
+    pairs = shapely.STRtree(polys).query(polys, predicate="intersects")
+    for i, j in zip(pairs[0].tolist(), pairs[1].tolist(), strict=True):
+        if i < j and shapely.get_dimensions(shapely.intersection(polys[i], polys[j])) > 0:
+            raise MapError(f"{label}: regions {i} and {j} overlap or share an edge")
+    return tuple(out)
+
+
+def _grid(value: Any, label: str) -> GridSpec | None:
+    if value is None:
+        return None
+    if not isinstance(value, dict) or set(value) != {"cell_cm", "origin", "width", "height"}:
+        raise MapError(f"{label}: field 'grid' must be a mapping with cell_cm, origin, width and height, got {value!r}")
+    cell = _number(value["cell_cm"], f"{label}: grid.cell_cm")
+    origin = _point(value["origin"], f"{label}: grid.origin")
+    for key in ("width", "height"):
+        if isinstance(value[key], bool) or not isinstance(value[key], int) or value[key] <= 0:
+            raise MapError(f"{label}: grid.{key} must be a positive integer, got {value[key]!r}")
+    if cell <= 0:
+        raise MapError(f"{label}: grid.cell_cm must be positive, got {cell}")
+    return GridSpec(cell, (float(origin[0]), float(origin[1])), int(value["width"]), int(value["height"]))
 
 
 def map_from_dict(
@@ -166,23 +262,20 @@ def map_from_dict(
         description = ""
     if not isinstance(description, str):
         raise MapError(f"{label}: field 'description' must be a string, got {type(description).__name__}")
-    if "boundary" not in data:
-        raise MapError(f"{label}: missing field 'boundary'")
-    boundary = _ring(data["boundary"], f"{label}: boundary")
-    raw_obs = data.get("obstacles") or []
-    if not isinstance(raw_obs, list):
-        raise MapError(f"{label}: field 'obstacles' must be a list of polygons, got {type(raw_obs).__name__}")
-    obstacles = tuple(_ring(o, f"{label}: obstacle {k}") for k, o in enumerate(raw_obs))
-    outer = shapely.Polygon(boundary)
-    obs_polys = [shapely.Polygon(o) for o in obstacles]
-    for k, op in enumerate(obs_polys):
-        if not outer.contains(op) or outer.exterior.intersects(op):
-            raise MapError(f"{label}: obstacle {k} is not strictly inside the boundary")
-        for m in range(k):
-            if op.intersects(obs_polys[m]):
-                raise MapError(f"{label}: obstacles {m} and {k} overlap or touch")
+    if "regions" in data:
+        if "boundary" in data or "obstacles" in data:
+            raise MapError(f"{label}: give either 'regions' or 'boundary' (with 'obstacles'), not both")
+        regions = _regions(data["regions"], label)
+    else:
+        if "boundary" not in data:
+            raise MapError(f"{label}: missing field 'boundary'")
+        boundary = _ring(data["boundary"], f"{label}: boundary")
+        obstacles = _rings(data.get("obstacles") or [], label, "obstacles")
+        _check_obstacles(label, boundary, obstacles)
+        regions = (Region(boundary, obstacles),)
+    grid = _grid(data.get("grid"), label)
+    free = regions[0].polygon if len(regions) == 1 else shapely.MultiPolygon([r.polygon for r in regions])
     presets: dict[str, FloatArray | None] = {}
-    free = shapely.Polygon(boundary, [o for o in obstacles])
     for key in ("start", "target"):
         if data.get(key) is None:
             presets[key] = None
@@ -194,53 +287,127 @@ def map_from_dict(
     return Map(
         name=name,
         description=description,
-        boundary=boundary,
-        obstacles=obstacles,
+        regions=regions,
         start=presets["start"],
         target=presets["target"],
+        grid=grid,
         source=source,
     )
 
 
 @dataclass(frozen=True, eq=False)
-class Map:
-    """A validated polygonal map (cm): a boundary, optional obstacles and optional start/target presets.
+class Region:
+    """One connected piece of free space (cm): an outer boundary and holes (obstacles) inside it."""
 
-    Build one with `load_map` or `map_from_dict`; the constructor trusts its arguments.
-    """
-
-    name: str
     boundary: FloatArray
-    obstacles: tuple[FloatArray, ...] = ()
-    start: FloatArray | None = None
-    target: FloatArray | None = None
-    description: str = ""
-    source: Path | None = field(default=None, repr=False)
+    holes: tuple[FloatArray, ...] = ()
 
     @cached_property
     def polygon(self) -> shapely.Polygon:
-        """The free area (boundary with obstacles as holes) as a shapely polygon."""
-        return shapely.Polygon(self.boundary, [o for o in self.obstacles])
+        return shapely.Polygon(self.boundary, [h for h in self.holes])
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"boundary": self.boundary.tolist()}
+        if self.holes:
+            d["holes"] = [h.tolist() for h in self.holes]
+        return d
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """The cell grid an imported map was polygonised from.
+
+    Cell ``(i, j)`` (column ``i`` from the left, row ``j`` from the bottom) is the square
+    ``[x0 + i c, x0 + (i + 1) c] x [y0 + j c, y0 + (j + 1) c]`` with ``(x0, y0) = origin`` and
+    ``c = cell_cm``; ``width`` columns and ``height`` rows.
+    """
+
+    cell_cm: float
+    origin: tuple[float, float]
+    width: int
+    height: int
+
+    def centres(self) -> FloatArray:
+        """Cell centres (cm), shape (height, width, 2), indexed ``[j, i]``."""
+        x0, y0 = self.origin
+        c = self.cell_cm
+        xs = x0 + c * (np.arange(self.width) + 0.5)
+        ys = y0 + c * (np.arange(self.height) + 0.5)
+        gx, gy = np.meshgrid(xs, ys)
+        return np.stack([gx, gy], axis=-1)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"cell_cm": self.cell_cm, "origin": list(self.origin), "width": self.width, "height": self.height}
+
+
+@dataclass(frozen=True, eq=False)
+class Map:
+    """A validated polygonal map (cm): free regions (boundaries with holes) and optional start/target presets.
+
+    Most maps have one region (`boundary` with `obstacles` inside); an imported grid map may have
+    several disjoint ones. Build one with `load_map` or `map_from_dict`; the constructor trusts its
+    arguments.
+    """
+
+    name: str
+    regions: tuple[Region, ...]
+    start: FloatArray | None = None
+    target: FloatArray | None = None
+    description: str = ""
+    grid: GridSpec | None = None
+    source: Path | None = field(default=None, repr=False)
+
+    @property
+    def boundary(self) -> FloatArray:
+        """The outer boundary of the first (largest, for imported maps) region."""
+        return self.regions[0].boundary
+
+    @property
+    def obstacles(self) -> tuple[FloatArray, ...]:
+        """The holes of the first region."""
+        return self.regions[0].holes
+
+    @cached_property
+    def polygon(self) -> shapely.Polygon | shapely.MultiPolygon:
+        """The free area as one shapely geometry (a MultiPolygon when there are several regions)."""
+        if len(self.regions) == 1:
+            return self.regions[0].polygon
+        return shapely.MultiPolygon([r.polygon for r in self.regions])
 
     @cached_property
     def walls(self) -> FloatArray:
-        """All wall segments as a (W, 4) array [x1, y1, x2, y2] (boundary first, then obstacles)."""
+        """All wall segments as a (W, 4) array [x1, y1, x2, y2] (each region's boundary, then its holes)."""
         segs = []
-        for ring in (self.boundary, *self.obstacles):
-            nxt = np.roll(ring, -1, axis=0)
-            segs.append(np.hstack([ring, nxt]))
+        for region in self.regions:
+            for ring in (region.boundary, *region.holes):
+                nxt = np.roll(ring, -1, axis=0)
+                segs.append(np.hstack([ring, nxt]))
         return np.vstack(segs)
 
     @cached_property
     def wall_lines(self) -> shapely.MultiLineString:
         """The walls as one shapely geometry (for exact distances)."""
-        return shapely.MultiLineString([[(a, b), (c, d)] for a, b, c, d in self.walls])
+        return shapely.multilinestrings(np.asarray(self.walls).reshape(-1, 2, 2))
+
+    @cached_property
+    def pinch_points(self) -> FloatArray:
+        """Points where the boundary of the free space touches itself, shape (k, 2).
+
+        A hole touching the boundary or another hole at one point, or two regions meeting at a
+        corner (in a grid map: two blocked cells meeting only diagonally). They close the passage:
+        no motion may pass through one.
+        """
+        verts = [ring for region in self.regions for ring in (region.boundary, *region.holes)]
+        allv = np.vstack(verts)
+        uniq, counts = np.unique(allv, axis=0, return_counts=True)
+        return np.asarray(uniq[counts > 1], dtype=np.float64)
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
-        """(xmin, ymin, xmax, ymax) of the boundary (cm)."""
-        lo = self.boundary.min(axis=0)
-        hi = self.boundary.max(axis=0)
+        """(xmin, ymin, xmax, ymax) of the boundaries (cm)."""
+        allv = np.vstack([r.boundary for r in self.regions])
+        lo = allv.min(axis=0)
+        hi = allv.max(axis=0)
         return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
 
     @property
@@ -259,6 +426,19 @@ class Map:
         p = np.asarray(xy, dtype=float)
         res = shapely.contains_xy(self.polygon, p[..., 0], p[..., 1])
         return bool(res) if p.ndim == 1 else res
+
+    def region_of(self, xy: ArrayLike) -> Any:
+        """Index of the region whose closure holds each point, -1 for none ((2,) -> int, (n, 2) -> array)."""
+        p = np.asarray(xy, dtype=float)
+        pts = p.reshape(-1, 2)
+        out = np.full(len(pts), -1, dtype=np.intp)
+        if len(self.regions) == 1:
+            out[shapely.intersects_xy(self.regions[0].polygon, pts[:, 0], pts[:, 1])] = 0
+        else:
+            tree = shapely.STRtree([r.polygon for r in self.regions])
+            idx = tree.query(shapely.points(pts), predicate="intersects")
+            out[idx[0][::-1]] = idx[1][::-1]  # the first region listed wins
+        return int(out[0]) if p.ndim == 1 else out
 
     def wall_distance(self, xy: ArrayLike) -> Any:
         """Exact distance (cm) from points to the nearest wall (shapely), vectorised like `contains`."""
@@ -291,16 +471,28 @@ class Map:
         return np.vstack(out)[:n]
 
     def to_dict(self) -> dict[str, Any]:
-        """The map in its file form (JSON/YAML ready)."""
-        d: dict[str, Any] = {
-            "name": self.name,
-            "description": self.description,
-            "boundary": self.boundary.tolist(),
-        }
-        if self.obstacles:
-            d["obstacles"] = [o.tolist() for o in self.obstacles]
+        """The map in its file form (JSON/YAML ready): ``boundary``/``obstacles`` when that form holds it."""
+        d: dict[str, Any] = {"name": self.name, "description": self.description}
+        simple = self.grid is None and len(self.regions) == 1 and _apart(self.regions[0])
+        if simple:
+            d["boundary"] = self.boundary.tolist()
+            if self.obstacles:
+                d["obstacles"] = [o.tolist() for o in self.obstacles]
+        else:
+            d["regions"] = [r.to_dict() for r in self.regions]
+        if self.grid is not None:
+            d["grid"] = self.grid.to_dict()
         if self.start is not None:
             d["start"] = self.start.tolist()
         if self.target is not None:
             d["target"] = self.target.tolist()
         return d
+
+
+def _apart(region: Region) -> bool:
+    """Whether the region's holes keep clear of its boundary and of each other (the simple file form)."""
+    try:
+        _check_obstacles("", region.boundary, region.holes)
+    except MapError:
+        return False
+    return True
