@@ -6,8 +6,9 @@ A node is usable when the shared checker finds the robot there free, and a move 
 neighbouring nodes when the checker finds the swept disc free; both are asked once per (map,
 radius, grid) in one batch and kept, so later queries on the same map only search. Start and goal
 join the grid through straight segments to the free nodes within ``connect_radius`` of them
-(without corner cutting, a start or goal exactly on a node uses that node alone). The returned path is the gridded one, unsmoothed, as in the paper's comparison: A* paths turn at many
-grid nodes, which is exactly what the paper's min-turn planner avoids.
+(without corner cutting, a start or goal exactly on a node uses that node alone). The returned
+path is the gridded one, unsmoothed, as in the paper's comparison: A* paths turn at many grid
+nodes, which is exactly what the paper's min-turn planner avoids.
 
 Without corner cutting (the default on a map's own cells, as the Moving AI benchmarks define it) a
 diagonal move is allowed only when both straight moves beside it are; with a point robot on the

@@ -155,7 +155,7 @@ class Planner(ABC):
             path, status = None, "start in collision"
         elif not checker.point_free(problem.goal):
             path, status = None, "goal in collision"
-        elif len(problem.map.regions) > 1 and problem.map.region_of(problem.start) != problem.map.region_of(problem.goal):
+        elif problem.map.region_of(problem.start) != problem.map.region_of(problem.goal):
             path, status = None, "unreachable: start and goal lie in different free regions"
         else:
             out = self._solve(problem)

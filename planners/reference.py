@@ -318,7 +318,7 @@ class ShortestPathPlanner(_ReferencePlanner):
         w = np.hypot(*(v[iu] - v[ju]).T)
         m = len(v)
         adj = csr_matrix((np.concatenate([w, w]), (np.concatenate([iu, ju]), np.concatenate([ju, iu]))), shape=(m, m))
-        extra = {"prev": prv, "next": nxt, "part": part, "cspace": cs, "adj": adj, "candidates": int(len(ok)),
+        extra = {"prev": prv, "next": nxt, "part": part, "cspace": cs, "adj": adj, "candidates": len(ok),
                  "build_s": time.perf_counter() - t0}
         return _Graph(problem.map, problem.robot_radius, v, np.zeros((0, 0), dtype=bool), extra)
 

@@ -13,6 +13,7 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, PathPatch
 from matplotlib.path import Path as MplPath
@@ -70,6 +71,7 @@ def _geometry_patch(geom: BaseGeometry, **kw: Any) -> list[PathPatch]:
             verts.extend(xy)
             codes.extend([MplPath.MOVETO] + [MplPath.LINETO] * (len(xy) - 2) + [MplPath.CLOSEPOLY])
         patches.append(PathPatch(MplPath(verts, codes), **kw))
+        kw.pop("label", None)  # one legend entry for a geometry of many parts
     return patches
 
 
@@ -82,8 +84,10 @@ def draw_map(m: Map, ax: Axes | None = None, presets: bool = True, title: bool =
     ax.set_facecolor("0.85")
     for patch in _geometry_patch(m.polygon, facecolor="white", edgecolor="none", zorder=0):
         artists.append(ax.add_patch(patch))
-    for x1, y1, x2, y2 in m.walls:
-        artists.extend(ax.plot([x1, x2], [y1, y2], color="black", lw=2, zorder=3))
+    # one collection for all walls (a real map has thousands); thinner lines as the map grows
+    lw = float(np.clip(2.0 * math.sqrt(60.0 / max(len(m.walls), 1)), 0.3, 2.0))
+    artists.append(ax.add_collection(LineCollection(list(np.asarray(m.walls).reshape(-1, 2, 2)), colors="black",
+                                                    linewidths=lw, zorder=3)))
     if presets:
         if m.start is not None:
             artists.extend(ax.plot(*m.start, marker="o", color="tab:green", ms=9, ls="", label="start", zorder=6))

@@ -57,9 +57,11 @@ def maps_show(
 ) -> None:
     """Draw a map with its c-space and presets."""
     m = load_map(map_name)
-    fig, ax = new_axes()
+    fig, ax = new_axes(size=5.0 if len(m.walls) < 200 else 9.0)
     draw_map(m, ax)
     draw_cspace(m, radius, ax)
+    if len(m.regions) > 1 or m.grid is not None:
+        ax.set_title(f"{m.name}: {len(m.walls)} edges, {len(m.regions)} free region(s)")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, fontsize=8, frameon=False)
     save_figure(fig, output)
     typer.echo(f"wrote {output}")

@@ -94,10 +94,10 @@ def grid_to_map(grid: OccupancyGrid, name: str, description: str = "", simplify_
         raise MapError(f"map {name!r}: the grid has no free cell")
     regions = [Region(np.asarray(p.exterior.coords)[:-1], tuple(np.asarray(h.coords)[:-1] for h in p.interiors))
                for p in parts]
-    data = {"name": name, "description": description, "regions": [r.to_dict() for r in regions],
+    data: dict[str, object] = {"name": name, "description": description, "regions": [r.to_dict() for r in regions],
             "grid": grid.spec.to_dict()}
     if start is not None:
-        data["start"] = list(map(float, start))
+        data["start"] = [float(v) for v in start]
     if target is not None:
-        data["target"] = list(map(float, target))
+        data["target"] = [float(v) for v in target]
     return map_from_dict(data, default_name=name)

@@ -21,8 +21,10 @@ A map with several disjoint free regions (an imported grid map, say) lists them 
 Points where the free space's boundary touches itself (``Map.pinch_points``) close the passage:
 no motion may pass through one.
 
-Names such as ``map1`` resolve to the files in the repository's ``maps/`` folder, and to files in the
-folders listed in the environment variable ``NXTNAV_MAPS`` (separated like ``PATH``).
+Names such as ``map1`` resolve to the files in the repository's ``maps/`` and ``maps/external/``
+folders, and to files in the folders listed in the environment variable ``NXTNAV_MAPS`` (separated
+like ``PATH``). Besides the YAML files above, a name may be a Moving AI ``.map`` file or a ROS
+map_server YAML, which are imported (`toolkit.world.importers`).
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ __all__ = ["MAP_FIELDS", "GridSpec", "Map", "Region", "list_maps", "load_map", "
 
 MAP_FIELDS = ("name", "description", "boundary", "obstacles", "regions", "grid", "start", "target")
 _BUNDLED = Path(__file__).resolve().parents[2] / "maps"
+_MAP_GLOBS = ("*.yaml", "*.yml", "*.map")
 
 FloatArray = NDArray[np.float64]
 
@@ -54,7 +57,7 @@ FloatArray = NDArray[np.float64]
 def map_search_path() -> list[Path]:
     """Folders searched for map names: ``$NXTNAV_MAPS`` entries first, then the bundled ``maps/``."""
     extra = [Path(p) for p in os.environ.get("NXTNAV_MAPS", "").split(os.pathsep) if p]
-    return [*extra, _BUNDLED]
+    return [*extra, _BUNDLED, _BUNDLED / "external"]
 
 
 def list_maps() -> dict[str, Path]:
@@ -62,14 +65,14 @@ def list_maps() -> dict[str, Path]:
     found: dict[str, Path] = {}
     for folder in map_search_path():
         if folder.is_dir():
-            for f in sorted(folder.glob("*.y*ml")):
+            for f in sorted(f for pattern in _MAP_GLOBS for f in folder.glob(pattern)):
                 found.setdefault(f.stem, f)
     return dict(sorted(found.items()))
 
 
 def _resolve(name_or_path: str | os.PathLike[str]) -> Path:
     p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml") or p.exists() or os.sep in str(name_or_path):
+    if p.suffix in (".yaml", ".yml", ".map") or p.exists() or os.sep in str(name_or_path):
         if not p.is_file():
             raise MapError(f"map file {str(p)!r} not found")
         return p
