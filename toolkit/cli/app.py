@@ -68,7 +68,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     command = typer.main.get_command(app)
     code = 0
     try:
-        command.main(args=list(argv) if argv is not None else None, prog_name="nxtnav", standalone_mode=False)
+        rv = command.main(args=list(argv) if argv is not None else None, prog_name="nxtnav", standalone_mode=False)
+        if isinstance(rv, int):  # click returns a command's typer.Exit code instead of raising it
+            code = rv
     except NxtnavError as exc:
         typer.echo(f"nxtnav: error: {exc}", err=True)
         code = 2
