@@ -28,6 +28,7 @@ from planners.base import Planner, PlanningProblem
 from ..world import Map, MapError, NxtnavError, import_map, make_checker
 from .executors import run_tasks
 from .ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
+from .peers import PEER_KIND, peer_path
 
 __all__ = [
     "EXACT_PLANNER",
@@ -229,6 +230,8 @@ def _run_one(task: _Task) -> ScenRecord:
     c = task.config
     m = _cached(("map", c.map_path, c.cell_cm), lambda: import_map(c.map_path, cell_cm=c.cell_cm))
     checker = _cached(("checker", c.map_path, c.cell_cm, c.radius), lambda: make_checker(m, c.radius))
+    if task.planner in PEER_KIND:
+        return _run_peer(task, m)
     planner = _cached(("planner", c.map_path, c.cell_cm, c.radius, task.planner), lambda: _planner(c, task.planner))
     start, goal = task.query.world(m, c.kind)
     rng = np.random.default_rng([c.seed, task.query.index])
@@ -237,6 +240,22 @@ def _run_one(task: _Task) -> ScenRecord:
     scale = 1.0 / m.grid.cell_cm if m.grid is not None else 1.0
     return ScenRecord(task.query, task.planner, res.success, res.length * scale if res.success else math.nan,
                       max(res.time_s - pre, 0.0), pre, res.status)
+
+
+def _run_peer(task: _Task, m: Map) -> ScenRecord:
+    c = task.config
+    checker = _cached(("point-checker", c.map_path, c.cell_cm), lambda: make_checker(m, 0.0))
+    start, goal = task.query.world(m, c.kind)
+    first = ("peer-ready", c.map_path, task.planner) not in _PROCESS_CACHE
+    t0 = time.perf_counter()
+    path, status = peer_path(task.planner, m, checker, start, goal)
+    elapsed = time.perf_counter() - t0
+    _PROCESS_CACHE[("peer-ready", c.map_path, task.planner)] = True
+    assert m.grid is not None
+    length = float(np.sum(np.hypot(*np.diff(path, axis=0).T))) / m.grid.cell_cm if path is not None else math.nan
+    # a peer's preparation happens inside its first query: reported as that query's preprocessing
+    return ScenRecord(task.query, task.planner, path is not None, length, 0.0 if first else elapsed,
+                      elapsed if first else 0.0, status)
 
 
 @dataclass
@@ -289,7 +308,7 @@ def summarise(result: ScenResult) -> list[PlannerSummary]:
         rs = [r for r in result.records if r.planner == name]
         ok = [r for r in rs if r.success]
         rel = np.array([r.rel_error for r in ok]) if ok else np.array([math.nan])
-        exact = EXACT_PLANNER[kind] == name and result.config.radius == 0
+        exact = (EXACT_PLANNER[kind] == name and result.config.radius == 0) or PEER_KIND.get(name) == kind
         mism = sum(1 for r in rs if not r.success or abs(r.rel_error) > MATCH_TOL) if exact else 0
         # on any-angle scenarios every valid path is at least the optimum; on octile only exact ones are
         below = sum(1 for r in ok if r.rel_error < -MATCH_TOL) if (kind == "any-angle" or exact) else 0
@@ -319,12 +338,36 @@ def summary_markdown(result: ScenResult, total_queries: int) -> str:
                      f"{s.mismatches if s.exact else '-'} | {s.below_optimum} | {_fmt(s.median_rel_error, '.3g')} | "
                      f"{_fmt(s.max_rel_error, '.3g')} | {_fmt(s.median_time_s * 1e3, '.2f')} | "
                      f"{s.preprocess_s:.2f} |")
+    lines += _peer_ratios(result)
     lines += ["", f"Exact planner for {c.kind}: `{EXACT_PLANNER[c.kind]}` (point robot); a mismatch is a failure "
               f"or |relative error| > {MATCH_TOL:g}. Below optimum: a path shorter than the published optimum "
               "(counted where no valid path can be shorter; it would pass through a wall).",
               "Preprocessing (graph or grid building, once per worker process) is excluded from the per-query "
               "times."]
     return "\n".join(lines) + "\n"
+
+
+def _peer_ratios(result: ScenResult) -> list[str]:
+    """Per peer: median time ratio against the exact planner on the same queries, and length agreement."""
+    c = result.config
+    ours = {r.query.index: r for r in result.records if r.planner == EXACT_PLANNER[c.kind] and r.success}
+    out: list[str] = []
+    for name in c.planners:
+        if name not in PEER_KIND:
+            continue
+        pairs = [(r, ours[r.query.index]) for r in result.records
+                 if r.planner == name and r.success and r.query.index in ours]
+        if not pairs:
+            out.append(f"- `{name}`: no query solved by both it and `{EXACT_PLANNER[c.kind]}`.")
+            continue
+        ratio = float(np.median([p.time_s / max(o.time_s, 1e-9) for p, o in pairs]))
+        diff = np.array([p.length - o.length for p, o in pairs])
+        agree = int(np.sum(np.abs(diff) <= MATCH_TOL * np.maximum(1.0, [o.length for _, o in pairs])))
+        failed = sum(1 for r in result.records if r.planner == name and not r.success)
+        out.append(f"- `{name}` against `{EXACT_PLANNER[c.kind]}` on {len(pairs)} queries both solved: median "
+                   f"time ratio {ratio:.3g} (peer / ours), equal lengths on {agree}, peer shorter on "
+                   f"{int(np.sum(diff < -1e-6))}, longer on {int(np.sum(diff > 1e-6))}; peer failures {failed}.")
+    return ["", "Peers (same queries, same run):", "", *out] if out else []
 
 
 def write_scen_outputs(result: ScenResult, out_dir: Path, total_queries: int) -> dict[str, Path]:

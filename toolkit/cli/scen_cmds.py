@@ -56,7 +56,9 @@ def bench_scen(
     map_path: Path | None = typer.Option(None, "--map", metavar="FILE.map",
                                          help="The map (default: the file the scenarios name, next to FILE.scen)."),
     kind: str = typer.Option(..., "--kind", help="octile (cells, 8-connected) or any-angle (cell corners)."),
-    planners_text: str = typer.Option("astar,shortest", "--planners", help="Comma-separated planner names."),
+    planners_text: str = typer.Option("astar,shortest", "--planners",
+                                      help="Comma-separated planner names; peers (benchmark extra 'peers'): "
+                                           "peer:pyastar2d, peer:extremitypathfinder."),
     radius: float = typer.Option(0.0, "--radius", help="Robot radius in cm (0: a point, as the benchmarks assume)."),
     cell_cm: float = typer.Option(1.0, "--cell-cm", help="Cell size in cm (lengths are compared in cells)."),
     limit: int | None = typer.Option(None, "--limit", help="Run N queries spread evenly over the file."),
@@ -89,9 +91,13 @@ def bench_scen(
     if kind not in ("octile", "any-angle"):
         raise NxtnavError(f"--kind must be octile or any-angle, got {kind!r}")
     names = parse_list(planners_text, "--planners")
+    from ..bench.peers import PEERS
+
     for n in names:
-        if not n.startswith("ompl:"):
+        if not n.startswith(("ompl:", "peer:")):
             PLANNERS.get(n)
+        elif n.startswith("peer:") and n not in PEERS:
+            raise NxtnavError(f"--planners: unknown peer {n!r}; known: {', '.join(PEERS)}")
     if not (math.isfinite(radius) and radius >= 0):
         raise NxtnavError(f"--radius must be a non-negative number of cm, got {radius}")
     if not (math.isfinite(time_limit) and time_limit > 0):

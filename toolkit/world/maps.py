@@ -72,7 +72,7 @@ def list_maps() -> dict[str, Path]:
 
 def _resolve(name_or_path: str | os.PathLike[str]) -> Path:
     p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml", ".map") or p.exists() or os.sep in str(name_or_path):
+    if p.suffix in (".yaml", ".yml", ".map") or p.is_file() or os.sep in str(name_or_path):
         if not p.is_file():
             raise MapError(f"map file {str(p)!r} not found")
         return p
