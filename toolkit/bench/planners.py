@@ -205,21 +205,31 @@ def _checker(map_name: str, radius: float) -> CollisionChecker:
 LARGE_MAP_WALLS = 200
 """Above this many walls (imported real maps) the references adapt: `shortest` grows the walls by a
 16-gon instead of a 64-gon (its length tolerance, reported per path, stays below about 1 cm) and
-`min-link`, whose dense graph grows with the map's area squared, is skipped; `astar` then plans on
-the map's own cells when the map came from a grid."""
+`min-link`, whose dense graph grows with the map's area squared, is skipped."""
 
 
-@lru_cache(maxsize=64)
-def _planner(name: str, map_name: str | None = None) -> Any:
+def planner_for(name: str, m: Map) -> Any:
+    """The planner `name` as the benchmarks configure it for map `m` (None: skipped on this map).
+
+    On a map imported from a grid, `astar` plans on the map's own cells; on a map of more than
+    `LARGE_MAP_WALLS` walls the references adapt (see there).
+    """
     load_planner_plugins()
     from planners import make_planner
 
-    m = _map(map_name) if map_name is not None else None
-    if m is not None and name == "astar" and m.grid is not None:
+    large = len(m.walls) > LARGE_MAP_WALLS
+    if name == "astar" and m.grid is not None:
         return make_planner(name, resolution=None)
-    if m is not None and name == "shortest" and len(m.walls) > LARGE_MAP_WALLS:
+    if name == "shortest" and large:
         return make_planner(name, n_sides=16)
+    if name == "min-link" and large:
+        return None
     return make_planner(name)
+
+
+@lru_cache(maxsize=64)
+def _planner(name: str, map_name: str) -> Any:
+    return planner_for(name, _map(map_name))
 
 
 # -- tasks ---------------------------------------------------------------------------------------
@@ -273,12 +283,13 @@ def run_reference(task: ReferenceTask) -> ReferenceResult:
         if name not in PLANNERS:
             statuses.append(f"{name}: not registered")
             continue
-        if name == "min-link" and len(_map(q.map).walls) > LARGE_MAP_WALLS:
+        planner = _planner(name, q.map)
+        if planner is None:
             statuses.append(f"{name}: skipped on a map of {len(_map(q.map).walls)} walls")
             continue
         problem = PlanningProblem(_map(q.map), checker, np.array(q.start), np.array(q.goal), task.time_limit,
                                   np.random.default_rng(0))
-        res = _planner(name, q.map).plan(problem)
+        res = planner.plan(problem)
         statuses.append(f"{name}: {res.status}")
         if res.success:
             results[name] = res.path

@@ -12,7 +12,7 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from ..world import CollisionChecker, NxtnavError, PlanningError, RobotGeometry, load_map
+from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import app, bench_app, fail
 from .options import parse_list, parse_xy
 
@@ -71,7 +71,7 @@ def plan(
     from planners.metrics import path_metrics
 
     from ..bench.execution import execution_error
-    from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, check_planner_names
+    from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, check_planner_names, planner_for
     from ..plotting import draw_cspace, draw_map, draw_path, new_axes, save_figure
 
     if not (math.isfinite(time_limit) and time_limit > 0):
@@ -79,7 +79,7 @@ def plan(
     nz = _noise(noise_model, motion_noise, turn_noise)
     check_planner_names([planner])
     m = load_map(map_name)
-    checker = CollisionChecker(m, radius)
+    checker = make_checker(m, radius)
 
     def point(text: str | None, option: str, preset: Any) -> np.ndarray:
         if text is None:
@@ -95,12 +95,15 @@ def plan(
     start = point(start_text, "--start", m.start)
     goal = point(goal_text, "--goal", m.target)
     problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed))
-    result = make_planner(planner).plan(problem)
+    result = (planner_for(planner, m) or make_planner(planner)).plan(problem)
     refs: dict[str, Any] = {}
     for name in REFERENCE_PLANNERS:
+        ref_planner = planner_for(name, m)
+        if ref_planner is None:
+            continue
         try:
-            ref = make_planner(name).plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
-                                                          np.random.default_rng(0)))
+            ref = ref_planner.plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
+                                                   np.random.default_rng(0)))
         except NxtnavError:
             continue
         if ref.success:
