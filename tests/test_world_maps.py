@@ -81,6 +81,16 @@ SQUARE = "[[0, 0], [100, 0], [100, 100], [0, 100]]"
         (f"boundary: {SQUARE}\nobstacles: [[[10, 10], [30, 10], [30, 30]]]\ntarget: [25, 15]", "target .* outside"),
         (f"boundary: {SQUARE}\nstart: [1, 2, 3]", r"start: expected a point"),
         ("boundary: [[0, 0], [1, 0]\n", "not valid YAML at line"),
+        ("regions: 3", "'regions' must be a non-empty list"),
+        ("regions: [{holes: []}]", "region 0: missing field 'boundary'"),
+        (f"regions: [{{boundary: {SQUARE}, holes: [[[150, 150], [160, 150], [160, 160]]]}}]",
+         "region 0: invalid polygon: Hole lies outside shell"),
+        (f"regions: [{{boundary: {SQUARE}, holes: [[[10, 10], [.nan, 10], [20, 20]]]}}]", r"hole 0 vertex 1.*finite"),
+        (f"regions: [{{boundary: {SQUARE}}}, {{boundary: [[50, 50], [150, 50], [150, 150]]}}]",
+         "regions 0 and 1 overlap or share an edge"),
+        (f"regions: [{{boundary: {SQUARE}}}]\nboundary: {SQUARE}", "either 'regions' or 'boundary'"),
+        (f"regions: [{{boundary: {SQUARE}, colour: red}}]", "region 0: unknown field"),
+        (f"boundary: {SQUARE}\ngrid: {{cell_cm: 0, origin: [0, 0], width: 2, height: 2}}", "cell_cm must be positive"),
     ],
 )
 def test_precise_errors(tmp_path: Path, text: str, message: str) -> None:

@@ -204,6 +204,26 @@ def _check_obstacles(label: str, boundary: FloatArray, obstacles: tuple[FloatArr
                 raise MapError(f"{label}: obstacles {m} and {k} overlap or touch")
 
 
+def _region_ring(value: Any, where: str) -> FloatArray:
+    """A ring of the ``regions`` form: vectorised checks (the polygon's validity test does the rest).
+
+    Anything unusual goes through `_ring`, whose messages name the vertex at fault.
+    """
+    try:
+        ring = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return _ring(value, where)
+    if ring.ndim != 2 or ring.shape[1] != 2 or not np.isfinite(ring).all() or isinstance(value, np.ndarray):
+        return _ring(value, where)
+    if len(ring) >= 2 and np.array_equal(ring[0], ring[-1]):
+        ring = ring[:-1]
+    if len(ring) < 3 or (ring == np.roll(ring, -1, axis=0)).all(axis=1).any():
+        return _ring(value, where)
+    if any(isinstance(c, bool) for v in value for c in v):
+        return _ring(value, where)
+    return ring
+
+
 def _regions(value: Any, label: str) -> tuple[Region, ...]:
     """The ``regions`` form: polygons with holes (OGC-valid: holes may touch at points), disjoint."""
     if not isinstance(value, list) or not value:
@@ -218,10 +238,16 @@ def _regions(value: Any, label: str) -> tuple[Region, ...]:
             raise MapError(f"{where}: unknown field(s) {', '.join(extra)}; allowed: boundary, holes")
         if "boundary" not in item:
             raise MapError(f"{where}: missing field 'boundary'")
-        region = Region(_ring(item["boundary"], f"{where}: boundary"), _rings(item.get("holes"), where, "holes"))
+        holes = item.get("holes") or []
+        if not isinstance(holes, list):
+            raise MapError(f"{where}: field 'holes' must be a list of polygons, got {type(holes).__name__}")
+        region = Region(_region_ring(item["boundary"], f"{where}: boundary"),
+                        tuple(_region_ring(h, f"{where}: hole {k}") for k, h in enumerate(holes)))
         reason = shapely.is_valid_reason(region.polygon)
         if reason != "Valid Geometry":
             raise MapError(f"{where}: invalid polygon: {reason}")
+        if not region.polygon.area > 0:
+            raise MapError(f"{where}: polygon has zero area")
         out.append(region)
     polys = [r.polygon for r in out]
     pairs = shapely.STRtree(polys).query(polys, predicate="intersects")
