@@ -340,8 +340,9 @@ def summary_markdown(result: ScenResult, total_queries: int) -> str:
                      f"{s.preprocess_s:.2f} |")
     lines += _peer_ratios(result)
     lines += ["", f"Exact planner for {c.kind}: `{EXACT_PLANNER[c.kind]}` (point robot); a mismatch is a failure "
-              f"or |relative error| > {MATCH_TOL:g}. Below optimum: a path shorter than the published optimum "
-              "(counted where no valid path can be shorter; it would pass through a wall).",
+              f"or |relative error| > {MATCH_TOL:g}. Below optimum: a path shorter than the published optimum, "
+              "counted where no valid path can be shorter (any planner on any-angle scenarios: it passed "
+              "through a wall; the exact planner and the octile peer on octile ones: it broke the move rules).",
               "Preprocessing (graph or grid building, once per worker process) is excluded from the per-query "
               "times."]
     return "\n".join(lines) + "\n"
