@@ -109,3 +109,21 @@ def test_maps_import_writes_a_loadable_exact_map(tmp_path: Path, capsys: pytest.
     assert run(["maps", "import", str(ARENA), "-o", str(out)]) == 2  # no silent overwrite
     assert "exists" in capsys.readouterr().err
     assert run(["maps", "import", str(tmp_path / "none.map"), "-o", str(tmp_path / "x.yaml")]) == 2
+
+
+@pytest.mark.parametrize("case", ["short row", "missing image", "pgm size"])
+def test_maps_import_bad_files_exit_2_with_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                   case: str) -> None:
+    if case == "short row":
+        src = tmp_path / "t.map"
+        src.write_text("type octile\nheight 2\nwidth 3\nmap\n...\n..\n")
+    else:
+        src = tmp_path / "m.yaml"
+        src.write_text("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\n"
+                       "occupied_thresh: 0.65\nfree_thresh: 0.2\n")
+        if case == "pgm size":
+            (tmp_path / "m.pgm").write_bytes(b"P5\n40 40\n255\n" + bytes(300))
+    assert run(["maps", "import", str(src), "-o", str(tmp_path / "out.yaml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("nxtnav: error: ") and ("m.pgm" in err[0] or "t.map" in err[0])
+    assert not (tmp_path / "out.yaml").exists()
