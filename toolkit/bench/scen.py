@@ -71,10 +71,9 @@ class Scenario:
         assert g is not None
         half = 0.5 if kind == "octile" else 0.0
 
-        def conv(p: tuple[int, int]) -> np.ndarray:
+        def conv(p: tuple[int, int]) -> np.ndarray:  # file rows count down from the top edge
             x, y = p
-            row_top = y + half if kind == "octile" else y  # distance from the top edge, in cells
-            return np.array([g.origin[0] + (x + half) * g.cell_cm, g.origin[1] + (g.height - row_top) * g.cell_cm])
+            return np.array([g.origin[0] + (x + half) * g.cell_cm, g.origin[1] + (g.height - y - half) * g.cell_cm])
 
         return conv(self.start), conv(self.goal)
 
