@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test lint typecheck bench clean
+.PHONY: run test lint typecheck bench figures clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,9 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/nxtnav bench world --map map1
+
+figures: $(STAMP)
+	$(BIN)/nxtnav figures --out docs/img
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache

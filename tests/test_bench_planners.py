@@ -122,6 +122,8 @@ def test_summary_has_one_table_per_map(bench_dir: Path) -> None:
         assert text.count(f"| {p} |") == len(MAPS)
     for stem in ("time", "length_ratio", "turns", "exec_error"):
         assert (bench_dir / f"boxplot_{stem}.png").read_bytes()[:4] == b"\x89PNG"
+    for name in ("exec_vs_turns", "paths"):
+        assert (bench_dir / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_ompl_log_converts_to_a_database_with_every_planner(bench_dir: Path, tmp_path: Path) -> None:

@@ -7,7 +7,7 @@ the artists it drew; `write_plots` saves the standard set into a folder. Nothing
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -108,26 +108,36 @@ def plot_times(results: Sequence[TrialResult], map_name: str, localisers: Sequen
     return [bp]
 
 
-def plot_success(results: Sequence[TrialResult], maps: Sequence[str], localisers: Sequence[str],
-                 ax: Axes | None = None) -> list[Any]:
-    """Grouped bars: success rate (%) per map and localiser."""
-    ax = _ax(ax, (7.0, 4.0))
+def _rate_bars(ax: Axes, maps: Sequence[str], localisers: Sequence[str],
+               rate: Callable[[str, str], float], ylabel: str, title: str) -> list[Any]:
+    """Grouped bars of `rate(map, localiser)` (%), each labelled with its value (so 0 % shows)."""
     col = _colours(localisers)
     width = 0.8 / max(len(localisers), 1)
     artists: list[Any] = []
     for j, n in enumerate(localisers):
-        rates = []
-        for m in maps:
-            rs = [r for r in _of(results, GlobalRun, m) if r.localiser == n]
-            rates.append(100.0 * np.mean([r.success for r in rs]) if rs else np.nan)
-        artists.append(ax.bar(np.arange(len(maps)) + j * width - 0.4 + width / 2, rates, width, color=col[n],
-                              label=n))
+        bars = ax.bar(np.arange(len(maps)) + j * width - 0.4 + width / 2, [rate(m, n) for m in maps], width,
+                      color=col[n], label=n)
+        artists.append(bars)
+        artists.extend(ax.bar_label(bars, fmt="%.0f", fontsize=7, padding=1))
     ax.set_xticks(range(len(maps)), list(maps))
-    ax.set_ylabel("success rate (%)")
-    ax.set_ylim(0, 105)
-    ax.set_title(f"success (within {SUCCESS_CM:g} cm and 3 degrees)")
-    ax.legend(fontsize=7, ncol=2)
+    ax.set_ylabel(ylabel)
+    ax.set_ylim(0, 125)
+    ax.set_yticks(range(0, 101, 20))
+    ax.set_title(title)
+    ax.legend(fontsize=7, ncol=min(len(localisers), 4), loc="upper center")
     return artists
+
+
+def plot_success(results: Sequence[TrialResult], maps: Sequence[str], localisers: Sequence[str],
+                 ax: Axes | None = None) -> list[Any]:
+    """Grouped bars: success rate (%) per map and localiser."""
+
+    def rate(m: str, n: str) -> float:
+        rs = [r for r in _of(results, GlobalRun, m) if r.localiser == n]
+        return 100.0 * float(np.mean([r.success for r in rs])) if rs else np.nan
+
+    return _rate_bars(_ax(ax, (7.0, 4.0)), maps, localisers, rate, "success rate (%)",
+                      f"success (within {SUCCESS_CM:g} cm and 3 degrees)")
 
 
 def plot_tracking(results: Sequence[TrialResult], map_name: str, localisers: Sequence[str],
@@ -160,23 +170,13 @@ def plot_tracking(results: Sequence[TrialResult], map_name: str, localisers: Seq
 def plot_kidnapped(results: Sequence[TrialResult], maps: Sequence[str], localisers: Sequence[str],
                    ax: Axes | None = None) -> list[Any]:
     """Grouped bars: kidnapped-robot recovery rate (%) per map and localiser."""
-    ax = _ax(ax, (7.0, 4.0))
-    col = _colours(localisers)
-    width = 0.8 / max(len(localisers), 1)
-    artists: list[Any] = []
-    for j, n in enumerate(localisers):
-        rates = []
-        for m in maps:
-            rs = [r for r in _of(results, KidnappedRun, m) if r.localiser == n and r.localised]
-            rates.append(100.0 * np.mean([r.recovered for r in rs]) if rs else np.nan)
-        artists.append(ax.bar(np.arange(len(maps)) + j * width - 0.4 + width / 2, rates, width, color=col[n],
-                              label=n))
-    ax.set_xticks(range(len(maps)), list(maps))
-    ax.set_ylabel("recovered (%)")
-    ax.set_ylim(0, 105)
-    ax.set_title("kidnapped robot: recovery without reset")
-    ax.legend(fontsize=7, ncol=2)
-    return artists
+
+    def rate(m: str, n: str) -> float:
+        rs = [r for r in _of(results, KidnappedRun, m) if r.localiser == n and r.localised]
+        return 100.0 * float(np.mean([r.recovered for r in rs])) if rs else np.nan
+
+    return _rate_bars(_ax(ax, (7.0, 4.0)), maps, localisers, rate, "recovered (%)",
+                      "kidnapped robot: recovery without reset")
 
 
 def write_plots(results: Sequence[TrialResult], out_dir: str | Path, maps: Sequence[str],
@@ -185,13 +185,13 @@ def write_plots(results: Sequence[TrialResult], out_dir: str | Path, maps: Seque
     out = Path(out_dir)
     files: list[Path] = []
     if _of(results, GlobalRun):
-        fig, axes = plt.subplots(2, len(maps), figsize=(5.5 * len(maps), 8.4), squeeze=False,
+        fig, axes = plt.subplots(2, len(maps), figsize=(4.2 * len(maps), 7.6), squeeze=False,
                                  layout="constrained")
         for m, ax, ax2 in zip(maps, axes[0], axes[1], strict=True):
             plot_error_ecdf(results, m, localisers, ax)
             plot_error_ecdf(results, m, localisers, ax2, quantity="heading")
         files.append(save_figure(fig, out / "errors.png"))
-        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False,
+        fig, axes = plt.subplots(1, len(maps), figsize=(4.2 * len(maps), 3.8), squeeze=False,
                                  layout="constrained")
         for m, ax in zip(maps, axes[0], strict=True):
             plot_times(results, m, localisers, ax)
@@ -200,7 +200,7 @@ def write_plots(results: Sequence[TrialResult], out_dir: str | Path, maps: Seque
         plot_success(results, maps, localisers, ax)
         files.append(save_figure(fig, out / "success.png"))
     if _of(results, TrackingRun):
-        fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False,
+        fig, axes = plt.subplots(1, len(maps), figsize=(4.2 * len(maps), 3.8), squeeze=False,
                                  layout="constrained")
         for m, ax in zip(maps, axes[0], strict=True):
             plot_tracking(results, m, localisers, ax)
@@ -254,11 +254,11 @@ def draw_localisation(m: Map, outcome: LocalisationOutcome, title: str = "", max
     k = max_panels - 1
     idx = sorted({round(i) for i in np.linspace(0, len(snaps) - 1, min(k, len(snaps)))}) if snaps else []
     n = len(idx) + 1
-    cols = min(n, 3)
-    rows = math.ceil(n / cols)
     xmin, ymin, xmax, ymax = m.bounds
     aspect = min(max((ymax - ymin) / max(xmax - xmin, 1e-9), 0.25), 2.0)
     width = 4.2 if aspect >= 0.6 else 5.5
+    cols = min(n, 3 if aspect >= 0.6 else 2)  # wide maps: two columns, so the panels stay legible
+    rows = math.ceil(n / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(width * cols, (width * aspect + 1.2) * rows), squeeze=False)
     flat = list(axes.ravel())
     radius = RobotGeometry().radius_cm

@@ -18,8 +18,9 @@ from matplotlib.figure import Figure
 from ..mission import MissionReport
 from ..plotting import draw_cspace, draw_map, draw_path, draw_pose
 from ..world import Map, RobotGeometry
+from .paper import PAPER_TABLE, TrialResult
 
-__all__ = ["animate_mission", "draw_error_spread", "draw_mission"]
+__all__ = ["animate_mission", "draw_error_spread", "draw_mission", "draw_paper_table"]
 
 
 def _ax(ax: Axes | None) -> Axes:
@@ -83,6 +84,35 @@ def draw_error_spread(errors: dict[str, Sequence[float]], ax: Axes | None = None
         ax.legend(fontsize=8)
     ax.set_ylabel("final distance from target (cm)")
     return out
+
+
+def draw_paper_table(results: Sequence[TrialResult], size: float = 4.2) -> Figure:
+    """Table I as a figure: final error and driven path length per map, the paper's means as stars.
+
+    One box per map (and per noise model, stack, sonar and start kind when `results` mixes them), over
+    the trials that succeeded; the title of each panel counts the successes.
+    """
+    groups: dict[str, list[TrialResult]] = {}
+    keys = ("noise_model", "stack", "sonar", "random_start")
+    varying = [k for k in keys if len({getattr(r.task, k) for r in results}) > 1]
+    for r in results:
+        extra = [str(getattr(r.task, k)) if k != "random_start" else ("random" if r.task.random_start else "preset")
+                 for k in varying]
+        groups.setdefault("\n".join([r.task.map, *extra]), []).append(r)
+    fig, axes = plt.subplots(1, 2, figsize=(2 * size + 0.4 * len(groups), size), layout="constrained")
+    ok = {k: [r for r in v if r.success] for k, v in groups.items()}
+    for ax, attr, field, label in ((axes[0], "final_error_cm", "final_error_cm", "final distance from target (cm)"),
+                                   (axes[1], "path_length_cm", "path_length_cm", "driven path length (cm)")):
+        paper = {k: PAPER_TABLE[v[0].task.map][field] for k, v in groups.items() if v[0].task.map in PAPER_TABLE}
+        draw_error_spread({k: [getattr(r, attr) for r in v] for k, v in ok.items() if v}, ax, paper=paper)
+        ax.set_ylabel(label)
+        ax.grid(axis="y", alpha=0.3)
+    n_ok, n = sum(len(v) for v in ok.values()), len(results)
+    fixed = [f"{getattr(results[0].task, k)} {k.replace('_', ' ')}" for k in ("noise_model", "sonar")
+             if k not in varying] if results else []
+    fig.suptitle(f"Table I over {n} missions ({n_ok} reached the target{', ' if fixed else ''}{', '.join(fixed)}):"
+                 " boxes = this toolkit, stars = the paper's means", fontsize=10)
+    return fig
 
 
 def animate_mission(report: MissionReport, m: Map, path: str | Path, radius: float | None = None,

@@ -13,7 +13,8 @@ query and the same motion noise for every planner in a run) and split into indep
 planning, execution and query sampling. Same seed, same results, on every executor.
 
 Outputs (`write_results`): ``runs.csv``, ``paths.jsonl``, ``references.csv``, ``summary.md``,
-box plots ``boxplot_<metric>.png``, ``benchmark.log`` (OMPL's log format: one experiment with every
+box plots ``boxplot_<metric>.png``, ``exec_vs_turns.png`` (execution error against turns),
+``paths.png`` (run 0 of every planner on every map), ``benchmark.log`` (OMPL's log format: one experiment with every
 run, the map as an enum run property) and ``ompl/<map>-<queries>.log`` (one OMPL experiment per map
 and query set, for Planner Arena), and ``config.json``.
 """
@@ -832,7 +833,7 @@ def write_results(result: BenchmarkResult, out: str | Path, *, plots: bool = Tru
         files[key] = write_ompl_log(d / "ompl" / f"{Path(m).stem}-{c.queries}.log",
                                     _ompl_experiment(result, [m], f"{Path(m).stem}-{c.queries}"))
     if plots:
-        from .planners_plots import save_boxplots
+        from .planners_plots import save_plots
 
-        files.update(save_boxplots(result, d))
+        files.update(save_plots(result, d))
     return files

@@ -1,7 +1,7 @@
 """Figures of the planner benchmark: box plots per metric and map, paths side by side, error vs turns.
 
 Drawing functions take an ``ax`` (or a figure) and return the artists; nothing here opens a
-window. `save_boxplots` writes the PNGs of ``nxtnav bench planners``.
+window. `save_plots` writes the PNGs of ``nxtnav bench planners``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ from ..plotting import draw_cspace, draw_map, draw_path, save_figure
 from ..world import load_map
 from .planners import BenchmarkResult, RunRecord
 
-__all__ = ["BOXPLOT_METRICS", "draw_exec_vs_turns", "draw_metric_boxplot", "draw_paths_grid", "save_boxplots"]
+__all__ = ["BOXPLOT_METRICS", "draw_exec_vs_turns", "draw_metric_boxplot", "draw_paths_grid", "save_boxplots",
+           "save_plots"]
 
 #: Box-plot metrics: record attribute -> (axis label, file stem, log scale).
 BOXPLOT_METRICS: dict[str, tuple[str, str, bool]] = {
@@ -72,7 +73,7 @@ def save_boxplots(result: BenchmarkResult, out: str | Path) -> dict[str, Path]:
     files = {}
     maps = list(result.config.maps)
     for metric, (label, stem, _) in BOXPLOT_METRICS.items():
-        fig, axes = plt.subplots(1, len(maps), figsize=(4.2 * len(maps), 3.8), squeeze=False)
+        fig, axes = plt.subplots(1, len(maps), figsize=(3.8 * len(maps), 3.6), squeeze=False)
         for ax, m in zip(axes[0], maps, strict=True):
             draw_metric_boxplot(result, metric, m, ax)
         fig.suptitle(f"{label}: {result.config.runs} runs, {result.config.time_limit:g} s budget, "
@@ -130,3 +131,18 @@ def draw_exec_vs_turns(result: BenchmarkResult, ax: Axes) -> list[Any]:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     return artists
+
+
+def save_plots(result: BenchmarkResult, out: str | Path) -> dict[str, Path]:
+    """Write every figure of ``nxtnav bench planners`` into `out` and return the files.
+
+    The box plots (`save_boxplots`), ``exec_vs_turns.png`` (`draw_exec_vs_turns`, when the
+    execution error was measured) and ``paths.png`` (`draw_paths_grid` of run 0).
+    """
+    files = save_boxplots(result, out)
+    if result.config.exec_repeats > 0:
+        fig, ax = plt.subplots(figsize=(7.0, 4.2))
+        draw_exec_vs_turns(result, ax)
+        files["exec_vs_turns"] = save_figure(fig, Path(out) / "exec_vs_turns.png")
+    files["paths"] = save_figure(draw_paths_grid(result, size=2.9), Path(out) / "paths.png")
+    return files

@@ -186,6 +186,8 @@ def paper(
     seed: int = typer.Option(0, help="Seed of the table (each trial's seed derives from it)."),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the tables as JSON."),
     markdown: Path | None = typer.Option(None, "--markdown", metavar="FILE", help="Write the tables as Markdown."),
+    plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png",
+                                     help="Draw final errors and path lengths beside the paper's means."),
     stack: list[str] | None = typer.Option(None, "--stack", metavar="PLANNER/LOCALISER",
                                            help="Stack(s) to run (repeatable; default min-turn/paper-pf)."),
     sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
@@ -216,7 +218,7 @@ def paper(
     with Progress(TextColumn("[bold]missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=console, transient=True) as progress:
         bar = progress.add_task("missions", total=len(tasks))
-        tables, _ = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
+        tables, results = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
     text = tables_to_markdown(tables)
     typer.echo(text)
     for t in tables:
@@ -232,3 +234,9 @@ def paper(
         markdown.parent.mkdir(parents=True, exist_ok=True)
         markdown.write_text(text)
         typer.echo(f"wrote {markdown}")
+    if plot is not None:
+        from ..bench.paper_plots import draw_paper_table
+        from ..plotting import save_figure
+
+        save_figure(draw_paper_table(results), plot)
+        typer.echo(f"wrote {plot}")

@@ -66,7 +66,7 @@ def plan(
     output: Path = typer.Option(..., "-o", "--output", metavar="FILE.png", help="Figure to write."),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write path, metrics and status."),
 ) -> None:
-    """Plan one query and draw the path on the map with its metrics."""
+    """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
     from planners.metrics import path_metrics
 
@@ -126,6 +126,8 @@ def plan(
                            reference_turns=count_turns(ml) if ml is not None else None)
         doc["metrics"] = met.to_dict()
         draw_path(result.path, ax, label=planner)
+        if sp is not None and planner != "shortest":
+            ax.plot(sp[:, 0], sp[:, 1], "--", color="0.25", lw=1.2, label="shortest", zorder=5)
         ratio = f" (x{met.length_ratio:.3f} shortest)" if math.isfinite(met.length_ratio) else ""
         lines.append(f"length {met.length_cm:.1f} cm{ratio}, {met.turns} turns "
                      f"({math.degrees(met.turn_angle_rad):.0f} deg), min clearance {met.min_clearance_cm:.1f} cm")

@@ -1,0 +1,81 @@
+"""`nxtnav figures`: every figure the README and docs show exists, is generated, and is a valid PNG."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from toolkit.cli import main
+from toolkit.cli.figures_cmds import FIGURE_JOBS, WORK, FigureJob, figure_names
+
+ROOT = Path(__file__).resolve().parents[1]
+IMG = ROOT / "docs" / "img"
+MAX_BYTES = 150_000
+_IMAGE_REF = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)|<img [^>]*src=\"([^\"]+)\"")
+
+
+def referenced_images() -> dict[str, list[str]]:
+    """Image file (relative to docs/img) -> the Markdown files that show it."""
+    refs: dict[str, list[str]] = {}
+    for doc in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        for m in _IMAGE_REF.finditer(doc.read_text(encoding="utf-8")):
+            target = (doc.parent / (m.group(1) or m.group(2))).resolve()
+            assert target.parent == IMG, f"{doc.name} shows {target}, which is not in docs/img"
+            refs.setdefault(target.name, []).append(doc.name)
+    return refs
+
+
+def assert_png(path: Path) -> None:
+    assert path.is_file(), f"{path} is missing"
+    assert path.stat().st_size < MAX_BYTES, f"{path.name}: {path.stat().st_size} bytes"
+    with Image.open(path) as im:
+        assert im.format == "PNG", path.name
+        im.verify()
+    with Image.open(path) as im:
+        w, h = im.size
+    assert 300 <= w <= 2400 and 150 <= h <= 2400, (path.name, w, h)
+
+
+def test_the_docs_show_figures_and_every_one_is_generated() -> None:
+    refs = referenced_images()
+    for key in ("mission_map3.png", "planners_paths.png", "localise_map3.png"):
+        assert "README.md" in refs.get(key, []), f"README.md does not show {key}"
+    for doc in ("planners.md", "localisers.md", "missions.md"):
+        assert any(doc in docs for docs in refs.values()), f"docs/{doc} shows no figure"
+    unknown = sorted(set(refs) - set(figure_names()))
+    assert not unknown, f"figures shown but made by no FigureJob: {unknown}"
+
+
+def test_docs_img_holds_only_generated_figures_all_valid() -> None:
+    names = set(figure_names())
+    for path in IMG.iterdir():
+        assert path.name == "README.md" or path.name in names, f"docs/img/{path.name} is not generated"
+    for name in referenced_images():
+        assert_png(IMG / name)
+
+
+def test_a_job_substitutes_its_folder_and_quick_setting() -> None:
+    job = FigureJob("x", ("bench", "planners", "--runs", "20", "--out", f"{WORK}/p"), {"a.png": "p/a.png"},
+                    "caption", {"--runs": "2", "--exec-repeats": "5"})
+    assert job.args("/tmp/w") == ["bench", "planners", "--runs", "20", "--out", "/tmp/w/p"]
+    assert job.args("/tmp/w", quick=True) == ["bench", "planners", "--runs", "2", "--out", "/tmp/w/p",
+                                              "--exec-repeats", "5"]
+    assert job.command() == "nxtnav bench planners --runs 20 --out out/p"
+    assert len(set(figure_names())) == len(figure_names())  # no two jobs write the same figure
+
+
+@pytest.mark.slow
+def test_the_figure_command_writes_every_shown_figure(tmp_path: Path) -> None:
+    out = tmp_path / "img"
+    main(["figures", "--quick", "--out", str(out)])
+    made = {p.name for p in out.glob("*.png")}
+    assert made == set(figure_names())
+    for name in referenced_images():
+        assert_png(out / name)
+    index = (out / "README.md").read_text(encoding="utf-8")
+    assert "Reduced setting" in index
+    for job in FIGURE_JOBS:
+        assert job.command() in index

@@ -1,0 +1,203 @@
+"""`nxtnav figures`: every figure the README and docs show, regenerated from seeded nxtnav commands.
+
+Each `FigureJob` is one ordinary `nxtnav` command (the one a reader can run to get the same figure)
+and the PNGs it writes; `nxtnav figures --out docs/img` runs them in this process, copies the
+figures under their documentation names, shrinks them to a 256-colour palette (a fraction of the
+size, the same look) and writes ``README.md`` into the folder: each figure with its command.
+``--quick`` runs every command on a reduced setting (fewer runs and trials, shorter budgets): the
+same files, for the tests.
+"""
+
+from __future__ import annotations
+
+import shlex
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import typer
+
+from ..world import NxtnavError
+from .app import app, main
+from .options import parse_list
+
+__all__ = ["FIGURE_JOBS", "FigureJob", "figure_names", "run_job", "shrink_png"]
+
+WORK = "{work}"
+"""Placeholder in a job's arguments for the folder its outputs go to."""
+
+
+@dataclass(frozen=True)
+class FigureJob:
+    """One seeded ``nxtnav`` command and the figures it writes.
+
+    Parameters
+    ----------
+    name : str
+        Short name (``--only``).
+    argv : tuple of str
+        The command's arguments after ``nxtnav``; `WORK` stands for the output folder.
+    figures : dict of str to str
+        Documentation file name -> the file the command writes (relative to the output folder).
+    caption : str
+        One line on what the figures show.
+    quick : dict of str to str
+        Option -> value replacing it (or added) on the reduced setting of ``--quick``.
+    """
+
+    name: str
+    argv: tuple[str, ...]
+    figures: dict[str, str]
+    caption: str
+    quick: dict[str, str] = field(default_factory=dict)
+
+    def args(self, work: str, quick: bool = False) -> list[str]:
+        """The command's arguments with `work` for the output folder (and the quick setting)."""
+        args = list(self.argv)
+        if quick:
+            for opt, value in self.quick.items():
+                if opt in args:
+                    args[args.index(opt) + 1] = value
+                else:
+                    args.extend([opt, value])
+        return [a.replace(WORK, work) for a in args]
+
+    def command(self) -> str:
+        """The command as a reader types it (outputs in the current folder or ``out/``)."""
+        args = [a.replace(f"{WORK}/", "") if a.endswith(".png") else a.replace(WORK, "out") for a in self.argv]
+        return " ".join(shlex.quote(a) for a in ["nxtnav", *args])
+
+
+_PRESETS = ("--maps", "map1,map2,map3")
+FIGURE_JOBS: tuple[FigureJob, ...] = (
+    FigureJob(
+        "mission",
+        ("run", "--map", "map3", "--seed", "4", "--plot", f"{WORK}/mission_map3.png"),
+        {"mission_map3.png": "mission_map3.png"},
+        "a whole mission on map3 from the preset start: planned path, estimates and the true trajectory"),
+    FigureJob(
+        "localise",
+        ("localise", "--map", "map3", "--pose", "50,70,90", "--localiser", "paper-pf", "--seed", "1",
+         "-o", f"{WORK}/localise_map3.png"),
+        {"localise_map3.png": "localise_map3.png"},
+        "paper-pf localising globally on map3: the particle cloud per filter iteration, then the estimate"),
+    FigureJob(
+        "scan",
+        ("scan", "--map", "map1", "--pose", "20,85,0", "--sonar", "nxt", "--seed", "1", "-o", f"{WORK}/scan.png"),
+        {"scan_map1.png": "scan.png"},
+        "one 360-degree scan with the LEGO sensor model, as the paper's Fig. 3"),
+    FigureJob(
+        "planners",
+        ("bench", "planners", *_PRESETS, "--planners", "min-turn,rrtstar,prm,astar", "--runs", "20",
+         "--time-limit", "1", "--seed", "0", "--workers", "2", "--out", f"{WORK}/planners"),
+        {"planners_paths.png": "planners/paths.png",
+         "planners_exec_vs_turns.png": "planners/exec_vs_turns.png",
+         "planners_exec_error.png": "planners/boxplot_exec_error.png",
+         "planners_time.png": "planners/boxplot_time.png",
+         "planners_length_ratio.png": "planners/boxplot_length_ratio.png"},
+        "the four planners on the preset queries: paths, execution error against turns, box plots",
+        {"--runs": "2", "--time-limit": "0.05", "--exec-repeats": "5", "--workers": "1"}),
+    FigureJob(
+        "localisers",
+        ("bench", "localisers", *_PRESETS, "--localisers", "paper-pf,pf-systematic,ekf,ukf", "--trials", "20",
+         "--scenario", "all", "--seed", "0", "--workers", "2", "--out", f"{WORK}/localisers"),
+        {"localisers_success.png": "localisers/success.png",
+         "localisers_kidnapped.png": "localisers/kidnapped.png",
+         "localisers_errors.png": "localisers/errors.png",
+         "localisers_tracking.png": "localisers/tracking.png"},
+        "the localiser benchmark: success, kidnap recovery, error distributions, tracking error",
+        {"--trials": "2", "--workers": "1", "--tracking-steps": "3"}),
+    FigureJob(
+        "paper",
+        ("paper", "--trials", "20", "--noise-model", "botsim", "--seed", "0", "--workers", "2",
+         "--plot", f"{WORK}/table1.png"),
+        {"paper_table1.png": "table1.png"},
+        "the paper's Table I as a plot: final error and driven length per map beside the paper's means",
+        {"--trials": "2", "--workers": "1"}),
+    FigureJob(
+        "arena2",
+        ("maps", "show", "arena2", "--radius", "2", "-o", f"{WORK}/arena2.png"),
+        {"map_arena2.png": "arena2.png"},
+        "the Moving AI map arena2 imported exactly: free cells as polygons, c-space of a 2 cm disc"),
+    FigureJob(
+        "depot",
+        ("maps", "show", "depot", "-o", f"{WORK}/depot.png"),
+        {"map_depot.png": "depot.png"},
+        "the nav2 depot (a ROS map_server map) imported"),
+    FigureJob(
+        "scen",
+        # arena2.map.scen, last query (line 911): octile optimum 362.05 cells
+        ("plan", "--map", "arena2", "--planner", "astar", "--radius", "0", "--start", "5.5,96.5",
+         "--goal", "275.5,27.5", "--exec-repeats", "0", "-o", f"{WORK}/scen.png"),
+        {"scen_arena2.png": "scen.png"},
+        "grid A* on arena2's own cells (octile) against the any-angle shortest path (dashed), point robot"),
+)
+
+
+def figure_names() -> list[str]:
+    """Every figure file `FIGURE_JOBS` writes."""
+    return [f for job in FIGURE_JOBS for f in job.figures]
+
+
+def shrink_png(src: Path, dst: Path, colours: int = 256) -> Path:
+    """Copy PNG `src` to `dst` as a palette image of at most `colours` colours (no dithering)."""
+    from PIL import Image
+
+    with Image.open(src) as im:
+        pal = im.convert("RGB").quantize(colors=colours, method=Image.Quantize.MEDIANCUT,
+                                         dither=Image.Dither.NONE)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    pal.save(dst, optimize=True)
+    return dst
+
+
+def run_job(job: FigureJob, work: Path, out: Path, quick: bool = False) -> list[Path]:
+    """Run `job`'s command with outputs in `work`; copy its figures, shrunk, into `out`."""
+    work.mkdir(parents=True, exist_ok=True)
+    try:
+        main(job.args(str(work), quick))
+    except SystemExit as exc:
+        raise NxtnavError(f"figure job {job.name!r} failed (exit {exc.code}): {job.command()}") from None
+    written = []
+    for name, produced in job.figures.items():
+        src = work / produced
+        if not src.is_file():
+            raise NxtnavError(f"figure job {job.name!r} wrote no {produced}")
+        written.append(shrink_png(src, out / name))
+    return written
+
+
+def _index(jobs: Sequence[FigureJob], quick: bool) -> str:
+    lines = ["# Figures", "",
+             "Written by `make figures` (`nxtnav figures --out docs/img`); do not edit. Each figure comes from",
+             "the seeded command below it (outputs of benchmarks in `out/`), shrunk to a 256-colour palette.", ""]
+    if quick:
+        lines += ["**Reduced setting (`--quick`): not the figures of the documentation.**", ""]
+    for job in jobs:
+        lines += [f"- {', '.join(f'`{f}`' for f in job.figures)}: {job.caption}.", f"  `{job.command()}`"]
+    return "\n".join(lines) + "\n"
+
+
+@app.command("figures")
+def figures(
+    out: Path = typer.Option(Path("docs/img"), "--out", metavar="DIR", help="Folder of the figures."),
+    quick: bool = typer.Option(False, "--quick", help="Reduced setting (fewer runs and trials): for tests."),
+    only: str | None = typer.Option(None, "--only", metavar="NAMES",
+                                    help=f"Comma-separated jobs: {', '.join(j.name for j in FIGURE_JOBS)}."),
+) -> None:
+    """Regenerate the figures of the README and docs from seeded commands."""
+    names = [j.name for j in FIGURE_JOBS]
+    chosen = parse_list(only, "--only", names) if only else names
+    jobs = [j for j in FIGURE_JOBS if j.name in chosen]
+    out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="nxtnav-figures-") as tmp:
+        for job in jobs:
+            t0 = time.perf_counter()
+            typer.echo(f"{job.name}: {job.command()}", err=True)
+            files = run_job(job, Path(tmp) / job.name, out, quick)
+            sizes = ", ".join(f"{p.name} {p.stat().st_size / 1e3:.0f} kB" for p in files)
+            typer.echo(f"{job.name}: {sizes} ({time.perf_counter() - t0:.1f} s)")
+    if set(chosen) == set(names):
+        (out / "README.md").write_text(_index(jobs, quick), encoding="utf-8")
