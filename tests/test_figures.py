@@ -79,3 +79,22 @@ def test_the_figure_command_writes_every_shown_figure(tmp_path: Path) -> None:
     assert "Reduced setting" in index
     for job in FIGURE_JOBS:
         assert job.command() in index
+
+
+def test_table_one_figure_has_a_box_per_map_and_noise_model_and_the_paper_stars() -> None:
+    import matplotlib.pyplot as plt
+
+    from toolkit.bench.paper import PAPER_TABLE, PaperTrial, TrialResult
+    from toolkit.bench.paper_plots import draw_paper_table
+
+    results = [TrialResult(PaperTrial(m, i, i, nm), i != 1, "ok", 0.1, 0.2 + 0.1 * i, 100.0 + i, 0, 100.0, 0, 1, 0)
+               for m in ("map1", "map3") for nm in ("botsim", "absolute") for i in range(3)]
+    fig = draw_paper_table(results)
+    err_ax, len_ax = fig.axes[:2]
+    labels = [t.get_text() for t in err_ax.get_xticklabels()]
+    assert labels == ["map1\nbotsim", "map1\nabsolute", "map3\nbotsim", "map3\nabsolute"]
+    stars = [c for c in len_ax.collections if c.get_label() == "paper (mean)"]
+    assert [y for _, y in stars[0].get_offsets()] == [PAPER_TABLE[m]["path_length_cm"]
+                                                      for m in ("map1", "map1", "map3", "map3")]
+    assert "12 missions (8 reached the target, ideal sonar)" in fig.get_suptitle()
+    plt.close(fig)
