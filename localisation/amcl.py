@@ -8,8 +8,9 @@ KLD-sampling (Fox 2003)
     ``n(k) = (k - 1) / (2 pf_err) * (1 - 2 / (9 (k - 1)) + sqrt(2 / (9 (k - 1))) pf_z)^3`` for the
     ``k`` histogram bins (`kld_bin_cm` x `kld_bin_cm` x `kld_bin_deg`) the drawn particles occupy,
     clamped to [`min_particles`, `max_particles`]: a tight belief needs few particles, a spread one
-    many. As in nav2, `pf_z` enters the formula as it is (0.99) and one occupied bin asks for
-    `max_particles`. Drawing is vectorised: `max_particles` candidates are drawn at once and the
+    many. As in nav2, `pf_z` enters the formula as it is (0.99, where Fox's 1 - delta = 0.99 would
+    be the normal quantile 2.33); unlike nav2, whose code asks for `max_particles` when all particles
+    share one bin, one bin needs `min_particles` (Fox's bound is 0 there). Drawing is vectorised: `max_particles` candidates are drawn at once and the
     bound is evaluated on every prefix.
 Augmented MCL (recovery)
     Short- and long-term averages of the particles' likelihood, ``w_fast += recovery_alpha_fast *
@@ -66,26 +67,26 @@ AMCL_MODELS = ("beam", "field")
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
 
 
-def kld_bound(k: Any, pf_err: float, pf_z: float, max_particles: int) -> NDArray[np.int64]:
-    """Particles needed for `k` occupied bins (Fox 2003, as nav2 computes it; `max_particles` for k <= 1).
+def kld_bound(k: Any, pf_err: float, pf_z: float) -> NDArray[np.int64]:
+    """Particles needed for `k` occupied bins (Fox 2003, with nav2's use of `pf_z`; 0 for k <= 1).
 
-    >>> int(kld_bound(2, 0.05, 0.99, 2000)), int(kld_bound(1, 0.05, 0.99, 2000))
-    (19, 2000)
+    >>> [int(n) for n in kld_bound([1, 2, 10, 100], 0.05, 0.99)]
+    [0, 20, 131, 1129]
     """
     kk = np.asarray(k, dtype=float)
     km1 = np.maximum(kk - 1.0, 1.0)
     b = 2.0 / (9.0 * km1)
     x = 1.0 - b + np.sqrt(b) * pf_z
     n = np.ceil(km1 / (2.0 * pf_err) * x**3)
-    return np.where(kk <= 1, max_particles, n).astype(np.int64)
+    return np.where(kk <= 1, 0, n).astype(np.int64)
 
 
 class DistanceField:
     """Distance (cm) from any point to the nearest wall: exact at the nodes of a square grid, bilinear between.
 
     Built once per map with an STR-tree of the wall segments (one nearest-segment query per node);
-    a lookup is four array reads per point, independent of the number of walls. Points outside the
-    grid read `max_dist_cm`, as do distances beyond it.
+    a lookup is four array reads per point, independent of the number of walls. Distances are capped
+    at `max_dist_cm`.
 
     Parameters
     ----------
@@ -113,18 +114,19 @@ class DistanceField:
         self.grid = np.minimum(dist, self.max_dist_cm).reshape(nx, ny)
 
     def __call__(self, xy: FloatArray) -> FloatArray:
-        """Distances (cm) of points `xy` (..., 2) to the nearest wall, capped at `max_dist_cm`."""
+        """Distances (cm) of points `xy` (..., 2) to the nearest wall, capped at `max_dist_cm`; a point
+        outside the grid reads the nearest grid point's distance plus its distance to the grid."""
         g = (np.asarray(xy, dtype=float) - self.origin) / self.resolution_cm
         nx, ny = self.grid.shape
-        inside = (g[..., 0] >= 0) & (g[..., 0] <= nx - 1) & (g[..., 1] >= 0) & (g[..., 1] <= ny - 1)
         gx = np.clip(g[..., 0], 0.0, nx - 1.000001)
         gy = np.clip(g[..., 1], 0.0, ny - 1.000001)
+        outside = np.hypot(g[..., 0] - gx, g[..., 1] - gy) * self.resolution_cm
         ix, iy = gx.astype(np.int64), gy.astype(np.int64)
         fx, fy = gx - ix, gy - iy
         d = self.grid
         val = ((d[ix, iy] * (1 - fx) + d[ix + 1, iy] * fx) * (1 - fy)
                + (d[ix, iy + 1] * (1 - fx) + d[ix + 1, iy + 1] * fx) * fy)
-        return np.where(inside, val, self.max_dist_cm)
+        return np.minimum(val + outside, self.max_dist_cm)
 
 
 class Amcl(Localiser):
@@ -182,7 +184,7 @@ class Amcl(Localiser):
         map: Map,
         *,
         rng: RngLike = None,
-        model: str = "beam",
+        model: str = "field",
         min_particles: int = 500,
         max_particles: int = 2000,
         pf_err: float = 0.05,
@@ -390,14 +392,12 @@ class Amcl(Localiser):
         is_new[first] = 1
         occupied = np.cumsum(is_new)  # bins occupied by the first n+1 candidates
         count = np.arange(1, m + 1)
-        enough = (count >= kld_bound(occupied, self.pf_err, self.pf_z, m)) & (count >= self.min_particles)
+        enough = (count >= kld_bound(occupied, self.pf_err, self.pf_z)) & (count >= self.min_particles)
         n = int(np.argmax(enough)) + 1 if enough.any() else m
         self.particles = cand[:n]
         self._weighed = ~fresh[:n]
         self.log_weights = np.full(n, -math.log(n))
-        if fresh[:n].any():
-            self.injected += int(fresh[:n].sum())
-            self._log_w_slow = self._log_w_fast = -math.inf  # nav2 restarts both averages after an injection
+        self.injected += int(fresh[:n].sum())
 
     def _uniform_poses(self, n: int) -> FloatArray:
         xmin, ymin, xmax, ymax = self.map.bounds
