@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -170,7 +171,12 @@ class Amcl(Localiser):
     scan_sample_ess : float
         Scan draws: the lattice is tempered to keep about this many effective candidate poses.
     converged_xy_cm, converged_heading_deg : float
-        Converged when sqrt(var x + var y) and the heading standard deviation are below these.
+        Converged when sqrt(var x + var y) and the heading standard deviation are below these ...
+    ambiguity_nats, mode_radius_cm, mode_heading_deg : float
+        ... and no lattice pose further than `mode_radius_cm` or `mode_heading_deg` from the estimate
+        explains the scan within `ambiguity_nats` of the best one near it (the twin rooms of map3: the
+        procedure then moves and rescans). 0 disables the check. It only qualifies the verdict; the
+        particles are not touched.
     beam_width_deg, critical_incidence_deg : float
         Sonar lobe and specular loss of the beam model's range table (see `RangeTable`).
     lattice_step : int
@@ -213,6 +219,9 @@ class Amcl(Localiser):
         scan_sample_ess: float = 50.0,
         converged_xy_cm: float = 1.5,
         converged_heading_deg: float = 2.0,
+        ambiguity_nats: float = 15.0,
+        mode_radius_cm: float = 10.0,
+        mode_heading_deg: float = 20.0,
         beam_width_deg: float = 0.0,
         critical_incidence_deg: float | None = None,
         lattice_step: int = 2,
@@ -251,6 +260,9 @@ class Amcl(Localiser):
         self.scan_sample_ess = float(scan_sample_ess)
         self.converged_xy_cm = float(converged_xy_cm)
         self.converged_heading_rad = math.radians(converged_heading_deg)
+        self.ambiguity_nats = float(ambiguity_nats)
+        self.mode_radius_cm = float(mode_radius_cm)
+        self.mode_heading_rad = math.radians(mode_heading_deg)
         self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
         self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
         self.field: DistanceField | None = (
@@ -329,6 +341,8 @@ class Amcl(Localiser):
             self._log_w_slow = _log_blend(self._log_w_slow, log_w_avg, self.alpha_slow)
             self._log_w_fast = _log_blend(self._log_w_fast, log_w_avg, self.alpha_fast)
         self._estimate = self._make_estimate()
+        if self._estimate.converged and self.ambiguity_nats > 0 and self._ambiguous(rel, meas, self._estimate.pose):
+            self._estimate = replace(self._estimate, converged=False)
         if self._updates % self.resample_interval == 0:
             self._resample(rel, meas)
         self.particle_counts.append(int(self.particles.shape[0]))
@@ -373,6 +387,19 @@ class Amcl(Localiser):
         return np.where(inside, ll, -np.inf)
 
     # -- internals ----------------------------------------------------------------------------------
+    def _ambiguous(self, rel: FloatArray, meas: FloatArray, pose: Pose) -> bool:
+        """Whether a lattice pose away from `pose` (further than `mode_radius_cm` or `mode_heading_deg`)
+        explains the scan within `ambiguity_nats` of the best lattice pose near it."""
+        ssd = 0.5 * self.lattice.ssd(rel, meas) / self.sigma_hit**2  # (cells, directions), nats
+        n_ang = self.table.n_angles
+        d_xy = np.hypot(self.lattice.xy[:, 0] - pose.x, self.lattice.xy[:, 1] - pose.y)
+        heads = np.arange(n_ang) * (2.0 * math.pi / n_ang)
+        d_th = np.abs(angle_diff(heads, pose.theta))
+        near = (d_xy[:, None] <= self.mode_radius_cm) & (d_th[None, :] <= self.mode_heading_rad)
+        if not near.any() or near.all():
+            return False
+        return bool(ssd[~near].min() <= ssd[near].min() + self.ambiguity_nats)
+
     def _resample(self, rel: FloatArray, meas: FloatArray) -> None:
         """KLD-sampling with augmented-MCL injection, vectorised over the `max_particles` candidates."""
         w = log_normalise(self.log_weights)
