@@ -13,9 +13,9 @@ from .procedure import LocalisationResult, TraceStep, localise
 from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan, raw_scan
 
 __all__ = [
+    "LOCALISERS",
     "Amcl",
     "DistanceField",
-    "LOCALISERS",
     "EkfLocaliser",
     "LocalisationResult",
     "Localiser",

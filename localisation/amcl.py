@@ -10,8 +10,8 @@ KLD-sampling (Fox 2003)
     clamped to [`min_particles`, `max_particles`]: a tight belief needs few particles, a spread one
     many. As in nav2, `pf_z` enters the formula as it is (0.99, where Fox's 1 - delta = 0.99 would
     be the normal quantile 2.33); unlike nav2, whose code asks for `max_particles` when all particles
-    share one bin, one bin needs `min_particles` (Fox's bound is 0 there). Drawing is vectorised: `max_particles` candidates are drawn at once and the
-    bound is evaluated on every prefix.
+    share one bin, one bin needs `min_particles` (Fox's bound is 0 there). Drawing is vectorised:
+    `max_particles` candidates are drawn at once and the bound is evaluated on every prefix.
 Augmented MCL (recovery)
     Short- and long-term averages of the particles' likelihood, ``w_fast += recovery_alpha_fast *
     (w_avg - w_fast)`` and ``w_slow += recovery_alpha_slow * (w_avg - w_slow)`` (both start at the
@@ -64,7 +64,7 @@ __all__ = ["AMCL_MODELS", "Amcl", "DistanceField", "kld_bound"]
 log = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
-AMCL_MODELS = ("beam", "field")
+AMCL_MODELS = ("auto", "beam", "field")
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
 
 
@@ -137,8 +137,10 @@ class Amcl(Localiser):
     ----------
     map : Map
     rng : None, int or Generator
-    model : {"beam", "field"}
-        Measurement model (module docstring).
+    model : {"auto", "beam", "field"}
+        Measurement model (module docstring); ``auto``: the likelihood field (nav2's default) for a thin
+        ray, the beam model when a sonar lobe is given (`beam_width_deg` > 0), which the field cannot
+        represent.
     min_particles, max_particles : int
         Bounds of the KLD particle count (nav2: 500, 2000).
     pf_err, pf_z : float
@@ -190,7 +192,7 @@ class Amcl(Localiser):
         map: Map,
         *,
         rng: RngLike = None,
-        model: str = "field",
+        model: str = "auto",
         min_particles: int = 500,
         max_particles: int = 2000,
         pf_err: float = 0.05,
@@ -241,7 +243,7 @@ class Amcl(Localiser):
             raise ValueError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
         if resample_interval < 1 or kld_bin_cm <= 0 or kld_bin_deg <= 0:
             raise ValueError("resample_interval must be >= 1 and the KLD bins positive")
-        self.model = model
+        self.model = model if model != "auto" else ("beam" if beam_width_deg > 0 else "field")
         self.min_particles, self.max_particles = int(min_particles), int(max_particles)
         self.pf_err, self.pf_z = float(pf_err), float(pf_z)
         self.kld_bin = np.array([kld_bin_cm, kld_bin_cm, math.radians(kld_bin_deg)])
@@ -266,7 +268,7 @@ class Amcl(Localiser):
         self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
         self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
         self.field: DistanceField | None = (
-            DistanceField(map, field_resolution_cm, laser_likelihood_max_dist) if model == "field" else None)
+            DistanceField(map, field_resolution_cm, laser_likelihood_max_dist) if self.model == "field" else None)
         self.particles: FloatArray = np.zeros((0, 3))
         self.log_weights: FloatArray = np.zeros(0)
         self.particle_counts: list[int] = []
@@ -277,6 +279,7 @@ class Amcl(Localiser):
         self._updates = 0
         self._log_w_slow = self._log_w_fast = -math.inf
         self._estimate: PoseEstimate | None = None
+        self._ssd: FloatArray | None = None
         self.reset()
 
     # -- Localiser interface ------------------------------------------------------------------------
@@ -312,6 +315,7 @@ class Amcl(Localiser):
         if meas.size == 0:
             log.warning("scan without usable readings: belief unchanged")
             return
+        self._ssd = None
         if 0 < self.max_beams < meas.size:
             pick = np.linspace(0, meas.size - 1, self.max_beams).round().astype(np.int64)
             rel, meas = rel[pick], meas[pick]
@@ -387,18 +391,26 @@ class Amcl(Localiser):
         return np.where(inside, ll, -np.inf)
 
     # -- internals ----------------------------------------------------------------------------------
+    def _lattice_ssd(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
+        """The lattice's sums of squared residuals for this update's scan (computed once per update)."""
+        if self._ssd is None:
+            self._ssd = self.lattice.ssd(rel, meas)
+        return self._ssd
+
     def _ambiguous(self, rel: FloatArray, meas: FloatArray, pose: Pose) -> bool:
         """Whether a lattice pose away from `pose` (further than `mode_radius_cm` or `mode_heading_deg`)
         explains the scan within `ambiguity_nats` of the best lattice pose near it."""
-        ssd = 0.5 * self.lattice.ssd(rel, meas) / self.sigma_hit**2  # (cells, directions), nats
+        ssd = self._lattice_ssd(rel, meas)  # (cells, directions), cm^2
         n_ang = self.table.n_angles
-        d_xy = np.hypot(self.lattice.xy[:, 0] - pose.x, self.lattice.xy[:, 1] - pose.y)
-        heads = np.arange(n_ang) * (2.0 * math.pi / n_ang)
-        d_th = np.abs(angle_diff(heads, pose.theta))
-        near = (d_xy[:, None] <= self.mode_radius_cm) & (d_th[None, :] <= self.mode_heading_rad)
-        if not near.any() or near.all():
+        close = np.hypot(self.lattice.xy[:, 0] - pose.x, self.lattice.xy[:, 1] - pose.y) <= self.mode_radius_cm
+        if not close.any():
             return False
-        return bool(ssd[~near].min() <= ssd[near].min() + self.ambiguity_nats)
+        heads = np.arange(n_ang) * (2.0 * math.pi / n_ang)
+        aligned = np.abs(angle_diff(heads, pose.theta)) <= self.mode_heading_rad
+        near = ssd[close][:, aligned].min()
+        far = min(ssd[~close].min() if (~close).any() else math.inf,
+                  ssd[close][:, ~aligned].min() if (~aligned).any() else math.inf)
+        return bool(0.5 * (far - near) / self.sigma_hit**2 <= self.ambiguity_nats)
 
     def _resample(self, rel: FloatArray, meas: FloatArray) -> None:
         """KLD-sampling with augmented-MCL injection, vectorised over the `max_particles` candidates."""
@@ -441,7 +453,7 @@ class Amcl(Localiser):
     def _scan_poses(self, n: int, rel: FloatArray, meas: FloatArray) -> FloatArray:
         """`n` poses drawn from the lattice scored against the scan, tempered to about `scan_sample_ess`
         effective candidates, jittered within their lattice cell and direction."""
-        ssd = self.lattice.ssd(rel, meas).ravel() / self.sigma_hit**2
+        ssd = self._lattice_ssd(rel, meas).ravel() / self.sigma_hit**2
         top = min(20000, ssd.size)
         cand = np.argpartition(ssd, top - 1)[:top]
         s = ssd[cand] - ssd[cand].min()

@@ -36,7 +36,8 @@ from localisation.base import Localiser, Motion, PoseEstimate, Prior
 
 from .world import Map, Pose, Scan
 
-__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "encode_floats", "versions"]
+__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "encode_floats", "scan_fields",
+           "scan_from_fields", "versions"]
 
 FORMAT_NAME = "nxtnav-recording"
 FORMAT_VERSION = 1
@@ -58,6 +59,39 @@ def decode_floats(values: list[Any]) -> np.ndarray:
             raise ValueError(f"item {i}: expected a number, got {v!r}")
         out[i] = float(v)
     return out
+
+
+def scan_fields(scan: Scan) -> dict[str, Any]:
+    """A scan's JSON fields: ``angles_rad`` (a list, or ``{"n": n, "step": s}`` when the angles are exactly
+    ``i * s`` for i = 0..n-1 in float64), ``ranges_cm`` and ``invalid`` (indices of the invalid readings)."""
+    a = np.asarray(scan.angles, dtype=float)
+    n = a.size
+    step = float(a[1]) if n > 1 else 0.0
+    regular = n > 1 and np.array_equal(np.arange(n, dtype=np.float64) * step, a)
+    return {"angles_rad": {"n": n, "step": step} if regular else encode_floats(a),
+            "ranges_cm": encode_floats(scan.ranges), "invalid": np.flatnonzero(~np.asarray(scan.valid)).tolist()}
+
+
+def scan_from_fields(e: dict[str, Any]) -> Scan:
+    """The inverse of `scan_fields` (raises ValueError, KeyError or TypeError on malformed fields)."""
+    spec = e["angles_rad"]
+    if isinstance(spec, dict):
+        n, step = spec["n"], spec["step"]
+        if not (isinstance(n, int) and n >= 2 and isinstance(step, int | float) and not isinstance(step, bool)):
+            raise ValueError("'angles_rad' must be a list or {\"n\": integer >= 2, \"step\": number}")
+        angles = np.arange(n, dtype=np.float64) * float(step)
+    else:
+        angles = decode_floats(spec)
+    ranges = decode_floats(e["ranges_cm"])
+    if ranges.size != angles.size:
+        raise ValueError(f"'ranges_cm' has {ranges.size} values for {angles.size} angles")
+    valid = np.ones(angles.size, dtype=bool)
+    bad = e["invalid"]
+    if not (isinstance(bad, list) and all(isinstance(i, int) and not isinstance(i, bool) and 0 <= i < angles.size
+                                         for i in bad)):
+        raise ValueError(f"'invalid' must list indices 0..{angles.size - 1}")
+    valid[bad] = False
+    return Scan(angles, ranges, valid)
 
 
 def versions() -> dict[str, str]:
@@ -83,7 +117,7 @@ def _rng_state(rng: Any) -> dict[str, Any] | None:
     seq = getattr(getattr(rng, "bit_generator", None), "seed_seq", None)
     if not isinstance(seq, np.random.SeedSequence) or type(rng.bit_generator) is not np.random.PCG64:
         return None
-    ent = seq.entropy
+    ent: Any = seq.entropy
     return {"bit_generator": "PCG64", "entropy": ent if isinstance(ent, int) else [int(e) for e in ent],
             "spawn_key": [int(k) for k in seq.spawn_key]}
 
@@ -113,8 +147,8 @@ class Recorder:
     def __init__(self, out: str | Path | IO[str], *, map: Map, robot: dict[str, Any], sonar: dict[str, Any],
                  seed: int | None, truth: Callable[[], Pose | None] | None = None,
                  extra: dict[str, Any] | None = None) -> None:
-        self._own = not hasattr(out, "write")
-        self._fh: IO[str] = Path(out).open("w", encoding="utf-8") if self._own else out  # type: ignore[arg-type]
+        self._fh: IO[str] = out if not isinstance(out, str | Path) else Path(out).open("w", encoding="utf-8")
+        self._own = isinstance(out, str | Path)
         self._truth = truth
         self._scans = 0
         self._last_scan: Scan | None = None
@@ -135,11 +169,12 @@ class Recorder:
         """Write one event line ``{"type": kind, ...}``."""
         self._write({"type": kind, **fields})
 
-    def close(self, status: str | None = None, success: bool | None = None) -> None:
-        """Write the ``end`` line (a recording without one was cut short) and close the file."""
+    def close(self, status: str | None = None, success: bool | None = None, *, end: bool = True) -> None:
+        """Write the ``end`` line (unless `end` is False: the run broke off) and close the file."""
         if self._fh.closed:
             return
-        self._write({"type": "end", "status": status, "success": success})
+        if end:
+            self._write({"type": "end", "status": status, "success": success})
         if self._own:
             self._fh.close()
 
@@ -164,14 +199,10 @@ class Recorder:
 
     def scan_event(self, scan: Scan, robot: Any, t0: float) -> None:
         t1 = float(robot.robot_time_s)
-        n = len(scan)
         times = getattr(robot, "last_scan_times_s", None)
-        measured = times is not None and len(times) == n
-        if not measured:
-            times = [t0 + (t1 - t0) * (i + 1) / max(n, 1) for i in range(n)]
-        self.event("scan", id=self._scans, t=t1, angles_rad=encode_floats(scan.angles),
-                   ranges_cm=encode_floats(scan.ranges), valid=[bool(v) for v in scan.valid],
-                   times_s=encode_floats(times), times_measured=measured, true_pose=self.true_pose(robot))
+        timed = {} if times is None or len(times) != len(scan) else {"times_s": encode_floats(times)}
+        self.event("scan", id=self._scans, t_start=t0, t=t1, **scan_fields(scan), **timed,
+                   true_pose=self.true_pose(robot))
         self._last_scan = scan
         self._scans += 1
 
@@ -188,8 +219,7 @@ class Recorder:
                         np.array_equal(last.valid[ix], scan.valid)):
                     self.event("update", scan=self._scans - 1, index=idx)
                     return
-        self.event("update", angles_rad=encode_floats(scan.angles), ranges_cm=encode_floats(scan.ranges),
-                   valid=[bool(v) for v in scan.valid])
+        self.event("update", **scan_fields(scan))
 
 
 class _RecordingRobot:

@@ -26,7 +26,7 @@ import numpy as np
 
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 
-from .recording import FORMAT_NAME, FORMAT_VERSION, _estimate, decode_floats
+from .recording import FORMAT_NAME, FORMAT_VERSION, _estimate, decode_floats, scan_from_fields
 from .world import Map, MapError, NxtnavError, Pose, Scan, angle_diff, map_from_dict
 
 __all__ = ["LocaliserSpec", "Recording", "RecordingError", "ReplayReport", "ReplayStep", "read_recording", "replay"]
@@ -134,6 +134,15 @@ def _cov(obj: dict[str, Any], key: str, where: str) -> np.ndarray:
     return np.vstack([_floats({key: r}, key, where, 3) for r in rows])
 
 
+def _scan(e: dict[str, Any], where: str) -> Scan:
+    for key in ("angles_rad", "ranges_cm", "invalid"):
+        _need(e, key, (list, dict) if key == "angles_rad" else list, where)
+    try:
+        return scan_from_fields(e)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise RecordingError(f"{where}: bad scan: {' '.join(str(exc).split())}") from None
+
+
 def _check_event(e: dict[str, Any], where: str, scans: dict[int, int]) -> None:
     kind = e["type"]
     if kind in ("turn", "move", "turnback", "scan"):
@@ -147,13 +156,11 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int]) -> None:
         _need(e, "watchdog", bool, where)
     elif kind == "scan":
         sid = _need(e, "id", int, where)
-        a = _floats(e, "angles_rad", where)
-        _floats(e, "ranges_cm", where, a.size)
-        valid = _need(e, "valid", list, where)
-        if len(valid) != a.size or not all(isinstance(v, bool) for v in valid):
-            raise RecordingError(f"{where}: field 'valid' must be {a.size} true/false values")
-        _floats(e, "times_s", where, a.size)
-        scans[sid] = a.size
+        _need(e, "t_start", _NUM, where)
+        n = len(_scan(e, where))
+        if "times_s" in e:
+            _floats(e, "times_s", where, n)
+        scans[sid] = n
     elif kind == "localiser":
         name = _need(e, "name", str, where)
         if name not in LOCALISERS:
@@ -184,11 +191,7 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int]) -> None:
             if not all(isinstance(i, int) and not isinstance(i, bool) and 0 <= i < scans[sid] for i in idx):
                 raise RecordingError(f"{where}: field 'index' must hold indices of scan {sid} (0..{scans[sid] - 1})")
         else:
-            a = _floats(e, "angles_rad", where)
-            _floats(e, "ranges_cm", where, a.size)
-            valid = _need(e, "valid", list, where)
-            if len(valid) != a.size or not all(isinstance(v, bool) for v in valid):
-                raise RecordingError(f"{where}: field 'valid' must be {a.size} true/false values")
+            _scan(e, where)
     elif kind == "estimate":
         if _pose_field(e, "pose", where) is None:
             raise RecordingError(f"{where}: field 'pose' must not be null")
@@ -365,7 +368,7 @@ class ReplayReport:
         out: dict[str, dict[str, float]] = {}
         ref = self.localisers[0]
         for name in self.localisers:
-            spread = np.array([s.estimates[name].std_xy_cm if s.estimates.get(name) else math.nan for s in ups])
+            spread = np.array([_spread(s.estimates.get(name)) for s in ups])
             row: dict[str, float] = {"updates": float(len(ups)), "median_spread_cm": _fin_median(spread),
                                      "final_spread_cm": float(spread[-1]) if spread.size else math.nan}
             if self.has_truth:
@@ -392,13 +395,13 @@ class ReplayReport:
                 "steps": [s.to_dict(ref) for s in self.steps]}
 
 
+def _spread(e: PoseEstimate | None) -> float:
+    return math.nan if e is None else e.std_xy_cm
+
+
 def _fin_median(a: np.ndarray) -> float:
     f = a[np.isfinite(a)]
     return float(np.median(f)) if f.size else math.nan
-
-
-def _scan_from(e: dict[str, Any]) -> Scan:
-    return Scan(decode_floats(e["angles_rad"]), decode_floats(e["ranges_cm"]), np.asarray(e["valid"], dtype=bool))
 
 
 def _options_for(rec: Recording, name: str) -> dict[str, Any]:
@@ -451,7 +454,7 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
             a = e["true_pose"]
             truth = Pose(float(a[0]), float(a[1]), float(a[2]))
         if kind == "scan":
-            scans[int(e["id"])] = _scan_from(e)
+            scans[int(e["id"])] = scan_from_fields(e)
         elif kind == "estimate" and pending is not None:
             k = pending[0]
             live = _live_estimate(e)
@@ -475,7 +478,7 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
                 ix = np.asarray(e["index"], dtype=np.int64)
                 arg = Scan(raw.angles[ix], raw.ranges[ix], raw.valid[ix])
             else:
-                arg = _scan_from(e)
+                arg = scan_from_fields(e)
             ests: dict[str, PoseEstimate | None] = {}
             for name, loc in locs.items():
                 if loc is None:
