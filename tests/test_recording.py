@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -91,7 +92,7 @@ def test_cli_records_and_replays(tmp_path: Path, capsys: pytest.CaptureFixture[s
     main(["run", "--map", "map1", "--seed", "3", "--localiser", "amcl", "--record", str(path)])
     main(["replay", str(path), "--localisers", "amcl,paper-pf", "--json", str(js), "-o", str(png)])
     out = capsys.readouterr().out
-    assert "amcl: replayed estimates equal the live ones bit for bit" in out
+    assert re.search(r"amcl: replayed estimates equal the [0-9]+ live ones bit for bit", out)
     doc = json.loads(js.read_text())
     assert doc["reproduced"] == {"amcl": True} and doc["truth"] is True
     assert doc["steps"] and set(doc["steps"][-1]["estimates"]) == {"amcl", "paper-pf"}
@@ -126,7 +127,6 @@ def test_malformed_recordings_name_the_line(tmp_path: Path, capsys: pytest.Captu
     assert code == 2
     assert len(err.strip().splitlines()) == 1 and err.startswith("nxtnav: error: ")
     assert str(bad) in err
-    import re
     assert re.search(message, err), err
 
 
@@ -151,6 +151,10 @@ def test_unknown_localiser_and_missing_file(tmp_path: Path, capsys: pytest.Captu
     assert code == 2 and "nope" in err and "paper-pf" in err
     code, _, err = _run_replay(tmp_path / "none.jsonl", capsys)
     assert code == 2 and "cannot read the recording" in err
+    short = tmp_path / "short.jsonl"  # header, localiser and reset, cut before the live estimate
+    short.write_text("".join(EXAMPLE.read_text().splitlines(keepends=True)[:3]))
+    code, out, err = _run_replay(short, capsys, "--localisers", "amcl,ekf")
+    assert code == 0 and "holds no live estimate" in out and "ekf: failed at line 3" in err
     with pytest.raises(RecordingError, match="empty file"):
         (tmp_path / "e.jsonl").write_text("")
         read_recording(tmp_path / "e.jsonl")

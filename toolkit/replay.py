@@ -345,9 +345,12 @@ class ReplayReport:
     steps : list of ReplayStep
     reproduced : dict
         For the localiser used live: whether every replayed estimate equals the recorded one exactly
-        (None when the recording lacks its random stream); the first differing line is in `diverged`.
+        (None when the recording lacks its random stream or holds no live estimate); the first
+        differing line is in `diverged`.
     failures : dict
         Per localiser that raised: the line and the message.
+    compared : int
+        Live estimates the recording holds (each compared with the replay of the live localiser).
     """
 
     recording: Recording
@@ -356,6 +359,7 @@ class ReplayReport:
     reproduced: dict[str, bool | None] = field(default_factory=dict)
     diverged: dict[str, int] = field(default_factory=dict)
     failures: dict[str, str] = field(default_factory=dict)
+    compared: int = 0
 
     @property
     def has_truth(self) -> bool:
@@ -390,7 +394,8 @@ class ReplayReport:
         return {"recording": str(self.recording.path), "truncated": self.recording.truncated,
                 "localisers": self.localisers, "reference": ref, "truth": self.has_truth,
                 "live_localiser": None if self.recording.localiser is None else self.recording.localiser.name,
-                "reproduced": self.reproduced, "diverged_at_line": self.diverged, "failures": self.failures,
+                "reproduced": self.reproduced, "live_estimates_compared": self.compared,
+                "diverged_at_line": self.diverged, "failures": self.failures,
                 "summary": {k: {kk: _nan_none(vv) for kk, vv in v.items()} for k, v in self.summary().items()},
                 "steps": [s.to_dict(ref) for s in self.steps]}
 
@@ -493,11 +498,11 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
                     ests[name] = None
             steps.append(ReplayStep(len(steps), line, kind, truth, ests, None))
             pending = (len(steps) - 1, kind)
-    compared = any(s.live is not None for s in steps)
+    compared = sum(1 for s in steps if s.live is not None)
     out_reproduced: dict[str, bool | None] = {
-        n: (reproduced[n] and compared) if n in reproduced else None
+        n: reproduced[n] if n in reproduced and compared else None
         for n in locs if rec.localiser is not None and n == rec.localiser.name}
-    return ReplayReport(rec, list(dict.fromkeys(localisers)), steps, out_reproduced, diverged, failures)
+    return ReplayReport(rec, list(dict.fromkeys(localisers)), steps, out_reproduced, diverged, failures, compared)
 
 
 def _strip(e: dict[str, Any]) -> dict[str, Any]:

@@ -67,9 +67,10 @@ def replay_cmd(
                        f"{_fmt(r['max_agreement_cm'])} | {_fmt(r['median_spread_cm'])} |")
     for n, ok in report.reproduced.items():
         if ok is None:
-            typer.echo(f"{n}: the recording lacks its random stream; not compared with the live estimates")
+            why = "holds no live estimate" if not report.compared else "lacks the localiser's random stream"
+            typer.echo(f"{n}: the recording {why}; not compared with the live estimates")
         elif ok:
-            typer.echo(f"{n}: replayed estimates equal the live ones bit for bit")
+            typer.echo(f"{n}: replayed estimates equal the {report.compared} live ones bit for bit")
         else:
             typer.echo(f"{n}: replay differs from the live estimates from line {report.diverged.get(n)}")
     for n, msg in report.failures.items():
