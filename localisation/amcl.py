@@ -175,10 +175,12 @@ class Amcl(Localiser):
     converged_xy_cm, converged_heading_deg : float
         Converged when sqrt(var x + var y) and the heading standard deviation are below these ...
     ambiguity_nats, mode_radius_cm, mode_heading_deg : float
-        ... and no lattice pose further than `mode_radius_cm` or `mode_heading_deg` from the estimate
-        explains the scan within `ambiguity_nats` of the best one near it (the twin rooms of map3: the
-        procedure then moves and rescans). 0 disables the check. It only qualifies the verdict; the
-        particles are not touched.
+        ... and, for a new fix (after a global start, or when the estimate jumped by more than
+        `mode_radius_cm` or `mode_heading_deg` in one update), no lattice pose that far from the
+        estimate explains the scan within `ambiguity_nats` of the best one near it (the twin rooms of
+        map3: the procedure then moves and rescans). Once a fix passes, tracking relies on the motion
+        history, which tells the twins apart. 0 disables the check. It only qualifies the verdict;
+        the particles are not touched.
     beam_width_deg, critical_incidence_deg : float
         Sonar lobe and specular loss of the beam model's range table (see `RangeTable`).
     lattice_step : int
@@ -276,6 +278,7 @@ class Amcl(Localiser):
         self.iterations = 0
         self._weighed = np.zeros(0, dtype=bool)
         self._uniform = True
+        self._fixing = True
         self._updates = 0
         self._log_w_slow = self._log_w_fast = -math.inf
         self._estimate: PoseEstimate | None = None
@@ -289,6 +292,7 @@ class Amcl(Localiser):
         self.particle_counts = []
         self._log_w_slow = self._log_w_fast = -math.inf
         n = self.max_particles
+        self._fixing = prior is None
         if prior is None:
             self.particles = self._uniform_poses(n)
             self._uniform = True
@@ -316,6 +320,7 @@ class Amcl(Localiser):
             log.warning("scan without usable readings: belief unchanged")
             return
         self._ssd = None
+        before = self.estimate().pose
         if 0 < self.max_beams < meas.size:
             pick = np.linspace(0, meas.size - 1, self.max_beams).round().astype(np.int64)
             rel, meas = rel[pick], meas[pick]
@@ -332,6 +337,7 @@ class Amcl(Localiser):
             self.particles = self._scan_poses(n, rel, meas)
             self.log_weights = np.full(n, -math.log(n))
             ll = self.log_likelihood(self.particles, rel, meas)
+            self._fixing = True
         self.iterations += 1
         self._updates += 1
         self.log_weights = self.log_weights + ll
@@ -345,8 +351,15 @@ class Amcl(Localiser):
             self._log_w_slow = _log_blend(self._log_w_slow, log_w_avg, self.alpha_slow)
             self._log_w_fast = _log_blend(self._log_w_fast, log_w_avg, self.alpha_fast)
         self._estimate = self._make_estimate()
-        if self._estimate.converged and self.ambiguity_nats > 0 and self._ambiguous(rel, meas, self._estimate.pose):
-            self._estimate = replace(self._estimate, converged=False)
+        after = self._estimate.pose
+        if (after.distance_to(before) > self.mode_radius_cm
+                or abs(float(angle_diff(after.theta, before.theta))) > self.mode_heading_rad):
+            self._fixing = True  # the belief jumped (fresh particles took over): a new fix, to be checked
+        if self._fixing and self._estimate.converged and self.ambiguity_nats > 0:
+            if self._ambiguous(rel, meas, after):
+                self._estimate = replace(self._estimate, converged=False)
+            else:
+                self._fixing = False  # a fix the scan singles out; from here on the motion history does
         if self._updates % self.resample_interval == 0:
             self._resample(rel, meas)
         self.particle_counts.append(int(self.particles.shape[0]))
