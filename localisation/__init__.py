@@ -1,9 +1,10 @@
 """Localisation from ultrasonic scans: the paper's particle filter and filterpy variants.
 
-Importing the package registers every localiser (``paper-pf`` and the filterpy variants) in
+Importing the package registers every localiser (``paper-pf``, ``amcl`` and the filterpy variants) in
 `LOCALISERS`; `localise` is the paper's procedure that drives a robot.
 """
 
+from .amcl import Amcl, DistanceField
 from .base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from .filterpy_variants import EkfLocaliser, UkfLocaliser, filterpy_resample
 from .models import MotionModel, RangeLikelihood, RangeTable, exact_ranges, range_table
@@ -13,6 +14,8 @@ from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan, raw_
 
 __all__ = [
     "LOCALISERS",
+    "Amcl",
+    "DistanceField",
     "EkfLocaliser",
     "LocalisationResult",
     "Localiser",

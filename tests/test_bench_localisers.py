@@ -288,6 +288,21 @@ def test_tracking_scenario_rmse_against_truth(tmp_path: Path, oracles: list[str]
     assert (out / "tracking.png").exists()
 
 
+def test_tracking_rows_count_particles_and_time_updates(tmp_path: Path) -> None:
+    out = tmp_path / "p"
+    assert run(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf,amcl,ekf", "--trials", "1",
+                "--scenario", "tracking", "--tracking-steps", "4", "--set", "amcl.min_particles=50",
+                "--out", str(out)]) == 0
+    _, data = rows(out / "tracking.csv")
+    got = {r["localiser"]: r for r in data}
+    assert float(got["paper-pf"]["median_particles"]) == float(got["paper-pf"]["max_particles"]) == 1000
+    # a tight tracking belief: KLD keeps amcl near its minimum, far below its 2000 maximum
+    assert 50 <= float(got["amcl"]["median_particles"]) <= float(got["amcl"]["max_particles"]) < 2000
+    assert float(got["ekf"]["max_particles"]) == 1
+    assert all(float(r["update_ms"]) > 0 for r in data)
+    assert "particles median / max" in (out / "summary.md").read_text()
+
+
 def test_scripted_drive_is_collision_free_without_noise() -> None:
     m = load_map("map3")
     rng = np.random.default_rng(4)

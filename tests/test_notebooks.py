@@ -19,7 +19,8 @@ NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
 EXPECTED: dict[str, tuple[tuple[str, ...], int]] = {
     "planner_comparison": (("## map1", "## map2", "## map3", "| min-turn |"), 4),
     "localisation_comparison": (("| processed (kept) |", "| auto | raw |", "| off | paper |", "| map3 | paper-pf |",
-                                 "RMSE", "recovered"), 4),
+                                 "RMSE", "recovered", "| nxt, amcl live | paper-pf |",
+                                 "| bit for bit |"), 4),
     "paper_reproduction": (("| map1 |", "| map3 |"), 3),
 }
 

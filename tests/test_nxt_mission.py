@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from toolkit.cli import main
+from toolkit.replay import read_recording, replay
 from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
 from toolkit.world import Pose, load_map
@@ -39,10 +40,12 @@ def test_map1_mission_on_the_virtual_brick(tmp_path: Path, heading_deg: float, s
     world = BrickWorld(m, Pose.from_deg(float(m.start[0]), float(m.start[1]), heading_deg),
                        BrickConfig(time_factor=1000.0, max_step_s=0.01), rng=seed, log=log)
     report = tmp_path / "mission.json"
+    recording = tmp_path / "mission.jsonl"
     with BrickServer(world, port=0) as server:
         try:
             main(["run", "--robot", "nxt", "--nxt-backend", "socket", "--server-host", "127.0.0.1",
-                  "--server-port", str(server.port), "--seed", str(seed), "--json", str(report)])
+                  "--server-port", str(server.port), "--seed", str(seed), "--json", str(report),
+                  "--record", str(recording)])
         except SystemExit as exc:
             assert exc.code in (0, None), report.read_text() if report.exists() else exc
     records = [json.loads(line) for line in log.getvalue().splitlines()]
@@ -55,3 +58,10 @@ def test_map1_mission_on_the_virtual_brick(tmp_path: Path, heading_deg: float, s
     doc = json.loads(report.read_text())
     assert doc["success"] is True and doc["robot"] == "nxt"
     assert doc["robot_time_s"] == pytest.approx(world.time_s, rel=0.05)  # measured on the brick's clock
+    # the recording of the CLI run: the brick's tacho counts per command, replayed bit for bit
+    rec = read_recording(recording)
+    assert rec.truncated is None and rec.header["robot"]["kind"] == "nxt"
+    moves = [e for _, e in rec.events if e["type"] == "move" and abs(e["driven_cm"]) > 1.0]
+    assert moves and all(e["odometry"]["tacho_after"]["left"] != e["odometry"]["tacho_before"]["left"] for e in moves)
+    out = replay(rec, [doc["localiser"]])
+    assert out.reproduced == {doc["localiser"]: True} and not out.has_truth

@@ -43,7 +43,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -68,6 +68,9 @@ from .world import (
     make_sonar,
     ray_cast,
 )
+
+if TYPE_CHECKING:
+    from .recording import Recorder
 
 __all__ = [
     "MissionConfig",
@@ -930,6 +933,7 @@ def run_mission(
     localiser: str | Localiser = "paper-pf",
     rng: RngLike = None,
     config: MissionConfig | None = None,
+    recorder: Recorder | None = None,
 ) -> MissionReport:
     """Run the stack on `robot` from its unknown pose to `target`.
 
@@ -951,6 +955,8 @@ def run_mission(
         Seeds the planner's and the localiser's draws (the simulator has its own `rng`).
     config : MissionConfig or None
         Tolerances and limits; the defaults are tuned for the paper's setting.
+    recorder : toolkit.recording.Recorder, optional
+        Records every robot command, scan and localiser call (`toolkit.recording`); the caller closes it.
 
     Returns
     -------
@@ -974,6 +980,8 @@ def run_mission(
     else:  # built at first use; an unknown name fails here, before anything runs
         loc_name = LOCALISERS.get(localiser).name
         build_localiser = partial(make_localiser, localiser, m, rng=loc_rng, **dict(cfg.localiser_options))
+    if recorder is not None:
+        robot, build_localiser = _recorded(recorder, robot, build_localiser, localiser, cfg, loc_rng)
     start_pose = getattr(robot, "true_pose", None)
     start = start_pose if isinstance(start_pose, Pose) else None
     time0 = float(robot.robot_time_s)
@@ -1017,6 +1025,15 @@ def run_mission(
         plans=mission.plans,
         trace=mission.trace,
     )
+
+
+def _recorded(recorder: Recorder, robot: Robot, build: Callable[[], Localiser], localiser: str | Localiser,
+              cfg: MissionConfig, loc_rng: np.random.Generator) -> tuple[Any, Callable[[], Localiser]]:
+    """The robot and the localiser factory with their calls written to `recorder`."""
+    by_name = not isinstance(localiser, Localiser)
+    options = dict(cfg.localiser_options) if by_name else {}
+    return recorder.wrap_robot(robot), lambda: recorder.wrap_localiser(
+        build(), options=options, rng=loc_rng if by_name else None)
 
 
 def mission_seeds(seed: int) -> tuple[int, int, int]:
@@ -1092,6 +1109,7 @@ def run_sim_mission(
     turn_noise: float = 0.005,
     sonar: str = "ideal",
     config: MissionConfig | None = None,
+    recorder: Recorder | None = None,
 ) -> MissionReport:
     """One seeded mission on the simulator, as `nxtnav run` and `nxtnav paper` run it.
 
@@ -1115,6 +1133,8 @@ def run_sim_mission(
     sonar : {"ideal", "nxt"}
     config : MissionConfig or None
         None: `MissionConfig.for_sonar(sonar)`.
+    recorder : toolkit.recording.Recorder, optional
+        Passed to `run_mission`.
     """
     from .robots.sim import MotionNoise, SimRobot
 
@@ -1143,5 +1163,6 @@ def run_sim_mission(
                                          turn_noise=turn_noise, sensor_noise=sensor_noise)
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
     robot = SimRobot(m, pose, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
-    report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg)
+    report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,
+                         recorder=recorder)
     return replace(report, seed=int(seed))

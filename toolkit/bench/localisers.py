@@ -82,6 +82,7 @@ __all__ = [
     "localise_once",
     "localiser_options",
     "make_tasks",
+    "particle_count",
     "random_pose",
     "read_csv",
     "run_trial",
@@ -107,7 +108,7 @@ RUNS_COLUMNS = (
 )
 TRACKING_COLUMNS = (
     "map", "localiser", "trial", "seed", "steps", "rmse_cm", "rmse_heading_deg", "final_error_cm",
-    "max_error_cm", "time_s", "collisions",
+    "max_error_cm", "time_s", "collisions", "median_particles", "max_particles", "update_ms",
 )
 KIDNAPPED_COLUMNS = (
     "map", "localiser", "trial", "seed", "localised", "kidnap_cm", "recovered", "recovery_iterations",
@@ -516,6 +517,9 @@ class TrackingRun:
     max_error_cm: float
     time_s: float
     collisions: int
+    median_particles: float = math.nan
+    max_particles: float = math.nan
+    update_ms: float = math.nan
     errors_cm: tuple[float, ...] = field(default=(), repr=False)
     failure: str = field(default="", repr=False)
     scenario: str = field(default="tracking", repr=False)
@@ -679,6 +683,8 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     prep = _scan_preparer(loc, cfg.scan_processing)
     errs: list[float] = []
     herrs: list[float] = []
+    counts: list[int] = []
+    update_s: list[float] = []
     t0 = time.perf_counter()
     loc.reset(_noisy_truth(truth, cfg, np.random.default_rng(prior_ss)))
     for motion in drive:
@@ -686,15 +692,28 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
             robot.turn(motion.turn_rad)
         dist = robot.move(motion.distance_cm).distance_cm if motion.distance_cm else 0.0
         loc.predict(Motion(motion.turn_rad, dist))
-        loc.update(prep(robot.ultrascan()))
+        scan = prep(robot.ultrascan())
+        tu = time.perf_counter()
+        loc.update(scan)
+        update_s.append(time.perf_counter() - tu)
+        counts.append(particle_count(loc))
         e, h = pose_error(loc.estimate().pose, robot.true_pose)
         errs.append(e)
         herrs.append(h)
     elapsed = time.perf_counter() - t0
     ea, ha = np.asarray(errs), np.asarray(herrs)
+    ca = np.asarray(counts, dtype=float)
     return TrackingRun(task.map, task.localiser, task.trial, task.seed, len(drive),
                        float(np.sqrt(np.mean(ea**2))), float(np.sqrt(np.mean(ha**2))), float(ea[-1]),
-                       float(ea.max()), elapsed, int(robot.collisions), tuple(float(e) for e in ea))
+                       float(ea.max()), elapsed, int(robot.collisions), float(np.median(ca)), float(ca.max()),
+                       1e3 * float(np.median(update_s)), tuple(float(e) for e in ea))
+
+
+def particle_count(loc: Localiser) -> int:
+    """Particles a localiser holds after an update (its `particles` array; 1 for a Kalman filter's one
+    Gaussian)."""
+    p = getattr(loc, "particles", None)
+    return int(np.asarray(p).shape[0]) if p is not None else 1
 
 
 def _scan_preparer(loc: Localiser, processing: str) -> Callable[[Scan], Scan]:
@@ -836,6 +855,10 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str],
                     "rmse_heading_deg": _rms([r.rmse_heading_deg for r in rs]),
                     "median_final_error_cm": _median([r.final_error_cm for r in rs]),
                     "median_time_s": _median([r.time_s / max(r.steps, 1) for r in rs]),
+                    "median_particles": _median([r.median_particles for r in rs]),
+                    "max_particles": float(np.nanmax([r.max_particles for r in rs] + [math.nan]))
+                    if any(math.isfinite(r.max_particles) for r in rs) else math.nan,
+                    "median_update_ms": _median([r.update_ms for r in rs]),
                 }
             else:
                 loc = [r for r in rs if r.localised]
@@ -931,18 +954,22 @@ def write_summary(
                   f"A scripted drive of {config.tracking_steps} actions (turn, then a move of "
                   f"{config.tracking_step_cm[0]:g}-{config.tracking_step_cm[1]:g} cm); every localiser starts "
                   f"from the true pose plus noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} degrees) "
-                  "and predicts + updates with a full scan after every action. RMSE over all actions and trials.",
-                  ""]
+                  "and predicts + updates with a full scan after every action. RMSE over all actions and trials; "
+                  "particles = the particles held after each update (median over the trials of each trial's "
+                  "median, and the largest count seen); update = median time of one `update` call.", ""]
         for m in maps:
             lines += [f"### {m}", "", "| localiser | trials | RMSE (cm) | heading RMSE (deg) | "
-                      "median final error (cm) | median time per action (ms) |", "|---|---:|---:|---:|---:|---:|"]
+                      "median final error (cm) | median time per action (ms) | particles median / max | "
+                      "update (ms) |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
             for n in localisers:
                 row = s["tracking"].get((m, n))
                 if row is None:
                     continue
                 lines.append(f"| {n} | {row['trials']:.0f} | {_num(row['rmse_cm'])} | "
                              f"{_num(row['rmse_heading_deg'])} | {_num(row['median_final_error_cm'])} | "
-                             f"{_num(1e3 * row['median_time_s'], '', 1)} |")
+                             f"{_num(1e3 * row['median_time_s'], '', 1)} | "
+                             f"{_num(row['median_particles'], '', 0)} / {_num(row['max_particles'], '', 0)} | "
+                             f"{_num(row['median_update_ms'], '', 1)} |")
             lines.append("")
     if "kidnapped" in s:
         lines += ["## Kidnapped robot", "",

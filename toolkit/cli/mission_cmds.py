@@ -81,6 +81,8 @@ def run(
     server_host: str = typer.Option("localhost", "--server-host", help="nxt-server / virtual brick host (socket)."),
     server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket)."),
     profile: Path | None = typer.Option(None, "--profile", metavar="FILE", help="NXT calibration profile."),
+    record: Path | None = typer.Option(None, "--record", metavar="FILE.jsonl",
+                                       help="Record every command, scan and localiser call (docs/recording.md)."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
     from ..mission import MissionConfig, matched_localiser_options, run_mission, run_sim_mission
@@ -109,12 +111,18 @@ def run(
             raise typer.BadParameter("the start of a real robot is unknown; --start/--random-start are for the "
                                      "simulator", param_hint="--start")
         robot = _connect_nxt(nxt_backend, server_host, server_port, profile)
+        recorder: Any = None
+        report: Any = None
         try:
+            if record is not None:
+                recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
+                                                 "profile": robot.profile.to_dict()}, {"model": "nxt"}, seed, None)
             opts = matched_localiser_options(localiser, sonar="nxt")
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
-                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts))
+                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=recorder)
         finally:
             robot.close()
+            _finish(recorder, report)
     else:
         start: Any = None
         if start_text is not None:
@@ -123,12 +131,24 @@ def run(
             if not m.contains(xy):
                 raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
                                          param_hint="--start")
-        report = run_sim_mission(
-            m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
-            localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
-            turn_noise=turn_noise, sonar=sonar,
-        )
+        from ..world import RobotGeometry
+
+        recorder = None if record is None else _recorder(
+            record, m, {"kind": "sim", "geometry": RobotGeometry().to_dict()},
+            {"model": sonar, "sensor_noise": sensor_noise}, seed,
+            {"model": noise_model, "motion": motion_noise, "turn": turn_noise})
+        report = None
+        try:
+            report = run_sim_mission(
+                m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
+                localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
+                turn_noise=turn_noise, sonar=sonar, recorder=recorder,
+            )
+        finally:
+            _finish(recorder, report)
     typer.echo(report.summary())
+    if record is not None:
+        typer.echo(f"wrote {record}")
     if json_out is not None:
         doc = report.to_dict()
         doc["robot"] = robot_kind
@@ -152,6 +172,25 @@ def run(
             typer.echo(f"wrote {animate}")
     if not report.success:
         raise MissionFailed(f"mission failed: {report.status}")
+
+
+def _recorder(path: Path, m: Any, robot: dict[str, Any], sonar: dict[str, Any], seed: int,
+              noise: dict[str, Any] | None) -> Any:
+    from ..recording import Recorder
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return Recorder(path, map=m, robot=robot, sonar=sonar, seed=seed,
+                        extra=None if noise is None else {"noise": noise})
+    except OSError as exc:
+        raise NxtnavError(f"--record: cannot write {path} ({exc.strerror or exc})") from None
+
+
+def _finish(recorder: Any, report: Any) -> None:
+    """Close a recording: with its ``end`` line after a mission that ran, without one (cut short) after an error."""
+    if recorder is not None:
+        recorder.close(None if report is None else report.status, None if report is None else report.success,
+                       end=report is not None)
 
 
 def _no_nan(obj: Any) -> Any:

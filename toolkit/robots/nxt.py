@@ -190,6 +190,11 @@ class NxtRobot:
         s = self.brick.get_output_state(port)
         return int(s[9]), s[5] == self._nxt.motor.RunState.IDLE
 
+    def tacho_counts(self) -> dict[str, int]:
+        """The rotation counts (degrees, as the brick reports them) of the left, right and turret motors."""
+        return {"left": self._state(self._left)[0], "right": self._state(self._right)[0],
+                "turret": self._state(self._turret)[0]}
+
     def _i2c_write(self, register: int, values: bytes) -> None:
         self.brick.ls_write(self._sonar, bytes((_US_ADDRESS, register)) + values, 0)
 

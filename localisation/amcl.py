@@ -1,0 +1,522 @@
+"""``amcl``: adaptive Monte Carlo localisation as nav2's AMCL does it, for a rotating sonar.
+
+Three things the paper's filter does not do (Thrun, Burgard and Fox, *Probabilistic Robotics*,
+ch. 8; nav2 ``amcl``):
+
+KLD-sampling (Fox 2003)
+    Resampling draws particles one at a time and stops as soon as their number exceeds the bound
+    ``n(k) = (k - 1) / (2 pf_err) * (1 - 2 / (9 (k - 1)) + sqrt(2 / (9 (k - 1))) pf_z)^3`` for the
+    ``k`` histogram bins (`kld_bin_cm` x `kld_bin_cm` x `kld_bin_deg`) the drawn particles occupy,
+    clamped to [`min_particles`, `max_particles`]: a tight belief needs few particles, a spread one
+    many. As in nav2, `pf_z` enters the formula as it is (0.99, where Fox's 1 - delta = 0.99 would
+    be the normal quantile 2.33); unlike nav2, whose code asks for `max_particles` when all particles
+    share one bin, one bin needs `min_particles` (Fox's bound is 0 there). Drawing is vectorised:
+    `max_particles` candidates are drawn at once and the bound is evaluated on every prefix.
+Augmented MCL (recovery)
+    Short- and long-term averages of the particles' likelihood, ``w_fast += recovery_alpha_fast *
+    (w_avg - w_fast)`` and ``w_slow += recovery_alpha_slow * (w_avg - w_slow)`` (both start at the
+    first average and restart after an injection, as in nav2); every resampled particle is
+    replaced, with probability ``max(0, 1 - w_fast / w_slow)``, by a fresh one. The averages use
+    each particle's likelihood per beam (the scan's likelihood to the power 1 / beams), so that scans
+    with different numbers of readings compare and the averages stay within floating-point range
+    (nav2's beam weights, a sum of cubes, have the same effect). Fresh particles are drawn from the
+    scan (`recovery_sampler="scan"`: sensor resetting, Lenser and Veloso 2000) or uniformly over the
+    free space (``"uniform"``, Thrun's table 8.3). There is no other kidnap detection: recovery is
+    this mechanism alone.
+Two measurement models (`model`)
+    ``beam``: Thrun's beam model, the mixture ``z_hit N(r; e, sigma_hit) + z_short lambda_short
+    exp(-lambda_short r) [r < e] + z_rand / laser_max_range`` around the expected range ``e`` of a
+    precomputed `RangeTable` (which can model the NXT's lobe and specular loss). ``field``: the
+    likelihood field, ``z_hit N(d; 0, sigma_hit) + z_rand / laser_max_range`` of the distance ``d``
+    from each beam's end point to the nearest wall, read from a distance transform of the walls
+    (exact distances at the nodes of a `field_resolution_cm` grid, bilinear in between): O(1) per
+    beam whatever the map's size, no ray casting. It knows nothing of a lobe: a wide sonar's
+    nearest echo, taken off-axis, puts the end point in front of the wall (measured in
+    docs/localisers.md).
+
+A global start (``reset(None)``) draws `max_particles` particles from the first scan (the paper-pf
+lattice of poses scored against the scan, tempered to keep about `scan_sample_ess` distinct
+candidates; ``global_init="uniform"`` draws them uniformly, as nav2 does). One update weighs the
+particles once by the scan (no annealing) and resamples every `resample_interval` updates.
+
+Parameter names follow nav2 where they mean the same (lengths in cm, not m).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import replace
+from typing import Any, ClassVar
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+
+from toolkit.world import LocalisationError, Map, Pose, RngLike, Scan, angle_diff, circular_mean, wrap_angle
+
+from .base import Localiser, Motion, PoseEstimate, Prior
+from .models import MotionModel, RangeLattice, RangeTable, range_lattice, range_table
+from .resampling import log_normalise, systematic_resample
+
+__all__ = ["AMCL_MODELS", "Amcl", "DistanceField", "kld_bound"]
+
+log = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+AMCL_MODELS = ("auto", "beam", "field")
+_SQRT_2PI = math.sqrt(2.0 * math.pi)
+
+
+def kld_bound(k: Any, pf_err: float, pf_z: float) -> NDArray[np.int64]:
+    """Particles needed for `k` occupied bins (Fox 2003, with nav2's use of `pf_z`; 0 for k <= 1).
+
+    >>> [int(n) for n in kld_bound([1, 2, 10, 100], 0.05, 0.99)]
+    [0, 20, 131, 1129]
+    """
+    kk = np.asarray(k, dtype=float)
+    km1 = np.maximum(kk - 1.0, 1.0)
+    b = 2.0 / (9.0 * km1)
+    x = 1.0 - b + np.sqrt(b) * pf_z
+    n = np.ceil(km1 / (2.0 * pf_err) * x**3)
+    return np.where(kk <= 1, 0, n).astype(np.int64)
+
+
+class DistanceField:
+    """Distance (cm) from any point to the nearest wall: exact at the nodes of a square grid, bilinear between.
+
+    Built once per map with an STR-tree of the wall segments (one nearest-segment query per node);
+    a lookup is four array reads per point, independent of the number of walls. Distances are capped
+    at `max_dist_cm`.
+
+    Parameters
+    ----------
+    map : Map
+    resolution_cm : float
+        Node spacing (cm).
+    max_dist_cm : float
+        Cap on the distance (nav2's ``laser_likelihood_max_dist``, here in cm).
+    """
+
+    def __init__(self, map: Map, resolution_cm: float = 0.5, max_dist_cm: float = 20.0) -> None:
+        if not (resolution_cm > 0 and math.isfinite(resolution_cm)):
+            raise ValueError(f"field resolution must be a positive number of cm, got {resolution_cm!r}")
+        xmin, ymin, xmax, ymax = map.bounds
+        self.resolution_cm = float(resolution_cm)
+        self.max_dist_cm = float(max_dist_cm)
+        self.origin = np.array([xmin, ymin], dtype=float)
+        nx = math.ceil((xmax - xmin) / resolution_cm) + 1
+        ny = math.ceil((ymax - ymin) / resolution_cm) + 1
+        gx, gy = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+        nodes = self.origin + np.column_stack([gx.ravel(), gy.ravel()]) * resolution_cm
+        segs = shapely.linestrings(np.asarray(map.walls, dtype=float).reshape(-1, 2, 2))
+        tree = shapely.STRtree(segs)
+        _, dist = tree.query_nearest(shapely.points(nodes), return_distance=True, all_matches=False)
+        self.grid = np.minimum(dist, self.max_dist_cm).reshape(nx, ny)
+
+    def __call__(self, xy: FloatArray) -> FloatArray:
+        """Distances (cm) of points `xy` (..., 2) to the nearest wall, capped at `max_dist_cm`; a point
+        outside the grid reads the nearest grid point's distance plus its distance to the grid."""
+        g = (np.asarray(xy, dtype=float) - self.origin) / self.resolution_cm
+        nx, ny = self.grid.shape
+        gx = np.clip(g[..., 0], 0.0, nx - 1.000001)
+        gy = np.clip(g[..., 1], 0.0, ny - 1.000001)
+        outside = np.hypot(g[..., 0] - gx, g[..., 1] - gy) * self.resolution_cm
+        ix, iy = gx.astype(np.int64), gy.astype(np.int64)
+        fx, fy = gx - ix, gy - iy
+        d = self.grid
+        val = ((d[ix, iy] * (1 - fx) + d[ix + 1, iy] * fx) * (1 - fy)
+               + (d[ix, iy + 1] * (1 - fx) + d[ix + 1, iy + 1] * fx) * fy)
+        return np.minimum(val + outside, self.max_dist_cm)
+
+
+class Amcl(Localiser):
+    """Adaptive MCL: KLD-sampling, augmented-MCL recovery, beam or likelihood-field model.
+
+    Parameters
+    ----------
+    map : Map
+    rng : None, int or Generator
+    model : {"auto", "beam", "field"}
+        Measurement model (module docstring); ``auto``: the likelihood field (nav2's default) for a thin
+        ray, the beam model when a sonar lobe is given (`beam_width_deg` > 0), which the field cannot
+        represent.
+    min_particles, max_particles : int
+        Bounds of the KLD particle count (nav2: 500, 2000).
+    pf_err, pf_z : float
+        KLD error bound and quantile (nav2: 0.05, 0.99).
+    kld_bin_cm, kld_bin_deg : float
+        KLD histogram bin (nav2 hard-codes 50 cm x 50 cm x 10 degrees for metre-scale rooms; scaled
+        here to the paper's 1 m maps).
+    recovery_alpha_slow, recovery_alpha_fast : float
+        Averaging rates of the long- and short-term likelihood (0 disables recovery).
+    recovery_sampler : {"scan", "uniform"}
+        Where injected particles come from.
+    resample_interval : int
+        Updates between resamplings (nav2: 1).
+    sigma_hit, z_hit, z_short, z_rand, lambda_short : float
+        Measurement mixture: reading standard deviation (cm), weights, short-reading rate (1/cm).
+    laser_max_range : float
+        Largest reading (cm; 255 on the NXT): the uniform part's support.
+    laser_likelihood_max_dist : float
+        Field model: distances to the walls are capped at this (cm).
+    max_beams : int
+        Readings used per update at most (evenly chosen; 0 = all).
+    field_resolution_cm : float
+        Node spacing of the distance field (cm).
+    noise_model, motion_noise, turn_noise, motion_inflation
+        Motion model, as the robot's (`MotionModel`).
+    clearance_cm : float
+        Fresh particles keep this far from the walls (the robot radius).
+    global_init : {"scan", "uniform"}
+        A global start draws from the first scan or uniformly.
+    scan_sample_ess : float
+        Scan draws: the lattice is tempered to keep about this many effective candidate poses.
+    converged_xy_cm, converged_heading_deg : float
+        Converged when sqrt(var x + var y) and the heading standard deviation are below these ...
+    ambiguity_nats, mode_radius_cm, mode_heading_deg : float
+        ... and, for a new fix (after a global start, or when the estimate jumped by more than
+        `mode_radius_cm` or `mode_heading_deg` in one update), no lattice pose that far from the
+        estimate explains the scan within `ambiguity_nats` of the best one near it (the twin rooms of
+        map3: the procedure then moves and rescans). Once a fix passes, tracking relies on the motion
+        history, which tells the twins apart. 0 disables the check. It only qualifies the verdict;
+        the particles are not touched.
+    beam_width_deg, critical_incidence_deg : float
+        Sonar lobe and specular loss of the beam model's range table (see `RangeTable`).
+    lattice_step : int
+        Lattice spacing (table cells) of the scan draws.
+    """
+
+    name: ClassVar[str] = "amcl"
+
+    def __init__(
+        self,
+        map: Map,
+        *,
+        rng: RngLike = None,
+        model: str = "auto",
+        min_particles: int = 500,
+        max_particles: int = 2000,
+        pf_err: float = 0.05,
+        pf_z: float = 0.99,
+        kld_bin_cm: float = 2.0,
+        kld_bin_deg: float = 5.0,
+        recovery_alpha_slow: float = 0.001,
+        recovery_alpha_fast: float = 0.1,
+        recovery_sampler: str = "scan",
+        resample_interval: int = 1,
+        sigma_hit: float = 1.0,
+        z_hit: float = 0.95,
+        z_short: float = 0.0,
+        z_rand: float = 0.05,
+        lambda_short: float = 0.1,
+        laser_max_range: float = 255.0,
+        laser_likelihood_max_dist: float = 20.0,
+        max_beams: int = 0,
+        field_resolution_cm: float = 0.5,
+        noise_model: str = "botsim",
+        motion_noise: float = 0.1,
+        turn_noise: float = 0.005,
+        motion_inflation: float = 1.5,
+        clearance_cm: float = 8.0,
+        global_init: str = "scan",
+        scan_sample_ess: float = 50.0,
+        converged_xy_cm: float = 1.5,
+        converged_heading_deg: float = 2.0,
+        ambiguity_nats: float = 15.0,
+        mode_radius_cm: float = 10.0,
+        mode_heading_deg: float = 20.0,
+        beam_width_deg: float = 0.0,
+        critical_incidence_deg: float | None = None,
+        lattice_step: int = 2,
+    ) -> None:
+        super().__init__(map, rng=rng)
+        if model not in AMCL_MODELS:
+            raise ValueError(f"amcl model must be one of {', '.join(AMCL_MODELS)}, got {model!r}")
+        if not 1 <= min_particles <= max_particles:
+            raise ValueError(f"need 1 <= min_particles <= max_particles, got {min_particles}, {max_particles}")
+        if not (0 < pf_err < 1 and pf_z > 0):
+            raise ValueError(f"need 0 < pf_err < 1 and pf_z > 0, got {pf_err}, {pf_z}")
+        if not (0 <= recovery_alpha_slow <= 1 and 0 <= recovery_alpha_fast <= 1):
+            raise ValueError("recovery_alpha_slow and recovery_alpha_fast must be in [0, 1]")
+        if recovery_sampler not in ("scan", "uniform") or global_init not in ("scan", "uniform"):
+            raise ValueError("recovery_sampler and global_init must be 'scan' or 'uniform'")
+        if sigma_hit <= 0 or laser_max_range <= 0 or min(z_hit, z_short, z_rand) < 0 or z_hit + z_short + z_rand <= 0:
+            raise ValueError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
+        if resample_interval < 1 or kld_bin_cm <= 0 or kld_bin_deg <= 0:
+            raise ValueError("resample_interval must be >= 1 and the KLD bins positive")
+        self.model = model if model != "auto" else ("beam" if beam_width_deg > 0 else "field")
+        self.min_particles, self.max_particles = int(min_particles), int(max_particles)
+        self.pf_err, self.pf_z = float(pf_err), float(pf_z)
+        self.kld_bin = np.array([kld_bin_cm, kld_bin_cm, math.radians(kld_bin_deg)])
+        self.alpha_slow, self.alpha_fast = float(recovery_alpha_slow), float(recovery_alpha_fast)
+        self.recovery_sampler = recovery_sampler
+        self.resample_interval = int(resample_interval)
+        z = z_hit + z_short + z_rand  # normalised so the mixture is a density
+        self.z_hit, self.z_short, self.z_rand = z_hit / z, z_short / z, z_rand / z
+        self.sigma_hit = float(sigma_hit)
+        self.lambda_short = float(lambda_short)
+        self.laser_max_range = float(laser_max_range)
+        self.max_beams = int(max_beams)
+        self.motion_model = MotionModel(noise_model, motion_noise, turn_noise, motion_inflation)
+        self.clearance_cm = float(clearance_cm)
+        self.global_init = global_init
+        self.scan_sample_ess = float(scan_sample_ess)
+        self.converged_xy_cm = float(converged_xy_cm)
+        self.converged_heading_rad = math.radians(converged_heading_deg)
+        self.ambiguity_nats = float(ambiguity_nats)
+        self.mode_radius_cm = float(mode_radius_cm)
+        self.mode_heading_rad = math.radians(mode_heading_deg)
+        self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
+        self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
+        self.field: DistanceField | None = (
+            DistanceField(map, field_resolution_cm, laser_likelihood_max_dist) if self.model == "field" else None)
+        self.particles: FloatArray = np.zeros((0, 3))
+        self.log_weights: FloatArray = np.zeros(0)
+        self.particle_counts: list[int] = []
+        self.injected = 0
+        self.iterations = 0
+        self._weighed = np.zeros(0, dtype=bool)
+        self._uniform = True
+        self._fixing = True
+        self._updates = 0
+        self._log_w_slow = self._log_w_fast = -math.inf
+        self._estimate: PoseEstimate | None = None
+        self._ssd: FloatArray | None = None
+        self.reset()
+
+    # -- Localiser interface ------------------------------------------------------------------------
+    def reset(self, prior: Prior | None = None) -> None:
+        self.iterations = 0
+        self._updates = 0
+        self.particle_counts = []
+        self._log_w_slow = self._log_w_fast = -math.inf
+        n = self.max_particles
+        self._fixing = prior is None
+        if prior is None:
+            self.particles = self._uniform_poses(n)
+            self._uniform = True
+        else:
+            cov = np.asarray(prior.cov, dtype=float)
+            p = self.rng.multivariate_normal(prior.mean.as_array(), 0.5 * (cov + cov.T), n)
+            p[:, 2] = wrap_angle(p[:, 2])
+            self.particles = p
+            self._uniform = False
+        self.log_weights = np.full(n, -math.log(n))
+        self._weighed = np.ones(n, dtype=bool)
+        self._estimate = self._make_estimate()
+
+    def predict(self, motion: Motion) -> None:
+        if self._uniform or (motion.turn_rad == 0.0 and motion.distance_cm == 0.0):
+            return  # a uniform belief stays uniform
+        self.particles = self.motion_model.sample(self.particles, motion, self.rng)
+        self._estimate = self._make_estimate()
+
+    def update(self, scan: Scan) -> None:
+        ok = scan.valid & np.isfinite(scan.ranges) & (scan.ranges < self.laser_max_range)
+        rel = np.asarray(scan.angles[ok], dtype=float)
+        meas = np.asarray(scan.ranges[ok], dtype=float)
+        if meas.size == 0:
+            log.warning("scan without usable readings: belief unchanged")
+            return
+        self._ssd = None
+        before = self.estimate().pose
+        if 0 < self.max_beams < meas.size:
+            pick = np.linspace(0, meas.size - 1, self.max_beams).round().astype(np.int64)
+            rel, meas = rel[pick], meas[pick]
+        if self._uniform:
+            n = self.max_particles
+            self.particles = self._scan_poses(n, rel, meas) if self.global_init == "scan" else self._uniform_poses(n)
+            self.log_weights = np.full(n, -math.log(n))
+            self._weighed = np.ones(n, dtype=bool)
+            self._uniform = False
+        ll = self.log_likelihood(self.particles, rel, meas)
+        if not np.isfinite(ll).any():  # every particle left the free space: nothing to weigh
+            log.info("no particle inside the free space: drawing the belief from the scan")
+            n = self.max_particles
+            self.particles = self._scan_poses(n, rel, meas)
+            self.log_weights = np.full(n, -math.log(n))
+            ll = self.log_likelihood(self.particles, rel, meas)
+            self._fixing = True
+        self.iterations += 1
+        self._updates += 1
+        self.log_weights = self.log_weights + ll
+        self._weighed = np.ones(self.particles.shape[0], dtype=bool)
+        # augmented MCL: short- and long-term averages of the per-beam likelihood (log domain)
+        per_beam = np.where(np.isfinite(ll), ll / meas.size, -np.inf)
+        log_w_avg = _log_mean_exp(per_beam)
+        if self._log_w_slow == -math.inf:
+            self._log_w_slow = self._log_w_fast = log_w_avg
+        else:
+            self._log_w_slow = _log_blend(self._log_w_slow, log_w_avg, self.alpha_slow)
+            self._log_w_fast = _log_blend(self._log_w_fast, log_w_avg, self.alpha_fast)
+        self._estimate = self._make_estimate()
+        after = self._estimate.pose
+        if (after.distance_to(before) > self.mode_radius_cm
+                or abs(float(angle_diff(after.theta, before.theta))) > self.mode_heading_rad):
+            self._fixing = True  # the belief jumped (fresh particles took over): a new fix, to be checked
+        if self._fixing and self._estimate.converged and self.ambiguity_nats > 0:
+            if self._ambiguous(rel, meas, after):
+                self._estimate = replace(self._estimate, converged=False)
+            else:
+                self._fixing = False  # a fix the scan singles out; from here on the motion history does
+        if self._updates % self.resample_interval == 0:
+            self._resample(rel, meas)
+        self.particle_counts.append(int(self.particles.shape[0]))
+
+    def estimate(self) -> PoseEstimate:
+        if self._estimate is None:
+            self._estimate = self._make_estimate()
+        return self._estimate
+
+    # -- extras -------------------------------------------------------------------------------------
+    @property
+    def injection_probability(self) -> float:
+        """``max(0, 1 - w_fast / w_slow)``: the chance that a resampled particle is replaced by a fresh one."""
+        if self.alpha_slow <= 0 or not math.isfinite(self._log_w_slow) or not math.isfinite(self._log_w_fast):
+            return 0.0
+        return max(0.0, 1.0 - math.exp(self._log_w_fast - self._log_w_slow))
+
+    def log_likelihood(self, poses: FloatArray, rel: FloatArray, meas: FloatArray) -> FloatArray:
+        """Log-likelihood (N,) of the readings `meas` (B,) at angles `rel` (B,) from each pose (N, 3);
+        ``-inf`` for poses outside the free area."""
+        p = np.asarray(poses, dtype=float).reshape(-1, 3)
+        rand = self.z_rand / self.laser_max_range
+        norm = self.z_hit / (_SQRT_2PI * self.sigma_hit)
+        if self.field is None:
+            expected, inside = self.table.lookup(p, rel)
+            e = expected.astype(float)
+            with np.errstate(invalid="ignore", over="ignore"):
+                r = (meas[None, :] - e) / self.sigma_hit
+                dens = norm * np.exp(-0.5 * np.where(np.isfinite(r), r * r, np.inf)) + rand
+                if self.z_short > 0:
+                    short = meas[None, :] < e
+                    lam = self.lambda_short
+                    eta = 1.0 / np.maximum(1.0 - np.exp(-lam * np.minimum(e, 1e6)), 1e-12)
+                    dens += np.where(short, self.z_short * eta * lam * np.exp(-lam * meas[None, :]), 0.0)
+        else:
+            inside = self.table.free(p[:, :2], 0.0)
+            ang = p[:, 2:3] + rel[None, :]
+            ends = np.stack([p[:, 0:1] + meas * np.cos(ang), p[:, 1:2] + meas * np.sin(ang)], axis=-1)
+            d = self.field(ends) / self.sigma_hit
+            dens = norm * np.exp(-0.5 * d * d) + rand
+        ll = np.log(dens).sum(axis=1)
+        return np.where(inside, ll, -np.inf)
+
+    # -- internals ----------------------------------------------------------------------------------
+    def _lattice_ssd(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
+        """The lattice's sums of squared residuals for this update's scan (computed once per update)."""
+        if self._ssd is None:
+            self._ssd = self.lattice.ssd(rel, meas)
+        return self._ssd
+
+    def _ambiguous(self, rel: FloatArray, meas: FloatArray, pose: Pose) -> bool:
+        """Whether a lattice pose away from `pose` (further than `mode_radius_cm` or `mode_heading_deg`)
+        explains the scan within `ambiguity_nats` of the best lattice pose near it."""
+        ssd = self._lattice_ssd(rel, meas)  # (cells, directions), cm^2
+        n_ang = self.table.n_angles
+        close = np.hypot(self.lattice.xy[:, 0] - pose.x, self.lattice.xy[:, 1] - pose.y) <= self.mode_radius_cm
+        if not close.any():
+            return False
+        heads = np.arange(n_ang) * (2.0 * math.pi / n_ang)
+        aligned = np.abs(angle_diff(heads, pose.theta)) <= self.mode_heading_rad
+        near = ssd[close][:, aligned].min()
+        far = min(ssd[~close].min() if (~close).any() else math.inf,
+                  ssd[close][:, ~aligned].min() if (~aligned).any() else math.inf)
+        return bool(0.5 * (far - near) / self.sigma_hit**2 <= self.ambiguity_nats)
+
+    def _resample(self, rel: FloatArray, meas: FloatArray) -> None:
+        """KLD-sampling with augmented-MCL injection, vectorised over the `max_particles` candidates."""
+        w = log_normalise(self.log_weights)
+        m = self.max_particles
+        cdf = np.cumsum(w)
+        cdf[-1] = max(cdf[-1], 1.0)
+        cand = self.particles[np.searchsorted(cdf, self.rng.random(m), side="right").clip(0, w.size - 1)]
+        p_inject = self.injection_probability
+        fresh = self.rng.random(m) < p_inject if p_inject > 0 else np.zeros(m, dtype=bool)
+        if fresh.any():
+            k = int(fresh.sum())
+            cand[fresh] = (self._scan_poses(k, rel, meas) if self.recovery_sampler == "scan"
+                           else self._uniform_poses(k))
+        bins = np.floor(cand / self.kld_bin).astype(np.int64)
+        _, first = np.unique(bins, axis=0, return_index=True)
+        is_new = np.zeros(m, dtype=np.int64)
+        is_new[first] = 1
+        occupied = np.cumsum(is_new)  # bins occupied by the first n+1 candidates
+        count = np.arange(1, m + 1)
+        enough = (count >= kld_bound(occupied, self.pf_err, self.pf_z)) & (count >= self.min_particles)
+        n = int(np.argmax(enough)) + 1 if enough.any() else m
+        self.particles = cand[:n]
+        self._weighed = ~fresh[:n]
+        self.log_weights = np.full(n, -math.log(n))
+        self.injected += int(fresh[:n].sum())
+
+    def _uniform_poses(self, n: int) -> FloatArray:
+        xmin, ymin, xmax, ymax = self.map.bounds
+        out: list[FloatArray] = []
+        have = 0
+        while have < n:
+            cand = self.rng.uniform([xmin, ymin], [xmax, ymax], size=(2 * (n - have) + 64, 2))
+            keep = cand[self.table.free(cand, self.clearance_cm)]
+            out.append(keep)
+            have += len(keep)
+        xy = np.vstack(out)[:n]
+        return np.column_stack([xy, self.rng.uniform(-math.pi, math.pi, n)])
+
+    def _scan_poses(self, n: int, rel: FloatArray, meas: FloatArray) -> FloatArray:
+        """`n` poses drawn from the lattice scored against the scan, tempered to about `scan_sample_ess`
+        effective candidates, jittered within their lattice cell and direction."""
+        ssd = self._lattice_ssd(rel, meas).ravel() / self.sigma_hit**2
+        top = min(20000, ssd.size)
+        cand = np.argpartition(ssd, top - 1)[:top]
+        s = ssd[cand] - ssd[cand].min()
+        lo, hi = 1e-6, 1.0  # bisection on the temperature: the ESS falls as beta grows
+        target = min(self.scan_sample_ess, top / 2)
+        for _ in range(40):
+            mid = math.sqrt(lo * hi)
+            w = np.exp(-0.5 * mid * s)
+            ess = w.sum() ** 2 / (w * w).sum()
+            lo, hi = (mid, hi) if ess >= target else (lo, mid)
+        w = np.exp(-0.5 * lo * s)
+        idx = cand[systematic_resample(w / w.sum(), n, self.rng)]
+        cell, head = np.divmod(idx, self.table.n_angles)
+        half = 0.5 * self.lattice.step * self.table.resolution_cm
+        xy = self.lattice.xy[cell] + self.rng.uniform(-half, half, size=(n, 2))
+        dth = math.pi / self.table.n_angles
+        theta = wrap_angle(head * (2.0 * math.pi / self.table.n_angles) + self.rng.uniform(-dth, dth, size=n))
+        return np.column_stack([xy, theta])
+
+    def _make_estimate(self) -> PoseEstimate:
+        if self.particles.shape[0] == 0:
+            raise LocalisationError("amcl has no particles")
+        lw = np.where(self._weighed, self.log_weights, -np.inf)
+        if not np.isfinite(lw).any():
+            lw = np.zeros(self.particles.shape[0])
+        w = log_normalise(lw)
+        p = self.particles
+        mean = np.array([float(w @ p[:, 0]), float(w @ p[:, 1]), float(circular_mean(p[:, 2], w))])
+        d = np.column_stack([p[:, 0] - mean[0], p[:, 1] - mean[1], angle_diff(p[:, 2], mean[2])])
+        cov = np.einsum("ni,nj->ij", d * w[:, None], d)
+        cov = 0.5 * (cov + cov.T)
+        converged = (not self._uniform and math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)) < self.converged_xy_cm
+                     and math.sqrt(max(cov[2, 2], 0.0)) < self.converged_heading_rad)
+        return PoseEstimate(Pose.from_array(mean), cov, bool(converged), self.iterations)
+
+
+def _log_mean_exp(x: FloatArray) -> float:
+    top = float(np.max(x))
+    if not math.isfinite(top):
+        return -math.inf
+    return top + math.log(float(np.mean(np.exp(x - top))))
+
+
+def _log_blend(log_a: float, log_b: float, alpha: float) -> float:
+    """log((1 - alpha) a + alpha b) from log a and log b."""
+    if alpha <= 0:
+        return log_a
+    terms = [v for v in (math.log1p(-alpha) + log_a if alpha < 1 else -math.inf, math.log(alpha) + log_b)
+             if math.isfinite(v)]
+    if not terms:
+        return -math.inf
+    top = max(terms)
+    return top + math.log(sum(math.exp(t - top) for t in terms))

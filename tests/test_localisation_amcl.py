@@ -1,0 +1,125 @@
+"""`amcl`: KLD-sampling, augmented-MCL recovery, the likelihood field and the beam model."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+
+from localisation import LOCALISERS, Motion, Prior, localise, make_localiser
+from localisation.amcl import Amcl, DistanceField, kld_bound
+from localisation.scan import process_scan
+from toolkit.robots.sim import SimRobot
+from toolkit.world import Pose, load_map
+
+
+def _scan(m, pose: Pose, seed: int = 0):  # type: ignore[no-untyped-def]
+    return process_scan(SimRobot(m, pose, rng=seed).ultrascan(), reference="min").scan
+
+
+def test_registered_with_nav2_defaults() -> None:
+    assert LOCALISERS.get("amcl") is Amcl
+    a = make_localiser("amcl", load_map("map1"), rng=0)
+    assert isinstance(a, Amcl)
+    assert (a.min_particles, a.max_particles, a.pf_err, a.pf_z) == (500, 2000, 0.05, 0.99)
+    assert (a.alpha_slow, a.alpha_fast) == (0.001, 0.1)
+    assert a.model == "field"
+    assert make_localiser("amcl", load_map("map1"), rng=0, beam_width_deg=20.0).model == "beam"
+
+
+@pytest.mark.parametrize("bad", [{"model": "sonar"}, {"min_particles": 0}, {"min_particles": 3000},
+                                 {"pf_err": 0.0}, {"recovery_alpha_fast": 2.0}, {"recovery_sampler": "x"}])
+def test_bad_options_are_refused(bad: dict[str, object]) -> None:
+    with pytest.raises(ValueError):
+        Amcl(load_map("map1"), rng=0, **bad)  # type: ignore[arg-type]
+
+
+def test_kld_bound_is_fox_formula() -> None:
+    k = np.array([1, 2, 5, 50, 400])
+    z, eps = 0.99, 0.05
+    km1 = np.maximum(k - 1, 1)
+    expected = np.ceil(km1 / (2 * eps) * (1 - 2 / (9 * km1) + np.sqrt(2 / (9 * km1)) * z) ** 3)
+    expected[0] = 0
+    assert np.array_equal(kld_bound(k, eps, z), expected.astype(int))
+    assert np.all(np.diff(kld_bound(np.arange(1, 500), eps, z)) >= 0)
+
+
+def test_distance_field_matches_exact_distances(botsim_map) -> None:  # type: ignore[no-untyped-def]
+    field = DistanceField(botsim_map, resolution_cm=0.5, max_dist_cm=1e6)
+    rng = np.random.default_rng(1)
+    xmin, ymin, xmax, ymax = botsim_map.bounds
+    pts = rng.uniform([xmin - 5, ymin - 5], [xmax + 5, ymax + 5], size=(3000, 2))
+    exact = shapely.distance(shapely.points(pts), shapely.multilinestrings(botsim_map.walls.reshape(-1, 2, 2)))
+    inside = (pts[:, 0] >= xmin) & (pts[:, 0] <= xmax) & (pts[:, 1] >= ymin) & (pts[:, 1] <= ymax)
+    got = field(pts)
+    err = np.abs(got - exact)[inside]
+    # bilinear interpolation of a 1-Lipschitz function: at most the cell diagonal, usually far less
+    assert inside.sum() > 2000 and err.max() <= 0.5 * math.sqrt(2) + 1e-9
+    assert np.median(err) < 0.05
+    # outside the grid: the nearest node's distance plus the way to it, an upper bound
+    assert np.all(got[~inside] >= exact[~inside] - 0.5 * math.sqrt(2))
+
+
+def test_kld_count_follows_the_spread() -> None:
+    m = load_map("map1")
+    truth = Pose(30.0, 30.0, 0.4)
+    scan = _scan(m, truth)
+    tight = Amcl(m, rng=1, min_particles=20)
+    tight.reset(Prior(truth, np.diag([0.01, 0.01, 1e-5])))
+    tight.update(scan)
+    flat = Amcl(m, rng=1, min_particles=20, sigma_hit=1000.0)  # an uninformative scan keeps the cloud wide
+    flat.reset(Prior(truth, np.diag([400.0, 400.0, 1.0])))
+    flat.update(scan)
+    assert tight.particle_counts[-1] < 100
+    assert flat.particle_counts[-1] > 1000
+
+
+def test_same_seed_same_estimates() -> None:
+    m = load_map("map2")
+    scan = _scan(m, Pose(40.0, 20.0, 1.0))
+    out = []
+    for _ in range(2):
+        a = make_localiser("amcl", m, rng=7)
+        a.reset()
+        a.update(scan)
+        a.predict(Motion(0.3, 2.0))
+        out.append(a.estimate().pose.as_array())
+    assert np.array_equal(out[0], out[1])
+
+
+@pytest.mark.parametrize("model", ["field", "beam"])
+def test_global_localisation_with_the_procedure(model: str) -> None:
+    m = load_map("map1")
+    truth = Pose(25.0, 80.0, -2.0)
+    robot = SimRobot(m, truth, rng=3)
+    res = localise(robot, make_localiser("amcl", m, rng=3, model=model), rng=3)
+    assert res.converged
+    assert res.estimate.pose.distance_to(robot.true_pose) < 2.0
+
+
+def _kidnap(**options: object) -> tuple[Amcl, Pose]:
+    """Track at A for four scans, then feed scans taken at B, 50 cm away; returns the localiser and B."""
+    m = load_map("map1")
+    a_pose, b_pose = Pose(25.0, 25.0, 0.5), Pose(80.0, 80.0, -2.5)
+    loc = Amcl(m, rng=5, **options)  # type: ignore[arg-type]
+    loc.reset(Prior(a_pose, np.diag([1.0, 1.0, 1e-3])))
+    for k in range(4):
+        loc.predict(Motion(0.0, 0.0))
+        loc.update(_scan(m, a_pose, k))
+    for k in range(12):
+        loc.update(_scan(m, b_pose, 100 + k))
+    return loc, b_pose
+
+
+def test_augmented_mcl_recovers_from_a_kidnapping() -> None:
+    loc, b = _kidnap()
+    assert loc.injected > 0
+    assert loc.estimate().pose.distance_to(b) < 2.0
+
+
+def test_without_recovery_the_kidnapped_filter_stays_lost() -> None:
+    loc, b = _kidnap(recovery_alpha_slow=0.0)
+    assert loc.injected == 0
+    assert loc.estimate().pose.distance_to(b) > 20.0

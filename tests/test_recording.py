@@ -1,0 +1,190 @@
+"""Recording a run (`nxtnav run --record`) and replaying it offline (`nxtnav replay`).
+
+The live localiser replayed with its recorded stream must give the live estimates bit for bit, on
+the simulator and through the virtual brick; broken recordings give one line naming the line at
+fault (exit 2); a recording cut short replays up to the break.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from toolkit.cli import main
+from toolkit.mission import MissionConfig, matched_localiser_options, run_mission, run_sim_mission
+from toolkit.recording import Recorder, scan_fields, scan_from_fields
+from toolkit.replay import RecordingError, read_recording, replay
+from toolkit.world import Pose, Scan, load_map
+
+DATA = Path(__file__).parent / "data"
+EXAMPLE = DATA / "recording_map1_nxt.jsonl"
+
+
+def _record_sim(path: Path, localiser: str, seed: int = 3, sonar: str = "ideal") -> None:
+    m = load_map("map1")
+    rec = Recorder(path, map=m, robot={"kind": "sim"}, sonar={"model": sonar, "sensor_noise": 1.0}, seed=seed,
+                   extra={"noise": {"model": "botsim", "motion": 0.1, "turn": 0.005}})
+    report = run_sim_mission(m, seed=seed, localiser=localiser, sonar=sonar, recorder=rec)
+    rec.close(report.status, report.success)
+    assert report.success
+
+
+@pytest.mark.parametrize("localiser", ["amcl", "paper-pf"])
+def test_sim_recording_replays_bit_for_bit(tmp_path: Path, localiser: str) -> None:
+    path = tmp_path / "run.jsonl"
+    _record_sim(path, localiser)
+    rec = read_recording(path)
+    assert rec.truncated is None and rec.localiser is not None and rec.localiser.name == localiser
+    kinds = {e["type"] for _, e in rec.events}
+    assert {"turn", "move", "scan", "reset", "predict", "update", "estimate", "end"} <= kinds
+    report = replay(rec, [localiser, "pf-systematic"])
+    assert report.reproduced == {localiser: True}
+    live = [s.live for s in report.steps]
+    assert all(e is not None for e in live)
+    assert all(np.array_equal(s.live.cov, s.estimates[localiser].cov) for s in report.steps if s.live is not None)
+    summary = report.summary()
+    assert report.has_truth and summary[localiser]["final_error_cm"] < 2.0
+    assert math.isfinite(summary["pf-systematic"]["rmse_cm"])
+
+
+def test_another_seed_is_not_the_live_run(tmp_path: Path) -> None:
+    """Guard against a vacuous comparison: the live localiser with a different stream differs."""
+    path = tmp_path / "run.jsonl"
+    _record_sim(path, "amcl")
+    rec = read_recording(path)
+    assert rec.localiser is not None
+    tampered = type(rec)(rec.path, rec.header, rec.map, type(rec.localiser)(rec.localiser.name, rec.localiser.options,
+                                                                            None), rec.events)
+    report = replay(tampered, ["amcl"], seed=12345)
+    assert report.reproduced == {"amcl": None}
+    differs = [s for s in report.steps if s.live is not None and s.estimates["amcl"] is not None
+               and s.estimates["amcl"].pose.as_array().tolist() != s.live.pose.as_array().tolist()]
+    assert differs
+
+
+def test_scan_fields_round_trip_exactly() -> None:
+    rng = np.random.default_rng(0)
+    for angles in (np.arange(360) * (2 * np.pi / 360), np.sort(rng.uniform(-3, 3, 50))):
+        ranges = rng.uniform(5, 200, angles.size)
+        ranges[3] = np.inf
+        valid = rng.random(angles.size) > 0.1
+        back = scan_from_fields(json.loads(json.dumps(scan_fields(Scan(angles, ranges, valid)))))
+        assert np.array_equal(back.angles, angles) and np.array_equal(back.ranges, ranges)
+        assert np.array_equal(back.valid, valid)
+
+
+def test_example_recording_replays_bit_for_bit_and_is_small() -> None:
+    assert EXAMPLE.stat().st_size < 200_000
+    rec = read_recording(EXAMPLE)
+    assert rec.header["version"] == 1 and rec.header["sonar"]["model"] == "nxt"
+    report = replay(rec, ["amcl", "paper-pf"])
+    assert report.reproduced == {"amcl": True}
+    assert report.summary()["paper-pf"]["updates"] >= 2
+
+
+def test_cli_records_and_replays(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path, js, png = tmp_path / "r.jsonl", tmp_path / "r.json", tmp_path / "r.png"
+    main(["run", "--map", "map1", "--seed", "3", "--localiser", "amcl", "--record", str(path)])
+    main(["replay", str(path), "--localisers", "amcl,paper-pf", "--json", str(js), "-o", str(png)])
+    out = capsys.readouterr().out
+    assert re.search(r"amcl: replayed estimates equal the [0-9]+ live ones bit for bit", out)
+    doc = json.loads(js.read_text())
+    assert doc["reproduced"] == {"amcl": True} and doc["truth"] is True
+    assert doc["steps"] and set(doc["steps"][-1]["estimates"]) == {"amcl", "paper-pf"}
+    assert png.stat().st_size > 10_000
+
+
+def _run_replay(path: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, str, str]:
+    try:
+        main(["replay", str(path), *extra])
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize(("mutate", "message"), [
+    (lambda lines: lines.__setitem__(5, lines[5][:-3] + "]]"), r"line 6: not valid JSON"),
+    (lambda lines: lines.__setitem__(0, lines[0].replace('"version":1', '"version":7')), r"line 1: format version 7"),
+    (lambda lines: lines.__setitem__(2, '{"type":"predict","turn_rad":"left","distance_cm":0}'),
+     r"line 3: field 'turn_rad' must be a number"),
+    (lambda lines: lines.__setitem__(3, '{"type":"jump"}'), r"line 4: unknown event type 'jump'"),
+    (lambda lines: lines.insert(1, '{"type":"update","scan":99,"index":[0]}'), r"line 2: update refers to scan 99"),
+])
+def test_malformed_recordings_name_the_line(tmp_path: Path, capsys: pytest.CaptureFixture[str], mutate: object,
+                                            message: str) -> None:
+    lines = EXAMPLE.read_text().splitlines()
+    mutate(lines)  # type: ignore[operator]
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text("\n".join(lines) + "\n")
+    code, _, err = _run_replay(bad, capsys)
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and err.startswith("nxtnav: error: ")
+    assert str(bad) in err
+    assert re.search(message, err), err
+
+
+def test_truncated_recording_replays_up_to_the_break(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = EXAMPLE.read_text()
+    lines = text.splitlines(keepends=True)
+    keep = len(lines) // 2
+    cut = tmp_path / "cut.jsonl"
+    cut.write_text("".join(lines[:keep]) + lines[keep][: len(lines[keep]) // 2])
+    rec = read_recording(cut)
+    assert rec.truncated is not None and f"line {keep + 1}" in rec.truncated
+    full = read_recording(EXAMPLE)
+    calls = sum(1 for i, e in full.events if e["type"] in ("reset", "predict", "update") and i <= keep)
+    report = replay(rec, ["amcl"])
+    assert len(report.steps) == calls and report.reproduced == {"amcl": True}
+    code, out, err = _run_replay(cut, capsys, "--localisers", "amcl")
+    assert code == 0 and f"line {keep + 1}: cut short" in err and "bit for bit" in out
+
+
+def test_unknown_localiser_and_missing_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = _run_replay(EXAMPLE, capsys, "--localisers", "amcl,nope")
+    assert code == 2 and "nope" in err and "paper-pf" in err
+    code, _, err = _run_replay(tmp_path / "none.jsonl", capsys)
+    assert code == 2 and "cannot read the recording" in err
+    short = tmp_path / "short.jsonl"  # header, localiser and reset, cut before the live estimate
+    short.write_text("".join(EXAMPLE.read_text().splitlines(keepends=True)[:3]))
+    code, out, err = _run_replay(short, capsys, "--localisers", "amcl,ekf")
+    assert code == 0 and "holds no live estimate" in out and "ekf: failed at line 3" in err
+    with pytest.raises(RecordingError, match="empty file"):
+        (tmp_path / "e.jsonl").write_text("")
+        read_recording(tmp_path / "e.jsonl")
+
+
+@pytest.mark.slow
+def test_virtual_brick_recording_replays_bit_for_bit(tmp_path: Path) -> None:
+    pytest.importorskip("nxt")
+    from toolkit.robots.nxt import connect_robot
+    from toolkit.robots.virtual_brick import BrickServer
+    from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
+
+    m = load_map("map1")
+    world = BrickWorld(m, Pose.from_deg(20.0, 20.0, 30.0), BrickConfig(time_factor=1000.0, max_step_s=0.01), rng=2)
+    path = tmp_path / "brick.jsonl"
+    with BrickServer(world, port=0) as server:
+        robot = connect_robot("socket", host="127.0.0.1", port=server.port)
+        rec = Recorder(path, map=m, robot={"kind": "nxt", "link": robot.link}, sonar={"model": "nxt"}, seed=2,
+                       truth=lambda: world.pose)
+        try:
+            opts = matched_localiser_options("amcl", sonar="nxt")
+            report = run_mission(robot, m, (30.0, 80.0), localiser="amcl", rng=2,
+                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=rec)
+        finally:
+            robot.close()
+            rec.close(report.status, report.success)
+    recording = read_recording(path)
+    moves = [e for _, e in recording.events if e["type"] == "move"]
+    assert moves and all(e["odometry"]["tacho_after"]["left"] != e["odometry"]["tacho_before"]["left"]
+                         for e in moves if abs(e["driven_cm"]) > 1.0)
+    out = replay(recording, ["amcl"])
+    assert out.reproduced == {"amcl": True}
+    assert out.has_truth and out.summary()["amcl"]["final_error_cm"] < 3.0

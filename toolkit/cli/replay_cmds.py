@@ -1,0 +1,87 @@
+"""`nxtnav replay`: run localisers offline over a recording made with `nxtnav run --record`."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import typer
+
+from .app import app
+from .options import parse_list
+
+__all__: list[str] = []
+
+
+def _localiser_names() -> list[str]:
+    from localisation import LOCALISERS
+
+    return LOCALISERS.names()
+
+
+def _fmt(v: float, digits: int = 2) -> str:
+    return "-" if not math.isfinite(v) else f"{v:.{digits}f}"
+
+
+@app.command("replay")
+def replay_cmd(
+    recording: Path = typer.Argument(..., metavar="FILE.jsonl", help="A recording (nxtnav run --record)."),
+    localisers_text: str = typer.Option("", "--localisers", metavar="A,B,...",
+                                        help="Localisers to compare (default: the one used live)."),
+    seed: int = typer.Option(0, help="Seed of the localisers other than the live one."),
+    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write every step as JSON."),
+    output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
+                                       help="Draw the estimates and their error (or agreement)."),
+) -> None:
+    """Replay the recorded motions and scans through localisers: estimate, spread and error per step."""
+    from ..replay import read_recording, replay
+
+    rec = read_recording(recording)
+    if rec.truncated:
+        typer.echo(f"nxtnav: warning: {rec.truncated}", err=True)
+    names = parse_list(localisers_text, "--localisers", _localiser_names()) if localisers_text.strip() else []
+    if not names:
+        if rec.localiser is None:
+            raise typer.BadParameter(f"{recording} names no localiser; give --localisers", param_hint="--localisers")
+        names = [rec.localiser.name]
+    report = replay(rec, names, seed=seed)
+    live = rec.localiser.name if rec.localiser else "none"
+    typer.echo(f"{recording}: map {rec.map.name}, robot {rec.header['robot'].get('kind')}, sonar "
+               f"{rec.header['sonar'].get('model')}, live localiser {live}, {rec.calls} localiser calls, "
+               f"{'with' if report.has_truth else 'without'} true poses")
+    summary = report.summary()
+    if report.has_truth:
+        typer.echo("| localiser | updates | RMSE (cm) | median error (cm) | final error (cm) | final heading error "
+                   "(deg) | median spread (cm) |")
+        typer.echo("|---|---:|---:|---:|---:|---:|---:|")
+        for n, r in summary.items():
+            typer.echo(f"| {n} | {r['updates']:.0f} | {_fmt(r['rmse_cm'])} | {_fmt(r['median_error_cm'])} | "
+                       f"{_fmt(r['final_error_cm'])} | {_fmt(r['final_heading_error_deg'])} | "
+                       f"{_fmt(r['median_spread_cm'])} |")
+    else:
+        typer.echo(f"| localiser | updates | median distance to {names[0]} (cm) | largest (cm) | median spread (cm) |")
+        typer.echo("|---|---:|---:|---:|---:|")
+        for n, r in summary.items():
+            typer.echo(f"| {n} | {r['updates']:.0f} | {_fmt(r['median_agreement_cm'])} | "
+                       f"{_fmt(r['max_agreement_cm'])} | {_fmt(r['median_spread_cm'])} |")
+    for n, ok in report.reproduced.items():
+        if ok is None:
+            why = "holds no live estimate" if not report.compared else "lacks the localiser's random stream"
+            typer.echo(f"{n}: the recording {why}; not compared with the live estimates")
+        elif ok:
+            typer.echo(f"{n}: replayed estimates equal the {report.compared} live ones bit for bit")
+        else:
+            typer.echo(f"{n}: replay differs from the live estimates from line {report.diverged.get(n)}")
+    for n, msg in report.failures.items():
+        typer.echo(f"{n}: failed at {msg}", err=True)
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(report.to_dict(), indent=1, allow_nan=False))
+        typer.echo(f"wrote {json_out}")
+    if output is not None:
+        from ..plotting import save_figure
+        from ..replay_plots import draw_replay
+
+        save_figure(draw_replay(report), output)
+        typer.echo(f"wrote {output}")

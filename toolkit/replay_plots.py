@@ -1,0 +1,43 @@
+"""Drawing a replay (`toolkit.replay.ReplayReport`): estimates on the map, error or agreement per update."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .plotting import draw_map, new_axes
+
+if TYPE_CHECKING:
+    from .replay import ReplayReport
+
+__all__ = ["draw_replay"]
+
+
+def draw_replay(report: ReplayReport) -> Figure:
+    """Left: the map, the true path (when recorded) and each localiser's estimates after its updates.
+    Right: each localiser's error against the truth (or distance to the first localiser) per update.
+    Returns the figure (never shown)."""
+    fig, (ax_map, ax_err) = new_axes(ncols=2, size=5.5)
+    draw_map(report.recording.map, ax_map)
+    ups = [s for s in report.steps if s.call == "update"]
+    truth = np.array([s.truth.as_array()[:2] for s in ups if s.truth is not None]).reshape(-1, 2)
+    if truth.size:
+        ax_map.plot(truth[:, 0], truth[:, 1], "k-", lw=1.5, label="truth")
+    ref = report.localisers[0]
+    for name in report.localisers:
+        ests = [s.estimates.get(name) for s in ups]
+        est = np.array([e.pose.as_array()[:2] for e in ests if e is not None]).reshape(-1, 2)
+        if est.size:
+            ax_map.plot(est[:, 0], est[:, 1], ".", ms=5, label=name)
+        y = [s.error_cm(name) if report.has_truth else s.agreement_cm(name, ref) for s in ups]
+        ax_err.plot(range(1, len(ups) + 1), y, ".-", label=name)
+    ax_map.legend(loc="best", fontsize=8)
+    ax_err.set_xlabel("update")
+    ax_err.set_ylabel("error (cm)" if report.has_truth else f"distance to {ref} (cm)")
+    ax_err.set_yscale("symlog", linthresh=1.0)
+    ax_err.grid(True, alpha=0.3)
+    ax_err.legend(loc="best", fontsize=8)
+    ax_err.set_title(f"{report.recording.path.name}: {'error' if report.has_truth else 'agreement'} per update")
+    return fig
