@@ -41,9 +41,12 @@ MAX_COUNT = 1_000_000
 def in_range(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
              what: str = "") -> Callable[[Any], Any]:
     """A typer callback accepting finite numbers in [lo, hi] (``(lo, hi]`` with `lo_open`); None passes."""
-    low = "" if lo is None else f"{'>' if lo_open else '>='} {lo:g}"
-    high = "" if hi is None else f"<= {hi:g}"
-    rule = " and ".join(x for x in (low, high) if x)
+    if lo is not None and hi is not None and not lo_open:
+        rule = f"from {lo:.15g} to {hi:.15g}"
+    else:
+        low = "" if lo is None else f"{'>' if lo_open else '>='} {lo:g}"
+        high = "" if hi is None else f"<= {hi:g}"
+        rule = " and ".join(x for x in (low, high) if x)
 
     def check(value: Any) -> Any:
         if value is None:

@@ -13,7 +13,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
-from .app import app, bench_app, fail
+from .app import Interrupted, app, bench_app, fail
 from .options import check_writable, count, non_negative, parse_list, parse_xy, positive
 from .options import repeats as repeats_ok
 from .options import seed as seed_ok
@@ -206,6 +206,10 @@ def bench_planners(
         task = progress.add_task("references and runs", total=config.n_tasks())
         result = run_benchmark(config, workers=workers, dask_address=dask,
                                on_done=lambda _: progress.advance(task))
+    if not result.records:
+        raise Interrupted("no planner run had finished; nothing written")
     files = write_results(result, out_dir, plots=plots)
     typer.echo((out_dir / "summary.md").read_text(encoding="utf-8"))
     typer.echo(f"wrote {len(files)} files to {out_dir} in {result.total_time_s:.1f} s")
+    if not result.complete:
+        raise Interrupted(f"{len(result.records)} planner runs done; partial results (marked incomplete) in {out_dir}")
