@@ -76,6 +76,9 @@ def brick_serve(
                                              help="Motor braking (deg/s^2): motors overshoot their limits like "
                                                   "real ones; default: ideal stops on the limit.",
                                              callback=positive),
+    run_on: bool = typer.Option(False, "--motors-run-on-disconnect",
+                                help="Like a real NXT, keep the motors running when a client's link drops "
+                                     "(default: brake the motors that client started)."),
 ) -> None:
     """Serve a simulated NXT robot to nxt-python clients (socket backend) until Ctrl-C."""
     if sonar not in SONAR_MODELS.names():
@@ -99,7 +102,7 @@ def brick_serve(
     try:
         geometry = RobotGeometry(radius_cm=radius, wheel_diameter_cm=wheel_diameter, track_width_cm=track_width)
         config = BrickConfig(geometry=geometry, time_factor=time_factor, max_step_s=max_step, wheel_slip=wheel_slip,
-                             brake_decel_deg_s2=brake_decel)
+                             brake_decel_deg_s2=brake_decel, brake_on_disconnect=not run_on)
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from None
     world = BrickWorld(m, pose, config, sonar=sonar, sensor_noise=sensor_noise, rng=seed, log=log)
