@@ -3,7 +3,7 @@
 A global localiser in a symmetric place (a point-symmetric room, map3's identical rooms) may hold
 several equally good hypotheses. Its mean pose then lies between them and means nothing; the honest
 answer is "ambiguous: N candidate poses" with the poses. Localisers that track modes (the particle
-filters' ``modes()``) report them; the others never call themselves ambiguous.
+filters' ``modes``) report them; the others never call themselves ambiguous.
 """
 
 from __future__ import annotations
@@ -21,17 +21,17 @@ def candidate_poses(localiser: Any) -> list[Pose]:
     Parameters
     ----------
     localiser : Localiser
-        Any localiser; one without a ``modes()`` method (or with a single mode) gives ``[]``.
+        Any localiser; one without ``modes`` (or with a single mode) gives ``[]``.
 
     Returns
     -------
     list of Pose
         Candidate poses (cm, cm, rad); empty when the belief is not ambiguous.
     """
-    modes = getattr(localiser, "modes", None)
-    if not callable(modes):
-        return []
-    found = list(modes())
+    modes = getattr(localiser, "modes", None)  # a property (the particle filters) or a method
+    if callable(modes):
+        modes = modes()
+    found = list(modes or [])
     return [m.pose for m in found] if len(found) > 1 else []
 
 

@@ -174,8 +174,8 @@ def localise_cmd(
     from ..plotting import save_figure
 
     names = _localiser_names()
-    if localiser not in names:
-        raise NxtnavError(f"--localiser: unknown {localiser!r}; known: {', '.join(names)}")
+    if parse_list(localiser, "--localiser", names) != [localiser]:
+        raise NxtnavError(f"--localiser: expected one localiser, got {localiser!r}")
     _check_sonar(sonar)
     check_writable(output, "--output")
     check_writable(json_out, "--json")
@@ -190,9 +190,10 @@ def localise_cmd(
     out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
     candidates = candidate_poses(loc)
     if candidates:  # the mean of several modes means nothing: name the candidates instead
-        typer.echo(f"{localiser}: {describe_candidates(candidates)}; the truth is "
-                   f"({pose.x:g}, {pose.y:g}, {pose.heading_deg:g} deg), the heaviest candidate "
-                   f"{candidates[0].distance_to(out.truth):.1f} cm from it")
+        t = out.truth  # where the robot truly is now (the procedure turns and drives)
+        near = min(c.distance_to(t) for c in candidates)
+        typer.echo(f"{localiser}: {describe_candidates(candidates)}; the hidden truth is ({t.x:.1f}, {t.y:.1f}, "
+                   f"{t.heading_deg:.0f} deg), {near:.1f} cm from the nearest candidate")
     typer.echo(f"{localiser}: error {out.error_cm:.2f} cm, heading {out.heading_error_deg:+.2f}°, "
                f"{out.iterations} iterations, {out.scans} scans, {1e3 * out.time_s:.1f} ms "
                f"({'success' if out.success else 'failure'}{', converged' if out.converged else ', not converged'})")
