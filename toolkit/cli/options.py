@@ -31,6 +31,7 @@ __all__ = [
     "positive",
     "repeats",
     "seed",
+    "time_limit",
     "workers",
 ]
 
@@ -64,6 +65,8 @@ positive = in_range(0.0, lo_open=True)
 """A finite number > 0."""
 non_negative = in_range(0.0)
 """A finite number >= 0."""
+time_limit = in_range(0.0, lo_open=True, what="a time limit in seconds")
+"""A planning budget: a finite number of seconds > 0."""
 count = in_range(1, MAX_COUNT, what="a count")
 """An integer from 1 to `MAX_COUNT`."""
 repeats = in_range(0, MAX_COUNT, what="a count")

@@ -17,6 +17,7 @@ from .app import Interrupted, app, bench_app, fail
 from .options import check_writable, count, non_negative, parse_list, parse_xy, positive
 from .options import repeats as repeats_ok
 from .options import seed as seed_ok
+from .options import time_limit as time_limit_ok
 from .options import workers as workers_ok
 
 __all__: list[str] = []
@@ -61,7 +62,7 @@ def plan(
     seed: int = typer.Option(0, "--seed", help="Random seed of the planner and of the execution error.",
                           callback=seed_ok),
     time_limit: float = typer.Option(1.0, "--time-limit", metavar="SEC", help="Planning budget (s).",
-                                     callback=positive),
+                                     callback=time_limit_ok),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm).", callback=positive),
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives for the execution error (0 skips it)."),
@@ -167,7 +168,7 @@ def bench_planners(
                                  help="Comma-separated planners (registry names or ompl:NAME)."),
     runs: int = typer.Option(50, "--runs", help="Runs per planner and map.", callback=count),
     time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", help="Planning budget per run (s).",
-                                     callback=positive),
+                                     callback=time_limit_ok),
     seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it).", callback=seed_ok),
     out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder (must be new or empty)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),

@@ -83,7 +83,7 @@ def scan(
 ) -> None:
     """One 360-degree scan at a pose: printed, drawn as the paper's Fig. 3 with -o (rays, radar chart)."""
     if sonar not in SONAR_MODELS:
-        raise typer.BadParameter(f"unknown sonar {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
+        raise typer.BadParameter(f"unknown sonar model {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
                                  param_hint="--sonar")
     check_writable(output, "--output")
     check_writable(json_out, "--json")
