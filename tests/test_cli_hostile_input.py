@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
 from localisation.models import clear_range_table_cache, range_table
 from toolkit.bench.executors import TasksInterrupted, collect_tasks
-from toolkit.cli import main
 from toolkit.world import MapError, load_map, map_from_dict
 
 POINT_SYMMETRIC = """name: twins
@@ -21,16 +21,8 @@ boundary: [[0, 0], [80, 0], [80, 20], [120, 20], [120, 60], [40, 60], [40, 40], 
 """A room that looks the same from (x, y, h) and from (120 - x, 60 - y, h + 180 deg)."""
 
 
-def _run(argv: list[str]) -> int:
-    try:
-        main(argv)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
-
-
 def _fails_cleanly(argv: list[str], capsys: pytest.CaptureFixture[str], *needles: str) -> str:
-    assert _run(argv) == 2
+    assert run_cli(argv) == 2
     err = capsys.readouterr().err.strip()
     lines = err.splitlines()
     assert len(lines) == 1 and lines[0].startswith("nxtnav: error:"), err
@@ -105,7 +97,7 @@ def test_localise_set_is_typed_too(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_an_integer_where_a_float_is_annotated_is_accepted(tmp_path: Path) -> None:
     js = tmp_path / "l.json"
-    assert _run(["localise", "--pose", "20,20,0", "--set", "sensor_sigma_cm=2", "--json", str(js)]) == 0
+    assert run_cli(["localise", "--pose", "20,20,0", "--set", "sensor_sigma_cm=2", "--json", str(js)]) == 0
     assert json.loads(js.read_text())["localiser"] == "paper-pf"
 
 
@@ -127,12 +119,12 @@ def test_a_range_table_too_large_for_memory_is_one_line(tmp_path: Path, capsys: 
 
 
 @pytest.mark.parametrize("option", ["--json", "--plot"])
-def test_unwritable_outputs_fail_before_the_run(option: str, tmp_path: Path,
+def test_unwritable_outputs_fail_before_therun_cli(option: str, tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("x")
     target = blocker / "out.json"  # a folder that cannot be made: a file is in its place
-    assert _run(["run", "--map", "map3", option, str(target)]) == 2
+    assert run_cli(["run", "--map", "map3", option, str(target)]) == 2
     captured = capsys.readouterr()
     assert "SUCCESS" not in captured.out and "FAILED" not in captured.out  # no mission ran
     lines = captured.err.strip().splitlines()
@@ -146,9 +138,9 @@ def test_an_output_that_is_a_folder_is_refused(tmp_path: Path, capsys: pytest.Ca
 def test_localise_and_scan_print_without_a_picture(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)
-    assert _run(["localise", "--pose", "20,20,0"]) == 0
+    assert run_cli(["localise", "--pose", "20,20,0"]) == 0
     assert "paper-pf: error" in capsys.readouterr().out
-    assert _run(["scan", "--pose", "20,20,0"]) == 0
+    assert run_cli(["scan", "--pose", "20,20,0"]) == 0
     assert "readings with an echo" in capsys.readouterr().out
     assert not any(tmp_path.iterdir())
 
@@ -157,7 +149,7 @@ def test_an_ambiguous_localisation_names_its_candidates(tmp_path: Path, capsys: 
     room = tmp_path / "twins.yaml"
     room.write_text(POINT_SYMMETRIC)
     js = tmp_path / "l.json"
-    assert _run(["localise", "--map", str(room), "--pose", "20,15,30", "--seed", "0", "--json", str(js)]) == 0
+    assert run_cli(["localise", "--map", str(room), "--pose", "20,15,30", "--seed", "0", "--json", str(js)]) == 0
     out = capsys.readouterr().out
     doc = json.loads(js.read_text())
     assert doc["converged"] is False and doc["ambiguous"] is True and len(doc["candidates"]) == 2
@@ -169,7 +161,7 @@ def test_an_ambiguous_localisation_names_its_candidates(tmp_path: Path, capsys: 
 
 def test_a_mission_report_says_whether_it_was_ambiguous(tmp_path: Path) -> None:
     js = tmp_path / "m.json"
-    _run(["run", "--json", str(js)])
+    run_cli(["run", "--json", str(js)])
     doc = json.loads(js.read_text())
     assert doc["ambiguous"] is False and doc["candidates"] == []
 

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
 from planners import INFEASIBLE, PLANNERS, PlanningProblem, make_planner
-from toolkit.cli import main
 from toolkit.world import load_map, map_from_dict
 
 OMPL_PLANNERS = ["rrtstar", "prm", "ompl:RRTConnect", "ompl:PRMstar", "ompl:BITstar"]
@@ -61,7 +61,7 @@ def test_the_same_seed_gives_the_same_path_in_a_fresh_process() -> None:
 
 
 def _bench_rows(out: Path, workers: int) -> list[tuple[str, ...]]:
-    code = _run(["bench", "planners", "--maps", "map1,map2", "--planners", "rrtstar,prm,ompl:RRTConnect",
+    code = run_cli(["bench", "planners", "--maps", "map1,map2", "--planners", "rrtstar,prm,ompl:RRTConnect",
                  "--runs", "2", "--time-limit", str(BUDGET_S), "--exec-repeats", "0", "--no-plots",
                  "--workers", str(workers), "--out", str(out)])
     assert code == 0
@@ -71,14 +71,6 @@ def _bench_rows(out: Path, workers: int) -> list[tuple[str, ...]]:
     keep = ("map", "planner", "run", "seed", "success", "length_cm", "turns")
     table = sorted(tuple(r[k] for k in keep if k in r) for r in rows)
     return table + sorted((p["map"], p["planner"], str(p["run"]), json.dumps(p["path"])) for p in paths)
-
-
-def _run(argv: list[str]) -> int:
-    try:
-        main(argv)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
 
 
 def test_benchmark_rows_repeat_across_runs_and_worker_counts(tmp_path: Path) -> None:
