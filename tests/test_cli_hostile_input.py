@@ -193,3 +193,49 @@ def test_collect_tasks_keeps_what_finished_before_ctrl_c() -> None:
         collect_tasks(_count_until_interrupt, list(range(6)))
     assert info.value.results == [0, 1, 4] and info.value.total == 6
     assert isinstance(info.value, KeyboardInterrupt)  # callers that do not care see a plain Ctrl-C
+
+
+def _interrupt_after(n: int, func: object) -> object:
+    """`func`, but Ctrl-C arrives while its call number `n` runs."""
+    calls = [0]
+
+    def wrapped(task: object) -> object:
+        calls[0] += 1
+        if calls[0] == n:
+            raise KeyboardInterrupt
+        return func(task)  # type: ignore[operator]
+
+    return wrapped
+
+
+def test_an_interrupted_planner_benchmark_writes_its_finished_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    import toolkit.bench.planners as bp
+
+    monkeypatch.setattr(bp, "run_task", _interrupt_after(4, bp.run_task))
+    out = tmp_path / "b"
+    assert run_cli(["bench", "planners", "--maps", "map1", "--planners", "min-turn,astar", "--runs", "3",
+                    "--exec-repeats", "0", "--out", str(out)]) == 130
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("nxtnav: interrupted: 3 planner runs done") and str(out) in err
+    config = json.loads((out / "config.json").read_text())
+    assert config["complete"] is False and config["runs_done"] == 3 and config["runs_planned"] == 6
+    assert (out / "summary.md").read_text().startswith("**INCOMPLETE**")
+    assert len((out / "runs.csv").read_text().strip().splitlines()) == 1 + 3
+
+
+def test_an_interrupted_localiser_benchmark_writes_its_finished_trials(tmp_path: Path,
+                                                                       monkeypatch: pytest.MonkeyPatch,
+                                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    import toolkit.bench.localisers as bl
+
+    monkeypatch.setattr(bl, "run_trial", _interrupt_after(3, bl.run_trial))
+    out = tmp_path / "b"
+    assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "4",
+                    "--out", str(out)]) == 130
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("nxtnav: interrupted: 2 of 4 trials done") and str(out) in err
+    config = json.loads((out / "config.json").read_text())
+    assert config["complete"] is False and config["trials_done"] == 2
+    assert (out / "summary.md").read_text().startswith("**INCOMPLETE**")
+    assert len((out / "runs.csv").read_text().strip().splitlines()) == 1 + 2

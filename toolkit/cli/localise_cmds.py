@@ -303,7 +303,8 @@ def bench_localisers(
         *(["--dask", dask] if dask else []), *[a for s in sets for a in ("--set", s)]])
     written.append(write_summary(results, out / "summary.md", config=cfg, maps=maps, localisers=locs,
                                  trials=trials, seed=seed, command=command, wall_time_s=wall))
-    written.extend(write_plots(results, out, maps, locs))
+    if not interrupted:  # the plots compare every localiser on every map: not for a partial run
+        written.extend(write_plots(results, out, maps, locs))
     (out / "config.json").write_text(json.dumps({"maps": maps, "localisers": locs, "trials": trials, "seed": seed,
                                                  "scenarios": scenarios, "complete": not interrupted,
                                                  "trials_done": len(results), "trials_planned": len(tasks),
