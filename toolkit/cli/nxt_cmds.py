@@ -172,6 +172,7 @@ def nxt_calibrate(
         raise typer.BadParameter("must be a positive number of cm", param_hint="--distance")
     if not (math.isfinite(angle) and angle > 0):
         raise typer.BadParameter("must be a positive number of degrees", param_hint="--angle")
+    check_writable(profile, "--profile")  # before the robot drives, not after the measurements
     current = NxtProfile.load(profile) if profile.exists() else NxtProfile()
     with _connect(backend, server_host, server_port, bt_address, brick_name, current) as robot:
         _echo(f"Step 1 of 2: put the robot on the floor with at least {distance + 20:g} cm free ahead and "
