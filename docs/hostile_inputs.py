@@ -267,7 +267,11 @@ def main() -> int:
         folder = Path(tmp)
         _prepare(folder, exe)
         with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-            outcomes = list(pool.map(lambda c: _run(c, folder, exe, args.timeout), cases))
+            outcomes = []
+            for o in pool.map(lambda c: _run(c, folder, exe, args.timeout), cases):
+                outcomes.append(o)  # progress on stderr, the table on stdout at the end
+                print(f"{len(outcomes)}/{len(cases)} {'ok ' if o.clean else 'BAD'} {o.seconds:5.1f} s "
+                      f"nxtnav {o.case.command}: {o.said}", file=sys.stderr, flush=True)
     rows = ["| # | group | command | expected | exit | clean | what it said |", "|---:|---|---|---:|---:|---|---|"]
     for i, o in enumerate(outcomes, 1):
         env = " ".join(f"{k}={v}" for k, v in o.case.env.items())
