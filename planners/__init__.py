@@ -8,15 +8,15 @@ See ``docs/planners.md``.
 
 from . import astar, min_turn, ompl_planners, reference
 from .astar import AStarPlanner
-from .base import INFEASIBLE, PLANNERS, Planner, PlanningProblem, PlanResult, make_planner
+from .base import PLANNERS, UNREACHABLE, Planner, PlanningProblem, PlanResult, make_planner
 from .metrics import PathMetrics, count_turns, path_length, path_metrics, turn_angle
 from .min_turn import MinTurnPlanner
 from .ompl_planners import OmplPlanner
 from .reference import MinLinkPlanner, ShortestPathPlanner
 
 __all__ = [
-    "INFEASIBLE",
     "PLANNERS",
+    "UNREACHABLE",
     "AStarPlanner",
     "MinLinkPlanner",
     "MinTurnPlanner",

@@ -29,13 +29,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng, make_checker
 
-__all__ = ["INFEASIBLE", "PLANNERS", "PlanResult", "Planner", "PlanningProblem", "make_planner"]
+__all__ = ["PLANNERS", "UNREACHABLE", "PlanResult", "Planner", "PlanningProblem", "make_planner"]
 
 FloatArray = NDArray[np.float64]
 
 PLANNERS: Registry[Planner] = Registry("planner")
 
-INFEASIBLE = "infeasible: start and goal lie in different free regions"
+UNREACHABLE = "unreachable: start and goal lie in different free regions"
 """Status of a query no path can solve (told at once, before any search)."""
 
 
@@ -160,7 +160,7 @@ class Planner(ABC):
             path, status = None, "goal in collision"
         elif (problem.map.region_of(problem.start) != problem.map.region_of(problem.goal)
               or not checker.connected(problem.start, problem.goal)):  # apart in the map, or only the robot's
-            path, status = None, INFEASIBLE                             # radius keeps them apart
+            path, status = None, UNREACHABLE  # radius keeps them apart
         else:
             out = self._solve(problem)
             path, status = out[0], out[1]

@@ -28,7 +28,7 @@ per iteration of the tree planners; by default about what one laptop core manage
 bundled maps: 5000 for RRT* and PRM), and PRM/PRM* grow their roadmap in this thread in rounds of that
 budget, asking OMPL for the roadmap's shortest path after each round. The same seed then gives the
 same path on any machine, in any process, with any number of benchmark workers. A wall-clock cap of
-ten times the budget still ends a planner on a machine far slower than that; ``info["stopped_by"]``
+ten times the budget (at least 30 s) still ends a planner on a machine far slower than that; ``info["stopped_by"]``
 says what ended each call (``iterations``, ``solution`` or ``time``; only ``time`` is not
 reproducible). ``deterministic=False`` restores the wall-clock budget (all of it for the
 asymptotically optimal planners).
@@ -65,7 +65,8 @@ _LOG_LEVELS = {
 
 # planners that evaluate the termination condition from a second thread
 _THREADED = frozenset({"PRM", "PRMstar"})
-_TIME_CAP = 10.0  # deterministic mode: wall-clock cap, in multiples of the time limit
+_TIME_CAP = 10.0  # deterministic mode: wall-clock cap, in multiples of the time limit ...
+_TIME_CAP_MIN_S = 30.0  # ... and at least this long, so that a busy machine still gets reproducible paths
 _ROADMAP_ROUNDS = 10  # deterministic PRM: roadmap growth rounds (a query after each)
 # deterministic mode: iterations per second of budget, about what one laptop core does on the bundled maps
 _ITERATIONS_PER_S = {"PRMstar": 1000.0, "BITstar": 50000.0, "ABITstar": 50000.0, "AITstar": 50000.0}
@@ -80,7 +81,7 @@ _STATUS = {
     "UNRECOGNIZED_GOAL_TYPE": "unrecognized goal type",
     "CRASH": "crash",
     "ABORT": "abort",
-    "INFEASIBLE": "infeasible",
+    "UNREACHABLE": "infeasible",
     "UNKNOWN": "no solution",
 }
 
@@ -217,7 +218,8 @@ class OmplPlanner(Planner):
         setup.setup()
 
         pdef = setup.getProblemDefinition()
-        deadline = t0 + problem.time_limit * (_TIME_CAP if self.deterministic else 1.0)
+        cap = max(problem.time_limit * _TIME_CAP, _TIME_CAP_MIN_S) if self.deterministic else problem.time_limit
+        deadline = t0 + cap
         budget = max(1, round(self.iterations_per_s * problem.time_limit)) if self.deterministic else None
         first: dict[str, float] = {}
         ended: dict[str, Any] = {"by": "time", "polls": 0}

@@ -70,14 +70,14 @@ def test_success_is_0(tmp_path: Path) -> None:
     assert (tmp_path / "p.png").exists() and proc.stderr == ""
 
 
-def test_no_path_is_1_and_reported_as_infeasible(tmp_path: Path) -> None:
+def test_no_path_is_1_and_reported_as_unreachable_at_once(tmp_path: Path) -> None:
     (tmp_path / "split.yaml").write_text(SPLIT_MAP)
     proc = _nxtnav("plan", "--map", "split.yaml", "--planner", "rrtstar", "--exec-repeats", "0", "--json", "p.json",
                    "-o", "p.png", cwd=tmp_path)
     assert proc.returncode == 1
-    assert "infeasible" in _one_error_line(proc.stderr)
+    assert "unreachable" in _one_error_line(proc.stderr)
     doc = json.loads((tmp_path / "p.json").read_text())
-    assert doc["success"] is False and doc["status"].startswith("infeasible")
+    assert doc["success"] is False and doc["status"].startswith("unreachable")
     assert doc["collision_checks"] <= 2  # told from the c-space before any search, not after the budget
 
 
