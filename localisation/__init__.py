@@ -4,6 +4,7 @@ Importing the package registers every localiser (``paper-pf``, ``amcl`` and the 
 `LOCALISERS`; `localise` is the paper's procedure that drives a robot.
 """
 
+from .ambiguity import candidate_poses, describe_candidates
 from .amcl import Amcl, DistanceField
 from .base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from .filterpy_variants import EkfLocaliser, UkfLocaliser, filterpy_resample
@@ -32,6 +33,8 @@ __all__ = [
     "Snapshot",
     "TraceStep",
     "UkfLocaliser",
+    "candidate_poses",
+    "describe_candidates",
     "exact_ranges",
     "filterpy_resample",
     "localise",

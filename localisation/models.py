@@ -403,7 +403,16 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
                     ranges = np.load(path)
                 except (OSError, ValueError) as exc:
                     log.warning("ignoring unreadable range table cache %s: %s", path, exc)
-        table = RangeTable(map, resolution_cm, n_angles, ranges)
+        try:
+            table = RangeTable(map, resolution_cm, n_angles, ranges)
+        except ValueError as exc:
+            if ranges is None:
+                raise
+            # a cache file of another grid (written by an older version, or copied between maps)
+            log.warning("range table cache %s does not fit map %s (%s); rebuilding it (cache folder: "
+                        "$NXTNAV_CACHE_DIR or the localiser's cache_dir)", path, map.name, exc)
+            ranges = None
+            table = RangeTable(map, resolution_cm, n_angles, None)
         if path is not None and ranges is None:
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)

@@ -29,11 +29,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng, make_checker
 
-__all__ = ["PLANNERS", "PlanResult", "Planner", "PlanningProblem", "make_planner"]
+__all__ = ["PLANNERS", "UNREACHABLE", "PlanResult", "Planner", "PlanningProblem", "make_planner"]
 
 FloatArray = NDArray[np.float64]
 
 PLANNERS: Registry[Planner] = Registry("planner")
+
+UNREACHABLE = "unreachable: start and goal lie in different free regions"
+"""Status of a query no path can solve (told at once, before any search)."""
 
 
 @dataclass(eq=False)
@@ -155,8 +158,9 @@ class Planner(ABC):
             path, status = None, "start in collision"
         elif not checker.point_free(problem.goal):
             path, status = None, "goal in collision"
-        elif problem.map.region_of(problem.start) != problem.map.region_of(problem.goal):
-            path, status = None, "unreachable: start and goal lie in different free regions"
+        elif (problem.map.region_of(problem.start) != problem.map.region_of(problem.goal)
+              or not checker.connected(problem.start, problem.goal)):  # apart in the map, or only the robot's
+            path, status = None, UNREACHABLE  # radius keeps them apart
         else:
             out = self._solve(problem)
             path, status = out[0], out[1]
@@ -172,7 +176,8 @@ class Planner(ABC):
     def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
         """Return ``(path or None, status)`` or ``(path or None, status, info_dict)``.
 
-        Start and goal are already known to be collision-free when this is called.
+        Start and goal are already known to be collision-free and in the same free region when this
+        is called.
         """
 
 

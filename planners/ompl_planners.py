@@ -15,15 +15,23 @@ run them with ``stop_at_first=True`` to measure it (their planning time is then 
 solution). ``stop_at_first=True`` sets the objective's cost threshold to infinity, so any planner
 stops at its first exact solution.
 
-Seeding. OMPL gives every RNG it creates (one per planner, one per state sampler) a seed drawn from a
-process-wide seed generator, and `ompl.util.RNG.setSeed` re-seeds that generator (after the first RNG
-exists it also logs an error, which is silenced here). The adapter calls ``RNG.setSeed`` with a seed
-drawn from ``problem.rng`` just before it builds the space, the planner and its samplers, so the
-same problem seed gives the same random draws in any process. Whether it gives the same *path*
-depends on the planner: planners that stop at a solution (RRTConnect, RRT, ``stop_at_first=True``)
-are reproducible; planners that run until the time budget ends do a number of iterations that depends
-on the machine's speed, and PRM grows its roadmap in a second thread, so their final paths can differ
-between runs with the same seed.
+Seeding and reproducibility. OMPL gives every RNG it creates (one per planner, one per state
+sampler) a seed drawn from a process-wide seed generator, and `ompl.util.RNG.setSeed` re-seeds that
+generator (after the first RNG exists it also logs an error, which is silenced here). The adapter
+calls ``RNG.setSeed`` with a seed drawn from ``problem.rng`` just before it builds the space, the
+planner and its samplers, so a planning call draws the same numbers whatever ran before it in the
+process. Same draws are not yet the same path: a planner that runs until a wall-clock budget ends does
+as many iterations as the machine manages, and PRM grows its roadmap while a second thread looks for
+a solution. So by default (``deterministic=True``) the budget is counted in iterations, not seconds:
+the planner stops after ``iterations_per_s * time_limit`` polls of its termination condition (one
+per iteration of the tree planners; by default about what one laptop core manages per second on the
+bundled maps: 5000 for RRT* and PRM), and PRM/PRM* grow their roadmap in this thread in rounds of that
+budget, asking OMPL for the roadmap's shortest path after each round. The same seed then gives the
+same path on any machine, in any process, with any number of benchmark workers. A wall-clock cap of
+ten times the budget (at least 30 s) still ends a planner on a machine far slower than that; ``info["stopped_by"]``
+says what ended each call (``iterations``, ``solution`` or ``time``; only ``time`` is not
+reproducible). ``deterministic=False`` restores the wall-clock budget (all of it for the
+asymptotically optimal planners).
 
 OMPL statuses map to `PlanResult` statuses: an exact solution is a success ("exact"); an approximate
 solution (a path that stops short of the goal) is a failure ("approximate solution"); "timeout",
@@ -57,6 +65,12 @@ _LOG_LEVELS = {
 
 # planners that evaluate the termination condition from a second thread
 _THREADED = frozenset({"PRM", "PRMstar"})
+_TIME_CAP = 10.0  # deterministic mode: wall-clock cap, in multiples of the time limit ...
+_TIME_CAP_MIN_S = 30.0  # ... and at least this long, so that a busy machine still gets reproducible paths
+_ROADMAP_ROUNDS = 10  # deterministic PRM: roadmap growth rounds (a query after each)
+# deterministic mode: iterations per second of budget, about what one laptop core does on the bundled maps
+_ITERATIONS_PER_S = {"PRMstar": 1000.0, "BITstar": 50000.0, "ABITstar": 50000.0, "AITstar": 50000.0}
+_DEFAULT_ITERATIONS_PER_S = 5000.0
 
 _STATUS = {
     "EXACT_SOLUTION": "exact",
@@ -67,7 +81,7 @@ _STATUS = {
     "UNRECOGNIZED_GOAL_TYPE": "unrecognized goal type",
     "CRASH": "crash",
     "ABORT": "abort",
-    "INFEASIBLE": "infeasible",
+    "UNREACHABLE": "infeasible",
     "UNKNOWN": "no solution",
 }
 
@@ -109,6 +123,12 @@ class OmplPlanner(Planner):
         ``setGoalBias(0.1)``.
     log_level : str
         OMPL's console log level while planning: "none", "error", "warn", "info" or "debug".
+    deterministic : bool
+        Count the budget in iterations (reproducible, see the module notes) rather than in seconds.
+    iterations_per_s : float or None
+        Iterations (termination-condition polls) per second of the problem's time limit when
+        `deterministic`; None: about what a laptop core does (5000 for the tree planners, 1000 for
+        PRM*, 50000 for the BIT* family).
 
     Notes
     -----
@@ -125,6 +145,8 @@ class OmplPlanner(Planner):
         stop_at_first: bool = False,
         settings: dict[str, Any] | None = None,
         log_level: str = "none",
+        deterministic: bool = True,
+        iterations_per_s: float | None = None,
     ) -> None:
         known = ompl_planner_names()
         if planner not in known:
@@ -133,6 +155,10 @@ class OmplPlanner(Planner):
             raise ValueError(f"log_level must be one of {', '.join(_LOG_LEVELS)}, got {log_level!r}")
         if range is not None and not (math.isfinite(range) and range > 0):
             raise ValueError(f"range must be a positive number of cm, got {range!r}")
+        if iterations_per_s is None:
+            iterations_per_s = _ITERATIONS_PER_S.get(planner, _DEFAULT_ITERATIONS_PER_S)
+        if not (math.isfinite(iterations_per_s) and iterations_per_s > 0):
+            raise ValueError(f"iterations_per_s must be a positive number, got {iterations_per_s!r}")
         cls = getattr(og, planner)
         for key in settings or {}:
             if not hasattr(cls, f"set{key}"):
@@ -143,6 +169,8 @@ class OmplPlanner(Planner):
         self.stop_at_first = bool(stop_at_first)
         self.settings = dict(settings or {})
         self.log_level = log_level
+        self.deterministic = bool(deterministic)
+        self.iterations_per_s = float(iterations_per_s)
         if type(self) is OmplPlanner:
             setattr(self, "name", f"ompl:{planner}")  # noqa: B010 (an instance name, not the registry's)
 
@@ -190,8 +218,13 @@ class OmplPlanner(Planner):
         setup.setup()
 
         pdef = setup.getProblemDefinition()
-        deadline = t0 + problem.time_limit
+        cap = max(problem.time_limit * _TIME_CAP, _TIME_CAP_MIN_S) if self.deterministic else problem.time_limit
+        deadline = t0 + cap
+        budget = max(1, round(self.iterations_per_s * problem.time_limit)) if self.deterministic else None
         first: dict[str, float] = {}
+        ended: dict[str, Any] = {"by": "time", "polls": 0}
+        if self.planner in _THREADED and budget is not None:
+            return self._grow_roadmap(setup, planner, problem, t0, budget, deadline, seed)
         if self.planner in _THREADED:
             # the roadmap planners poll the condition from a second thread: a Python condition would
             # deadlock on the interpreter lock, so use OMPL's own timed condition
@@ -206,6 +239,7 @@ class OmplPlanner(Planner):
 
             def stop() -> bool:
                 now = time.perf_counter()
+                ended["polls"] += 1
                 if not first and solved():
                     first["time"] = now - t0
                     if best_cost is not None:
@@ -213,6 +247,10 @@ class OmplPlanner(Planner):
                     else:
                         first["length"] = float(pdef.getSolutionPath().length())
                 if first and self.stop_at_first:
+                    ended["by"] = "solution"
+                    return True
+                if budget is not None and ended["polls"] >= budget:
+                    ended["by"] = "iterations"
                     return True
                 return now >= deadline
 
@@ -220,8 +258,12 @@ class OmplPlanner(Planner):
 
         status = setup.solve(ptc)
         key = status.getStatus().name
-        info: dict[str, Any] = {"ompl_planner": self.planner, "ompl_status": status.asString(), "seed": seed}
+        info: dict[str, Any] = {"ompl_planner": self.planner, "ompl_status": status.asString(), "seed": seed,
+                                "stopped_by": ended["by"], "iterations": ended["polls"]}
         exact = key == "EXACT_SOLUTION" and setup.haveExactSolutionPath()
+        if exact and ended["by"] == "time" and self.deterministic:
+            ended["by"] = "solution"  # a feasibility planner returned its solution before the condition said stop
+            info["stopped_by"] = "solution"
         if exact and not first and (self.planner not in _THREADED or self.stop_at_first):
             # solved in the last iteration after the condition was last polled, or stopped by the objective
             first["time"] = time.perf_counter() - t0
@@ -230,8 +272,59 @@ class OmplPlanner(Planner):
         info["first_solution_length_cm"] = first.get("length", math.nan)
         if not exact:
             return None, _STATUS.get(key, key.lower().replace("_", " ")), info
+        return self._finish(setup, problem, info)
 
-        path = setup.getSolutionPath()
+    def _grow_roadmap(self, setup: Any, planner: Any, problem: PlanningProblem, t0: float, budget: int,
+                      deadline: float, seed: int) -> tuple[Any, ...]:
+        """PRM and PRM* reproducibly: grow the roadmap in this thread in rounds of the iteration budget;
+        after each round OMPL's query (a solve with no time left) gives the roadmap's shortest path."""
+        pdef = setup.getProblemDefinition()
+        polls = {"n": 0, "round_end": 0}
+        ended = "iterations"
+
+        def stop() -> bool:
+            polls["n"] += 1
+            return polls["n"] > polls["round_end"] or time.perf_counter() >= deadline
+
+        goal = np.asarray(problem.goal, dtype=float)
+        first: dict[str, float] = {}
+        found = None
+        rounds = _ROADMAP_ROUNDS
+        for r in range(1, rounds + 1):
+            polls["round_end"] = budget * r // rounds
+            planner.growRoadmapPtc(ob.PlannerTerminationCondition(stop))
+            pdef.clearSolutionPaths()
+            setup.solve(ob.timedPlannerTerminationCondition(0.0))
+            path = pdef.getSolutionPath() if pdef.hasSolution() else None
+            if path is not None and path.getStateCount() >= 2:
+                end = path.getState(path.getStateCount() - 1)
+                if math.hypot(end[0] - goal[0], end[1] - goal[1]) < 1e-9:  # joins the goal (OMPL may call
+                    found = path                                            # it approximate all the same)
+                    if not first:
+                        first = {"time": time.perf_counter() - t0, "length": float(path.length())}
+            if time.perf_counter() >= deadline:
+                ended = "time"
+                break
+            if found is not None and self.stop_at_first:
+                ended = "solution"
+                break
+        info: dict[str, Any] = {"ompl_planner": self.planner, "seed": seed, "stopped_by": ended,
+                                "iterations": min(polls["n"], budget), "milestones": int(planner.milestoneCount()),
+                                "first_solution_s": first.get("time", math.nan),
+                                "first_solution_length_cm": first.get("length", math.nan)}
+        if found is None:
+            info["ompl_status"] = "no solution in the roadmap"
+            return None, "timeout" if ended == "time" else "no path in the roadmap", info
+        info["ompl_status"] = "Exact solution"
+        return self._finish(setup, problem, info, found)
+
+    def _finish(self, setup: Any, problem: PlanningProblem, info: dict[str, Any],
+                path: Any = None) -> tuple[Any, ...]:
+        """Simplify (when asked), copy out and verify the solution path."""
+        checker = problem.checker
+        si = setup.getSpaceInformation()
+        if path is None:
+            path = setup.getSolutionPath()
         if self.simplify:
             info["length_before_simplify_cm"] = float(path.length())
             t_s = time.perf_counter()
@@ -247,7 +340,9 @@ class OmplPlanner(Planner):
 
 
 class RrtStarPlanner(OmplPlanner):
-    """OMPL's RRT* (asymptotically optimal; uses the whole time budget). Options as `OmplPlanner`."""
+    """OMPL's RRT* (asymptotically optimal; runs its whole budget, counted in iterations by default).
+
+    Options as `OmplPlanner`."""
 
     name = "rrtstar"
 
@@ -256,7 +351,7 @@ class RrtStarPlanner(OmplPlanner):
 
 
 class PrmPlanner(OmplPlanner):
-    """OMPL's PRM with a path-length objective (uses the whole time budget). Options as `OmplPlanner`."""
+    """OMPL's PRM with a path-length objective (grows its roadmap for the whole budget). Options as `OmplPlanner`."""
 
     name = "prm"
 

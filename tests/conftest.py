@@ -18,3 +18,14 @@ def any_map(request: pytest.FixtureRequest) -> Map:
 @pytest.fixture(params=BOTSIM_MAPS)
 def botsim_map(request: pytest.FixtureRequest) -> Map:
     return load_map(request.param)
+
+
+def run_cli(argv: list[str]) -> int:
+    """Run the `nxtnav` command in this process; its exit code."""
+    from toolkit.cli import main
+
+    try:
+        main(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0

@@ -50,6 +50,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 from shapely.ops import nearest_points
 
+from localisation.ambiguity import candidate_poses, describe_candidates
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from localisation.procedure import free_travel
 from planners.base import Planner, PlanningProblem, PlanResult, make_planner
@@ -350,6 +351,7 @@ class MissionReport:
     final_estimate: Pose | None
     plans: list[FloatArray] = field(default_factory=list)
     trace: list[TraceStep] = field(default_factory=list)
+    candidates: list[Pose] = field(default_factory=list)
 
     def to_dict(self, trace: bool = True) -> dict[str, Any]:
         """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
@@ -375,6 +377,8 @@ class MissionReport:
             "target": [float(v) for v in self.target],
             "final_pose": None if self.final_pose is None else self.final_pose.to_list_deg(),
             "final_estimate": None if self.final_estimate is None else self.final_estimate.to_list_deg(),
+            "ambiguous": len(self.candidates) > 1,
+            "candidates": [p.to_list_deg() for p in self.candidates],
         }
         if trace:
             d["plans"] = [p.tolist() for p in self.plans]
@@ -498,6 +502,7 @@ class _Mission:
         self.cfg = config
         radius = float(robot.geometry.radius_cm)
         self.radius = radius
+        self.candidates: list[Pose] = []  # the belief's candidate poses when it stayed ambiguous
         shared = getattr(robot, "checker", None)
         if isinstance(shared, CollisionChecker) and shared.map is m and shared.robot_radius == radius:
             self.checker = shared
@@ -614,6 +619,10 @@ class _Mission:
             if ok:
                 self.fresh_fix = True
                 return est
+        self.candidates = candidate_poses(self._localiser)
+        if self.candidates:  # several places fit the scans equally: say which, not just "lost"
+            raise _MissionEnded(f"{describe_candidates(self.candidates)}; global localisation could not tell "
+                                f"them apart in {cfg.max_localisation_attempts} attempts")
         raise _MissionEnded(f"robot lost: global localisation did not converge in "
                             f"{cfg.max_localisation_attempts} attempts")
 
@@ -1024,6 +1033,7 @@ def run_mission(
         final_estimate=est,
         plans=mission.plans,
         trace=mission.trace,
+        candidates=mission.candidates,
     )
 
 

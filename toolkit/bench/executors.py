@@ -2,19 +2,58 @@
 
 Results come back as they finish (not in task order); each task should carry its own identifiers.
 Progress is reported through a callback so that the CLI owns the progress bar.
+
+Ctrl-C: worker processes ignore SIGINT (the terminal sends it to the whole process group), so only
+this process sees it; it then terminates the workers at once (no task is waited for) and
+`collect_tasks` raises `TasksInterrupted` carrying the results that had finished.
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import os
+import signal
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from typing import Any, TypeVar
+from typing import Any, Generic, TypeVar
 
-__all__ = ["default_workers", "run_tasks"]
+__all__ = ["TasksInterrupted", "collect_tasks", "default_workers", "run_tasks"]
 
 T = TypeVar("T")
 R = TypeVar("R")
+
+
+class TasksInterrupted(KeyboardInterrupt, Generic[R]):
+    """Ctrl-C during `collect_tasks`: `results` holds the tasks that had finished, of `total`."""
+
+    def __init__(self, results: list[R], total: int) -> None:
+        super().__init__(f"interrupted after {len(results)} of {total} tasks")
+        self.results = results
+        self.total = total
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def collect_tasks(
+    func: Callable[[T], R],
+    tasks: Sequence[T],
+    *,
+    workers: int = 1,
+    dask_address: str | None = None,
+    on_done: Callable[[R], None] | None = None,
+) -> list[R]:
+    """`run_tasks` into a list (in finishing order); Ctrl-C raises `TasksInterrupted` with the
+    results finished so far, after the workers have been ended."""
+    results: list[R] = []
+    try:
+        for r in run_tasks(func, tasks, workers=workers, dask_address=dask_address, on_done=on_done):
+            results.append(r)
+    except KeyboardInterrupt as exc:
+        if isinstance(exc, TasksInterrupted):
+            raise
+        raise TasksInterrupted(results, len(tasks)) from None
+    return results
 
 
 def default_workers() -> int:
@@ -61,19 +100,20 @@ def run_tasks(
                 on_done(r)
             yield r
         return
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        pending: set[Future[R]] = {pool.submit(func, t) for t in tasks}
-        try:
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for f in done:
-                    r = f.result()
-                    if on_done:
-                        on_done(r)
-                    yield r
-        finally:
-            for f in pending:
-                f.cancel()
+    pool = multiprocessing.get_context().Pool(min(workers, len(tasks)), initializer=_ignore_sigint)
+    finished = False
+    try:
+        for r in pool.imap_unordered(func, tasks, chunksize=1):
+            if on_done:
+                on_done(r)
+            yield r
+        finished = True
+    finally:
+        if finished:
+            pool.close()
+        else:  # Ctrl-C, a task that raised, or the caller stopped early: end the workers now
+            pool.terminate()
+        pool.join()
 
 
 def _run_dask(

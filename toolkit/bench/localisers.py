@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from localisation.ambiguity import candidate_poses
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from toolkit.mission import lobe_options as mission_lobe_options
 from toolkit.robots.sim import MotionNoise, SimRobot
@@ -104,7 +105,7 @@ TRACKER_PRIORS = ("noisy-truth", "pf")
 
 RUNS_COLUMNS = (
     "map", "localiser", "trial", "seed", "success", "error_cm", "heading_error_deg", "time_s",
-    "iterations", "scans", "converged",
+    "iterations", "scans", "converged", "candidates",
 )
 TRACKING_COLUMNS = (
     "map", "localiser", "trial", "seed", "steps", "rmse_cm", "rmse_heading_deg", "final_error_cm",
@@ -497,6 +498,8 @@ class GlobalRun:
     cpu_time_s: float = field(default=math.nan, repr=False)
     failure: str = field(default="", repr=False)
     scenario: str = field(default="global", repr=False)
+    candidates: int = 0
+    """Candidate poses of an ambiguous final belief (0: not ambiguous)."""
 
     def to_dict(self) -> dict[str, Any]:
         return {k: getattr(self, k) for k in RUNS_COLUMNS}
@@ -634,9 +637,10 @@ def _run_global(task: TrialTask) -> GlobalRun:
     m = _map(task.map)
     pose_rng, run_rng = _trial_streams(task)
     truth = random_pose(m, pose_rng, task.config.clearance_cm)
-    out, _, _ = localise_once(m, truth, task.localiser, config=task.config, rng=run_rng)
+    out, _, loc = localise_once(m, truth, task.localiser, config=task.config, rng=run_rng)
     return GlobalRun(task.map, task.localiser, task.trial, task.seed, out.success, out.error_cm,
-                     out.heading_error_deg, out.time_s, out.iterations, out.scans, out.converged, out.cpu_time_s)
+                     out.heading_error_deg, out.time_s, out.iterations, out.scans, out.converged, out.cpu_time_s,
+                     candidates=len(candidate_poses(loc)))
 
 
 def scripted_drive(m: Map, start: Pose, steps: int, step_cm: tuple[float, float], rng: np.random.Generator,
@@ -842,6 +846,7 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str],
                     "trials": n,
                     "success_rate": sum(r.success for r in rs) / n,
                     "converged_rate": sum(r.converged for r in rs) / n,
+                    "ambiguous_rate": sum(r.candidates > 1 for r in rs) / n,
                     "median_error_cm": _median([r.error_cm for r in rs]),
                     "median_heading_error_deg": _median([abs(r.heading_error_deg) for r in rs]),
                     "median_time_s": _median([r.time_s for r in rs]),
@@ -937,15 +942,16 @@ def write_summary(
     if "global" in s:
         lines += ["## Global localisation", ""]
         for m in maps:
-            lines += [f"### {m}", "", "| localiser | trials | success | converged | median error (cm) | "
+            lines += [f"### {m}", "", "| localiser | trials | success | converged | ambiguous | median error (cm) | "
                       "median heading error (deg) | median time (ms) | median CPU time (ms) | median scans |",
-                      "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+                      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
             for n in localisers:
                 row = s["global"].get((m, n))
                 if row is None:
                     continue
                 lines.append(f"| {n} | {row['trials']:.0f} | {_pct(row['success_rate'])} | "
-                             f"{_pct(row['converged_rate'])} | {_num(row['median_error_cm'])} | "
+                             f"{_pct(row['converged_rate'])} | {_pct(row['ambiguous_rate'])} | "
+                             f"{_num(row['median_error_cm'])} | "
                              f"{_num(row['median_heading_error_deg'])} | {_num(1e3 * row['median_time_s'], '', 1)} | "
                              f"{_num(1e3 * row['median_cpu_time_s'], '', 1)} | {_num(row['median_scans'], '', 0)} |")
             lines.append("")

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..mission import MissionConfig, run_sim_mission
-from .executors import run_tasks
+from .executors import collect_tasks
 
 __all__ = [
     "PAPER_MAPS",
@@ -255,8 +255,11 @@ def run_paper(
     workers: int = 1,
     on_done: Callable[[TrialResult], None] | None = None,
 ) -> tuple[list[PaperTable], list[TrialResult]]:
-    """Run the trials (over a process pool when `workers` > 1) and summarise them."""
-    results = list(run_tasks(run_trial, list(tasks), workers=workers, on_done=on_done))
+    """Run the trials (over a process pool when `workers` > 1) and summarise them.
+
+    Ctrl-C raises `toolkit.bench.executors.TasksInterrupted` carrying the finished trials
+    (summarise them with `summarise`)."""
+    results = collect_tasks(run_trial, list(tasks), workers=workers, on_done=on_done)
     return summarise(results), results
 
 

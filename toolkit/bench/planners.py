@@ -43,7 +43,7 @@ import shapely
 from ..robots.sim import MotionNoise
 from ..world import CollisionChecker, Map, NxtnavError, PlanningError, RobotGeometry, load_map
 from .execution import execution_error
-from .executors import run_tasks
+from .executors import TasksInterrupted, collect_tasks
 from .ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
 
 __all__ = [
@@ -512,6 +512,8 @@ class BenchmarkResult:
     started: datetime
     total_time_s: float
     map_names: dict[str, str] = field(default_factory=dict)
+    complete: bool = True
+    """False when Ctrl-C ended the run early: `records` holds the runs that had finished."""
 
     def to_dict(self) -> dict[str, Any]:
         return {"config": self.config.to_dict(), "started": self.started.isoformat(timespec="seconds"),
@@ -538,6 +540,9 @@ def run_benchmark(
     on_done : callable or None
         Called with each `ReferenceResult` and `RunRecord` as it finishes (progress bars);
         `config.n_tasks()` is the total.
+
+    Ctrl-C ends the run early: the result then holds the finished runs and ``complete`` is False
+    (the written files say so).
     """
     check_planner_names(config.planners)
     started = datetime.now()
@@ -547,7 +552,10 @@ def run_benchmark(
     for name, m in maps.items():
         queries.extend(make_queries(m, config.queries, config.runs, config.seed, config.robot_radius, label=name))
     ref_tasks = [ReferenceTask(q, config.robot_radius) for q in queries]
-    refs = list(run_tasks(run_reference, ref_tasks, workers=workers, dask_address=dask_address, on_done=on_done))
+    try:
+        refs = collect_tasks(run_reference, ref_tasks, workers=workers, dask_address=dask_address, on_done=on_done)
+    except TasksInterrupted:  # no planner has run yet: nothing to keep
+        raise KeyboardInterrupt from None
     ref_of = {(r.query.map, r.query.index): r for r in refs}
     tasks = []
     for name in config.maps:
@@ -562,11 +570,15 @@ def run_benchmark(
                     reference_length=None if math.isnan(ref.shortest_length_cm) else ref.shortest_length_cm,
                     reference_turns=ref.min_link_turns,
                 ))
-    records = list(run_tasks(run_task, tasks, workers=workers, dask_address=dask_address, on_done=on_done))
+    complete = True
+    try:
+        records = collect_tasks(run_task, tasks, workers=workers, dask_address=dask_address, on_done=on_done)
+    except TasksInterrupted as exc:
+        records, complete = list(exc.results), False
     records.sort(key=lambda r: (config.maps.index(r.map), config.planners.index(r.planner), r.run))
     refs.sort(key=lambda r: (config.maps.index(r.query.map), r.query.index))
     return BenchmarkResult(config, tuple(records), tuple(refs), started, time.perf_counter() - t0,
-                           {name: m.name for name, m in maps.items()})
+                           {name: m.name for name, m in maps.items()}, complete)
 
 
 # -- summaries -----------------------------------------------------------------------------------
@@ -820,10 +832,15 @@ def write_results(result: BenchmarkResult, out: str | Path, *, plots: bool = Tru
     write_runs_csv(result, files["runs"])
     write_paths_jsonl(result, files["paths"])
     write_references_csv(result, files["references"])
-    files["summary"].write_text(format_summary(result), encoding="utf-8")
     c = result.config
+    planned = c.runs * len(c.maps) * len(c.planners)
+    note = "" if result.complete else (f"**INCOMPLETE**: interrupted after {len(result.records)} of {planned} "
+                                       "planner runs; the tables cover only the finished runs.\n\n")
+    files["summary"].write_text(note + format_summary(result), encoding="utf-8")
     files["config"].write_text(json.dumps({"config": c.to_dict(), "started": result.started.isoformat(),
-                                           "total_time_s": result.total_time_s}, indent=1), encoding="utf-8")
+                                           "total_time_s": result.total_time_s, "complete": result.complete,
+                                           "runs_done": len(result.records), "runs_planned": planned},
+                                          indent=1), encoding="utf-8")
     write_ompl_log(files["ompl_log"], _ompl_experiment(result, c.maps, f"nxtnav-planners-{c.queries}"))
     for stale in (d / "ompl").glob("*.log"):  # per-map logs of an earlier benchmark (--force) would mix in
         if stale.stem.endswith(("-presets", "-random")):

@@ -12,7 +12,17 @@ from typer.exceptions import TyperException
 
 from ..world import NxtnavError
 
-__all__ = ["app", "bench_app", "brick_app", "fail", "main", "maps_app", "nxt_app"]
+__all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "Interrupted", "app", "bench_app",
+           "brick_app", "fail", "main", "maps_app", "nxt_app"]
+
+EXIT_OK = 0
+"""The command did what was asked."""
+EXIT_FAILED = 1
+"""The command ran, but the plan or the mission failed (no path, target not reached)."""
+EXIT_BAD_INPUT = 2
+"""Bad input: an option, a file or a value is wrong (the one-line message says which)."""
+EXIT_INTERRUPTED = 130
+"""Interrupted (Ctrl-C); whatever was finished has been kept (the message says where)."""
 
 _SETTINGS = {"help_option_names": ["-h", "--help"]}
 
@@ -45,7 +55,11 @@ def _root(
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
 
 
-def fail(message: str, code: int = 2) -> typer.Exit:
+class Interrupted(Exception):
+    """A command stopped by Ctrl-C after saving what it had finished; the message says what and where."""
+
+
+def fail(message: str, code: int = EXIT_BAD_INPUT) -> typer.Exit:
     """Print `message` as one line on stderr and return the exit to raise."""
     typer.echo(f"nxtnav: error: {message}", err=True)
     return typer.Exit(code)
@@ -64,31 +78,44 @@ def _quiet_exit(code: int) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    """Entry point of the console script; every `NxtnavError` becomes one line and exit code 2."""
+    """Entry point of the console script: every failure becomes one line on stderr and an exit code.
+
+    0 success; 1 the plan or mission failed; 2 bad input (`NxtnavError`, usage errors, unreadable
+    or unwritable files, memory exhausted); 130 interrupted.
+    """
     command = typer.main.get_command(app)
-    code = 0
+    code = EXIT_OK
     try:
+        # in this mode click returns the code of a `typer.Exit` (and 130 for a Ctrl-C it caught)
         rv = command.main(args=list(argv) if argv is not None else None, prog_name="nxtnav", standalone_mode=False)
-        if isinstance(rv, int):  # click returns a command's typer.Exit code instead of raising it
-            code = rv
+        code = rv if isinstance(rv, int) else EXIT_OK
+        if code == EXIT_INTERRUPTED:
+            typer.echo("nxtnav: interrupted", err=True)
+    except Interrupted as exc:
+        typer.echo(f"nxtnav: interrupted: {exc}", err=True)
+        code = EXIT_INTERRUPTED
     except NxtnavError as exc:
         typer.echo(f"nxtnav: error: {exc}", err=True)
-        code = 2
+        code = EXIT_BAD_INPUT
     except typer.Exit as exc:
         code = exc.exit_code
     except typer.Abort:
         typer.echo("nxtnav: aborted", err=True)
-        code = 130
-    except TyperException as exc:  # usage errors and bad parameters: one line, exit 2
+        code = EXIT_INTERRUPTED
+    except TyperException as exc:  # usage errors and bad parameters (typer's click): one line, exit 2
         message = exc.format_message() if hasattr(exc, "format_message") else str(exc)
         typer.echo(f"nxtnav: error: {' '.join(str(message).split())}", err=True)
-        code = 2
+        code = EXIT_BAD_INPUT
     except KeyboardInterrupt:
         typer.echo("nxtnav: interrupted", err=True)
-        code = 130
-    except (OSError, ValueError) as exc:
-        typer.echo(f"nxtnav: error: {exc}", err=True)
-        code = 2
+        code = EXIT_INTERRUPTED
+    except MemoryError as exc:
+        detail = f" ({exc})" if str(exc) else ""
+        typer.echo(f"nxtnav: error: out of memory{detail}; try a smaller map, problem or option value", err=True)
+        code = EXIT_BAD_INPUT
+    except (OSError, ValueError, OverflowError) as exc:
+        typer.echo(f"nxtnav: error: {' '.join(str(exc).split())}", err=True)
+        code = EXIT_BAD_INPUT
     if argv is not None:  # called from Python (tests): return normally
         if code:
             raise SystemExit(code)

@@ -7,6 +7,8 @@ import json
 import math
 import shlex
 import time
+import types
+import typing
 from pathlib import Path
 from typing import Any
 
@@ -16,8 +18,10 @@ import yaml
 from localisation.base import LOCALISERS
 from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
 
-from .app import app, bench_app
-from .options import parse_list, parse_pose
+from .app import Interrupted, app, bench_app
+from .options import check_writable, count, non_negative, parse_list, parse_pose
+from .options import seed as seed_ok
+from .options import workers as workers_ok
 
 __all__: list[str] = []
 
@@ -68,12 +72,73 @@ def _options_for(sets: dict[str, dict[str, Any]], names: list[str]) -> dict[str,
         if bad:
             raise NxtnavError(f"--set: {n} has no option {', '.join(bad)}; its options: "
                               f"{', '.join(sorted(accepted or ())) or 'none'}")
+        hints = _option_types(n)
+        opts = {k: _coerce(v, hints.get(k), f"{n}.{k}") for k, v in opts.items()}
         if opts:
             out[n] = opts
     stray = [k for k in sets.get("*", {}) if not any(k in out.get(n, {}) for n in names)]
     if stray:
         raise NxtnavError(f"--set: no chosen localiser has an option {', '.join(stray)}")
     return out
+
+
+def _option_types(name: str) -> dict[str, Any]:
+    """The annotations of a localiser constructor's options (empty when they cannot be resolved)."""
+    try:
+        return typing.get_type_hints(LOCALISERS.get(name).__init__)
+    except Exception:  # an annotation that does not resolve: no checks beyond the constructor's own
+        return {}
+
+
+def _coerce(value: Any, hint: Any, where: str) -> Any:
+    """`value` (as YAML typed it) checked against the annotation `hint`; ints widen to floats."""
+    if hint is None or hint is Any:
+        return value
+    args = typing.get_args(hint)
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        errors = []
+        for a in (a for a in args if a is not type(None)):
+            try:
+                return _coerce(value, a, where)
+            except NxtnavError as exc:
+                errors.append(str(exc))
+        raise NxtnavError(errors[0] if len(errors) == 1 else f"--set {where}: {value!r} does not fit {hint}")
+    if typing.get_origin(hint) is typing.Literal:
+        if value in args:
+            return value
+        raise NxtnavError(f"--set {where}: expected one of {', '.join(map(repr, args))}, got {value!r}")
+    if hint is bool:
+        if isinstance(value, bool):
+            return value
+        raise NxtnavError(f"--set {where}: expected true or false, got {value!r}")
+    if hint is int:
+        if isinstance(value, int) and not isinstance(value, bool):
+            return value
+        raise NxtnavError(f"--set {where}: expected an integer, got {value!r}")
+    if hint is float:
+        if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
+            return float(value)
+        raise NxtnavError(f"--set {where}: expected a finite number, got {value!r}")
+    if hint is str:
+        if isinstance(value, str):
+            return value
+        raise NxtnavError(f"--set {where}: expected a text, got {value!r}")
+    return value  # containers and other types: the constructor checks them
+
+
+def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
+    """Build each localiser that has --set options once, so that a value its constructor refuses is a
+    one-line error now rather than a failure of every trial later."""
+    from localisation import make_localiser
+
+    for name, opts in options.items():
+        try:
+            make_localiser(name, m, rng=0, **opts)
+        except (ValueError, TypeError) as exc:
+            raise NxtnavError(f"--set: {name} refuses {', '.join(f'{k}={v!r}' for k, v in opts.items())}: "
+                              f"{exc}") from None
 
 
 def _accepted_options(name: str) -> set[str] | None:
@@ -90,24 +155,30 @@ def localise_cmd(
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="True start pose (cm, cm, deg)."),
     localiser: str = typer.Option("paper-pf", "--localiser", help="Registered localiser."),
     sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
-    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm)."),
+    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm).", callback=non_negative),
     noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
-    seed: int = typer.Option(0, help="Random seed."),
+    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     sets: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="Localiser option (repeatable)."),
-    output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
+    output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
+                                       help="Draw the particles per iteration."),
     json_out: Path | None = typer.Option(None, "--json", help="Write the result as JSON."),
 ) -> None:
-    """Localise once in the simulator from a known true pose and draw the particles per iteration."""
+    """Localise once in the simulator from a known true pose; print the result, draw it with -o."""
+    from localisation import candidate_poses, describe_candidates
+
     from ..bench.localisers import BenchConfig, localise_once
     from ..bench.localisers_plots import draw_localisation
     from ..plotting import save_figure
 
     names = _localiser_names()
-    parse_list(localiser, "--localiser", names)
+    if parse_list(localiser, "--localiser", names) != [localiser]:
+        raise NxtnavError(f"--localiser: expected one localiser, got {localiser!r}")
     _check_sonar(sonar)
+    check_writable(output, "--output")
+    check_writable(json_out, "--json")
     m = load_map(map_name)
     pose = parse_pose(pose_text, "--pose")
     assert isinstance(pose, Pose)
@@ -116,17 +187,25 @@ def localise_cmd(
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       scan_processing=scan_processing, lobe=lobe,
                       localiser_options=_options_for(_parse_sets(sets, "--set"), [localiser]))
-    out, _, _ = localise_once(m, pose, localiser, config=cfg, rng=seed)
-    fig = draw_localisation(m, out, title=f"{m.name}: {localiser}, sonar {sonar}, seed {seed}")
-    save_figure(fig, output)
+    out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
+    candidates = candidate_poses(loc)
+    if candidates:  # the mean of several modes means nothing: name the candidates instead
+        t = out.truth  # where the robot truly is now (the procedure turns and drives)
+        near = min(c.distance_to(t) for c in candidates)
+        typer.echo(f"{localiser}: {describe_candidates(candidates)}; the hidden truth is ({t.x:.1f}, {t.y:.1f}, "
+                   f"{t.heading_deg:.0f} deg), {near:.1f} cm from the nearest candidate")
     typer.echo(f"{localiser}: error {out.error_cm:.2f} cm, heading {out.heading_error_deg:+.2f}°, "
                f"{out.iterations} iterations, {out.scans} scans, {1e3 * out.time_s:.1f} ms "
-               f"({'success' if out.success else 'failure'})")
-    typer.echo(f"wrote {output}")
+               f"({'success' if out.success else 'failure'}{', converged' if out.converged else ', not converged'})")
     if json_out is not None:
-        doc = {"map": m.name, "localiser": localiser, "sonar": sonar, "seed": seed, **out.to_dict()}
+        doc = {"map": m.name, "localiser": localiser, "sonar": sonar, "seed": seed, **out.to_dict(),
+               "ambiguous": bool(candidates), "candidates": [c.to_list_deg() for c in candidates]}
         json_out.write_text(json.dumps(doc, indent=1))
         typer.echo(f"wrote {json_out}")
+    if output is not None:
+        fig = draw_localisation(m, out, title=f"{m.name}: {localiser}, sonar {sonar}, seed {seed}")
+        save_figure(fig, output)
+        typer.echo(f"wrote {output}")
 
 
 def _scenarios(text: str) -> list[str]:
@@ -141,24 +220,24 @@ def _scenarios(text: str) -> list[str]:
 def bench_localisers(
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps."),
     localisers_text: str = typer.Option("all", "--localisers", help="Comma-separated localisers, or all."),
-    trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser."),
+    trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser.", callback=count),
     sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
-    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm)."),
+    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm).", callback=non_negative),
     noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
     scenario: str = typer.Option("global", help="global, tracking, kidnapped, a comma list, or all."),
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf (paper-pf's "
                                                           "first estimate)."),
-    tracking_steps: int = typer.Option(12, help="Actions of the tracking drive."),
+    tracking_steps: int = typer.Option(12, help="Actions of the tracking drive.", callback=count),
     recovery_rounds: int = typer.Option(3, help="Runs of the procedure (localiser not reset) allowed to recover "
-                                                "from a kidnapping."),
+                                                "from a kidnapping.", callback=count),
     scan_processing: str = typer.Option("paper", help="Scans for the localisers: paper (processed) or raw."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
-    seed: int = typer.Option(0, help="Random seed."),
+    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
                                    help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
     out: Path = typer.Option(..., "--out", help="Output folder (must be empty or new, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process)."),
+    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
 ) -> None:
     """Benchmark localisers on random true poses: runs.csv, summary.md and plots in --out."""
@@ -171,7 +250,7 @@ def bench_localisers(
         TimeRemainingColumn,
     )
 
-    from ..bench.executors import run_tasks
+    from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.localisers import FILES, BenchConfig, TrialResult, make_tasks, run_trial, write_csv, write_summary
     from ..bench.localisers_plots import write_plots
 
@@ -192,21 +271,27 @@ def bench_localisers(
         raise NxtnavError(f"--out: {out} is not empty (use --force to write into it)")
     if not math.isfinite(sensor_noise) or sensor_noise < 0:
         raise NxtnavError(f"--sensor-noise must be a non-negative number, got {sensor_noise}")
+    options = _options_for(_parse_sets(sets, "--set"), locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
-                      lobe=lobe,
-                      localiser_options=_options_for(_parse_sets(sets, "--set"), locs))
+                      lobe=lobe, localiser_options=options)
+    _check_construction(load_map(maps[0]), options)
     tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
     out.mkdir(parents=True, exist_ok=True)
     results: list[TrialResult] = []
     t0 = time.perf_counter()
     columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                TextColumn("eta"), TimeRemainingColumn())
+    interrupted = False
     with Progress(*columns, transient=False) as progress:
         bar = progress.add_task(f"{', '.join(scenarios)} on {', '.join(maps)}", total=len(tasks))
-        for r in run_tasks(run_trial, tasks, workers=workers, dask_address=dask,
-                           on_done=lambda _r: progress.advance(bar)):
-            results.append(r)
+        try:
+            results = collect_tasks(run_trial, tasks, workers=workers, dask_address=dask,
+                                    on_done=lambda _r: progress.advance(bar))
+        except TasksInterrupted as exc:  # keep what finished; the files say they are incomplete
+            results, interrupted = list(exc.results), True
+            if not results:
+                raise Interrupted(f"no trial had finished (of {len(tasks)}); nothing written") from None
     wall = time.perf_counter() - t0
     written = [write_csv(results, out / FILES[s], s) for s in scenarios]
     command = " ".join(shlex.quote(a) for a in [
@@ -218,8 +303,17 @@ def bench_localisers(
         *(["--dask", dask] if dask else []), *[a for s in sets for a in ("--set", s)]])
     written.append(write_summary(results, out / "summary.md", config=cfg, maps=maps, localisers=locs,
                                  trials=trials, seed=seed, command=command, wall_time_s=wall))
-    written.extend(write_plots(results, out, maps, locs))
+    if not interrupted:  # the plots compare every localiser on every map: not for a partial run
+        written.extend(write_plots(results, out, maps, locs))
     (out / "config.json").write_text(json.dumps({"maps": maps, "localisers": locs, "trials": trials, "seed": seed,
-                                                 "scenarios": scenarios, **cfg.to_dict()}, indent=1, default=str))
+                                                 "scenarios": scenarios, "complete": not interrupted,
+                                                 "trials_done": len(results), "trials_planned": len(tasks),
+                                                 **cfg.to_dict()}, indent=1, default=str))
+    if interrupted:
+        summary = out / "summary.md"
+        summary.write_text(f"**INCOMPLETE**: interrupted after {len(results)} of {len(tasks)} trials; the tables "
+                           "below cover only the finished trials.\n\n" + summary.read_text())
     typer.echo((out / "summary.md").read_text())
     typer.echo(f"wrote {', '.join(str(p) for p in written)} ({len(results)} trials in {wall:.1f} s)")
+    if interrupted:
+        raise Interrupted(f"{len(results)} of {len(tasks)} trials done; partial results (marked incomplete) in {out}")

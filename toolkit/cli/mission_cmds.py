@@ -12,15 +12,13 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from ..world import SONAR_MODELS, NxtnavError, Pose, load_map
-from .app import app
-from .options import parse_floats, parse_pose, parse_xy
+from ..world import SONAR_MODELS, CollisionChecker, NxtnavError, Pose, RobotGeometry, load_map
+from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
+from .options import check_writable, count, parse_floats, parse_list, parse_pose, parse_xy, port
+from .options import seed as seed_ok
+from .options import workers as workers_ok
 
 __all__: list[str] = []
-
-
-class MissionFailed(NxtnavError):
-    """The mission ran but did not reach the target (the report says why); exit code 2."""
 
 
 def _planner_names() -> list[str]:
@@ -73,13 +71,14 @@ def run(
     noise_model: str = typer.Option("botsim", "--noise-model", help="botsim (proportional) or absolute."),
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="Sonar noise (cm), motion noise, turn noise (the paper's by default)."),
-    seed: int = typer.Option(0, help="Random seed (start heading, simulator noise, stack)."),
+    seed: int = typer.Option(0, help="Random seed (start heading, simulator noise, stack).", callback=seed_ok),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the report as JSON."),
     plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png", help="Draw the mission."),
     animate: Path | None = typer.Option(None, "--animate", metavar="FILE.gif", help="Animate the mission (GIF)."),
     nxt_backend: str = typer.Option("usb", "--nxt-backend", help="NXT link: usb, bluetooth or socket."),
     server_host: str = typer.Option("localhost", "--server-host", help="nxt-server / virtual brick host (socket)."),
-    server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket)."),
+    server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket).",
+                                     callback=port),
     profile: Path | None = typer.Option(None, "--profile", metavar="FILE", help="NXT calibration profile."),
     record: Path | None = typer.Option(None, "--record", metavar="FILE.jsonl",
                                        help="Record every command, scan and localiser call (docs/recording.md)."),
@@ -101,6 +100,9 @@ def run(
         raise typer.BadParameter(f"expected usb, bluetooth or socket, got {nxt_backend!r}",
                                  param_hint="--nxt-backend")
     sensor_noise, motion_noise, turn_noise = _noise(noise_text)
+    check_writable(json_out, "--json")
+    check_writable(plot, "--plot")
+    check_writable(animate, "--animate")
     if start_text is not None and random_start:
         raise typer.BadParameter("give either --start or --random-start", param_hint="--start")
     target = np.array(parse_xy(target_text, "--target")) if target_text is not None else m.target
@@ -113,6 +115,7 @@ def run(
         robot = _connect_nxt(nxt_backend, server_host, server_port, profile)
         recorder: Any = None
         report: Any = None
+        radius = float(robot.geometry.radius_cm)
         try:
             if record is not None:
                 recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
@@ -124,6 +127,7 @@ def run(
             robot.close()
             _finish(recorder, report)
     else:
+        radius = RobotGeometry().radius_cm  # the simulator's robot
         start: Any = None
         if start_text is not None:
             start = parse_pose(start_text, "--start", heading_required=False)
@@ -131,7 +135,6 @@ def run(
             if not m.contains(xy):
                 raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
                                          param_hint="--start")
-        from ..world import RobotGeometry
 
         recorder = None if record is None else _recorder(
             record, m, {"kind": "sim", "geometry": RobotGeometry().to_dict()},
@@ -170,8 +173,9 @@ def run(
         if animate is not None:
             animate_mission(report, m, animate)
             typer.echo(f"wrote {animate}")
-    if not report.success:
-        raise MissionFailed(f"mission failed: {report.status}")
+    if not report.success:  # a target no robot disc fits on is bad input (2); any other failure is 1
+        reachable = bool(m.contains(target)) and bool(CollisionChecker(m, radius).point_free(target))
+        raise fail(f"mission failed: {report.status}", code=EXIT_FAILED if reachable else EXIT_BAD_INPUT)
 
 
 def _recorder(path: Path, m: Any, robot: dict[str, Any], sonar: dict[str, Any], seed: int,
@@ -221,8 +225,8 @@ def _parse_stacks(stacks: list[str] | None) -> list[tuple[str, str]]:
 
 @app.command("paper")
 def paper(
-    trials: int = typer.Option(20, "--trials", min=1, help="Missions per map and noise model."),
-    seed: int = typer.Option(0, help="Seed of the table (each trial's seed derives from it)."),
+    trials: int = typer.Option(20, "--trials", help="Missions per map and noise model.", callback=count),
+    seed: int = typer.Option(0, help="Seed of the table (each trial's seed derives from it).", callback=seed_ok),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the tables as JSON."),
     markdown: Path | None = typer.Option(None, "--markdown", metavar="FILE", help="Write the tables as Markdown."),
     plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png",
@@ -233,12 +237,13 @@ def paper(
     noise_model: list[str] | None = typer.Option(None, "--noise-model",
                                                  help="Noise model(s) (default both: botsim and absolute)."),
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
-    workers: int = typer.Option(1, "--workers", min=1, help="Worker processes."),
+    workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     random_start: bool = typer.Option(False, "--random-start",
                                       help="Start each trial from a seeded random free pose (>= 10 cm from walls)."),
 ) -> None:
     """The paper's Table I regenerated: mean completion time, final error, path length, collisions."""
-    from ..bench.paper import paper_tasks, run_paper, tables_to_markdown
+    from ..bench.executors import TasksInterrupted
+    from ..bench.paper import paper_tasks, run_paper, summarise, tables_to_markdown
 
     if sonar not in SONAR_MODELS:
         raise typer.BadParameter(f"unknown sonar {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
@@ -247,9 +252,11 @@ def paper(
     for nm in models:
         if nm not in ("botsim", "absolute"):
             raise typer.BadParameter(f"expected botsim or absolute, got {nm!r}", param_hint="--noise-model")
-    map_names = [s.strip() for s in maps.split(",") if s.strip()]
+    map_names = parse_list(maps, "--maps")
     for name in map_names:
         load_map(name)
+    check_writable(json_out, "--json")
+    check_writable(markdown, "--markdown")
     stacks = _parse_stacks(stack)
     tasks = paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=sonar,
                         random_start=random_start)
@@ -257,8 +264,19 @@ def paper(
     with Progress(TextColumn("[bold]missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=console, transient=True) as progress:
         bar = progress.add_task("missions", total=len(tasks))
-        tables, results = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
+        done = len(tasks)
+        try:
+            tables, results = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
+        except TasksInterrupted as exc:  # keep the finished missions; every output says it is incomplete
+            results = list(exc.results)
+            done, tables = len(results), summarise(results)
+    complete = done == len(tasks)
+    if not complete and not tables:
+        raise Interrupted(f"no mission had finished (of {len(tasks)}); nothing written")
     text = tables_to_markdown(tables)
+    if not complete:
+        text = (f"**INCOMPLETE**: interrupted after {done} of {len(tasks)} missions; the rows below cover only "
+                f"the finished missions.\n\n{text}")
     typer.echo(text)
     for t in tables:
         for r in t.rows:
@@ -266,7 +284,8 @@ def paper(
                 typer.echo(f"{t.noise_model} {r.map}: {f}", err=True)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        doc = _no_nan([t.to_dict() for t in tables])
+        doc = _no_nan([{**t.to_dict(), "complete": complete, "missions_done": done,
+                        "missions_planned": len(tasks)} for t in tables])
         json_out.write_text(json.dumps(doc, indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
     if markdown is not None:
@@ -279,3 +298,8 @@ def paper(
 
         save_figure(draw_paper_table(results), plot)
         typer.echo(f"wrote {plot}")
+    if not complete:
+        saved = [str(p) for p in (json_out, markdown) if p is not None]
+        where = f"partial results (marked incomplete) in {' and '.join(saved)}" if saved else \
+            "the partial table is printed above (give --json/--markdown to keep it in a file)"
+        raise Interrupted(f"{done} of {len(tasks)} missions done; {where}")

@@ -16,7 +16,8 @@ from ..robots.virtual_brick import BrickServer
 from ..robots.virtual_brick_world import BrickConfig, BrickWorld
 from ..world import SONAR_MODELS, Pose, RobotGeometry, load_map
 from .app import brick_app, nxt_app
-from .options import parse_pose
+from .options import check_writable, count, non_negative, parse_pose, port, port_or_zero, positive
+from .options import seed as seed_ok
 
 __all__: list[str] = []
 
@@ -35,7 +36,7 @@ def _backend(value: str) -> str:
 _BACKEND_OPT = typer.Option("usb", "--nxt-backend", help=f"How to reach the brick: {', '.join(BACKENDS)}.",
                             callback=_backend)
 _HOST_OPT = typer.Option("127.0.0.1", "--server-host", help="Brick server host (socket backend).")
-_PORT_OPT = typer.Option(2727, "--server-port", help="Brick server port (socket backend).")
+_PORT_OPT = typer.Option(2727, "--server-port", help="Brick server port (socket backend).", callback=port)
 _ADDRESS_OPT = typer.Option(None, "--bt-address", help="Bluetooth address of the brick (00:16:53:xx:xx:xx).")
 _NAME_OPT = typer.Option(None, "--brick-name", help="Only use the brick with this name.")
 
@@ -50,31 +51,40 @@ def brick_serve(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
     pose_text: str | None = typer.Option(None, "--pose", metavar="X,Y,HEADING_DEG",
                                          help="True start pose (cm, cm, deg); default: the map's start, heading 0."),
-    port: int = typer.Option(2727, "--port", help="TCP port (0 = any free port, printed at start)."),
+    port: int = typer.Option(2727, "--port", help="TCP port (0 = any free port, printed at start).",
+                             callback=port_or_zero),
     host: str = typer.Option("127.0.0.1", "--host", help="Address to listen on."),
-    time_factor: float = typer.Option(1.0, "--time-factor", help="Brick seconds per wall second (>1 = faster)."),
+    time_factor: float = typer.Option(1.0, "--time-factor", help="Brick seconds per wall second (>1 = faster).",
+                                      callback=positive),
     max_step: float | None = typer.Option(
         None, "--max-step", help="Largest brick-time step per exchange (s); default 0.25 in real time, "
-                                 "0.02 when faster."),
+                                 "0.02 when faster.", callback=positive),
     sonar: str = typer.Option("ideal", "--sonar", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
-    sensor_noise: float = typer.Option(1.0, "--sensor-noise", help="Sonar noise (cm)."),
-    seed: int | None = typer.Option(None, "--seed", help="Random seed (sonar noise, wheel slip)."),
+    sensor_noise: float = typer.Option(1.0, "--sensor-noise", help="Sonar noise (cm).", callback=non_negative),
+    seed: int | None = typer.Option(None, "--seed", help="Random seed (sonar noise, wheel slip).", callback=seed_ok),
     log: Path | None = typer.Option(None, "--log", help="Truth log: one JSON line (t, pose, collisions) per motion."),
     wheel_diameter: float = typer.Option(RobotGeometry().wheel_diameter_cm, "--wheel-diameter",
-                                         help="True wheel diameter of the simulated robot (cm)."),
+                                         help="True wheel diameter of the simulated robot (cm).", callback=positive),
     track_width: float = typer.Option(RobotGeometry().track_width_cm, "--track-width",
-                                      help="True track width of the simulated robot (cm)."),
-    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot disc radius (cm)."),
+                                      help="True track width of the simulated robot (cm).", callback=positive),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot disc radius (cm).",
+                                 callback=positive),
     wheel_slip: float = typer.Option(0.0, "--wheel-slip",
-                                     help="Wheel slip: sd of the fraction a wheel's travel differs from its tachos."),
+                                     help="Wheel slip: sd of the fraction a wheel's travel differs from its tachos.",
+                                     callback=non_negative),
     brake_decel: float | None = typer.Option(None, "--brake-decel",
                                              help="Motor braking (deg/s^2): motors overshoot their limits like "
-                                                  "real ones; default: ideal stops on the limit."),
+                                                  "real ones; default: ideal stops on the limit.",
+                                             callback=positive),
+    run_on: bool = typer.Option(False, "--motors-run-on-disconnect",
+                                help="Like a real NXT, keep the motors running when a client's link drops "
+                                     "(default: brake the motors that client started)."),
 ) -> None:
     """Serve a simulated NXT robot to nxt-python clients (socket backend) until Ctrl-C."""
     if sonar not in SONAR_MODELS.names():
         raise typer.BadParameter(f"expected one of {', '.join(SONAR_MODELS.names())}, got {sonar!r}",
                                  param_hint="--sonar")
+    check_writable(log, "--log")
     m = load_map(map_name)
     if pose_text is None:
         if m.start is None:
@@ -84,12 +94,15 @@ def brick_serve(
         parsed = parse_pose(pose_text, "--pose")
         assert isinstance(parsed, Pose)
         pose = parsed
+        if not m.contains(pose.xy):
+            raise typer.BadParameter(f"({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
+                                     param_hint="--pose")
     if max_step is None:
         max_step = 0.25 if time_factor <= 1.0 else 0.02
     try:
         geometry = RobotGeometry(radius_cm=radius, wheel_diameter_cm=wheel_diameter, track_width_cm=track_width)
         config = BrickConfig(geometry=geometry, time_factor=time_factor, max_step_s=max_step, wheel_slip=wheel_slip,
-                             brake_decel_deg_s2=brake_decel)
+                             brake_decel_deg_s2=brake_decel, brake_on_disconnect=not run_on)
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from None
     world = BrickWorld(m, pose, config, sonar=sonar, sensor_noise=sensor_noise, rng=seed, log=log)
@@ -126,7 +139,7 @@ def nxt_check(
     bt_address: str | None = _ADDRESS_OPT,
     brick_name: str | None = _NAME_OPT,
     profile: Path | None = typer.Option(None, "--profile", help="Robot profile YAML (ports, calibration)."),
-    readings: int = typer.Option(3, "--readings", min=1, help="Sonar readings to take."),
+    readings: int = typer.Option(3, "--readings", help="Sonar readings to take.", callback=count),
 ) -> None:
     """Connect to the brick; print its name, battery, firmware and a live sonar reading."""
     with _connect(backend, server_host, server_port, bt_address, brick_name, profile) as robot:
@@ -159,6 +172,7 @@ def nxt_calibrate(
         raise typer.BadParameter("must be a positive number of cm", param_hint="--distance")
     if not (math.isfinite(angle) and angle > 0):
         raise typer.BadParameter("must be a positive number of degrees", param_hint="--angle")
+    check_writable(profile, "--profile")  # before the robot drives, not after the measurements
     current = NxtProfile.load(profile) if profile.exists() else NxtProfile()
     with _connect(backend, server_host, server_port, bt_address, brick_name, current) as robot:
         _echo(f"Step 1 of 2: put the robot on the floor with at least {distance + 20:g} cm free ahead and "

@@ -1,12 +1,107 @@
-"""Parsers for the option values people type (points, poses, lists) shared by the commands."""
+"""Parsers and checks for the option values people type (points, poses, lists, numbers, ports, files).
+
+The number checks are typer callbacks (``typer.Option(..., callback=positive)``): a value out of range
+is a usage error that names the option (``Invalid value for '--radius': must be > 0, got -5``), exit 2.
+"""
 
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
-from ..world import NxtnavError, Pose
+import typer
 
-__all__ = ["parse_floats", "parse_list", "parse_pose", "parse_xy"]
+from ..world import COORDINATE_LIMIT_CM, NxtnavError, Pose
+
+__all__ = [
+    "MAX_COUNT",
+    "check_writable",
+    "count",
+    "in_range",
+    "non_negative",
+    "parse_floats",
+    "parse_list",
+    "parse_pose",
+    "parse_xy",
+    "port",
+    "port_or_zero",
+    "positive",
+    "repeats",
+    "seed",
+    "time_limit",
+    "workers",
+]
+
+MAX_COUNT = 1_000_000
+"""Largest count (trials, runs, poses, repeats, ...) an option accepts: more would only exhaust memory."""
+
+
+def in_range(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
+             what: str = "") -> Callable[[Any], Any]:
+    """A typer callback accepting finite numbers in [lo, hi] (``(lo, hi]`` with `lo_open`); None passes."""
+    if lo is not None and hi is not None and not lo_open:
+        rule = f"from {lo:.15g} to {hi:.15g}"
+    else:
+        low = "" if lo is None else f"{'>' if lo_open else '>='} {lo:g}"
+        high = "" if hi is None else f"<= {hi:g}"
+        rule = " and ".join(x for x in (low, high) if x)
+
+    def check(value: Any) -> Any:
+        if value is None:
+            return value
+        v = float(value)
+        ok = math.isfinite(v) and (lo is None or (v > lo if lo_open else v >= lo)) and (hi is None or v <= hi)
+        if not ok:
+            raise typer.BadParameter(f"must be {what + ' ' if what else ''}{rule}, got {value!r}")
+        return value
+
+    return check
+
+
+positive = in_range(0.0, lo_open=True)
+"""A finite number > 0."""
+non_negative = in_range(0.0)
+"""A finite number >= 0."""
+time_limit = in_range(0.0, lo_open=True, what="a time limit in seconds")
+"""A planning budget: a finite number of seconds > 0."""
+count = in_range(1, MAX_COUNT, what="a count")
+"""An integer from 1 to `MAX_COUNT`."""
+repeats = in_range(0, MAX_COUNT, what="a count")
+"""An integer from 0 (none) to `MAX_COUNT`."""
+seed = in_range(0, what="a seed")
+"""A random seed: a non-negative integer."""
+workers = in_range(1, 256, what="a number of worker processes")
+"""Worker processes: 1 to 256."""
+port = in_range(1, 65535, what="a TCP port")
+"""A TCP port to connect to: 1-65535."""
+port_or_zero = in_range(0, 65535, what="a TCP port (0 = any free one)")
+"""A TCP port to listen on: 0-65535 (0 picks a free one)."""
+
+
+def check_writable(path: Path | None, option: str) -> None:
+    """Fail now, before any work, when the output file `path` could not be written later.
+
+    The file's folder is created (as writing would), an existing folder in its place or a folder
+    that cannot be written is an error naming the option and the path.
+    """
+    if path is None:
+        return
+    if path.is_dir():
+        raise NxtnavError(f"{option}: {path} is a folder, not a file")
+    parent = path.parent if str(path.parent) else Path(".")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise NxtnavError(f"{option}: cannot create the folder of {path}: {exc.strerror or exc}") from None
+    if not parent.is_dir():
+        raise NxtnavError(f"{option}: {parent} is not a folder")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise NxtnavError(f"{option}: {path} is not writable")
+    if not path.exists() and not os.access(parent, os.W_OK | os.X_OK):
+        raise NxtnavError(f"{option}: cannot write into {parent}")
 
 
 def parse_floats(text: str, option: str, count: tuple[int, ...]) -> list[float]:
@@ -23,6 +118,8 @@ def parse_floats(text: str, option: str, count: tuple[int, ...]) -> list[float]:
     for v in values:
         if not math.isfinite(v):
             raise NxtnavError(f"{option}: values must be finite, got {text!r}")
+        if abs(v) > COORDINATE_LIMIT_CM:
+            raise NxtnavError(f"{option}: values must lie within +-{COORDINATE_LIMIT_CM:g}, got {text!r}")
     return values
 
 

@@ -13,8 +13,12 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
-from .app import app, bench_app, fail
-from .options import parse_list, parse_xy
+from .app import Interrupted, app, bench_app, fail
+from .options import check_writable, count, non_negative, parse_list, parse_xy, positive
+from .options import repeats as repeats_ok
+from .options import seed as seed_ok
+from .options import time_limit as time_limit_ok
+from .options import workers as workers_ok
 
 __all__: list[str] = []
 
@@ -55,14 +59,18 @@ def plan(
     planner: str = typer.Option("min-turn", "--planner", help="Planner: a registry name or ompl:NAME."),
     start_text: str | None = typer.Option(None, "--start", metavar="X,Y", help="Start in cm (default: preset)."),
     goal_text: str | None = typer.Option(None, "--goal", metavar="X,Y", help="Goal in cm (default: preset)."),
-    seed: int = typer.Option(0, "--seed", help="Random seed of the planner and of the execution error."),
-    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SEC", help="Planning budget (s)."),
-    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm)."),
-    exec_repeats: int = typer.Option(100, "--exec-repeats", min=0,
+    seed: int = typer.Option(0, "--seed", help="Random seed of the planner and of the execution error.",
+                          callback=seed_ok),
+    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SEC", help="Planning budget (s).",
+                                     callback=time_limit_ok),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm).", callback=positive),
+    exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives for the execution error (0 skips it)."),
     noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
-    motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move."),
-    turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad."),
+    motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
+                                       callback=non_negative),
+    turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
+                                     callback=non_negative),
     output: Path = typer.Option(..., "-o", "--output", metavar="FILE.png", help="Figure to write."),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write path, metrics and status."),
 ) -> None:
@@ -78,6 +86,8 @@ def plan(
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
     nz = _noise(noise_model, motion_noise, turn_noise)
     check_planner_names([planner])
+    check_writable(output, "--output")
+    check_writable(json_out, "--json")
     m = load_map(map_name)
     checker = make_checker(m, radius)
 
@@ -158,21 +168,24 @@ def bench_planners(
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
     planners: str = typer.Option("min-turn,rrtstar,prm,astar", "--planners",
                                  help="Comma-separated planners (registry names or ompl:NAME)."),
-    runs: int = typer.Option(50, "--runs", min=1, help="Runs per planner and map."),
-    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", help="Planning budget per run (s)."),
-    seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it)."),
+    runs: int = typer.Option(50, "--runs", help="Runs per planner and map.", callback=count),
+    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", help="Planning budget per run (s).",
+                                     callback=time_limit_ok),
+    seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it).", callback=seed_ok),
     out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder (must be new or empty)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),
-    workers: int = typer.Option(1, "--workers", min=1, help="Worker processes."),
+    workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
                                     help="Run on a Dask cluster (tcp://host:8786) or 'local' (extra 'cluster')."),
     queries: str = typer.Option("presets", "--queries", help="presets (the map's start/target) or random."),
-    exec_repeats: int = typer.Option(100, "--exec-repeats", min=0,
+    exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives per run for the execution error (0 skips it)."),
-    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm)."),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm).", callback=positive),
     noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
-    motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move."),
-    turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad."),
+    motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
+                                       callback=non_negative),
+    turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
+                                     callback=non_negative),
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
 ) -> None:
     """Benchmark planners on maps: runs.csv, paths.jsonl, summary.md, box plots and an OMPL benchmark.log."""
@@ -196,6 +209,10 @@ def bench_planners(
         task = progress.add_task("references and runs", total=config.n_tasks())
         result = run_benchmark(config, workers=workers, dask_address=dask,
                                on_done=lambda _: progress.advance(task))
+    if not result.records:
+        raise Interrupted("no planner run had finished; nothing written")
     files = write_results(result, out_dir, plots=plots)
     typer.echo((out_dir / "summary.md").read_text(encoding="utf-8"))
     typer.echo(f"wrote {len(files)} files to {out_dir} in {result.total_time_s:.1f} s")
+    if not result.complete:
+        raise Interrupted(f"{len(result.records)} planner runs done; partial results (marked incomplete) in {out_dir}")

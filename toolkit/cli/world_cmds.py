@@ -33,7 +33,8 @@ from ..world import (
     ray_cast,
 )
 from .app import app, bench_app, maps_app
-from .options import parse_pose
+from .options import check_writable, count, non_negative, parse_pose, positive
+from .options import seed as seed_ok
 
 __all__: list[str] = []
 
@@ -53,9 +54,11 @@ def maps_list() -> None:
 def maps_show(
     map_name: str = typer.Argument(..., metavar="NAME|PATH", help="Map name (map1) or YAML file."),
     output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
-    radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the c-space (cm)."),
+    radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the c-space (cm).",
+                                 callback=positive),
 ) -> None:
     """Draw a map with its c-space and presets."""
+    check_writable(output, "--output")
     m = load_map(map_name)
     fig, ax = new_axes(size=5.0 if len(m.walls) < 200 else 9.0)
     draw_map(m, ax)
@@ -72,23 +75,40 @@ def scan(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="Robot pose (cm, cm, deg)."),
     sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
-    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm)."),
-    seed: int = typer.Option(0, help="Random seed."),
-    output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
+    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm).", callback=non_negative),
+    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
+    output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
+                                       help="Draw the scan (rays on the map, radar chart)."),
     json_out: Path | None = typer.Option(None, "--json", help="Write the scan as JSON."),
 ) -> None:
-    """One 360-degree scan at a pose, drawn as the paper's Fig. 3 (rays on the map, radar chart)."""
+    """One 360-degree scan at a pose: printed, drawn as the paper's Fig. 3 with -o (rays, radar chart)."""
+    if sonar not in SONAR_MODELS:
+        raise typer.BadParameter(f"unknown sonar model {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
+                                 param_hint="--sonar")
+    check_writable(output, "--output")
+    check_writable(json_out, "--json")
     m = load_map(map_name)
     pose = parse_pose(pose_text, "--pose")
     assert isinstance(pose, Pose)
     if not m.contains(pose.xy):
-        raise typer.BadParameter(f"pose ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
+        raise typer.BadParameter(f"pose ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
+                                 param_hint="--pose")
     model = make_sonar(sonar, noise_sd=sensor_noise)
     angles = default_scan_angles()
     from ..world import Scan
 
     readings = model.measure(m.walls, pose.xy, pose.theta + angles, rng=seed)
     s = Scan.from_readings(angles, readings)
+    echo = s.ranges[s.valid]
+    typer.echo(f"scan at ({pose.x:g}, {pose.y:g}, {pose.heading_deg:g} deg) on {m.name}, sonar {sonar}: "
+               f"{int(s.valid.sum())}/{len(s)} readings with an echo"
+               + (f", {echo.min():.1f} to {echo.max():.1f} cm" if echo.size else ""))
+    if json_out is not None:
+        doc = {"map": m.name, "sonar": sonar, "seed": seed, "pose": pose.to_list_deg(), **s.to_dict()}
+        json_out.write_text(json.dumps(doc, indent=1))
+        typer.echo(f"wrote {json_out}")
+    if output is None:
+        return
     fig = new_axes(2, size=5.5)[0]
     fig.clf()
     ax0 = fig.add_subplot(1, 2, 1)
@@ -101,20 +121,16 @@ def scan(
     ax1.set_title("readings (cm) vs sensor angle")
     ax1.legend(loc="lower left", fontsize=8, bbox_to_anchor=(-0.1, -0.12))
     save_figure(fig, output)
-    typer.echo(f"wrote {output} ({int(s.valid.sum())}/{len(s)} readings with an echo)")
-    if json_out is not None:
-        doc = {"map": m.name, "sonar": sonar, "seed": seed, "pose": pose.to_list_deg(), **s.to_dict()}
-        json_out.write_text(json.dumps(doc, indent=1))
-        typer.echo(f"wrote {json_out}")
+    typer.echo(f"wrote {output}")
 
 
 @bench_app.command("world")
 def bench_world(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
-    poses: int = typer.Option(1000, help="Poses per ray-casting call."),
-    repeats: int = typer.Option(7, help="Repetitions; the median is reported."),
-    segments: int = typer.Option(20000, help="Random segments for the FCL segment check timing."),
-    seed: int = typer.Option(0, help="Random seed."),
+    poses: int = typer.Option(1000, help="Poses per ray-casting call.", callback=count),
+    repeats: int = typer.Option(7, help="Repetitions; the median is reported.", callback=count),
+    segments: int = typer.Option(20000, help="Random segments for the FCL segment check timing.", callback=count),
+    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
 ) -> None:
     """Throughput of ray casting (poses x 360 angles) and collision checks; medians of repeats.
 

@@ -16,8 +16,10 @@ Ultrascan
 Turnback
     Reverses ``backoff_cm``.
 
-Every motion ends with the motors braked. Any failure during an action (an exception, Ctrl-C, a lost
-link) brakes the motors where the link still works and raises `RobotError` saying what happened.
+Every motion is tacho-limited on the brick (the firmware stops the motor at its limit even when the
+computer has crashed or the link is lost), and ends with the motors braked. Any failure during an
+action (an exception, Ctrl-C, a lost link) brakes the motors where the link still works and raises
+`RobotError` saying what happened.
 ``robot_time_s`` is measured: the brick's own millisecond tick (read from the firmware's command
 module) when the brick offers it, otherwise the wall clock around each action.
 
@@ -177,6 +179,11 @@ class NxtRobot:
         return end[1] - start[1]
 
     def _run(self, port: Any, power: int, limit: int) -> None:
+        """Set a motor going for `limit` tacho degrees: every motion is bounded on the brick itself, so a
+        crashed or disconnected computer cannot leave the robot driving (a real NXT keeps running its
+        motors when the link drops)."""
+        if int(limit) <= 0:
+            raise RobotError(f"refusing an unbounded motor command (tacho limit {limit})")
         m = self._nxt.motor
         self.brick.set_output_state(port, int(power), self._hold, m.RegulationMode.SPEED, 0, m.RunState.RUNNING,
                                     int(limit))

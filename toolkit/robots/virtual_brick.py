@@ -12,7 +12,10 @@ sound, low-speed (I2C) write/read/status; the system commands firmware version, 
 set brick name, Bluetooth address, and IO-map read of the command module's tick (offset 20 of module
 0x00010001, milliseconds of brick time). Program, file, mailbox and module commands answer with
 the firmware's "not found" or "no active program" statuses; anything else gets an error status.
-Malformed bytes never stop the server, and a client that disconnects leaves the motors braked.
+Malformed bytes never stop the server. Each motor belongs to the connection that last set it going;
+when that connection goes away the motor is braked (unless ``BrickConfig.brake_on_disconnect`` is
+False, as on a real NXT), while other clients leaving do not touch it. TCP may cut a telegram into
+pieces: each connection keeps an incomplete telegram until the rest of its known length arrives.
 
 Example
 -------
@@ -39,6 +42,7 @@ from .virtual_brick_protocol import (
     Status,
     System,
     error_reply,
+    incomplete_telegram,
     ok_reply,
     split_telegrams,
 )
@@ -68,6 +72,7 @@ _FIRMWARE_VERSION = (1, 31)
 _SLEEP_TIMEOUT_MS = 600_000
 _FREE_FLASH = 110_000
 _TICK_S = 0.005  # wall seconds between clock ticks of a free-running brick
+_REASSEMBLY_S = 0.25  # wall seconds to wait for the rest of a telegram TCP delivered in pieces
 
 
 class _BadTelegram(Exception):
@@ -91,6 +96,8 @@ class VirtualBrick:
         self.telegrams = 0
         self.errors = 0
         self.tones = 0
+        self._client: object = None  # the connection whose telegram is being executed
+        self._owners: dict[int, object] = {}  # output port -> the connection that set it going
         self._handlers: dict[tuple[int, int], Callable[[bytes], bytes]] = {
             (0, Direct.PLAY_TONE): self._play_tone,
             (0, Direct.SET_OUTPUT_STATE): self._set_output_state,
@@ -130,8 +137,9 @@ class VirtualBrick:
         }
 
     # -- dispatch ---------------------------------------------------------------------------------
-    def handle(self, frame: Frame) -> bytes | None:
-        """Execute one telegram; return the reply bytes, or None when the sender wants none."""
+    def handle(self, frame: Frame, client: object = None) -> bytes | None:
+        """Execute one telegram from connection `client`; return the reply bytes, or None when the
+        sender wants none."""
         self.telegrams += 1
         data = frame.data
         wants = frame.wants_reply
@@ -144,6 +152,7 @@ class VirtualBrick:
             with self.world.lock:
                 if wants:
                     self.world.advance()
+                self._client = client
                 payload = handler(data)
         except _BadTelegram as exc:
             self.errors += 1
@@ -192,7 +201,24 @@ class VirtualBrick:
         ports = [0, 1, 2] if port == 0xFF else [self._output_port(t)]
         for p in ports:
             self.world.command_motor(p, power, mode, regulation, turn_ratio, run_state, limit)
+            if self.world.motors[p].driven:
+                self._owners[p] = self._client
+            else:  # braked or idled: nobody's motion any more
+                self._owners.pop(p, None)
         return b""
+
+    def release(self, client: object) -> list[int]:
+        """Connection `client` has gone: brake the motors it set going (when the config says so).
+
+        Returns the output ports it owned. Motors started by other connections are left alone.
+        """
+        with self.world.lock:
+            ports = [p for p, c in self._owners.items() if c is client]
+            for p in ports:
+                del self._owners[p]
+            if ports and self.world.config.brake_on_disconnect:
+                self.world.stop_motors(ports)
+        return ports
 
     def _get_output_state(self, t: bytes) -> bytes:
         port = self._output_port(t)
@@ -309,34 +335,45 @@ class _Handler(socketserver.BaseRequestHandler):
         _log.info("client %s connected", peer)
         self.server.clients += 1
         self.server.live.add(sock)
+        held = b""  # the start of a telegram whose rest has not arrived yet
         try:
             while not self.server.stopping:
+                sock.settimeout(_REASSEMBLY_S if held else None)
                 try:
                     chunk = sock.recv(1024)
                     _quick_ack(sock)
+                except TimeoutError:  # the rest never came: answer the fragment as the bad telegram it is
+                    frames, held = [Frame("garbage", held)], b""
                 except OSError:
                     break
-                if not chunk:
-                    break
-                closing = False
-                for frame in split_telegrams(chunk):
-                    if frame.kind == "type":
-                        sock.sendall(CONNECTION_TYPE_NAME.encode("ascii"))
-                    elif frame.kind == "close":
-                        closing = True
+                else:
+                    if not chunk:
                         break
-                    else:
-                        reply = brick.handle(frame)
-                        if reply is not None:
-                            sock.sendall(reply)
-                if closing:
+                    data, held = held + chunk, b""
+                    frames = split_telegrams(data)
+                    if frames and frames[-1].kind == "garbage" and incomplete_telegram(frames[-1].data):
+                        held = frames.pop().data  # TCP cut this telegram: wait for the rest of its length
+                if self._serve(sock, frames, brick):
                     break
         except OSError as exc:
             _log.info("client %s: %s", peer, exc)
         finally:
             self.server.live.discard(sock)
-            brick.world.stop_all()
-            _log.info("client %s gone; motors stopped", peer)
+            stopped = brick.release(self)
+            _log.info("client %s gone; motors it drove: %s", peer, stopped or "none")
+
+    def _serve(self, sock: socket.socket, frames: list[Frame], brick: VirtualBrick) -> bool:
+        """Answer the frames; True when the client said goodbye."""
+        for frame in frames:
+            if frame.kind == "type":
+                sock.sendall(CONNECTION_TYPE_NAME.encode("ascii"))
+            elif frame.kind == "close":
+                return True
+            else:
+                reply = brick.handle(frame, client=self)
+                if reply is not None:
+                    sock.sendall(reply)
+        return False
 
 
 class _TCPServer(socketserver.ThreadingTCPServer):

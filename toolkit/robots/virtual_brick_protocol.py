@@ -33,6 +33,7 @@ __all__ = [
     "System",
     "error_reply",
     "expected_length",
+    "incomplete_telegram",
     "ok_reply",
     "split_telegrams",
 ]
@@ -268,6 +269,17 @@ def split_telegrams(chunk: bytes) -> list[Frame]:
         frames.append(Frame("telegram", rest[:n]))
         i += n
     return frames
+
+
+def incomplete_telegram(data: bytes) -> bool:
+    """Whether `data` is the start of a command telegram whose rest has not arrived yet.
+
+    True for a lone command-type byte and for a known command (fixed or variable length) cut short:
+    TCP may deliver any write in pieces, so the receiver keeps these bytes and waits for the rest.
+    """
+    if not data or (data[0] & ~TYPE_NO_REPLY) not in (TYPE_DIRECT, TYPE_SYSTEM):
+        return False
+    return Frame("garbage", data).truncated
 
 
 def ok_reply(opcode: int, payload: bytes = b"") -> bytes:

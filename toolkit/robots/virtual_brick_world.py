@@ -27,7 +27,7 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
@@ -129,6 +129,11 @@ class BrickConfig:
         Battery voltage reported (mV).
     name : str
         Brick name (at most 14 characters).
+    brake_on_disconnect : bool
+        True: when the connection that started a motor's motion goes away, that motor is braked (a
+        safety net of the simulator). False: the motors run on after a lost link, as a real NXT's
+        firmware keeps them running when the USB or Bluetooth link drops; only their tacho limits
+        stop them (what `toolkit.robots.nxt.NxtRobot` relies on).
     """
 
     geometry: RobotGeometry = field(default_factory=RobotGeometry)
@@ -148,6 +153,7 @@ class BrickConfig:
     brake_decel_deg_s2: float | None = None
     battery_mv: int = 8000
     name: str = "nxtnav-virtual"
+    brake_on_disconnect: bool = True
 
     def __post_init__(self) -> None:
         ports = (self.left_port, self.right_port, self.turret_port)
@@ -505,10 +511,14 @@ class BrickWorld:
                 self._slip[port] = float(self._slip_rng.normal(0.0, slip)) if slip > 0 else 0.0
 
     def stop_all(self) -> None:
-        """Brake every motor now (a client vanished or asked for it)."""
+        """Brake every motor now."""
+        self.stop_motors(range(len(self.motors)))
+
+    def stop_motors(self, ports: Iterable[int]) -> None:
+        """Brake the motors on outputs `ports` now (the client that started them vanished)."""
         with self.lock:
-            for m in self.motors:
-                m.stop()
+            for p in ports:
+                self.motors[p].stop()
             self._note_motion_end()
 
     def measure_sonar(self) -> int:

@@ -88,6 +88,7 @@ class CollisionChecker:
         shapely.prepare(map.polygon)
         self.point_checks = 0
         self.segment_checks = 0
+        self._regions: list[shapely.Polygon] | None = None
 
     # -- counters -------------------------------------------------------------------------------
     @property
@@ -99,6 +100,37 @@ class CollisionChecker:
         """Set the check counters to zero."""
         self.point_checks = 0
         self.segment_checks = 0
+
+    # -- connectivity ---------------------------------------------------------------------------
+    def free_regions(self) -> list[shapely.Polygon]:
+        """The connected pieces of the configuration space (the free area shrunk by the robot radius).
+
+        Computed once per checker. The arcs of the shrunk area are drawn as chords that lie slightly
+        outside the exact arcs, so each piece holds every free position of its exact piece; pieces
+        that are apart here are apart in truth.
+        """
+        regions: list[shapely.Polygon] | None = getattr(self, "_regions", None)  # subclasses may skip __init__
+        if regions is None:
+            space = self.map.free_space(self.robot_radius)
+            regions = [g for g in getattr(space, "geoms", [space]) if not g.is_empty]
+            self._regions = regions
+        return regions
+
+    def connected(self, a: ArrayLike, b: ArrayLike) -> bool:
+        """False when free positions `a` and `b` (cm) lie in different pieces of the configuration space,
+        so that no collision-free path can join them; True otherwise (also when undecided)."""
+        if self.robot_radius <= 0:  # a point robot: the map's own regions decide (`Map.region_of`)
+            return True
+        regions = self.free_regions()
+        if len(regions) < 2:
+            return True
+
+        def region(xy: ArrayLike) -> int | None:
+            p = shapely.Point(np.asarray(xy, dtype=float).reshape(2))
+            return next((i for i, g in enumerate(regions) if shapely.dwithin(g, p, 1e-6)), None)
+
+        ra, rb = region(a), region(b)
+        return ra is None or rb is None or ra == rb
 
     # -- single checks --------------------------------------------------------------------------
     def _inside(self, pts: NDArray[np.float64]) -> NDArray[np.bool_]:

@@ -45,7 +45,8 @@ from shapely.geometry.base import BaseGeometry
 from .errors import MapError
 from .geometry import RngLike, as_rng
 
-__all__ = ["MAP_FIELDS", "GridSpec", "Map", "Region", "list_maps", "load_map", "map_from_dict", "map_search_path"]
+__all__ = ["COORDINATE_LIMIT_CM", "MAP_FIELDS", "GridSpec", "Map", "Region", "list_maps", "load_map", "map_from_dict",
+           "map_search_path"]
 
 MAP_FIELDS = ("name", "description", "boundary", "obstacles", "regions", "grid", "start", "target")
 _BUNDLED = Path(__file__).resolve().parents[2] / "maps"
@@ -125,12 +126,22 @@ def _read_yaml(path: Path) -> Any:
         raise MapError(f"{path}: not valid YAML{where}: {problem}") from None
 
 
+COORDINATE_LIMIT_CM = 1.0e6
+"""Largest absolute map coordinate (cm, 10 km): far beyond any room, and far below where the
+geometry's predicates lose their precision (shapely's break down near 1e154)."""
+
+
 def _number(value: Any, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise MapError(f"{where}: expected a number, got {type(value).__name__} {value!r}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer too large for a float
+        v = math.inf
     if not math.isfinite(v):
-        raise MapError(f"{where}: coordinate must be finite, got {v}")
+        raise MapError(f"{where}: coordinate must be finite, got {value}")
+    if abs(v) > COORDINATE_LIMIT_CM:
+        raise MapError(f"{where}: coordinate {v:g} is outside the supported range +-{COORDINATE_LIMIT_CM:g} cm")
     return v
 
 

@@ -1,0 +1,128 @@
+"""Exit codes through the real console script (0 ok, 1 plan or mission failed, 2 bad input, 130
+interrupted), what an interrupted run keeps, and bad option values said in one line naming the option."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+EXE = shutil.which("nxtnav", path=str(Path(sys.executable).parent))
+pytestmark = pytest.mark.skipif(EXE is None, reason="nxtnav console script not installed next to this Python")
+
+SPLIT_MAP = """name: split
+boundary: [[0, 0], [100, 0], [100, 60], [0, 60]]
+obstacles:
+  - [[45, 2], [55, 2], [55, 58], [45, 58]]
+start: [20, 30]
+target: [80, 30]
+"""
+"""A room cut in two by a wall whose 2 cm gaps no robot disc passes: no path can exist."""
+
+
+def _nxtnav(*args: str, cwd: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    assert EXE is not None
+    return subprocess.run([EXE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+def _one_error_line(stderr: str) -> str:
+    lines = [ln for ln in stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, stderr
+    assert lines[0].startswith("nxtnav: ") and "Traceback" not in stderr
+    return lines[0]
+
+
+_last_session = [0]  # the session (= process group) id of the last interrupted command
+
+
+def _interrupt(args: list[str], cwd: Path, when: object, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    """Run the console script, send Ctrl-C (SIGINT to its process group, as a terminal does) once
+    `when()` is true, and return what it did."""
+    assert EXE is not None
+    proc = subprocess.Popen([EXE, *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True,  # its own group, as a terminal's foreground job
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    _last_session[0] = proc.pid
+    deadline = time.monotonic() + timeout
+    try:
+        while not when() and proc.poll() is None and time.monotonic() < deadline:  # type: ignore[operator]
+            time.sleep(0.05)
+        assert proc.poll() is None, "the command ended before it could be interrupted"
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+
+
+def test_success_is_0(tmp_path: Path) -> None:
+    proc = _nxtnav("plan", "--map", "map1", "--exec-repeats", "0", "-o", "p.png", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "p.png").exists() and proc.stderr == ""
+
+
+def test_no_path_is_1_and_reported_as_unreachable_at_once(tmp_path: Path) -> None:
+    (tmp_path / "split.yaml").write_text(SPLIT_MAP)
+    proc = _nxtnav("plan", "--map", "split.yaml", "--planner", "rrtstar", "--exec-repeats", "0", "--json", "p.json",
+                   "-o", "p.png", cwd=tmp_path)
+    assert proc.returncode == 1
+    assert "unreachable" in _one_error_line(proc.stderr)
+    doc = json.loads((tmp_path / "p.json").read_text())
+    assert doc["success"] is False and doc["status"].startswith("unreachable")
+    assert doc["collision_checks"] <= 2  # told from the c-space before any search, not after the budget
+
+
+def test_bad_input_is_2_naming_the_option(tmp_path: Path) -> None:
+    proc = _nxtnav("bench", "world", "--repeats", "-1", cwd=tmp_path)
+    assert proc.returncode == 2
+    assert "--repeats" in _one_error_line(proc.stderr)
+
+
+def test_a_failed_mission_is_1(tmp_path: Path) -> None:
+    (tmp_path / "split.yaml").write_text(SPLIT_MAP)
+    proc = _nxtnav("run", "--map", "split.yaml", "--json", "m.json", cwd=tmp_path)
+    assert proc.returncode == 1, proc.stderr
+    assert "mission failed" in _one_error_line(proc.stderr)
+    assert json.loads((tmp_path / "m.json").read_text())["success"] is False
+
+
+@pytest.mark.parametrize("after_s", [0.2, 2.5])  # while the libraries load; during the mission
+def test_ctrl_c_during_run_is_130(tmp_path: Path, after_s: float) -> None:
+    started = time.monotonic()
+    proc = _interrupt(["run", "--map", "map3", "--json", "m.json"], tmp_path,
+                      when=lambda: time.monotonic() - started > after_s)
+    assert proc.returncode == 130, proc.stderr
+    assert _one_error_line(proc.stderr) == "nxtnav: interrupted"
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_ctrl_c_during_paper_with_workers_keeps_the_finished_missions(tmp_path: Path) -> None:
+    out = tmp_path / "table.json"
+    started = time.monotonic()
+    # two workers, ten missions on map1: interrupt after a few (range tables included), far from all ten
+    proc = _interrupt(["paper", "--trials", "10", "--maps", "map1", "--noise-model", "botsim", "--workers", "2",
+                       "--json", str(out)], tmp_path, when=lambda: time.monotonic() - started > 12.0)
+    assert proc.returncode == 130, proc.stderr
+    line = _one_error_line(proc.stderr)
+    assert line.startswith("nxtnav: interrupted:")
+    if "no mission had finished" in line:
+        pytest.skip("the machine was too slow to finish a mission in 12 s")
+    assert str(out) in line
+    tables = json.loads(out.read_text())
+    assert tables and all(t["complete"] is False for t in tables)
+    done = tables[0]["missions_done"]
+    assert 0 < done < tables[0]["missions_planned"] == 10
+    assert tables[0]["rows"][0]["trials"] == done
+    assert "INCOMPLETE" in proc.stdout
+    time.sleep(0.5)  # the workers were ended with the parent: nothing of its session is left
+    left = subprocess.run(["pgrep", "-s", str(proc.args and _last_session[0])], capture_output=True, text=True)
+    assert left.stdout.strip() == "", f"worker processes left running: {left.stdout}"
