@@ -385,7 +385,9 @@ class Map:
             for ring in (region.boundary, *region.holes):
                 nxt = np.roll(ring, -1, axis=0)
                 segs.append(np.hstack([ring, nxt]))
-        return np.vstack(segs)
+        walls = np.vstack(segs)
+        walls.setflags(write=False)  # read-only: ray casting and collision checks index it once
+        return walls
 
     @cached_property
     def wall_lines(self) -> shapely.MultiLineString:
