@@ -115,3 +115,44 @@ def test_lobe_table_with_specular_loss_matches_nxt_sonar() -> None:
     # the thin-ray table is a much worse model of this sonar
     thin_err = np.abs(flat[both] - echo[both])
     assert np.mean(thin_err < 3.0) < np.mean(err < 3.0) - 0.05
+
+
+def test_range_table_fits_its_memory_budget() -> None:
+    """A budget too small for 1 cm float32 cells gives uint16 ranges, then coarser cells; never more memory."""
+    from localisation.models import plan_range_table
+
+    m = load_map("map1")
+    full = range_table(m, memory_mb=64)
+    assert full.dtype == "float32" and full.resolution_cm == 1.0
+    budget = full.nbytes * 0.6 / 2**20  # uint16 at 1 cm fits, float32 does not
+    half = range_table(m, memory_mb=budget)
+    assert half.dtype == "uint16" and half.resolution_cm == 1.0 and half.nbytes <= budget * 2**20
+    rows = np.arange(0, len(full.centres), 97)
+    a, b = full.decode(rows), half.decode(rows)
+    assert np.array_equal(np.isinf(a), np.isinf(b))
+    assert np.max(np.abs(a[np.isfinite(a)] - b[np.isfinite(b)])) <= half.quantum_cm / 2 + 1e-4
+    coarse = range_table(m, memory_mb=budget / 3)
+    assert coarse.resolution_cm > 1.0 and coarse.nbytes <= budget / 3 * 2**20
+    plan = plan_range_table(m, 360, int(budget / 3 * 2**20))
+    assert plan.resolution_cm == coarse.resolution_cm and plan.dtype == coarse.dtype
+
+
+@pytest.mark.parametrize("memory_mb", [0.0, -5.0, 0.01])
+def test_range_table_budget_errors_name_the_option(memory_mb: float) -> None:
+    from toolkit.world import LocalisationError
+
+    with pytest.raises(LocalisationError, match="--range-memory-mb") as err:
+        range_table(load_map("map1"), memory_mb=memory_mb)
+    assert "\n" not in str(err.value)
+
+
+def test_range_table_budget_from_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    from localisation.models import range_memory_budget
+    from toolkit.world import LocalisationError
+
+    monkeypatch.setenv("NXTNAV_RANGE_MEMORY_MB", "2")
+    assert range_memory_budget() == 2 * 2**20
+    assert range_memory_budget(3) == 3 * 2**20
+    monkeypatch.setenv("NXTNAV_RANGE_MEMORY_MB", "lots")
+    with pytest.raises(LocalisationError, match="NXTNAV_RANGE_MEMORY_MB"):
+        range_memory_budget()

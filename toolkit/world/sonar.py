@@ -6,8 +6,9 @@ Two models, both seeded through an ``rng`` argument:
     BotSim's ``ultraScan``: every ray is intersected with the walls, Gaussian noise of ``noise_sd`` cm
     is added to the x and to the y of each crossing point, and the reading is the smallest distance
     from the sensor to a noisy crossing point. No range limit; ``inf`` when the ray meets no wall.
-    Only the crossings within ``8 * noise_sd`` of the first one (at most four) are drawn: a farther
-    crossing wins with a probability below 1e-8, and the cost stays that of indexed ray casting.
+    On maps of more than 256 walls only the crossings within ``8 * noise_sd`` of the first one (at
+    most four) get noise: a farther crossing wins with a probability below 1e-8, and the cost stays
+    that of indexed ray casting; smaller maps draw noise for every (ray, wall) pair as BotSim does.
 ``nxt``
     A LEGO NXT ultrasonic sensor: a lobe of ``beam_width_deg`` sampled by ``beam_rays`` rays; a ray that
     meets a flat wall at more than ``critical_incidence_deg`` from the wall's normal is reflected away
@@ -88,18 +89,30 @@ class IdealSonar(SonarModel):
     crossings: ClassVar[int] = 4
     """Crossings per ray that receive noise (the nearest ones within ``slack_sd * noise_sd``)."""
     slack_sd: ClassVar[float] = 8.0
+    per_wall_draws_up_to: ClassVar[int] = 256
+    """Maps with at most this many walls draw one noise pair per (ray, wall), as BotSim does."""
 
     def measure(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike, rng: RngLike = None) -> Any:
         ox_oy, a, shape = _flatten(origins, angles)
+        index = edge_index(walls)
         noisy = self.noise_sd > 0
-        t, _ = edge_index(walls).cast(ox_oy[:, 0], ox_oy[:, 1], a, k=self.crossings if noisy else 1,
-                                      slack=self.slack_sd * self.noise_sd if noisy else 0.0)
+        t, w = index.cast(ox_oy[:, 0], ox_oy[:, 1], a, k=self.crossings if noisy else 1,
+                          slack=self.slack_sd * self.noise_sd if noisy else 0.0)
         if not noisy:
             return t[:, 0].reshape(shape)
         gen = as_rng(rng)
         hit = np.isfinite(t)
-        ex = gen.standard_normal(t.shape) * self.noise_sd
-        ey = gen.standard_normal(t.shape) * self.noise_sd
+        n_walls = len(index.walls)
+        if n_walls <= self.per_wall_draws_up_to:
+            # BotSim draws noise for every (ray, wall) pair: so do we on small maps, so that a seed
+            # gives the same readings as a brute-force ultraScan
+            rows = np.arange(a.size)[:, None]
+            col = np.maximum(w, 0)
+            ex = (gen.standard_normal((a.size, n_walls)) * self.noise_sd)[rows, col]
+            ey = (gen.standard_normal((a.size, n_walls)) * self.noise_sd)[rows, col]
+        else:
+            ex = gen.standard_normal(t.shape) * self.noise_sd
+            ey = gen.standard_normal(t.shape) * self.noise_sd
         tt = np.where(hit, t, 0.0)
         d = np.hypot(tt * np.cos(a)[:, None] + ex, tt * np.sin(a)[:, None] + ey)
         return np.where(hit, d, np.inf).min(axis=1).reshape(shape)
