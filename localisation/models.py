@@ -246,7 +246,7 @@ def plan_range_table(map: Map, n_angles: int, budget_bytes: int, resolution_cm: 
     raise LocalisationError(
         f"map {map.name!r}: its range model needs about {est / 2**20:.0f} MB even with "
         f"{max(RESOLUTION_LADDER_CM[-1], resolution_cm):g} cm cells, more than the budget of "
-        f"{budget_bytes / 2**20:.0f} MB; "
+        f"{budget_bytes / 2**20:.3g} MB; "
         f"raise --range-memory-mb (or ${RANGE_MEMORY_ENV})")
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import RngLike, as_rng
-from .maps import Map
+from .maps import Map, Region
 
 __all__ = ["random_grid_map"]
 
@@ -54,6 +54,5 @@ def random_grid_map(cells: int = 512, cell_cm: float = 5.0, density: float = 0.3
     return Map(
         name=f"grid{cells}",
         description=f"{cells} x {cells} cells of {cell_cm:g} cm, {int(keep.sum())} random blocks",
-        boundary=square / cell_cm * side,
-        obstacles=tuple(p + square for p in lo),
+        regions=(Region(square / cell_cm * side, tuple(p + square for p in lo)),),
     )
