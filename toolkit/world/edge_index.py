@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import threading
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -254,14 +254,20 @@ def _segment_segment_distance(ax: float, ay: float, bx: float, by: float,
 
 @_jit
 def _capsules_clear(walls: FloatArray, x0: float, y0: float, h: float, nx: int, ny: int, start: IntArray,
-                    items: IntArray, a: FloatArray, b: FloatArray, radius: float, out: NDArray[np.bool_]) -> None:
-    """out[s] = no wall closer than `radius` to segment s (a[s] -> b[s]; a point when a == b)."""
-    for s in range(a.shape[0]):
-        ax, ay, bx, by = a[s, 0], a[s, 1], b[s, 0], b[s, 1]
+                    items: IntArray, a: FloatArray, b: FloatArray, radius: float, out: NDArray[np.bool_],
+                    stamp: IntArray, base: int) -> None:
+    """out[s] = no wall closer than `radius` to segment s (a[s] -> b[s]; a point when a == b).
+
+    ``stamp[e] == base + s`` marks wall e as tested for segment s (a wall listed in several cells is
+    tested once); `stamp` holds values below `base` on entry.
+    """
+    for s0 in range(a.shape[0]):
+        s = base + s0
+        ax, ay, bx, by = a[s0, 0], a[s0, 1], b[s0, 0], b[s0, 1]
+        point = ax == bx and ay == by
         clear = True
-        ylo, yhi = min(ay, by) - radius, max(ay, by) + radius
-        j0 = _cell(ylo, y0, h, ny)
-        j1 = _cell(yhi, y0, h, ny)
+        j0 = _cell(min(ay, by) - radius, y0, h, ny)
+        j1 = _cell(max(ay, by) + radius, y0, h, ny)
         for j in range(j0, j1 + 1):
             if not clear:
                 break
@@ -281,13 +287,20 @@ def _capsules_clear(walls: FloatArray, x0: float, y0: float, h: float, nx: int, 
                 c = i * ny + j
                 for q in range(start[c], start[c + 1]):
                     e = items[q]
-                    d = _segment_segment_distance(ax, ay, bx, by, walls[e, 0], walls[e, 1], walls[e, 2], walls[e, 3])
+                    if stamp[e] == s:
+                        continue
+                    stamp[e] = s
+                    if point:
+                        d = _point_segment_distance(ax, ay, walls[e, 0], walls[e, 1], walls[e, 2], walls[e, 3])
+                    else:
+                        d = _segment_segment_distance(ax, ay, bx, by, walls[e, 0], walls[e, 1], walls[e, 2],
+                                                      walls[e, 3])
                     if d < radius:
                         clear = False
                         break
                 if not clear:
                     break
-        out[s] = clear
+        out[s0] = clear
 
 
 @_jit
@@ -349,6 +362,8 @@ class EdgeIndex:
     shape: tuple[int, int]
     start: IntArray
     items: IntArray
+    _scratch: threading.local = field(default_factory=threading.local, repr=False)
+    """Per-thread marks of the walls already tested by a query (see `_capsules_clear`)."""
 
     @classmethod
     def build(cls, walls: FloatArray, cells_per_wall: float = 2.0) -> EdgeIndex:
@@ -411,9 +426,14 @@ class EdgeIndex:
     def capsules_clear(self, a: FloatArray, b: FloatArray, radius: float) -> NDArray[np.bool_]:
         """Whether no wall comes closer than `radius` cm to each segment a[s] -> b[s] ((n, 2) arrays)."""
         out = np.empty(len(a), dtype=bool)
+        scratch = self._scratch.__dict__
+        if "stamp" not in scratch:
+            scratch["stamp"], scratch["base"] = np.full(len(self.walls), -1, dtype=np.int64), 0
         _capsules_clear(self.walls, float(self.origin[0]), float(self.origin[1]), self.cell, self.shape[0],
                         self.shape[1], self.start, self.items, np.ascontiguousarray(a, dtype=np.float64),
-                        np.ascontiguousarray(b, dtype=np.float64), float(radius), out)
+                        np.ascontiguousarray(b, dtype=np.float64), float(radius), out, scratch["stamp"],
+                        scratch["base"])
+        scratch["base"] += len(a)
         return out
 
 
