@@ -287,11 +287,15 @@ class RangeTable:
         Storage of the ranges.
     quantum_cm : float
         Step of the uint16 storage (cm); ignored for float32.
+    max_range_cm : float, optional
+        Walls farther than this are not seen (``inf``): a range-limited sensor such as the NXT's
+        255 cm; rays stop there, which makes building fast on large open maps.
     """
 
     def __init__(self, map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
                  ranges: NDArray[Any] | None = None, beam_width_deg: float = 0.0,
-                 critical_incidence_deg: float | None = None, dtype: str = "float32", quantum_cm: float = 0.0) -> None:
+                 critical_incidence_deg: float | None = None, dtype: str = "float32", quantum_cm: float = 0.0,
+                 max_range_cm: float | None = None) -> None:
         if not (resolution_cm > 0 and math.isfinite(resolution_cm)):
             raise ValueError(f"resolution_cm must be a positive number, got {resolution_cm!r}")
         if n_angles < 4:
@@ -317,6 +321,7 @@ class RangeTable:
         self.clearance[inside] = np.asarray(map.wall_distance(self.centres), dtype=np.float32)
         self.critical_incidence_deg = critical_incidence_deg if beam_width_deg > 0 else None
         self.beam_width_deg = float(beam_width_deg)
+        self.max_range_cm = None if max_range_cm is None else float(max_range_cm)
         if ranges is None:
             ranges = self._build(map)
         if ranges.shape != (self.centres.shape[0], self.n_angles) or ranges.dtype != np.dtype(dtype):
@@ -330,17 +335,18 @@ class RangeTable:
         out = np.empty((self.centres.shape[0], self.n_angles), dtype=self.dtype)
         directions = np.arange(self.n_angles) * (TWO_PI / self.n_angles)
         cos_crit = math.cos(math.radians(self.critical_incidence_deg or 0.0))
+        reach = math.inf if self.max_range_cm is None else self.max_range_cm
         for s in range(0, len(out), _BUILD_ROWS):
             rows = slice(s, s + _BUILD_ROWS)
             if self.critical_incidence_deg is not None:
                 # a ray meeting its wall further than the critical angle from the normal reflects away
-                r, hit = ray_cast(map.walls, self.centres[rows], directions, return_wall=True)
+                r, hit = ray_cast(map.walls, self.centres[rows], directions, return_wall=True, max_range=reach)
                 w = map.walls[np.maximum(hit, 0)]
                 ex, ey = w[..., 2] - w[..., 0], w[..., 3] - w[..., 1]
                 cos_inc = np.abs(np.cos(directions)[None, :] * ey - np.sin(directions)[None, :] * ex) / np.hypot(ex, ey)
                 r = np.where((hit >= 0) & (cos_inc >= cos_crit), r, np.inf)
             else:
-                r = ray_cast(map.walls, self.centres[rows], directions)
+                r = ray_cast(map.walls, self.centres[rows], directions, max_range=reach)
             if self.beam_width_deg > 0:
                 r = lobe_minimum(r, self.beam_width_deg)
             out[rows] = self._encode(np.asarray(r))
@@ -483,7 +489,7 @@ def _map_key(map: Map) -> str:
 def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
                 cache_dir: str | os.PathLike[str] | None = None, beam_width_deg: float = 0.0,
                 critical_incidence_deg: float | None = None, memory_mb: float | None = None,
-                lattice_step: int | None = None) -> RangeTable:
+                lattice_step: int | None = None, max_range_cm: float | None = None) -> RangeTable:
     """The `RangeTable` of `map` within a memory budget, built once per process (per map geometry and plan).
 
     Parameters
@@ -503,6 +509,8 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
         ``$NXTNAV_RANGE_MEMORY_MB`` or 1024 (see `range_memory_budget`).
     lattice_step : int, optional
         Count the spectra of a `RangeLattice` of this step in the budget.
+    max_range_cm : float, optional
+        The sensor's range limit (see `RangeTable`).
 
     Raises
     ------
@@ -512,7 +520,7 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
     plan = plan_range_table(map, n_angles, range_memory_budget(memory_mb), resolution_cm, lattice_step)
     lobe = float(beam_width_deg) if beam_width_deg > 0 else 0.0
     crit = critical_incidence_deg if lobe > 0 else None
-    key = (_map_key(map), plan.resolution_cm, int(n_angles), plan.dtype, lobe, crit)
+    key = (_map_key(map), plan.resolution_cm, int(n_angles), plan.dtype, lobe, crit, max_range_cm)
     with _TABLES_LOCK:
         table = _TABLES.get(key)
         if table is not None:
@@ -521,7 +529,7 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
         ranges = None
         path = None
         if folder is not None:
-            lobe_tag = f"_lobe{lobe:g}_{crit}" if lobe > 0 else ""
+            lobe_tag = (f"_lobe{lobe:g}_{crit}" if lobe > 0 else "") + (f"_max{max_range_cm:g}" if max_range_cm else "")
             path = folder / f"range_table_{key[0]}_{plan.resolution_cm:g}cm_{n_angles}_{plan.dtype}{lobe_tag}.npy"
             if path.is_file():
                 try:
@@ -529,13 +537,15 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
                 except (OSError, ValueError) as exc:
                     log.warning("ignoring unreadable range table cache %s: %s", path, exc)
         try:
-            table = RangeTable(map, plan.resolution_cm, n_angles, ranges, lobe, crit, plan.dtype, plan.quantum_cm)
+            table = RangeTable(map, plan.resolution_cm, n_angles, ranges, lobe, crit, plan.dtype, plan.quantum_cm,
+                               max_range_cm)
         except ValueError as exc:
             if ranges is None:
                 raise
             log.warning("ignoring range table cache %s: %s", path, exc)
             ranges = None
-            table = RangeTable(map, plan.resolution_cm, n_angles, None, lobe, crit, plan.dtype, plan.quantum_cm)
+            table = RangeTable(map, plan.resolution_cm, n_angles, None, lobe, crit, plan.dtype, plan.quantum_cm,
+                               max_range_cm)
         if path is not None and ranges is None:
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)

@@ -106,3 +106,15 @@ def test_empty_and_tiny_inputs() -> None:
     t, w = empty.cast(np.zeros(2), np.zeros(2), np.array([0.0, 1.0]))
     assert np.isinf(t).all() and (w == -1).all()
     assert ray_cast([[10, -5, 10, 5]], [0, 0], [0.0, np.pi]).tolist() == [10.0, np.inf]
+
+
+def test_max_range_drops_far_hits_only() -> None:
+    rng = np.random.default_rng(6)
+    origins = GRID.sample_free(100, rng=rng)
+    angles = rng.uniform(-np.pi, np.pi, (100, 20))
+    full = ray_cast(GRID.walls, origins, angles)
+    capped = ray_cast(GRID.walls, origins, angles, max_range=40.0)
+    near = full <= 40.0
+    assert 0.2 < near.mean() < 0.9
+    np.testing.assert_array_equal(capped[near], full[near])
+    assert np.isinf(capped[~near]).all()

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
+import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["EdgeIndex", "edge_index"]
@@ -104,7 +105,7 @@ def _fill_cells(walls: FloatArray, x0: float, y0: float, h: float, nx: int, ny: 
 
 @_jit
 def _ray_hit(walls: FloatArray, e: int, ox: float, oy: float, dx: float, dy: float) -> float:
-    """Distance along the ray to wall e (inf if it misses); the arithmetic of `ray_wall_distances`."""
+    """Distance along the ray to segment row e of `walls` (inf if it misses); `ray_wall_distances`' arithmetic."""
     x1, y1 = walls[e, 0], walls[e, 1]
     ex, ey = walls[e, 2] - x1, walls[e, 3] - y1
     qx, qy = x1 - ox, y1 - oy
@@ -137,12 +138,16 @@ def _insert(best_t: FloatArray, best_w: IntArray, t: float, e: int) -> None:
 
 
 @_jit
-def _cast_rays(walls: FloatArray, x0: float, y0: float, h: float, nx: int, ny: int, start: IntArray,
-               items: IntArray, ox: FloatArray, oy: FloatArray, ang: FloatArray, slack: float,
-               out_t: FloatArray, out_w: IntArray) -> None:
+def _cast_rays(cell_walls: FloatArray, x0: float, y0: float, h: float, nx: int, ny: int, start: IntArray,
+               items: IntArray, empty: NDArray[np.int32], ox: FloatArray, oy: FloatArray, ang: FloatArray, slack: float,
+               max_t: float, out_t: FloatArray, out_w: IntArray) -> None:
     """First k crossings of each ray (k = out_t.shape[1]) within `slack` cm of the first one.
 
-    With k = 1 this is plain ray casting: the nearest hit and its wall (inf, -1 for none).
+    ``cell_walls[q]`` is wall ``items[q]`` (the walls copied in cell order, for memory locality).
+    With k = 1 this is plain ray casting: the nearest hit and its wall (inf, -1 for none). ``empty[c]``
+    is the chessboard distance from cell c to the nearest cell listing a wall (0 for such a cell):
+    the ray crosses the wall-free square around an empty cell in one step. Crossings beyond `max_t`
+    are not reported (and the walk stops there).
     """
     k = out_t.shape[1]
     gx1, gy1 = x0 + nx * h, y0 + ny * h
@@ -184,14 +189,34 @@ def _cast_rays(walls: FloatArray, x0: float, y0: float, h: float, nx: int, ny: i
                 nxt_y, dty = np.inf, np.inf
             while True:
                 c = i * ny + j
+                d = empty[c] - 1
+                if d >= 1:
+                    # the (2d + 1)-cell square around this cell holds no wall: leave it in one step
+                    tx = np.inf if dx == 0.0 else (x0 + (i + d + 1 if dx > 0.0 else i - d) * h - px) / dx
+                    ty = np.inf if dy == 0.0 else (y0 + (j + d + 1 if dy > 0.0 else j - d) * h - py) / dy
+                    tb = min(tx, ty)
+                    if tb > max_t:
+                        break
+                    qx, qy = px + tb * dx, py + tb * dy
+                    ni = min(max(math.floor((qx - x0) / h), i - d), i + d)
+                    nj = min(max(math.floor((qy - y0) / h), j - d), j + d)
+                    if tx <= ty:
+                        ni = i + d + 1 if dx > 0.0 else i - d - 1
+                    if ty <= tx:
+                        nj = j + d + 1 if dy > 0.0 else j - d - 1
+                    i, j = ni, nj
+                    if i < 0 or i >= nx or j < 0 or j >= ny:
+                        break
+                    nxt_x = np.inf if dx == 0.0 else (x0 + (i + (1 if dx > 0.0 else 0)) * h - px) / dx
+                    nxt_y = np.inf if dy == 0.0 else (y0 + (j + (1 if dy > 0.0 else 0)) * h - py) / dy
+                    continue
                 for q in range(start[c], start[c + 1]):
-                    e = items[q]
-                    t = _ray_hit(walls, e, px, py, dx, dy)
+                    t = _ray_hit(cell_walls, q, px, py, dx, dy)
                     if t < np.inf and t <= bt[0] + slack:
-                        _insert(bt, bw, t, e)
+                        _insert(bt, bw, t, items[q])
                 # every crossing nearer than this cell's exit has been seen (up to the rounding margin)
                 seen = min(nxt_x, nxt_y) - _MARGIN * h
-                if bt[0] < np.inf and (seen >= bt[0] + slack or seen >= bt[k - 1]):
+                if seen > max_t or (bt[0] < np.inf and (seen >= bt[0] + slack or seen >= bt[k - 1])):
                     break
                 if nxt_x < nxt_y:
                     i += step_i
@@ -202,7 +227,7 @@ def _cast_rays(walls: FloatArray, x0: float, y0: float, h: float, nx: int, ny: i
                 if i < 0 or i >= nx or j < 0 or j >= ny:
                     break
         for s in range(k):
-            keep = bt[s] <= bt[0] + slack
+            keep = bt[s] <= bt[0] + slack and bt[s] <= max_t
             out_t[r, s] = bt[s] if keep else np.inf
             out_w[r, s] = bw[s] if keep else -1
 
@@ -354,6 +379,10 @@ class EdgeIndex:
         Cells along x and y.
     start, items : int64 ndarrays
         The walls of cell ``i * ny + j`` are ``items[start[c]:start[c + 1]]``.
+    empty : int32 ndarray
+        Per cell, the chessboard distance (in cells) to the nearest cell that lists a wall (0 there).
+    cell_walls : (len(items), 4) float64 ndarray
+        ``walls[items]``: each cell's walls side by side in memory.
     """
 
     walls: FloatArray
@@ -362,6 +391,8 @@ class EdgeIndex:
     shape: tuple[int, int]
     start: IntArray
     items: IntArray
+    empty: NDArray[np.int32]
+    cell_walls: FloatArray
     _scratch: threading.local = field(default_factory=threading.local, repr=False)
     """Per-thread marks of the walls already tested by a query (see `_capsules_clear`)."""
 
@@ -393,16 +424,24 @@ class EdgeIndex:
         counts[:] = 0
         _fill_cells(w, float(lo[0]), float(lo[1]), h, nx, ny, counts, items, start, True)
         w.setflags(write=False)
-        return cls(w, lo, h, (nx, ny), start, items)
+        occupied = (np.diff(start) > 0).reshape(nx, ny)
+        if occupied.any():
+            empty = scipy.ndimage.distance_transform_cdt(~occupied, metric="chessboard").astype(np.int32)
+        else:
+            empty = np.full((nx, ny), max(nx, ny), dtype=np.int32)
+        return cls(w, lo, h, (nx, ny), start, items, np.ascontiguousarray(empty.ravel()),
+                   np.ascontiguousarray(w[items]))
 
     @property
     def nbytes(self) -> int:
         """Memory of the index (bytes), walls included."""
-        return int(self.walls.nbytes + self.start.nbytes + self.items.nbytes)
+        return int(sum(a.nbytes for a in (self.walls, self.start, self.items, self.empty, self.cell_walls)))
 
     def cast(self, ox: FloatArray, oy: FloatArray, angles: FloatArray, k: int = 1,
-             slack: float = 0.0) -> tuple[FloatArray, IntArray]:
+             slack: float = 0.0, max_range: float = math.inf) -> tuple[FloatArray, IntArray]:
         """The first `k` crossings (distances in cm, wall indices) of each ray within `slack` cm of the first.
+
+        Crossings farther than `max_range` cm are not reported (a range-limited sensor; faster).
 
         Rays start at (ox, oy) along absolute `angles` (rad), all flat arrays of one length. Returns
         (n, k) distances (``inf`` beyond the crossings found) and wall indices (-1 there).
@@ -410,10 +449,10 @@ class EdgeIndex:
         n = ox.size
         out_t = np.empty((n, k))
         out_w = np.empty((n, k), dtype=np.int64)
-        _cast_rays(self.walls, float(self.origin[0]), float(self.origin[1]), self.cell, self.shape[0],
-                   self.shape[1], self.start, self.items, np.ascontiguousarray(ox, dtype=np.float64),
+        _cast_rays(self.cell_walls, float(self.origin[0]), float(self.origin[1]), self.cell, self.shape[0],
+                   self.shape[1], self.start, self.items, self.empty, np.ascontiguousarray(ox, dtype=np.float64),
                    np.ascontiguousarray(oy, dtype=np.float64), np.ascontiguousarray(angles, dtype=np.float64),
-                   float(slack), out_t, out_w)
+                   float(slack), float(max_range), out_t, out_w)
         return out_t, out_w
 
     def nearest_distance(self, pts: FloatArray) -> FloatArray:

@@ -142,6 +142,7 @@ def ray_cast(
     angles: ArrayLike,
     *,
     return_wall: bool = False,
+    max_range: float = math.inf,
 ) -> Any:
     """Distance from each origin along each absolute angle to the first wall hit.
 
@@ -160,6 +161,9 @@ def ray_cast(
         Absolute ray directions in rad; a 1-D array is shared by every origin.
     return_wall : bool
         Also return the index of the wall hit (-1 where none; the lowest index on a tie).
+    max_range : float
+        Hits farther than this (cm) count as none (``inf``); the walk stops there, so a range-limited
+        sensor costs less on open maps.
 
     Returns
     -------
@@ -182,7 +186,7 @@ def ray_cast(
         raise ValueError(f"angles has {a.shape[0]} rows for {o.shape[0]} origins")
     n_p, n_a = a.shape
     index = edge_index(walls)
-    t, w = index.cast(np.repeat(o[:, 0], n_a), np.repeat(o[:, 1], n_a), a.ravel())
+    t, w = index.cast(np.repeat(o[:, 0], n_a), np.repeat(o[:, 1], n_a), a.ravel(), max_range=max_range)
     ranges = t[:, 0].reshape(n_p, n_a)
     hit = w[:, 0].reshape(n_p, n_a)
     if single:
