@@ -147,9 +147,12 @@ def bench_world(
     fig = bench_world_figures(m, radius=radius, poses=poses, repeats=repeats, segments=segments,
                               range_model=range_model, range_memory_mb=range_memory_mb, peer=peer, rng=seed)
     table = Table("measure", "value", title=f"{m.name}: {fig['edges']} walls, medians of {repeats}")
-    table.add_row("ray casting", f"{fig['rays_per_s'] / 1e6:.2f} M rays/s")
-    table.add_row("segment checks", f"{fig['segment_checks_per_s'] / 1e3:.0f} k checks/s")
-    table.add_row("point checks", f"{fig['point_checks_per_s'] / 1e3:.0f} k checks/s")
+    table.add_row("ray casting", f"{fig['rays_per_s'] / 1e6:.2f} M rays/s "
+                  f"({fig['rays_per_cpu_s'] / 1e6:.2f} M per CPU second)")
+    table.add_row("segment checks", f"{fig['segment_checks_per_s'] / 1e3:.0f} k checks/s "
+                  f"({fig['segment_checks_per_cpu_s'] / 1e3:.0f} k per CPU second)")
+    table.add_row("point checks", f"{fig['point_checks_per_s'] / 1e3:.0f} k checks/s "
+                  f"({fig['point_checks_per_cpu_s'] / 1e3:.0f} k per CPU second)")
     table.add_row("c-space build", f"{fig['cspace_build_s']:.2f} s")
     if fig.get("range_model_bytes") is not None:
         table.add_row("range model build", f"{fig['range_model_build_s']:.1f} s "
