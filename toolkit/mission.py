@@ -61,6 +61,7 @@ from .world import (
     Pose,
     RngLike,
     Robot,
+    RobotGeometry,
     Scan,
     angle_diff,
     as_rng,
@@ -1095,6 +1096,7 @@ def run_sim_mission(
     turn_noise: float = 0.005,
     sonar: str = "ideal",
     config: MissionConfig | None = None,
+    robot_radius_cm: float | None = None,
 ) -> MissionReport:
     """One seeded mission on the simulator, as `nxtnav run` and `nxtnav paper` run it.
 
@@ -1118,14 +1120,21 @@ def run_sim_mission(
     sonar : {"ideal", "nxt"}
     config : MissionConfig or None
         None: `MissionConfig.for_sonar(sonar)`.
+    robot_radius_cm : float, optional
+        Radius of the robot disc (cm; default `RobotGeometry`'s 8 cm): a robot scaled to the map. The
+        random start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm``
+        get it.
     """
     from .robots.sim import MotionNoise, SimRobot
+
+    geometry = RobotGeometry() if robot_radius_cm is None else RobotGeometry(radius_cm=float(robot_radius_cm))
 
     m = map if isinstance(map, Map) else load_map(map)
     s_start, s_sim, s_stack = mission_seeds(seed)
     start_rng = np.random.default_rng(s_start)
     if random_start_pose:
-        pose = random_start(m, start_rng)
+        pose = random_start(m, start_rng) if robot_radius_cm is None else \
+            random_start(m, start_rng, geometry.radius_cm + 2.0)
     elif isinstance(start, Pose):
         pose = start
     else:
@@ -1144,7 +1153,9 @@ def run_sim_mission(
     if isinstance(localiser, str):
         opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
                                          turn_noise=turn_noise, sensor_noise=sensor_noise)
+        if robot_radius_cm is not None:
+            opts.update(_accepted(localiser, {"clearance_cm": geometry.radius_cm}))
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
-    robot = SimRobot(m, pose, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
+    robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg)
     return replace(report, seed=int(seed))

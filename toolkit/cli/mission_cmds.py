@@ -74,6 +74,8 @@ def run(
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="Sonar noise (cm), motion noise, turn noise (the paper's by default)."),
     seed: int = typer.Option(0, help="Random seed (start heading, simulator noise, stack)."),
+    radius: float | None = typer.Option(None, "--radius", min=0.1,
+                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the report as JSON."),
     plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png", help="Draw the mission."),
     animate: Path | None = typer.Option(None, "--animate", metavar="FILE.gif", help="Animate the mission (GIF)."),
@@ -126,7 +128,7 @@ def run(
         report = run_sim_mission(
             m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
             localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
-            turn_noise=turn_noise, sonar=sonar,
+            turn_noise=turn_noise, sonar=sonar, robot_radius_cm=radius,
         )
     typer.echo(report.summary())
     if json_out is not None:
