@@ -395,6 +395,10 @@ class RangeTable:
     def lookup(self, poses: ArrayLike, rel_angles: ArrayLike) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """Expected ranges (N, B) for poses (N, 3) and sensor angles (B,) relative to the heading.
 
+        Nearest direction; nearest cell for 1 cm tables, and for coarser ones (a map under a memory
+        budget) bilinear between the four surrounding cell centres where all four are free and see a
+        wall (the nearest cell elsewhere), so that an estimate does not snap to the cell centres.
+
         Returns the ranges (float32, cm) and a (N,) mask of poses inside the table (others read 0).
         """
         p = np.asarray(poses, dtype=float).reshape(-1, 3)
@@ -403,10 +407,26 @@ class RangeTable:
         rows = np.where(inside, rows, 0)
         head = np.rint(p[:, 2] * self._k).astype(np.int64)
         rel = np.rint(np.asarray(rel_angles, dtype=float).ravel() * self._k).astype(np.int64)
-        idx = head[:, None] + rel[None, :]
-        idx %= self.n_angles
-        idx += (rows * self.n_angles)[:, None]
-        return self._decode_values(self._flat[idx]), inside
+        direction = (head[:, None] + rel[None, :]) % self.n_angles
+        near = self._decode_values(self._flat[direction + (rows * self.n_angles)[:, None]])
+        if self.resolution_cm <= 1.0:
+            return near, inside
+        u = (p[:, :2] - self.origin) / self.resolution_cm - 0.5
+        g = np.floor(u).astype(np.int64)
+        f = u - g
+        nx, ny = self.shape
+        total = np.zeros(near.shape, dtype=np.float32)
+        ok = np.ones(len(p), dtype=bool)
+        for di, dj in ((0, 0), (1, 0), (0, 1), (1, 1)):
+            gi, gj = g[:, 0] + di, g[:, 1] + dj
+            valid = (gi >= 0) & (gi < nx) & (gj >= 0) & (gj < ny)
+            r = np.where(valid, self.cell_row[np.where(valid, gi * ny + gj, 0)], -1)
+            ok &= r >= 0
+            w = ((f[:, 0] if di else 1.0 - f[:, 0]) * (f[:, 1] if dj else 1.0 - f[:, 1])).astype(np.float32)
+            at = direction + (np.maximum(r, 0) * self.n_angles)[:, None]
+            total += w[:, None] * self._decode_values(self._flat[at])
+        blend = ok[:, None] & np.isfinite(total)
+        return np.where(blend, total, near).astype(np.float32), inside
 
 
 class RangeLattice:

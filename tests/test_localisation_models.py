@@ -11,7 +11,7 @@ from localisation.base import Motion
 from localisation.models import MotionModel, RangeLikelihood, exact_ranges, range_lattice, range_table
 from localisation.resampling import log_normalise
 from toolkit.robots.sim import MotionNoise, SimRobot
-from toolkit.world import Pose, angle_diff, load_map
+from toolkit.world import Pose, angle_diff, load_map, ray_cast
 
 
 @pytest.mark.parametrize("model,motion,turn", [("botsim", 0.1, 0.005), ("absolute", 0.5, 0.02)])
@@ -156,3 +156,22 @@ def test_range_table_budget_from_environment(monkeypatch: pytest.MonkeyPatch) ->
     monkeypatch.setenv("NXTNAV_RANGE_MEMORY_MB", "lots")
     with pytest.raises(LocalisationError, match="NXTNAV_RANGE_MEMORY_MB"):
         range_memory_budget()
+
+
+def test_coarse_table_interpolates_between_cells() -> None:
+    """A 2 cm table (a map under a budget) reads between cell centres: nearer the exact ranges than its cells."""
+    m = load_map("map1")
+    table = range_table(m, resolution_cm=2.0)
+    assert table.resolution_cm == 2.0
+    rng = np.random.default_rng(8)
+    xy = m.sample_free(300, clearance=10.0, rng=rng)
+    poses = np.column_stack([xy, rng.uniform(-np.pi, np.pi, 300)])
+    rel = np.radians(np.arange(0, 360, 30, dtype=float))
+    k = np.rint((poses[:, 2:3] + rel[None, :]) / (2 * np.pi / table.n_angles)) * (2 * np.pi / table.n_angles)
+    exact = ray_cast(m.walls, xy, k).astype(np.float32)  # along the table's directions
+    got, inside = table.lookup(poses, rel)
+    nearest = np.take_along_axis(table.decode(table.cells(xy)),
+                                 np.mod(np.rint(k / (2 * np.pi / table.n_angles)), table.n_angles).astype(int), 1)
+    assert inside.all()
+    ok = np.isfinite(exact)
+    assert np.median(np.abs(got - exact)[ok]) < 0.5 * np.median(np.abs(nearest - exact)[ok])
