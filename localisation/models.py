@@ -201,7 +201,7 @@ def range_memory_budget(memory_mb: float | None = None) -> int:
         mb = float("nan")
     if not (math.isfinite(mb) and mb > 0):
         raise LocalisationError(f"range model memory budget must be a positive number of MB, got {memory_mb!r} "
-                                f"({source or 'range_memory_mb'}; CLI: --range-memory-mb)")
+                                f"({source or 'range_memory_mb'}; CLI: --range-memory-mb or --set range_memory_mb=MB)")
     return int(mb * 2**20)
 
 
@@ -247,7 +247,7 @@ def plan_range_table(map: Map, n_angles: int, budget_bytes: int, resolution_cm: 
         f"map {map.name!r}: its range model needs about {est / 2**20:.0f} MB even with "
         f"{max(RESOLUTION_LADDER_CM[-1], resolution_cm):g} cm cells, more than the budget of "
         f"{budget_bytes / 2**20:.3g} MB; "
-        f"raise --range-memory-mb (or ${RANGE_MEMORY_ENV})")
+        f"raise range_memory_mb (CLI: --range-memory-mb or --set range_memory_mb=MB; or ${RANGE_MEMORY_ENV})")
 
 
 class RangeTable:
