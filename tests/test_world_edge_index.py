@@ -118,3 +118,15 @@ def test_max_range_drops_far_hits_only() -> None:
     assert 0.2 < near.mean() < 0.9
     np.testing.assert_array_equal(capped[near], full[near])
     assert np.isinf(capped[~near]).all()
+
+
+def test_checker_and_index_pickle() -> None:
+    """Process pools ship checkers to workers: the index (with its per-thread scratch) must pickle."""
+    import pickle
+
+    cc = CollisionChecker(GRID, 4.0)
+    a = GRID.sample_free(50, rng=9)
+    b = a + 20.0
+    want = cc.segments_free(a, b)
+    clone = pickle.loads(pickle.dumps(cc))
+    np.testing.assert_array_equal(clone.segments_free(a, b), want)

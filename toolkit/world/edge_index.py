@@ -432,6 +432,13 @@ class EdgeIndex:
         return cls(w, lo, h, (nx, ny), start, items, np.ascontiguousarray(empty.ravel()),
                    np.ascontiguousarray(w[items]))
 
+    def __getstate__(self) -> dict[str, object]:
+        """Pickle the index without its per-thread scratch (a new process starts its own)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_scratch"}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state, _scratch=threading.local())
+
     @property
     def nbytes(self) -> int:
         """Memory of the index (bytes), walls included."""
