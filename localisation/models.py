@@ -34,20 +34,26 @@ import numpy as np
 import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import Map, RngLike, as_rng, ray_cast, wrap_angle
+from toolkit.world import LocalisationError, Map, RngLike, as_rng, ray_cast, wrap_angle
 
 from .base import Motion
 
 __all__ = [
+    "DEFAULT_RANGE_MEMORY_MB",
     "NOISE_MODELS",
+    "RANGE_MEMORY_ENV",
+    "RESOLUTION_LADDER_CM",
     "MotionModel",
     "RangeLattice",
     "RangeLikelihood",
     "RangeTable",
+    "TablePlan",
     "clear_range_table_cache",
     "exact_ranges",
     "lobe_minimum",
+    "plan_range_table",
     "range_lattice",
+    "range_memory_budget",
     "range_table",
 ]
 
@@ -169,6 +175,81 @@ def lobe_minimum(ranges: ArrayLike, beam_width_deg: float) -> NDArray[np.float32
     return np.asarray(scipy.ndimage.minimum_filter1d(r, size=2 * half + 1, axis=1, mode="wrap"), dtype=np.float32)
 
 
+RANGE_MEMORY_ENV = "NXTNAV_RANGE_MEMORY_MB"
+DEFAULT_RANGE_MEMORY_MB = 1024.0
+RESOLUTION_LADDER_CM = (1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0)
+"""Cell sizes a bounded range model may fall back to, finest first (never coarser than 5 cm)."""
+_NO_RANGE = np.iinfo(np.uint16).max
+_BUILD_ROWS = 2048
+
+
+def range_memory_budget(memory_mb: float | None = None) -> int:
+    """The range model's memory budget in bytes: `memory_mb`, else ``$NXTNAV_RANGE_MEMORY_MB``, else 1024 MB.
+
+    Raises
+    ------
+    LocalisationError
+        When the budget is not a positive number (the message names the option and the variable).
+    """
+    source = "range_memory_mb"
+    if memory_mb is None:
+        env = os.environ.get(RANGE_MEMORY_ENV)
+        memory_mb, source = (DEFAULT_RANGE_MEMORY_MB, "") if not env else (env, f"${RANGE_MEMORY_ENV}")  # type: ignore[assignment]
+    try:
+        mb = float(memory_mb)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        mb = float("nan")
+    if not (math.isfinite(mb) and mb > 0):
+        raise LocalisationError(f"range model memory budget must be a positive number of MB, got {memory_mb!r} "
+                                f"({source or 'range_memory_mb'}; CLI: --range-memory-mb or --set range_memory_mb=MB)")
+    return int(mb * 2**20)
+
+
+@dataclass(frozen=True)
+class TablePlan:
+    """Cell size and storage chosen for a range table under a memory budget.
+
+    ``dtype`` is float32 (exact ranges) or uint16 (ranges in steps of ``quantum_cm``; 65535 = no wall).
+    """
+
+    resolution_cm: float
+    dtype: str
+    quantum_cm: float
+    estimated_bytes: int
+
+
+def plan_range_table(map: Map, n_angles: int, budget_bytes: int, resolution_cm: float = 1.0,
+                     with_lattice_step: int | None = None) -> TablePlan:
+    """The finest table (then float32 before uint16) whose estimated memory fits `budget_bytes`.
+
+    The estimate is the free area over the cell area times `n_angles` entries, plus, with
+    `with_lattice_step`, the FFT spectra of the global-start lattice (`RangeLattice`).
+
+    Raises
+    ------
+    LocalisationError
+        When even 5 cm cells of uint16 do not fit (naming the budget option).
+    """
+    xmin, ymin, xmax, ymax = map.bounds
+    quantum = math.hypot(xmax - xmin, ymax - ymin) / (_NO_RANGE - 1)
+    area = map.area
+    est = 0
+    for res in [r for r in RESOLUTION_LADDER_CM if r >= resolution_cm] or [resolution_cm]:
+        cells = area / res**2 * 1.03 + 1
+        lattice = 0.0
+        if with_lattice_step:
+            lattice = cells / with_lattice_step**2 * 2 * (n_angles // 2 + 1) * 16
+        for dtype, size in (("float32", 4), ("uint16", 2)):
+            est = int(cells * n_angles * size + lattice)
+            if est <= budget_bytes:
+                return TablePlan(res, dtype, quantum if dtype == "uint16" else 0.0, est)
+    raise LocalisationError(
+        f"map {map.name!r}: its range model needs about {est / 2**20:.0f} MB even with "
+        f"{max(RESOLUTION_LADDER_CM[-1], resolution_cm):g} cm cells, more than the budget of "
+        f"{budget_bytes / 2**20:.3g} MB; "
+        f"raise range_memory_mb (CLI: --range-memory-mb or --set range_memory_mb=MB; or ${RANGE_MEMORY_ENV})")
+
+
 class RangeTable:
     """Precomputed expected ranges on a grid of positions x absolute directions for one map.
 
@@ -183,6 +264,10 @@ class RangeTable:
     `critical_incidence_deg` as well, rays meeting their wall further than that from its normal
     do not echo (specular loss), as in `toolkit.world.NxtSonar`; ``inf`` where nothing echoes.
 
+    The table is stored as float32 or, to halve its memory, as uint16 in steps of `quantum_cm`
+    (65535 = no wall); it is built in blocks of cells, so building needs no more memory than the
+    table itself. `range_table` chooses the cell size and storage that fit a memory budget.
+
     Build it with `range_table` (cached per map and resolution), not directly.
 
     Parameters
@@ -192,24 +277,36 @@ class RangeTable:
         Cell size (cm).
     n_angles : int
         Directions per cell.
-    ranges : (n_inside, n_angles) float32 ndarray, optional
-        Precomputed table of centre-ray ranges (from the disk cache).
+    ranges : (n_inside, n_angles) ndarray, optional
+        Precomputed stored table (from the disk cache), of `dtype`.
     beam_width_deg : float
         Full lobe width (0: a thin ray).
     critical_incidence_deg : float, optional
         Specular loss beyond this incidence (only with a lobe).
+    dtype : {"float32", "uint16"}
+        Storage of the ranges.
+    quantum_cm : float
+        Step of the uint16 storage (cm); ignored for float32.
+    max_range_cm : float, optional
+        Walls farther than this are not seen (``inf``): a range-limited sensor such as the NXT's
+        255 cm; rays stop there, which makes building fast on large open maps.
     """
 
     def __init__(self, map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
-                 ranges: NDArray[np.float32] | None = None, beam_width_deg: float = 0.0,
-                 critical_incidence_deg: float | None = None) -> None:
+                 ranges: NDArray[Any] | None = None, beam_width_deg: float = 0.0,
+                 critical_incidence_deg: float | None = None, dtype: str = "float32", quantum_cm: float = 0.0,
+                 max_range_cm: float | None = None) -> None:
         if not (resolution_cm > 0 and math.isfinite(resolution_cm)):
             raise ValueError(f"resolution_cm must be a positive number, got {resolution_cm!r}")
         if n_angles < 4:
             raise ValueError(f"n_angles must be >= 4, got {n_angles}")
+        if dtype not in ("float32", "uint16") or (dtype == "uint16" and not quantum_cm > 0):
+            raise ValueError(f"dtype must be float32 or uint16 with a positive quantum, got {dtype!r}, {quantum_cm!r}")
         self.map_name = map.name
         self.resolution_cm = float(resolution_cm)
         self.n_angles = int(n_angles)
+        self.dtype = dtype
+        self.quantum_cm = float(quantum_cm) if dtype == "uint16" else 0.0
         xmin, ymin, xmax, ymax = map.bounds
         self.origin = np.array([xmin, ymin])
         self.shape = (math.ceil((xmax - xmin) / resolution_cm), math.ceil((ymax - ymin) / resolution_cm))
@@ -222,29 +319,59 @@ class RangeTable:
         self.centres = centres[inside]
         self.clearance = np.full(nx * ny, -1.0, dtype=np.float32)
         self.clearance[inside] = np.asarray(map.wall_distance(self.centres), dtype=np.float32)
-        directions = np.arange(self.n_angles) * (TWO_PI / self.n_angles)
         self.critical_incidence_deg = critical_incidence_deg if beam_width_deg > 0 else None
-        if self.critical_incidence_deg is not None:
-            # a ray meeting its wall further than the critical angle from the normal reflects away
-            r, hit = ray_cast(map.walls, self.centres, directions, return_wall=True)
-            w = map.walls[np.maximum(hit, 0)]
-            ex, ey = w[..., 2] - w[..., 0], w[..., 3] - w[..., 1]
-            cos_inc = np.abs(np.cos(directions)[None, :] * ey - np.sin(directions)[None, :] * ex) / np.hypot(ex, ey)
-            echo = (hit >= 0) & (cos_inc >= math.cos(math.radians(self.critical_incidence_deg)))
-            ranges = np.where(echo, r, np.inf).astype(np.float32)
-        elif ranges is None:
-            ranges = np.asarray(ray_cast(map.walls, self.centres, directions), dtype=np.float32)
-        if ranges.shape != (self.centres.shape[0], self.n_angles):
-            raise ValueError(f"range table shape {ranges.shape} does not match the grid")
         self.beam_width_deg = float(beam_width_deg)
-        if self.beam_width_deg > 0:
-            ranges = lobe_minimum(ranges, self.beam_width_deg)
-        self.ranges = np.ascontiguousarray(ranges, dtype=np.float32)
+        self.max_range_cm = None if max_range_cm is None else float(max_range_cm)
+        if ranges is None:
+            ranges = self._build(map)
+        if ranges.shape != (self.centres.shape[0], self.n_angles) or ranges.dtype != np.dtype(dtype):
+            raise ValueError(f"range table {ranges.shape} {ranges.dtype} does not match the grid / {dtype}")
+        self.ranges = np.ascontiguousarray(ranges)
         self._flat = self.ranges.ravel()
         self._k = self.n_angles / TWO_PI
 
+    def _build(self, map: Map) -> NDArray[Any]:
+        """Cast the table block by block, storing each block at once."""
+        out = np.empty((self.centres.shape[0], self.n_angles), dtype=self.dtype)
+        directions = np.arange(self.n_angles) * (TWO_PI / self.n_angles)
+        cos_crit = math.cos(math.radians(self.critical_incidence_deg or 0.0))
+        reach = math.inf if self.max_range_cm is None else self.max_range_cm
+        for s in range(0, len(out), _BUILD_ROWS):
+            rows = slice(s, s + _BUILD_ROWS)
+            if self.critical_incidence_deg is not None:
+                # a ray meeting its wall further than the critical angle from the normal reflects away
+                r, hit = ray_cast(map.walls, self.centres[rows], directions, return_wall=True, max_range=reach)
+                w = map.walls[np.maximum(hit, 0)]
+                ex, ey = w[..., 2] - w[..., 0], w[..., 3] - w[..., 1]
+                cos_inc = np.abs(np.cos(directions)[None, :] * ey - np.sin(directions)[None, :] * ex) / np.hypot(ex, ey)
+                r = np.where((hit >= 0) & (cos_inc >= cos_crit), r, np.inf)
+            else:
+                r = ray_cast(map.walls, self.centres[rows], directions, max_range=reach)
+            if self.beam_width_deg > 0:
+                r = lobe_minimum(r, self.beam_width_deg)
+            out[rows] = self._encode(np.asarray(r))
+        return out
+
+    def _encode(self, r: NDArray[Any]) -> NDArray[Any]:
+        if self.dtype == "float32":
+            return r.astype(np.float32)
+        q = np.rint(np.where(np.isfinite(r), r, 0.0) / self.quantum_cm)
+        return np.where(np.isfinite(r) & (q < _NO_RANGE), q, _NO_RANGE).astype(np.uint16)
+
+    def _decode_values(self, v: NDArray[Any]) -> NDArray[np.float32]:
+        if self.dtype == "float32":
+            return np.asarray(v)
+        out = v.astype(np.float32) * np.float32(self.quantum_cm)
+        out[v == _NO_RANGE] = np.inf
+        return out
+
+    def decode(self, rows: ArrayLike) -> NDArray[np.float32]:
+        """The stored ranges (cm, float32; inf: no wall) of table rows `rows`, shape (len(rows), n_angles)."""
+        return self._decode_values(self.ranges[np.asarray(rows, dtype=np.int64)])
+
     @property
     def nbytes(self) -> int:
+        """Memory of the stored ranges (bytes)."""
         return int(self.ranges.nbytes)
 
     def cells(self, xy: ArrayLike) -> NDArray[np.int64]:
@@ -268,6 +395,10 @@ class RangeTable:
     def lookup(self, poses: ArrayLike, rel_angles: ArrayLike) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """Expected ranges (N, B) for poses (N, 3) and sensor angles (B,) relative to the heading.
 
+        Nearest direction; nearest cell for 1 cm tables, and for coarser ones (a map under a memory
+        budget) bilinear between the four surrounding cell centres where all four are free and see a
+        wall (the nearest cell elsewhere), so that an estimate does not snap to the cell centres.
+
         Returns the ranges (float32, cm) and a (N,) mask of poses inside the table (others read 0).
         """
         p = np.asarray(poses, dtype=float).reshape(-1, 3)
@@ -276,10 +407,26 @@ class RangeTable:
         rows = np.where(inside, rows, 0)
         head = np.rint(p[:, 2] * self._k).astype(np.int64)
         rel = np.rint(np.asarray(rel_angles, dtype=float).ravel() * self._k).astype(np.int64)
-        idx = head[:, None] + rel[None, :]
-        idx %= self.n_angles
-        idx += (rows * self.n_angles)[:, None]
-        return self._flat[idx], inside
+        direction = (head[:, None] + rel[None, :]) % self.n_angles
+        near = self._decode_values(self._flat[direction + (rows * self.n_angles)[:, None]])
+        if self.resolution_cm <= 1.0:
+            return near, inside
+        u = (p[:, :2] - self.origin) / self.resolution_cm - 0.5
+        g = np.floor(u).astype(np.int64)
+        f = u - g
+        nx, ny = self.shape
+        total = np.zeros(near.shape, dtype=np.float32)
+        ok = np.ones(len(p), dtype=bool)
+        for di, dj in ((0, 0), (1, 0), (0, 1), (1, 1)):
+            gi, gj = g[:, 0] + di, g[:, 1] + dj
+            valid = (gi >= 0) & (gi < nx) & (gj >= 0) & (gj < ny)
+            r = np.where(valid, self.cell_row[np.where(valid, gi * ny + gj, 0)], -1)
+            ok &= r >= 0
+            w = ((f[:, 0] if di else 1.0 - f[:, 0]) * (f[:, 1] if dj else 1.0 - f[:, 1])).astype(np.float32)
+            at = direction + (np.maximum(r, 0) * self.n_angles)[:, None]
+            total += w[:, None] * self._decode_values(self._flat[at])
+        blend = ok[:, None] & np.isfinite(total)
+        return np.where(blend, total, near).astype(np.float32), inside
 
 
 class RangeLattice:
@@ -313,7 +460,7 @@ class RangeLattice:
         self.step = int(step)
         self.rows = rows[ok]
         self.xy = table.origin + (np.column_stack([ix.ravel()[ok], iy.ravel()[ok]]) + 0.5) * table.resolution_cm
-        e = np.minimum(table.ranges[self.rows].astype(np.float64), 1e4)
+        e = np.minimum(table.decode(self.rows).astype(np.float64), 1e4)
         self._fe = np.fft.rfft(e, axis=1)
         self._fe2 = np.fft.rfft(e * e, axis=1)
 
@@ -361,34 +508,39 @@ def _map_key(map: Map) -> str:
 
 def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
                 cache_dir: str | os.PathLike[str] | None = None, beam_width_deg: float = 0.0,
-                critical_incidence_deg: float | None = None) -> RangeTable:
-    """The `RangeTable` of `map`, built once per process (and per map geometry, resolution, directions).
+                critical_incidence_deg: float | None = None, memory_mb: float | None = None,
+                lattice_step: int | None = None, max_range_cm: float | None = None) -> RangeTable:
+    """The `RangeTable` of `map` within a memory budget, built once per process (per map geometry and plan).
 
     Parameters
     ----------
     map : Map
     resolution_cm : float
-        Cell size (cm).
+        Finest cell size (cm); a coarser one from `RESOLUTION_LADDER_CM` is used when the budget asks.
     n_angles : int
         Directions per cell.
     cache_dir : path, optional
         Folder for a disk cache of the table (``.npy``); default ``$NXTNAV_CACHE_DIR`` when set,
-        otherwise memory only. Building takes about 0.5 s for map1 and 3 s for map3.
+        otherwise memory only. Building takes about 0.2 s for map1.
     beam_width_deg, critical_incidence_deg : float
-        Lobe width and specular loss (see `RangeTable`); a lobe table without specular loss is
-        derived from the thin-ray one, with it the rays are cast again (about as long as the first).
+        Lobe width and specular loss (see `RangeTable`).
+    memory_mb : float, optional
+        Budget for the table (and, with `lattice_step`, the global-start lattice) in MB; default
+        ``$NXTNAV_RANGE_MEMORY_MB`` or 1024 (see `range_memory_budget`).
+    lattice_step : int, optional
+        Count the spectra of a `RangeLattice` of this step in the budget.
+    max_range_cm : float, optional
+        The sensor's range limit (see `RangeTable`).
+
+    Raises
+    ------
+    LocalisationError
+        When the budget is not positive or the map's model cannot fit it (see `plan_range_table`).
     """
-    if beam_width_deg > 0:
-        base = range_table(map, resolution_cm, n_angles, cache_dir) if critical_incidence_deg is None else None
-        key_lobe = (_map_key(map), float(resolution_cm), int(n_angles), float(beam_width_deg), critical_incidence_deg)
-        with _TABLES_LOCK:
-            lobe = _TABLES.get(key_lobe)
-            if lobe is None:
-                lobe = RangeTable(map, resolution_cm, n_angles, None if base is None else base.ranges, beam_width_deg,
-                                  critical_incidence_deg)
-                _TABLES[key_lobe] = lobe
-            return lobe
-    key = (_map_key(map), float(resolution_cm), int(n_angles))
+    plan = plan_range_table(map, n_angles, range_memory_budget(memory_mb), resolution_cm, lattice_step)
+    lobe = float(beam_width_deg) if beam_width_deg > 0 else 0.0
+    crit = critical_incidence_deg if lobe > 0 else None
+    key = (_map_key(map), plan.resolution_cm, int(n_angles), plan.dtype, lobe, crit, max_range_cm)
     with _TABLES_LOCK:
         table = _TABLES.get(key)
         if table is not None:
@@ -397,14 +549,16 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
         ranges = None
         path = None
         if folder is not None:
-            path = folder / f"range_table_{key[0]}_{resolution_cm:g}cm_{n_angles}.npy"
+            lobe_tag = (f"_lobe{lobe:g}_{crit}" if lobe > 0 else "") + (f"_max{max_range_cm:g}" if max_range_cm else "")
+            path = folder / f"range_table_{key[0]}_{plan.resolution_cm:g}cm_{n_angles}_{plan.dtype}{lobe_tag}.npy"
             if path.is_file():
                 try:
                     ranges = np.load(path)
                 except (OSError, ValueError) as exc:
                     log.warning("ignoring unreadable range table cache %s: %s", path, exc)
         try:
-            table = RangeTable(map, resolution_cm, n_angles, ranges)
+            table = RangeTable(map, plan.resolution_cm, n_angles, ranges, lobe, crit, plan.dtype, plan.quantum_cm,
+                               max_range_cm)
         except ValueError as exc:
             if ranges is None:
                 raise
@@ -412,7 +566,8 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
             log.warning("range table cache %s does not fit map %s (%s); rebuilding it (cache folder: "
                         "$NXTNAV_CACHE_DIR or the localiser's cache_dir)", path, map.name, exc)
             ranges = None
-            table = RangeTable(map, resolution_cm, n_angles, None)
+            table = RangeTable(map, plan.resolution_cm, n_angles, None, lobe, crit, plan.dtype, plan.quantum_cm,
+                               max_range_cm)
         if path is not None and ranges is None:
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
@@ -422,8 +577,8 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
             except OSError as exc:
                 log.warning("could not write range table cache %s: %s", path, exc)
         _TABLES[key] = table
-        log.debug("range table for %s: %d cells x %d directions (%.1f MB)", map.name, table.ranges.shape[0],
-                  n_angles, table.nbytes / 1e6)
+        log.debug("range table for %s: %d cells of %g cm x %d directions, %s (%.1f MB)", map.name,
+                  table.ranges.shape[0], plan.resolution_cm, n_angles, plan.dtype, table.nbytes / 1e6)
         return table
 
 

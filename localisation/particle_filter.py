@@ -168,7 +168,13 @@ class ParticleFilter(Localiser):
     use_table : bool
         Expected ranges from the precomputed `RangeTable` (fast) or exact ray casting (slow).
     table_resolution_cm, table_angles : float, int
-        Cell size and directions of the table.
+        Finest cell size and directions of the table.
+    range_memory_mb : float, optional
+        Memory budget of the table and the global-start lattice (MB); default ``$NXTNAV_RANGE_MEMORY_MB``
+        or 1024. A map whose model needs more at 1 cm gets coarser cells (up to 5 cm) or uint16 ranges;
+        one that cannot fit raises `LocalisationError` (see `localisation.models.range_table`).
+    max_range_cm : float, optional
+        The sonar's range limit: the table sees no wall beyond it (the NXT's 255 cm).
     beam_width_deg : float
         Sonar lobe width for the expected ranges (0: a thin ray, right for the ``ideal`` sonar; about
         20 for the NXT, whose reading is the nearest echo in its lobe). Table lookups only.
@@ -217,6 +223,8 @@ class ParticleFilter(Localiser):
         use_table: bool = True,
         table_resolution_cm: float = 1.0,
         table_angles: int = 360,
+        range_memory_mb: float | None = None,
+        max_range_cm: float | None = None,
         beam_width_deg: float = 0.0,
         critical_incidence_deg: float | None = None,
         refine_exact: bool = False,
@@ -254,7 +262,8 @@ class ParticleFilter(Localiser):
         self.refine_exact = bool(refine_exact)
         self.snapshot_size = int(snapshot_size)
         self.table: RangeTable | None = (
-            range_table(map, table_resolution_cm, table_angles, cache_dir, beam_width_deg, critical_incidence_deg)
+            range_table(map, table_resolution_cm, table_angles, cache_dir, beam_width_deg, critical_incidence_deg,
+                        range_memory_mb, lattice_step if global_init == "lattice" else None, max_range_cm)
             if use_table else None
         )
         if global_init not in ("lattice", "uniform"):

@@ -12,6 +12,7 @@ import pytest
 
 from toolkit.cli import main
 from toolkit.world import load_map, ray_cast
+from toolkit.world.generated import random_grid_map
 
 
 def run(args: list[str]) -> int:
@@ -80,3 +81,26 @@ def test_bench_world_prints_rates(capsys: pytest.CaptureFixture[str]) -> None:
     assert run(["bench", "world", "--poses", "50", "--repeats", "1", "--segments", "200"]) == 0
     out = capsys.readouterr().out
     assert "M rays/s" in out and "checks/s" in out
+
+
+def test_bench_world_json_on_a_generated_grid(tmp_path: Path) -> None:
+    out = tmp_path / "w.json"
+    args = ["bench", "world", "--random-grid", "24", "--poses", "20", "--repeats", "1", "--segments", "300",
+            "--no-peer", "--json", str(out)]
+    assert run(args) == 0
+    doc = json.loads(out.read_text())
+    assert doc["edges"] == len(random_grid_map(24, rng=0).walls) > 100
+    for key in ("rays_per_s", "segment_checks_per_s", "point_checks_per_s", "cspace_build_s",
+                "range_model_build_s", "range_model_bytes"):
+        assert doc[key] > 0, key
+    assert doc["range_model_bytes"] <= 1024 * 2**20
+
+
+@pytest.mark.parametrize("budget", ["0", "-1", "0.5"])
+def test_bench_world_range_budget_errors(budget: str) -> None:
+    proc = subprocess.run([sys.executable, "-m", "toolkit.cli", "bench", "world", "--random-grid", "64",
+                           "--poses", "5", "--repeats", "1", "--segments", "50", "--no-peer",
+                           "--range-memory-mb", budget], capture_output=True, text=True, check=False)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--range-memory-mb" in lines[0] and "Traceback" not in proc.stderr

@@ -11,14 +11,14 @@ from localisation.base import Motion
 from localisation.models import MotionModel, RangeLikelihood, exact_ranges, range_lattice, range_table
 from localisation.resampling import log_normalise
 from toolkit.robots.sim import MotionNoise, SimRobot
-from toolkit.world import Pose, angle_diff, load_map
+from toolkit.world import Pose, angle_diff, load_map, ray_cast
 
 
 @pytest.mark.parametrize("model,motion,turn", [("botsim", 0.1, 0.005), ("absolute", 0.5, 0.02)])
 def test_motion_model_matches_simulator(model: str, motion: float, turn: float) -> None:
     """Sampled end poses have the simulator's spread (independent ground truth: SimRobot)."""
     m = load_map("map1")
-    start = Pose(30.0, 80.0, 0.3)
+    start = Pose(25.0, 85.0, 0.3)  # the drive ends 14 cm from the nearest wall: no collision truncates it
     act = Motion(turn_rad=-0.8, distance_cm=25.0)
     sim_end = []
     robot = SimRobot(m, start, noise=MotionNoise(model, motion, turn), rng=1)  # type: ignore[arg-type]
@@ -28,6 +28,7 @@ def test_motion_model_matches_simulator(model: str, motion: float, turn: float) 
         robot.move(act.distance_cm)
         sim_end.append(robot.true_pose.as_array())
     sim = np.array(sim_end)
+    assert robot.collisions == 0 and robot.watchdog_stops == 0  # the motion model knows no walls
     mm = MotionModel(model, motion, turn)
     ours = mm.sample(np.tile(start.as_array(), (4000, 1)), act, rng=2)
     for k in range(2):
@@ -114,3 +115,63 @@ def test_lobe_table_with_specular_loss_matches_nxt_sonar() -> None:
     # the thin-ray table is a much worse model of this sonar
     thin_err = np.abs(flat[both] - echo[both])
     assert np.mean(thin_err < 3.0) < np.mean(err < 3.0) - 0.05
+
+
+def test_range_table_fits_its_memory_budget() -> None:
+    """A budget too small for 1 cm float32 cells gives uint16 ranges, then coarser cells; never more memory."""
+    from localisation.models import plan_range_table
+
+    m = load_map("map1")
+    full = range_table(m, memory_mb=64)
+    assert full.dtype == "float32" and full.resolution_cm == 1.0
+    budget = full.nbytes * 0.6 / 2**20  # uint16 at 1 cm fits, float32 does not
+    half = range_table(m, memory_mb=budget)
+    assert half.dtype == "uint16" and half.resolution_cm == 1.0 and half.nbytes <= budget * 2**20
+    rows = np.arange(0, len(full.centres), 97)
+    a, b = full.decode(rows), half.decode(rows)
+    assert np.array_equal(np.isinf(a), np.isinf(b))
+    assert np.max(np.abs(a[np.isfinite(a)] - b[np.isfinite(b)])) <= half.quantum_cm / 2 + 1e-4
+    coarse = range_table(m, memory_mb=budget / 3)
+    assert coarse.resolution_cm > 1.0 and coarse.nbytes <= budget / 3 * 2**20
+    plan = plan_range_table(m, 360, int(budget / 3 * 2**20))
+    assert plan.resolution_cm == coarse.resolution_cm and plan.dtype == coarse.dtype
+
+
+@pytest.mark.parametrize("memory_mb", [0.0, -5.0, 0.01])
+def test_range_table_budget_errors_name_the_option(memory_mb: float) -> None:
+    from toolkit.world import LocalisationError
+
+    with pytest.raises(LocalisationError, match="--range-memory-mb") as err:
+        range_table(load_map("map1"), memory_mb=memory_mb)
+    assert "\n" not in str(err.value)
+
+
+def test_range_table_budget_from_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    from localisation.models import range_memory_budget
+    from toolkit.world import LocalisationError
+
+    monkeypatch.setenv("NXTNAV_RANGE_MEMORY_MB", "2")
+    assert range_memory_budget() == 2 * 2**20
+    assert range_memory_budget(3) == 3 * 2**20
+    monkeypatch.setenv("NXTNAV_RANGE_MEMORY_MB", "lots")
+    with pytest.raises(LocalisationError, match="NXTNAV_RANGE_MEMORY_MB"):
+        range_memory_budget()
+
+
+def test_coarse_table_interpolates_between_cells() -> None:
+    """A 2 cm table (a map under a budget) reads between cell centres: nearer the exact ranges than its cells."""
+    m = load_map("map1")
+    table = range_table(m, resolution_cm=2.0)
+    assert table.resolution_cm == 2.0
+    rng = np.random.default_rng(8)
+    xy = m.sample_free(300, clearance=10.0, rng=rng)
+    poses = np.column_stack([xy, rng.uniform(-np.pi, np.pi, 300)])
+    rel = np.radians(np.arange(0, 360, 30, dtype=float))
+    k = np.rint((poses[:, 2:3] + rel[None, :]) / (2 * np.pi / table.n_angles)) * (2 * np.pi / table.n_angles)
+    exact = ray_cast(m.walls, xy, k).astype(np.float32)  # along the table's directions
+    got, inside = table.lookup(poses, rel)
+    nearest = np.take_along_axis(table.decode(table.cells(xy)),
+                                 np.mod(np.rint(k / (2 * np.pi / table.n_angles)), table.n_angles).astype(int), 1)
+    assert inside.all()
+    ok = np.isfinite(exact)
+    assert np.median(np.abs(got - exact)[ok]) < 0.5 * np.median(np.abs(nearest - exact)[ok])

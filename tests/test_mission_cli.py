@@ -67,6 +67,13 @@ def test_run_explicit_start_with_heading(tmp_path: Path) -> None:
     assert doc["target"] == [20.0, 90.0]
 
 
+def test_run_radius_scales_the_robot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A target 10 cm from a wall is reachable by a 5 cm robot and in a wall for a 12 cm one."""
+    assert _exit_code(["run", "--radius", "5", "--target", "10,90"]) == 0
+    assert _exit_code(["run", "--radius", "12", "--target", "10,90"]) == 2
+    assert "in a wall" in capsys.readouterr().err
+
+
 def test_run_target_in_wall_reports_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     js = tmp_path / "m.json"
     assert _exit_code(["run", "--target", "3,50", "--json", str(js)]) == 2
@@ -91,6 +98,7 @@ def test_run_target_in_wall_reports_it(tmp_path: Path, capsys: pytest.CaptureFix
     ["run", "--sonar", "perfect"],
     ["run", "--noise-model", "gaussian"],
     ["run", "--robot", "nxt", "--start", "20,20"],
+    ["run", "--radius", "0"],
     ["paper", "--trials", "0"],
     ["paper", "--stack", "min-turn"],
     ["paper", "--stack", "min-turn/nope"],

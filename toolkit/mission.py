@@ -62,6 +62,7 @@ from .world import (
     Pose,
     RngLike,
     Robot,
+    RobotGeometry,
     Scan,
     angle_diff,
     as_rng,
@@ -1065,8 +1066,9 @@ def lobe_options(localiser: str, sonar: str, sensor_noise: float = 1.0) -> dict[
 
     A localiser whose constructor takes ``beam_width_deg`` (and ``critical_incidence_deg``), such as
     the particle filters' range tables, gets the sonar model's values: for ``nxt`` (and a real NXT) a
-    20-degree lobe with specular loss beyond 40 degrees of incidence; nothing for the thin-ray
-    ``ideal`` sonar or for localisers without the options.
+    20-degree lobe with specular loss beyond 40 degrees of incidence and its 255 cm range limit
+    (``max_range_cm``, when the localiser takes it); nothing for the thin-ray ``ideal`` sonar or for
+    localisers without the options.
     """
     model = make_sonar(sonar, noise_sd=sensor_noise)
     width = float(getattr(model, "beam_width_deg", 0.0))
@@ -1075,6 +1077,8 @@ def lobe_options(localiser: str, sonar: str, sensor_noise: float = 1.0) -> dict[
     lobe = {"beam_width_deg": width}
     if hasattr(model, "critical_incidence_deg"):
         lobe["critical_incidence_deg"] = float(model.critical_incidence_deg)
+    if hasattr(model, "max_range_cm"):
+        lobe["max_range_cm"] = float(model.max_range_cm)
     return _accepted(localiser, lobe)
 
 
@@ -1120,6 +1124,7 @@ def run_sim_mission(
     sonar: str = "ideal",
     config: MissionConfig | None = None,
     recorder: Recorder | None = None,
+    robot_radius_cm: float | None = None,
 ) -> MissionReport:
     """One seeded mission on the simulator, as `nxtnav run` and `nxtnav paper` run it.
 
@@ -1145,14 +1150,21 @@ def run_sim_mission(
         None: `MissionConfig.for_sonar(sonar)`.
     recorder : toolkit.recording.Recorder, optional
         Passed to `run_mission`.
+    robot_radius_cm : float, optional
+        Radius of the robot disc (cm; default `RobotGeometry`'s 8 cm): a robot scaled to the map. The
+        random start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm``
+        get it.
     """
     from .robots.sim import MotionNoise, SimRobot
+
+    geometry = RobotGeometry() if robot_radius_cm is None else RobotGeometry(radius_cm=float(robot_radius_cm))
 
     m = map if isinstance(map, Map) else load_map(map)
     s_start, s_sim, s_stack = mission_seeds(seed)
     start_rng = np.random.default_rng(s_start)
     if random_start_pose:
-        pose = random_start(m, start_rng)
+        pose = random_start(m, start_rng) if robot_radius_cm is None else \
+            random_start(m, start_rng, geometry.radius_cm + 2.0)
     elif isinstance(start, Pose):
         pose = start
     else:
@@ -1171,8 +1183,10 @@ def run_sim_mission(
     if isinstance(localiser, str):
         opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
                                          turn_noise=turn_noise, sensor_noise=sensor_noise)
+        if robot_radius_cm is not None:
+            opts.update(_accepted(localiser, {"clearance_cm": geometry.radius_cm}))
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
-    robot = SimRobot(m, pose, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
+    robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,
                          recorder=recorder)
     return replace(report, seed=int(seed))

@@ -72,6 +72,8 @@ def run(
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="Sonar noise (cm), motion noise, turn noise (the paper's by default)."),
     seed: int = typer.Option(0, help="Random seed (start heading, simulator noise, stack).", callback=seed_ok),
+    radius: float | None = typer.Option(None, "--radius", min=0.1,
+                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the report as JSON."),
     plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png", help="Draw the mission."),
     animate: Path | None = typer.Option(None, "--animate", metavar="FILE.gif", help="Animate the mission (GIF)."),
@@ -115,7 +117,7 @@ def run(
         robot = _connect_nxt(nxt_backend, server_host, server_port, profile)
         recorder: Any = None
         report: Any = None
-        radius = float(robot.geometry.radius_cm)
+        robot_radius = float(robot.geometry.radius_cm)
         try:
             if record is not None:
                 recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
@@ -127,7 +129,7 @@ def run(
             robot.close()
             _finish(recorder, report)
     else:
-        radius = RobotGeometry().radius_cm  # the simulator's robot
+        robot_radius = radius if radius is not None else RobotGeometry().radius_cm  # the simulator's robot
         start: Any = None
         if start_text is not None:
             start = parse_pose(start_text, "--start", heading_required=False)
@@ -137,7 +139,7 @@ def run(
                                          param_hint="--start")
 
         recorder = None if record is None else _recorder(
-            record, m, {"kind": "sim", "geometry": RobotGeometry().to_dict()},
+            record, m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
             {"model": sonar, "sensor_noise": sensor_noise}, seed,
             {"model": noise_model, "motion": motion_noise, "turn": turn_noise})
         report = None
@@ -145,7 +147,7 @@ def run(
             report = run_sim_mission(
                 m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
                 localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
-                turn_noise=turn_noise, sonar=sonar, recorder=recorder,
+                turn_noise=turn_noise, sonar=sonar, recorder=recorder, robot_radius_cm=radius,
             )
         finally:
             _finish(recorder, report)
@@ -174,7 +176,7 @@ def run(
             animate_mission(report, m, animate)
             typer.echo(f"wrote {animate}")
     if not report.success:  # a target no robot disc fits on is bad input (2); any other failure is 1
-        reachable = bool(m.contains(target)) and bool(CollisionChecker(m, radius).point_free(target))
+        reachable = bool(m.contains(target)) and bool(CollisionChecker(m, robot_radius).point_free(target))
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED if reachable else EXIT_BAD_INPUT)
 
 

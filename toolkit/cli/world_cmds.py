@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
-import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
@@ -23,14 +21,12 @@ from ..plotting import (
 )
 from ..world import (
     SONAR_MODELS,
-    CollisionChecker,
     Pose,
     RobotGeometry,
     default_scan_angles,
     list_maps,
     load_map,
     make_sonar,
-    ray_cast,
 )
 from .app import app, bench_app, maps_app
 from .options import check_writable, count, non_negative, parse_pose, positive
@@ -126,44 +122,65 @@ def scan(
 
 @bench_app.command("world")
 def bench_world(
-    map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
-    poses: int = typer.Option(1000, help="Poses per ray-casting call.", callback=count),
-    repeats: int = typer.Option(7, help="Repetitions; the median is reported.", callback=count),
-    segments: int = typer.Option(20000, help="Random segments for the FCL segment check timing.", callback=count),
+    map_name: str = typer.Option("map1", "--map", help="Map name, YAML file, Moving AI .map or ROS map YAML."),
+    random_grid: int = typer.Option(0, "--random-grid", metavar="CELLS",
+                                    help="Instead of --map: a generated CELLS x CELLS random grid map "
+                                         "(512: about 90,000 walls)."),
+    cell_cm: float | None = typer.Option(None, help="Cell size (cm) of a Moving AI map (default 1) or of "
+                                                    "--random-grid (default 5)."),
+    radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the checks and the c-space (cm)."),
+    poses: int = typer.Option(1000, help="Poses per ray-casting call (x 360 directions).", callback=count),
+    repeats: int = typer.Option(5, help="Repetitions; the median is reported.", callback=count),
+    segments: int = typer.Option(20000, help="Random segments / points for the collision-check timing.",
+                                 callback=count),
+    range_model: bool = typer.Option(True, "--range-model/--no-range-model",
+                                     help="Also build the particle filters' range table within the budget."),
+    range_memory_mb: float | None = typer.Option(None, "--range-memory-mb",
+                                                 help="Range model memory budget (MB; default 1024 or "
+                                                      "$NXTNAV_RANGE_MEMORY_MB)."),
+    peer: bool = typer.Option(True, "--peer/--no-peer", help="Measure raycast2d (optional extra) in the same run."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
+    json_out: Path | None = typer.Option(None, "--json", help="Write the figures as JSON."),
 ) -> None:
-    """Throughput of ray casting (poses x 360 angles) and collision checks; medians of repeats.
+    """Throughput of ray casting and collision checks, c-space and range-model build; medians of repeats.
 
-    The checks are `CollisionChecker`'s on random points and segments over the map's bounds: those
-    outside the free area are settled by shapely's point-in-polygon test, the rest by FCL.
+    Rays: `poses` random free positions x 360 directions. Checks: `CollisionChecker` on random points
+    over the map's bounds and random segments from them (normal steps of 20 cm). The c-space is the
+    free area shrunk by the radius plus the checker's index. The peer (``pip install nxtnav[peers]``)
+    casts the same rays on the map rasterised at 1 cm (or coarser, at most 4096 pixels a side).
     """
-    m = load_map(map_name)
-    rng = np.random.default_rng(seed)
-    origins = m.sample_free(poses, rng=rng)
-    angles = default_scan_angles()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        ray_cast(m.walls, origins, angles)
-        times.append(time.perf_counter() - t0)
-    ray_t = float(np.median(times))
-    cc = CollisionChecker(m, RobotGeometry().radius_cm)
-    xmin, ymin, xmax, ymax = m.bounds
-    a = rng.uniform([xmin, ymin], [xmax, ymax], (segments, 2))
-    b = a + rng.normal(0.0, 20.0, (segments, 2))
-    seg_times, pt_times = [], []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        cc.segments_free(a, b)
-        seg_times.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        cc.point_free(a)
-        pt_times.append(time.perf_counter() - t0)
-    table = Table("measure", "median", "rate", title=f"{m.name}: {len(m.walls)} walls, median of {repeats}")
-    n_rays = poses * angles.size
-    table.add_row(f"ray cast {poses} poses x {angles.size} angles", f"{ray_t * 1e3:.1f} ms",
-                  f"{n_rays / ray_t / 1e6:.2f} M rays/s")
-    st, pt = float(np.median(seg_times)), float(np.median(pt_times))
-    table.add_row(f"segment checks ({segments} random)", f"{st * 1e3:.1f} ms", f"{segments / st / 1e3:.1f} k checks/s")
-    table.add_row(f"point checks ({segments} random)", f"{pt * 1e3:.1f} ms", f"{segments / pt / 1e3:.1f} k checks/s")
+    from ..bench.world import bench_world_figures
+
+    if random_grid:
+        from ..world.generated import random_grid_map
+
+        m = random_grid_map(random_grid, cell_cm=cell_cm or 5.0, rng=seed)
+    elif cell_cm is not None and str(map_name).endswith(".map"):
+        from ..world.importers import import_map
+
+        m = import_map(map_name, cell_cm=cell_cm)
+    else:
+        m = load_map(map_name)
+    fig = bench_world_figures(m, radius=radius, poses=poses, repeats=repeats, segments=segments,
+                              range_model=range_model, range_memory_mb=range_memory_mb, peer=peer, rng=seed)
+    table = Table("measure", "value", title=f"{m.name}: {fig['edges']} walls, medians of {repeats}")
+    table.add_row("ray casting", f"{fig['rays_per_s'] / 1e6:.2f} M rays/s "
+                  f"({fig['rays_per_cpu_s'] / 1e6:.2f} M per CPU second)")
+    table.add_row("segment checks", f"{fig['segment_checks_per_s'] / 1e3:.0f} k checks/s "
+                  f"({fig['segment_checks_per_cpu_s'] / 1e3:.0f} k per CPU second)")
+    table.add_row("point checks", f"{fig['point_checks_per_s'] / 1e3:.0f} k checks/s "
+                  f"({fig['point_checks_per_cpu_s'] / 1e3:.0f} k per CPU second)")
+    table.add_row("c-space build", f"{fig['cspace_build_s']:.2f} s")
+    if fig.get("range_model_bytes") is not None:
+        table.add_row("range model build", f"{fig['range_model_build_s']:.1f} s "
+                      f"({fig['range_model_resolution_cm']:g} cm, {fig['range_model_dtype']})")
+        table.add_row("range model memory", f"{fig['range_model_bytes'] / 2**20:.0f} MB")
+    if fig.get("peer"):
+        pr = fig["peer"]
+        table.add_row(f"peer {pr['name']} ({pr['pixel_cm']:g} cm pixels)",
+                      f"{pr['rays_per_s'] / 1e6:.2f} M rays/s (ours / peer {pr['ratio']:.1f}x), "
+                      f"mean |range difference| {pr['mean_abs_range_diff_cm']:.2f} cm")
     Console().print(table)
+    if json_out is not None:
+        json_out.write_text(json.dumps(fig, indent=1))
+        typer.echo(f"wrote {json_out}")
