@@ -72,6 +72,7 @@ from .world import (
 __all__ = [
     "MissionConfig",
     "MissionReport",
+    "RobotTimeSplit",
     "TraceStep",
     "explore_direction",
     "matched_localiser_options",
@@ -79,6 +80,7 @@ __all__ = [
     "random_start",
     "run_mission",
     "run_sim_mission",
+    "sweep_angles",
 ]
 
 log = logging.getLogger(__name__)
@@ -167,6 +169,29 @@ class MissionConfig:
         Minimum standard deviations of the prior handed to a tracking re-localisation.
     max_actions : int
         Hard limit on Turn/Move commands (guards against endless loops).
+    global_scan_step_deg : float
+        Turret step (deg) of the sweeps of a global localisation (1: the paper's 360 readings).
+    global_align : bool
+        Global localisation the paper's way: sweep, turn toward the minimum reading, sweep again and
+        keep the windows around the axes. False: one sweep, every usable reading given to the
+        localiser (half the sweeps; the particle filter needs no perpendicular wall).
+    track_window_deg : float
+        Sweeps of a tracking re-localisation (from a belief, no alignment) read only the four windows
+        of +-this many degrees around the robot's axes (15: the 124 readings the paper's processing
+        keeps); 180 sweeps the full turn.
+    track_scan_step_deg : float
+        Turret step (deg) inside those windows.
+    track_align : bool
+        Re-localise along the way the paper's way (full sweep, align, full sweep) instead of one
+        window sweep; the window settings are then ignored.
+    final_window_deg, final_scan_step_deg : float
+        The same for the re-localisations at the target (the final correction loop).
+    fix_at_waypoints : {"always", "spread"}
+        ``always`` re-localises at every waypoint; ``spread`` only when the belief's predicted spread
+        across the next segment (the position spread, plus the heading spread over the segment's
+        length, times `spread_sigmas`) would not leave the robot disc clear of the walls along it.
+    spread_sigmas : float
+        Standard deviations of the belief the ``spread`` rule keeps clear of the walls.
     """
 
     planning_time_s: float = 1.0
@@ -198,6 +223,15 @@ class MissionConfig:
     tracking_std_cm: float = 4.0
     tracking_std_deg: float = 8.0
     max_actions: int = 400
+    global_scan_step_deg: float = 2.0
+    global_align: bool = False
+    track_window_deg: float = 15.0
+    track_scan_step_deg: float = 1.0
+    track_align: bool = False
+    final_window_deg: float = 15.0
+    final_scan_step_deg: float = 1.0
+    fix_at_waypoints: str = "spread"
+    spread_sigmas: float = 3.0
 
     def __post_init__(self) -> None:
         positive = ("planning_time_s", "move_step_cm", "waypoint_tolerance_cm", "goal_tolerance_cm",
@@ -208,6 +242,19 @@ class MissionConfig:
                 raise ValueError(f"MissionConfig.{name} must be a positive number, got {v!r}")
         if not (math.isfinite(self.safety_margin_cm) and self.safety_margin_cm >= 0):
             raise ValueError(f"MissionConfig.safety_margin_cm must be >= 0, got {self.safety_margin_cm!r}")
+        for name in ("global_scan_step_deg", "track_scan_step_deg", "final_scan_step_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0 < v <= 90):
+                raise ValueError(f"MissionConfig.{name} must be in (0, 90] degrees, got {v!r}")
+        for name in ("track_window_deg", "final_window_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0 <= v <= 180):
+                raise ValueError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
+        if self.fix_at_waypoints not in ("always", "spread"):
+            raise ValueError(f"MissionConfig.fix_at_waypoints must be 'always' or 'spread', "
+                             f"got {self.fix_at_waypoints!r}")
+        if not (math.isfinite(self.spread_sigmas) and self.spread_sigmas >= 0):
+            raise ValueError(f"MissionConfig.spread_sigmas must be >= 0, got {self.spread_sigmas!r}")
         if self.tracking not in ("continue", "prior"):
             raise ValueError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
         if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:
@@ -284,6 +331,52 @@ class TraceStep:
         }
 
 
+@dataclass(frozen=True)
+class RobotTimeSplit:
+    """Where a mission's robot time went (s), from the robot's own counters.
+
+    Attributes
+    ----------
+    sweep_s : float
+        Sonar sweeps: the readings and the turret's travel through them.
+    turret_return_s : float
+        Turning the turret back to the front after each sweep.
+    drive_s, turn_s : float
+        Driving (forward and backward) and spinning in place.
+    readings : int
+        Sonar readings taken by the sweeps (the watchdog's forward readings are not counted).
+    other_s : float
+        Robot time outside these (link overheads on a real NXT; 0 on the simulator).
+    """
+
+    sweep_s: float
+    turret_return_s: float
+    drive_s: float
+    turn_s: float
+    readings: int
+    other_s: float = 0.0
+
+    def to_dict(self) -> dict[str, float | int]:
+        return dict(self.__dict__)
+
+    def describe(self) -> str:
+        """One line: ``sweeping 40.1 s (1612 readings), turret back 9.0 s, driving 12.0 s, turning 7.1 s``."""
+        text = (f"sweeping {self.sweep_s:.1f} s ({self.readings} readings), turret back {self.turret_return_s:.1f} s, "
+                f"driving {self.drive_s:.1f} s, turning {self.turn_s:.1f} s")
+        return text + (f", other {self.other_s:.1f} s" if abs(self.other_s) >= 0.05 else "")
+
+
+_SPLIT_COUNTERS = ("sweep_s", "turret_return_s", "drive_s", "turn_s", "readings")
+
+
+def _time_split(delta: Mapping[str, float], robot_time_s: float) -> RobotTimeSplit | None:
+    """The split from the robot's counter increments, when the robot keeps them all."""
+    if not all(k in delta for k in _SPLIT_COUNTERS):
+        return None
+    parts = [delta[k] for k in _SPLIT_COUNTERS[:4]]
+    return RobotTimeSplit(*parts, readings=int(delta["readings"]), other_s=robot_time_s - sum(parts))
+
+
 @dataclass(frozen=True, eq=False)
 class MissionReport:
     """What a mission did and how well.
@@ -347,6 +440,7 @@ class MissionReport:
     final_estimate: Pose | None
     plans: list[FloatArray] = field(default_factory=list)
     trace: list[TraceStep] = field(default_factory=list)
+    time_split: RobotTimeSplit | None = None
 
     def to_dict(self, trace: bool = True) -> dict[str, Any]:
         """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
@@ -357,6 +451,7 @@ class MissionReport:
             "estimate_error_cm": self.estimate_error_cm,
             "completion_s": self.completion_s,
             "robot_time_s": self.robot_time_s,
+            "robot_time_split": None if self.time_split is None else self.time_split.to_dict(),
             "path_length_cm": self.path_length_cm,
             "planned_length_cm": self.planned_length_cm,
             "turns": self.turns,
@@ -408,7 +503,8 @@ class MissionReport:
             f"map {self.map}, planner {self.planner}, localiser {self.localiser}, seed {self.seed}",
             f"final error {err} (estimate {_fmt(self.estimate_error_cm)} cm from target), "
             f"collisions {coll}",
-            f"completion {self.completion_s:.3f} s wall-clock, robot time {self.robot_time_s:.1f} s",
+            f"completion {self.completion_s:.3f} s wall-clock, robot time {self.robot_time_s:.1f} s"
+            + ("" if self.time_split is None else f": {self.time_split.describe()}"),
             f"driven {self.path_length_cm:.1f} cm (planned {self.planned_length_cm:.1f} cm), turns {self.turns}, "
             f"watchdog stops {self.watchdog_stops}, re-localisations {self.relocalisations}, "
             f"re-plans {self.replans}",
@@ -469,6 +565,24 @@ def explore_direction(scan: Scan, clearance_cm: float, rng: np.random.Generator 
     return float(angle_diff(a[k], 0.0)), float(min(max_step_cm, 0.5 * free[k]))
 
 
+def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0) -> FloatArray:
+    """Turret angles (rad, relative to the heading) of one sweep, in the order the turret visits them.
+
+    ``window_deg >= 180`` is the full turn from straight ahead at `step_deg` steps (360 readings at
+    1 degree); smaller windows read only the four windows of +-`window_deg` around the robot's axes
+    (0, 90, 180, 270 degrees), which is what the paper's scan processing keeps: 124 readings for
+    15-degree windows at 1 degree, and about 600 degrees of turret travel instead of 720.
+
+    >>> sweep_angles(1.0, 15.0).size, sweep_angles(2.0).size
+    (124, 180)
+    """
+    if window_deg >= 180.0:
+        return np.radians(np.arange(0.0, 360.0 - 1e-9, step_deg))
+    half = np.arange(0.0, window_deg + 1e-9, step_deg)
+    off = np.concatenate([-half[:0:-1], half])
+    return np.radians(np.concatenate([c + off for c in (0.0, 90.0, 180.0, 270.0)]))
+
+
 def _localise_procedure() -> Callable[..., Any]:
     from localisation.procedure import localise
 
@@ -505,6 +619,7 @@ class _Mission:
         self.safe_checkers = [CollisionChecker(m, radius + f * margin) for f in (1.0, 0.5) if margin > 0]
         lm = config.leg_margin_cm
         self.leg_checker = CollisionChecker(m, radius + lm) if lm > 0 else self.checker
+        self._margin_checkers: dict[float, CollisionChecker] = {}
         self.trace: list[TraceStep] = []
         self.plans: list[FloatArray] = []
         self.planned_length = 0.0
@@ -546,8 +661,23 @@ class _Mission:
             raise _MissionEnded(f"gave up after {self.cfg.max_actions} actions")
 
     # -- localisation ---------------------------------------------------------------------------
-    def _call_localise(self, prior: Prior | None, **extra: Any) -> PoseEstimate:
-        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **dict(self.cfg.localise_options), **extra}
+    def _sweep_options(self, kind: str) -> dict[str, Any]:
+        """How the localisation procedure sweeps for a ``global``, ``track`` or ``final`` localisation."""
+        cfg = self.cfg
+        if kind == "global":
+            return {"align": cfg.global_align, "process": cfg.global_align,
+                    "scan_angles": sweep_angles(cfg.global_scan_step_deg)}
+        if cfg.track_align:
+            return {"align": True, "process": True, "scan_angles": None}
+        if kind == "final":
+            return {"align": False, "process": False,
+                    "scan_angles": sweep_angles(cfg.final_scan_step_deg, cfg.final_window_deg)}
+        return {"align": False, "process": False,
+                "scan_angles": sweep_angles(cfg.track_scan_step_deg, cfg.track_window_deg)}
+
+    def _call_localise(self, prior: Prior | None, kind: str = "global", **extra: Any) -> PoseEstimate:
+        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
+                                  **dict(self.cfg.localise_options), **extra}
         if self._localise_kw is not None:
             dropped = [k for k in kwargs if k not in self._localise_kw]
             if dropped:
@@ -654,15 +784,16 @@ class _Mission:
         return explore_direction(scan, self.radius + 0.5 * cfg.safety_margin_cm + 0.5, self.rng, avoid_rad,
                                  cfg.explore_step_cm)
 
-    def relocalise(self, reason: str) -> PoseEstimate:
-        """Tracking re-localisation from the current belief; falls back to a global one."""
+    def relocalise(self, reason: str, kind: str = "track") -> PoseEstimate:
+        """Tracking re-localisation from the current belief (`kind` ``track`` or, at the target,
+        ``final`` chooses the sweep); falls back to a global one."""
         self.relocalisations += 1
         if self.estimate is None:
             return self.localise_global()
         if self.cfg.tracking == "prior":
-            est = self._call_localise(self._prior(self.estimate), reset=True, max_iterations=1)
+            est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
         else:
-            est = self._call_localise(None, reset=False, max_iterations=1)
+            est = self._call_localise(None, kind, reset=False, max_iterations=1)
         self.estimate = est
         ok = self._ok(est)
         self.record("relocalise", note=f"{reason}: {'converged' if ok else 'not converged'}, "
@@ -671,7 +802,7 @@ class _Mission:
             self.fresh_fix = False
             return est
         if self.cfg.tracking != "prior":
-            est = self._call_localise(self._prior(self.estimate), reset=True, max_iterations=1)
+            est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
             self.estimate = est
             ok = self._ok(est)
             self.record("relocalise", note=f"{reason}, from a wider prior: {'converged' if ok else 'not converged'}")
@@ -740,12 +871,43 @@ class _Mission:
             length = min(length, checker.first_contact(xy, end, tol=0.2) * leg)
         return max(length, self.cfg.min_leg_cm)
 
-    def drive_to(self, goal: FloatArray, *, final: bool = False) -> str:
+    def _margin_checker(self, extra_cm: float) -> CollisionChecker:
+        """A checker for the robot disc grown by `extra_cm` (rounded up to 0.5 cm; cached)."""
+        key = math.ceil(max(extra_cm, 0.0) * 2.0) / 2.0
+        if key == 0.0:
+            return self.checker
+        if key not in self._margin_checkers:
+            self._margin_checkers[key] = CollisionChecker(self.map, self.radius + key)
+        return self._margin_checkers[key]
+
+    def spread_clear(self, goal: FloatArray) -> bool:
+        """Whether the belief, as predicted now, can drive from its mean to `goal` without a fix:
+        the segment is free for the robot disc grown by `spread_sigmas` standard deviations of the
+        position across the segment plus the heading's over the segment's length."""
+        assert self.estimate is not None
+        a = self.estimate.pose.xy
+        d = np.asarray(goal, dtype=float) - a
+        length = float(np.hypot(*d))
+        if length < 1e-6:
+            return True
+        cov = np.asarray(self.estimate.cov, dtype=float)
+        if not np.all(np.isfinite(cov)):
+            return False
+        perp = np.array([-d[1], d[0]]) / length
+        var = float(perp @ cov[:2, :2] @ perp) + length**2 * float(cov[2, 2])
+        extra = self.cfg.spread_sigmas * math.sqrt(max(var, 0.0))
+        if extra > 10.0:
+            return False
+        return bool(self._margin_checker(extra).segment_free(a, goal))
+
+    def drive_to(self, goal: FloatArray, *, final: bool = False, next_goal: FloatArray | None = None) -> str:
         """Turn toward `goal` from the estimate and drive there in steps, re-localising on the way.
 
         Legs longer than `relocalise_every_cm` are split; after each leg the robot re-localises and
         re-aims, until the estimate is within `waypoint_tolerance_cm` of `goal` (for the `final`
-        goal the final correction re-localises instead).
+        goal the final correction re-localises instead). With ``fix_at_waypoints="spread"`` the
+        robot does not re-localise on reaching `goal` when the predicted belief can drive on to
+        `next_goal` (`spread_clear`).
 
         Returns ``arrived``, ``watchdog`` (the watchdog stopped a move), ``blocked`` (a move made
         almost no progress: a contact) or ``deviated`` (the straight line from the estimate to the
@@ -779,6 +941,11 @@ class _Mission:
                     return "blocked"
                 driven += step
             if final and leg >= dist:
+                return "arrived"
+            if (leg >= dist and next_goal is not None and cfg.fix_at_waypoints == "spread"
+                    and self.spread_clear(next_goal)):
+                self.record("skip-fix", note=f"belief spread {self.estimate.std_xy_cm:.1f} cm leaves the next "
+                                             "segment clear")
                 return "arrived"
             self.relocalise("at waypoint" if leg >= dist else "along segment")
         return "deviated"
@@ -871,7 +1038,8 @@ class _Mission:
             path = self.plan()
             outcome = "arrived"
             for i, wp in enumerate(path[1:], start=1):
-                outcome = self.drive_to(wp, final=i == len(path) - 1)
+                nxt = path[i + 1] if i + 1 < len(path) else None
+                outcome = self.drive_to(wp, final=i == len(path) - 1, next_goal=nxt)
                 if outcome != "arrived":
                     break
             if outcome == "arrived":
@@ -887,9 +1055,9 @@ class _Mission:
         """Re-localise at the target and correct until the estimate is within the tolerance."""
         cfg = self.cfg
         for k in range(cfg.max_corrections + 1):
-            est = self.relocalise("at target")
+            est = self.relocalise("at target", "final")
             for _ in range(cfg.final_scans - 1):
-                est = self.relocalise("at target (extra scan)")
+                est = self.relocalise("at target (extra scan)", "final")
             delta = self.target - est.pose.xy
             dist = float(np.hypot(*delta))
             if dist <= cfg.goal_tolerance_cm:
@@ -914,7 +1082,7 @@ class _Mission:
 def _robot_counters(robot: Robot) -> dict[str, float]:
     """The robot's own counters (simulator: collisions, watchdog stops, odometry), where it has them."""
     out: dict[str, float] = {}
-    for name in ("collisions", "watchdog_stops", "odometry_cm"):
+    for name in ("collisions", "watchdog_stops", "odometry_cm", *_SPLIT_COUNTERS):
         v = getattr(robot, name, None)
         if isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool):
             out[name] = float(v)
@@ -992,13 +1160,14 @@ def run_mission(
     delta = {k: counters1[k] - counters0[k] for k in counters0 if k in counters1}
     collisions = delta.get("collisions")
     path_length = float(delta.get("odometry_cm", mission.path_length))
+    robot_time = float(robot.robot_time_s) - time0
     return MissionReport(
         success=success,
         status=status,
         final_error_cm=None if final is None else final.distance_to(tgt),
         estimate_error_cm=None if est is None else est.distance_to(tgt),
         completion_s=time.perf_counter() - t0,
-        robot_time_s=float(robot.robot_time_s) - time0,
+        robot_time_s=robot_time,
         path_length_cm=path_length,
         planned_length_cm=mission.planned_length,
         turns=mission.turns,
@@ -1016,6 +1185,7 @@ def run_mission(
         final_estimate=est,
         plans=mission.plans,
         trace=mission.trace,
+        time_split=_time_split(delta, robot_time),
     )
 
 
