@@ -142,6 +142,9 @@ class MissionConfig:
         The estimate must end within this distance of the target for the mission to succeed.
     final_scans : int
         Scans fused at the target before each correction decision (more scans, tighter estimate).
+    reverse_cm : float
+        A correction move at the target up to this long whose direction is more than 90 degrees off
+        the heading backs up instead of turning around (0: always turn toward the target).
     max_replans : int
         Re-plans (after watchdog stops or deviations) before the mission gives up.
     max_localisation_attempts : int
@@ -186,12 +189,18 @@ class MissionConfig:
         window sweep; the window settings are then ignored.
     final_window_deg, final_scan_step_deg : float
         The same for the re-localisations at the target (the final correction loop).
-    fix_at_waypoints : {"always", "spread"}
-        ``always`` re-localises at every waypoint; ``spread`` only when the belief's predicted spread
-        across the next segment (the position spread, plus the heading spread over the segment's
-        length, times `spread_sigmas`) would not leave the robot disc clear of the walls along it.
+    fix_rule : {"habit", "spread"}
+        When a leg ends (at a waypoint, after `relocalise_every_cm`, or where `heading_tolerance_deg`
+        cuts it), ``habit`` re-localises every time; ``spread`` only when the belief as predicted
+        through the motion could not drive on: the position spread across the next stretch plus
+        the heading spread over its length, times `spread_sigmas`, must leave the robot disc clear
+        of the walls along it. A waypoint the robot missed is skipped when the straight line from
+        the estimate to the next one is free.
     spread_sigmas : float
         Standard deviations of the belief the ``spread`` rule keeps clear of the walls.
+    spread_min_heading_deg : float
+        The ``spread`` rule never takes the heading spread as smaller than this (deg): a sonar
+        localiser's belief can be narrower than its heading error.
     """
 
     planning_time_s: float = 1.0
@@ -200,7 +209,7 @@ class MissionConfig:
     localise_options: Mapping[str, Any] = field(default_factory=dict)
     safety_margin_cm: float = 2.0
     move_step_cm: float = 10.0
-    relocalise_every_cm: float | None = 40.0
+    relocalise_every_cm: float | None = None
     first_leg_cm: float | None = 6.0
     waypoint_tolerance_cm: float = 1.0
     max_legs: int = 12
@@ -211,6 +220,7 @@ class MissionConfig:
     max_corrections: int = 6
     success_radius_cm: float = 3.0
     final_scans: int = 1
+    reverse_cm: float = 10.0
     max_replans: int = 12
     max_localisation_attempts: int = 3
     max_explore_moves: int = 6
@@ -230,8 +240,9 @@ class MissionConfig:
     track_align: bool = False
     final_window_deg: float = 15.0
     final_scan_step_deg: float = 1.0
-    fix_at_waypoints: str = "spread"
+    fix_rule: str = "spread"
     spread_sigmas: float = 3.0
+    spread_min_heading_deg: float = 1.0
 
     def __post_init__(self) -> None:
         positive = ("planning_time_s", "move_step_cm", "waypoint_tolerance_cm", "goal_tolerance_cm",
@@ -250,11 +261,12 @@ class MissionConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and 0 <= v <= 180):
                 raise ValueError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
-        if self.fix_at_waypoints not in ("always", "spread"):
-            raise ValueError(f"MissionConfig.fix_at_waypoints must be 'always' or 'spread', "
-                             f"got {self.fix_at_waypoints!r}")
-        if not (math.isfinite(self.spread_sigmas) and self.spread_sigmas >= 0):
-            raise ValueError(f"MissionConfig.spread_sigmas must be >= 0, got {self.spread_sigmas!r}")
+        if self.fix_rule not in ("habit", "spread"):
+            raise ValueError(f"MissionConfig.fix_rule must be 'habit' or 'spread', got {self.fix_rule!r}")
+        for name in ("spread_sigmas", "spread_min_heading_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"MissionConfig.{name} must be >= 0, got {v!r}")
         if self.tracking not in ("continue", "prior"):
             raise ValueError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
         if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:
@@ -276,7 +288,7 @@ class MissionConfig:
         heading and ~2 cm in position near slanted walls while reporting a narrow belief)."""
         base: dict[str, Any] = {}
         if sonar == "nxt":
-            base = {"heading_tolerance_deg": 15.0, "leg_margin_cm": 2.0}
+            base = {"heading_tolerance_deg": 15.0, "leg_margin_cm": 2.0, "spread_min_heading_deg": 4.0}
         return cls(**{**base, **overrides})
 
 
@@ -620,6 +632,7 @@ class _Mission:
         lm = config.leg_margin_cm
         self.leg_checker = CollisionChecker(m, radius + lm) if lm > 0 else self.checker
         self._margin_checkers: dict[float, CollisionChecker] = {}
+        self.planning_checker = self.safe_checkers[-1] if self.safe_checkers else self.checker
         self.trace: list[TraceStep] = []
         self.plans: list[FloatArray] = []
         self.planned_length = 0.0
@@ -894,7 +907,8 @@ class _Mission:
         if not np.all(np.isfinite(cov)):
             return False
         perp = np.array([-d[1], d[0]]) / length
-        var = float(perp @ cov[:2, :2] @ perp) + length**2 * float(cov[2, 2])
+        var_heading = max(float(cov[2, 2]), math.radians(self.cfg.spread_min_heading_deg) ** 2)
+        var = float(perp @ cov[:2, :2] @ perp) + length**2 * var_heading
         extra = self.cfg.spread_sigmas * math.sqrt(max(var, 0.0))
         if extra > 10.0:
             return False
@@ -905,9 +919,10 @@ class _Mission:
 
         Legs longer than `relocalise_every_cm` are split; after each leg the robot re-localises and
         re-aims, until the estimate is within `waypoint_tolerance_cm` of `goal` (for the `final`
-        goal the final correction re-localises instead). With ``fix_at_waypoints="spread"`` the
-        robot does not re-localise on reaching `goal` when the predicted belief can drive on to
-        `next_goal` (`spread_clear`).
+        goal the final correction re-localises instead). With ``fix_rule="spread"`` a leg ends
+        without a fix when the predicted belief can drive on (`spread_clear`: to `goal`, or on
+        reaching it to `next_goal`), and a missed `goal` is skipped when `next_goal` is in plain
+        sight of the estimate.
 
         Returns ``arrived``, ``watchdog`` (the watchdog stopped a move), ``blocked`` (a move made
         almost no progress: a contact) or ``deviated`` (the straight line from the estimate to the
@@ -915,12 +930,16 @@ class _Mission:
         """
         assert self.estimate is not None
         cfg = self.cfg
+        spread = cfg.fix_rule == "spread"
         for legs in range(cfg.max_legs):
             pose = self.estimate.pose
             delta = goal - pose.xy
             dist = float(np.hypot(*delta))
             if dist <= cfg.waypoint_tolerance_cm and (legs > 0 or dist < 1e-6):
                 return "arrived"
+            if (legs > 0 and spread and next_goal is not None
+                    and self.planning_checker.segment_free(pose.xy, next_goal)):
+                return "arrived"  # missed the waypoint, but the next one is in plain sight
             if not self.checker.segment_free(pose.xy, goal):
                 return "deviated"
             turn = float(angle_diff(math.atan2(delta[1], delta[0]), pose.theta))
@@ -942,11 +961,13 @@ class _Mission:
                 driven += step
             if final and leg >= dist:
                 return "arrived"
-            if (leg >= dist and next_goal is not None and cfg.fix_at_waypoints == "spread"
-                    and self.spread_clear(next_goal)):
-                self.record("skip-fix", note=f"belief spread {self.estimate.std_xy_cm:.1f} cm leaves the next "
-                                             "segment clear")
-                return "arrived"
+            ahead = goal if leg < dist else next_goal
+            if spread and ahead is not None and self.spread_clear(ahead):
+                self.record("skip-fix", note=f"belief spread {self.estimate.std_xy_cm:.1f} cm leaves the way "
+                                             "ahead clear")
+                if leg >= dist:
+                    return "arrived"
+                continue
             self.relocalise("at waypoint" if leg >= dist else "along segment")
         return "deviated"
 
@@ -1068,8 +1089,11 @@ class _Mission:
                 self.navigate()
                 continue
             turn = float(angle_diff(math.atan2(delta[1], delta[0]), est.pose.theta))
+            sense = 1.0
+            if dist <= cfg.reverse_cm and abs(turn) > 0.5 * math.pi:  # back up rather than turn around
+                turn, sense = float(angle_diff(turn, math.pi)), -1.0
             self.turn(turn, action="correct-turn")
-            if self.move(dist, action="correct-move"):
+            if self.move(sense * dist, action="correct-move"):
                 self.after_watchdog()
                 self.navigate()
         dist = float(np.hypot(*(self.target - self.estimate.pose.xy))) if self.estimate else math.inf

@@ -16,10 +16,11 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ..mission import MissionReport
+from .paper_pareto import ParetoPoint
 from ..plotting import draw_cspace, draw_map, draw_path, draw_pose
 from ..world import Map, RobotGeometry
 
-__all__ = ["animate_mission", "draw_error_spread", "draw_mission"]
+__all__ = ["animate_mission", "draw_error_spread", "draw_mission", "draw_pareto"]
 
 
 def _ax(ax: Axes | None) -> Axes:
@@ -82,6 +83,40 @@ def draw_error_spread(errors: dict[str, Sequence[float]], ax: Axes | None = None
                               label="paper (mean)"))
         ax.legend(fontsize=8)
     ax.set_ylabel("final distance from target (cm)")
+    return out
+
+
+def draw_pareto(points: Sequence[ParetoPoint], map_name: str, ax: Axes | None = None,
+                highlight: str = "default") -> list[Any]:
+    """Mean final error against median robot time on one map, one marker per setting and sonar model.
+
+    Each sonar model's front (`ParetoPoint.on_front`) is joined by a line; settings that failed a
+    trial or collided are drawn hollow; the `highlight` setting is labelled in bold.
+    """
+    ax = _ax(ax)
+    out: list[Any] = []
+    colours = {"ideal": "tab:blue", "nxt": "tab:orange"}
+    mine = [p for p in points if p.map == map_name]
+    for sonar in sorted({p.sonar for p in mine}):
+        pts = sorted((p for p in mine if p.sonar == sonar), key=lambda p: p.robot_time_median_s)
+        c = colours.get(sonar, "tab:gray")
+        for p in pts:
+            clean = p.success_rate == 1.0 and p.collisions == 0
+            out.append(ax.scatter(p.robot_time_median_s, p.final_error_cm, s=40, marker="o",
+                                  facecolors=c if clean else "none", edgecolors=c, zorder=4))
+            out.append(ax.annotate(p.setting, (p.robot_time_median_s, p.final_error_cm), fontsize=7,
+                                   xytext=(4, 3), textcoords="offset points",
+                                   fontweight="bold" if p.setting == highlight else "normal"))
+        front = [p for p in pts if p.on_front]
+        if front:
+            out.extend(ax.plot([p.robot_time_median_s for p in front], [p.final_error_cm for p in front], "-",
+                               color=c, lw=1.2, label=f"{sonar} sonar: front", zorder=3))
+    ax.set_xlabel("median robot time (s)")
+    ax.set_ylabel("mean true final error (cm)")
+    ax.set_title(map_name, fontsize=9)
+    ax.grid(alpha=0.3)
+    if out:
+        ax.legend(fontsize=7)
     return out
 
 
