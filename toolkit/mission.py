@@ -52,6 +52,7 @@ from shapely.ops import nearest_points
 
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from localisation.procedure import free_travel
+from localisation.scan import ScanProcessing
 from planners.base import Planner, PlanningProblem, PlanResult, make_planner
 
 from .world import (
@@ -176,8 +177,8 @@ class MissionConfig:
         Turret step (deg) of the sweeps of a global localisation (1: the paper's 360 readings).
     global_align : bool
         Global localisation the paper's way: sweep, turn toward the minimum reading, sweep again and
-        keep the windows around the axes. False: one sweep, every usable reading given to the
-        localiser (half the sweeps; the particle filter needs no perpendicular wall).
+        keep the windows around the axes. False: one sweep, keeping the windows around the minimum
+        reading's direction of that sweep (the same near-perpendicular readings, half the sweeps).
     track_window_deg : float
         Sweeps of a tracking re-localisation (from a belief, no alignment) read only the four windows
         of +-this many degrees around the robot's axes (15: the 124 readings the paper's processing
@@ -678,8 +679,10 @@ class _Mission:
         """How the localisation procedure sweeps for a ``global``, ``track`` or ``final`` localisation."""
         cfg = self.cfg
         if kind == "global":
-            return {"align": cfg.global_align, "process": cfg.global_align,
-                    "scan_angles": sweep_angles(cfg.global_scan_step_deg)}
+            # without the turn, the windows are taken around the minimum reading's direction: the
+            # near-perpendicular readings a sonar model gets right, from one sweep
+            return {"align": cfg.global_align, "scan_angles": sweep_angles(cfg.global_scan_step_deg),
+                    "processing": None if cfg.global_align else ScanProcessing(reference="min")}
         if cfg.track_align:
             return {"align": True, "process": True, "scan_angles": None}
         if kind == "final":

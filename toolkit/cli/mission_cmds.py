@@ -108,14 +108,18 @@ def run(
         if start_text is not None or random_start:
             raise typer.BadParameter("the start of a real robot is unknown; --start/--random-start are for the "
                                      "simulator", param_hint="--start")
-        robot = _connect_nxt(nxt_backend, server_host, server_port, profile)
+        from ..robots.model_clock import ModelClock
+
+        robot = ModelClock(_connect_nxt(nxt_backend, server_host, server_port, profile))
         try:
             opts = matched_localiser_options(localiser, sonar="nxt")
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts))
         finally:
             robot.close()
+        model_time = robot.model_time_s
     else:
+        model_time = math.nan
         start: Any = None
         if start_text is not None:
             start = parse_pose(start_text, "--start", heading_required=False)
@@ -129,9 +133,13 @@ def run(
             turn_noise=turn_noise, sonar=sonar,
         )
     typer.echo(report.summary())
+    if robot_kind == "nxt":
+        typer.echo(f"robot time by the simulator's time model for the same commands: {model_time:.1f} s")
     if json_out is not None:
         doc = report.to_dict()
         doc["robot"] = robot_kind
+        if robot_kind == "nxt":
+            doc["model_robot_time_s"] = model_time
         if robot_kind == "sim":
             doc["simulator"] = {"sonar": sonar, "noise_model": noise_model, "sensor_noise": sensor_noise,
                                 "motion_noise": motion_noise, "turn_noise": turn_noise}

@@ -81,8 +81,11 @@ class RobotTiming:
 
     A sweep costs its readings plus the turret's travel: from the front through the requested
     angles in the order given, then back to the front (so the sensor cable never winds up). A full
-    360-reading sweep at one-degree steps is 7.2 s of readings, 1.5 s of turret travel out and 1.5 s
-    back: 10.2 s. Defaults match the default NXT profile's turret power on the virtual brick.
+    360-reading sweep at one-degree steps is 8.3 s of readings, 1.5 s of turret travel out and 1.5 s
+    back: 11.3 s. The reading time and the turret rate are those of the default NXT profile on the
+    virtual brick over a link of 3 ms per round trip (USB); drive and turn rates are kept below the
+    brick's (about 19 cm/s and 150 deg/s with the profile's powers), so the model does not promise
+    more than a robot gives.
 
     Parameters
     ----------
@@ -98,7 +101,7 @@ class RobotTiming:
 
     drive_speed_cm_s: float = 15.0
     turn_rate_deg_s: float = 90.0
-    reading_s: float = 0.02
+    reading_s: float = 0.023
     turret_rate_deg_s: float = 240.0
 
     def __post_init__(self) -> None:
