@@ -237,7 +237,7 @@ class MissionConfig:
     global_scan_step_deg: float = 2.0
     global_align: bool = False
     track_window_deg: float = 15.0
-    track_scan_step_deg: float = 1.0
+    track_scan_step_deg: float = 2.0
     track_align: bool = False
     final_window_deg: float = 15.0
     final_scan_step_deg: float = 1.0

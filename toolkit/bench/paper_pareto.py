@@ -28,7 +28,7 @@ MISSION_SETTINGS: dict[str, dict[str, Any]] = {
                     "final_scan_step_deg": 2.0},
     "fix-every-leg": {"fix_rule": "habit", "relocalise_every_cm": 40.0},
     "default": {},
-    "sparse-windows": {"track_scan_step_deg": 2.0},
+    "dense-windows": {"track_scan_step_deg": 1.0},
     "lean": {"track_scan_step_deg": 3.0, "final_scan_step_deg": 2.0, "first_leg_cm": None},
 }
 """Named mission settings (`MissionConfig` options over the sonar model's defaults), from the
