@@ -386,8 +386,9 @@ def _time_split(delta: Mapping[str, float], robot_time_s: float) -> RobotTimeSpl
     """The split from the robot's counter increments, when the robot keeps them all."""
     if not all(k in delta for k in _SPLIT_COUNTERS):
         return None
-    parts = [delta[k] for k in _SPLIT_COUNTERS[:4]]
-    return RobotTimeSplit(*parts, readings=int(delta["readings"]), other_s=robot_time_s - sum(parts))
+    sweep, back, drive, turn = (float(delta[k]) for k in _SPLIT_COUNTERS[:4])
+    return RobotTimeSplit(sweep, back, drive, turn, int(delta["readings"]),
+                          robot_time_s - (sweep + back + drive + turn))
 
 
 @dataclass(frozen=True, eq=False)

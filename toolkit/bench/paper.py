@@ -242,8 +242,11 @@ def _mean_split(results: Sequence[TrialResult]) -> RobotTimeSplit | None:
     splits = [r.time_split for r in results if r.time_split is not None]
     if not splits:
         return None
-    mean = {k: float(np.mean([getattr(s, k) for s in splits])) for k in RobotTimeSplit.__dataclass_fields__}
-    return RobotTimeSplit(**{**mean, "readings": round(mean["readings"])})
+    def mean(k: str) -> float:
+        return float(np.mean([getattr(s, k) for s in splits]))
+
+    return RobotTimeSplit(mean("sweep_s"), mean("turret_return_s"), mean("drive_s"), mean("turn_s"),
+                          round(mean("readings")), mean("other_s"))
 
 
 def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:

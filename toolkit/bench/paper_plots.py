@@ -16,9 +16,9 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ..mission import MissionReport
-from .paper_pareto import ParetoPoint
 from ..plotting import draw_cspace, draw_map, draw_path, draw_pose
 from ..world import Map, RobotGeometry
+from .paper_pareto import ParetoPoint
 
 __all__ = ["animate_mission", "draw_error_spread", "draw_mission", "draw_pareto"]
 

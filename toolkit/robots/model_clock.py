@@ -12,7 +12,7 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from ..world import MoveOutcome, Robot, Scan
+from ..world import MoveOutcome, Robot, RobotGeometry, Scan
 from .sim import RobotTiming
 
 __all__ = ["ModelClock"]
@@ -38,15 +38,12 @@ class ModelClock:
 
     def __init__(self, robot: Robot, timing: RobotTiming | None = None) -> None:
         self.robot = robot
+        self.geometry: RobotGeometry = robot.geometry
         self.timing = timing or RobotTiming()
         self.model_time_s = 0.0
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.robot, name)
-
-    @property
-    def geometry(self) -> Any:
-        return self.robot.geometry
 
     @property
     def robot_time_s(self) -> float:
