@@ -202,6 +202,9 @@ class MissionConfig:
     spread_min_heading_deg : float
         The ``spread`` rule never takes the heading spread as smaller than this (deg): a sonar
         localiser's belief can be narrower than its heading error.
+    spread_drift : float
+        Nor the position spread as smaller than this fraction of the distance driven since the
+        last fix (a localiser whose belief does not grow with the motion is not trusted blindly).
     """
 
     planning_time_s: float = 1.0
@@ -244,6 +247,7 @@ class MissionConfig:
     fix_rule: str = "spread"
     spread_sigmas: float = 3.0
     spread_min_heading_deg: float = 1.0
+    spread_drift: float = 0.05
 
     def __post_init__(self) -> None:
         positive = ("planning_time_s", "move_step_cm", "waypoint_tolerance_cm", "goal_tolerance_cm",
@@ -264,7 +268,7 @@ class MissionConfig:
                 raise ValueError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
         if self.fix_rule not in ("habit", "spread"):
             raise ValueError(f"MissionConfig.fix_rule must be 'habit' or 'spread', got {self.fix_rule!r}")
-        for name in ("spread_sigmas", "spread_min_heading_deg"):
+        for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"MissionConfig.{name} must be >= 0, got {v!r}")
@@ -647,6 +651,7 @@ class _Mission:
         self.estimate: PoseEstimate | None = None
         self._last_raw_scan: Scan | None = None
         self.fresh_fix = False  # the estimate comes from a global fix not yet checked by a drive
+        self.since_fix_cm = 0.0  # driven since the last converged fix
         self._localise = _localise_procedure()
         params = inspect.signature(self._localise).parameters
         self._localise_kw = set(params) if not any(p.kind is p.VAR_KEYWORD for p in params.values()) else None
@@ -757,6 +762,7 @@ class _Mission:
                                          f"spread {est.std_xy_cm:.2f} cm")
             if ok:
                 self.fresh_fix = True
+                self.since_fix_cm = 0.0
                 return est
         raise _MissionEnded(f"robot lost: global localisation did not converge in "
                             f"{cfg.max_localisation_attempts} attempts")
@@ -817,6 +823,7 @@ class _Mission:
                                        f"spread {est.std_xy_cm:.2f} cm")
         if ok:
             self.fresh_fix = False
+            self.since_fix_cm = 0.0
             return est
         if self.cfg.tracking != "prior":
             est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
@@ -824,6 +831,7 @@ class _Mission:
             ok = self._ok(est)
             self.record("relocalise", note=f"{reason}, from a wider prior: {'converged' if ok else 'not converged'}")
             if ok:
+                self.since_fix_cm = 0.0
                 return est
         return self.localise_global()
 
@@ -855,6 +863,7 @@ class _Mission:
         self.localiser.predict(Motion(distance_cm=out.distance_cm))
         self.estimate = self.localiser.estimate()
         self.path_length += abs(out.distance_cm)
+        self.since_fix_cm += abs(out.distance_cm)
         if out.watchdog:
             self.watchdog_stops += 1
         self.record(action, distance_cm=out.distance_cm, watchdog=out.watchdog)
@@ -866,6 +875,7 @@ class _Mission:
         self.localiser.predict(Motion(distance_cm=out.distance_cm))
         self.estimate = self.localiser.estimate()
         self.path_length += abs(out.distance_cm)
+        self.since_fix_cm += abs(out.distance_cm)
         self.record("turnback", distance_cm=out.distance_cm)
 
     def after_watchdog(self) -> None:
@@ -912,7 +922,8 @@ class _Mission:
             return False
         perp = np.array([-d[1], d[0]]) / length
         var_heading = max(float(cov[2, 2]), math.radians(self.cfg.spread_min_heading_deg) ** 2)
-        var = float(perp @ cov[:2, :2] @ perp) + length**2 * var_heading
+        var_across = max(float(perp @ cov[:2, :2] @ perp), (self.cfg.spread_drift * self.since_fix_cm) ** 2)
+        var = var_across + length**2 * var_heading
         extra = self.cfg.spread_sigmas * math.sqrt(max(var, 0.0))
         if extra > 10.0:
             return False
