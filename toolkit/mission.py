@@ -3,21 +3,33 @@
 `run_mission` runs any registered localiser and planner on any `toolkit.world.Robot` (the simulator
 or a real NXT) from an unknown start pose to a target, the way the paper's system does:
 
-1. **Localise** globally with `localisation.procedure.localise` (scan, align, rescan), one iteration
-   at a time. While the belief is ambiguous (the identical rooms of map3) the mission drives toward
-   open space along a move that is collision-free from every candidate pose the localiser reports,
-   and localises again. A fix is confirmed by a second, independent global localisation.
+1. **Localise** globally with `localisation.procedure.localise`, one iteration at a time: by default
+   one full sweep at 2-degree steps whose readings near the minimum reading's direction and its
+   perpendiculars go to the localiser (the paper's processing without the turn and the second
+   sweep; `MissionConfig.global_align` restores them). While the belief is ambiguous (the identical
+   rooms of map3) the mission drives toward open space along a move that is collision-free from
+   every candidate pose the localiser reports, and localises again. A fix is confirmed by a second,
+   independent global localisation.
 2. **Plan** in the configuration space from the estimate with the chosen planner and the shared FCL
    `CollisionChecker` (with a safety margin on the robot radius when the map allows it).
 3. **Drive** the path segment by segment: Turn to the segment heading (from the estimate), then Move in
-   steps with the collision watchdog on; the localiser predicts after every action. Legs end (and the
-   robot re-localises, tracking from its belief, and re-aims) at each waypoint, every
-   `relocalise_every_cm`, after a short first leg following a global fix, and where a heading error
-   of a few degrees could bring the robot to a wall. A next segment that is no longer free from the
-   new estimate is re-planned.
+   steps with the collision watchdog on; the localiser predicts after every action, so the belief
+   is tracked through the motion. Legs end at each waypoint, after a short first leg following a
+   global fix, where a heading error of a few degrees could bring the robot to a wall, and every
+   `relocalise_every_cm` when set. Where a leg ends the robot re-localises (tracking: one sweep of
+   the paper's four windows around its axes, from its belief) only when the belief's predicted
+   spread would not leave the way ahead clear of the walls (`MissionConfig.fix_rule`); a missed
+   waypoint is skipped when the next one is in plain sight. A next segment that is no longer free
+   from the new estimate is re-planned.
 4. On a **watchdog stop** (or a move that makes no progress): Turnback, re-localise, re-plan.
-5. At the **target**: re-localise and correct (turn + move toward the target from the estimate) until
-   the estimate is within `MissionConfig.goal_tolerance_cm` of the target or the retry limit is hit.
+5. At the **target**: re-localise and correct (turn + move toward the target from the estimate, backing
+   up for short moves behind the robot) until the estimate is within
+   `MissionConfig.goal_tolerance_cm` of the target or the retry limit is hit.
+
+The robot's time (on the simulator, `toolkit.robots.sim.RobotTiming`) goes mostly to sweeps; the
+report splits it into sweeping, turning the turret back, driving and turning
+(`MissionReport.time_split`), and `toolkit.bench.paper_pareto` measures what each sweep option
+costs against what it buys.
 
 Every action is recorded in a trace (action, estimate, and the true pose when the robot exposes one,
 as `SimRobot` does). Nothing here raises for an unreachable target, a target in a wall or a lost
@@ -94,6 +106,9 @@ NXT_SONAR_SIGMA_CM = 3.0
 """Range standard deviation (cm) a localiser is told for the `nxt` sonar model: the sensor's +-3 cm,
 which also absorbs the lobe and rounding the range model does not represent (1 cm made paper-pf
 overconfident and wrong in half the map1 missions; 3 cm made them all succeed)."""
+
+
+_WINDOW_CENTRES: dict[str, tuple[float, ...]] = {"axes": (0.0, 90.0, 180.0, 270.0), "sides": (-90.0, 0.0, 90.0)}
 
 
 @dataclass(frozen=True)
@@ -185,6 +200,9 @@ class MissionConfig:
         keeps); 180 sweeps the full turn.
     track_scan_step_deg : float
         Turret step (deg) inside those windows.
+    track_windows : {"axes", "sides"}
+        ``axes``: the four windows around 0, 90, 180 and 270 degrees; ``sides``: only the three
+        ahead and to the sides (-90, 0, 90), a shorter turret travel.
     track_align : bool
         Re-localise along the way the paper's way (full sweep, align, full sweep) instead of one
         window sweep; the window settings are then ignored.
@@ -241,6 +259,7 @@ class MissionConfig:
     global_align: bool = False
     track_window_deg: float = 15.0
     track_scan_step_deg: float = 2.0
+    track_windows: str = "axes"
     track_align: bool = False
     final_window_deg: float = 15.0
     final_scan_step_deg: float = 1.0
@@ -266,6 +285,9 @@ class MissionConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and 0 <= v <= 180):
                 raise ValueError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
+        if self.track_windows not in _WINDOW_CENTRES:
+            raise ValueError(f"MissionConfig.track_windows must be one of {', '.join(_WINDOW_CENTRES)}, "
+                             f"got {self.track_windows!r}")
         if self.fix_rule not in ("habit", "spread"):
             raise ValueError(f"MissionConfig.fix_rule must be 'habit' or 'spread', got {self.fix_rule!r}")
         for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
@@ -583,22 +605,25 @@ def explore_direction(scan: Scan, clearance_cm: float, rng: np.random.Generator 
     return float(angle_diff(a[k], 0.0)), float(min(max_step_cm, 0.5 * free[k]))
 
 
-def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0) -> FloatArray:
+def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0,
+                 centres_deg: tuple[float, ...] = (0.0, 90.0, 180.0, 270.0)) -> FloatArray:
     """Turret angles (rad, relative to the heading) of one sweep, in the order the turret visits them.
 
     ``window_deg >= 180`` is the full turn from straight ahead at `step_deg` steps (360 readings at
-    1 degree); smaller windows read only the four windows of +-`window_deg` around the robot's axes
-    (0, 90, 180, 270 degrees), which is what the paper's scan processing keeps: 124 readings for
-    15-degree windows at 1 degree, and about 600 degrees of turret travel instead of 720.
+    1 degree); smaller windows read only the windows of +-`window_deg` around `centres_deg`
+    (degrees from the heading, visited in the order given). Around the four axes that is what the
+    paper's scan processing keeps: 124 readings for 15-degree windows at 1 degree, and 600 degrees
+    of turret travel (out and back) instead of 720; the three windows ahead and to the sides
+    (-90, 0, 90) take 420.
 
-    >>> sweep_angles(1.0, 15.0).size, sweep_angles(2.0).size
-    (124, 180)
+    >>> sweep_angles(1.0, 15.0).size, sweep_angles(2.0).size, sweep_angles(2.0, 15.0, (-90, 0, 90)).size
+    (124, 180, 48)
     """
     if window_deg >= 180.0:
         return np.radians(np.arange(0.0, 360.0 - 1e-9, step_deg))
     half = np.arange(0.0, window_deg + 1e-9, step_deg)
     off = np.concatenate([-half[:0:-1], half])
-    return np.radians(np.concatenate([c + off for c in (0.0, 90.0, 180.0, 270.0)]))
+    return np.radians(np.concatenate([c + off for c in centres_deg]))
 
 
 def _localise_procedure() -> Callable[..., Any]:
@@ -695,7 +720,8 @@ class _Mission:
             return {"align": False, "process": False,
                     "scan_angles": sweep_angles(cfg.final_scan_step_deg, cfg.final_window_deg)}
         return {"align": False, "process": False,
-                "scan_angles": sweep_angles(cfg.track_scan_step_deg, cfg.track_window_deg)}
+                "scan_angles": sweep_angles(cfg.track_scan_step_deg, cfg.track_window_deg,
+                                            _WINDOW_CENTRES[cfg.track_windows])}
 
     def _call_localise(self, prior: Prior | None, kind: str = "global", **extra: Any) -> PoseEstimate:
         kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),

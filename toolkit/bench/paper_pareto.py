@@ -29,6 +29,7 @@ MISSION_SETTINGS: dict[str, dict[str, Any]] = {
     "fix-every-leg": {"fix_rule": "habit", "relocalise_every_cm": 40.0},
     "default": {},
     "dense-windows": {"track_scan_step_deg": 1.0},
+    "side-windows": {"track_windows": "sides"},
     "lean": {"track_scan_step_deg": 3.0, "final_scan_step_deg": 2.0, "first_leg_cm": None},
 }
 """Named mission settings (`MissionConfig` options over the sonar model's defaults), from the
@@ -69,6 +70,8 @@ class ParetoPoint:
     success_rate : float
     collisions : int
         Total true collisions.
+    completion_median_s : float
+        Median wall-clock time of a mission's computation and simulation (s).
     on_front : bool
         No other setting on this map and sonar has both a lower (or equal) error and a lower (or
         equal) median robot time, one of them strictly.
@@ -82,6 +85,7 @@ class ParetoPoint:
     robot_time_median_s: float
     success_rate: float
     collisions: int
+    completion_median_s: float = math.nan
     on_front: bool = False
 
     def to_dict(self) -> dict[str, Any]:
@@ -116,7 +120,8 @@ def pareto_points(results: Iterable[TrialResult]) -> list[ParetoPoint]:
         times = [r.robot_time_s for r in rs if not math.isnan(r.robot_time_s)]
         raw.append(ParetoPoint(name, sonar, m, len(rs), float(np.mean(err)) if err else math.nan,
                                float(np.median(times)) if times else math.nan,
-                               sum(r.success for r in rs) / len(rs), int(sum(r.collisions for r in rs))))
+                               sum(r.success for r in rs) / len(rs), int(sum(r.collisions for r in rs)),
+                               float(np.nanmedian([r.completion_s for r in rs]))))
     out = []
     for sonar, m in sorted({(p.sonar, p.map) for p in raw}):
         same = [p for p in raw if p.sonar == sonar and p.map == m]

@@ -226,12 +226,12 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
         _, results = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
     points = pareto_points(results)
     typer.echo("| Setting | Sonar | Map | Trials | Success | Collisions | Mean final error (cm) "
-               "| Median robot time (s) | On the front |")
-    typer.echo("|---|---|---|---:|---:|---:|---:|---:|---|")
+               "| Median robot time (s) | Median completion (s) | On the front |")
+    typer.echo("|---|---|---|---:|---:|---:|---:|---:|---:|---|")
     for p in sorted(points, key=lambda p: (p.sonar, p.map, p.robot_time_median_s)):
         typer.echo(f"| {p.setting} | {p.sonar} | {p.map} | {p.trials} | {100 * p.success_rate:.0f} % "
                    f"| {p.collisions} | {p.final_error_cm:.2f} | {p.robot_time_median_s:.1f} "
-                   f"| {'yes' if p.on_front else ''} |")
+                   f"| {p.completion_median_s:.2f} | {'yes' if p.on_front else ''} |")
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(maps), figsize=(4.5 * len(maps), 4.0), squeeze=False)
