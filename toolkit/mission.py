@@ -19,7 +19,7 @@ or a real NXT) from an unknown start pose to a target, the way the paper's syste
    `relocalise_every_cm` when set. Where a leg ends the robot re-localises (tracking: one sweep of
    the paper's four windows around its axes, from its belief) only when the belief's predicted
    spread would not leave the way ahead clear of the walls (`MissionConfig.fix_rule`); a missed
-   waypoint is skipped when the next one is in plain sight. A next segment that is no longer free
+   waypoint is skipped when the belief can drive on to the next one. A next segment that is no longer free
    from the new estimate is re-planned.
 4. On a **watchdog stop** (or a move that makes no progress): Turnback, re-localise, re-plan.
 5. At the **target**: re-localise and correct (turn + move toward the target from the estimate, backing
@@ -213,8 +213,8 @@ class MissionConfig:
         cuts it), ``habit`` re-localises every time; ``spread`` only when the belief as predicted
         through the motion could not drive on: the position spread across the next stretch plus
         the heading spread over its length, times `spread_sigmas`, must leave the robot disc clear
-        of the walls along it. A waypoint the robot missed is skipped when the straight line from
-        the estimate to the next one is free.
+        of the walls along it. A waypoint the robot missed is skipped when the belief can drive on
+        to the next one by the same rule.
     spread_sigmas : float
         Standard deviations of the belief the ``spread`` rule keeps clear of the walls.
     spread_min_heading_deg : float
@@ -663,7 +663,6 @@ class _Mission:
         lm = config.leg_margin_cm
         self.leg_checker = CollisionChecker(m, radius + lm) if lm > 0 else self.checker
         self._margin_checkers: dict[float, CollisionChecker] = {}
-        self.planning_checker = self.safe_checkers[-1] if self.safe_checkers else self.checker
         self.trace: list[TraceStep] = []
         self.plans: list[FloatArray] = []
         self.planned_length = 0.0
@@ -962,8 +961,8 @@ class _Mission:
         re-aims, until the estimate is within `waypoint_tolerance_cm` of `goal` (for the `final`
         goal the final correction re-localises instead). With ``fix_rule="spread"`` a leg ends
         without a fix when the predicted belief can drive on (`spread_clear`: to `goal`, or on
-        reaching it to `next_goal`), and a missed `goal` is skipped when `next_goal` is in plain
-        sight of the estimate.
+        reaching it to `next_goal`), and a missed `goal` is skipped when the belief can drive on
+        to `next_goal` the same way.
 
         Returns ``arrived``, ``watchdog`` (the watchdog stopped a move), ``blocked`` (a move made
         almost no progress: a contact) or ``deviated`` (the straight line from the estimate to the
@@ -978,9 +977,8 @@ class _Mission:
             dist = float(np.hypot(*delta))
             if dist <= cfg.waypoint_tolerance_cm and (legs > 0 or dist < 1e-6):
                 return "arrived"
-            if (legs > 0 and spread and next_goal is not None
-                    and self.planning_checker.segment_free(pose.xy, next_goal)):
-                return "arrived"  # missed the waypoint, but the next one is in plain sight
+            if legs > 0 and spread and next_goal is not None and self.spread_clear(next_goal):
+                return "arrived"  # missed the waypoint, but the way to the next one is clear for the belief
             if not self.checker.segment_free(pose.xy, goal):
                 return "deviated"
             turn = float(angle_diff(math.atan2(delta[1], delta[0]), pose.theta))
