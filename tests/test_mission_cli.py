@@ -103,6 +103,11 @@ def test_run_target_in_wall_reports_it(tmp_path: Path, capsys: pytest.CaptureFix
     ["paper", "--stack", "min-turn"],
     ["paper", "--stack", "min-turn/nope"],
     ["paper", "--sonar", "laser"],
+    ["paper", "--sonar", "ideal,laser"],
+    ["paper", "--option", "no_such_option=1"],
+    ["paper", "--option", "fix_rule=never"],
+    ["paper", "--option", "track_scan_step_deg"],
+    ["paper", "--pareto", "x.png", "--settings", "no-such-setting"],
 ])
 def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     assert _exit_code(argv) == 2
@@ -119,7 +124,7 @@ def test_paper_json_shape(tmp_path: Path) -> None:
         assert [r["map"] for r in table["rows"]] == ["map1", "map2", "map3"]
         for row in table["rows"]:
             for key in ("trials", "success_rate", "completion_s", "final_error_cm", "path_length_cm", "collisions",
-                        "robot_time_s", "paper"):
+                        "robot_time_s", "robot_time_median_s", "robot_time_split", "paper"):
                 assert key in row
             assert row["trials"] == 1
             assert 0.0 <= row["success_rate"] <= 1.0
@@ -146,3 +151,16 @@ def test_paper_random_start_trials_start_off_the_preset() -> None:
     assert task.random_start
     report = run_sim_mission(task.map, seed=task.seed, random_start_pose=True, noise_model="absolute")
     assert report.start is not None and report.start.distance_to((20.0, 20.0)) > 1.0
+
+
+def test_paper_pareto_draws_the_front(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    png, js = tmp_path / "front.png", tmp_path / "front.json"
+    assert _exit_code(["paper", "--pareto", str(png), "--json", str(js), "--trials", "1", "--maps", "map1",
+                       "--settings", "paper-habit,default", "--sonar", "ideal"]) == 0
+    assert png.stat().st_size > 1000
+    doc = json.loads(js.read_text())
+    assert set(doc["settings"]) == {"paper-habit", "default"}
+    points = {p["setting"]: p for p in doc["points"]}
+    assert points["default"]["robot_time_median_s"] < points["paper-habit"]["robot_time_median_s"]
+    assert any(p["on_front"] for p in doc["points"])
+    assert "| default | ideal | map1 |" in capsys.readouterr().out

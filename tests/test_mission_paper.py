@@ -79,3 +79,60 @@ def test_nan_results_do_not_poison_means() -> None:
     table = summarise([crashed, _result(task[1], True, 0.5, 0.2)])[0]
     row = table.rows[0]
     assert row.success_rate == 0.5 and row.final_error_cm == 0.5 and row.completion_s == pytest.approx(0.2)
+
+
+def test_rows_carry_the_median_robot_time_and_the_mean_split() -> None:
+    from toolkit.mission import RobotTimeSplit
+
+    tasks = paper_tasks(3, maps=("map2",), noise_models=("botsim",))
+    times = [30.0, 90.0, 40.0]
+    results = [TrialResult(t, True, "reached target", 0.1, 0.3, 100.0, 0, rt, 0, 2, 0,
+                           RobotTimeSplit(0.6 * rt, 0.2 * rt, 0.1 * rt, 0.1 * rt, int(10 * rt)))
+               for t, rt in zip(tasks, times, strict=True)]
+    row = summarise(results)[0].rows[0]
+    assert row.robot_time_s == pytest.approx(np.mean(times))
+    assert row.robot_time_median_s == pytest.approx(40.0)
+    assert row.time_split is not None
+    assert row.time_split.sweep_s == pytest.approx(0.6 * np.mean(times))
+    assert row.time_split.readings == round(10 * np.mean(times))
+    doc = json.loads(json.dumps(summarise(results)[0].to_dict()))
+    assert doc["rows"][0]["robot_time_median_s"] == pytest.approx(40.0)
+    assert doc["rows"][0]["robot_time_split"]["turn_s"] == pytest.approx(0.1 * np.mean(times))
+    md = tables_to_markdown(summarise(results))
+    assert "| 40.0 |" in md and "Sweeping / turret back / driving / turning" in md
+
+
+def test_options_make_their_own_tables() -> None:
+    plain = paper_tasks(1, maps=("map1",), noise_models=("botsim",))
+    habit = paper_tasks(1, maps=("map1",), noise_models=("botsim",), options={"fix_rule": "habit"})
+    assert habit[0].config().fix_rule == "habit" and plain[0].config().fix_rule == "spread"
+    assert habit[0].seed == plain[0].seed  # common random numbers across settings
+    tables = summarise([_result(plain[0], True, 0.3, 0.1), _result(habit[0], True, 0.2, 0.1)])
+    assert len(tables) == 2
+    assert "`fix_rule=habit`" in tables_to_markdown(tables)
+    with pytest.raises(ValueError, match="fix_rule"):
+        paper_tasks(1, options={"fix_rule": "never"})
+
+
+def test_pareto_front_and_points() -> None:
+    from toolkit.bench.paper_pareto import MISSION_SETTINGS, pareto_front, pareto_points, pareto_tasks
+
+    assert pareto_front([(10.0, 1.0), (20.0, 0.5), (30.0, 0.5), (5.0, 2.0), (float("nan"), 0.1)]) == [
+        True, True, False, True, False]
+    tasks = pareto_tasks(2, settings=("paper-habit", "default", "lean"), sonars=("ideal",), maps=("map1",))
+    assert len(tasks) == 3 * 2
+    by = {(t.options, t.trial): t for t in tasks}
+    assert by[(tuple(sorted(MISSION_SETTINGS["lean"].items())), 1)].seed == by[((), 1)].seed
+    cost = {"paper-habit": (200.0, 0.30), "default": (50.0, 0.35), "lean": (40.0, 0.60)}
+    results = []
+    for t in tasks:
+        name = next(k for k, v in MISSION_SETTINGS.items() if tuple(sorted(v.items())) == t.options)
+        rt, err = cost[name]
+        coll = 1 if name == "lean" and t.trial == 0 else 0  # a setting that collides is no choice
+        results.append(TrialResult(t, True, "reached target", 0.2, err, 100.0, coll, rt, 0, 2, 0))
+    points = {p.setting: p for p in pareto_points(results)}
+    assert points["default"].on_front and points["paper-habit"].on_front
+    assert not points["lean"].on_front and points["lean"].collisions == 1
+    assert points["default"].robot_time_median_s == pytest.approx(50.0)
+    with pytest.raises(ValueError, match="unknown mission setting"):
+        pareto_tasks(1, settings=("nope",))

@@ -21,7 +21,7 @@ EXPECTED: dict[str, tuple[tuple[str, ...], int]] = {
     "localisation_comparison": (("| processed (kept) |", "| auto | raw |", "| off | paper |", "| map3 | paper-pf |",
                                  "RMSE", "recovered", "| nxt, amcl live | paper-pf |",
                                  "| bit for bit |"), 4),
-    "paper_reproduction": (("| map1 |", "| map3 |"), 3),
+    "paper_reproduction": (("| map1 |", "| map3 |", "| paper-habit | ideal |"), 4),
 }
 
 

@@ -3,21 +3,33 @@
 `run_mission` runs any registered localiser and planner on any `toolkit.world.Robot` (the simulator
 or a real NXT) from an unknown start pose to a target, the way the paper's system does:
 
-1. **Localise** globally with `localisation.procedure.localise` (scan, align, rescan), one iteration
-   at a time. While the belief is ambiguous (the identical rooms of map3) the mission drives toward
-   open space along a move that is collision-free from every candidate pose the localiser reports,
-   and localises again. A fix is confirmed by a second, independent global localisation.
+1. **Localise** globally with `localisation.procedure.localise`, one iteration at a time: by default
+   one full sweep at 2-degree steps whose readings near the minimum reading's direction and its
+   perpendiculars go to the localiser (the paper's processing without the turn and the second
+   sweep; `MissionConfig.global_align` restores them). While the belief is ambiguous (the identical
+   rooms of map3) the mission drives toward open space along a move that is collision-free from
+   every candidate pose the localiser reports, and localises again. A fix is confirmed by a second,
+   independent global localisation.
 2. **Plan** in the configuration space from the estimate with the chosen planner and the shared FCL
    `CollisionChecker` (with a safety margin on the robot radius when the map allows it).
 3. **Drive** the path segment by segment: Turn to the segment heading (from the estimate), then Move in
-   steps with the collision watchdog on; the localiser predicts after every action. Legs end (and the
-   robot re-localises, tracking from its belief, and re-aims) at each waypoint, every
-   `relocalise_every_cm`, after a short first leg following a global fix, and where a heading error
-   of a few degrees could bring the robot to a wall. A next segment that is no longer free from the
-   new estimate is re-planned.
+   steps with the collision watchdog on; the localiser predicts after every action, so the belief
+   is tracked through the motion. Legs end at each waypoint, after a short first leg following a
+   global fix, where a heading error of a few degrees could bring the robot to a wall, and every
+   `relocalise_every_cm` when set. Where a leg ends the robot re-localises (tracking: one sweep of
+   the paper's four windows around its axes, from its belief) only when the belief's predicted
+   spread would not leave the way ahead clear of the walls (`MissionConfig.fix_rule`); a missed
+   waypoint is skipped when the belief can drive on to the next one. A next segment that is no longer free
+   from the new estimate is re-planned.
 4. On a **watchdog stop** (or a move that makes no progress): Turnback, re-localise, re-plan.
-5. At the **target**: re-localise and correct (turn + move toward the target from the estimate) until
-   the estimate is within `MissionConfig.goal_tolerance_cm` of the target or the retry limit is hit.
+5. At the **target**: re-localise and correct (turn + move toward the target from the estimate, backing
+   up for short moves behind the robot) until the estimate is within
+   `MissionConfig.goal_tolerance_cm` of the target or the retry limit is hit.
+
+The robot's time (on the simulator, `toolkit.robots.sim.RobotTiming`) goes mostly to sweeps; the
+report splits it into sweeping, turning the turret back, driving and turning
+(`MissionReport.time_split`), and `toolkit.bench.paper_pareto` measures what each sweep option
+costs against what it buys.
 
 Every action is recorded in a trace (action, estimate, and the true pose when the robot exposes one,
 as `SimRobot` does). Nothing here raises for an unreachable target, a target in a wall or a lost
@@ -53,6 +65,7 @@ from shapely.ops import nearest_points
 from localisation.ambiguity import candidate_poses, describe_candidates
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from localisation.procedure import free_travel
+from localisation.scan import ScanProcessing
 from planners.base import Planner, PlanningProblem, PlanResult, make_planner
 
 from .world import (
@@ -77,6 +90,7 @@ if TYPE_CHECKING:
 __all__ = [
     "MissionConfig",
     "MissionReport",
+    "RobotTimeSplit",
     "TraceStep",
     "explore_direction",
     "matched_localiser_options",
@@ -84,6 +98,7 @@ __all__ = [
     "random_start",
     "run_mission",
     "run_sim_mission",
+    "sweep_angles",
 ]
 
 log = logging.getLogger(__name__)
@@ -96,6 +111,9 @@ NXT_SONAR_SIGMA_CM = 3.0
 """Range standard deviation (cm) a localiser is told for the `nxt` sonar model: the sensor's +-3 cm,
 which also absorbs the lobe and rounding the range model does not represent (1 cm made paper-pf
 overconfident and wrong in half the map1 missions; 3 cm made them all succeed)."""
+
+
+_WINDOW_CENTRES: dict[str, tuple[float, ...]] = {"axes": (0.0, 90.0, 180.0, 270.0), "sides": (-90.0, 0.0, 90.0)}
 
 
 @dataclass(frozen=True)
@@ -145,6 +163,9 @@ class MissionConfig:
         The estimate must end within this distance of the target for the mission to succeed.
     final_scans : int
         Scans fused at the target before each correction decision (more scans, tighter estimate).
+    reverse_cm : float
+        A correction move at the target up to this long whose direction is more than 90 degrees off
+        the heading backs up instead of turning around (0: always turn toward the target).
     max_replans : int
         Re-plans (after watchdog stops or deviations) before the mission gives up.
     max_localisation_attempts : int
@@ -172,6 +193,41 @@ class MissionConfig:
         Minimum standard deviations of the prior handed to a tracking re-localisation.
     max_actions : int
         Hard limit on Turn/Move commands (guards against endless loops).
+    global_scan_step_deg : float
+        Turret step (deg) of the sweeps of a global localisation (1: the paper's 360 readings).
+    global_align : bool
+        Global localisation the paper's way: sweep, turn toward the minimum reading, sweep again and
+        keep the windows around the axes. False: one sweep, keeping the windows around the minimum
+        reading's direction of that sweep (the same near-perpendicular readings, half the sweeps).
+    track_window_deg : float
+        Sweeps of a tracking re-localisation (from a belief, no alignment) read only the four windows
+        of +-this many degrees around the robot's axes (15: the 124 readings the paper's processing
+        keeps); 180 sweeps the full turn.
+    track_scan_step_deg : float
+        Turret step (deg) inside those windows.
+    track_windows : {"axes", "sides"}
+        ``axes``: the four windows around 0, 90, 180 and 270 degrees; ``sides``: only the three
+        ahead and to the sides (-90, 0, 90), a shorter turret travel.
+    track_align : bool
+        Re-localise along the way the paper's way (full sweep, align, full sweep) instead of one
+        window sweep; the window settings are then ignored.
+    final_window_deg, final_scan_step_deg : float
+        The same for the re-localisations at the target (the final correction loop).
+    fix_rule : {"habit", "spread"}
+        When a leg ends (at a waypoint, after `relocalise_every_cm`, or where `heading_tolerance_deg`
+        cuts it), ``habit`` re-localises every time; ``spread`` only when the belief as predicted
+        through the motion could not drive on: the position spread across the next stretch plus
+        the heading spread over its length, times `spread_sigmas`, must leave the robot disc clear
+        of the walls along it. A waypoint the robot missed is skipped when the belief can drive on
+        to the next one by the same rule.
+    spread_sigmas : float
+        Standard deviations of the belief the ``spread`` rule keeps clear of the walls.
+    spread_min_heading_deg : float
+        The ``spread`` rule never takes the heading spread as smaller than this (deg): a sonar
+        localiser's belief can be narrower than its heading error.
+    spread_drift : float
+        Nor the position spread as smaller than this fraction of the distance driven since the
+        last fix (a localiser whose belief does not grow with the motion is not trusted blindly).
     """
 
     planning_time_s: float = 1.0
@@ -180,7 +236,7 @@ class MissionConfig:
     localise_options: Mapping[str, Any] = field(default_factory=dict)
     safety_margin_cm: float = 2.0
     move_step_cm: float = 10.0
-    relocalise_every_cm: float | None = 40.0
+    relocalise_every_cm: float | None = None
     first_leg_cm: float | None = 6.0
     waypoint_tolerance_cm: float = 1.0
     max_legs: int = 12
@@ -191,6 +247,7 @@ class MissionConfig:
     max_corrections: int = 6
     success_radius_cm: float = 3.0
     final_scans: int = 1
+    reverse_cm: float = 10.0
     max_replans: int = 12
     max_localisation_attempts: int = 3
     max_explore_moves: int = 6
@@ -203,6 +260,18 @@ class MissionConfig:
     tracking_std_cm: float = 4.0
     tracking_std_deg: float = 8.0
     max_actions: int = 400
+    global_scan_step_deg: float = 2.0
+    global_align: bool = False
+    track_window_deg: float = 15.0
+    track_scan_step_deg: float = 2.0
+    track_windows: str = "axes"
+    track_align: bool = False
+    final_window_deg: float = 15.0
+    final_scan_step_deg: float = 1.0
+    fix_rule: str = "spread"
+    spread_sigmas: float = 3.0
+    spread_min_heading_deg: float = 1.0
+    spread_drift: float = 0.05
 
     def __post_init__(self) -> None:
         positive = ("planning_time_s", "move_step_cm", "waypoint_tolerance_cm", "goal_tolerance_cm",
@@ -213,6 +282,23 @@ class MissionConfig:
                 raise ValueError(f"MissionConfig.{name} must be a positive number, got {v!r}")
         if not (math.isfinite(self.safety_margin_cm) and self.safety_margin_cm >= 0):
             raise ValueError(f"MissionConfig.safety_margin_cm must be >= 0, got {self.safety_margin_cm!r}")
+        for name in ("global_scan_step_deg", "track_scan_step_deg", "final_scan_step_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0 < v <= 90):
+                raise ValueError(f"MissionConfig.{name} must be in (0, 90] degrees, got {v!r}")
+        for name in ("track_window_deg", "final_window_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0 <= v <= 180):
+                raise ValueError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
+        if self.track_windows not in _WINDOW_CENTRES:
+            raise ValueError(f"MissionConfig.track_windows must be one of {', '.join(_WINDOW_CENTRES)}, "
+                             f"got {self.track_windows!r}")
+        if self.fix_rule not in ("habit", "spread"):
+            raise ValueError(f"MissionConfig.fix_rule must be 'habit' or 'spread', got {self.fix_rule!r}")
+        for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"MissionConfig.{name} must be >= 0, got {v!r}")
         if self.tracking not in ("continue", "prior"):
             raise ValueError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
         if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:
@@ -234,7 +320,7 @@ class MissionConfig:
         heading and ~2 cm in position near slanted walls while reporting a narrow belief)."""
         base: dict[str, Any] = {}
         if sonar == "nxt":
-            base = {"heading_tolerance_deg": 15.0, "leg_margin_cm": 2.0}
+            base = {"heading_tolerance_deg": 15.0, "leg_margin_cm": 2.0, "spread_min_heading_deg": 4.0}
         return cls(**{**base, **overrides})
 
 
@@ -287,6 +373,53 @@ class TraceStep:
             "robot_time_s": self.robot_time_s,
             "note": self.note,
         }
+
+
+@dataclass(frozen=True)
+class RobotTimeSplit:
+    """Where a mission's robot time went (s), from the robot's own counters.
+
+    Attributes
+    ----------
+    sweep_s : float
+        Sonar sweeps: the readings and the turret's travel through them.
+    turret_return_s : float
+        Turning the turret back to the front after each sweep.
+    drive_s, turn_s : float
+        Driving (forward and backward) and spinning in place.
+    readings : int
+        Sonar readings taken by the sweeps (the watchdog's forward readings are not counted).
+    other_s : float
+        Robot time outside these (link overheads on a real NXT; 0 on the simulator).
+    """
+
+    sweep_s: float
+    turret_return_s: float
+    drive_s: float
+    turn_s: float
+    readings: int
+    other_s: float = 0.0
+
+    def to_dict(self) -> dict[str, float | int]:
+        return dict(self.__dict__)
+
+    def describe(self) -> str:
+        """One line: ``sweeping 40.1 s (1612 readings), turret back 9.0 s, driving 12.0 s, turning 7.1 s``."""
+        text = (f"sweeping {self.sweep_s:.1f} s ({self.readings} readings), turret back {self.turret_return_s:.1f} s, "
+                f"driving {self.drive_s:.1f} s, turning {self.turn_s:.1f} s")
+        return text + (f", other {self.other_s:.1f} s" if abs(self.other_s) >= 0.05 else "")
+
+
+_SPLIT_COUNTERS = ("sweep_s", "turret_return_s", "drive_s", "turn_s", "readings")
+
+
+def _time_split(delta: Mapping[str, float], robot_time_s: float) -> RobotTimeSplit | None:
+    """The split from the robot's counter increments, when the robot keeps them all."""
+    if not all(k in delta for k in _SPLIT_COUNTERS):
+        return None
+    sweep, back, drive, turn = (float(delta[k]) for k in _SPLIT_COUNTERS[:4])
+    return RobotTimeSplit(sweep, back, drive, turn, int(delta["readings"]),
+                          robot_time_s - (sweep + back + drive + turn))
 
 
 @dataclass(frozen=True, eq=False)
@@ -353,6 +486,7 @@ class MissionReport:
     plans: list[FloatArray] = field(default_factory=list)
     trace: list[TraceStep] = field(default_factory=list)
     candidates: list[Pose] = field(default_factory=list)
+    time_split: RobotTimeSplit | None = None
 
     def to_dict(self, trace: bool = True) -> dict[str, Any]:
         """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
@@ -363,6 +497,7 @@ class MissionReport:
             "estimate_error_cm": self.estimate_error_cm,
             "completion_s": self.completion_s,
             "robot_time_s": self.robot_time_s,
+            "robot_time_split": None if self.time_split is None else self.time_split.to_dict(),
             "path_length_cm": self.path_length_cm,
             "planned_length_cm": self.planned_length_cm,
             "turns": self.turns,
@@ -416,7 +551,8 @@ class MissionReport:
             f"map {self.map}, planner {self.planner}, localiser {self.localiser}, seed {self.seed}",
             f"final error {err} (estimate {_fmt(self.estimate_error_cm)} cm from target), "
             f"collisions {coll}",
-            f"completion {self.completion_s:.3f} s wall-clock, robot time {self.robot_time_s:.1f} s",
+            f"completion {self.completion_s:.3f} s wall-clock, robot time {self.robot_time_s:.1f} s"
+            + ("" if self.time_split is None else f": {self.time_split.describe()}"),
             f"driven {self.path_length_cm:.1f} cm (planned {self.planned_length_cm:.1f} cm), turns {self.turns}, "
             f"watchdog stops {self.watchdog_stops}, re-localisations {self.relocalisations}, "
             f"re-plans {self.replans}",
@@ -477,6 +613,27 @@ def explore_direction(scan: Scan, clearance_cm: float, rng: np.random.Generator 
     return float(angle_diff(a[k], 0.0)), float(min(max_step_cm, 0.5 * free[k]))
 
 
+def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0,
+                 centres_deg: tuple[float, ...] = (0.0, 90.0, 180.0, 270.0)) -> FloatArray:
+    """Turret angles (rad, relative to the heading) of one sweep, in the order the turret visits them.
+
+    ``window_deg >= 180`` is the full turn from straight ahead at `step_deg` steps (360 readings at
+    1 degree); smaller windows read only the windows of +-`window_deg` around `centres_deg`
+    (degrees from the heading, visited in the order given). Around the four axes that is what the
+    paper's scan processing keeps: 124 readings for 15-degree windows at 1 degree, and 600 degrees
+    of turret travel (out and back) instead of 720; the three windows ahead and to the sides
+    (-90, 0, 90) take 420.
+
+    >>> sweep_angles(1.0, 15.0).size, sweep_angles(2.0).size, sweep_angles(2.0, 15.0, (-90, 0, 90)).size
+    (124, 180, 48)
+    """
+    if window_deg >= 180.0:
+        return np.radians(np.arange(0.0, 360.0 - 1e-9, step_deg))
+    half = np.arange(0.0, window_deg + 1e-9, step_deg)
+    off = np.concatenate([-half[:0:-1], half])
+    return np.radians(np.concatenate([c + off for c in centres_deg]))
+
+
 def _localise_procedure() -> Callable[..., Any]:
     from localisation.procedure import localise
 
@@ -514,6 +671,7 @@ class _Mission:
         self.safe_checkers = [CollisionChecker(m, radius + f * margin) for f in (1.0, 0.5) if margin > 0]
         lm = config.leg_margin_cm
         self.leg_checker = CollisionChecker(m, radius + lm) if lm > 0 else self.checker
+        self._margin_checkers: dict[float, CollisionChecker] = {}
         self.trace: list[TraceStep] = []
         self.plans: list[FloatArray] = []
         self.planned_length = 0.0
@@ -526,6 +684,7 @@ class _Mission:
         self.estimate: PoseEstimate | None = None
         self._last_raw_scan: Scan | None = None
         self.fresh_fix = False  # the estimate comes from a global fix not yet checked by a drive
+        self.since_fix_cm = 0.0  # driven since the last converged fix
         self._localise = _localise_procedure()
         params = inspect.signature(self._localise).parameters
         self._localise_kw = set(params) if not any(p.kind is p.VAR_KEYWORD for p in params.values()) else None
@@ -555,8 +714,26 @@ class _Mission:
             raise _MissionEnded(f"gave up after {self.cfg.max_actions} actions")
 
     # -- localisation ---------------------------------------------------------------------------
-    def _call_localise(self, prior: Prior | None, **extra: Any) -> PoseEstimate:
-        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **dict(self.cfg.localise_options), **extra}
+    def _sweep_options(self, kind: str) -> dict[str, Any]:
+        """How the localisation procedure sweeps for a ``global``, ``track`` or ``final`` localisation."""
+        cfg = self.cfg
+        if kind == "global":
+            # without the turn, the windows are taken around the minimum reading's direction: the
+            # near-perpendicular readings a sonar model gets right, from one sweep
+            return {"align": cfg.global_align, "scan_angles": sweep_angles(cfg.global_scan_step_deg),
+                    "processing": None if cfg.global_align else ScanProcessing(reference="min")}
+        if cfg.track_align:
+            return {"align": True, "process": True, "scan_angles": None}
+        if kind == "final":
+            return {"align": False, "process": False,
+                    "scan_angles": sweep_angles(cfg.final_scan_step_deg, cfg.final_window_deg)}
+        return {"align": False, "process": False,
+                "scan_angles": sweep_angles(cfg.track_scan_step_deg, cfg.track_window_deg,
+                                            _WINDOW_CENTRES[cfg.track_windows])}
+
+    def _call_localise(self, prior: Prior | None, kind: str = "global", **extra: Any) -> PoseEstimate:
+        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
+                                  **dict(self.cfg.localise_options), **extra}
         if self._localise_kw is not None:
             dropped = [k for k in kwargs if k not in self._localise_kw]
             if dropped:
@@ -619,6 +796,7 @@ class _Mission:
                                          f"spread {est.std_xy_cm:.2f} cm")
             if ok:
                 self.fresh_fix = True
+                self.since_fix_cm = 0.0
                 return est
         self.candidates = candidate_poses(self._localiser)
         if self.candidates:  # several places fit the scans equally: say which, not just "lost"
@@ -667,28 +845,31 @@ class _Mission:
         return explore_direction(scan, self.radius + 0.5 * cfg.safety_margin_cm + 0.5, self.rng, avoid_rad,
                                  cfg.explore_step_cm)
 
-    def relocalise(self, reason: str) -> PoseEstimate:
-        """Tracking re-localisation from the current belief; falls back to a global one."""
+    def relocalise(self, reason: str, kind: str = "track") -> PoseEstimate:
+        """Tracking re-localisation from the current belief (`kind` ``track`` or, at the target,
+        ``final`` chooses the sweep); falls back to a global one."""
         self.relocalisations += 1
         if self.estimate is None:
             return self.localise_global()
         if self.cfg.tracking == "prior":
-            est = self._call_localise(self._prior(self.estimate), reset=True, max_iterations=1)
+            est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
         else:
-            est = self._call_localise(None, reset=False, max_iterations=1)
+            est = self._call_localise(None, kind, reset=False, max_iterations=1)
         self.estimate = est
         ok = self._ok(est)
         self.record("relocalise", note=f"{reason}: {'converged' if ok else 'not converged'}, "
                                        f"spread {est.std_xy_cm:.2f} cm")
         if ok:
             self.fresh_fix = False
+            self.since_fix_cm = 0.0
             return est
         if self.cfg.tracking != "prior":
-            est = self._call_localise(self._prior(self.estimate), reset=True, max_iterations=1)
+            est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
             self.estimate = est
             ok = self._ok(est)
             self.record("relocalise", note=f"{reason}, from a wider prior: {'converged' if ok else 'not converged'}")
             if ok:
+                self.since_fix_cm = 0.0
                 return est
         return self.localise_global()
 
@@ -720,6 +901,7 @@ class _Mission:
         self.localiser.predict(Motion(distance_cm=out.distance_cm))
         self.estimate = self.localiser.estimate()
         self.path_length += abs(out.distance_cm)
+        self.since_fix_cm += abs(out.distance_cm)
         if out.watchdog:
             self.watchdog_stops += 1
         self.record(action, distance_cm=out.distance_cm, watchdog=out.watchdog)
@@ -731,6 +913,7 @@ class _Mission:
         self.localiser.predict(Motion(distance_cm=out.distance_cm))
         self.estimate = self.localiser.estimate()
         self.path_length += abs(out.distance_cm)
+        self.since_fix_cm += abs(out.distance_cm)
         self.record("turnback", distance_cm=out.distance_cm)
 
     def after_watchdog(self) -> None:
@@ -753,12 +936,46 @@ class _Mission:
             length = min(length, checker.first_contact(xy, end, tol=0.2) * leg)
         return max(length, self.cfg.min_leg_cm)
 
-    def drive_to(self, goal: FloatArray, *, final: bool = False) -> str:
+    def _margin_checker(self, extra_cm: float) -> CollisionChecker:
+        """A checker for the robot disc grown by `extra_cm` (rounded up to 0.5 cm; cached)."""
+        key = math.ceil(max(extra_cm, 0.0) * 2.0) / 2.0
+        if key == 0.0:
+            return self.checker
+        if key not in self._margin_checkers:
+            self._margin_checkers[key] = CollisionChecker(self.map, self.radius + key)
+        return self._margin_checkers[key]
+
+    def spread_clear(self, goal: FloatArray) -> bool:
+        """Whether the belief, as predicted now, can drive from its mean to `goal` without a fix:
+        the segment is free for the robot disc grown by `spread_sigmas` standard deviations of the
+        position across the segment plus the heading's over the segment's length."""
+        assert self.estimate is not None
+        a = self.estimate.pose.xy
+        d = np.asarray(goal, dtype=float) - a
+        length = float(np.hypot(*d))
+        if length < 1e-6:
+            return True
+        cov = np.asarray(self.estimate.cov, dtype=float)
+        if not np.all(np.isfinite(cov)):
+            return False
+        perp = np.array([-d[1], d[0]]) / length
+        var_heading = max(float(cov[2, 2]), math.radians(self.cfg.spread_min_heading_deg) ** 2)
+        var_across = max(float(perp @ cov[:2, :2] @ perp), (self.cfg.spread_drift * self.since_fix_cm) ** 2)
+        var = var_across + length**2 * var_heading
+        extra = self.cfg.spread_sigmas * math.sqrt(max(var, 0.0))
+        if extra > 10.0:
+            return False
+        return bool(self._margin_checker(extra).segment_free(a, goal))
+
+    def drive_to(self, goal: FloatArray, *, final: bool = False, next_goal: FloatArray | None = None) -> str:
         """Turn toward `goal` from the estimate and drive there in steps, re-localising on the way.
 
         Legs longer than `relocalise_every_cm` are split; after each leg the robot re-localises and
         re-aims, until the estimate is within `waypoint_tolerance_cm` of `goal` (for the `final`
-        goal the final correction re-localises instead).
+        goal the final correction re-localises instead). With ``fix_rule="spread"`` a leg ends
+        without a fix when the predicted belief can drive on (`spread_clear`: to `goal`, or on
+        reaching it to `next_goal`), and a missed `goal` is skipped when the belief can drive on
+        to `next_goal` the same way.
 
         Returns ``arrived``, ``watchdog`` (the watchdog stopped a move), ``blocked`` (a move made
         almost no progress: a contact) or ``deviated`` (the straight line from the estimate to the
@@ -766,12 +983,15 @@ class _Mission:
         """
         assert self.estimate is not None
         cfg = self.cfg
+        spread = cfg.fix_rule == "spread"
         for legs in range(cfg.max_legs):
             pose = self.estimate.pose
             delta = goal - pose.xy
             dist = float(np.hypot(*delta))
             if dist <= cfg.waypoint_tolerance_cm and (legs > 0 or dist < 1e-6):
                 return "arrived"
+            if legs > 0 and spread and next_goal is not None and self.spread_clear(next_goal):
+                return "arrived"  # missed the waypoint, but the way to the next one is clear for the belief
             if not self.checker.segment_free(pose.xy, goal):
                 return "deviated"
             turn = float(angle_diff(math.atan2(delta[1], delta[0]), pose.theta))
@@ -793,6 +1013,13 @@ class _Mission:
                 driven += step
             if final and leg >= dist:
                 return "arrived"
+            ahead = goal if leg < dist else next_goal
+            if spread and ahead is not None and self.spread_clear(ahead):
+                self.record("skip-fix", note=f"belief spread {self.estimate.std_xy_cm:.1f} cm leaves the way "
+                                             "ahead clear")
+                if leg >= dist:
+                    return "arrived"
+                continue
             self.relocalise("at waypoint" if leg >= dist else "along segment")
         return "deviated"
 
@@ -884,7 +1111,8 @@ class _Mission:
             path = self.plan()
             outcome = "arrived"
             for i, wp in enumerate(path[1:], start=1):
-                outcome = self.drive_to(wp, final=i == len(path) - 1)
+                nxt = path[i + 1] if i + 1 < len(path) else None
+                outcome = self.drive_to(wp, final=i == len(path) - 1, next_goal=nxt)
                 if outcome != "arrived":
                     break
             if outcome == "arrived":
@@ -900,9 +1128,9 @@ class _Mission:
         """Re-localise at the target and correct until the estimate is within the tolerance."""
         cfg = self.cfg
         for k in range(cfg.max_corrections + 1):
-            est = self.relocalise("at target")
+            est = self.relocalise("at target", "final")
             for _ in range(cfg.final_scans - 1):
-                est = self.relocalise("at target (extra scan)")
+                est = self.relocalise("at target (extra scan)", "final")
             delta = self.target - est.pose.xy
             dist = float(np.hypot(*delta))
             if dist <= cfg.goal_tolerance_cm:
@@ -913,8 +1141,11 @@ class _Mission:
                 self.navigate()
                 continue
             turn = float(angle_diff(math.atan2(delta[1], delta[0]), est.pose.theta))
+            sense = 1.0
+            if dist <= cfg.reverse_cm and abs(turn) > 0.5 * math.pi:  # back up rather than turn around
+                turn, sense = float(angle_diff(turn, math.pi)), -1.0
             self.turn(turn, action="correct-turn")
-            if self.move(dist, action="correct-move"):
+            if self.move(sense * dist, action="correct-move"):
                 self.after_watchdog()
                 self.navigate()
         dist = float(np.hypot(*(self.target - self.estimate.pose.xy))) if self.estimate else math.inf
@@ -927,7 +1158,7 @@ class _Mission:
 def _robot_counters(robot: Robot) -> dict[str, float]:
     """The robot's own counters (simulator: collisions, watchdog stops, odometry), where it has them."""
     out: dict[str, float] = {}
-    for name in ("collisions", "watchdog_stops", "odometry_cm"):
+    for name in ("collisions", "watchdog_stops", "odometry_cm", *_SPLIT_COUNTERS):
         v = getattr(robot, name, None)
         if isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool):
             out[name] = float(v)
@@ -1010,13 +1241,14 @@ def run_mission(
     delta = {k: counters1[k] - counters0[k] for k in counters0 if k in counters1}
     collisions = delta.get("collisions")
     path_length = float(delta.get("odometry_cm", mission.path_length))
+    robot_time = float(robot.robot_time_s) - time0
     return MissionReport(
         success=success,
         status=status,
         final_error_cm=None if final is None else final.distance_to(tgt),
         estimate_error_cm=None if est is None else est.distance_to(tgt),
         completion_s=time.perf_counter() - t0,
-        robot_time_s=float(robot.robot_time_s) - time0,
+        robot_time_s=robot_time,
         path_length_cm=path_length,
         planned_length_cm=mission.planned_length,
         turns=mission.turns,
@@ -1035,6 +1267,7 @@ def run_mission(
         plans=mission.plans,
         trace=mission.trace,
         candidates=mission.candidates,
+        time_split=_time_split(delta, robot_time),
     )
 
 

@@ -19,14 +19,14 @@ trial exactly.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..mission import MissionConfig, run_sim_mission
+from ..mission import MissionConfig, RobotTimeSplit, run_sim_mission
 from .executors import collect_tasks
 
 __all__ = [
@@ -75,10 +75,15 @@ class PaperTrial:
     motion_noise: float = 0.1
     turn_noise: float = 0.005
     random_start: bool = False
+    options: tuple[tuple[str, Any], ...] = ()
 
     @property
     def stack(self) -> str:
         return f"{self.planner}/{self.localiser}"
+
+    def config(self) -> MissionConfig:
+        """The mission configuration: the sonar's defaults with this trial's `options` applied."""
+        return MissionConfig.for_sonar(self.sonar, **dict(self.options))
 
 
 @dataclass(frozen=True)
@@ -96,15 +101,20 @@ class TrialResult:
     watchdog_stops: int
     relocalisations: int
     replans: int
+    time_split: RobotTimeSplit | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        d = {k: v for k, v in self.__dict__.items() if k != "task"}
-        d.update(self.task.__dict__)
+        d = {k: v for k, v in self.__dict__.items() if k not in ("task", "time_split")}
+        d["robot_time_split"] = None if self.time_split is None else self.time_split.to_dict()
+        d.update({k: v for k, v in self.task.__dict__.items() if k != "options"})
+        d["options"] = dict(self.task.options)
         return d
 
 
 def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> TrialResult:
-    """Run one trial's mission on the simulator (top-level, so it pickles for process pools)."""
+    """Run one trial's mission on the simulator (top-level, so it pickles for process pools);
+    `config` None is the task's own (`PaperTrial.config`)."""
+    config = config or task.config()
     try:
         r = run_sim_mission(
             task.map, seed=task.seed, planner=task.planner, localiser=task.localiser,
@@ -116,13 +126,14 @@ def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> TrialRes
                            0, math.nan, 0, 0, 0)
     # success in the table is judged by the truth: the mission says it arrived AND the robot is truly
     # within the mission's success radius of the target
-    cfg = config or MissionConfig()
+    cfg = config
     truly = r.success and r.final_error_cm is not None and r.final_error_cm <= cfg.success_radius_cm
     status = r.status if truly or not r.success else f"{r.status}, but truly {r.final_error_cm:.1f} cm away"
     return TrialResult(
         task, truly, status, r.completion_s,
         math.nan if r.final_error_cm is None else r.final_error_cm,
         r.path_length_cm, int(r.collisions or 0), r.robot_time_s, r.watchdog_stops, r.relocalisations, r.replans,
+        r.time_split,
     )
 
 
@@ -138,14 +149,18 @@ def paper_tasks(
     motion_noise: float = 0.1,
     turn_noise: float = 0.005,
     random_start: bool = False,
+    options: Mapping[str, Any] | None = None,
 ) -> list[PaperTrial]:
     """Every trial of the table, in a fixed order (`random_start`: a seeded random free start pose
-    at least 10 cm from the walls instead of the preset start)."""
+    at least 10 cm from the walls instead of the preset start; `options`: `MissionConfig` fields
+    replacing the sonar's defaults)."""
     if trials < 1:
         raise ValueError(f"trials must be >= 1, got {trials}")
+    opts = tuple(sorted((options or {}).items()))
+    MissionConfig.for_sonar(sonar, **dict(opts))  # a bad option fails here, not in every trial
     return [
         PaperTrial(m, i, trial_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise,
-                   random_start)
+                   random_start, opts)
         for nm in noise_models
         for p, lo in stacks
         for k, m in enumerate(maps)
@@ -169,6 +184,8 @@ class PaperRow:
     completion_max_s: float
     completion_median_s: float = math.nan
     failures: list[str] = field(default_factory=list)
+    robot_time_median_s: float = math.nan
+    time_split: RobotTimeSplit | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -180,6 +197,8 @@ class PaperRow:
             "path_length_cm": self.path_length_cm,
             "collisions": self.collisions,
             "robot_time_s": self.robot_time_s,
+            "robot_time_median_s": self.robot_time_median_s,
+            "robot_time_split": None if self.time_split is None else self.time_split.to_dict(),
             "final_error_max_cm": self.final_error_max_cm,
             "completion_max_s": self.completion_max_s,
             "completion_median_s": self.completion_median_s,
@@ -198,6 +217,7 @@ class PaperTable:
     sonar: str
     rows: list[PaperRow]
     starts: str = "preset"
+    options: tuple[tuple[str, Any], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -206,6 +226,7 @@ class PaperTable:
             "localiser": self.localiser,
             "sonar": self.sonar,
             "starts": self.starts,
+            "options": dict(self.options),
             "rows": [r.to_dict() for r in self.rows],
         }
 
@@ -216,15 +237,27 @@ def _stat(func: Callable[[NDArray[np.float64]], Any], values: Iterable[float]) -
     return float(func(v)) if v.size else math.nan
 
 
+def _mean_split(results: Sequence[TrialResult]) -> RobotTimeSplit | None:
+    """The mean time split over the trials that have one (None when none has)."""
+    splits = [r.time_split for r in results if r.time_split is not None]
+    if not splits:
+        return None
+    def mean(k: str) -> float:
+        return float(np.mean([getattr(s, k) for s in splits]))
+
+    return RobotTimeSplit(mean("sweep_s"), mean("turret_return_s"), mean("drive_s"), mean("turn_s"),
+                          round(mean("readings")), mean("other_s"))
+
+
 def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:
-    """Group trial results into tables (noise model x stack), one row per map in the paper's order."""
-    groups: dict[tuple[str, str, str, str, bool], dict[str, list[TrialResult]]] = {}
+    """Group trial results into tables (noise model x stack x options), one row per map in the paper's order."""
+    groups: dict[tuple[str, str, str, str, bool, tuple[tuple[str, Any], ...]], dict[str, list[TrialResult]]] = {}
     for r in results:
         t = r.task
-        key = (t.noise_model, t.planner, t.localiser, t.sonar, t.random_start)
+        key = (t.noise_model, t.planner, t.localiser, t.sonar, t.random_start, t.options)
         groups.setdefault(key, {}).setdefault(t.map, []).append(r)
     tables = []
-    for (nm, p, lo, so, rs_), by_map in groups.items():
+    for (nm, p, lo, so, rs_, opts), by_map in groups.items():
         order = sorted(by_map, key=lambda m: (PAPER_MAPS.index(m) if m in PAPER_MAPS else len(PAPER_MAPS), m))
         rows = []
         for m in order:
@@ -242,8 +275,10 @@ def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:
                 completion_max_s=_stat(np.max, [r.completion_s for r in rs]),
                 completion_median_s=_stat(np.median, [r.completion_s for r in rs]),
                 failures=[f"trial {r.task.trial} (seed {r.task.seed}): {r.status}" for r in rs if not r.success],
+                robot_time_median_s=_stat(np.median, [r.robot_time_s for r in rs]),
+                time_split=_mean_split(rs),
             ))
-        tables.append(PaperTable(nm, p, lo, so, rows, "random" if rs_ else "preset"))
+        tables.append(PaperTable(nm, p, lo, so, rows, "random" if rs_ else "preset", opts))
     model_order = {"botsim": 0, "absolute": 1}
     tables.sort(key=lambda t: (model_order.get(t.noise_model, 2), t.noise_model))
     return tables
@@ -267,15 +302,25 @@ def _num(v: float, digits: int = 2) -> str:
     return "-" if math.isnan(v) else f"{v:.{digits}f}"
 
 
+def _split_cells(split: RobotTimeSplit | None) -> str:
+    if split is None:
+        return "- | -"
+    return (f"{split.sweep_s:.1f} / {split.turret_return_s:.1f} / {split.drive_s:.1f} / {split.turn_s:.1f} "
+            f"| {split.readings}")
+
+
 def tables_to_markdown(tables: Sequence[PaperTable]) -> str:
     """The tables as Markdown, ours beside the paper's (paper values in parentheses)."""
     out: list[str] = []
     for t in tables:
         starts = ", random starts" if t.starts == "random" else ""
-        out.append(f"### Noise model `{t.noise_model}`, stack `{t.planner}/{t.localiser}`, sonar `{t.sonar}`{starts}\n")
+        opts = "".join(f", `{k}={v}`" for k, v in t.options)
+        out.append(f"### Noise model `{t.noise_model}`, stack `{t.planner}/{t.localiser}`, sonar `{t.sonar}`"
+                   f"{starts}{opts}\n")
         out.append("| Map | Trials | Success | Completion (s) | Median completion (s) | Distance from target (cm) "
-                   "| Path length (cm) | Collisions | Robot time (s) |")
-        out.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+                   "| Path length (cm) | Collisions | Robot time (s) | Median robot time (s) "
+                   "| Sweeping / turret back / driving / turning (s) | Readings |")
+        out.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
         for r in t.rows:
             p = PAPER_TABLE.get(r.map, {})
 
@@ -287,12 +332,14 @@ def tables_to_markdown(tables: Sequence[PaperTable]) -> str:
                 f"| {_num(r.completion_s, 3)}{paper('completion_s')} | {_num(r.completion_median_s, 3)} "
                 f"| {_num(r.final_error_cm)}{paper('final_error_cm')} "
                 f"| {_num(r.path_length_cm, 1)}{paper('path_length_cm', 1)} "
-                f"| {r.collisions}{paper('collisions', 0)} | {_num(r.robot_time_s, 1)} |"
+                f"| {r.collisions}{paper('collisions', 0)} | {_num(r.robot_time_s, 1)} "
+                f"| {_num(r.robot_time_median_s, 1)} | {_split_cells(r.time_split)} |"
             )
         out.append("")
     out.append("Means over the trials (collisions: total); the paper's Table I in parentheses (completion time "
                "on a Core i7 in MATLAB; ours is the wall-clock time of the whole mission in Python, robot time "
-               "is the modelled time a real NXT would take). The mean includes each worker process's one-off "
+               "is the modelled time a real NXT would take, split into its mean parts, with the mean number "
+               "of sonar readings). The mean completion includes each worker process's one-off "
                "precomputation of the map's range table (0.5 s on map1 to 3 s on map3, in that map's first "
                "trial); the median shows a mission without it.")
     return "\n".join(out) + "\n"

@@ -19,8 +19,9 @@ from ..mission import MissionReport
 from ..plotting import draw_cspace, draw_map, draw_path, draw_pose
 from ..world import Map, RobotGeometry
 from .paper import PAPER_TABLE, TrialResult
+from .paper_pareto import ParetoPoint
 
-__all__ = ["animate_mission", "draw_error_spread", "draw_mission", "draw_paper_table"]
+__all__ = ["animate_mission", "draw_error_spread", "draw_mission", "draw_paper_table", "draw_pareto"]
 
 
 def _ax(ax: Axes | None) -> Axes:
@@ -113,6 +114,40 @@ def draw_paper_table(results: Sequence[TrialResult], size: float = 4.2) -> Figur
     fig.suptitle(f"Table I over {n} missions ({n_ok} reached the target{', ' if fixed else ''}{', '.join(fixed)}):"
                  " boxes = this toolkit, stars = the paper's means", fontsize=10)
     return fig
+
+
+def draw_pareto(points: Sequence[ParetoPoint], map_name: str, ax: Axes | None = None,
+                highlight: str = "default") -> list[Any]:
+    """Mean final error against median robot time on one map, one marker per setting and sonar model.
+
+    Each sonar model's front (`ParetoPoint.on_front`) is joined by a line; settings that failed a
+    trial or collided are drawn hollow; the `highlight` setting is labelled in bold.
+    """
+    ax = _ax(ax)
+    out: list[Any] = []
+    colours = {"ideal": "tab:blue", "nxt": "tab:orange"}
+    mine = [p for p in points if p.map == map_name]
+    for sonar in sorted({p.sonar for p in mine}):
+        pts = sorted((p for p in mine if p.sonar == sonar), key=lambda p: p.robot_time_median_s)
+        c = colours.get(sonar, "tab:gray")
+        for p in pts:
+            clean = p.success_rate == 1.0 and p.collisions == 0
+            out.append(ax.scatter(p.robot_time_median_s, p.final_error_cm, s=40, marker="o",
+                                  facecolors=c if clean else "none", edgecolors=c, zorder=4))
+            out.append(ax.annotate(p.setting, (p.robot_time_median_s, p.final_error_cm), fontsize=7,
+                                   xytext=(4, 3), textcoords="offset points",
+                                   fontweight="bold" if p.setting == highlight else "normal"))
+        front = [p for p in pts if p.on_front]
+        if front:
+            out.extend(ax.plot([p.robot_time_median_s for p in front], [p.final_error_cm for p in front], "-",
+                               color=c, lw=1.2, label=f"{sonar} sonar: front", zorder=3))
+    ax.set_xlabel("median robot time (s)")
+    ax.set_ylabel("mean true final error (cm)")
+    ax.set_title(map_name, fontsize=9)
+    ax.grid(alpha=0.3)
+    if out:
+        ax.legend(fontsize=7)
+    return out
 
 
 def animate_mission(report: MissionReport, m: Map, path: str | Path, radius: float | None = None,

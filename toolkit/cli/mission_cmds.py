@@ -114,7 +114,9 @@ def run(
         if start_text is not None or random_start:
             raise typer.BadParameter("the start of a real robot is unknown; --start/--random-start are for the "
                                      "simulator", param_hint="--start")
-        robot = _connect_nxt(nxt_backend, server_host, server_port, profile)
+        from ..robots.model_clock import ModelClock
+
+        robot = ModelClock(_connect_nxt(nxt_backend, server_host, server_port, profile))
         recorder: Any = None
         report: Any = None
         robot_radius = float(robot.geometry.radius_cm)
@@ -128,7 +130,9 @@ def run(
         finally:
             robot.close()
             _finish(recorder, report)
+        model_time = robot.model_time_s
     else:
+        model_time = math.nan
         robot_radius = radius if radius is not None else RobotGeometry().radius_cm  # the simulator's robot
         start: Any = None
         if start_text is not None:
@@ -154,9 +158,13 @@ def run(
     typer.echo(report.summary())
     if record is not None:
         typer.echo(f"wrote {record}")
+    if robot_kind == "nxt":
+        typer.echo(f"robot time by the simulator's time model for the same commands: {model_time:.1f} s")
     if json_out is not None:
         doc = report.to_dict()
         doc["robot"] = robot_kind
+        if robot_kind == "nxt":
+            doc["model_robot_time_s"] = model_time
         if robot_kind == "sim":
             doc["simulator"] = {"sonar": sonar, "noise_model": noise_model, "sensor_noise": sensor_noise,
                                 "motion_noise": motion_noise, "turn_noise": turn_noise}
@@ -210,6 +218,79 @@ def _no_nan(obj: Any) -> Any:
     return obj
 
 
+def _names(text: str, option: str, known: list[str]) -> list[str]:
+    out = [s.strip() for s in text.split(",") if s.strip()]
+    for name in out:
+        if name not in known:
+            raise typer.BadParameter(f"unknown value {name!r}; known: {', '.join(known)}", param_hint=option)
+    if not out:
+        raise typer.BadParameter("give at least one name", param_hint=option)
+    return out
+
+
+def _parse_options(items: list[str] | None) -> dict[str, Any]:
+    """``KEY=VALUE`` pairs as MissionConfig options (values as YAML scalars: 2, 2.5, true, null, spread)."""
+    import yaml
+
+    from ..mission import MissionConfig
+
+    out: dict[str, Any] = {}
+    fields = MissionConfig.__dataclass_fields__
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or key not in fields:
+            raise typer.BadParameter(f"expected KEY=VALUE with a MissionConfig field as KEY, got {item!r}",
+                                     param_hint="--option")
+        try:
+            out[key] = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raise typer.BadParameter(f"cannot read the value of {item!r}", param_hint="--option") from None
+    try:
+        MissionConfig(**out)
+    except (TypeError, ValueError) as exc:
+        raise typer.BadParameter(str(exc), param_hint="--option") from None
+    return out
+
+
+def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list[str], models: list[str],
+                settings: str | None, workers: int, random_start: bool, json_out: Path | None) -> None:
+    """`nxtnav paper --pareto`: every mission setting, both sonar models; a figure and a table."""
+    from ..bench.paper import run_paper
+    from ..bench.paper_pareto import MISSION_SETTINGS, pareto_points, pareto_tasks
+    from ..bench.paper_plots import draw_pareto
+    from ..plotting import save_figure
+
+    names = _names(settings or ",".join(MISSION_SETTINGS), "--settings", list(MISSION_SETTINGS))
+    tasks = pareto_tasks(trials, seed, settings=names, sonars=sonars, maps=maps, noise_models=models,
+                         random_start=random_start)
+    console = Console(stderr=True)
+    with Progress(TextColumn("[bold]missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=console, transient=True) as progress:
+        bar = progress.add_task("missions", total=len(tasks))
+        _, results = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
+    points = pareto_points(results)
+    typer.echo("| Setting | Sonar | Map | Trials | Success | Collisions | Mean final error (cm) "
+               "| Median robot time (s) | Median completion (s) | On the front |")
+    typer.echo("|---|---|---|---:|---:|---:|---:|---:|---:|---|")
+    for p in sorted(points, key=lambda p: (p.sonar, p.map, p.robot_time_median_s)):
+        typer.echo(f"| {p.setting} | {p.sonar} | {p.map} | {p.trials} | {100 * p.success_rate:.0f} % "
+                   f"| {p.collisions} | {p.final_error_cm:.2f} | {p.robot_time_median_s:.1f} "
+                   f"| {p.completion_median_s:.2f} | {'yes' if p.on_front else ''} |")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(maps), figsize=(4.5 * len(maps), 4.0), squeeze=False)
+    for ax, m in zip(axes[0], maps, strict=True):
+        draw_pareto(points, m, ax)
+    save_figure(fig, png)
+    typer.echo(f"wrote {png}")
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        doc = {"settings": {k: MISSION_SETTINGS[k] for k in names}, "points": [p.to_dict() for p in points]}
+        json_out.write_text(json.dumps(_no_nan(doc), indent=1, allow_nan=False))
+        typer.echo(f"wrote {json_out}")
+
+
 def _parse_stacks(stacks: list[str] | None) -> list[tuple[str, str]]:
     if not stacks:
         return [("min-turn", "paper-pf")]
@@ -235,22 +316,30 @@ def paper(
                                      help="Draw final errors and path lengths beside the paper's means."),
     stack: list[str] | None = typer.Option(None, "--stack", metavar="PLANNER/LOCALISER",
                                            help="Stack(s) to run (repeatable; default min-turn/paper-pf)."),
-    sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
-    noise_model: list[str] | None = typer.Option(None, "--noise-model",
-                                                 help="Noise model(s) (default both: botsim and absolute)."),
+    sonar: str | None = typer.Option(
+        None, metavar="NAME[,NAME]",
+        help=f"Sonar model(s): {', '.join(SONAR_MODELS.names())} (default ideal; with --pareto both)."),
+    noise_model: list[str] | None = typer.Option(
+        None, "--noise-model", help="Noise model(s) (default both: botsim and absolute; with --pareto botsim)."),
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     random_start: bool = typer.Option(False, "--random-start",
                                       help="Start each trial from a seeded random free pose (>= 10 cm from walls)."),
+    option: list[str] | None = typer.Option(None, "--option", metavar="KEY=VALUE",
+                                            help="A MissionConfig option for every mission (repeatable), "
+                                                 "e.g. track_scan_step_deg=2."),
+    pareto: Path | None = typer.Option(None, "--pareto", metavar="FILE.png",
+                                       help="Run every mission setting instead and draw mean final error "
+                                            "against median robot time (the Pareto front)."),
+    settings: str | None = typer.Option(None, "--settings", metavar="NAME[,NAME]",
+                                        help="Mission settings for --pareto (default all)."),
 ) -> None:
-    """The paper's Table I regenerated: mean completion time, final error, path length, collisions."""
+    """The paper's Table I regenerated: completion time, final error, path length, collisions, robot time."""
     from ..bench.executors import TasksInterrupted
     from ..bench.paper import paper_tasks, run_paper, summarise, tables_to_markdown
 
-    if sonar not in SONAR_MODELS:
-        raise typer.BadParameter(f"unknown sonar {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
-                                 param_hint="--sonar")
-    models = noise_model or ["botsim", "absolute"]
+    sonars = _names(sonar or ("ideal,nxt" if pareto is not None else "ideal"), "--sonar", SONAR_MODELS.names())
+    models = noise_model or (["botsim"] if pareto is not None else ["botsim", "absolute"])
     for nm in models:
         if nm not in ("botsim", "absolute"):
             raise typer.BadParameter(f"expected botsim or absolute, got {nm!r}", param_hint="--noise-model")
@@ -260,8 +349,13 @@ def paper(
     check_writable(json_out, "--json")
     check_writable(markdown, "--markdown")
     stacks = _parse_stacks(stack)
-    tasks = paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=sonar,
-                        random_start=random_start)
+    options = _parse_options(option)
+    if pareto is not None:
+        _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out)
+        return
+    tasks = [t for so in sonars
+             for t in paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=so,
+                                  random_start=random_start, options=options)]
     console = Console(stderr=True)
     with Progress(TextColumn("[bold]missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=console, transient=True) as progress:

@@ -132,6 +132,12 @@ class NxtRobot:
         self.watchdog_stops = 0
         self.odometry_cm = 0.0
         self.sonar_reads = 0
+        # the split of robot_time_s (s) and the readings of the sweeps, as the simulator keeps them
+        self.sweep_s = 0.0
+        self.turret_return_s = 0.0
+        self.drive_s = 0.0
+        self.turn_s = 0.0
+        self.readings = 0
         with self._action("connect"):
             self.brick.set_input_mode(self._sonar, self._nxt.sensor.Type.LOW_SPEED_9V, self._nxt.sensor.Mode.RAW)
             if not self.virtual:
@@ -247,13 +253,18 @@ class NxtRobot:
         return "motors stopped"
 
     @contextlib.contextmanager
-    def _action(self, what: str) -> Iterator[None]:
+    def _action(self, what: str, split: str | None = None) -> Iterator[None]:
+        """Run one action: time it (adding the time to `split`, a counter such as ``drive_s``) and
+        turn any failure into a `RobotError` with the motors stopped."""
         self._check_open()
         start: tuple[str, float] | None = None
         try:
             start = self._clock()
             yield
-            self._time += self._elapsed(start, self._clock())
+            dt = self._elapsed(start, self._clock())
+            self._time += dt
+            if split is not None:
+                setattr(self, split, getattr(self, split) + dt)
         except RobotError as exc:
             stopped = self._safe_stop()
             raise RobotError(f"{what}: {exc}; {stopped}") from exc
@@ -330,7 +341,7 @@ class NxtRobot:
         d = float(distance_cm)
         if not math.isfinite(d):
             raise RobotError(f"move distance must be finite, got {distance_cm!r}")
-        with self._action(f"move {d:.1f} cm"):
+        with self._action(f"move {d:.1f} cm", "drive_s"):
             deg = self.profile.wheel_degrees(d)
             left, right, why = self._wheels(deg, deg, self.profile.drive_power, watchdog=d > 0)
         done = self.profile.distance_cm(0.5 * (left + right))
@@ -346,7 +357,7 @@ class NxtRobot:
         a = float(angle_rad)
         if not math.isfinite(a):
             raise RobotError(f"turn angle must be finite, got {angle_rad!r}")
-        with self._action(f"turn {math.degrees(a):.1f} deg"):
+        with self._action(f"turn {math.degrees(a):.1f} deg", "turn_s"):
             w = self.profile.spin_degrees(a)
             self._wheels(-w, w, self.profile.turn_power, watchdog=False)
 
@@ -377,7 +388,8 @@ class NxtRobot:
         gear, sgn = self.profile.turret_gear_ratio, self._turret_sign
         got = np.empty(rel.size)
         ranges = np.empty(rel.size)
-        with self._action("ultrascan"):
+        back = 0.0
+        with self._action("ultrascan", "sweep_s"):
             pos, _ = self._state(self._turret)
             try:
                 for i, a in enumerate(rel):
@@ -385,8 +397,13 @@ class NxtRobot:
                     got[i] = math.radians(pos * sgn / gear)
                     ranges[i] = self.read_sonar()
             finally:
+                t_back = self._clock()
                 self._turret_to(0, self._state(self._turret)[0])
                 self._brake(self._turret)
+                back = self._elapsed(t_back, self._clock())
+        self.sweep_s -= back
+        self.turret_return_s += back
+        self.readings += int(rel.size)
         return Scan.from_readings(got, ranges)
 
     def stop(self) -> None:

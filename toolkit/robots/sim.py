@@ -79,6 +79,14 @@ class MotionNoise:
 class RobotTiming:
     """How long a real NXT takes for each action (for `robot_time_s`).
 
+    A sweep costs its readings plus the turret's travel: from the front through the requested
+    angles in the order given, then back to the front (so the sensor cable never winds up). A full
+    360-reading sweep at one-degree steps is 8.3 s of readings, 1.5 s of turret travel out and 1.5 s
+    back: 11.3 s. The reading time and the turret rate are those of the default NXT profile on the
+    virtual brick over a link of 3 ms per round trip (USB); drive and turn rates are kept below the
+    brick's (about 19 cm/s and 150 deg/s with the profile's powers), so the model does not promise
+    more than a robot gives.
+
     Parameters
     ----------
     drive_speed_cm_s : float
@@ -86,24 +94,47 @@ class RobotTiming:
     turn_rate_deg_s : float
         Spin-in-place rate (deg/s).
     reading_s : float
-        Time per sonar reading including the turret step (s); the sensor gives at most ~50 readings/s.
-    turret_return_s : float
-        Time to turn the turret back to the front after a sweep (s).
+        Time per sonar reading, the turret standing (s); the sensor gives at most ~50 readings/s.
+    turret_rate_deg_s : float
+        Turret speed (sensor degrees per second).
     """
 
     drive_speed_cm_s: float = 15.0
     turn_rate_deg_s: float = 90.0
-    reading_s: float = 0.025
-    turret_return_s: float = 1.5
+    reading_s: float = 0.023
+    turret_rate_deg_s: float = 240.0
+
+    def __post_init__(self) -> None:
+        for k in ("drive_speed_cm_s", "turn_rate_deg_s", "turret_rate_deg_s"):
+            v = getattr(self, k)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"RobotTiming.{k} must be a positive number, got {v!r}")
+        if not (math.isfinite(self.reading_s) and self.reading_s >= 0):
+            raise ValueError(f"RobotTiming.reading_s must be >= 0, got {self.reading_s!r}")
 
     def move(self, distance_cm: float) -> float:
+        """Time (s) to drive `distance_cm` (either sense)."""
         return abs(distance_cm) / self.drive_speed_cm_s
 
     def turn(self, angle_rad: float) -> float:
+        """Time (s) to spin by `angle_rad`."""
         return abs(math.degrees(angle_rad)) / self.turn_rate_deg_s
 
-    def scan(self, n_readings: int) -> float:
-        return n_readings * self.reading_s + self.turret_return_s
+    def sweep(self, angles_rad: ArrayLike) -> tuple[float, float]:
+        """(sweep, return) times (s) of an Ultrascan over `angles_rad` (relative, in the order given):
+        the readings and the turret's travel from the front through them, then the travel back."""
+        deg = np.degrees(np.asarray(angles_rad, dtype=float).ravel())
+        if deg.size == 0:
+            return 0.0, 0.0
+        out = float(np.abs(np.diff(deg, prepend=0.0)).sum())
+        return deg.size * self.reading_s + out / self.turret_rate_deg_s, abs(float(deg[-1])) / self.turret_rate_deg_s
+
+    def scan(self, angles_rad: ArrayLike) -> float:
+        """Whole time (s) of an Ultrascan over `angles_rad`, turret return included."""
+        return sum(self.sweep(angles_rad))
+
+    def to_dict(self) -> dict[str, float]:
+        return {k: float(getattr(self, k)) for k in self.__dataclass_fields__}
 
 
 class SimRobot:
@@ -130,7 +161,8 @@ class SimRobot:
     backoff_cm : float
         How far `turnback` reverses (cm).
     timing : RobotTiming
-        The robot-time model.
+        The robot-time model; `robot_time_s` is split into `sweep_s`, `turret_return_s`, `drive_s`
+        and `turn_s` (s), and `readings` counts the sonar readings of the sweeps.
     rng : None, int or Generator
         Seed of every noise draw.
     """
@@ -175,6 +207,11 @@ class SimRobot:
         self.collisions = 0
         self.watchdog_stops = 0
         self.odometry_cm = 0.0
+        self.sweep_s = 0.0
+        self.turret_return_s = 0.0
+        self.drive_s = 0.0
+        self.turn_s = 0.0
+        self.readings = 0
         self.closed = False
 
     # -- truth (evaluation only) ------------------------------------------------------------------
@@ -214,7 +251,9 @@ class SimRobot:
         eps = self.rng.standard_normal() * self.noise.turn
         actual = a + (a * eps if self.noise.model == "botsim" else eps)
         self._pose = Pose(self._pose.x, self._pose.y, wrap_angle(self._pose.theta + actual))
-        self._time += self.timing.turn(a)
+        dt = self.timing.turn(a)
+        self.turn_s += dt
+        self._time += dt
 
     def move(self, distance_cm: float) -> MoveOutcome:
         """Drive `distance_cm` straight (negative = backwards); forward moves run the watchdog."""
@@ -253,7 +292,9 @@ class SimRobot:
             self.watchdog_stops += 1
         believed = math.copysign(done, d)
         self.odometry_cm += done
-        self._time += self.timing.move(done)
+        dt = self.timing.move(done)
+        self.drive_s += dt
+        self._time += dt
         return MoveOutcome(d, believed, watchdog)
 
     def turnback(self) -> MoveOutcome:
@@ -269,7 +310,11 @@ class SimRobot:
         off = self.geometry.sensor_offset_cm
         origins = p.xy[None, :] + off * np.column_stack([np.cos(absolute), np.sin(absolute)])
         ranges = self.sonar.measure(self.map.walls, origins, absolute[:, None], self.rng)[:, 0]
-        self._time += self.timing.scan(rel.size)
+        sweep, back = self.timing.sweep(rel)
+        self.sweep_s += sweep
+        self.turret_return_s += back
+        self.readings += int(rel.size)
+        self._time += sweep + back
         return Scan.from_readings(rel, ranges)
 
     def stop(self) -> None:

@@ -125,6 +125,11 @@ class BrickConfig:
         None: ideal regulation, a tacho-limited motor stops exactly on its limit and a brake stops a
         motor at once. A number: the motor runs at speed up to its limit and then brakes at this
         deceleration (deg/s^2), overshooting by speed^2 / (2 * decel) as a real NXT motor does.
+    latency_s : float or None
+        Brick seconds that one telegram wanting a reply costs: the link's round trip (a few
+        milliseconds over USB, tens over Bluetooth). Set, brick time advances by exactly this per
+        such telegram and never with the wall clock, so robot times are reproducible and do not
+        depend on the machine's load; None: the wall-clock rule of the module docstring.
     battery_mv : int
         Battery voltage reported (mV).
     name : str
@@ -151,6 +156,7 @@ class BrickConfig:
     i2c_pending_polls: int = 0
     wheel_slip: float = 0.0
     brake_decel_deg_s2: float | None = None
+    latency_s: float | None = None
     battery_mv: int = 8000
     name: str = "nxtnav-virtual"
     brake_on_disconnect: bool = True
@@ -168,6 +174,8 @@ class BrickConfig:
                 continue
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise ValueError(f"BrickConfig.{k} must be a positive number, got {v!r}")
+        if self.latency_s is not None and not (math.isfinite(self.latency_s) and 0 < self.latency_s <= 1):
+            raise ValueError(f"BrickConfig.latency_s must be in (0, 1] s or None, got {self.latency_s!r}")
         if not (isinstance(self.i2c_pending_polls, int) and 0 <= self.i2c_pending_polls <= 20):
             raise ValueError(f"BrickConfig.i2c_pending_polls must be 0..20, got {self.i2c_pending_polls!r}")
         if not (math.isfinite(self.wheel_slip) and 0 <= self.wheel_slip < 0.5):
@@ -413,6 +421,8 @@ class BrickWorld:
     @property
     def free_running(self) -> bool:
         """Whether the clock should also tick without client traffic (see `BrickConfig.free_run`)."""
+        if self.config.latency_s is not None:
+            return False  # time is counted in telegrams
         fr = self.config.free_run
         return self.config.time_factor <= 1.0 if fr is None else bool(fr)
 
@@ -433,7 +443,10 @@ class BrickWorld:
         """Advance brick time to now (see the module docstring); return the brick seconds added."""
         with self.lock:
             now = float(self._clock())
-            dt = min(max(0.0, now - self._last_wall) * self.config.time_factor, self.config.max_step_s)
+            if self.config.latency_s is not None:
+                dt = self.config.latency_s
+            else:
+                dt = min(max(0.0, now - self._last_wall) * self.config.time_factor, self.config.max_step_s)
             self._last_wall = now
             self.run_for(dt)
             return dt
