@@ -25,16 +25,30 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from .collision import CollisionChecker
+from .errors import MapError
 from .grid_kernel import grid_pinches, grid_points_free, grid_segments_free
 from .maps import Map
 
-__all__ = ["PointCollisionChecker", "make_checker"]
+__all__ = ["CHECKER_BACKENDS", "PointCollisionChecker", "make_checker"]
 
 
-def make_checker(map: Map, robot_radius: float) -> CollisionChecker:
-    """The checker for a disc of `robot_radius` cm: FCL for a disc, the exact point checker for 0."""
+CHECKER_BACKENDS = ("index", "fcl")
+
+
+def make_checker(map: Map, robot_radius: float, backend: str = "index") -> CollisionChecker:
+    """The checker for a disc of `robot_radius` cm, or the exact point checker for radius 0.
+
+    `backend` picks the disc checker: ``"index"`` (default: exact distances over a uniform grid of
+    the walls, compiled) or ``"fcl"`` (python-fcl's BVH, the reference it is tested against).
+    """
+    if backend not in CHECKER_BACKENDS:
+        raise MapError(f"unknown collision backend {backend!r}; known: {', '.join(CHECKER_BACKENDS)}")
     if robot_radius == 0:
         return PointCollisionChecker(map)
+    if backend == "fcl":
+        from .fcl_collision import FclCollisionChecker
+
+        return FclCollisionChecker(map, robot_radius)
     return CollisionChecker(map, robot_radius)
 
 
