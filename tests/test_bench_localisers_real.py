@@ -93,7 +93,8 @@ def test_lobe_options_follow_the_sonar() -> None:
     pf = [n for n in LOCALISERS.names() if n == "paper-pf" or n.startswith("pf-")]
     assert pf
     for name in pf:
-        assert bench.lobe_options(nxt, name) == {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0}
+        assert bench.lobe_options(nxt, name) == {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0,
+                                                 "max_range_cm": 255.0}
         assert bench.lobe_options(bench.BenchConfig(sonar="ideal"), name) == {}
         assert bench.lobe_options(bench.BenchConfig(sonar="nxt", lobe="off"), name) == {}
     # explicit options win over the lobe

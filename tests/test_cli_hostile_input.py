@@ -115,7 +115,9 @@ def test_coordinates_are_bounded(tmp_path: Path, capsys: pytest.CaptureFixture[s
 def test_a_range_table_too_large_for_memory_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     huge = tmp_path / "huge.yaml"
     huge.write_text("name: huge\nboundary: [[0, 0], [900000, 0], [900000, 900000], [0, 900000]]\n")
-    _fails_cleanly(["localise", "--map", str(huge), "--pose", "50,50,0"], capsys, "out of memory")
+    # the bounded range model refuses it up front, naming the budget and the option that raises it
+    _fails_cleanly(["localise", "--map", str(huge), "--pose", "50,50,0"], capsys, "huge", "budget",
+                   "--range-memory-mb")
 
 
 @pytest.mark.parametrize("option", ["--json", "--plot"])

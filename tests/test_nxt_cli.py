@@ -17,7 +17,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from toolkit.cli import app, main
+from toolkit.cli import main
+from toolkit.cli.app import app
 from toolkit.robots.nxt import NxtProfile
 from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld

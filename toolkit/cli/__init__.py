@@ -27,6 +27,9 @@ def _load() -> ModuleType:
     for name in ("figures_cmds", "localise_cmds", "mission_cmds", "nxt_cmds", "plan_cmds", "replay_cmds", "scen_cmds",
                  "world_cmds"):
         importlib.import_module(f".{name}", __name__)
+    # importing the submodule `app` set this package's attribute `app` to the module: the name means
+    # the Typer application here
+    globals()["app"] = app_module.app
     return app_module
 
 
