@@ -79,12 +79,14 @@ def test_true_collision_is_counted_and_never_passes_a_wall() -> None:
 
 
 def test_robot_time_model() -> None:
-    t = RobotTiming(drive_speed_cm_s=10.0, turn_rate_deg_s=90.0, reading_s=0.02, turret_return_s=1.0)
+    # the default sweep visits 0..359 degrees: 359 degrees of turret travel out and 359 back
+    t = RobotTiming(drive_speed_cm_s=10.0, turn_rate_deg_s=90.0, reading_s=0.02, turret_rate_deg_s=359.0)
     r = SimRobot(load_map("map1"), Pose(20, 20), noise=QUIET, timing=t, rng=0)
     r.turn(math.pi / 2)
     r.move(20.0)
     r.ultrascan()
-    assert r.robot_time_s == pytest.approx(1.0 + 2.0 + 360 * 0.02 + 1.0)
+    assert r.robot_time_s == pytest.approx(1.0 + 2.0 + 360 * 0.02 + 1.0 + 1.0)
+    assert r.turret_return_s == pytest.approx(1.0)
 
 
 def test_scan_is_relative_to_heading() -> None:
