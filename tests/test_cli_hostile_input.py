@@ -241,3 +241,8 @@ def test_an_interrupted_localiser_benchmark_writes_its_finished_trials(tmp_path:
     assert config["complete"] is False and config["trials_done"] == 2
     assert (out / "summary.md").read_text().startswith("**INCOMPLETE**")
     assert len((out / "runs.csv").read_text().strip().splitlines()) == 1 + 2
+
+
+def test_a_preset_the_robot_does_not_fit_on_is_bad_input(capsys: pytest.CaptureFixture[str]) -> None:
+    _fails_cleanly(["plan", "--radius", "1000", "--exec-repeats", "0", "-o", "p.png"], capsys,
+                   "--start (the map's preset)", "radius 1000")

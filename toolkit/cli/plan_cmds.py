@@ -96,10 +96,13 @@ def plan(
         if text is None:
             if preset is None:
                 raise NxtnavError(f"{option}: map {m.name!r} has no preset; give {option} X,Y")
-            return np.asarray(preset, dtype=float)
-        p = np.array(parse_xy(text, option))
-        if not checker.point_free(p):
-            raise PlanningError(f"{option} ({p[0]:g}, {p[1]:g}) puts the robot (radius {radius:g} cm) in a wall "
+            p = np.asarray(preset, dtype=float)
+            where = f"{option} (the map's preset)"
+        else:
+            p = np.array(parse_xy(text, option))
+            where = option
+        if not checker.point_free(p):  # typed or preset: the robot does not fit there (bad input, not a failed plan)
+            raise PlanningError(f"{where} ({p[0]:g}, {p[1]:g}) puts the robot (radius {radius:g} cm) in a wall "
                                 f"or outside map {m.name!r}")
         return p
 
