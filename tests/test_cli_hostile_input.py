@@ -112,7 +112,7 @@ def test_coordinates_are_bounded(tmp_path: Path, capsys: pytest.CaptureFixture[s
     _fails_cleanly(["plan", "--start", "1e300,5", "-o", str(tmp_path / "p.png")], capsys, "--start", "within")
 
 
-def test_a_range_table_too_large_for_memory_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_range_model_too_large_for_memory_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     huge = tmp_path / "huge.yaml"
     huge.write_text("name: huge\nboundary: [[0, 0], [900000, 0], [900000, 900000], [0, 900000]]\n")
     # the bounded range model refuses it up front, naming the budget and the option that raises it
@@ -120,8 +120,19 @@ def test_a_range_table_too_large_for_memory_is_one_line(tmp_path: Path, capsys: 
                    "--range-memory-mb")
 
 
+def test_memory_exhausted_anywhere_is_one_line(monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    import toolkit.cli.plan_cmds as plan_cmds
+
+    def exhausted(name: str) -> None:
+        raise MemoryError("Unable to allocate 5.89 TiB for an array")
+
+    monkeypatch.setattr(plan_cmds, "load_map", exhausted)
+    _fails_cleanly(["plan", "--exec-repeats", "0", "-o", "p.png"], capsys, "out of memory", "5.89 TiB")
+
+
 @pytest.mark.parametrize("option", ["--json", "--plot"])
-def test_unwritable_outputs_fail_before_therun_cli(option: str, tmp_path: Path,
+def test_unwritable_outputs_fail_before_the_run(option: str, tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("x")
