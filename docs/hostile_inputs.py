@@ -90,7 +90,7 @@ def _cases() -> list[Case]:
         "obstacle_out.yaml", "obstacles_overlap.yaml", "start_out.yaml", "target_wall.yaml", "empty.yaml",
         "list.yaml", "scalar.yaml", "binary.yaml", "folder.yaml", "unknown_field.yaml")]
     add("maps", 2, *shows)
-    add("maps", 2, "maps show map1 --radius -5 -o m.png", "maps show map1 --radius 0 -o m.png",
+    add("maps", 2, "maps show map1 --radius -5 -o m.png", "maps show map1 --radius -inf -o m.png",
         "maps show map1 --radius nan -o m.png", "maps show map1 --radius inf -o m.png",
         "maps show map1 -o full", "maps show map1 -o blocker/m.png", "maps show map1 -o /proc/m.png",
         "maps list --bogus")
@@ -101,7 +101,7 @@ def _cases() -> list[Case]:
     add("plan", 2, *(f"{p} --goal {v}" for v in ("x", "3,3", "-1e7,0", "nan,nan")))
     add("plan", 2, f"{p} --planner nope", f"{p} --planner ompl:Nope", f"{p} --planner ''",
         f"{p} --time-limit 0", f"{p} --time-limit -1", f"{p} --time-limit nan", f"{p} --time-limit inf",
-        f"{p} --time-limit abc", f"{p} --radius -1", f"{p} --radius 0", f"{p} --radius nan", f"{p} --radius 1000",
+        f"{p} --time-limit abc", f"{p} --radius -1", f"{p} --radius -0.5", f"{p} --radius nan", f"{p} --radius 1000",
         f"{p} --seed -1", "plan --exec-repeats -1 -o p.png", "plan --exec-repeats 100000000 -o p.png",
         f"{p} --noise-model gaussian", f"{p} --motion-noise -1", f"{p} --turn-noise nan", "plan",
         "plan -o full", "plan -o blocker/p.png", f"{p} --json blocker/p.json", f"{p} --json full",

@@ -14,7 +14,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import Interrupted, app, bench_app, fail
-from .options import check_writable, count, non_negative, parse_list, parse_xy, positive
+from .options import check_writable, count, non_negative, parse_list, parse_xy
 from .options import repeats as repeats_ok
 from .options import seed as seed_ok
 from .options import time_limit as time_limit_ok
@@ -184,7 +184,8 @@ def bench_planners(
     queries: str = typer.Option("presets", "--queries", help="presets (the map's start/target) or random."),
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives per run for the execution error (0 skips it)."),
-    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm).", callback=positive),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0 = a point).",
+                                 callback=non_negative),
     noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),

@@ -29,7 +29,7 @@ from ..world import (
     make_sonar,
 )
 from .app import app, bench_app, maps_app
-from .options import check_writable, count, non_negative, parse_pose, positive
+from .options import check_writable, count, non_negative, parse_pose
 from .options import seed as seed_ok
 
 __all__: list[str] = []
@@ -50,8 +50,8 @@ def maps_list() -> None:
 def maps_show(
     map_name: str = typer.Argument(..., metavar="NAME|PATH", help="Map name (map1) or YAML file."),
     output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
-    radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the c-space (cm).",
-                                 callback=positive),
+    radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the c-space (cm; 0 = a point).",
+                                 callback=non_negative),
 ) -> None:
     """Draw a map with its c-space and presets."""
     check_writable(output, "--output")
