@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 
 from .plotting import draw_map, new_axes
 
@@ -26,6 +27,7 @@ def draw_replay(report: ReplayReport) -> Figure:
     if truth.size:
         ax_map.plot(truth[:, 0], truth[:, 1], "k-", lw=1.5, label="truth")
     ref = report.localisers[0]
+    top = 0.0
     for name in report.localisers:
         ests = [s.estimates.get(name) for s in ups]
         est = np.array([e.pose.as_array()[:2] for e in ests if e is not None]).reshape(-1, 2)
@@ -33,10 +35,15 @@ def draw_replay(report: ReplayReport) -> Figure:
             ax_map.plot(est[:, 0], est[:, 1], ".", ms=5, label=name)
         y = [s.error_cm(name) if report.has_truth else s.agreement_cm(name, ref) for s in ups]
         ax_err.plot(range(1, len(ups) + 1), y, ".-", label=name)
+        top = max([top, *(v for v in y if v is not None and np.isfinite(v))])
     ax_map.legend(loc="best", fontsize=8)
     ax_err.set_xlabel("update")
     ax_err.set_ylabel("error (cm)" if report.has_truth else f"distance to {ref} (cm)")
-    ax_err.set_yscale("symlog", linthresh=1.0)
+    if top > 1.0:  # a lost localiser (tens of cm) beside sub-centimetre ones: linear below 1 cm, log above
+        ax_err.set_yscale("symlog", linthresh=1.0)
+        ax_err.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+    else:  # all within 1 cm: symlog would stay linear but label the limits in powers of ten
+        ax_err.set_ylim(bottom=0.0)
     ax_err.grid(True, alpha=0.3)
     ax_err.legend(loc="best", fontsize=8)
     ax_err.set_title(f"{report.recording.path.name}: {'error' if report.has_truth else 'agreement'} per update")

@@ -5,7 +5,8 @@ and the PNGs it writes; `nxtnav figures --out docs/img` runs them in this proces
 figures under their documentation names, shrinks them to a 256-colour palette (a fraction of the
 size, the same look) and writes ``README.md`` into the folder: each figure with its command.
 ``--quick`` runs every command on a reduced setting (fewer runs and trials, shorter budgets): the
-same files, for the tests.
+same files, for the tests. Run it from the repository root (as ``make figures`` does): the replay
+job reads a recording shipped in ``tests/data``.
 """
 
 from __future__ import annotations
@@ -100,7 +101,7 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         {"--runs": "2", "--time-limit": "0.05", "--exec-repeats": "5", "--workers": "1"}),
     FigureJob(
         "localisers",
-        ("bench", "localisers", "--localisers", "paper-pf,pf-systematic,ekf,ukf", "--trials", "20",
+        ("bench", "localisers", "--localisers", "paper-pf,amcl,pf-systematic,ekf,ukf", "--trials", "20",
          "--scenario", "all", "--seed", "0", "--workers", "2", "--out", f"{WORK}/localisers"),
         {"localisers_success.png": "localisers/success.png",
          "localisers_kidnapped.png": "localisers/kidnapped.png",
@@ -108,6 +109,12 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
          "localisers_tracking.png": "localisers/tracking.png"},
         "the localiser benchmark: success, kidnap recovery, error distributions, tracking error",
         {"--trials": "2", "--workers": "1", "--tracking-steps": "3", "--maps": "map1"}),
+    FigureJob(
+        "replay",
+        ("replay", "tests/data/recording_map1_nxt.jsonl", "--localisers", "paper-pf,amcl,pf-systematic",
+         "-o", f"{WORK}/replay_amcl.png"),
+        {"replay_amcl.png": "replay_amcl.png"},
+        "amcl against paper-pf and pf-systematic on the same recorded readings (NXT sonar model, map1)"),
     FigureJob(
         "paper",
         ("paper", "--trials", "20", "--noise-model", "botsim", "--seed", "0", "--workers", "2",
