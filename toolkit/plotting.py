@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
+import matplotlib.ticker as mticker
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
@@ -32,6 +33,7 @@ __all__ = [
     "draw_radar",
     "draw_scan_rays",
     "new_axes",
+    "plain_log_axis",
     "save_figure",
 ]
 
@@ -51,6 +53,15 @@ def save_figure(fig: Figure, path: str | Path, dpi: int = 120) -> Path:
     fig.savefig(p, dpi=dpi, bbox_inches="tight")
     plt.close(fig)
     return p
+
+
+def plain_log_axis(axis: Any) -> None:
+    """Log axis with plain numbers (1, 2, 5, 10, ... or 1, 10, 100 over a wide range), not powers of ten."""
+    lo, hi = sorted(axis.get_view_interval())
+    decades = math.log10(hi / lo) if lo > 0 and hi > lo else 1.0
+    axis.set_major_locator(mticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0) if decades <= 3.0 else (1.0,)))
+    axis.set_major_formatter(mticker.FuncFormatter(lambda v, _pos: f"{v:g}"))
+    axis.set_minor_formatter(mticker.NullFormatter())
 
 
 def _ax(ax: Axes | None) -> Axes:

@@ -12,12 +12,11 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
-import matplotlib.ticker as mticker
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from toolkit.plotting import draw_map, draw_particles, draw_pose, save_figure
+from toolkit.plotting import draw_map, draw_particles, draw_pose, plain_log_axis, save_figure
 from toolkit.world import Map, Pose, RobotGeometry
 
 from .localisers import SUCCESS_CM, SUCCESS_DEG, GlobalRun, KidnappedRun, LocalisationOutcome, TrackingRun, TrialResult
@@ -36,15 +35,6 @@ __all__ = [
 
 def _ax(ax: Axes | None, size: tuple[float, float] = (6.0, 4.0)) -> Axes:
     return ax if ax is not None else plt.subplots(figsize=size)[1]
-
-
-def _plain_log(axis: Any) -> None:
-    """Log axis with plain numbers (1, 2, 5, 10, ... or 1, 10, 100 over a wide range), not powers of ten."""
-    lo, hi = sorted(axis.get_view_interval())
-    decades = math.log10(hi / lo) if lo > 0 and hi > lo else 1.0
-    axis.set_major_locator(mticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0) if decades <= 3.0 else (1.0,)))
-    axis.set_major_formatter(mticker.FuncFormatter(lambda v, _pos: f"{v:g}"))
-    axis.set_minor_formatter(mticker.NullFormatter())
 
 
 def _colours(names: Sequence[str]) -> dict[str, Any]:
@@ -79,7 +69,7 @@ def plot_error_ecdf(results: Sequence[TrialResult], map_name: str, localisers: S
     unit = "°" if heading else " cm"
     artists.append(ax.axvline(limit, color="0.3", ls="--", lw=1, label=f"{limit:g}{unit}"))
     ax.set_xscale("log")
-    _plain_log(ax.xaxis)
+    plain_log_axis(ax.xaxis)
     ax.set_xlabel("final heading error (degrees)" if heading else "final position error (cm)")
     ax.set_ylabel("fraction of trials")
     ax.set_ylim(0, 1.02)
@@ -101,7 +91,7 @@ def plot_times(results: Sequence[TrialResult], map_name: str, localisers: Sequen
     bp = ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
     ax.set_xticks(range(1, len(names) + 1), names, rotation=30, ha="right", fontsize=8)
     ax.set_yscale("log")
-    _plain_log(ax.yaxis)
+    plain_log_axis(ax.yaxis)
     ax.set_ylabel("localisation time (ms)")
     ax.set_title(f"{map_name}: time per localisation")
     ax.grid(alpha=0.3, axis="y", which="both")
@@ -158,7 +148,7 @@ def plot_tracking(results: Sequence[TrialResult], map_name: str, localisers: Seq
         artists.append(ax.fill_between(steps, np.percentile(a, 10, axis=0), np.percentile(a, 90, axis=0),
                                        color=col[n], alpha=0.15))
     ax.set_yscale("log")
-    _plain_log(ax.yaxis)
+    plain_log_axis(ax.yaxis)
     ax.set_xlabel("action")
     ax.set_ylabel("position error (cm)")
     ax.set_title(f"{map_name}: tracking error (median, 10-90 %)")

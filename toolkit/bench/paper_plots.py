@@ -16,7 +16,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ..mission import MissionReport
-from ..plotting import draw_cspace, draw_map, draw_path, draw_pose
+from ..plotting import draw_cspace, draw_map, draw_path, draw_pose, plain_log_axis
 from ..world import Map, RobotGeometry
 from .paper import PAPER_TABLE, TrialResult
 from .paper_pareto import ParetoPoint
@@ -141,6 +141,12 @@ def draw_pareto(points: Sequence[ParetoPoint], map_name: str, ax: Axes | None = 
         if front:
             out.extend(ax.plot([p.robot_time_median_s for p in front], [p.final_error_cm for p in front], "-",
                                color=c, lw=1.2, label=f"{sonar} sonar: front", zorder=3))
+    for values, axis, setter, spread in (([p.robot_time_median_s for p in mine], ax.xaxis, ax.set_xscale, 4.0),
+                                         ([p.final_error_cm for p in mine], ax.yaxis, ax.set_yscale, 10.0)):
+        v = [x for x in values if np.isfinite(x) and x > 0]
+        if v and max(v) > spread * min(v):  # one far point would squash the others into a cluster
+            setter("log")
+            plain_log_axis(axis)
     ax.set_xlabel("median robot time (s)")
     ax.set_ylabel("mean true final error (cm)")
     ax.set_title(map_name, fontsize=9)

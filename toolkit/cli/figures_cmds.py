@@ -123,6 +123,12 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         "the paper's Table I as a plot: final error and driven length per map beside the paper's means",
         {"--trials": "2", "--workers": "1", "--maps": "map1"}),
     FigureJob(
+        "pareto",
+        ("paper", "--pareto", f"{WORK}/pareto.png", "--trials", "3", "--seed", "0", "--workers", "2"),
+        {"pareto.png": "pareto.png"},
+        "mean final error against median robot time for every mission setting, both sonar models, per map",
+        {"--trials": "1", "--workers": "1", "--maps": "map1"}),
+    FigureJob(
         "arena2",
         ("maps", "show", "arena2", "--radius", "2", "-o", f"{WORK}/map_arena2.png"),
         {"map_arena2.png": "map_arena2.png"},
