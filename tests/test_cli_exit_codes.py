@@ -108,8 +108,9 @@ def test_ctrl_c_during_run_is_130(tmp_path: Path, after_s: float) -> None:
 def test_ctrl_c_during_paper_with_workers_keeps_the_finished_missions(tmp_path: Path) -> None:
     out = tmp_path / "table.json"
     started = time.monotonic()
-    # two workers, ten missions on map1: interrupt after a few (range tables included), far from all ten
-    proc = _interrupt(["paper", "--trials", "10", "--maps", "map1", "--noise-model", "botsim", "--workers", "2",
+    # two workers, 200 missions on map1: interrupt after a few (range tables included), far from all of
+    # them (a mission takes about a second of computation: ten would all finish in 12 s on a quiet machine)
+    proc = _interrupt(["paper", "--trials", "200", "--maps", "map1", "--noise-model", "botsim", "--workers", "2",
                        "--json", str(out)], tmp_path, when=lambda: time.monotonic() - started > 12.0)
     assert proc.returncode == 130, proc.stderr
     line = _one_error_line(proc.stderr)
@@ -120,7 +121,7 @@ def test_ctrl_c_during_paper_with_workers_keeps_the_finished_missions(tmp_path: 
     tables = json.loads(out.read_text())
     assert tables and all(t["complete"] is False for t in tables)
     done = tables[0]["missions_done"]
-    assert 0 < done < tables[0]["missions_planned"] == 10
+    assert 0 < done < tables[0]["missions_planned"] == 200
     assert tables[0]["rows"][0]["trials"] == done
     assert "INCOMPLETE" in proc.stdout
     time.sleep(0.5)  # the workers were ended with the parent: nothing of its session is left
