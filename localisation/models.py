@@ -34,7 +34,7 @@ import numpy as np
 import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import LocalisationError, Map, RngLike, as_rng, ray_cast, wrap_angle
+from toolkit.world import ConfigError, Map, RngLike, as_rng, ray_cast, wrap_angle
 
 from .base import Motion
 
@@ -200,7 +200,7 @@ def range_memory_budget(memory_mb: float | None = None) -> int:
     except (TypeError, ValueError):
         mb = float("nan")
     if not (math.isfinite(mb) and mb > 0):
-        raise LocalisationError(f"range model memory budget must be a positive number of MB, got {memory_mb!r} "
+        raise ConfigError(f"range model memory budget must be a positive number of MB, got {memory_mb!r} "
                                 f"({source or 'range_memory_mb'}; CLI: --range-memory-mb or --set range_memory_mb=MB)")
     return int(mb * 2**20)
 
@@ -243,7 +243,7 @@ def plan_range_table(map: Map, n_angles: int, budget_bytes: int, resolution_cm: 
             est = int(cells * n_angles * size + lattice)
             if est <= budget_bytes:
                 return TablePlan(res, dtype, quantum if dtype == "uint16" else 0.0, est)
-    raise LocalisationError(
+    raise ConfigError(
         f"map {map.name!r}: its range model needs about {est / 2**20:.0f} MB even with "
         f"{max(RESOLUTION_LADDER_CM[-1], resolution_cm):g} cm cells, more than the budget of "
         f"{budget_bytes / 2**20:.3g} MB; "

@@ -118,6 +118,9 @@ def test_a_range_model_too_large_for_memory_is_one_line(tmp_path: Path, capsys: 
     # the bounded range model refuses it up front, naming the budget and the option that raises it
     _fails_cleanly(["localise", "--map", str(huge), "--pose", "50,50,0"], capsys, "huge", "budget",
                    "--range-memory-mb")
+    # the mission builds its localiser on the way: still bad input (2), not a failed mission (1)
+    _fails_cleanly(["run", "--map", str(huge), "--start", "50,50", "--target", "100,100"], capsys, "huge",
+                   "budget")
 
 
 def test_memory_exhausted_anywhere_is_one_line(monkeypatch: pytest.MonkeyPatch,

@@ -139,22 +139,22 @@ def test_range_table_fits_its_memory_budget() -> None:
 
 @pytest.mark.parametrize("memory_mb", [0.0, -5.0, 0.01])
 def test_range_table_budget_errors_name_the_option(memory_mb: float) -> None:
-    from toolkit.world import LocalisationError
+    from toolkit.world import ConfigError
 
-    with pytest.raises(LocalisationError, match="--range-memory-mb") as err:
+    with pytest.raises(ConfigError, match="--range-memory-mb") as err:
         range_table(load_map("map1"), memory_mb=memory_mb)
     assert "\n" not in str(err.value)
 
 
 def test_range_table_budget_from_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     from localisation.models import range_memory_budget
-    from toolkit.world import LocalisationError
+    from toolkit.world import ConfigError
 
     monkeypatch.setenv("NXTNAV_RANGE_MEMORY_MB", "2")
     assert range_memory_budget() == 2 * 2**20
     assert range_memory_budget(3) == 3 * 2**20
     monkeypatch.setenv("NXTNAV_RANGE_MEMORY_MB", "lots")
-    with pytest.raises(LocalisationError, match="NXTNAV_RANGE_MEMORY_MB"):
+    with pytest.raises(ConfigError, match="NXTNAV_RANGE_MEMORY_MB"):
         range_memory_budget()
 
 

@@ -70,6 +70,7 @@ from planners.base import Planner, PlanningProblem, PlanResult, make_planner
 
 from .world import (
     CollisionChecker,
+    ConfigError,
     Map,
     NxtnavError,
     Pose,
@@ -1232,6 +1233,8 @@ def run_mission(
         status, success = mission.run()
     except _MissionEnded as end:
         status, success = end.status, end.success
+    except ConfigError:
+        raise  # options that cannot work (a range model over its budget): bad input, not a mission result
     except NxtnavError as exc:
         status, success = f"aborted: {exc}", False
     log.info("mission on %s: %s", m.name, status)

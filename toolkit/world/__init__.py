@@ -4,7 +4,7 @@ Planners and localisers import from here and nowhere else in `toolkit`.
 """
 
 from .collision import CollisionChecker
-from .errors import LocalisationError, MapError, NxtnavError, PlanningError, RegistryError, RobotError
+from .errors import ConfigError, LocalisationError, MapError, NxtnavError, PlanningError, RegistryError, RobotError
 from .geometry import (
     Pose,
     RngLike,
@@ -28,6 +28,7 @@ __all__ = [
     "NO_ECHO",
     "SONAR_MODELS",
     "CollisionChecker",
+    "ConfigError",
     "GridSpec",
     "IdealSonar",
     "LocalisationError",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "ConfigError",
     "LocalisationError",
     "MapError",
     "NxtnavError",
@@ -14,6 +15,10 @@ __all__ = [
 
 class NxtnavError(Exception):
     """Base class of every error nxtnav raises on purpose; the CLI prints its message as one line."""
+
+
+class ConfigError(NxtnavError, ValueError):
+    """Options that cannot work together (a budget too small for the map, say): bad input, never a result."""
 
 
 class MapError(NxtnavError):
