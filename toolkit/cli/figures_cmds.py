@@ -28,6 +28,10 @@ __all__ = ["FIGURE_JOBS", "FigureJob", "figure_names", "run_job", "shrink_png"]
 
 WORK = "{work}"
 """Placeholder in a job's arguments for the folder its outputs go to."""
+REPO = "{repo}"
+"""Placeholder for the repository's folder (files it ships, such as the example recording), so the
+command runs from any folder; shown as a path relative to the repository."""
+_REPO_DIR = Path(__file__).resolve().parents[2]
 
 
 @dataclass(frozen=True)
@@ -63,11 +67,12 @@ class FigureJob:
                     args[args.index(opt) + 1] = value
                 else:
                     args.extend([opt, value])
-        return [a.replace(WORK, work) for a in args]
+        return [a.replace(WORK, work).replace(REPO, str(_REPO_DIR)) for a in args]
 
     def command(self) -> str:
         """The command as a reader types it (outputs in the current folder or ``out/``)."""
         args = [a.replace(f"{WORK}/", "") if a.endswith(".png") else a.replace(WORK, "out") for a in self.argv]
+        args = [a.replace(f"{REPO}/", "") for a in args]
         return " ".join(shlex.quote(a) for a in ["nxtnav", *args])
 
 
@@ -111,7 +116,7 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         {"--trials": "2", "--workers": "1", "--tracking-steps": "3", "--maps": "map1"}),
     FigureJob(
         "replay",
-        ("replay", "tests/data/recording_map1_nxt.jsonl", "--localisers", "paper-pf,amcl,pf-systematic",
+        ("replay", f"{REPO}/tests/data/recording_map1_nxt.jsonl", "--localisers", "paper-pf,amcl,pf-systematic",
          "-o", f"{WORK}/replay_amcl.png"),
         {"replay_amcl.png": "replay_amcl.png"},
         "amcl against paper-pf and pf-systematic on the same recorded readings (NXT sonar model, map1)"),
