@@ -6,9 +6,9 @@ import csv
 from pathlib import Path
 
 import pytest
+from conftest import run_cli
 
 from toolkit.bench.scen import SCEN_COLUMNS, ScenConfig, read_scen, run_scen, select_queries, summarise
-from toolkit.cli import main
 from toolkit.world import NxtnavError, import_map
 
 EXTERNAL = Path(__file__).resolve().parents[1] / "maps" / "external"
@@ -16,14 +16,6 @@ ARENA = EXTERNAL / "arena2.map"
 ARENA_SCEN = EXTERNAL / "arena2.map.scen"
 CAPE = EXTERNAL / "AcrosstheCape.map"
 CAPE_SCEN = EXTERNAL / "AcrosstheCape.map.scen"
-
-
-def run(args: list[str]) -> int:
-    try:
-        main(args)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
 
 
 def test_astar_reproduces_the_octile_optima() -> None:
@@ -47,7 +39,7 @@ def test_shortest_reproduces_the_any_angle_optima() -> None:
 
 def test_cli_writes_csv_summary_and_ompl_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "o"
-    code = run(["bench", "scen", str(ARENA_SCEN), "--kind", "octile", "--planners", "astar,shortest",
+    code = run_cli(["bench", "scen", str(ARENA_SCEN), "--kind", "octile", "--planners", "astar,shortest",
                 "--limit", "6", "--out", str(out), "--check"])
     assert code == 0
     with (out / "scen.csv").open() as fh:
@@ -71,8 +63,8 @@ def test_check_fails_on_a_wrong_optimum(tmp_path: Path) -> None:
     bad.write_text("\n".join(lines) + "\n")
     args = ["bench", "scen", str(bad), "--map", str(ARENA), "--kind", "octile", "--planners", "astar",
             "--out", str(tmp_path / "o")]
-    assert run(args) == 0
-    assert run([*args, "--check"]) == 1
+    assert run_cli(args) == 0
+    assert run_cli([*args, "--check"]) == 1
 
 
 @pytest.mark.parametrize(
@@ -94,21 +86,22 @@ def test_bad_scenario_files(tmp_path: Path, capsys: pytest.CaptureFixture[str], 
     bad.write_text("\n".join(lines) + "\n")
     with pytest.raises(NxtnavError, match=message):
         read_scen(bad, import_map(ARENA), "octile")
-    assert run(["bench", "scen", str(bad), "--map", str(ARENA), "--kind", "octile", "--out", str(tmp_path / "o")]) == 2
+    args = ["bench", "scen", str(bad), "--map", str(ARENA), "--kind", "octile", "--out", str(tmp_path / "o")]
+    assert run_cli(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "line 3" in err[0] and str(bad) in err[0]
 
 
 def test_maps_import_writes_a_loadable_exact_map(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "arena.yaml"
-    assert run(["maps", "import", str(ARENA), "-o", str(out)]) == 0
+    assert run_cli(["maps", "import", str(ARENA), "-o", str(out)]) == 0
     from toolkit.world import load_map
 
     m = load_map(out)
     assert m.polygon.equals(import_map(ARENA).polygon) and m.grid is not None
-    assert run(["maps", "import", str(ARENA), "-o", str(out)]) == 2  # no silent overwrite
+    assert run_cli(["maps", "import", str(ARENA), "-o", str(out)]) == 2  # no silent overwrite
     assert "exists" in capsys.readouterr().err
-    assert run(["maps", "import", str(tmp_path / "none.map"), "-o", str(tmp_path / "x.yaml")]) == 2
+    assert run_cli(["maps", "import", str(tmp_path / "none.map"), "-o", str(tmp_path / "x.yaml")]) == 2
 
 
 @pytest.mark.parametrize("case", ["short row", "missing image", "pgm size"])
@@ -123,7 +116,7 @@ def test_maps_import_bad_files_exit_2_with_one_line(tmp_path: Path, capsys: pyte
                        "occupied_thresh: 0.65\nfree_thresh: 0.2\n")
         if case == "pgm size":
             (tmp_path / "m.pgm").write_bytes(b"P5\n40 40\n255\n" + bytes(300))
-    assert run(["maps", "import", str(src), "-o", str(tmp_path / "out.yaml")]) == 2
+    assert run_cli(["maps", "import", str(src), "-o", str(tmp_path / "out.yaml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("nxtnav: error: ") and ("m.pgm" in err[0] or "t.map" in err[0])
     assert not (tmp_path / "out.yaml").exists()

@@ -11,16 +11,10 @@ import math
 import numpy as np
 import pytest
 
+import localisation
 from toolkit.mission import MissionConfig, mission_seeds, random_start, run_mission, run_sim_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.world import Pose, load_map
-
-pytest.importorskip("localisation.procedure")
-import localisation
-import planners
-
-if "paper-pf" not in localisation.LOCALISERS or "min-turn" not in planners.PLANNERS:
-    pytest.skip("the paper's stack is not registered", allow_module_level=True)
 
 
 def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "ideal",
@@ -111,8 +105,8 @@ def test_nxt_sonar_localisers_are_told_the_lobe() -> None:
     assert nxt["sensor_sigma_cm"] == NXT_SONAR_SIGMA_CM
     ideal = matched_localiser_options("paper-pf", sonar="ideal", sensor_noise=1.5)
     assert "beam_width_deg" not in ideal and ideal["sensor_sigma_cm"] == 1.5
-    if "ekf" in localisation.LOCALISERS:
-        assert "beam_width_deg" not in matched_localiser_options("ekf", sonar="nxt")
+    assert "ekf" in localisation.LOCALISERS
+    assert "beam_width_deg" not in matched_localiser_options("ekf", sonar="nxt")
 
 
 def test_nxt_sonar_mission_among_the_slanted_walls_of_map2() -> None:

@@ -9,13 +9,6 @@ import pytest
 
 from toolkit.cli import main
 
-pytest.importorskip("localisation.procedure")
-import localisation
-import planners
-
-if "paper-pf" not in localisation.LOCALISERS or "min-turn" not in planners.PLANNERS:
-    pytest.skip("the paper's stack is not registered", allow_module_level=True)
-
 
 def _exit_code(argv: list[str]) -> int:
     try:

@@ -21,13 +21,6 @@ from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
 from toolkit.world import Pose, load_map
 
 pytest.importorskip("nxt")
-pytest.importorskip("planners.min_turn")  # registers the paper's planner
-pytest.importorskip("localisation.procedure")
-import localisation
-import planners
-
-if "paper-pf" not in localisation.LOCALISERS or "min-turn" not in planners.PLANNERS:
-    pytest.skip("the paper's stack is not registered", allow_module_level=True)
 
 pytestmark = pytest.mark.slow
 

@@ -34,6 +34,15 @@ __all__ = ["CollisionChecker"]
 _MAX_SAMPLES = 16_000_000
 
 
+def segment_arrays(a: ArrayLike, b: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Segment starts and ends as (n, 2) float arrays of the same shape (every checker's batch input)."""
+    pa = np.asarray(a, dtype=float).reshape(-1, 2)
+    pb = np.asarray(b, dtype=float).reshape(-1, 2)
+    if pa.shape != pb.shape:
+        raise ValueError(f"segment starts {pa.shape} and ends {pb.shape} differ in shape")
+    return pa, pb
+
+
 class CollisionChecker:
     """Exact collision checks of a disc robot of `robot_radius` cm in `map` (see the module docstring).
 
@@ -151,10 +160,7 @@ class CollisionChecker:
 
     def segments_free(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
         """Batch form of `segment_free` for (n, 2) start and end arrays; returns (n,) bools."""
-        pa = np.asarray(a, dtype=float).reshape(-1, 2)
-        pb = np.asarray(b, dtype=float).reshape(-1, 2)
-        if pa.shape != pb.shape:
-            raise ValueError(f"segment starts {pa.shape} and ends {pb.shape} differ in shape")
+        pa, pb = segment_arrays(a, b)
         # a swept disc clear of every wall never crosses one: the start decides inside-ness
         out = self.index.capsules_clear(pa, pb, self.robot_radius)
         idx = np.flatnonzero(out)

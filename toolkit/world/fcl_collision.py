@@ -25,7 +25,7 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from .collision import CollisionChecker
+from .collision import CollisionChecker, segment_arrays
 from .maps import Map
 
 __all__ = ["FclCollisionChecker"]
@@ -95,10 +95,7 @@ class FclCollisionChecker(CollisionChecker):
         return bool(out[0]) if p.ndim == 1 else out
 
     def segments_free(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
-        pa = np.asarray(a, dtype=float).reshape(-1, 2)
-        pb = np.asarray(b, dtype=float).reshape(-1, 2)
-        if pa.shape != pb.shape:
-            raise ValueError(f"segment starts {pa.shape} and ends {pb.shape} differ in shape")
+        pa, pb = segment_arrays(a, b)
         t = _SEGMENT_PROBES[:, None, None]
         probes = (pa[None] + t * (pb - pa)[None]).reshape(-1, 2)
         inside = self._inside(probes).reshape(len(_SEGMENT_PROBES), -1).all(axis=0)

@@ -28,7 +28,6 @@ from typing import Any, Literal
 
 import numpy as np
 import yaml
-from numpy.typing import NDArray
 
 from .errors import MapError
 from .grids import OccupancyGrid, grid_to_map
@@ -218,7 +217,3 @@ def _real(value: Any, where: str) -> float:
         raise MapError(f"{where}: expected a finite number, got {value!r}")
     return float(value)
 
-
-def cells_of(grid: OccupancyGrid) -> NDArray[np.bool_]:
-    """The free cells with row 0 on top, as the file shows them (for display and tests)."""
-    return np.flipud(grid.free)

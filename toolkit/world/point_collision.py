@@ -24,7 +24,7 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from .collision import CollisionChecker
+from .collision import CollisionChecker, segment_arrays
 from .errors import MapError
 from .grid_kernel import grid_pinches, grid_points_free, grid_segments_free
 from .maps import Map
@@ -109,10 +109,7 @@ class PointCollisionChecker(CollisionChecker):
 
     def segments_free(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
         """Whether each segment ``a[k] -> b[k]`` lies in the closed free space and passes no pinch point."""
-        pa = np.asarray(a, dtype=float).reshape(-1, 2)
-        pb = np.asarray(b, dtype=float).reshape(-1, 2)
-        if pa.shape != pb.shape:
-            raise ValueError(f"segment starts {pa.shape} and ends {pb.shape} differ in shape")
+        pa, pb = segment_arrays(a, b)
         self.segment_checks += len(pa)
         if not len(pa):
             return np.zeros(0, dtype=bool)
