@@ -470,6 +470,10 @@ class Map:
         res = shapely.contains_xy(self.polygon, p[..., 0], p[..., 1])
         return bool(res) if p.ndim == 1 else res
 
+    @cached_property
+    def _region_tree(self) -> shapely.STRtree:
+        return shapely.STRtree([r.polygon for r in self.regions])
+
     def region_of(self, xy: ArrayLike) -> Any:
         """Index of the region whose closure holds each point, -1 for none ((2,) -> int, (n, 2) -> array)."""
         p = np.asarray(xy, dtype=float)
@@ -478,8 +482,7 @@ class Map:
         if len(self.regions) == 1:
             out[shapely.intersects_xy(self.regions[0].polygon, pts[:, 0], pts[:, 1])] = 0
         else:
-            tree = shapely.STRtree([r.polygon for r in self.regions])
-            idx = tree.query(shapely.points(pts), predicate="intersects")
+            idx = self._region_tree.query(shapely.points(pts), predicate="intersects")
             out[idx[0][::-1]] = idx[1][::-1]  # the first region listed wins
         return int(out[0]) if p.ndim == 1 else out
 
