@@ -226,7 +226,7 @@ def _interrupt_after(n: int, func: object) -> object:
 
 def test_an_interrupted_planner_benchmark_writes_its_finished_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                                    capsys: pytest.CaptureFixture[str]) -> None:
-    import toolkit.bench.planners as bp
+    import toolkit.bench.planners.runner as bp
 
     monkeypatch.setattr(bp, "run_task", _interrupt_after(4, bp.run_task))
     out = tmp_path / "b"

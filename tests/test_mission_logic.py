@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 
 import toolkit.mission as mission_mod
+import toolkit.mission.runner as mission_runner
+import toolkit.mission.stack as mission_stack
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 from planners.base import Planner, PlanningProblem
 from toolkit.mission import MissionConfig, run_mission
@@ -119,7 +121,7 @@ VisibilityPlanner.name = "visibility"
 
 @pytest.fixture
 def standin_procedure(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(mission_mod, "_localise_procedure", lambda: oracle_localise)
+    monkeypatch.setattr(mission_stack, "_localise_procedure", lambda: oracle_localise)
 
 
 def _mission(m: Map, start: Pose, target: Any, seed: int = 0, *, noise: MotionNoise | None = None,
@@ -268,7 +270,7 @@ def test_target_in_a_wall_is_reported_before_the_localiser_is_built(monkeypatch:
     def no_localiser(*args: object, **kwargs: object) -> None:
         raise AssertionError("the localiser should not be built for a target in a wall")
 
-    monkeypatch.setattr(mission_mod, "make_localiser", no_localiser)
+    monkeypatch.setattr(mission_runner, "make_localiser", no_localiser)
     m = load_map("map1")
     robot = SimRobot(m, Pose(20.0, 20.0, 0.0), rng=0)
     report = mission_mod.run_mission(robot, m, (3.0, 50.0), rng=0)

@@ -170,7 +170,7 @@ def localise_cmd(
     from localisation import candidate_poses, describe_candidates
 
     from ..bench.localisers import BenchConfig, localise_once
-    from ..bench.localisers_plots import draw_localisation
+    from ..bench.localisers.plots import draw_localisation
     from ..plotting import save_figure
 
     names = _localiser_names()
@@ -252,7 +252,7 @@ def bench_localisers(
 
     from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.localisers import FILES, BenchConfig, TrialResult, make_tasks, run_trial, write_csv, write_summary
-    from ..bench.localisers_plots import write_plots
+    from ..bench.localisers.plots import write_plots
 
     names = _localiser_names()
     locs = names if localisers_text.strip() == "all" else parse_list(localisers_text, "--localisers", names)

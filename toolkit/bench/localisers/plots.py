@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from toolkit.plotting import draw_map, draw_particles, draw_pose, plain_log_axis, save_figure
 from toolkit.world import Map, Pose, RobotGeometry
 
-from .localisers import SUCCESS_CM, SUCCESS_DEG, GlobalRun, KidnappedRun, LocalisationOutcome, TrackingRun, TrialResult
+from .records import SUCCESS_CM, SUCCESS_DEG, GlobalRun, KidnappedRun, LocalisationOutcome, TrackingRun, TrialResult
 
 __all__ = [
     "draw_localisation",

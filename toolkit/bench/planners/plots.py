@@ -16,9 +16,9 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from ..plotting import draw_cspace, draw_map, draw_path, save_figure
-from ..world import load_map
-from .planners import BenchmarkResult, RunRecord
+from ...plotting import draw_cspace, draw_map, draw_path, save_figure
+from ...world import load_map
+from .records import BenchmarkResult, RunRecord
 
 __all__ = ["BOXPLOT_METRICS", "draw_exec_vs_turns", "draw_metric_boxplot", "draw_paths_grid", "save_boxplots",
            "save_plots"]

@@ -1,0 +1,330 @@
+"""What the localiser benchmark runs and records: its configuration, trial tasks and trial results."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from localisation.base import PoseEstimate
+from toolkit.robots.sim import MotionNoise
+from toolkit.world import (
+    NxtnavError,
+    Pose,
+    angle_diff,
+)
+
+SUCCESS_CM = 2.0
+"""Position tolerance of a successful localisation (cm)."""
+
+
+SUCCESS_DEG = 3.0
+"""Heading tolerance of a successful localisation (degrees)."""
+
+
+SCENARIOS = ("global", "tracking", "kidnapped")
+
+
+TRACKER_PRIORS = ("noisy-truth", "pf")
+
+
+RUNS_COLUMNS = (
+    "map", "localiser", "trial", "seed", "success", "error_cm", "heading_error_deg", "time_s",
+    "iterations", "scans", "converged", "candidates",
+)
+
+
+TRACKING_COLUMNS = (
+    "map", "localiser", "trial", "seed", "steps", "rmse_cm", "rmse_heading_deg", "final_error_cm",
+    "max_error_cm", "time_s", "collisions", "median_particles", "max_particles", "update_ms",
+)
+
+
+KIDNAPPED_COLUMNS = (
+    "map", "localiser", "trial", "seed", "localised", "kidnap_cm", "recovered", "recovery_iterations",
+    "recovery_scans", "error_cm", "heading_error_deg", "time_s",
+)
+
+
+def is_success(error_cm: float, heading_error_deg: float) -> bool:
+    """Whether an estimate error counts as a successful localisation (2 cm and 3 degrees, inclusive)."""
+    return bool(error_cm <= SUCCESS_CM and abs(heading_error_deg) <= SUCCESS_DEG)
+
+
+def pose_error(estimate: Pose, truth: Pose) -> tuple[float, float]:
+    """Position error (cm) and signed heading error (degrees, estimate - truth, wrapped)."""
+    return estimate.distance_to(truth), math.degrees(angle_diff(estimate.theta, truth.theta))
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """Settings shared by every trial of a benchmark run.
+
+    Parameters
+    ----------
+    sonar : str
+        Simulated sonar model (``ideal`` or ``nxt``).
+    sensor_noise : float
+        Sonar noise (cm); the paper's 1 cm.
+    noise_model, motion_noise, turn_noise
+        The robot's `MotionNoise` (the paper's BotSim values by default).
+    tracker_prior : {"noisy-truth", "pf"}
+        Prior of the pose trackers in the global and kidnapped scenarios.
+    prior_sd_cm, prior_sd_deg : float
+        Standard deviations of the noisy-truth prior (cm, degrees); also the prior of every localiser
+        in the tracking scenario.
+    clearance_cm : float
+        Least distance from true poses to the walls (cm).
+    tracking_steps : int
+        Actions (turn + move) of the scripted drive.
+    tracking_step_cm : tuple of float
+        Range of the drive's move lengths (cm).
+    kidnap_min_cm : float
+        Least distance of the teleport (cm).
+    recovery_rounds : int
+        Runs of the localisation procedure, without resetting the localiser, allowed to recover
+        from a kidnapping.
+    scan_processing : {"paper", "raw"}
+        Scans given to the localiser in the tracking and kidnapped loops: the paper's processing
+        (windows around 0/90/180/270 degrees from the minimum reading) or every usable reading.
+    lobe : {"auto", "off"}
+        ``auto`` tells localisers that can model it the simulated sonar's lobe (see `lobe_options`);
+        ``off`` leaves them with their defaults (a thin ray).
+    localiser_options : mapping
+        Per localiser name, keyword arguments for `make_localiser` (they override the lobe options).
+    localise_options : mapping
+        Extra keyword arguments for `localisation.procedure.localise` (those it does not accept are dropped).
+    """
+
+    sonar: str = "ideal"
+    sensor_noise: float = 1.0
+    noise_model: str = "botsim"
+    motion_noise: float = 0.1
+    turn_noise: float = 0.005
+    tracker_prior: str = "noisy-truth"
+    prior_sd_cm: float = 3.0
+    prior_sd_deg: float = 5.0
+    clearance_cm: float = 10.0
+    tracking_steps: int = 12
+    tracking_step_cm: tuple[float, float] = (6.0, 15.0)
+    kidnap_min_cm: float = 30.0
+    recovery_rounds: int = 3
+    scan_processing: str = "paper"
+    lobe: str = "auto"
+    localiser_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    localise_options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.tracker_prior not in TRACKER_PRIORS:
+            raise NxtnavError(f"tracker prior must be one of {', '.join(TRACKER_PRIORS)}, got {self.tracker_prior!r}")
+        for k in ("sensor_noise", "prior_sd_cm", "prior_sd_deg", "clearance_cm", "kidnap_min_cm"):
+            v = getattr(self, k)
+            if not (math.isfinite(v) and v >= 0):
+                raise NxtnavError(f"{k} must be a non-negative number, got {v!r}")
+        if self.lobe not in ("auto", "off"):
+            raise NxtnavError(f"lobe must be 'auto' or 'off', got {self.lobe!r}")
+        if self.scan_processing not in ("paper", "raw"):
+            raise NxtnavError(f"scan processing must be 'paper' or 'raw', got {self.scan_processing!r}")
+        if self.tracking_steps < 1 or self.recovery_rounds < 1:
+            raise NxtnavError("tracking_steps and recovery_rounds must be >= 1")
+        lo, hi = self.tracking_step_cm
+        if not 0 < lo <= hi:
+            raise NxtnavError(f"tracking_step_cm must be 0 < low <= high, got {self.tracking_step_cm}")
+        MotionNoise(self.noise_model, self.motion_noise, self.turn_noise)  # type: ignore[arg-type]
+
+    @property
+    def noise(self) -> MotionNoise:
+        return MotionNoise(self.noise_model, self.motion_noise, self.turn_noise)  # type: ignore[arg-type]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "sonar": self.sonar, "sensor_noise": self.sensor_noise, "noise": self.noise.to_dict(),
+            "tracker_prior": self.tracker_prior, "prior_sd_cm": self.prior_sd_cm,
+            "prior_sd_deg": self.prior_sd_deg, "clearance_cm": self.clearance_cm,
+            "tracking_steps": self.tracking_steps, "tracking_step_cm": list(self.tracking_step_cm),
+            "kidnap_min_cm": self.kidnap_min_cm, "recovery_rounds": self.recovery_rounds,
+            "scan_processing": self.scan_processing, "lobe": self.lobe,
+            "localiser_options": {k: dict(v) for k, v in self.localiser_options.items()},
+            "localise_options": dict(self.localise_options),
+        }
+
+
+@dataclass(frozen=True)
+class TrialTask:
+    """One trial: a scenario, a map, a localiser, a trial index and its seed."""
+
+    scenario: str
+    map: str
+    localiser: str
+    trial: int
+    seed: int
+    config: BenchConfig
+
+
+# -- the localisation procedure ---------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class LocalisationOutcome:
+    """One localisation in the simulator, measured against the truth.
+
+    Attributes
+    ----------
+    estimate, truth : Pose
+        The localiser's final mean pose and the simulator's true pose at that moment.
+    error_cm, heading_error_deg : float
+        Position error (cm) and signed heading error (degrees).
+    iterations, scans : int
+        Filter iterations and 360-degree scans the procedure used.
+    converged : bool
+        The localiser's own verdict.
+    time_s : float
+        Computation time of the localiser (s): its reset, predict and update calls as the procedure
+        measures them (`LocalisationResult.compute_time_s`); the simulator's own time is excluded, and
+        so is the tracker prior's PF run.
+    wall_time_s : float
+        Wall-clock time of the whole procedure (s), simulated scans and motions included.
+    cpu_time_s : float
+        CPU time of this thread over the whole procedure (s), simulator included: unlike the
+        wall-clock times it does not grow when other processes compete for the cores.
+    robot_time_s : float
+        Modelled time a real NXT would have spent (s).
+    prior : str
+        How the localiser was initialised (``global``, ``noisy-truth`` or ``pf``).
+    result : object
+        What `localisation.procedure.localise` returned (its per-iteration trace for plots).
+    """
+
+    estimate: Pose
+    truth: Pose
+    error_cm: float
+    heading_error_deg: float
+    iterations: int
+    scans: int
+    converged: bool
+    time_s: float
+    wall_time_s: float
+    cpu_time_s: float
+    robot_time_s: float
+    prior: str
+    pose_estimate: PoseEstimate
+    result: Any = None
+
+    @property
+    def success(self) -> bool:
+        return is_success(self.error_cm, self.heading_error_deg)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "estimate": self.estimate.to_list_deg(),
+            "truth": self.truth.to_list_deg(),
+            "error_cm": self.error_cm,
+            "heading_error_deg": self.heading_error_deg,
+            "success": self.success,
+            "iterations": self.iterations,
+            "scans": self.scans,
+            "converged": self.converged,
+            "time_s": self.time_s,
+            "wall_time_s": self.wall_time_s,
+            "cpu_time_s": self.cpu_time_s,
+            "robot_time_s": self.robot_time_s,
+            "prior": self.prior,
+            "cov": np.asarray(self.pose_estimate.cov).tolist(),
+        }
+
+
+# -- trial results ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class GlobalRun:
+    """One global-localisation trial (a row of ``runs.csv``)."""
+
+    map: str
+    localiser: str
+    trial: int
+    seed: int
+    success: bool
+    error_cm: float
+    heading_error_deg: float
+    time_s: float
+    iterations: int
+    scans: int
+    converged: bool
+    cpu_time_s: float = field(default=math.nan, repr=False)
+    failure: str = field(default="", repr=False)
+    scenario: str = field(default="global", repr=False)
+    candidates: int = 0
+    """Candidate poses of an ambiguous final belief (0: not ambiguous)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in RUNS_COLUMNS}
+
+
+@dataclass(frozen=True)
+class TrackingRun:
+    """One tracking trial (a row of ``tracking.csv``); errors are against the true pose after every action."""
+
+    map: str
+    localiser: str
+    trial: int
+    seed: int
+    steps: int
+    rmse_cm: float
+    rmse_heading_deg: float
+    final_error_cm: float
+    max_error_cm: float
+    time_s: float
+    collisions: int
+    median_particles: float = math.nan
+    max_particles: float = math.nan
+    update_ms: float = math.nan
+    errors_cm: tuple[float, ...] = field(default=(), repr=False)
+    failure: str = field(default="", repr=False)
+    scenario: str = field(default="tracking", repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in TRACKING_COLUMNS}
+
+
+@dataclass(frozen=True)
+class KidnappedRun:
+    """One kidnapped-robot trial (a row of ``kidnapped.csv``).
+
+    `recovery_iterations` and `recovery_scans` count the procedure's iterations and scans after the
+    teleport until it ended converged within the success tolerance (-1 when it never recovered);
+    `error_cm` and `heading_error_deg` are those of the last estimate; `time_s` is the wall-clock time
+    of the whole trial.
+    """
+
+    map: str
+    localiser: str
+    trial: int
+    seed: int
+    localised: bool
+    kidnap_cm: float
+    recovered: bool
+    recovery_iterations: int
+    recovery_scans: int
+    error_cm: float
+    heading_error_deg: float
+    time_s: float
+    failure: str = field(default="", repr=False)
+    scenario: str = field(default="kidnapped", repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in KIDNAPPED_COLUMNS}
+
+
+TrialResult = GlobalRun | TrackingRun | KidnappedRun
+
+
+# -- writers ----------------------------------------------------------------------------------------
+
+COLUMNS = {"global": RUNS_COLUMNS, "tracking": TRACKING_COLUMNS, "kidnapped": KIDNAPPED_COLUMNS}
+
+
+FILES = {"global": "runs.csv", "tracking": "tracking.csv", "kidnapped": "kidnapped.csv"}

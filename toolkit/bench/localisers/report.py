@@ -1,0 +1,251 @@
+"""The localiser benchmark's outputs: CSV files and the summary."""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from localisation.base import LOCALISERS
+
+from .records import COLUMNS, SUCCESS_CM, SUCCESS_DEG, BenchConfig, TrialResult
+from .runner import lobe_options
+
+
+def _fmt(v: Any) -> Any:
+    if isinstance(v, bool | np.bool_):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return v
+
+
+def write_csv(results: Iterable[TrialResult], path: str | Path, scenario: str = "global") -> Path:
+    """Write results of one scenario, sorted by map, localiser and trial, with that scenario's columns."""
+    cols = COLUMNS[scenario]
+    rows = sorted((r for r in results if r.scenario == scenario), key=lambda r: (r.map, r.localiser, r.trial))
+    p = Path(path)
+    with p.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for r in rows:
+            d = r.to_dict()
+            w.writerow([_fmt(d[c]) for c in cols])
+    return p
+
+
+def read_csv(path: str | Path) -> list[dict[str, Any]]:
+    """Rows of a benchmark CSV with numbers and booleans parsed."""
+    out: list[dict[str, Any]] = []
+    with Path(path).open(newline="") as fh:
+        for row in csv.DictReader(fh):
+            parsed: dict[str, Any] = {}
+            for k, v in row.items():
+                if v in ("true", "false"):
+                    parsed[k] = v == "true"
+                elif k in ("map", "localiser"):
+                    parsed[k] = v
+                else:
+                    try:
+                        parsed[k] = int(v)
+                    except ValueError:
+                        try:
+                            parsed[k] = float(v)
+                        except ValueError:
+                            parsed[k] = v
+            out.append(parsed)
+    return out
+
+
+def _median(values: Sequence[float]) -> float:
+    """Median of the finite values (NaN marks a trial that raised); NaN when there are none."""
+    a = np.asarray(values, dtype=float)
+    a = a[np.isfinite(a)]
+    return float(np.median(a)) if a.size else math.nan
+
+
+def _rms(values: Sequence[float]) -> float:
+    a = np.asarray(values, dtype=float)
+    a = a[np.isfinite(a)]
+    return float(np.sqrt(np.mean(a**2))) if a.size else math.nan
+
+
+def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str], dict[str, float]]]:
+    """Per scenario, per (map, localiser): the numbers of the summary tables."""
+    groups: dict[str, dict[tuple[str, str], list[Any]]] = {}
+    for r in results:
+        groups.setdefault(r.scenario, {}).setdefault((r.map, r.localiser), []).append(r)
+    out: dict[str, dict[tuple[str, str], dict[str, float]]] = {}
+    for scen, g in groups.items():
+        table: dict[tuple[str, str], dict[str, float]] = {}
+        for key, rs in sorted(g.items()):
+            n = len(rs)
+            if scen == "global":
+                table[key] = {
+                    "trials": n,
+                    "success_rate": sum(r.success for r in rs) / n,
+                    "converged_rate": sum(r.converged for r in rs) / n,
+                    "ambiguous_rate": sum(r.candidates > 1 for r in rs) / n,
+                    "median_error_cm": _median([r.error_cm for r in rs]),
+                    "median_heading_error_deg": _median([abs(r.heading_error_deg) for r in rs]),
+                    "median_time_s": _median([r.time_s for r in rs]),
+                    "median_cpu_time_s": _median([r.cpu_time_s for r in rs]),
+                    "median_scans": _median([r.scans for r in rs]),
+                }
+            elif scen == "tracking":
+                table[key] = {
+                    "trials": n,
+                    "rmse_cm": _rms([r.rmse_cm for r in rs]),
+                    "rmse_heading_deg": _rms([r.rmse_heading_deg for r in rs]),
+                    "median_final_error_cm": _median([r.final_error_cm for r in rs]),
+                    "median_time_s": _median([r.time_s / max(r.steps, 1) for r in rs]),
+                    "median_particles": _median([r.median_particles for r in rs]),
+                    "max_particles": float(np.nanmax([r.max_particles for r in rs] + [math.nan]))
+                    if any(math.isfinite(r.max_particles) for r in rs) else math.nan,
+                    "median_update_ms": _median([r.update_ms for r in rs]),
+                }
+            else:
+                loc = [r for r in rs if r.localised]
+                rec = [r for r in loc if r.recovered]
+                table[key] = {
+                    "trials": n,
+                    "localised": len(loc),
+                    "recovery_rate": len(rec) / len(loc) if loc else math.nan,
+                    "median_recovery_scans": _median([r.recovery_scans for r in rec]),
+                }
+            out[scen] = table
+    return out
+
+
+def _pct(x: float) -> str:
+    return "-" if not math.isfinite(x) else f"{100 * x:.1f} %"
+
+
+def _num(x: float, unit: str = "", digits: int = 2) -> str:
+    return "-" if not math.isfinite(x) else f"{x:.{digits}f}{unit}"
+
+
+def write_summary(
+    results: Sequence[TrialResult],
+    path: str | Path,
+    *,
+    config: BenchConfig,
+    maps: Sequence[str],
+    localisers: Sequence[str],
+    trials: int,
+    seed: int,
+    command: str = "",
+    wall_time_s: float | None = None,
+) -> Path:
+    """Write ``summary.md``: settings, then per scenario and map one table row per localiser."""
+    s = summarise(results)
+    trackers = [n for n in localisers if getattr(LOCALISERS.get(n), "needs_prior", False)]
+    lines = ["# Localiser benchmark", ""]
+    if command:
+        lines += [f"Command: `{command}`", ""]
+    noise = config.noise
+    lines += [
+        f"- maps: {', '.join(maps)}; localisers: {', '.join(localisers)}; {trials} trials per map and "
+        f"localiser; seed {seed}",
+        f"- simulator: sonar `{config.sonar}` ({config.sensor_noise:g} cm noise), motion noise "
+        f"`{noise.model}` (motion {noise.motion:g}, turn {noise.turn:g})",
+        f"- true poses: uniform over the free space at least {config.clearance_cm:g} cm from the walls, "
+        "heading uniform; the same poses for every localiser",
+        f"- success: final estimate within {SUCCESS_CM:g} cm and {SUCCESS_DEG:g} degrees of the simulator's "
+        "true pose at the end of the procedure; time = the localiser's computation time (its reset, predict "
+        "and update calls) over the whole procedure, the simulator excluded (wall clock: it grows when other "
+        "processes compete for the cores); CPU time = the worker's CPU time over the whole procedure, "
+        "simulator included (not inflated by competing processes)",
+        "- scans given to the localisers: "
+        + ("the paper's processing (align to the minimum reading, rescan, keep +-15 degrees around "
+           "0/90/180/270)" if config.scan_processing == "paper" else "raw (every usable reading)"),
+    ]
+    lobed = [n for n in localisers if lobe_options(config, n)]
+    if lobed:
+        ex = lobe_options(config, lobed[0])
+        lines.append(f"- sonar lobe given to the localisers that model it ({', '.join(lobed)}): "
+                     + ", ".join(f"`{k}={v:g}`" for k, v in ex.items()) + " (`--lobe auto`); the others use a thin ray")
+    elif config.lobe == "off" and config.sonar != "ideal":
+        lines.append("- localisers keep their default thin-ray range model (`--lobe off`)")
+    if trackers:
+        if config.tracker_prior == "noisy-truth":
+            how = (f"the true pose plus Gaussian noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} "
+                   "degrees): they track, they do not localise globally")
+        else:
+            how = "the first estimate of a `paper-pf` run on the same robot (its time not counted)"
+        lines.append(f"- pose trackers ({', '.join(trackers)}) cannot localise globally; their prior is {how} "
+                     f"(`--tracker-prior {config.tracker_prior}`)")
+    if wall_time_s is not None:
+        lines.append(f"- benchmark wall time: {wall_time_s:.1f} s")
+    lines.append("")
+    if "global" in s:
+        lines += ["## Global localisation", ""]
+        for m in maps:
+            lines += [f"### {m}", "", "| localiser | trials | success | converged | ambiguous | median error (cm) | "
+                      "median heading error (deg) | median time (ms) | median CPU time (ms) | median scans |",
+                      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+            for n in localisers:
+                row = s["global"].get((m, n))
+                if row is None:
+                    continue
+                lines.append(f"| {n} | {row['trials']:.0f} | {_pct(row['success_rate'])} | "
+                             f"{_pct(row['converged_rate'])} | {_pct(row['ambiguous_rate'])} | "
+                             f"{_num(row['median_error_cm'])} | "
+                             f"{_num(row['median_heading_error_deg'])} | {_num(1e3 * row['median_time_s'], '', 1)} | "
+                             f"{_num(1e3 * row['median_cpu_time_s'], '', 1)} | {_num(row['median_scans'], '', 0)} |")
+            lines.append("")
+    if "tracking" in s:
+        lines += ["## Tracking", "",
+                  f"A scripted drive of {config.tracking_steps} actions (turn, then a move of "
+                  f"{config.tracking_step_cm[0]:g}-{config.tracking_step_cm[1]:g} cm); every localiser starts "
+                  f"from the true pose plus noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} degrees) "
+                  "and predicts + updates with a full scan after every action. RMSE over all actions and trials; "
+                  "particles = the particles held after each update (median over the trials of each trial's "
+                  "median, and the largest count seen); update = median time of one `update` call.", ""]
+        for m in maps:
+            lines += [f"### {m}", "", "| localiser | trials | RMSE (cm) | heading RMSE (deg) | "
+                      "median final error (cm) | median time per action (ms) | particles median / max | "
+                      "update (ms) |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+            for n in localisers:
+                row = s["tracking"].get((m, n))
+                if row is None:
+                    continue
+                lines.append(f"| {n} | {row['trials']:.0f} | {_num(row['rmse_cm'])} | "
+                             f"{_num(row['rmse_heading_deg'])} | {_num(row['median_final_error_cm'])} | "
+                             f"{_num(1e3 * row['median_time_s'], '', 1)} | "
+                             f"{_num(row['median_particles'], '', 0)} / {_num(row['max_particles'], '', 0)} | "
+                             f"{_num(row['median_update_ms'], '', 1)} |")
+            lines.append("")
+    if "kidnapped" in s:
+        lines += ["## Kidnapped robot", "",
+                  f"After the global localisation the robot is teleported at least {config.kidnap_min_cm:g} cm "
+                  f"away; the localisation procedure then runs again without resetting the localiser, at most "
+                  f"{config.recovery_rounds} times. Recovered = a run ends converged within the success "
+                  "tolerance. The rate counts the trials whose first localisation succeeded; scans to "
+                  "recover count from the teleport.", ""]
+        for m in maps:
+            lines += [f"### {m}", "", "| localiser | trials | localised first | recovered | "
+                      "median scans to recover |", "|---|---:|---:|---:|---:|"]
+            for n in localisers:
+                row = s["kidnapped"].get((m, n))
+                if row is None:
+                    continue
+                lines.append(f"| {n} | {row['trials']:.0f} | {row['localised']:.0f} | "
+                             f"{_pct(row['recovery_rate'])} | {_num(row['median_recovery_scans'], '', 0)} |")
+            lines.append("")
+    failed = [r for r in results if r.failure]
+    if failed:
+        lines += ["## Trials that raised", "",
+                  f"{len(failed)} trial(s) raised an exception and count as failures (NaN errors in the CSV):", ""]
+        for r in failed[:20]:
+            lines.append(f"- {r.scenario} {r.map} {r.localiser} trial {r.trial} (seed {r.seed}): `{r.failure}`")
+        if len(failed) > 20:
+            lines.append(f"- ... and {len(failed) - 20} more")
+        lines.append("")
+    p = Path(path)
+    p.write_text("\n".join(lines))
+    return p

@@ -1,0 +1,420 @@
+"""Running the localiser benchmark: trial seeds, one localisation, the three scenarios."""
+
+from __future__ import annotations
+
+import inspect
+import logging
+import math
+import time
+import zlib
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from localisation.ambiguity import candidate_poses
+from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from localisation.sonar_options import lobe_options as mission_lobe_options
+from toolkit.robots.sim import SimRobot
+from toolkit.world import (
+    LocalisationError,
+    Map,
+    NxtnavError,
+    Pose,
+    RobotGeometry,
+    Scan,
+    load_map,
+    wrap_angle,
+)
+
+from .records import (
+    SCENARIOS,
+    BenchConfig,
+    GlobalRun,
+    KidnappedRun,
+    LocalisationOutcome,
+    TrackingRun,
+    TrialResult,
+    TrialTask,
+    is_success,
+    pose_error,
+)
+
+log = logging.getLogger(__name__)
+
+
+def trial_seed(seed: int, map_name: str, trial: int) -> int:
+    """The seed of trial `trial` on map `map_name`: independent of the localiser and of the map order."""
+    ss = np.random.SeedSequence([int(seed) & 0xFFFFFFFF, zlib.crc32(map_name.encode()), int(trial)])
+    return int(ss.generate_state(1)[0])
+
+
+def random_pose(m: Map, rng: np.random.Generator, clearance_cm: float) -> Pose:
+    """A pose uniform over the free space at least `clearance_cm` from every wall, heading uniform."""
+    xy = m.sample_free(1, clearance=clearance_cm, rng=rng)[0]
+    return Pose(float(xy[0]), float(xy[1]), float(rng.uniform(-math.pi, math.pi)))
+
+
+def _procedure() -> Callable[..., Any]:
+    try:
+        from localisation.procedure import localise
+    except ImportError as exc:  # pragma: no cover - the procedure ships with the package
+        raise LocalisationError(f"the localisation procedure is not available: {exc}") from exc
+    return localise
+
+
+def call_localise(robot: SimRobot, localiser: Localiser, prior: Prior | None, rng: Any,
+                  options: Mapping[str, Any] | None = None) -> Any:
+    """`localisation.procedure.localise(robot, localiser, prior=..., rng=..., **options)`.
+
+    Options the procedure does not accept are dropped (logged at debug level), so one benchmark
+    configuration works with every version of the procedure.
+    """
+    localise = _procedure()
+    kwargs: dict[str, Any] = {"prior": prior, "rng": rng, **dict(options or {})}
+    params = inspect.signature(localise).parameters
+    if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        dropped = [k for k in kwargs if k not in params]
+        if dropped:
+            log.debug("localise() does not take %s; dropped", ", ".join(dropped))
+        kwargs = {k: v for k, v in kwargs.items() if k in params}
+    return localise(robot, localiser, **kwargs)
+
+
+def _count(value: Any, default: int) -> int:
+    if value is None:
+        return default
+    if isinstance(value, int | np.integer):
+        return int(value)
+    try:
+        return len(value)
+    except TypeError:
+        return default
+
+
+def _noisy_truth(truth: Pose, cfg: BenchConfig, rng: np.random.Generator) -> Prior:
+    sd = np.array([cfg.prior_sd_cm, cfg.prior_sd_cm, math.radians(cfg.prior_sd_deg)])
+    mean = truth.as_array() + rng.standard_normal(3) * sd
+    cov = np.diag(np.maximum(sd, 1e-3) ** 2)
+    return Prior(Pose(mean[0], mean[1], wrap_angle(mean[2])), cov)
+
+
+def _prior_from_estimate(est: PoseEstimate, cfg: BenchConfig) -> Prior:
+    floor = np.diag([1.0, 1.0, math.radians(2.0) ** 2])
+    cov = np.asarray(est.cov, dtype=float)
+    cov = 0.5 * (cov + cov.T) if cov.shape == (3, 3) and np.all(np.isfinite(cov)) else np.zeros((3, 3))
+    return Prior(est.pose, cov + floor)
+
+
+def localise_once(
+    m: Map,
+    truth: Pose,
+    localiser_name: str,
+    *,
+    config: BenchConfig | None = None,
+    rng: Any = None,
+    robot: SimRobot | None = None,
+    localiser: Localiser | None = None,
+) -> tuple[LocalisationOutcome, SimRobot, Localiser]:
+    """Run the localisation procedure once in the simulator, from the true pose `truth`.
+
+    Parameters
+    ----------
+    m : Map
+        The map.
+    truth : Pose
+        The robot's true start pose (must be collision-free).
+    localiser_name : str
+        Registered localiser.
+    config : BenchConfig
+        Sonar, noise and tracker-prior settings.
+    rng : None, int or Generator
+        Seeds the robot, the localiser and the prior noise (independent child streams).
+    robot, localiser : optional
+        Reuse an existing robot / localiser (the kidnapped scenario); otherwise built here.
+
+    Returns
+    -------
+    outcome, robot, localiser
+    """
+    cfg = config or BenchConfig()
+    ss = np.random.SeedSequence(_entropy(rng))
+    robot_ss, loc_ss, prior_ss, proc_ss = ss.spawn(4)
+    if robot is None:
+        robot = SimRobot(m, truth, noise=cfg.noise, sonar=cfg.sonar, sensor_noise=cfg.sensor_noise,
+                         rng=np.random.default_rng(robot_ss))
+    if localiser is None:
+        localiser = make_localiser(localiser_name, m, rng=np.random.default_rng(loc_ss),
+                                   **localiser_options(cfg, localiser_name))
+    prior: Prior | None = None
+    prior_kind = "global"
+    if getattr(localiser, "needs_prior", False):
+        prior_kind = cfg.tracker_prior
+        if cfg.tracker_prior == "noisy-truth":
+            prior = _noisy_truth(robot.true_pose, cfg, np.random.default_rng(prior_ss))
+        else:
+            pf = make_localiser("paper-pf", m, rng=np.random.default_rng(prior_ss),
+                                **localiser_options(cfg, "paper-pf"))
+            first = call_localise(robot, pf, None, np.random.default_rng(prior_ss.spawn(1)[0]),
+                                  _procedure_options(cfg))
+            prior = _prior_from_estimate(_estimate_of(first, pf), cfg)
+    t0, c0 = time.perf_counter(), time.thread_time()
+    result = call_localise(robot, localiser, prior, np.random.default_rng(proc_ss), _procedure_options(cfg))
+    wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
+    compute = getattr(result, "compute_time_s", None)
+    est = _estimate_of(result, localiser)
+    final_truth = robot.true_pose
+    err, herr = pose_error(est.pose, final_truth)
+    outcome = LocalisationOutcome(
+        estimate=est.pose,
+        truth=final_truth,
+        error_cm=err,
+        heading_error_deg=herr,
+        iterations=_count(getattr(result, "iterations", None), est.iterations),
+        scans=_count(getattr(result, "scans", None), 0),
+        converged=bool(getattr(result, "converged", est.converged)),
+        time_s=float(compute) if isinstance(compute, int | float) else wall,
+        wall_time_s=wall,
+        cpu_time_s=cpu,
+        robot_time_s=float(robot.robot_time_s),
+        prior=prior_kind,
+        pose_estimate=est,
+        result=result,
+    )
+    return outcome, robot, localiser
+
+
+def lobe_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
+    """The sonar's lobe as localiser options, for localisers that take them (``lobe="auto"``).
+
+    A localiser whose constructor accepts ``beam_width_deg`` / ``critical_incidence_deg`` (the
+    particle filters' range tables) gets the simulated sonar's values (for ``nxt``: its 20-degree
+    lobe and 40-degree critical incidence; a thin ray for ``ideal``). Nothing for ``lobe="off"``.
+    """
+    if cfg.lobe == "off":
+        return {}
+    return mission_lobe_options(name, cfg.sonar, cfg.sensor_noise)
+
+
+def localiser_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
+    """Constructor options of localiser `name`: the sonar's lobe (see `lobe_options`), then `--set` options."""
+    return {**lobe_options(cfg, name), **dict(cfg.localiser_options.get(name, {}))}
+
+
+def _procedure_options(cfg: BenchConfig) -> dict[str, Any]:
+    return {"process": cfg.scan_processing == "paper", **dict(cfg.localise_options)}
+
+
+def _entropy(rng: Any) -> Any:
+    if isinstance(rng, np.random.Generator):
+        return int(rng.integers(0, 2**63 - 1))
+    return rng
+
+
+def _estimate_of(result: Any, localiser: Localiser) -> PoseEstimate:
+    est = getattr(result, "estimate", None)
+    return est if isinstance(est, PoseEstimate) else localiser.estimate()
+
+
+# -- the scenarios ----------------------------------------------------------------------------------
+
+
+def make_tasks(
+    scenario: str,
+    maps: Sequence[str],
+    localisers: Sequence[str],
+    trials: int,
+    seed: int,
+    config: BenchConfig,
+) -> list[TrialTask]:
+    """Every (map, trial, localiser) of a scenario, trial-major so that early results cover every localiser."""
+    if scenario not in SCENARIOS:
+        raise NxtnavError(f"unknown scenario {scenario!r}; known: {', '.join(SCENARIOS)}")
+    if trials < 1:
+        raise NxtnavError(f"trials must be >= 1, got {trials}")
+    for name in localisers:
+        LOCALISERS.get(name)
+    return [
+        TrialTask(scenario, m, name, t, trial_seed(seed, m, t), config)
+        for t in range(trials)
+        for m in maps
+        for name in localisers
+    ]
+
+
+_MAPS: dict[str, Map] = {}
+
+
+def _map(name: str) -> Map:
+    if name not in _MAPS:
+        _MAPS[name] = load_map(name)
+    return _MAPS[name]
+
+
+def run_trial(task: TrialTask) -> TrialResult:
+    """Run one trial (a top-level function, so it pickles for process pools and Dask).
+
+    A localiser that raises (a numerical failure, say) does not end the benchmark: the trial counts
+    as a failure, with NaN errors and the exception in its `failure` field (the summary lists them).
+    """
+    runners: dict[str, Callable[[TrialTask], TrialResult]] = {
+        "global": _run_global, "tracking": _run_tracking, "kidnapped": _run_kidnapped}
+    if task.scenario not in runners:
+        raise NxtnavError(f"unknown scenario {task.scenario!r}; known: {', '.join(SCENARIOS)}")
+    try:
+        return runners[task.scenario](task)
+    except (KeyboardInterrupt, MemoryError):
+        raise
+    except Exception as exc:
+        msg = f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:300]
+        log.warning("trial %s/%s/%s/%d raised %s", task.scenario, task.map, task.localiser, task.trial, msg)
+        return _failed(task, msg)
+
+
+def _failed(task: TrialTask, msg: str) -> TrialResult:
+    nan = math.nan
+    head = (task.map, task.localiser, task.trial, task.seed)
+    if task.scenario == "global":
+        return GlobalRun(*head, False, nan, nan, nan, 0, 0, False, nan, failure=msg)
+    if task.scenario == "tracking":
+        return TrackingRun(*head, 0, nan, nan, nan, nan, nan, 0, failure=msg)
+    return KidnappedRun(*head, False, nan, False, -1, -1, nan, nan, nan, failure=msg)
+
+
+def _trial_streams(task: TrialTask) -> tuple[np.random.Generator, np.random.Generator]:
+    pose_ss, run_ss = np.random.SeedSequence(task.seed).spawn(2)
+    return np.random.default_rng(pose_ss), np.random.default_rng(run_ss)
+
+
+def _run_global(task: TrialTask) -> GlobalRun:
+    m = _map(task.map)
+    pose_rng, run_rng = _trial_streams(task)
+    truth = random_pose(m, pose_rng, task.config.clearance_cm)
+    out, _, loc = localise_once(m, truth, task.localiser, config=task.config, rng=run_rng)
+    return GlobalRun(task.map, task.localiser, task.trial, task.seed, out.success, out.error_cm,
+                     out.heading_error_deg, out.time_s, out.iterations, out.scans, out.converged, out.cpu_time_s,
+                     candidates=len(candidate_poses(loc)))
+
+
+def scripted_drive(m: Map, start: Pose, steps: int, step_cm: tuple[float, float], rng: np.random.Generator,
+                   margin_cm: float = 3.0) -> list[Motion]:
+    """A drive of `steps` (turn, move) actions from `start`, collision-free for the noise-free robot.
+
+    Each action turns by a random angle (preferring headings with room ahead) and moves a random
+    length in `step_cm`; the path keeps `margin_cm` beyond the robot radius from every wall. When no
+    heading has room, the action is a turn in place.
+    """
+    from toolkit.world import CollisionChecker
+
+    checker = CollisionChecker(m, RobotGeometry().radius_cm + margin_cm)
+    x, y, th = start.x, start.y, start.theta
+    out: list[Motion] = []
+    for _ in range(steps):
+        d = float(rng.uniform(*step_cm))
+        chosen: Motion | None = None
+        for turn in rng.uniform(-math.pi / 2, math.pi / 2, 12):
+            h = th + turn
+            end = (x + d * math.cos(h), y + d * math.sin(h))
+            if checker.segment_free((x, y), end):
+                chosen = Motion(float(turn), d)
+                x, y, th = end[0], end[1], wrap_angle(h)
+                break
+        if chosen is None:
+            chosen = Motion(float(rng.choice([-1.0, 1.0]) * rng.uniform(math.pi / 2, math.pi)), 0.0)
+            th = wrap_angle(th + chosen.turn_rad)
+        out.append(chosen)
+    return out
+
+
+def _run_tracking(task: TrialTask) -> TrackingRun:
+    cfg = task.config
+    m = _map(task.map)
+    pose_rng, run_rng = _trial_streams(task)
+    truth = random_pose(m, pose_rng, cfg.clearance_cm)
+    drive = scripted_drive(m, truth, cfg.tracking_steps, cfg.tracking_step_cm, pose_rng)
+    robot_ss, loc_ss, prior_ss = np.random.SeedSequence(_entropy(run_rng)).spawn(3)
+    robot = SimRobot(m, truth, noise=cfg.noise, sonar=cfg.sonar, sensor_noise=cfg.sensor_noise,
+                     rng=np.random.default_rng(robot_ss))
+    loc = make_localiser(task.localiser, m, rng=np.random.default_rng(loc_ss),
+                         **localiser_options(cfg, task.localiser))
+    prep = _scan_preparer(loc, cfg.scan_processing)
+    errs: list[float] = []
+    herrs: list[float] = []
+    counts: list[int] = []
+    update_s: list[float] = []
+    t0 = time.perf_counter()
+    loc.reset(_noisy_truth(truth, cfg, np.random.default_rng(prior_ss)))
+    for motion in drive:
+        if motion.turn_rad:
+            robot.turn(motion.turn_rad)
+        dist = robot.move(motion.distance_cm).distance_cm if motion.distance_cm else 0.0
+        loc.predict(Motion(motion.turn_rad, dist))
+        scan = prep(robot.ultrascan())
+        tu = time.perf_counter()
+        loc.update(scan)
+        update_s.append(time.perf_counter() - tu)
+        counts.append(particle_count(loc))
+        e, h = pose_error(loc.estimate().pose, robot.true_pose)
+        errs.append(e)
+        herrs.append(h)
+    elapsed = time.perf_counter() - t0
+    ea, ha = np.asarray(errs), np.asarray(herrs)
+    ca = np.asarray(counts, dtype=float)
+    return TrackingRun(task.map, task.localiser, task.trial, task.seed, len(drive),
+                       float(np.sqrt(np.mean(ea**2))), float(np.sqrt(np.mean(ha**2))), float(ea[-1]),
+                       float(ea.max()), elapsed, int(robot.collisions), float(np.median(ca)), float(ca.max()),
+                       1e3 * float(np.median(update_s)), tuple(float(e) for e in ea))
+
+
+def particle_count(loc: Localiser) -> int:
+    """Particles a localiser holds after an update (its `particles` array; 1 for a Kalman filter's one
+    Gaussian)."""
+    p = getattr(loc, "particles", None)
+    return int(np.asarray(p).shape[0]) if p is not None else 1
+
+
+def _scan_preparer(loc: Localiser, processing: str) -> Callable[[Scan], Scan]:
+    """The scans a localiser gets in the loops outside the procedure (tracking, kidnapped).
+
+    ``paper``: the paper's windows around 0/90/180/270 degrees, aligned virtually on the scan's minimum
+    reading (the scripted robot does not turn toward it); ``raw``: every usable reading.
+    """
+    from localisation.scan import process_scan, raw_scan
+
+    if processing == "raw":
+        return raw_scan
+    return lambda s: process_scan(s, reference="min").scan
+
+
+def _run_kidnapped(task: TrialTask) -> KidnappedRun:
+    cfg = task.config
+    m = _map(task.map)
+    pose_rng, run_rng = _trial_streams(task)
+    truth = random_pose(m, pose_rng, cfg.clearance_cm)
+    t0 = time.perf_counter()
+    out, robot, loc = localise_once(m, truth, task.localiser, config=cfg, rng=run_rng)
+    localised = out.converged and out.success
+    # teleport: a random free pose at least kidnap_min_cm away (the closest of 50 draws if none is)
+    here = robot.true_pose
+    cands = m.sample_free(50, clearance=cfg.clearance_cm, rng=pose_rng)
+    dist = np.hypot(*(cands - here.xy).T)
+    far = np.flatnonzero(dist >= cfg.kidnap_min_cm)
+    i = int(far[0]) if far.size else int(np.argmax(dist))
+    target = Pose(float(cands[i, 0]), float(cands[i, 1]), float(pose_rng.uniform(-math.pi, math.pi)))
+    robot.teleport(target)
+    recovered = False
+    iterations = scans = 0
+    err, herr = pose_error(loc.estimate().pose, robot.true_pose)
+    opts = {**_procedure_options(cfg), "reset": False}
+    for _ in range(cfg.recovery_rounds):
+        res = call_localise(robot, loc, None, run_rng, opts)
+        est = _estimate_of(res, loc)
+        iterations += _count(getattr(res, "iterations", None), 1)
+        scans += _count(getattr(res, "scans", None), 1)
+        err, herr = pose_error(est.pose, robot.true_pose)
+        if est.converged and is_success(err, herr):
+            recovered = True
+            break
+    elapsed = time.perf_counter() - t0
+    return KidnappedRun(task.map, task.localiser, task.trial, task.seed, localised, float(dist[i]), recovered,
+                        iterations if recovered else -1, scans if recovered else -1, err, herr, elapsed)

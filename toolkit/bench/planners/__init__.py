@@ -1,0 +1,76 @@
+"""The planner benchmark: every planner on every map and query, the same checks, honest numbers.
+
+A benchmark is a set of tasks ``(map, planner, run, seed, start, goal)``. The start and goal of run
+``r`` on a map are the map's presets (``queries="presets"``) or a random pair of free positions drawn
+from the run's seed (``queries="random"``); every planner gets the same query for the same run. The
+exact references (`shortest` for the length ratio, `min-link` for the turn ratio) are computed once
+per query. Each run records the planner's result, the path metrics of `planners.metrics` and the
+execution error of `toolkit.bench.execution` (the path driven open-loop under motion noise).
+
+Seeds: the seed of run ``r`` on map ``m`` is derived from the benchmark seed, the map name and ``r``
+with `numpy.random.SeedSequence`; it is shared by the planners (common random numbers: the same
+query and the same motion noise for every planner in a run) and split into independent streams for
+planning, execution and query sampling. Same seed, same results, on every executor.
+
+Outputs (`write_results`): ``runs.csv``, ``paths.jsonl``, ``references.csv``, ``summary.md``,
+box plots ``boxplot_<metric>.png``, ``exec_vs_turns.png`` (execution error against turns),
+``paths.png`` (run 0 of every planner on every map), ``benchmark.log`` (OMPL's log format: one experiment with every
+run, the map as an enum run property) and ``ompl/<map>-<queries>.log`` (one OMPL experiment per map
+and query set, for Planner Arena), and ``config.json``.
+"""
+
+from __future__ import annotations
+
+from .records import (
+    LARGE_MAP_WALLS,
+    REFERENCE_PLANNERS,
+    REFERENCE_TIME_LIMIT_S,
+    RUN_COLUMNS,
+    BenchmarkConfig,
+    BenchmarkResult,
+    Query,
+    ReferenceResult,
+    ReferenceTask,
+    RunRecord,
+    RunTask,
+)
+from .report import check_out_dir, format_summary, summarise, turns_error_correlation, write_results
+from .runner import (
+    check_planner_names,
+    known_planners,
+    load_planner_plugins,
+    make_queries,
+    planner_for,
+    run_benchmark,
+    run_reference,
+    run_seed,
+    run_task,
+)
+
+__all__ = [
+    "LARGE_MAP_WALLS",
+    "REFERENCE_PLANNERS",
+    "REFERENCE_TIME_LIMIT_S",
+    "RUN_COLUMNS",
+    "BenchmarkConfig",
+    "BenchmarkResult",
+    "Query",
+    "ReferenceResult",
+    "ReferenceTask",
+    "RunRecord",
+    "RunTask",
+    "check_out_dir",
+    "check_planner_names",
+    "format_summary",
+    "known_planners",
+    "load_planner_plugins",
+    "make_queries",
+    "planner_for",
+    "run_benchmark",
+    "run_reference",
+    "run_seed",
+    "run_task",
+    "summarise",
+    "turns_error_correlation",
+    "write_results",
+]

@@ -1,0 +1,219 @@
+"""What the planner benchmark runs and records: its configuration, tasks, run records and result."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from datetime import datetime
+from typing import Any, Literal
+
+from ...robots.sim import MotionNoise
+from ...world import PlanningError, RobotGeometry
+
+#: Columns of ``runs.csv``, in order.
+RUN_COLUMNS = ("map", "planner", "run", "seed", "success", "time_s", "length_cm", "turns", "turn_angle_rad",
+               "min_clearance_cm", "collision_checks", "length_ratio", "exec_error_cm")
+
+
+QueryMode = Literal["presets", "random"]
+
+
+REFERENCE_PLANNERS = ("shortest", "min-link")
+
+
+REFERENCE_TIME_LIMIT_S = 30.0
+
+
+@dataclass(frozen=True)
+class Query:
+    """One start/goal pair on a map (cm)."""
+
+    map: str
+    index: int
+    start: tuple[float, float]
+    goal: tuple[float, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"map": self.map, "index": self.index, "start": list(self.start), "goal": list(self.goal)}
+
+
+LARGE_MAP_WALLS = 200
+"""Above this many walls (imported real maps) the references adapt: `shortest` grows the walls by a
+16-gon instead of a 64-gon (its length tolerance, reported per path, stays below about 1 cm) and
+`min-link`, whose dense graph grows with the map's area squared, is skipped."""
+
+
+# -- tasks ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ReferenceTask:
+    """Compute the exact references of one query."""
+
+    query: Query
+    robot_radius: float
+    time_limit: float = REFERENCE_TIME_LIMIT_S
+
+
+@dataclass(frozen=True)
+class ReferenceResult:
+    """The exact references of one query (NaN / None when a reference planner is missing or failed)."""
+
+    query: Query
+    shortest_length_cm: float
+    shortest_turns: int | None
+    min_link_turns: int | None
+    min_link_length_cm: float
+    status: str
+    time_s: float
+    shortest_path: tuple[tuple[float, float], ...] = ()
+    min_link_path: tuple[tuple[float, float], ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["query"] = self.query.to_dict()
+        d["shortest_path"] = [list(p) for p in self.shortest_path]
+        d["min_link_path"] = [list(p) for p in self.min_link_path]
+        return d
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """One planner run: plan a query, measure the path, drive it open-loop."""
+
+    map: str
+    planner: str
+    run: int
+    seed: int
+    query: Query
+    time_limit: float
+    robot_radius: float
+    exec_repeats: int
+    noise: MotionNoise
+    reference_length: float | None = None
+    reference_turns: int | None = None
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """The outcome of one `RunTask` (metrics are NaN when the plan failed).
+
+    ``time_s`` is the planning time (anytime planners use the whole budget); ``first_solution_s``
+    the time to their first solution (the planning time for planners that stop there).
+    """
+
+    map: str
+    planner: str
+    run: int
+    seed: int
+    query: int
+    start: tuple[float, float]
+    goal: tuple[float, float]
+    success: bool
+    status: str
+    time_s: float
+    collision_checks: int
+    length_cm: float = math.nan
+    turns: float = math.nan
+    turn_angle_rad: float = math.nan
+    min_clearance_cm: float = math.nan
+    mean_clearance_cm: float = math.nan
+    length_ratio: float = math.nan
+    turn_ratio: float = math.nan
+    exec_error_cm: float = math.nan
+    exec_median_cm: float = math.nan
+    exec_collision_fraction: float = math.nan
+    first_solution_s: float = math.nan
+    path: tuple[tuple[float, float], ...] = field(default=(), repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["path"] = [list(p) for p in self.path]
+        d["start"], d["goal"] = list(self.start), list(self.goal)
+        return d
+
+
+# -- the benchmark -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class BenchmarkConfig:
+    """What to benchmark.
+
+    Parameters
+    ----------
+    maps, planners : sequence of str
+        Map names (or files) and planner names (registry names or ``ompl:NAME``).
+    runs : int
+        Runs per planner and map.
+    time_limit : float
+        Planning budget per run (s).
+    seed : int
+        Benchmark seed (every run seed derives from it).
+    queries : {"presets", "random"}
+        Start/goal per run.
+    exec_repeats : int
+        Open-loop drives per successful run for the execution error (0 skips it).
+    robot_radius : float
+        Robot disc radius (cm).
+    noise : MotionNoise
+        Motion noise of the execution error (the paper's BotSim noise by default).
+    """
+
+    maps: tuple[str, ...]
+    planners: tuple[str, ...]
+    runs: int = 50
+    time_limit: float = 1.0
+    seed: int = 0
+    queries: QueryMode = "presets"
+    exec_repeats: int = 100
+    robot_radius: float = RobotGeometry().radius_cm
+    noise: MotionNoise = field(default_factory=MotionNoise)
+
+    def __post_init__(self) -> None:
+        if not self.maps:
+            raise PlanningError("no maps to benchmark")
+        if not self.planners:
+            raise PlanningError("no planners to benchmark")
+        if len(set(self.maps)) != len(self.maps):
+            raise PlanningError(f"map listed twice in {', '.join(self.maps)}")
+        if len(set(self.planners)) != len(self.planners):
+            raise PlanningError(f"planner listed twice in {', '.join(self.planners)}")
+        if self.runs < 1:
+            raise PlanningError(f"runs must be >= 1, got {self.runs}")
+        if not (math.isfinite(self.time_limit) and self.time_limit > 0):
+            raise PlanningError(f"time limit must be a positive number of seconds, got {self.time_limit}")
+        if self.exec_repeats < 0:
+            raise PlanningError(f"exec repeats must be >= 0, got {self.exec_repeats}")
+        if self.queries not in ("presets", "random"):
+            raise PlanningError(f"queries must be 'presets' or 'random', got {self.queries!r}")
+        if not (math.isfinite(self.robot_radius) and self.robot_radius > 0):
+            raise PlanningError(f"robot radius must be a positive number of cm, got {self.robot_radius}")
+
+    def n_queries(self) -> int:
+        return len(self.maps) * (1 if self.queries == "presets" else self.runs)
+
+    def n_tasks(self) -> int:
+        """Tasks the benchmark runs: the references of each query, then every planner run."""
+        return self.n_queries() + len(self.maps) * len(self.planners) * self.runs
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["maps"], d["planners"] = list(self.maps), list(self.planners)
+        d["noise"] = self.noise.to_dict()
+        return d
+
+
+@dataclass(frozen=True, eq=False)
+class BenchmarkResult:
+    """Every run and reference of a benchmark, with its configuration and timing."""
+
+    config: BenchmarkConfig
+    records: tuple[RunRecord, ...]
+    references: tuple[ReferenceResult, ...]
+    started: datetime
+    total_time_s: float
+    map_names: dict[str, str] = field(default_factory=dict)
+    complete: bool = True
+    """False when Ctrl-C ended the run early: `records` holds the runs that had finished."""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"config": self.config.to_dict(), "started": self.started.isoformat(timespec="seconds"),
+                "total_time_s": self.total_time_s, "references": [r.to_dict() for r in self.references],
+                "records": [r.to_dict() for r in self.records]}

@@ -1,0 +1,292 @@
+"""The planner benchmark's outputs: summary tables, CSV/JSONL files, OMPL logs and plots."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import platform
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...world import NxtnavError
+from ..ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
+from .records import RUN_COLUMNS, BenchmarkResult, RunRecord
+
+
+# -- summaries -----------------------------------------------------------------------------------
+def _median(values: Iterable[float]) -> float:
+    v = np.array([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+    return float(np.median(v)) if len(v) else math.nan
+
+
+def summarise(result: BenchmarkResult) -> dict[str, list[dict[str, Any]]]:
+    """Per map, one row per planner: runs, success rate and medians over the successful runs."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    for m in result.config.maps:
+        rows = []
+        for p in result.config.planners:
+            rs = [r for r in result.records if r.map == m and r.planner == p]
+            ok = [r for r in rs if r.success]
+            rows.append({
+                "planner": p,
+                "runs": len(rs),
+                "success_rate": len(ok) / len(rs) if rs else math.nan,
+                "median_time_s": _median(r.time_s for r in ok),
+                "median_first_solution_s": _median(r.first_solution_s for r in ok),
+                "median_length_cm": _median(r.length_cm for r in ok),
+                "median_length_ratio": _median(r.length_ratio for r in ok),
+                "median_turns": _median(r.turns for r in ok),
+                "median_turn_ratio": _median(r.turn_ratio for r in ok),
+                "median_min_clearance_cm": _median(r.min_clearance_cm for r in ok),
+                "median_exec_error_cm": _median(r.exec_error_cm for r in ok),
+                "median_exec_collision_fraction": _median(r.exec_collision_fraction for r in ok),
+                "median_collision_checks": _median(float(r.collision_checks) for r in ok),
+            })
+        out[m] = rows
+    return out
+
+
+def _fmt(v: float, spec: str) -> str:
+    return "–" if v is None or not math.isfinite(v) else format(v, spec)
+
+
+def _pct(v: float) -> str:
+    return "–" if v is None or not math.isfinite(v) else f"{100 * v:.0f}%"
+
+
+def format_summary(result: BenchmarkResult) -> str:
+    """``summary.md``: the settings, then one Markdown table per map."""
+    c = result.config
+    nz = c.noise
+    lines = [
+        "# Planner benchmark",
+        "",
+        f"- maps: {', '.join(c.maps)}; planners: {', '.join(c.planners)}",
+        f"- {c.runs} runs per planner and map, {c.time_limit:g} s budget, seed {c.seed}, queries: {c.queries}",
+        f"- robot radius {c.robot_radius:g} cm; execution error: mean final distance to the goal over "
+        f"{c.exec_repeats} open-loop drives, noise {nz.model} (motion {nz.motion:g}, turn {nz.turn:g})",
+        f"- started {result.started.isoformat(timespec='seconds')}, total {result.total_time_s:.1f} s",
+        "",
+        "Medians over the successful runs. Time is the planning time (anytime planners such as RRT* and PRM "
+        "use the whole budget); first solution is the time to their first path (– when the planner cannot "
+        "observe it). Length ratio = length / shortest path; turns are heading changes above 1 degree; exec "
+        "error = mean distance (cm) from the goal after driving the path open-loop; exec collisions = share "
+        "of those drives that touched a wall.",
+    ]
+    summary = summarise(result)
+    for m in c.maps:
+        refs = [r for r in result.references if r.query.map == m]
+        lines += ["", f"## {m}", ""]
+        if c.queries == "presets" and refs:
+            r = refs[0]
+            lines.append(f"Query: start ({r.query.start[0]:g}, {r.query.start[1]:g}), goal ({r.query.goal[0]:g}, "
+                         f"{r.query.goal[1]:g}); shortest {_fmt(r.shortest_length_cm, '.1f')} cm, min-link "
+                         f"{'–' if r.min_link_turns is None else r.min_link_turns} turns.")
+        elif refs:
+            ml_turns = _median(float(r.min_link_turns) for r in refs if r.min_link_turns is not None)
+            lines.append(f"{len(refs)} random queries; median shortest path "
+                         f"{_fmt(_median(r.shortest_length_cm for r in refs), '.1f')} cm, median min-link turns "
+                         f"{_fmt(ml_turns, 'g')}.")
+        lines += ["",
+                  "| planner | success | median time (ms) | first solution (ms) | length ratio | turns | "
+                  "exec error (cm) | exec collisions | collision checks |",
+                  "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        for row in summary[m]:
+            lines.append(
+                f"| {row['planner']} | {_pct(row['success_rate'])} | "
+                f"{_fmt(1e3 * row['median_time_s'], '.2f')} | {_fmt(1e3 * row['median_first_solution_s'], '.2f')} | "
+                f"{_fmt(row['median_length_ratio'], '.3f')} | "
+                f"{_fmt(row['median_turns'], 'g')} | {_fmt(row['median_exec_error_cm'], '.2f')} | "
+                f"{_pct(row['median_exec_collision_fraction'])} | "
+                f"{_fmt(row['median_collision_checks'], '.0f')} |")
+        rho, n = turns_error_correlation(result, m)
+        if math.isfinite(rho):
+            lines += ["", f"Execution error vs turns over all successful runs: Spearman rank correlation "
+                          f"{rho:+.2f} (n = {n})."]
+    return "\n".join(lines) + "\n"
+
+
+def turns_error_correlation(result: BenchmarkResult, map_name: str) -> tuple[float, int]:
+    """Spearman rank correlation of execution error with turns over the successful runs on a map.
+
+    Returns ``(rho, n)``; rho is NaN with fewer than 3 runs or when either quantity is constant.
+    """
+    from scipy.stats import spearmanr
+
+    pts = [(r.turns, r.exec_error_cm) for r in result.records
+           if r.map == map_name and r.success and math.isfinite(r.turns) and math.isfinite(r.exec_error_cm)]
+    if len(pts) < 3:
+        return math.nan, len(pts)
+    t, e = np.array(pts).T
+    if np.ptp(t) == 0 or np.ptp(e) == 0:
+        return math.nan, len(pts)
+    return float(spearmanr(t, e).statistic), len(pts)
+
+
+# -- writers -------------------------------------------------------------------------------------
+def check_out_dir(out: str | Path, force: bool = False) -> Path:
+    """The output folder, created; a non-empty existing folder is refused unless `force`."""
+    p = Path(out)
+    if p.exists() and not p.is_dir():
+        raise NxtnavError(f"--out {str(p)!r} exists and is not a folder")
+    if p.is_dir() and any(p.iterdir()) and not force:
+        raise NxtnavError(f"--out {str(p)!r} is not empty; choose another folder or pass --force to overwrite")
+    p.mkdir(parents=True, exist_ok=True)
+    return p
+
+
+def _csv_value(v: Any) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return ""
+        return f"{v:.10g}"
+    return str(v)
+
+
+def write_runs_csv(result: BenchmarkResult, path: Path) -> None:
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(RUN_COLUMNS)
+        for r in result.records:
+            row = []
+            for col in RUN_COLUMNS:
+                v = getattr(r, col)
+                if col == "turns" and isinstance(v, float) and math.isfinite(v):
+                    v = int(v)
+                row.append(_csv_value(v))
+            w.writerow(row)
+
+
+def write_paths_jsonl(result: BenchmarkResult, path: Path) -> None:
+    with path.open("w", encoding="utf-8") as fh:
+        for r in result.records:
+            doc = {"map": r.map, "planner": r.planner, "run": r.run, "seed": r.seed, "success": r.success,
+                   "path": [list(p) for p in r.path], "status": r.status, "query": r.query,
+                   "start": list(r.start), "goal": list(r.goal), "time_s": r.time_s,
+                   "first_solution_s": r.first_solution_s if math.isfinite(r.first_solution_s) else None}
+            fh.write(json.dumps(doc) + "\n")
+
+
+def write_references_csv(result: BenchmarkResult, path: Path) -> None:
+    cols = ("map", "query", "start_x", "start_y", "goal_x", "goal_y", "shortest_length_cm", "min_link_turns",
+            "min_link_length_cm", "status")
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for r in result.references:
+            q = r.query
+            w.writerow([_csv_value(v) for v in (q.map, q.index, q.start[0], q.start[1], q.goal[0], q.goal[1],
+                                                r.shortest_length_cm, r.min_link_turns, r.min_link_length_cm,
+                                                r.status)])
+
+
+_OMPL_PROPERTIES = (
+    ("time", "REAL"),
+    ("first solution time", "REAL"),
+    ("solved", "BOOLEAN"),
+    ("status", "ENUM"),
+    ("approximate solution", "BOOLEAN"),
+    ("correct solution", "BOOLEAN"),
+    ("solution length", "REAL"),
+    ("solution clearance", "REAL"),
+    ("solution segments", "INTEGER"),
+    ("solution turns", "INTEGER"),
+    ("solution turn angle", "REAL"),
+    ("length ratio", "REAL"),
+    ("turn ratio", "REAL"),
+    ("execution error", "REAL"),
+    ("execution error median", "REAL"),
+    ("execution collision fraction", "REAL"),
+    ("collision checks", "INTEGER"),
+    ("run", "INTEGER"),
+    ("seed", "INTEGER"),
+    ("query", "INTEGER"),
+)
+
+
+def _ompl_row(r: RunRecord) -> list[Any]:
+    ok = r.success
+    segments = max(len(r.path) - 1, 0) if ok else None
+    return [r.time_s, r.first_solution_s, ok, ompl_status(ok, r.status), False if ok else None, True if ok else None,
+            r.length_cm, r.min_clearance_cm, segments, int(r.turns) if ok else None, r.turn_angle_rad,
+            r.length_ratio, r.turn_ratio, r.exec_error_cm, r.exec_median_cm, r.exec_collision_fraction,
+            r.collision_checks, r.run, r.seed, r.query]
+
+
+def _ompl_experiment(result: BenchmarkResult, maps: Sequence[str], name: str) -> OmplExperiment:
+    c = result.config
+    multi = len(maps) > 1
+    props = list(_OMPL_PROPERTIES) + ([("map", "ENUM")] if multi else [])
+    planners = []
+    for p in c.planners:
+        rows = []
+        for r in result.records:
+            if r.planner == p and r.map in maps:
+                row = _ompl_row(r)
+                if multi:
+                    row.append(list(maps).index(r.map))
+                rows.append(row)
+        planners.append(OmplPlannerData(p, props, rows, {"planner": p, "time_limit": c.time_limit}))
+    setup = [f"nxtnav planner benchmark: maps {', '.join(maps)}; queries {c.queries}",
+             f"robot radius {c.robot_radius:g} cm; planners validated by the shared FCL collision checker",
+             f"execution error: {c.exec_repeats} open-loop drives, noise {json.dumps(c.noise.to_dict())}"]
+    for ref in result.references:
+        if ref.query.map in maps:
+            q = ref.query
+            setup.append(f"{q.map} query {q.index}: start {q.start} goal {q.goal} shortest "
+                         f"{_fmt(ref.shortest_length_cm, '.3f')} cm min-link turns {ref.min_link_turns}")
+    return OmplExperiment(
+        name=name,
+        planners=planners,
+        time_limit_s=c.time_limit,
+        total_time_s=result.total_time_s,
+        seed=c.seed,
+        run_count=c.runs,
+        setup="\n".join(setup),
+        properties={"robot_radius_cm": ("REAL", c.robot_radius), "exec_repeats": ("INTEGER", c.exec_repeats),
+                    "motion_noise": ("REAL", c.noise.motion), "turn_noise": ("REAL", c.noise.turn)},
+        enums={"map": list(maps)} if multi else {},
+        date=result.started,
+        cpuinfo=platform.processor() or platform.machine(),
+    )
+
+
+def write_results(result: BenchmarkResult, out: str | Path, *, plots: bool = True) -> dict[str, Path]:
+    """Write every output file of `result` into folder `out` (see the module docstring)."""
+    d = Path(out)
+    d.mkdir(parents=True, exist_ok=True)
+    files = {"runs": d / "runs.csv", "paths": d / "paths.jsonl", "references": d / "references.csv",
+             "summary": d / "summary.md", "ompl_log": d / "benchmark.log", "config": d / "config.json"}
+    write_runs_csv(result, files["runs"])
+    write_paths_jsonl(result, files["paths"])
+    write_references_csv(result, files["references"])
+    c = result.config
+    planned = c.runs * len(c.maps) * len(c.planners)
+    note = "" if result.complete else (f"**INCOMPLETE**: interrupted after {len(result.records)} of {planned} "
+                                       "planner runs; the tables cover only the finished runs.\n\n")
+    files["summary"].write_text(note + format_summary(result), encoding="utf-8")
+    files["config"].write_text(json.dumps({"config": c.to_dict(), "started": result.started.isoformat(),
+                                           "total_time_s": result.total_time_s, "complete": result.complete,
+                                           "runs_done": len(result.records), "runs_planned": planned},
+                                          indent=1), encoding="utf-8")
+    write_ompl_log(files["ompl_log"], _ompl_experiment(result, c.maps, f"nxtnav-planners-{c.queries}"))
+    for stale in (d / "ompl").glob("*.log"):  # per-map logs of an earlier benchmark (--force) would mix in
+        if stale.stem.endswith(("-presets", "-random")):
+            stale.unlink()
+    for m in c.maps:
+        key = f"ompl_{m}"
+        files[key] = write_ompl_log(d / "ompl" / f"{Path(m).stem}-{c.queries}.log",
+                                    _ompl_experiment(result, [m], f"{Path(m).stem}-{c.queries}"))
+    if plots:
+        from .plots import save_plots
+
+        files.update(save_plots(result, d))
+    return files

@@ -1,0 +1,340 @@
+"""Running the planner benchmark: planner names, run seeds, queries, one run, the whole benchmark."""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import math
+import pkgutil
+import time
+import zlib
+from collections.abc import Callable, Sequence
+from datetime import datetime
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+import shapely
+
+from ...world import CollisionChecker, Map, NxtnavError, PlanningError, load_map
+from ..execution import execution_error
+from ..executors import TasksInterrupted, collect_tasks
+from .records import (
+    LARGE_MAP_WALLS,
+    REFERENCE_PLANNERS,
+    BenchmarkConfig,
+    BenchmarkResult,
+    Query,
+    QueryMode,
+    ReferenceResult,
+    ReferenceTask,
+    RunRecord,
+    RunTask,
+)
+
+log = logging.getLogger(__name__)
+
+
+# -- planners ------------------------------------------------------------------------------------
+def load_planner_plugins() -> None:
+    """Import every module of the `planners` package so that all planners are registered."""
+    import planners
+
+    for info in pkgutil.iter_modules(planners.__path__):
+        if not info.name.startswith("_"):
+            try:
+                importlib.import_module(f"planners.{info.name}")
+            except ImportError as exc:  # pragma: no cover - an optional dependency missing
+                log.warning("planner module planners.%s not loaded: %s", info.name, exc)
+
+
+def known_planners() -> list[str]:
+    """Registered planner names (``ompl:NAME`` reaches any OMPL geometric planner as well)."""
+    load_planner_plugins()
+    from planners import PLANNERS
+
+    return PLANNERS.names()
+
+
+def check_planner_names(names: Sequence[str]) -> None:
+    """Raise `PlanningError` for a name that is neither registered nor ``ompl:NAME``."""
+    known = known_planners()
+    bad = [n for n in names if n not in known and not (n.startswith("ompl:") and len(n) > 5)]
+    if bad:
+        raise PlanningError(f"unknown planner {', '.join(bad)}; known: {', '.join(known)} (or ompl:NAME)")
+    from planners import make_planner
+
+    for n in names:
+        if n.startswith("ompl:"):
+            make_planner(n)  # an unknown OMPL planner name fails here, listing the known ones
+
+
+# -- seeds and queries ---------------------------------------------------------------------------
+def _name_key(name: str) -> int:
+    return zlib.crc32(name.encode("utf-8"))
+
+
+def run_seed(seed: int, map_name: str, run: int) -> int:
+    """The seed of run `run` on map `map_name` (shared by all planners), derived from `seed`."""
+    ss = np.random.SeedSequence([int(seed) & 0xFFFFFFFF, _name_key(map_name), int(run)])
+    return int(ss.generate_state(1, np.uint32)[0])
+
+
+def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence, np.random.SeedSequence]:
+    """Independent (planning, execution, query) seed sequences of a run seed."""
+    plan, execute, query = np.random.SeedSequence(seed).spawn(3)
+    return plan, execute, query
+
+
+def _random_query(m: Map, checker: CollisionChecker, rng: np.random.Generator, min_separation: float,
+                  attempts: int = 200) -> tuple[tuple[float, float], tuple[float, float]]:
+    cspace = m.free_space(checker.robot_radius)
+    parts = list(getattr(cspace, "geoms", [cspace]))
+    areas = np.array([p.area for p in parts])
+    for _ in range(attempts):
+        part = parts[int(rng.choice(len(parts), p=areas / areas.sum()))]
+        pts = m.sample_free(16, clearance=checker.robot_radius, rng=rng)
+        pts = pts[shapely.contains_xy(part, pts[:, 0], pts[:, 1])]
+        pts = pts[np.asarray(checker.point_free(pts), dtype=bool)] if len(pts) else pts
+        if len(pts) < 2:
+            continue
+        a = pts[0]
+        far = pts[1:][np.hypot(*(pts[1:] - a).T) >= min_separation]
+        if len(far):
+            b = far[0]
+            return (float(a[0]), float(a[1])), (float(b[0]), float(b[1]))
+    raise PlanningError(f"map {m.name!r}: found no free start/goal pair {min_separation:.0f} cm apart")
+
+
+def make_queries(m: Map, mode: QueryMode, runs: int, seed: int, robot_radius: float,
+                 label: str | None = None) -> list[Query]:
+    """The queries of a map: one (the presets) or one random pair per run.
+
+    Random pairs are free for the robot disc (checked by FCL), in the same connected part of the
+    c-space and at least a quarter of the map's bounding-box diagonal apart. `label` (default the
+    map's name) names the map in the queries and in the run seeds.
+    """
+    name = m.name if label is None else label
+    if mode == "presets":
+        if m.start is None or m.target is None:
+            raise PlanningError(f"map {m.name!r} has no start/target presets; use random queries")
+        return [Query(name, 0, (float(m.start[0]), float(m.start[1])),
+                      (float(m.target[0]), float(m.target[1])))]
+    if mode != "random":
+        raise PlanningError(f"queries must be 'presets' or 'random', got {mode!r}")
+    checker = CollisionChecker(m, robot_radius)
+    xmin, ymin, xmax, ymax = m.bounds
+    sep = 0.25 * math.hypot(xmax - xmin, ymax - ymin)
+    out = []
+    for r in range(runs):
+        rng = np.random.default_rng(_streams(run_seed(seed, name, r))[2])
+        s, g = _random_query(m, checker, rng, sep)
+        out.append(Query(name, r, s, g))
+    return out
+
+
+# -- per-process caches --------------------------------------------------------------------------
+@lru_cache(maxsize=32)
+def _map(name: str) -> Map:
+    return load_map(name)
+
+
+@lru_cache(maxsize=32)
+def _checker(map_name: str, radius: float) -> CollisionChecker:
+    return CollisionChecker(_map(map_name), radius)
+
+
+def planner_for(name: str, m: Map) -> Any:
+    """The planner `name` as the benchmarks configure it for map `m` (None: skipped on this map).
+
+    On a map imported from a grid, `astar` plans on the map's own cells; on a map of more than
+    `LARGE_MAP_WALLS` walls the references adapt (see there).
+    """
+    load_planner_plugins()
+    from planners import make_planner
+
+    large = len(m.walls) > LARGE_MAP_WALLS
+    if name == "astar" and m.grid is not None:
+        return make_planner(name, resolution=None)
+    if name == "shortest" and large:
+        return make_planner(name, n_sides=16)
+    if name == "min-link" and large:
+        return None
+    return make_planner(name)
+
+
+@lru_cache(maxsize=64)
+def _planner(name: str, map_name: str) -> Any:
+    return planner_for(name, _map(map_name))
+
+
+def _path_tuple(path: np.ndarray) -> tuple[tuple[float, float], ...]:
+    return tuple((float(x), float(y)) for x, y in np.asarray(path, dtype=float).reshape(-1, 2))
+
+
+def run_reference(task: ReferenceTask) -> ReferenceResult:
+    """Solve one query with `shortest` and `min-link` (the yardsticks of the ratios)."""
+    from planners import PLANNERS, PlanningProblem
+    from planners.metrics import count_turns, path_length
+
+    load_planner_plugins()
+    q = task.query
+    checker = _checker(q.map, task.robot_radius)
+    t0 = time.perf_counter()
+    results: dict[str, Any] = {}
+    statuses = []
+    for name in REFERENCE_PLANNERS:
+        if name not in PLANNERS:
+            statuses.append(f"{name}: not registered")
+            continue
+        planner = _planner(name, q.map)
+        if planner is None:
+            statuses.append(f"{name}: skipped on a map of {len(_map(q.map).walls)} walls")
+            continue
+        problem = PlanningProblem(_map(q.map), checker, np.array(q.start), np.array(q.goal), task.time_limit,
+                                  np.random.default_rng(0))
+        res = planner.plan(problem)
+        statuses.append(f"{name}: {res.status}")
+        if res.success:
+            results[name] = res.path
+    sp, ml = results.get("shortest"), results.get("min-link")
+    return ReferenceResult(
+        query=q,
+        shortest_length_cm=path_length(sp) if sp is not None else math.nan,
+        shortest_turns=count_turns(sp) if sp is not None else None,
+        min_link_turns=count_turns(ml) if ml is not None else None,
+        min_link_length_cm=path_length(ml) if ml is not None else math.nan,
+        status="; ".join(statuses),
+        time_s=time.perf_counter() - t0,
+        shortest_path=_path_tuple(sp) if sp is not None else (),
+        min_link_path=_path_tuple(ml) if ml is not None else (),
+    )
+
+
+def run_task(task: RunTask) -> RunRecord:
+    """Run one planner on one query (a picklable top-level function for the executors).
+
+    A planner that raises is recorded as a failed run with status ``error: ...`` (never lost).
+    """
+    from planners import PlanningProblem
+    from planners.metrics import path_metrics
+
+    q = task.query
+    m = _map(task.map)
+    checker = _checker(task.map, task.robot_radius)
+    plan_ss, exec_ss, _ = _streams(task.seed)
+    base: dict[str, Any] = {"map": task.map, "planner": task.planner, "run": task.run, "seed": task.seed,
+                            "query": q.index, "start": q.start, "goal": q.goal}
+    problem = PlanningProblem(m, checker, np.array(q.start), np.array(q.goal), task.time_limit,
+                              np.random.default_rng(plan_ss))
+    checks0 = checker.checks
+    t0 = time.perf_counter()
+    try:
+        res = _planner(task.planner, task.map).plan(problem)
+    except NxtnavError:
+        raise
+    except Exception as exc:  # a crashing planner is a result, not the end of the benchmark
+        log.warning("planner %s crashed on %s run %d: %s", task.planner, task.map, task.run, exc)
+        return RunRecord(**base, success=False, status=f"error: {type(exc).__name__}: {exc}",
+                         time_s=time.perf_counter() - t0, collision_checks=checker.checks - checks0)
+    if not res.success or len(res.path) < 1:
+        return RunRecord(**base, success=False, status=res.status, time_s=res.time_s,
+                         collision_checks=res.collision_checks)
+    path = np.asarray(res.path, dtype=float).reshape(-1, 2)
+    met = path_metrics(path, checker, reference_length=task.reference_length,
+                       reference_turns=task.reference_turns)
+    if len(path) >= 2 and task.exec_repeats > 0:
+        ex = execution_error(path, checker, goal=q.goal, repeats=task.exec_repeats, noise=task.noise, rng=exec_ss)
+        exec_mean, exec_median, exec_coll = ex.mean_cm, ex.median_cm, ex.collision_fraction
+    else:
+        exec_mean = exec_median = exec_coll = math.nan
+    return RunRecord(
+        **base,
+        success=True,
+        status=res.status,
+        time_s=res.time_s,
+        collision_checks=res.collision_checks,
+        length_cm=met.length_cm,
+        turns=float(met.turns),
+        turn_angle_rad=met.turn_angle_rad,
+        min_clearance_cm=met.min_clearance_cm,
+        mean_clearance_cm=met.mean_clearance_cm,
+        length_ratio=met.length_ratio,
+        turn_ratio=met.turn_ratio,
+        exec_error_cm=exec_mean,
+        exec_median_cm=exec_median,
+        exec_collision_fraction=exec_coll,
+        first_solution_s=_first_solution(res.info, res.time_s),
+        path=_path_tuple(path),
+    )
+
+
+def _first_solution(info: dict[str, Any], time_s: float) -> float:
+    """Time to the first solution (s): reported by anytime planners, else the planning time.
+
+    NaN when an anytime planner could not observe it (OMPL's PRM grows its roadmap in a thread).
+    """
+    if "first_solution_s" not in info:
+        return time_s
+    v = info["first_solution_s"]
+    return float(v) if v is not None and math.isfinite(float(v)) else math.nan
+
+
+def run_benchmark(
+    config: BenchmarkConfig,
+    *,
+    workers: int = 1,
+    dask_address: str | None = None,
+    on_done: Callable[[Any], None] | None = None,
+) -> BenchmarkResult:
+    """Run the benchmark: the references of every query, then every planner run.
+
+    Parameters
+    ----------
+    config : BenchmarkConfig
+    workers : int
+        Processes (1 runs in this process).
+    dask_address : str or None
+        Dask scheduler address or ``"local"`` (see `toolkit.bench.executors.run_tasks`).
+    on_done : callable or None
+        Called with each `ReferenceResult` and `RunRecord` as it finishes (progress bars);
+        `config.n_tasks()` is the total.
+
+    Ctrl-C ends the run early: the result then holds the finished runs and ``complete`` is False
+    (the written files say so).
+    """
+    check_planner_names(config.planners)
+    started = datetime.now()
+    t0 = time.perf_counter()
+    maps = {name: load_map(name) for name in config.maps}
+    queries: list[Query] = []
+    for name, m in maps.items():
+        queries.extend(make_queries(m, config.queries, config.runs, config.seed, config.robot_radius, label=name))
+    ref_tasks = [ReferenceTask(q, config.robot_radius) for q in queries]
+    try:
+        refs = collect_tasks(run_reference, ref_tasks, workers=workers, dask_address=dask_address, on_done=on_done)
+    except TasksInterrupted:  # no planner has run yet: nothing to keep
+        raise KeyboardInterrupt from None
+    ref_of = {(r.query.map, r.query.index): r for r in refs}
+    tasks = []
+    for name in config.maps:
+        for run in range(config.runs):
+            qi = 0 if config.queries == "presets" else run
+            ref = ref_of[(name, qi)]
+            for planner in config.planners:
+                tasks.append(RunTask(
+                    map=name, planner=planner, run=run, seed=run_seed(config.seed, name, run),
+                    query=ref.query, time_limit=config.time_limit, robot_radius=config.robot_radius,
+                    exec_repeats=config.exec_repeats, noise=config.noise,
+                    reference_length=None if math.isnan(ref.shortest_length_cm) else ref.shortest_length_cm,
+                    reference_turns=ref.min_link_turns,
+                ))
+    complete = True
+    try:
+        records = collect_tasks(run_task, tasks, workers=workers, dask_address=dask_address, on_done=on_done)
+    except TasksInterrupted as exc:
+        records, complete = list(exc.results), False
+    records.sort(key=lambda r: (config.maps.index(r.map), config.planners.index(r.planner), r.run))
+    refs.sort(key=lambda r: (config.maps.index(r.query.map), r.query.index))
+    return BenchmarkResult(config, tuple(records), tuple(refs), started, time.perf_counter() - t0,
+                           {name: m.name for name, m in maps.items()}, complete)

@@ -1,0 +1,245 @@
+"""How a mission is run: `MissionConfig` and the turret angles of its sweeps."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+_WINDOW_CENTRES: dict[str, tuple[float, ...]] = {"axes": (0.0, 90.0, 180.0, 270.0), "sides": (-90.0, 0.0, 90.0)}
+
+
+@dataclass(frozen=True)
+class MissionConfig:
+    """How a mission is run (all lengths in cm, angles in rad, times in s).
+
+    Parameters
+    ----------
+    planning_time_s : float
+        Time budget of each planner query.
+    planner_options, localiser_options : mapping
+        Keyword arguments for `make_planner` / `make_localiser` when the stack is given by name.
+    localise_options : mapping
+        Extra keyword arguments for `localisation.procedure.localise` (those it does not accept are
+        dropped with a debug log line).
+    safety_margin_cm : float
+        Extra clearance added to the robot radius when planning; the mission tries half the margin and
+        then the bare radius when no path exists with it (narrow passages). Starts and targets closer
+        to a wall than the margin are joined to the path by a short straight leg.
+    move_step_cm : float
+        Longest single Move command; a segment is driven as several Moves, the localiser predicting
+        after each one (the watchdog runs inside every Move).
+    relocalise_every_cm : float or None
+        Re-localise (tracking) after driving this far along one segment, then re-aim at the waypoint;
+        None re-localises at the waypoints only.
+    first_leg_cm : float or None
+        After a global fix, the first leg is at most this long before re-localising: a heading error
+        of the fix shows as a sideways offset after a short drive, before it can bring the robot to
+        a wall (None: no special first leg).
+    waypoint_tolerance_cm : float
+        A waypoint counts as reached when the estimate is this close to it (after re-localising there).
+    max_legs : int
+        Legs (re-aimed after each re-localisation) toward one waypoint before re-planning.
+    heading_tolerance_deg, min_leg_cm : float
+        A leg ends (and the robot re-localises) where the straight drive would touch a wall if the
+        estimated heading were off by this much either way; legs are never shorter than
+        `min_leg_cm`. Bounds the damage of a heading error, the error a sonar localiser makes most.
+    leg_margin_cm : float
+        Extra clearance (cm) for that check (position error of the estimate); used from estimates
+        that have it.
+    goal_tolerance_cm : float
+        The final correction stops when the estimate is this close to the target.
+    max_corrections : int
+        Correction moves at the target before giving up on the tolerance (the mission still counts
+        as a success when the estimate ends within `success_radius_cm`).
+    success_radius_cm : float
+        The estimate must end within this distance of the target for the mission to succeed.
+    final_scans : int
+        Scans fused at the target before each correction decision (more scans, tighter estimate).
+    reverse_cm : float
+        A correction move at the target up to this long whose direction is more than 90 degrees off
+        the heading backs up instead of turning around (0: always turn toward the target).
+    max_replans : int
+        Re-plans (after watchdog stops or deviations) before the mission gives up.
+    max_localisation_attempts : int
+        Global localisation attempts before the robot is declared lost.
+    max_explore_moves, explore_step_cm : int, float
+        While a global belief stays ambiguous, up to this many moves of at most this length toward
+        open space (chosen from the scan with room for the robot disc and the margin).
+    explore_heading_tolerance_deg : float
+        An exploration move planned from the localiser's modes must stay free when the modes'
+        headings are off by this much either way.
+    confirm_global : bool
+        Confirm a global fix that rests on scans from one place with a second, independent one
+        (guards against a localiser that collapses on one of several identical places); fixes further apart than
+        `confirm_tolerance_cm` count as ambiguous.
+    confirm_tolerance_cm : float
+    confirm_all : bool
+        Confirm every global fix, also those reached by exploring (a short exploration can leave the
+        localiser collapsed on a twin place; on map3 without it about 1 mission in 100 ended in the
+        wrong room). False confirms single-place fixes only.
+    tracking : {"continue", "prior"}
+        How a re-localisation starts: from the localiser's current (predicted) belief, or reset to a
+        Gaussian prior around the last estimate (`tracking_std_cm`, `tracking_std_deg`). Either falls
+        back to the other, then to a global localisation, when it does not converge.
+    tracking_std_cm, tracking_std_deg : float
+        Minimum standard deviations of the prior handed to a tracking re-localisation.
+    max_actions : int
+        Hard limit on Turn/Move commands (guards against endless loops).
+    global_scan_step_deg : float
+        Turret step (deg) of the sweeps of a global localisation (1: the paper's 360 readings).
+    global_align : bool
+        Global localisation the paper's way: sweep, turn toward the minimum reading, sweep again and
+        keep the windows around the axes. False: one sweep, keeping the windows around the minimum
+        reading's direction of that sweep (the same near-perpendicular readings, half the sweeps).
+    track_window_deg : float
+        Sweeps of a tracking re-localisation (from a belief, no alignment) read only the four windows
+        of +-this many degrees around the robot's axes (15: the 124 readings the paper's processing
+        keeps); 180 sweeps the full turn.
+    track_scan_step_deg : float
+        Turret step (deg) inside those windows.
+    track_windows : {"axes", "sides"}
+        ``axes``: the four windows around 0, 90, 180 and 270 degrees; ``sides``: only the three
+        ahead and to the sides (-90, 0, 90), a shorter turret travel.
+    track_align : bool
+        Re-localise along the way the paper's way (full sweep, align, full sweep) instead of one
+        window sweep; the window settings are then ignored.
+    final_window_deg, final_scan_step_deg : float
+        The same for the re-localisations at the target (the final correction loop).
+    fix_rule : {"habit", "spread"}
+        When a leg ends (at a waypoint, after `relocalise_every_cm`, or where `heading_tolerance_deg`
+        cuts it), ``habit`` re-localises every time; ``spread`` only when the belief as predicted
+        through the motion could not drive on: the position spread across the next stretch plus
+        the heading spread over its length, times `spread_sigmas`, must leave the robot disc clear
+        of the walls along it. A waypoint the robot missed is skipped when the belief can drive on
+        to the next one by the same rule.
+    spread_sigmas : float
+        Standard deviations of the belief the ``spread`` rule keeps clear of the walls.
+    spread_min_heading_deg : float
+        The ``spread`` rule never takes the heading spread as smaller than this (deg): a sonar
+        localiser's belief can be narrower than its heading error.
+    spread_drift : float
+        Nor the position spread as smaller than this fraction of the distance driven since the
+        last fix (a localiser whose belief does not grow with the motion is not trusted blindly).
+    """
+
+    planning_time_s: float = 1.0
+    planner_options: Mapping[str, Any] = field(default_factory=dict)
+    localiser_options: Mapping[str, Any] = field(default_factory=dict)
+    localise_options: Mapping[str, Any] = field(default_factory=dict)
+    safety_margin_cm: float = 2.0
+    move_step_cm: float = 10.0
+    relocalise_every_cm: float | None = None
+    first_leg_cm: float | None = 6.0
+    waypoint_tolerance_cm: float = 1.0
+    max_legs: int = 12
+    heading_tolerance_deg: float = 8.0
+    leg_margin_cm: float = 0.0
+    min_leg_cm: float = 4.0
+    goal_tolerance_cm: float = 0.5
+    max_corrections: int = 6
+    success_radius_cm: float = 3.0
+    final_scans: int = 1
+    reverse_cm: float = 10.0
+    max_replans: int = 12
+    max_localisation_attempts: int = 3
+    max_explore_moves: int = 6
+    explore_step_cm: float = 30.0
+    explore_heading_tolerance_deg: float = 12.0
+    tracking: str = "continue"
+    confirm_global: bool = True
+    confirm_tolerance_cm: float = 5.0
+    confirm_all: bool = True
+    tracking_std_cm: float = 4.0
+    tracking_std_deg: float = 8.0
+    max_actions: int = 400
+    global_scan_step_deg: float = 2.0
+    global_align: bool = False
+    track_window_deg: float = 15.0
+    track_scan_step_deg: float = 2.0
+    track_windows: str = "axes"
+    track_align: bool = False
+    final_window_deg: float = 15.0
+    final_scan_step_deg: float = 1.0
+    fix_rule: str = "spread"
+    spread_sigmas: float = 3.0
+    spread_min_heading_deg: float = 1.0
+    spread_drift: float = 0.05
+
+    def __post_init__(self) -> None:
+        positive = ("planning_time_s", "move_step_cm", "waypoint_tolerance_cm", "goal_tolerance_cm",
+                    "success_radius_cm", "tracking_std_cm", "tracking_std_deg")
+        for name in positive:
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise ValueError(f"MissionConfig.{name} must be a positive number, got {v!r}")
+        if not (math.isfinite(self.safety_margin_cm) and self.safety_margin_cm >= 0):
+            raise ValueError(f"MissionConfig.safety_margin_cm must be >= 0, got {self.safety_margin_cm!r}")
+        for name in ("global_scan_step_deg", "track_scan_step_deg", "final_scan_step_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0 < v <= 90):
+                raise ValueError(f"MissionConfig.{name} must be in (0, 90] degrees, got {v!r}")
+        for name in ("track_window_deg", "final_window_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0 <= v <= 180):
+                raise ValueError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
+        if self.track_windows not in _WINDOW_CENTRES:
+            raise ValueError(f"MissionConfig.track_windows must be one of {', '.join(_WINDOW_CENTRES)}, "
+                             f"got {self.track_windows!r}")
+        if self.fix_rule not in ("habit", "spread"):
+            raise ValueError(f"MissionConfig.fix_rule must be 'habit' or 'spread', got {self.fix_rule!r}")
+        for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"MissionConfig.{name} must be >= 0, got {v!r}")
+        if self.tracking not in ("continue", "prior"):
+            raise ValueError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
+        if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:
+            raise ValueError(f"MissionConfig.relocalise_every_cm must be > 0 or None, got {self.relocalise_every_cm!r}")
+        for name in ("max_corrections", "max_replans", "max_localisation_attempts", "max_actions", "final_scans",
+                     "max_legs", "max_explore_moves"):
+            v = getattr(self, name)
+            lowest = 0 if name in ("max_corrections", "max_replans", "max_explore_moves") else 1
+            if not (isinstance(v, int) and v >= lowest):
+                raise ValueError(f"MissionConfig.{name} must be a non-negative integer, got {v!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in self.__dict__.items()}
+
+    @classmethod
+    def for_sonar(cls, sonar: str, **overrides: Any) -> MissionConfig:
+        """Defaults for a sonar model: the ``nxt`` sensor (and a real NXT) gets a wider heading
+        tolerance and a position margin for each leg (its localisation errs by up to ~10 degrees in
+        heading and ~2 cm in position near slanted walls while reporting a narrow belief)."""
+        base: dict[str, Any] = {}
+        if sonar == "nxt":
+            base = {"heading_tolerance_deg": 15.0, "leg_margin_cm": 2.0, "spread_min_heading_deg": 4.0}
+        return cls(**{**base, **overrides})
+
+
+def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0,
+                 centres_deg: tuple[float, ...] = (0.0, 90.0, 180.0, 270.0)) -> FloatArray:
+    """Turret angles (rad, relative to the heading) of one sweep, in the order the turret visits them.
+
+    ``window_deg >= 180`` is the full turn from straight ahead at `step_deg` steps (360 readings at
+    1 degree); smaller windows read only the windows of +-`window_deg` around `centres_deg`
+    (degrees from the heading, visited in the order given). Around the four axes that is what the
+    paper's scan processing keeps: 124 readings for 15-degree windows at 1 degree, and 600 degrees
+    of turret travel (out and back) instead of 720; the three windows ahead and to the sides
+    (-90, 0, 90) take 420.
+
+    >>> sweep_angles(1.0, 15.0).size, sweep_angles(2.0).size, sweep_angles(2.0, 15.0, (-90, 0, 90)).size
+    (124, 180, 45)
+    """
+    if window_deg >= 180.0:
+        return np.radians(np.arange(0.0, 360.0 - 1e-9, step_deg))
+    half = np.arange(0.0, window_deg + 1e-9, step_deg)
+    off = np.concatenate([-half[:0:-1], half])
+    return np.radians(np.concatenate([c + off for c in centres_deg]))

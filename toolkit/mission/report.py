@@ -1,0 +1,257 @@
+"""What a mission did: `MissionReport`, its trace steps and the split of its robot time."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..world import (
+    Pose,
+)
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class TraceStep:
+    """One recorded step of a mission.
+
+    Attributes
+    ----------
+    action : str
+        ``localise``, ``relocalise``, ``plan``, ``turn``, ``move``, ``turnback``, ``explore-turn``,
+        ``explore-move``, ``correct-turn`` or ``correct-move``.
+    estimate : Pose or None
+        The localiser's mean pose after the action.
+    true_pose : Pose or None
+        The robot's true pose after the action, when the robot knows it (simulator).
+    turn_rad : float
+        Commanded turn (rad), for turns.
+    distance_cm : float
+        Distance the robot reported driving (cm), for moves.
+    watchdog : bool
+        Whether the watchdog stopped this move.
+    robot_time_s : float
+        The robot's clock after the action (s).
+    note : str
+        Free text (planner status, localisation result, ...).
+    spread_cm : float or None
+        The estimate's position spread (root of the summed x and y variances, cm).
+    """
+
+    action: str
+    estimate: Pose | None = None
+    true_pose: Pose | None = None
+    turn_rad: float = 0.0
+    distance_cm: float = 0.0
+    watchdog: bool = False
+    robot_time_s: float = 0.0
+    note: str = ""
+    spread_cm: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "action": self.action,
+            "spread_cm": self.spread_cm,
+            "estimate": None if self.estimate is None else self.estimate.to_list_deg(),
+            "true_pose": None if self.true_pose is None else self.true_pose.to_list_deg(),
+            "turn_deg": math.degrees(self.turn_rad),
+            "distance_cm": self.distance_cm,
+            "watchdog": self.watchdog,
+            "robot_time_s": self.robot_time_s,
+            "note": self.note,
+        }
+
+
+@dataclass(frozen=True)
+class RobotTimeSplit:
+    """Where a mission's robot time went (s), from the robot's own counters.
+
+    Attributes
+    ----------
+    sweep_s : float
+        Sonar sweeps: the readings and the turret's travel through them.
+    turret_return_s : float
+        Turning the turret back to the front after each sweep.
+    drive_s, turn_s : float
+        Driving (forward and backward) and spinning in place.
+    readings : int
+        Sonar readings taken by the sweeps (the watchdog's forward readings are not counted).
+    other_s : float
+        Robot time outside these (link overheads on a real NXT; 0 on the simulator).
+    """
+
+    sweep_s: float
+    turret_return_s: float
+    drive_s: float
+    turn_s: float
+    readings: int
+    other_s: float = 0.0
+
+    def to_dict(self) -> dict[str, float | int]:
+        return dict(self.__dict__)
+
+    def describe(self) -> str:
+        """One line: ``sweeping 40.1 s (1612 readings), turret back 9.0 s, driving 12.0 s, turning 7.1 s``."""
+        text = (f"sweeping {self.sweep_s:.1f} s ({self.readings} readings), turret back {self.turret_return_s:.1f} s, "
+                f"driving {self.drive_s:.1f} s, turning {self.turn_s:.1f} s")
+        return text + (f", other {self.other_s:.1f} s" if abs(self.other_s) >= 0.05 else "")
+
+
+_SPLIT_COUNTERS = ("sweep_s", "turret_return_s", "drive_s", "turn_s", "readings")
+
+
+def _time_split(delta: Mapping[str, float], robot_time_s: float) -> RobotTimeSplit | None:
+    """The split from the robot's counter increments, when the robot keeps them all."""
+    if not all(k in delta for k in _SPLIT_COUNTERS):
+        return None
+    sweep, back, drive, turn = (float(delta[k]) for k in _SPLIT_COUNTERS[:4])
+    return RobotTimeSplit(sweep, back, drive, turn, int(delta["readings"]),
+                          robot_time_s - (sweep + back + drive + turn))
+
+
+@dataclass(frozen=True, eq=False)
+class MissionReport:
+    """What a mission did and how well.
+
+    Attributes
+    ----------
+    success : bool
+        The mission ended with the estimate within the success radius of the target.
+    status : str
+        One line: ``reached target`` or why the mission ended early.
+    final_error_cm : float or None
+        TRUE distance from the robot to the target at the end (cm), when the robot knows its pose;
+        otherwise None.
+    estimate_error_cm : float or None
+        Distance between the final estimate and the target (cm).
+    completion_s : float
+        Wall-clock time of the whole run (s).
+    robot_time_s : float
+        Time the robot spent acting (modelled on the simulator) (s).
+    path_length_cm : float
+        Distance driven, from odometry (forward and backward moves) (cm).
+    planned_length_cm : float
+        Length of the first successful plan (cm); 0 when nothing was planned.
+    turns : int
+        Turn commands of the mission (above half a degree; those of the localisation procedure excluded).
+    collisions : int or None
+        True contacts with walls (simulator), None when unknown.
+    watchdog_stops, relocalisations, replans : int
+        Counters of the run (relocalisations exclude the first global localisation).
+    map, planner, localiser : str
+    seed : int or None
+    start : Pose or None
+        True start pose when known.
+    target : (2,) ndarray
+    final_pose, final_estimate : Pose or None
+    plans : list of (k, 2) ndarray
+        Every planned path, in order.
+    trace : list of TraceStep
+    """
+
+    success: bool
+    status: str
+    final_error_cm: float | None
+    estimate_error_cm: float | None
+    completion_s: float
+    robot_time_s: float
+    path_length_cm: float
+    planned_length_cm: float
+    turns: int
+    collisions: int | None
+    watchdog_stops: int
+    relocalisations: int
+    replans: int
+    map: str
+    planner: str
+    localiser: str
+    seed: int | None
+    start: Pose | None
+    target: FloatArray
+    final_pose: Pose | None
+    final_estimate: Pose | None
+    plans: list[FloatArray] = field(default_factory=list)
+    trace: list[TraceStep] = field(default_factory=list)
+    candidates: list[Pose] = field(default_factory=list)
+    time_split: RobotTimeSplit | None = None
+
+    def to_dict(self, trace: bool = True) -> dict[str, Any]:
+        """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
+        d: dict[str, Any] = {
+            "success": self.success,
+            "status": self.status,
+            "final_error_cm": self.final_error_cm,
+            "estimate_error_cm": self.estimate_error_cm,
+            "completion_s": self.completion_s,
+            "robot_time_s": self.robot_time_s,
+            "robot_time_split": None if self.time_split is None else self.time_split.to_dict(),
+            "path_length_cm": self.path_length_cm,
+            "planned_length_cm": self.planned_length_cm,
+            "turns": self.turns,
+            "collisions": self.collisions,
+            "watchdog_stops": self.watchdog_stops,
+            "relocalisations": self.relocalisations,
+            "replans": self.replans,
+            "map": self.map,
+            "planner": self.planner,
+            "localiser": self.localiser,
+            "seed": self.seed,
+            "start": None if self.start is None else self.start.to_list_deg(),
+            "target": [float(v) for v in self.target],
+            "final_pose": None if self.final_pose is None else self.final_pose.to_list_deg(),
+            "final_estimate": None if self.final_estimate is None else self.final_estimate.to_list_deg(),
+            "ambiguous": len(self.candidates) > 1,
+            "candidates": [p.to_list_deg() for p in self.candidates],
+        }
+        if trace:
+            d["plans"] = [p.tolist() for p in self.plans]
+            d["trace"] = [s.to_dict() for s in self.trace]
+        return d
+
+    @property
+    def true_trajectory(self) -> FloatArray:
+        """(n, 2) true positions along the trace (cm); empty when the robot does not know its pose."""
+        pts = [s.true_pose.xy for s in self.trace if s.true_pose is not None]
+        if self.start is not None:
+            pts.insert(0, self.start.xy)
+        return np.array(pts).reshape(-1, 2)
+
+    @property
+    def estimates(self) -> FloatArray:
+        """(n, 3) estimated poses [x, y, theta] recorded along the trace."""
+        pts = [s.estimate.as_array() for s in self.trace if s.estimate is not None]
+        return np.array(pts).reshape(-1, 3)
+
+    def confident_estimates(self, max_spread_cm: float = 5.0) -> FloatArray:
+        """(n, 3) estimated poses whose position spread is under `max_spread_cm` (ambiguous global
+        beliefs left out: their mean lies between the candidate places)."""
+        pts = [s.estimate.as_array() for s in self.trace if s.estimate is not None
+               and (s.spread_cm is None or s.spread_cm <= max_spread_cm)]
+        return np.array(pts).reshape(-1, 3)
+
+    def summary(self) -> str:
+        """A few human-readable lines."""
+        err = "unknown" if self.final_error_cm is None else f"{self.final_error_cm:.2f} cm"
+        coll = "unknown" if self.collisions is None else str(self.collisions)
+        lines = [
+            f"{'SUCCESS' if self.success else 'FAILED'}: {self.status}",
+            f"map {self.map}, planner {self.planner}, localiser {self.localiser}, seed {self.seed}",
+            f"final error {err} (estimate {_fmt(self.estimate_error_cm)} cm from target), "
+            f"collisions {coll}",
+            f"completion {self.completion_s:.3f} s wall-clock, robot time {self.robot_time_s:.1f} s"
+            + ("" if self.time_split is None else f": {self.time_split.describe()}"),
+            f"driven {self.path_length_cm:.1f} cm (planned {self.planned_length_cm:.1f} cm), turns {self.turns}, "
+            f"watchdog stops {self.watchdog_stops}, re-localisations {self.relocalisations}, "
+            f"re-plans {self.replans}",
+        ]
+        return "\n".join(lines)
+
+
+def _fmt(v: float | None) -> str:
+    return "?" if v is None else f"{v:.2f}"

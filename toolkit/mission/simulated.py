@@ -1,0 +1,128 @@
+"""One seeded mission on the simulator: seeds, random starts and `run_sim_mission`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from localisation.base import Localiser
+from localisation.sonar_options import _accepted, matched_localiser_options
+from planners.base import Planner
+
+from ..world import (
+    Map,
+    NxtnavError,
+    Pose,
+    RngLike,
+    RobotGeometry,
+    as_rng,
+    load_map,
+)
+from .config import MissionConfig
+from .report import MissionReport
+from .runner import run_mission
+
+if TYPE_CHECKING:
+    from ..recording import Recorder
+
+
+def mission_seeds(seed: int) -> tuple[int, int, int]:
+    """The three seeds one mission seed expands to: (start heading/pose, simulator, stack)."""
+    a, b, c = np.random.SeedSequence(int(seed)).generate_state(3)
+    return int(a), int(b), int(c)
+
+
+def random_start(m: Map, rng: RngLike = None, clearance_cm: float = 10.0) -> Pose:
+    """A random pose: position uniform over the free area at least `clearance_cm` from every wall
+    (robot centre), heading uniform."""
+    gen = as_rng(rng)
+    xy = m.sample_free(1, clearance=clearance_cm, rng=gen)[0]
+    return Pose(float(xy[0]), float(xy[1]), float(gen.uniform(-math.pi, math.pi)))
+
+
+def run_sim_mission(
+    map: Map | str,
+    *,
+    seed: int = 0,
+    start: Pose | ArrayLike | None = None,
+    random_start_pose: bool = False,
+    target: ArrayLike | None = None,
+    planner: str | Planner = "min-turn",
+    localiser: str | Localiser = "paper-pf",
+    noise_model: str = "botsim",
+    sensor_noise: float = 1.0,
+    motion_noise: float = 0.1,
+    turn_noise: float = 0.005,
+    sonar: str = "ideal",
+    config: MissionConfig | None = None,
+    recorder: Recorder | None = None,
+    robot_radius_cm: float | None = None,
+) -> MissionReport:
+    """One seeded mission on the simulator, as `nxtnav run` and `nxtnav paper` run it.
+
+    Parameters
+    ----------
+    map : Map or str
+    seed : int
+        Expands (`mission_seeds`) into the start heading (or random start), the simulator's noise and
+        the stack's draws: the same seed gives the same mission.
+    start : Pose, (x, y) or None
+        True start pose; (x, y) gets a seeded random heading; None is the map's preset start with a
+        seeded random heading.
+    random_start_pose : bool
+        Ignore `start` and draw a free pose at least 10 cm from every wall.
+    target : (2,) array_like or None
+        Target (cm); None is the map's preset.
+    planner, localiser : str or plug-in
+    noise_model : {"botsim", "absolute"}
+    sensor_noise, motion_noise, turn_noise : float
+        Sonar noise (cm), motion noise (fraction or cm) and turn noise (fraction or rad); the paper's by default.
+    sonar : {"ideal", "nxt"}
+    config : MissionConfig or None
+        None: `MissionConfig.for_sonar(sonar)`.
+    recorder : toolkit.recording.Recorder, optional
+        Passed to `run_mission`.
+    robot_radius_cm : float, optional
+        Radius of the robot disc (cm; default `RobotGeometry`'s 8 cm): a robot scaled to the map. The
+        random start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm``
+        get it.
+    """
+    from ..robots.sim import MotionNoise, SimRobot
+
+    geometry = RobotGeometry() if robot_radius_cm is None else RobotGeometry(radius_cm=float(robot_radius_cm))
+
+    m = map if isinstance(map, Map) else load_map(map)
+    s_start, s_sim, s_stack = mission_seeds(seed)
+    start_rng = np.random.default_rng(s_start)
+    if random_start_pose:
+        pose = random_start(m, start_rng) if robot_radius_cm is None else \
+            random_start(m, start_rng, geometry.radius_cm + 2.0)
+    elif isinstance(start, Pose):
+        pose = start
+    else:
+        xy = m.start if start is None else np.asarray(start, dtype=float).ravel()
+        if xy is None:
+            raise NxtnavError(f"map {m.name} has no preset start: give one")
+        if xy.shape != (2,) or not np.all(np.isfinite(xy)):
+            raise NxtnavError(f"start must be (x, y) or a Pose, got {np.asarray(start).tolist()!r}")
+        pose = Pose(float(xy[0]), float(xy[1]), float(start_rng.uniform(-math.pi, math.pi)))
+    if target is None:
+        if m.target is None:
+            raise NxtnavError(f"map {m.name} has no preset target: give one")
+        target = m.target
+    noise = MotionNoise(noise_model, motion_noise, turn_noise)  # type: ignore[arg-type]
+    cfg = config or MissionConfig.for_sonar(sonar)
+    if isinstance(localiser, str):
+        opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
+                                         turn_noise=turn_noise, sensor_noise=sensor_noise)
+        if robot_radius_cm is not None:
+            opts.update(_accepted(localiser, {"clearance_cm": geometry.radius_cm}))
+        cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
+    robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
+    report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,
+                         recorder=recorder)
+    return replace(report, seed=int(seed))

@@ -1,0 +1,567 @@
+"""One run of the mission stack: localise, plan, drive, re-localise, correct at the target."""
+
+from __future__ import annotations
+
+import inspect
+import logging
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from shapely.ops import nearest_points
+
+from localisation.ambiguity import candidate_poses, describe_candidates
+from localisation.base import Localiser, Motion, PoseEstimate, Prior
+from localisation.scan import ScanProcessing
+from planners.base import Planner, PlanningProblem, PlanResult
+
+from ..world import (
+    CollisionChecker,
+    Map,
+    Pose,
+    Robot,
+    Scan,
+    angle_diff,
+    ray_cast,
+)
+from .config import _WINDOW_CENTRES, MissionConfig, sweep_angles
+from .explore import _raw_scan_of, explore_direction
+from .report import TraceStep
+
+FloatArray = NDArray[np.float64]
+log = logging.getLogger(__name__)
+
+_TURN_EPS = math.radians(0.5)  # turns smaller than this are not counted as turns
+
+
+class _MissionEnded(Exception):
+    """Internal: the mission stops with `status` (success or not)."""
+
+    def __init__(self, status: str, success: bool = False) -> None:
+        super().__init__(status)
+        self.status = status
+        self.success = success
+
+
+def _localise_procedure() -> Callable[..., Any]:
+    from localisation.procedure import localise
+
+    return localise
+
+
+def _estimate_of(result: Any, localiser: Localiser) -> PoseEstimate:
+    est = getattr(result, "estimate", None)
+    return est if isinstance(est, PoseEstimate) else localiser.estimate()
+
+
+class _Mission:
+    """The mutable state of one run (counters, trace, current estimate)."""
+
+    def __init__(self, robot: Robot, m: Map, target: FloatArray, planner: Planner,
+                 localiser: Callable[[], Localiser], rng: np.random.Generator, config: MissionConfig) -> None:
+        self.robot = robot
+        self.map = m
+        self.target = target
+        self.planner = planner
+        self._make_localiser = localiser
+        self._localiser: Localiser | None = None
+        self.rng = rng
+        self.cfg = config
+        radius = float(robot.geometry.radius_cm)
+        self.radius = radius
+        self.candidates: list[Pose] = []  # the belief's candidate poses when it stayed ambiguous
+        shared = getattr(robot, "checker", None)
+        if isinstance(shared, CollisionChecker) and shared.map is m and shared.robot_radius == radius:
+            self.checker = shared
+        else:
+            self.checker = CollisionChecker(m, radius)
+        margin = config.safety_margin_cm
+        # planning checkers with the full margin, then half of it; the bare radius is the last resort
+        self.safe_checkers = [CollisionChecker(m, radius + f * margin) for f in (1.0, 0.5) if margin > 0]
+        lm = config.leg_margin_cm
+        self.leg_checker = CollisionChecker(m, radius + lm) if lm > 0 else self.checker
+        self._margin_checkers: dict[float, CollisionChecker] = {}
+        self.trace: list[TraceStep] = []
+        self.plans: list[FloatArray] = []
+        self.planned_length = 0.0
+        self.turns = 0
+        self.watchdog_stops = 0
+        self.relocalisations = 0
+        self.replans = 0
+        self.path_length = 0.0
+        self.actions = 0
+        self.estimate: PoseEstimate | None = None
+        self._last_raw_scan: Scan | None = None
+        self.fresh_fix = False  # the estimate comes from a global fix not yet checked by a drive
+        self.since_fix_cm = 0.0  # driven since the last converged fix
+        self._localise = _localise_procedure()
+        params = inspect.signature(self._localise).parameters
+        self._localise_kw = set(params) if not any(p.kind is p.VAR_KEYWORD for p in params.values()) else None
+
+    @property
+    def localiser(self) -> Localiser:
+        """The localiser, built at its first use (a target in a wall is reported before any range table
+        is computed)."""
+        if self._localiser is None:
+            self._localiser = self._make_localiser()
+        return self._localiser
+
+    # -- recording ------------------------------------------------------------------------------
+    def true_pose(self) -> Pose | None:
+        p = getattr(self.robot, "true_pose", None)
+        return p if isinstance(p, Pose) else None
+
+    def record(self, action: str, **kw: Any) -> None:
+        est = self.estimate.pose if self.estimate is not None else None
+        spread = self.estimate.std_xy_cm if self.estimate is not None else None
+        self.trace.append(TraceStep(action, est, self.true_pose(), robot_time_s=float(self.robot.robot_time_s),
+                                    spread_cm=spread, **kw))
+
+    def _count_action(self) -> None:
+        self.actions += 1
+        if self.actions > self.cfg.max_actions:
+            raise _MissionEnded(f"gave up after {self.cfg.max_actions} actions")
+
+    # -- localisation ---------------------------------------------------------------------------
+    def _sweep_options(self, kind: str) -> dict[str, Any]:
+        """How the localisation procedure sweeps for a ``global``, ``track`` or ``final`` localisation."""
+        cfg = self.cfg
+        if kind == "global":
+            # without the turn, the windows are taken around the minimum reading's direction: the
+            # near-perpendicular readings a sonar model gets right, from one sweep
+            return {"align": cfg.global_align, "scan_angles": sweep_angles(cfg.global_scan_step_deg),
+                    "processing": None if cfg.global_align else ScanProcessing(reference="min")}
+        if cfg.track_align:
+            return {"align": True, "process": True, "scan_angles": None}
+        if kind == "final":
+            return {"align": False, "process": False,
+                    "scan_angles": sweep_angles(cfg.final_scan_step_deg, cfg.final_window_deg)}
+        return {"align": False, "process": False,
+                "scan_angles": sweep_angles(cfg.track_scan_step_deg, cfg.track_window_deg,
+                                            _WINDOW_CENTRES[cfg.track_windows])}
+
+    def _call_localise(self, prior: Prior | None, kind: str = "global", **extra: Any) -> PoseEstimate:
+        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
+                                  **dict(self.cfg.localise_options), **extra}
+        if self._localise_kw is not None:
+            dropped = [k for k in kwargs if k not in self._localise_kw]
+            if dropped:
+                log.debug("localise() does not take %s; dropped", ", ".join(dropped))
+            kwargs = {k: v for k, v in kwargs.items() if k in self._localise_kw}
+        result = self._localise(self.robot, self.localiser, **kwargs)
+        self._last_raw_scan = _raw_scan_of(result)
+        return _estimate_of(result, self.localiser)
+
+    def _ok(self, est: PoseEstimate) -> bool:
+        return bool(est.converged) and bool(self.map.contains(est.pose.xy))
+
+    def localise_global(self) -> PoseEstimate:
+        """Global localisation with retries; ends the mission when the robot stays lost.
+
+        Each attempt runs one iteration of the localisation procedure at a time. A converged fix is
+        confirmed by a second, independent global localisation on a fresh scan (`confirm_global`):
+        two fixes that disagree reveal a symmetric place the localiser collapsed on too early. While
+        the belief is ambiguous the mission drives toward open space along a direction where the scan
+        shows room for the whole robot disc, and localises again from there.
+        """
+        cfg = self.cfg
+        for attempt in range(1, cfg.max_localisation_attempts + 1):
+            est = self._call_localise(None, reset=True, max_iterations=1)
+            self.estimate = est
+            explores = 0
+            fresh = False
+            from_one_place = True  # the fix rests on scans from one place only
+            while True:
+                if self._ok(est):
+                    if not (cfg.confirm_global and (from_one_place or cfg.confirm_all)):
+                        break
+                    est2 = self._call_localise(None, reset=True, max_iterations=1)
+                    self.estimate = est2
+                    if self._ok(est2) and est2.pose.distance_to(est.pose) <= cfg.confirm_tolerance_cm:
+                        est = est2
+                        break
+                    self.record("localise", note=f"global attempt {attempt}: two fixes disagree "
+                                                 f"({est.pose.x:.0f}, {est.pose.y:.0f}) vs "
+                                                 f"({est2.pose.x:.0f}, {est2.pose.y:.0f})")
+                    est = est2
+                    fresh = True
+                if explores >= cfg.max_explore_moves:
+                    break
+                direction, distance = self.explore_move(math.pi if explores else None)
+                if distance < 1.0:
+                    break
+                self.record("localise", note=f"global attempt {attempt}: ambiguous (spread "
+                                             f"{est.std_xy_cm:.1f} cm), exploring")
+                self.turn(direction, action="explore-turn")
+                if self.move(distance, action="explore-move"):
+                    self.turnback()
+                explores += 1
+                est = self._call_localise(None, reset=fresh, max_iterations=1)
+                self.estimate = est
+                from_one_place = fresh
+                fresh = False
+            ok = self._ok(est)
+            self.record("localise", note=f"global attempt {attempt}: {'converged' if ok else 'not converged'}, "
+                                         f"spread {est.std_xy_cm:.2f} cm")
+            if ok:
+                self.fresh_fix = True
+                self.since_fix_cm = 0.0
+                return est
+        self.candidates = candidate_poses(self._localiser)
+        if self.candidates:  # several places fit the scans equally: say which, not just "lost"
+            raise _MissionEnded(f"{describe_candidates(self.candidates)}; global localisation could not tell "
+                                f"them apart in {cfg.max_localisation_attempts} attempts")
+        raise _MissionEnded(f"robot lost: global localisation did not converge in "
+                            f"{cfg.max_localisation_attempts} attempts")
+
+    def explore_move(self, avoid_rad: float | None) -> tuple[float, float]:
+        """A turn (rad) and distance (cm) toward open space while the belief is ambiguous.
+
+        With a localiser that reports its modes (candidate poses, as paper-pf does), the move must be
+        collision-free with the safety margin from every mode and heads where the nearest wall
+        (over the modes) is farthest: safe whichever candidate is the truth. Otherwise the move comes
+        from the last scan alone (`explore_direction`), which trusts the sonar's free space.
+        """
+        cfg = self.cfg
+        modes = getattr(self.localiser, "modes", None)
+        poses: list[Pose] = []
+        try:
+            listed = modes() if callable(modes) else modes
+            poses = [md.pose for md in (listed or []) if isinstance(getattr(md, "pose", None), Pose)]
+        except Exception:  # a localiser without usable modes: fall back to the scan
+            poses = []
+        poses = [p for p in poses if self.checker.point_free(p.xy)]
+        if poses:
+            rel = np.radians(np.arange(0.0, 360.0, 5.0))
+            if avoid_rad is not None:
+                rel = rel[np.abs(angle_diff(rel, avoid_rad)) >= math.radians(45.0)]
+            checker = self.safe_checkers[-1] if self.safe_checkers else self.checker
+            tol = math.radians(cfg.explore_heading_tolerance_deg)
+            for length in (cfg.explore_step_cm, 0.5 * cfg.explore_step_cm, 0.25 * cfg.explore_step_cm):
+                ok = np.ones(rel.size, dtype=bool)
+                room = np.full(rel.size, np.inf)
+                for p in poses:
+                    for dev in (-tol, 0.0, tol):  # the modes' headings may be off by the tolerance
+                        ang = p.theta + rel + dev
+                        ends = p.xy[None, :] + length * np.column_stack([np.cos(ang), np.sin(ang)])
+                        ok &= checker.segments_free(np.repeat(p.xy[None, :], rel.size, axis=0), ends)
+                        room = np.minimum(room, ray_cast(self.map.walls, p.xy, ang))
+                if ok.any():
+                    k = int(np.argmax(np.where(ok, room, -np.inf)))
+                    return float(angle_diff(rel[k], 0.0)), float(length)
+            return 0.0, 0.0
+        scan = self._last_raw_scan if self._last_raw_scan is not None else self.robot.ultrascan()
+        return explore_direction(scan, self.radius + 0.5 * cfg.safety_margin_cm + 0.5, self.rng, avoid_rad,
+                                 cfg.explore_step_cm)
+
+    def relocalise(self, reason: str, kind: str = "track") -> PoseEstimate:
+        """Tracking re-localisation from the current belief (`kind` ``track`` or, at the target,
+        ``final`` chooses the sweep); falls back to a global one."""
+        self.relocalisations += 1
+        if self.estimate is None:
+            return self.localise_global()
+        if self.cfg.tracking == "prior":
+            est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
+        else:
+            est = self._call_localise(None, kind, reset=False, max_iterations=1)
+        self.estimate = est
+        ok = self._ok(est)
+        self.record("relocalise", note=f"{reason}: {'converged' if ok else 'not converged'}, "
+                                       f"spread {est.std_xy_cm:.2f} cm")
+        if ok:
+            self.fresh_fix = False
+            self.since_fix_cm = 0.0
+            return est
+        if self.cfg.tracking != "prior":
+            est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
+            self.estimate = est
+            ok = self._ok(est)
+            self.record("relocalise", note=f"{reason}, from a wider prior: {'converged' if ok else 'not converged'}")
+            if ok:
+                self.since_fix_cm = 0.0
+                return est
+        return self.localise_global()
+
+    def _prior(self, est: PoseEstimate) -> Prior:
+        cov = np.array(est.cov, dtype=float, copy=True)
+        floor = np.array([self.cfg.tracking_std_cm ** 2, self.cfg.tracking_std_cm ** 2,
+                          math.radians(self.cfg.tracking_std_deg) ** 2])
+        d = np.maximum(np.diag(cov), floor)
+        if not np.all(np.isfinite(cov)):
+            cov = np.diag(d)
+        else:
+            cov[np.diag_indices(3)] = d
+        return Prior(est.pose, cov)
+
+    # -- actions --------------------------------------------------------------------------------
+    def turn(self, angle: float, action: str = "turn") -> None:
+        self._count_action()
+        self.robot.turn(angle)
+        self.localiser.predict(Motion(turn_rad=angle))
+        self.estimate = self.localiser.estimate()
+        if abs(angle) > _TURN_EPS:
+            self.turns += 1
+        self.record(action, turn_rad=angle)
+
+    def move(self, distance: float, action: str = "move") -> bool:
+        """Move `distance` cm; returns True when the watchdog stopped it."""
+        self._count_action()
+        out = self.robot.move(distance)
+        self.localiser.predict(Motion(distance_cm=out.distance_cm))
+        self.estimate = self.localiser.estimate()
+        self.path_length += abs(out.distance_cm)
+        self.since_fix_cm += abs(out.distance_cm)
+        if out.watchdog:
+            self.watchdog_stops += 1
+        self.record(action, distance_cm=out.distance_cm, watchdog=out.watchdog)
+        return bool(out.watchdog)
+
+    def turnback(self) -> None:
+        self._count_action()
+        out = self.robot.turnback()
+        self.localiser.predict(Motion(distance_cm=out.distance_cm))
+        self.estimate = self.localiser.estimate()
+        self.path_length += abs(out.distance_cm)
+        self.since_fix_cm += abs(out.distance_cm)
+        self.record("turnback", distance_cm=out.distance_cm)
+
+    def after_watchdog(self) -> None:
+        self.turnback()
+        self.relocalise("after watchdog stop")
+        self.replans += 1
+        if self.replans > self.cfg.max_replans:
+            raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
+
+    def safe_leg(self, xy: FloatArray, heading: float, leg: float) -> float:
+        """The part of a `leg` (cm) from `xy` along `heading` (rad) that stays collision-free when the
+        heading is off by `heading_tolerance_deg` either way (at least `min_leg_cm`)."""
+        tol = math.radians(self.cfg.heading_tolerance_deg)
+        if tol <= 0 or leg <= self.cfg.min_leg_cm:
+            return leg
+        length = leg
+        checker = self.leg_checker if self.leg_checker.point_free(xy) else self.checker
+        for dev in (-tol, tol):
+            end = xy + leg * np.array([math.cos(heading + dev), math.sin(heading + dev)])
+            length = min(length, checker.first_contact(xy, end, tol=0.2) * leg)
+        return max(length, self.cfg.min_leg_cm)
+
+    def _margin_checker(self, extra_cm: float) -> CollisionChecker:
+        """A checker for the robot disc grown by `extra_cm` (rounded up to 0.5 cm; cached)."""
+        key = math.ceil(max(extra_cm, 0.0) * 2.0) / 2.0
+        if key == 0.0:
+            return self.checker
+        if key not in self._margin_checkers:
+            self._margin_checkers[key] = CollisionChecker(self.map, self.radius + key)
+        return self._margin_checkers[key]
+
+    def spread_clear(self, goal: FloatArray) -> bool:
+        """Whether the belief, as predicted now, can drive from its mean to `goal` without a fix:
+        the segment is free for the robot disc grown by `spread_sigmas` standard deviations of the
+        position across the segment plus the heading's over the segment's length."""
+        assert self.estimate is not None
+        a = self.estimate.pose.xy
+        d = np.asarray(goal, dtype=float) - a
+        length = float(np.hypot(*d))
+        if length < 1e-6:
+            return True
+        cov = np.asarray(self.estimate.cov, dtype=float)
+        if not np.all(np.isfinite(cov)):
+            return False
+        perp = np.array([-d[1], d[0]]) / length
+        var_heading = max(float(cov[2, 2]), math.radians(self.cfg.spread_min_heading_deg) ** 2)
+        var_across = max(float(perp @ cov[:2, :2] @ perp), (self.cfg.spread_drift * self.since_fix_cm) ** 2)
+        var = var_across + length**2 * var_heading
+        extra = self.cfg.spread_sigmas * math.sqrt(max(var, 0.0))
+        if extra > 10.0:
+            return False
+        return bool(self._margin_checker(extra).segment_free(a, goal))
+
+    def drive_to(self, goal: FloatArray, *, final: bool = False, next_goal: FloatArray | None = None) -> str:
+        """Turn toward `goal` from the estimate and drive there in steps, re-localising on the way.
+
+        Legs longer than `relocalise_every_cm` are split; after each leg the robot re-localises and
+        re-aims, until the estimate is within `waypoint_tolerance_cm` of `goal` (for the `final`
+        goal the final correction re-localises instead). With ``fix_rule="spread"`` a leg ends
+        without a fix when the predicted belief can drive on (`spread_clear`: to `goal`, or on
+        reaching it to `next_goal`), and a missed `goal` is skipped when the belief can drive on
+        to `next_goal` the same way.
+
+        Returns ``arrived``, ``watchdog`` (the watchdog stopped a move), ``blocked`` (a move made
+        almost no progress: a contact) or ``deviated`` (the straight line from the estimate to the
+        goal is no longer free, or the goal is not reached in a few legs).
+        """
+        assert self.estimate is not None
+        cfg = self.cfg
+        spread = cfg.fix_rule == "spread"
+        for legs in range(cfg.max_legs):
+            pose = self.estimate.pose
+            delta = goal - pose.xy
+            dist = float(np.hypot(*delta))
+            if dist <= cfg.waypoint_tolerance_cm and (legs > 0 or dist < 1e-6):
+                return "arrived"
+            if legs > 0 and spread and next_goal is not None and self.spread_clear(next_goal):
+                return "arrived"  # missed the waypoint, but the way to the next one is clear for the belief
+            if not self.checker.segment_free(pose.xy, goal):
+                return "deviated"
+            turn = float(angle_diff(math.atan2(delta[1], delta[0]), pose.theta))
+            if abs(turn) > 1e-9:
+                self.turn(turn)
+            every = cfg.relocalise_every_cm
+            if self.fresh_fix and cfg.first_leg_cm is not None:
+                every = cfg.first_leg_cm if every is None else min(every, cfg.first_leg_cm)
+            leg = dist if every is None or dist <= 1.25 * every else every
+            leg = self.safe_leg(pose.xy, math.atan2(delta[1], delta[0]), leg)
+            driven = 0.0
+            while leg - driven > 1e-9:
+                step = min(cfg.move_step_cm, leg - driven)
+                before = self.path_length
+                if self.move(step):
+                    return "watchdog"
+                if self.path_length - before < 0.5 * step:
+                    return "blocked"
+                driven += step
+            if final and leg >= dist:
+                return "arrived"
+            ahead = goal if leg < dist else next_goal
+            if spread and ahead is not None and self.spread_clear(ahead):
+                self.record("skip-fix", note=f"belief spread {self.estimate.std_xy_cm:.1f} cm leaves the way "
+                                             "ahead clear")
+                if leg >= dist:
+                    return "arrived"
+                continue
+            self.relocalise("at waypoint" if leg >= dist else "along segment")
+        return "deviated"
+
+    # -- planning -------------------------------------------------------------------------------
+    def plan(self) -> FloatArray:
+        """A path from the current estimate to the target; ends the mission when none exists.
+
+        The path is planned with the safety margin when it can be: a start or target closer to a wall
+        than the margin is joined by a short straight leg to the nearest point with the margin.
+        Without such a path, it is planned with the bare robot radius.
+        """
+        assert self.estimate is not None
+        start = self.estimate.pose.xy
+        prefix: list[FloatArray] = []
+        if not self.checker.point_free(start):
+            escape = self._nearest_free(start, self.checker, self.radius + 0.5)
+            if escape is None:
+                raise _MissionEnded(f"robot lost: estimate ({start[0]:.1f}, {start[1]:.1f}) is in a wall "
+                                    "and no free space is near")
+            prefix = [start]
+            start = escape
+        path: FloatArray | None = None
+        result: PlanResult | None = None
+        for checker in self.safe_checkers:
+            s2 = self._nearest_free(start, checker, checker.robot_radius + 0.1)
+            g2 = self._nearest_free(self.target, checker, checker.robot_radius + 0.1)
+            if s2 is None or g2 is None:
+                continue
+            problem = PlanningProblem(self.map, checker, s2, g2, self.cfg.planning_time_s, self.rng)
+            result = self.planner.plan(problem)
+            if result.success:
+                path = np.vstack([start, result.path, self.target])
+                break
+        if path is None:
+            problem = PlanningProblem(self.map, self.checker, start, self.target, self.cfg.planning_time_s, self.rng)
+            result = self.planner.plan(problem)
+            if result.success:
+                path = result.path
+        assert result is not None
+        if path is None:
+            self.record("plan", note=f"failed: {result.status}")
+            raise _MissionEnded(f"target unreachable: planner {self.planner.name} found no path from "
+                                f"({start[0]:.1f}, {start[1]:.1f}) to ({self.target[0]:.1f}, {self.target[1]:.1f}) "
+                                f"({result.status})")
+        if prefix:
+            path = np.vstack([*prefix, path])
+        keep = np.ones(len(path), dtype=bool)
+        keep[1:] = np.hypot(*np.diff(path, axis=0).T) > 1e-6
+        path = path[keep]
+        self.plans.append(path)
+        length = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
+        if len(self.plans) == 1:
+            self.planned_length = length
+        self.record("plan", note=f"{len(path) - 2} intermediate point(s), {length:.1f} cm, "
+                                 f"{result.time_s * 1e3:.1f} ms")
+        return path
+
+    def _nearest_free(self, xy: FloatArray, checker: CollisionChecker, buffer: float) -> FloatArray | None:
+        """`xy` when `checker` finds it free, else the nearest point of the c-space of radius `buffer`
+        reachable from `xy` in a straight line with the bare radius (None when there is none)."""
+        if checker.point_free(xy):
+            return xy
+        region = self.map.free_space(buffer)
+        if region.is_empty:
+            return None
+        _, near = nearest_points(shapely.Point(xy), region)
+        p = np.array([near.x, near.y])
+        if not checker.point_free(p):
+            return None
+        if checker is not self.checker and not self.checker.segment_free(xy, p):
+            return None
+        return p
+
+    # -- the whole run --------------------------------------------------------------------------
+    def run(self) -> tuple[str, bool]:
+        t = self.target
+        if not self.map.contains(t):
+            raise _MissionEnded(f"target ({t[0]:.1f}, {t[1]:.1f}) is outside the free area of map {self.map.name}")
+        if not self.checker.point_free(t):
+            raise _MissionEnded(f"target ({t[0]:.1f}, {t[1]:.1f}) is in a wall: closer than the robot radius "
+                                f"({self.radius:g} cm) to a wall of map {self.map.name}")
+        self.localise_global()
+        self.navigate()
+        return self.final_correction()
+
+    def navigate(self) -> None:
+        """Plan and drive until the estimate is at the target."""
+        while True:
+            path = self.plan()
+            outcome = "arrived"
+            for i, wp in enumerate(path[1:], start=1):
+                nxt = path[i + 1] if i + 1 < len(path) else None
+                outcome = self.drive_to(wp, final=i == len(path) - 1, next_goal=nxt)
+                if outcome != "arrived":
+                    break
+            if outcome == "arrived":
+                return
+            if outcome in ("watchdog", "blocked"):
+                self.after_watchdog()
+            else:
+                self.replans += 1
+                if self.replans > self.cfg.max_replans:
+                    raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
+
+    def final_correction(self) -> tuple[str, bool]:
+        """Re-localise at the target and correct until the estimate is within the tolerance."""
+        cfg = self.cfg
+        for k in range(cfg.max_corrections + 1):
+            est = self.relocalise("at target", "final")
+            for _ in range(cfg.final_scans - 1):
+                est = self.relocalise("at target (extra scan)", "final")
+            delta = self.target - est.pose.xy
+            dist = float(np.hypot(*delta))
+            if dist <= cfg.goal_tolerance_cm:
+                return f"reached target (estimate {dist:.2f} cm from it after {k} correction(s))", True
+            if k == cfg.max_corrections:
+                break
+            if not self.checker.segment_free(est.pose.xy, self.target):
+                self.navigate()
+                continue
+            turn = float(angle_diff(math.atan2(delta[1], delta[0]), est.pose.theta))
+            sense = 1.0
+            if dist <= cfg.reverse_cm and abs(turn) > 0.5 * math.pi:  # back up rather than turn around
+                turn, sense = float(angle_diff(turn, math.pi)), -1.0
+            self.turn(turn, action="correct-turn")
+            if self.move(sense * dist, action="correct-move"):
+                self.after_watchdog()
+                self.navigate()
+        dist = float(np.hypot(*(self.target - self.estimate.pose.xy))) if self.estimate else math.inf
+        if dist <= cfg.success_radius_cm:
+            return (f"reached target (estimate {dist:.2f} cm from it; tolerance {cfg.goal_tolerance_cm:g} cm "
+                    f"not met in {cfg.max_corrections} corrections)"), True
+        return f"stopped {dist:.1f} cm from the target after {cfg.max_corrections} corrections", False
