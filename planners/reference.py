@@ -384,12 +384,15 @@ class ShortestPathPlanner(_ReferencePlanner):
         same = np.intersect1d(which[0], which[1])
         if not len(same):  # different parts of the configuration space
             return None, "no path", info
-        in_part = np.isin(part, same)
-        s_cand = np.flatnonzero(in_part & _tangent(g.nodes, prv, nxt, np.broadcast_to(start, g.nodes.shape)))
-        g_cand = np.flatnonzero(in_part & _tangent(g.nodes, prv, nxt, np.broadcast_to(goal, g.nodes.shape)))
-        si = s_cand[checker.segments_free(np.repeat(start[None], len(s_cand), axis=0), g.nodes[s_cand])]
-        gi = g_cand[checker.segments_free(g.nodes[g_cand], np.repeat(goal[None], len(g_cand), axis=0))]
         vg: VisibilityGraph = g.extra["search"]
+        si, gi = vg.seen_from(start), vg.seen_from(goal)  # lattice points of a grid: swept, exactly
+        in_part = np.isin(part, same)
+        if si is None:
+            s_cand = np.flatnonzero(in_part & _tangent(g.nodes, prv, nxt, np.broadcast_to(start, g.nodes.shape)))
+            si = s_cand[checker.segments_free(np.repeat(start[None], len(s_cand), axis=0), g.nodes[s_cand])]
+        if gi is None:
+            g_cand = np.flatnonzero(in_part & _tangent(g.nodes, prv, nxt, np.broadcast_to(goal, g.nodes.shape)))
+            gi = g_cand[checker.segments_free(g.nodes[g_cand], np.repeat(goal[None], len(g_cand), axis=0))]
         goal_seen = np.zeros(m, dtype=bool)
         goal_seen[gi] = True
         length, seq = vg.search(start, goal, si, goal_seen)

@@ -118,6 +118,8 @@ class VisibilityGraph:
     pool: IntArray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     n_pool: int = 0
     scanned: int = 0
+    origin: FloatArray = field(default_factory=lambda: np.zeros(2))
+    cell_cm: float = 1.0
 
     @classmethod
     def from_edges(cls, nodes: FloatArray, iu: IntArray, ju: IntArray) -> VisibilityGraph:
@@ -134,9 +136,31 @@ class VisibilityGraph:
     def from_grid(cls, grid: GridVisibility, origin: FloatArray, cell_cm: float) -> VisibilityGraph:
         """The reflex corners of a grid map (cm: ``origin + cell_cm * corner``), scanned as searches reach them."""
         m = len(grid.corners)
-        return cls(np.asarray(origin, dtype=float) + cell_cm * grid.corners, grid=grid, lazy=True,
-                   first=np.full(m, -1, dtype=np.int64), count=np.zeros(m, dtype=np.int64),
-                   pool=np.empty(max(1024, 8 * m), dtype=np.int64))
+        origin = np.asarray(origin, dtype=float)
+        return cls(origin + cell_cm * grid.corners, grid=grid, lazy=True, first=np.full(m, -1, dtype=np.int64),
+                   count=np.zeros(m, dtype=np.int64), pool=np.empty(max(1024, 8 * m), dtype=np.int64),
+                   origin=origin, cell_cm=float(cell_cm))
+
+    def seen_from(self, point: FloatArray) -> IntArray | None:
+        """Grid corners that `point` sees along lines tangent at the corner, when `point` is a lattice point.
+
+        None when the graph is not a grid's or `point` lies off the lattice (the caller then checks
+        the candidates itself).
+        """
+        if not self.lazy:
+            return None
+        cell = (np.asarray(point, dtype=float) - self.origin) / self.cell_cm
+        xy = np.round(cell)
+        h, w = self.grid.free.shape
+        if np.abs(cell - xy).max() > 1e-9 or not (0 <= xy[0] <= w and 0 <= xy[1] <= h):
+            return None
+        f, p, t, f_f, p_f, t_f = self.grid.arrays
+        out, n = seen_from(f, p, t, f_f, p_f, t_f, int(xy[0]), int(xy[1]), 0, self.grid.big,
+                           np.empty((64, 6), dtype=np.int64))
+        ids = self.grid.ids[out[:n, 1], out[:n, 0]]
+        d = xy[None, :].astype(np.int64) - self.grid.corners[ids]
+        quad = self.grid.quadrants[ids]
+        return np.asarray(ids[d[:, 0] * d[:, 1] * quad[:, 0] * quad[:, 1] <= 0])
 
     @property
     def arcs(self) -> int:
