@@ -56,18 +56,19 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.ndimage
 import shapely
 from numpy.typing import NDArray
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
 from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
-from toolkit.world import CollisionChecker, Map
+from toolkit.world import CollisionChecker, Map, PointCollisionChecker
+from toolkit.world.grid_visibility import GridVisibility
 
 from .base import Planner, PlanningProblem
 from .metrics import turn_angle
 from .min_turn import hop_shortest_path
+from .visibility_search import VisibilityGraph
 
 __all__ = [
     "MinLinkPlanner",
@@ -275,6 +276,39 @@ def _tangent_pairs(v: FloatArray, prv: FloatArray, nxt: FloatArray, part: NDArra
     return np.concatenate(rows), np.concatenate(cols)
 
 
+def _exact_grid(problem: PlanningProblem) -> NDArray[np.bool_] | None:
+    """The free cells of a point robot's grid map whose free space is exactly those cells, else None."""
+    checker = problem.checker
+    if problem.robot_radius != 0 or not isinstance(checker, PointCollisionChecker) or not checker.use_grid:
+        return None
+    return checker.cells
+
+
+def _grid_graph(map: Map, free: NDArray[np.bool_], cs: BaseGeometry) -> tuple[Any, ...]:
+    """The reflex corners of a grid map as a lazily scanned graph, with each corner's ring neighbours and part."""
+    g = map.grid
+    assert g is not None
+    gv = GridVisibility.of(free)
+    c = float(g.cell_cm)
+    vg = VisibilityGraph.from_grid(gv, np.asarray(g.origin, dtype=float), c)
+    v, quad = vg.nodes, gv.quadrants
+    prv = v + c * np.column_stack([quad[:, 0], np.zeros(len(quad))])
+    nxt = v + c * np.column_stack([np.zeros(len(quad)), quad[:, 1]])
+    # a corner's part is that of the free cell diagonally opposite its blocked one (4-connected labels)
+    labels, n_labels = scipy.ndimage.label(free)
+    corners = gv.corners
+    cell_i = corners[:, 0] - (quad[:, 0] > 0)
+    cell_j = corners[:, 1] - (quad[:, 1] > 0)
+    rep = np.zeros((n_labels + 1, 2))
+    jj, ii = np.nonzero(labels)
+    rep[labels[jj, ii]] = np.column_stack([ii, jj]) + 0.5  # some cell of each label (the last one listed)
+    rep_cm = np.asarray(g.origin, dtype=float) + c * rep[1:]
+    pt, pa = shapely.STRtree(shapely.get_parts(cs)).query(shapely.points(rep_cm), predicate="intersects")
+    part_of_label = np.full(n_labels + 1, -1, dtype=np.intp)
+    part_of_label[pt + 1] = pa
+    return vg, prv, nxt, part_of_label[labels[cell_j, cell_i]]
+
+
 class ShortestPathPlanner(_ReferencePlanner):
     """Shortest path for the disc: visibility graph over the polygonal configuration space's reflex vertices.
 
@@ -292,10 +326,14 @@ class ShortestPathPlanner(_ReferencePlanner):
     configuration space is the free area itself and the result is exact (tolerance 0): paths may run
     along walls and round corners but never through a pinch point of the map.
 
-    The graph is built once per (map, radius) and kept sparse: only pairs of reflex vertices in the
-    same connected part whose joining line is tangent at both ends are checked (chunked, vectorised),
-    which keeps maps of 10^4 edges within seconds. ``info`` reports ``graph_nodes``,
-    ``graph_edges`` and ``graph_build_s`` (0 when the graph came from the cache).
+    The graph is kept per (map, radius) and searched by A* (`planners.visibility_search`). Its
+    edges join reflex vertices whose joining line is tangent at both ends. On a point robot's grid
+    map (``map.grid``, free space exactly the free cells) they are found lazily and exactly by row
+    sweeps from each corner the search reaches (`toolkit.world.grid_visibility`), so maps of 10^5
+    edges need no all-pairs preprocessing; elsewhere every tangent pair in the same connected part
+    is checked once when the graph is built (chunked, vectorised). ``info`` reports
+    ``graph_nodes``, ``graph_arcs`` (adjacency entries known so far), ``graph_scanned_nodes`` (grid
+    corners swept so far) and ``graph_build_s`` (0 when the graph came from the cache).
     """
 
     name = "shortest"
@@ -303,6 +341,19 @@ class ShortestPathPlanner(_ReferencePlanner):
     def _build(self, problem: PlanningProblem) -> _Graph:
         t0 = time.perf_counter()
         cs = cspace_polygon(problem.map, problem.robot_radius, self.n_sides, self.eps)
+        free = _exact_grid(problem)
+        if free is not None:
+            vg, prv, nxt, part = _grid_graph(problem.map, free, cs)
+            candidates = 0
+        else:
+            v, prv, nxt, part, iu, ju, candidates = self._polygon_graph(problem, cs)
+            vg = VisibilityGraph.from_edges(v, iu, ju)
+        extra = {"prev": prv, "next": nxt, "part": part, "cspace": cs, "search": vg, "candidates": candidates,
+                 "build_s": time.perf_counter() - t0}
+        return _Graph(problem.map, problem.robot_radius, vg.nodes, np.zeros((0, 0), dtype=bool), extra)
+
+    def _polygon_graph(self, problem: PlanningProblem, cs: BaseGeometry) -> tuple[Any, ...]:
+        """Reflex vertices and the checked tangent pairs between them (all pairs tested: O(m^2))."""
         v, reflex, prv, nxt, part = polygon_vertices(cs, parts=True)
         keep = reflex
         if problem.robot_radius == 0 and len(problem.map.pinch_points):
@@ -314,13 +365,7 @@ class ShortestPathPlanner(_ReferencePlanner):
         step = 1 << 16
         for lo in range(0, len(iu), step):
             ok[lo:lo + step] = problem.checker.segments_free(v[iu[lo:lo + step]], v[ju[lo:lo + step]])
-        iu, ju = iu[ok], ju[ok]
-        w = np.hypot(*(v[iu] - v[ju]).T)
-        m = len(v)
-        adj = csr_matrix((np.concatenate([w, w]), (np.concatenate([iu, ju]), np.concatenate([ju, iu]))), shape=(m, m))
-        extra = {"prev": prv, "next": nxt, "part": part, "cspace": cs, "adj": adj, "candidates": len(ok),
-                 "build_s": time.perf_counter() - t0}
-        return _Graph(problem.map, problem.robot_radius, v, np.zeros((0, 0), dtype=bool), extra)
+        return v, prv, nxt, part, iu[ok], ju[ok], len(ok)
 
     def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
         checker = problem.checker
@@ -329,8 +374,7 @@ class ShortestPathPlanner(_ReferencePlanner):
         start, goal = problem.start, problem.goal
         prv, nxt, part = g.extra["prev"], g.extra["next"], g.extra["part"]
         m = len(g.nodes)
-        info: dict[str, Any] = {"graph_nodes": m, "graph_edges": int(g.extra["adj"].nnz // 2),
-                                "graph_build_s": 0.0 if cached else g.extra["build_s"]}
+        info: dict[str, Any] = {"graph_nodes": m, "graph_build_s": 0.0 if cached else g.extra["build_s"]}
         if checker.segment_free(start, goal):
             path = np.array([start, goal])
             info["length_tolerance_cm"] = self._length_tolerance(problem, path)
@@ -340,25 +384,23 @@ class ShortestPathPlanner(_ReferencePlanner):
         same = np.intersect1d(which[0], which[1])
         if not len(same):  # different parts of the configuration space
             return None, "no path", info
+        vg: VisibilityGraph = g.extra["search"]
+        si, gi = vg.seen_from(start), vg.seen_from(goal)  # lattice points of a grid: swept, exactly
         in_part = np.isin(part, same)
-        s_cand = np.flatnonzero(in_part & _tangent(g.nodes, prv, nxt, np.broadcast_to(start, g.nodes.shape)))
-        g_cand = np.flatnonzero(in_part & _tangent(g.nodes, prv, nxt, np.broadcast_to(goal, g.nodes.shape)))
-        si = s_cand[checker.segments_free(np.repeat(start[None], len(s_cand), axis=0), g.nodes[s_cand])]
-        gi = g_cand[checker.segments_free(g.nodes[g_cand], np.repeat(goal[None], len(g_cand), axis=0))]
-        n = m + 2  # nodes: 0..m-1 vertices, m start, m+1 goal
-        adj = g.extra["adj"].tocoo()
-        rows = np.concatenate([adj.row, np.full(len(si), m), gi])
-        cols = np.concatenate([adj.col, si, np.full(len(gi), m + 1)])
-        w = np.concatenate([adj.data, np.hypot(*(g.nodes[si] - start).T), np.hypot(*(g.nodes[gi] - goal).T)])
-        dist, pred = dijkstra(csr_matrix((w, (rows, cols)), shape=(n, n)), directed=True, indices=m,
-                              return_predecessors=True)
-        if not math.isfinite(dist[m + 1]):
+        if si is None:
+            s_cand = np.flatnonzero(in_part & _tangent(g.nodes, prv, nxt, np.broadcast_to(start, g.nodes.shape)))
+            si = s_cand[checker.segments_free(np.repeat(start[None], len(s_cand), axis=0), g.nodes[s_cand])]
+        if gi is None:
+            g_cand = np.flatnonzero(in_part & _tangent(g.nodes, prv, nxt, np.broadcast_to(goal, g.nodes.shape)))
+            gi = g_cand[checker.segments_free(g.nodes[g_cand], np.repeat(goal[None], len(g_cand), axis=0))]
+        goal_seen = np.zeros(m, dtype=bool)
+        goal_seen[gi] = True
+        length, seq = vg.search(start, goal, si, goal_seen)
+        info["graph_arcs"] = vg.arcs
+        info["graph_scanned_nodes"] = vg.scanned
+        if not math.isfinite(length):
             return None, "no path", info
-        allp = np.vstack([g.nodes, start, goal])
-        seq = [m + 1]
-        while seq[-1] != m:
-            seq.append(int(pred[seq[-1]]))
-        path = allp[seq[::-1]]
+        path = np.vstack([start, g.nodes[seq], goal])
         info["length_tolerance_cm"] = self._length_tolerance(problem, path)
         return path, "exact", info
 

@@ -344,3 +344,28 @@ def test_console_script_keeps_stderr_to_one_line(tmp_path: Path) -> None:
                            "-o", str(tmp_path / "p.png")], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_point_robot_on_a_grid_map_file(tmp_path: Path) -> None:
+    """Radius 0 on a Moving AI file: every path is free for the exact point checker, none beats `shortest`."""
+    from toolkit.world import import_map, make_checker
+
+    grid = tmp_path / "g.map"
+    assert run(["maps", "random", "40", "-o", str(grid), "--density", "0.2", "--seed", "2"]) == 0
+    out = tmp_path / "b"
+    assert run(["bench", "planners", "--maps", str(grid), "--planners", "shortest,astar", "--radius", "0",
+                "--queries", "random", "--runs", "4", "--exec-repeats", "0", "--no-plots", "--out", str(out)]) == 0
+    checker = make_checker(import_map(grid), 0.0)
+    best: dict[int, float] = {}
+    lengths: dict[tuple[str, int], float] = {}
+    for line in (out / "paths.jsonl").read_text().splitlines():
+        doc = json.loads(line)
+        assert doc["success"], doc["planner"]
+        p = np.array(doc["path"], float)
+        assert checker.segments_free(p[:-1], p[1:]).all(), (doc["planner"], doc["run"])
+        lengths[(doc["planner"], doc["run"])] = float(np.sum(np.hypot(*np.diff(p, axis=0).T)))
+    for (planner, run_no), length in lengths.items():
+        best[run_no] = lengths[("shortest", run_no)]
+        assert length >= best[run_no] - 1e-9, planner
+    assert len(best) == 4
+    assert run(["bench", "planners", "--maps", str(grid), "--radius", "-1", "--out", str(tmp_path / "c")]) == 2

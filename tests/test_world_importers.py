@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
+from conftest import run_cli
 from PIL import Image
 from scipy import ndimage
 
@@ -19,7 +20,8 @@ from toolkit.world import (
     load_map,
     map_from_dict,
 )
-from toolkit.world.importers import read_movingai_map, read_ros_map
+from toolkit.world.generated import random_occupancy
+from toolkit.world.importers import read_movingai_map, read_ros_map, write_movingai_map
 
 EXTERNAL = Path(__file__).resolve().parents[1] / "maps" / "external"
 REAL_MAPS = {
@@ -226,3 +228,24 @@ def test_ros_errors(tmp_path: Path) -> None:
 def test_grid_to_map_rejects_an_empty_grid() -> None:
     with pytest.raises(MapError, match="no free cell"):
         grid_to_map(OccupancyGrid(np.zeros((3, 3), dtype=bool)), "empty")
+
+
+def test_a_written_movingai_map_reads_back_cell_for_cell(tmp_path: Path) -> None:
+    grid = random_occupancy(13, 7, density=0.3, rng=5)
+    write_movingai_map(grid, tmp_path / "r.map")
+    back = read_movingai_map(tmp_path / "r.map")
+    assert back.free.shape == (7, 13) and np.array_equal(back.free, grid.free)
+    assert not (tmp_path / "r.map.part").exists()
+
+
+def test_maps_random_writes_a_seeded_map_and_never_overwrites_unasked(tmp_path: Path) -> None:
+    out = tmp_path / "r.map"
+    assert run_cli(["maps", "random", "24", "-o", str(out), "--density", "0.25", "--seed", "4"]) == 0
+    first = out.read_text()
+    assert run_cli(["maps", "random", "24", "-o", str(out), "--seed", "5"]) == 2
+    assert out.read_text() == first  # refused, untouched
+    assert run_cli(["maps", "random", "24", "-o", str(out), "--density", "0.25", "--seed", "4", "--force"]) == 0
+    assert out.read_text() == first  # same seed, same map
+    blocked = (~read_movingai_map(out).free).mean()
+    assert 0.1 < blocked < 0.4
+    assert run_cli(["maps", "random", "24", "-o", str(tmp_path / "x.map"), "--density", "1.5"]) == 2

@@ -1,4 +1,4 @@
-"""`nxtnav maps import` and `nxtnav bench scen`: grid maps made elsewhere, and their published optima."""
+"""`nxtnav maps import`, `maps random` and `bench scen`: grid maps made elsewhere, their optima, and big ones."""
 
 from __future__ import annotations
 
@@ -48,6 +48,33 @@ def maps_import(
     holes = sum(len(r.holes) for r in m.regions)
     typer.echo(f"wrote {output}: {m.name}, {len(m.regions)} free region(s), {holes} holes, {len(m.walls)} edges, "
                f"{len(m.pinch_points)} pinch points, free area {m.area / 1e4:.2f} m²")
+
+
+@maps_app.command("random")
+def maps_random(
+    size: int = typer.Argument(..., metavar="SIZE", help="Cells along each side."),
+    output: Path = typer.Option(..., "-o", "--output", metavar="OUT.map", help="Moving AI .map file to write."),
+    density: float = typer.Option(0.2, "--density", help="Probability that each cell is blocked."),
+    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    force: bool = typer.Option(False, "--force", help="Overwrite OUT.map if it exists."),
+) -> None:
+    """Write a SIZE x SIZE grid of independently blocked cells as a Moving AI map (for scaling runs)."""
+    from ..world.generated import random_occupancy
+    from ..world.importers import write_movingai_map
+
+    if size < 1:
+        raise NxtnavError(f"SIZE must be a positive number of cells, got {size}")
+    if not (math.isfinite(density) and 0.0 <= density <= 1.0):
+        raise NxtnavError(f"--density must be in [0, 1], got {density}")
+    if output.suffix != ".map":
+        raise NxtnavError(f"-o: the output must be a .map file, got {output}")
+    if output.exists() and not force:
+        raise NxtnavError(f"-o: {output} exists (use --force to overwrite)")
+    if not output.parent.is_dir():
+        raise NxtnavError(f"-o: folder {output.parent} does not exist")
+    grid = random_occupancy(size, size, density, rng=seed)
+    write_movingai_map(grid, output)
+    typer.echo(f"wrote {output}: {size} x {size} cells, {int((~grid.free).sum())} blocked (seed {seed})")
 
 
 @bench_app.command("scen")

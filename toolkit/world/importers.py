@@ -33,7 +33,8 @@ from .errors import MapError
 from .grids import OccupancyGrid, grid_to_map
 from .maps import Map
 
-__all__ = ["MOVINGAI_BLOCKED", "MOVINGAI_PASSABLE", "import_map", "read_movingai_map", "read_ros_map"]
+__all__ = ["MOVINGAI_BLOCKED", "MOVINGAI_PASSABLE", "import_map", "read_movingai_map", "read_ros_map",
+           "write_movingai_map"]
 
 MOVINGAI_PASSABLE = frozenset(".GS")
 MOVINGAI_BLOCKED = frozenset("@OTW")
@@ -81,6 +82,17 @@ def read_movingai_map(path: str | os.PathLike[str], cell_cm: float = 1.0) -> Occ
         codes = np.frombuffer(row.encode("ascii"), dtype=np.uint8)
         grid[r] = np.isin(codes, np.frombuffer("".join(sorted(MOVINGAI_PASSABLE)).encode(), dtype=np.uint8))
     return OccupancyGrid(np.flipud(grid).copy(), float(cell_cm), (0.0, 0.0))
+
+
+def write_movingai_map(grid: OccupancyGrid, path: str | os.PathLike[str]) -> None:
+    """Write `grid` as a Moving AI octile ``.map`` (``.`` free, ``@`` blocked, top row first), atomically."""
+    p = Path(path)
+    rows = np.where(np.flipud(grid.free), ord("."), ord("@")).astype(np.uint8)
+    h, w = rows.shape
+    body = "\n".join(r.tobytes().decode("ascii") for r in rows)
+    tmp = p.with_name(p.name + ".part")
+    tmp.write_text(f"type octile\nheight {h}\nwidth {w}\nmap\n{body}\n", encoding="ascii")
+    tmp.replace(p)
 
 
 def read_ros_map(path: str | os.PathLike[str], unknown: Unknown = "occupied") -> OccupancyGrid:

@@ -71,8 +71,17 @@ class PointCollisionChecker(CollisionChecker):
         self.use_grid = bool(use_grid) and map.grid is not None
         self.point_checks = 0
         self.segment_checks = 0
+        if self.use_grid and not self._grid_is_exact():
+            self.use_grid = False  # a simplified outline: the cells no longer describe the free space
         if not self.use_grid:
             shapely.prepare(map.polygon)
+
+    def _grid_is_exact(self) -> bool:
+        """Whether the free space is exactly the union of the free cells (not so after ``--simplify``)."""
+        g = self.map.grid
+        assert g is not None
+        area = float(self.map.polygon.area)
+        return abs(area - float(self.cells.sum()) * g.cell_cm ** 2) <= 1e-9 * max(area, 1.0)
 
     @cached_property
     def cells(self) -> NDArray[np.bool_]:

@@ -183,8 +183,8 @@ class BenchmarkConfig:
             raise PlanningError(f"exec repeats must be >= 0, got {self.exec_repeats}")
         if self.queries not in ("presets", "random"):
             raise PlanningError(f"queries must be 'presets' or 'random', got {self.queries!r}")
-        if not (math.isfinite(self.robot_radius) and self.robot_radius > 0):
-            raise PlanningError(f"robot radius must be a positive number of cm, got {self.robot_radius}")
+        if not (math.isfinite(self.robot_radius) and self.robot_radius >= 0):
+            raise PlanningError(f"robot radius must be a number of cm >= 0 (0: a point), got {self.robot_radius}")
 
     def n_queries(self) -> int:
         return len(self.maps) * (1 if self.queries == "presets" else self.runs)

@@ -236,7 +236,7 @@ def _ompl_experiment(result: BenchmarkResult, maps: Sequence[str], name: str) ->
                 rows.append(row)
         planners.append(OmplPlannerData(p, props, rows, {"planner": p, "time_limit": c.time_limit}))
     setup = [f"nxtnav planner benchmark: maps {', '.join(maps)}; queries {c.queries}",
-             f"robot radius {c.robot_radius:g} cm; planners validated by the shared FCL collision checker",
+             f"robot radius {c.robot_radius:g} cm; planners validated by the shared collision checker",
              f"execution error: {c.exec_repeats} open-loop drives, noise {json.dumps(c.noise.to_dict())}"]
     for ref in result.references:
         if ref.query.map in maps:

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from ...world import CollisionChecker, Map, NxtnavError, PlanningError, load_map
+from ...world import CollisionChecker, Map, NxtnavError, PlanningError, load_map, make_checker
 from ..execution import execution_error
 from ..executors import TasksInterrupted, collect_tasks
 from .records import (
@@ -122,7 +122,7 @@ def make_queries(m: Map, mode: QueryMode, runs: int, seed: int, robot_radius: fl
                       (float(m.target[0]), float(m.target[1])))]
     if mode != "random":
         raise PlanningError(f"queries must be 'presets' or 'random', got {mode!r}")
-    checker = CollisionChecker(m, robot_radius)
+    checker = make_checker(m, robot_radius)
     xmin, ymin, xmax, ymax = m.bounds
     sep = 0.25 * math.hypot(xmax - xmin, ymax - ymin)
     out = []
@@ -141,7 +141,7 @@ def _map(name: str) -> Map:
 
 @lru_cache(maxsize=32)
 def _checker(map_name: str, radius: float) -> CollisionChecker:
-    return CollisionChecker(_map(map_name), radius)
+    return make_checker(_map(map_name), radius)
 
 
 def planner_for(name: str, m: Map) -> Any:
