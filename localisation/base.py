@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from toolkit.world import Map, Pose, Registry, RngLike, Scan, as_rng
 
-__all__ = ["LOCALISERS", "Localiser", "Motion", "PoseEstimate", "Prior", "make_localiser"]
+__all__ = ["LOCALISERS", "Localiser", "Mode", "Motion", "PoseEstimate", "Prior", "Snapshot", "make_localiser"]
 
 FloatArray = NDArray[np.float64]
 
@@ -85,6 +85,49 @@ class PoseEstimate:
             "converged": self.converged,
             "iterations": self.iterations,
         }
+
+
+@dataclass(frozen=True, eq=False)
+class Snapshot:
+    """The cloud after one filter iteration (for plots and traces).
+
+    Attributes
+    ----------
+    particles : (n, 3) ndarray
+        x cm, y cm, theta rad (a subsample of at most the requested size).
+    weights : (n,) ndarray
+        Normalised weights of those particles.
+    beta : float
+        Tempering exponent of the iteration (1 = the full likelihood).
+    estimate : PoseEstimate
+    """
+
+    particles: FloatArray
+    weights: FloatArray
+    beta: float
+    estimate: PoseEstimate
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "particles": np.column_stack([self.particles[:, :2], np.degrees(self.particles[:, 2])]).tolist(),
+            "weights": self.weights.tolist(),
+            "beta": self.beta,
+            "estimate": self.estimate.to_dict(),
+        }
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One cluster of the particle cloud: its mean pose, total weight and best log-likelihood."""
+
+    pose: Pose
+    weight: float
+    best_log_likelihood: float
+    count: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"pose": self.pose.to_list_deg(), "weight": self.weight,
+                "best_log_likelihood": self.best_log_likelihood, "count": self.count}
 
 
 class Localiser(ABC):
