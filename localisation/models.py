@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import Map, RngLike, as_rng, ray_cast, wrap_angle
+from toolkit.world import ConfigError, Map, RngLike, as_rng, ray_cast, wrap_angle
 
 from .base import Motion
 from .range_table import (
@@ -95,11 +95,11 @@ class MotionModel:
 
     def __post_init__(self) -> None:
         if self.model not in NOISE_MODELS:
-            raise ValueError(f"noise model must be one of {', '.join(NOISE_MODELS)}, got {self.model!r}")
+            raise ConfigError(f"noise model must be one of {', '.join(NOISE_MODELS)}, got {self.model!r}")
         for k in ("motion", "turn", "inflation"):
             v = getattr(self, k)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"MotionModel.{k} must be a non-negative number, got {v!r}")
+                raise ConfigError(f"MotionModel.{k} must be a non-negative number, got {v!r}")
 
     def sample(self, poses: ArrayLike, motion: Motion, rng: RngLike = None) -> FloatArray:
         """Move every pose of `poses` ((N, 3): x cm, y cm, theta rad) by `motion`, with noise.
@@ -183,9 +183,9 @@ class RangeLikelihood:
 
     def __post_init__(self) -> None:
         if not (self.sigma_cm > 0 and math.isfinite(self.sigma_cm)):
-            raise ValueError(f"sigma_cm must be a positive number, got {self.sigma_cm!r}")
+            raise ConfigError(f"sigma_cm must be a positive number, got {self.sigma_cm!r}")
         if not self.cap > 0:
-            raise ValueError(f"cap must be > 0, got {self.cap!r}")
+            raise ConfigError(f"cap must be > 0, got {self.cap!r}")
 
     def sq_residuals(self, expected: ArrayLike, measured: ArrayLike) -> FloatArray:
         """Sum over beams of the capped squared normalised residuals, (N, B) -> (N,)."""

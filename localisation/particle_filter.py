@@ -32,9 +32,9 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import LocalisationError, Map, Pose, RngLike, Scan, wrap_angle
+from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, wrap_angle
 
-from .base import Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
+from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .clusters import cloud_stats, cluster, describe_modes, mode_stds
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import effective_sample_size, log_normalise, systematic_resample
@@ -135,6 +135,7 @@ class ParticleFilter(Localiser):
     """
 
     name: ClassVar[str] = "paper-pf"
+    model_options: ClassVar[frozenset[str]] = MODEL_OPTIONS
 
     def __init__(
         self,
@@ -178,11 +179,11 @@ class ParticleFilter(Localiser):
     ) -> None:
         super().__init__(map, rng=rng)
         if n_particles < 10 or n_global < n_particles:
-            raise ValueError(f"need 10 <= n_particles <= n_global, got {n_particles}, {n_global}")
+            raise ConfigError(f"need 10 <= n_particles <= n_global, got {n_particles}, {n_global}")
         if not 0.0 < ess_target < 1.0:
-            raise ValueError(f"ess_target must be in (0, 1), got {ess_target}")
+            raise ConfigError(f"ess_target must be in (0, 1), got {ess_target}")
         if max_iterations < 1:
-            raise ValueError(f"max_iterations must be >= 1, got {max_iterations}")
+            raise ConfigError(f"max_iterations must be >= 1, got {max_iterations}")
         self.n_particles = int(n_particles)
         self.n_global = int(n_global)
         self.clearance_cm = float(clearance_cm)
@@ -200,7 +201,7 @@ class ParticleFilter(Localiser):
         self.cluster_coverage = float(cluster_coverage)
         self.per_mode_ess = bool(per_mode_ess)
         if not 0.0 <= mode_share <= 1.0:
-            raise ValueError(f"mode_share must be in [0, 1], got {mode_share}")
+            raise ConfigError(f"mode_share must be in [0, 1], got {mode_share}")
         self.mode_share = float(mode_share)
         self.recovery_threshold = recovery_threshold
         self.use_table = bool(use_table)
@@ -212,9 +213,9 @@ class ParticleFilter(Localiser):
             if use_table else None
         )
         if global_init not in ("lattice", "uniform"):
-            raise ValueError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
+            raise ConfigError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
         if global_init == "lattice" and self.table is None:
-            raise ValueError("global_init='lattice' needs use_table=True")
+            raise ConfigError("global_init='lattice' needs use_table=True")
         self.global_init = global_init
         self.lattice: RangeLattice | None = (
             range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))

@@ -16,17 +16,18 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 
-from toolkit.world import RngLike, Robot, Scan, angle_diff, as_rng
+from toolkit.world import ConfigError, RngLike, Robot, Scan, angle_diff, as_rng
 
 from .base import Localiser, Motion, PoseEstimate, Prior
 from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan
 
-__all__ = ["LocalisationResult", "TraceStep", "free_travel", "localise"]
+__all__ = ["LocalisationResult", "LocaliseProcedure", "TraceStep", "free_travel", "localise"]
 
 log = logging.getLogger(__name__)
 
@@ -123,6 +124,11 @@ class LocalisationResult:
             d["trace"] = [t.to_dict() for t in self.trace]
         return d
 
+
+
+LocaliseProcedure: TypeAlias = Callable[..., LocalisationResult]
+"""The seam the mission and the benchmarks call: ``procedure(robot, localiser, *, prior=..., rng=...,
+**options) -> LocalisationResult``; `localise` is the one the toolkit ships, tests pass stand-ins."""
 
 def free_travel(scan: Scan, radius_cm: float, directions: Any = None) -> tuple[Any, Any]:
     """How far a disc of `radius_cm` can drive along each direction before touching a scanned point.
@@ -229,7 +235,7 @@ def localise(
     """
     gen = as_rng(rng)
     if max_iterations < 1:
-        raise ValueError(f"max_iterations must be >= 1, got {max_iterations}")
+        raise ConfigError(f"max_iterations must be >= 1, got {max_iterations}")
     settings = processing or ScanProcessing()
     radius = float(getattr(getattr(robot, "geometry", None), "radius_cm", 8.0))
     safety = radius + 5.0 if safety_cm is None else float(safety_cm)
@@ -269,10 +275,10 @@ def localise(
         if len(used) < min_valid_readings:
             log.info("processed scan kept %d readings; using all usable readings", len(used))
             used = process_scan(scan, settings, centres_deg=(0.0,), window_deg=180.0).scan
-        n_snap = len(getattr(localiser, "snapshots", ()))
+        n_snap = len(localiser.snapshots)
         timed(localiser.update, used)
         est = localiser.estimate()
-        snaps = tuple(getattr(localiser, "snapshots", ())[n_snap:])
+        snaps = tuple(localiser.snapshots[n_snap:])
         step = TraceStep(it, processed, turn, snaps, est)
         if est.converged or it == max_iterations:
             trace.append(step)

@@ -183,11 +183,11 @@ class RangeTable:
                  critical_incidence_deg: float | None = None, dtype: str = "float32", quantum_cm: float = 0.0,
                  max_range_cm: float | None = None) -> None:
         if not (resolution_cm > 0 and math.isfinite(resolution_cm)):
-            raise ValueError(f"resolution_cm must be a positive number, got {resolution_cm!r}")
+            raise ConfigError(f"resolution_cm must be a positive number, got {resolution_cm!r}")
         if n_angles < 4:
-            raise ValueError(f"n_angles must be >= 4, got {n_angles}")
+            raise ConfigError(f"n_angles must be >= 4, got {n_angles}")
         if dtype not in ("float32", "uint16") or (dtype == "uint16" and not quantum_cm > 0):
-            raise ValueError(f"dtype must be float32 or uint16 with a positive quantum, got {dtype!r}, {quantum_cm!r}")
+            raise ConfigError(f"dtype must be float32 or uint16 with a positive quantum, got {dtype!r}, {quantum_cm!r}")
         self.map_name = map.name
         self.resolution_cm = float(resolution_cm)
         self.n_angles = int(n_angles)
@@ -211,7 +211,7 @@ class RangeTable:
         if ranges is None:
             ranges = self._build(map)
         if ranges.shape != (self.centres.shape[0], self.n_angles) or ranges.dtype != np.dtype(dtype):
-            raise ValueError(f"range table {ranges.shape} {ranges.dtype} does not match the grid / {dtype}")
+            raise ConfigError(f"range table {ranges.shape} {ranges.dtype} does not match the grid / {dtype}")
         self.ranges = np.ascontiguousarray(ranges)
         self._flat = self.ranges.ravel()
         self._k = self.n_angles / TWO_PI
@@ -336,7 +336,7 @@ class RangeLattice:
 
     def __init__(self, table: RangeTable, step: int = 2, clearance_cm: float = 0.0) -> None:
         if step < 1:
-            raise ValueError(f"lattice step must be >= 1 cell, got {step}")
+            raise ConfigError(f"lattice step must be >= 1 cell, got {step}")
         nx, ny = table.shape
         ix, iy = np.meshgrid(np.arange(0, nx, step), np.arange(0, ny, step), indexing="ij")
         flat = (ix * ny + iy).ravel()

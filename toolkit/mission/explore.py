@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
@@ -14,15 +13,6 @@ from ..world import (
     angle_diff,
     as_rng,
 )
-
-
-def _raw_scan_of(result: Any) -> Scan | None:
-    """The last raw scan of a localisation result (`LocalisationResult.trace[-1].scan.raw`), if any."""
-    trace = getattr(result, "trace", None)
-    if not trace:
-        return None
-    scan = getattr(getattr(trace[-1], "scan", None), "raw", None)
-    return scan if isinstance(scan, Scan) else None
 
 
 def explore_direction(scan: Scan, clearance_cm: float, rng: np.random.Generator | None = None,

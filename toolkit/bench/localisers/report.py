@@ -13,7 +13,6 @@ import numpy as np
 from localisation.base import LOCALISERS
 
 from .records import COLUMNS, SUCCESS_CM, SUCCESS_DEG, BenchConfig, TrialResult
-from .runner import lobe_options
 
 
 def _fmt(v: Any) -> Any:
@@ -164,9 +163,9 @@ def write_summary(
         + ("the paper's processing (align to the minimum reading, rescan, keep +-15 degrees around "
            "0/90/180/270)" if config.scan_processing == "paper" else "raw (every usable reading)"),
     ]
-    lobed = [n for n in localisers if lobe_options(config, n)]
+    lobed = [n for n in localisers if config.lobe_for(n)]
     if lobed:
-        ex = lobe_options(config, lobed[0])
+        ex = config.lobe_for(lobed[0])
         lines.append(f"- sonar lobe given to the localisers that model it ({', '.join(lobed)}): "
                      + ", ".join(f"`{k}={v:g}`" for k, v in ex.items()) + " (`--lobe auto`); the others use a thin ray")
     elif config.lobe == "off" and config.sonar != "ideal":
