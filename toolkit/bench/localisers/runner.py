@@ -21,10 +21,10 @@ from toolkit.world import (
     Pose,
     RobotGeometry,
     Scan,
-    load_map,
     wrap_angle,
 )
 
+from ..common import cached_map
 from .records import (
     SCENARIOS,
     BenchConfig,
@@ -180,15 +180,6 @@ def make_tasks(
     ]
 
 
-_MAPS: dict[str, Map] = {}
-
-
-def _map(name: str) -> Map:
-    if name not in _MAPS:
-        _MAPS[name] = load_map(name)
-    return _MAPS[name]
-
-
 def run_trial(task: TrialTask) -> TrialResult:
     """Run one trial (a top-level function, so it pickles for process pools and Dask).
 
@@ -225,7 +216,7 @@ def _trial_streams(task: TrialTask) -> tuple[np.random.Generator, np.random.Gene
 
 
 def _run_global(task: TrialTask) -> GlobalRun:
-    m = _map(task.map)
+    m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
     truth = m.random_pose(pose_rng, task.config.clearance_cm)
     out, _, loc = localise_once(m, truth, task.localiser, config=task.config, rng=run_rng)
@@ -266,7 +257,7 @@ def scripted_drive(m: Map, start: Pose, steps: int, step_cm: tuple[float, float]
 
 def _run_tracking(task: TrialTask) -> TrackingRun:
     cfg = task.config
-    m = _map(task.map)
+    m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
     truth = m.random_pose(pose_rng, cfg.clearance_cm)
     drive = scripted_drive(m, truth, cfg.tracking_steps, cfg.tracking_step_cm, pose_rng)
@@ -326,7 +317,7 @@ def _scan_preparer(loc: Localiser, processing: str) -> Callable[[Scan], Scan]:
 
 def _run_kidnapped(task: TrialTask) -> KidnappedRun:
     cfg = task.config
-    m = _map(task.map)
+    m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
     truth = m.random_pose(pose_rng, cfg.clearance_cm)
     t0 = time.perf_counter()

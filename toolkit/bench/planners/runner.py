@@ -18,6 +18,7 @@ from planners.metrics import count_turns, path_length, path_metrics
 
 from ...seeds import derive_seed
 from ...world import CollisionChecker, Map, NxtnavError, PlanningError, load_map, make_checker
+from ..common import cached_map
 from ..execution import execution_error
 from ..executors import TasksInterrupted, collect_tasks
 from .records import (
@@ -105,13 +106,8 @@ def make_queries(m: Map, mode: QueryMode, runs: int, seed: int, robot_radius: fl
 
 # -- per-process caches --------------------------------------------------------------------------
 @lru_cache(maxsize=32)
-def _map(name: str) -> Map:
-    return load_map(name)
-
-
-@lru_cache(maxsize=32)
 def _checker(map_name: str, radius: float) -> CollisionChecker:
-    return make_checker(_map(map_name), radius)
+    return make_checker(cached_map(map_name), radius)
 
 
 def planner_for(name: str, m: Map) -> Any:
@@ -132,7 +128,7 @@ def planner_for(name: str, m: Map) -> Any:
 
 @lru_cache(maxsize=64)
 def _planner(name: str, map_name: str) -> Any:
-    return planner_for(name, _map(map_name))
+    return planner_for(name, cached_map(map_name))
 
 
 def _path_tuple(path: np.ndarray) -> tuple[tuple[float, float], ...]:
@@ -149,9 +145,9 @@ def run_reference(task: ReferenceTask) -> ReferenceResult:
     for name in REFERENCE_PLANNERS:
         planner = _planner(name, q.map)
         if planner is None:
-            statuses.append(f"{name}: skipped on a map of {len(_map(q.map).walls)} walls")
+            statuses.append(f"{name}: skipped on a map of {len(cached_map(q.map).walls)} walls")
             continue
-        problem = PlanningProblem(_map(q.map), checker, np.array(q.start), np.array(q.goal), task.time_limit,
+        problem = PlanningProblem(cached_map(q.map), checker, np.array(q.start), np.array(q.goal), task.time_limit,
                                   np.random.default_rng(0))
         res = planner.plan(problem)
         statuses.append(f"{name}: {res.status}")
@@ -177,7 +173,7 @@ def run_task(task: RunTask) -> RunRecord:
     A planner that raises is recorded as a failed run with status ``error: ...`` (never lost).
     """
     q = task.query
-    m = _map(task.map)
+    m = cached_map(task.map)
     checker = _checker(task.map, task.robot_radius)
     plan_ss, exec_ss, _ = _streams(task.seed)
     base: dict[str, Any] = {"map": task.map, "planner": task.planner, "run": task.run, "seed": task.seed,
