@@ -327,7 +327,7 @@ def test_plan_bad_inputs_exit_2_with_one_line(args: list[str], needle: str, tmp_
 
 def test_console_script_keeps_stderr_to_one_line(tmp_path: Path) -> None:
     exe = nxtnav_exe()
-    proc = subprocess.run([exe, "plan", "--map", "map1", "--planner", "min-turn", "--start", "3,3",
+    proc = subprocess.run_cli([exe, "plan", "--map", "map1", "--planner", "min-turn", "--start", "3,3",
                            "-o", str(tmp_path / "p.png")], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1
@@ -338,9 +338,9 @@ def test_point_robot_on_a_grid_map_file(tmp_path: Path) -> None:
     from toolkit.world import import_map, make_checker
 
     grid = tmp_path / "g.map"
-    assert run(["maps", "random", "40", "-o", str(grid), "--density", "0.2", "--seed", "2"]) == 0
+    assert run_cli(["maps", "random", "40", "-o", str(grid), "--density", "0.2", "--seed", "2"]) == 0
     out = tmp_path / "b"
-    assert run(["bench", "planners", "--maps", str(grid), "--planners", "shortest,astar", "--radius", "0",
+    assert run_cli(["bench", "planners", "--maps", str(grid), "--planners", "shortest,astar", "--radius", "0",
                 "--queries", "random", "--runs", "4", "--exec-repeats", "0", "--no-plots", "--out", str(out)]) == 0
     checker = make_checker(import_map(grid), 0.0)
     best: dict[int, float] = {}
@@ -355,4 +355,4 @@ def test_point_robot_on_a_grid_map_file(tmp_path: Path) -> None:
         best[run_no] = lengths[("shortest", run_no)]
         assert length >= best[run_no] - 1e-9, planner
     assert len(best) == 4
-    assert run(["bench", "planners", "--maps", str(grid), "--radius", "-1", "--out", str(tmp_path / "c")]) == 2
+    assert run_cli(["bench", "planners", "--maps", str(grid), "--radius", "-1", "--out", str(tmp_path / "c")]) == 2
