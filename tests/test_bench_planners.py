@@ -327,7 +327,7 @@ def test_plan_bad_inputs_exit_2_with_one_line(args: list[str], needle: str, tmp_
 
 def test_console_script_keeps_stderr_to_one_line(tmp_path: Path) -> None:
     exe = nxtnav_exe()
-    proc = subprocess.run_cli([exe, "plan", "--map", "map1", "--planner", "min-turn", "--start", "3,3",
+    proc = subprocess.run([exe, "plan", "--map", "map1", "--planner", "min-turn", "--start", "3,3",
                            "-o", str(tmp_path / "p.png")], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1
