@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test lint typecheck bench figures clean
+.PHONY: run test test-fast lint typecheck bench figures clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,12 @@ test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
+
+# the same without the slow end-to-end checks (pytest -m "not slow"), for a quick loop while editing
+test-fast: $(STAMP)
+	$(BIN)/ruff check toolkit planners localisation tests notebooks
+	$(BIN)/mypy
+	$(BIN)/python -m pytest -q -m "not slow"
 
 bench: $(STAMP)
 	$(BIN)/nxtnav bench world --map map1

@@ -8,30 +8,27 @@ filters' ``modes``) report them; the others never call themselves ambiguous.
 
 from __future__ import annotations
 
-from typing import Any
-
 from toolkit.world import Pose
+
+from .base import Localiser
 
 __all__ = ["candidate_poses", "describe_candidates"]
 
 
-def candidate_poses(localiser: Any) -> list[Pose]:
+def candidate_poses(localiser: Localiser | None) -> list[Pose]:
     """The mean poses of the belief's plausible modes, heaviest first, when there are two or more.
 
     Parameters
     ----------
     localiser : Localiser
-        Any localiser; one without ``modes`` (or with a single mode) gives ``[]``.
+        Any localiser (None: not built yet); one that tracks no modes (or has a single mode) gives ``[]``.
 
     Returns
     -------
     list of Pose
         Candidate poses (cm, cm, rad); empty when the belief is not ambiguous.
     """
-    modes = getattr(localiser, "modes", None)  # a property (the particle filters) or a method
-    if callable(modes):
-        modes = modes()
-    found = list(modes or [])
+    found = [] if localiser is None else localiser.modes
     return [m.pose for m in found] if len(found) > 1 else []
 
 

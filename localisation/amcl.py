@@ -53,9 +53,19 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from toolkit.world import LocalisationError, Map, Pose, RngLike, Scan, angle_diff, circular_mean, wrap_angle
+from toolkit.world import (
+    ConfigError,
+    LocalisationError,
+    Map,
+    Pose,
+    RngLike,
+    Scan,
+    angle_diff,
+    circular_mean,
+    wrap_angle,
+)
 
-from .base import Localiser, Motion, PoseEstimate, Prior
+from .base import MODEL_OPTIONS, Localiser, Motion, PoseEstimate, Prior
 from .models import MotionModel, RangeLattice, RangeTable, range_lattice, range_table
 from .resampling import log_normalise, systematic_resample
 
@@ -100,7 +110,7 @@ class DistanceField:
 
     def __init__(self, map: Map, resolution_cm: float = 0.5, max_dist_cm: float = 20.0) -> None:
         if not (resolution_cm > 0 and math.isfinite(resolution_cm)):
-            raise ValueError(f"field resolution must be a positive number of cm, got {resolution_cm!r}")
+            raise ConfigError(f"field resolution must be a positive number of cm, got {resolution_cm!r}")
         xmin, ymin, xmax, ymax = map.bounds
         self.resolution_cm = float(resolution_cm)
         self.max_dist_cm = float(max_dist_cm)
@@ -188,6 +198,7 @@ class Amcl(Localiser):
     """
 
     name: ClassVar[str] = "amcl"
+    model_options: ClassVar[frozenset[str]] = MODEL_OPTIONS - {"sensor_sigma_cm", "max_range_cm"}
 
     def __init__(
         self,
@@ -232,19 +243,19 @@ class Amcl(Localiser):
     ) -> None:
         super().__init__(map, rng=rng)
         if model not in AMCL_MODELS:
-            raise ValueError(f"amcl model must be one of {', '.join(AMCL_MODELS)}, got {model!r}")
+            raise ConfigError(f"amcl model must be one of {', '.join(AMCL_MODELS)}, got {model!r}")
         if not 1 <= min_particles <= max_particles:
-            raise ValueError(f"need 1 <= min_particles <= max_particles, got {min_particles}, {max_particles}")
+            raise ConfigError(f"need 1 <= min_particles <= max_particles, got {min_particles}, {max_particles}")
         if not (0 < pf_err < 1 and pf_z > 0):
-            raise ValueError(f"need 0 < pf_err < 1 and pf_z > 0, got {pf_err}, {pf_z}")
+            raise ConfigError(f"need 0 < pf_err < 1 and pf_z > 0, got {pf_err}, {pf_z}")
         if not (0 <= recovery_alpha_slow <= 1 and 0 <= recovery_alpha_fast <= 1):
-            raise ValueError("recovery_alpha_slow and recovery_alpha_fast must be in [0, 1]")
+            raise ConfigError("recovery_alpha_slow and recovery_alpha_fast must be in [0, 1]")
         if recovery_sampler not in ("scan", "uniform") or global_init not in ("scan", "uniform"):
-            raise ValueError("recovery_sampler and global_init must be 'scan' or 'uniform'")
+            raise ConfigError("recovery_sampler and global_init must be 'scan' or 'uniform'")
         if sigma_hit <= 0 or laser_max_range <= 0 or min(z_hit, z_short, z_rand) < 0 or z_hit + z_short + z_rand <= 0:
-            raise ValueError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
+            raise ConfigError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
         if resample_interval < 1 or kld_bin_cm <= 0 or kld_bin_deg <= 0:
-            raise ValueError("resample_interval must be >= 1 and the KLD bins positive")
+            raise ConfigError("resample_interval must be >= 1 and the KLD bins positive")
         self.model = model if model != "auto" else ("beam" if beam_width_deg > 0 else "field")
         self.min_particles, self.max_particles = int(min_particles), int(max_particles)
         self.pf_err, self.pf_z = float(pf_err), float(pf_z)

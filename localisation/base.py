@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -18,11 +19,26 @@ from numpy.typing import NDArray
 
 from toolkit.world import Map, Pose, Registry, RngLike, Scan, as_rng
 
-__all__ = ["LOCALISERS", "Localiser", "Motion", "PoseEstimate", "Prior", "make_localiser"]
+__all__ = [
+    "LOCALISERS",
+    "MODEL_OPTIONS",
+    "Localiser",
+    "Mode",
+    "Motion",
+    "PoseEstimate",
+    "Prior",
+    "Snapshot",
+    "make_localiser",
+]
 
 FloatArray = NDArray[np.float64]
 
 LOCALISERS: Registry[Localiser] = Registry("localiser")
+
+MODEL_OPTIONS = frozenset({"noise_model", "motion_noise", "turn_noise", "sensor_sigma_cm", "beam_width_deg",
+                           "critical_incidence_deg", "max_range_cm", "clearance_cm"})
+"""Constructor options that describe the robot rather than the algorithm: motion noise (model, cm or
+fraction, rad or fraction), sonar noise (cm), sonar lobe (deg), range limit (cm), robot radius (cm)."""
 
 
 @dataclass(frozen=True)
@@ -87,6 +103,49 @@ class PoseEstimate:
         }
 
 
+@dataclass(frozen=True, eq=False)
+class Snapshot:
+    """The cloud after one filter iteration (for plots and traces).
+
+    Attributes
+    ----------
+    particles : (n, 3) ndarray
+        x cm, y cm, theta rad (a subsample of at most the requested size).
+    weights : (n,) ndarray
+        Normalised weights of those particles.
+    beta : float
+        Tempering exponent of the iteration (1 = the full likelihood).
+    estimate : PoseEstimate
+    """
+
+    particles: FloatArray
+    weights: FloatArray
+    beta: float
+    estimate: PoseEstimate
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "particles": np.column_stack([self.particles[:, :2], np.degrees(self.particles[:, 2])]).tolist(),
+            "weights": self.weights.tolist(),
+            "beta": self.beta,
+            "estimate": self.estimate.to_dict(),
+        }
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One cluster of the particle cloud: its mean pose, total weight and best log-likelihood."""
+
+    pose: Pose
+    weight: float
+    best_log_likelihood: float
+    count: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"pose": self.pose.to_list_deg(), "weight": self.weight,
+                "best_log_likelihood": self.best_log_likelihood, "count": self.count}
+
+
 class Localiser(ABC):
     """Base class of localisers; subclasses set `name` and implement the four methods.
 
@@ -100,6 +159,11 @@ class Localiser(ABC):
 
     name: ClassVar[str]
     needs_prior: ClassVar[bool] = False
+    model_options: ClassVar[frozenset[str]] = frozenset()
+    """Which of `MODEL_OPTIONS` (the robot's motion and sonar model) the constructor takes: the options
+    `localisation.sonar_options.matched_localiser_options` hands it."""
+    snapshots: Sequence[Snapshot] = ()
+    """The cloud after each iteration, for localisers that keep it (the particle filters); empty otherwise."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -125,6 +189,12 @@ class Localiser(ABC):
     @abstractmethod
     def estimate(self) -> PoseEstimate:
         """The current belief."""
+
+    @property
+    def modes(self) -> list[Mode]:
+        """The belief's plausible modes, heaviest first (two or more: ambiguous); empty for localisers
+        that do not track modes."""
+        return []
 
 
 def make_localiser(name: str, map: Map, *, rng: RngLike = None, **options: Any) -> Localiser:

@@ -9,7 +9,7 @@
     (x cm, y cm, theta rad), the `MotionModel` for prediction, and a measurement of up to
     `max_beams` selected sonar ranges predicted by exact ray casting. They need a prior.
 
-filterpy's defects and the workarounds here (DESIGN.md section 6; each is tested):
+filterpy's defects and the workarounds here (docs/localisers.md, "filterpy 2.0 defects"; each is tested):
 
 1. ``residual_resample`` is biased: it draws the remainder from ``w - floor(N w)`` instead of
    ``N w - floor(N w)`` (upstream issue 290); the remainder weights can be negative and the draw is
@@ -50,7 +50,7 @@ from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, Unscen
 from filterpy.monte_carlo import resampling as fp_resampling
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import LocalisationError, Map, Pose, RngLike, Scan, angle_diff, wrap_angle
+from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, angle_diff, wrap_angle
 
 from .base import Localiser, Motion, PoseEstimate, Prior
 from .models import MotionModel, exact_ranges
@@ -299,7 +299,7 @@ class KalmanLocaliser(Localiser):
     ) -> None:
         super().__init__(map, rng=rng)
         if not sensor_sigma_cm > 0:
-            raise ValueError(f"sensor_sigma_cm must be > 0, got {sensor_sigma_cm}")
+            raise ConfigError(f"sensor_sigma_cm must be > 0, got {sensor_sigma_cm}")
         self.sensor_sigma_cm = float(sensor_sigma_cm)
         self.motion_model = MotionModel(noise_model, motion_noise, turn_noise, motion_inflation)
         self.max_beams = int(max_beams)

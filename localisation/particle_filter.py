@@ -27,15 +27,15 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import LocalisationError, Map, Pose, RngLike, Scan, angle_diff, circular_mean, wrap_angle
+from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, wrap_angle
 
-from .base import Localiser, Motion, PoseEstimate, Prior
+from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
+from .clusters import cloud_stats, cluster, describe_modes, mode_stds
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import effective_sample_size, log_normalise, systematic_resample
 
@@ -45,61 +45,6 @@ log = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-
-
-@dataclass(frozen=True, eq=False)
-class Snapshot:
-    """The cloud after one filter iteration (for plots and traces).
-
-    Attributes
-    ----------
-    particles : (n, 3) ndarray
-        x cm, y cm, theta rad (a subsample of at most the requested size).
-    weights : (n,) ndarray
-        Normalised weights of those particles.
-    beta : float
-        Tempering exponent of the iteration (1 = the full likelihood).
-    estimate : PoseEstimate
-    """
-
-    particles: FloatArray
-    weights: FloatArray
-    beta: float
-    estimate: PoseEstimate
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "particles": np.column_stack([self.particles[:, :2], np.degrees(self.particles[:, 2])]).tolist(),
-            "weights": self.weights.tolist(),
-            "beta": self.beta,
-            "estimate": self.estimate.to_dict(),
-        }
-
-
-@dataclass(frozen=True)
-class Mode:
-    """One cluster of the particle cloud: its mean pose, total weight and best log-likelihood."""
-
-    pose: Pose
-    weight: float
-    best_log_likelihood: float
-    count: int
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"pose": self.pose.to_list_deg(), "weight": self.weight,
-                "best_log_likelihood": self.best_log_likelihood, "count": self.count}
-
-
-def _cloud_stats(p: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Weighted mean pose (3,) and covariance (3, 3) with a circular heading."""
-    mx = float(np.dot(w, p[:, 0]))
-    my = float(np.dot(w, p[:, 1]))
-    mt = float(circular_mean(p[:, 2], w))
-    d = np.column_stack([p[:, 0] - mx, p[:, 1] - my, angle_diff(p[:, 2], mt)])
-    dw = d * w[:, None]
-    # einsum rather than a BLAS matmul: a (3, N) x (N, 3) product is dominated by thread start-up
-    cov = np.einsum("ni,nj->ij", dw, d)
-    return np.array([mx, my, mt]), 0.5 * (cov + cov.T)
 
 
 class ParticleFilter(Localiser):
@@ -190,6 +135,7 @@ class ParticleFilter(Localiser):
     """
 
     name: ClassVar[str] = "paper-pf"
+    model_options: ClassVar[frozenset[str]] = MODEL_OPTIONS
 
     def __init__(
         self,
@@ -233,11 +179,11 @@ class ParticleFilter(Localiser):
     ) -> None:
         super().__init__(map, rng=rng)
         if n_particles < 10 or n_global < n_particles:
-            raise ValueError(f"need 10 <= n_particles <= n_global, got {n_particles}, {n_global}")
+            raise ConfigError(f"need 10 <= n_particles <= n_global, got {n_particles}, {n_global}")
         if not 0.0 < ess_target < 1.0:
-            raise ValueError(f"ess_target must be in (0, 1), got {ess_target}")
+            raise ConfigError(f"ess_target must be in (0, 1), got {ess_target}")
         if max_iterations < 1:
-            raise ValueError(f"max_iterations must be >= 1, got {max_iterations}")
+            raise ConfigError(f"max_iterations must be >= 1, got {max_iterations}")
         self.n_particles = int(n_particles)
         self.n_global = int(n_global)
         self.clearance_cm = float(clearance_cm)
@@ -255,7 +201,7 @@ class ParticleFilter(Localiser):
         self.cluster_coverage = float(cluster_coverage)
         self.per_mode_ess = bool(per_mode_ess)
         if not 0.0 <= mode_share <= 1.0:
-            raise ValueError(f"mode_share must be in [0, 1], got {mode_share}")
+            raise ConfigError(f"mode_share must be in [0, 1], got {mode_share}")
         self.mode_share = float(mode_share)
         self.recovery_threshold = recovery_threshold
         self.use_table = bool(use_table)
@@ -267,9 +213,9 @@ class ParticleFilter(Localiser):
             if use_table else None
         )
         if global_init not in ("lattice", "uniform"):
-            raise ValueError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
+            raise ConfigError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
         if global_init == "lattice" and self.table is None:
-            raise ValueError("global_init='lattice' needs use_table=True")
+            raise ConfigError("global_init='lattice' needs use_table=True")
         self.global_init = global_init
         self.lattice: RangeLattice | None = (
             range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
@@ -502,7 +448,7 @@ class ParticleFilter(Localiser):
             beta = new_beta
             log_w = log_w - np.max(log_w)
             self.iterations += 1
-            labels, log_masses = self._cluster(p, log_w)
+            labels, log_masses = cluster(p, log_w, self.mode_radius_cm, self.mode_heading_rad, self.max_modes)
             total = math.log(float(np.exp(log_w).sum()))
             clustered = bool(np.exp(log_masses - total).sum() >= self.cluster_coverage)
             keep = np.zeros(0, dtype=np.int64)
@@ -522,12 +468,12 @@ class ParticleFilter(Localiser):
                     mk = labels == k
                     log_w[mk] += lmk - log_masses[k]
             w = log_normalise(log_w)
-            mean, cov = _cloud_stats(p, w)
+            mean, cov = cloud_stats(p, w)
             self.particles, self.log_weights = p, np.log(np.maximum(w, 1e-300))
             s_kept = s  # residuals of the particles kept (p and s are resampled below)
-            stds = self._mode_stds(p, w, labels, keep) if clustered else np.zeros((0, 2))
+            stds = mode_stds(p, w, labels, keep) if clustered else np.zeros((0, 2))
             if beta >= 1.0 and clustered:
-                self._modes = self._describe_modes(p, w, s, labels, keep)
+                self._modes = describe_modes(p, w, s, labels, keep)
                 narrow = bool(np.all(stds[:, 0] < self.converged_xy_cm)
                               and np.all(stds[:, 1] < self.converged_heading_rad))
                 if narrow:
@@ -593,45 +539,6 @@ class ParticleFilter(Localiser):
             off = ~(np.abs(expected - meas) <= 3.0 * self.likelihood.sigma_cm)
         return float(np.mean(off))
 
-    def _mode_stds(self, p: FloatArray, w: FloatArray, labels: IntArray, keep: IntArray) -> FloatArray:
-        """(K, 2) spread of each kept mode: sqrt(var x + var y) (cm) and heading std (rad)."""
-        out = np.zeros((keep.size, 2))
-        for i, k in enumerate(keep):
-            members = labels == k
-            wk = w[members]
-            wk = wk / wk.sum() if wk.sum() > 0 else np.full(wk.size, 1.0 / wk.size)
-            _, c = _cloud_stats(p[members], wk)
-            out[i] = math.sqrt(max(c[0, 0] + c[1, 1], 0.0)), math.sqrt(max(c[2, 2], 0.0))
-        return out
-
-    def _cluster(self, p: FloatArray, log_w: FloatArray) -> tuple[IntArray, FloatArray]:
-        """Greedy clustering: the heaviest unassigned particle seeds a mode of its neighbours.
-
-        Returns a label per particle (-1: in none of the `max_modes` clusters) and the clusters' log
-        weights (log-sum-exp of their members' log weights, so a twin of negligible weight is still
-        seen).
-        """
-        labels = np.full(p.shape[0], -1, dtype=np.int64)
-        log_masses: list[float] = []
-        order = np.argsort(-log_w, kind="stable")
-        free = np.isfinite(log_w)
-        r2 = self.mode_radius_cm**2
-        pos = 0
-        for k in range(self.max_modes):
-            while pos < order.size and not free[order[pos]]:
-                pos += 1
-            if pos >= order.size:
-                break
-            seed = p[order[pos]]
-            member = free & ((p[:, 0] - seed[0]) ** 2 + (p[:, 1] - seed[1]) ** 2 <= r2)
-            member &= np.abs(angle_diff(p[:, 2], seed[2])) <= self.mode_heading_rad
-            labels[member] = k
-            free &= ~member
-            lw = log_w[member]
-            top = float(lw.max())
-            log_masses.append(top + math.log(float(np.exp(lw - top).sum())))
-        return labels, np.asarray(log_masses, dtype=float)
-
     def _resample_modes(self, w: FloatArray, labels: IntArray, keep: IntArray, log_mode_w: FloatArray,
                         stds: FloatArray) -> tuple[IntArray, FloatArray, FloatArray]:
         """Resample each kept mode on its own, keeping its weight (the mode survives resampling).
@@ -657,20 +564,6 @@ class ParticleFilter(Localiser):
             std_parts.append(np.broadcast_to(stds[i], (int(ck), 2)))
         return np.concatenate(idx_parts), np.concatenate(lw_parts), np.concatenate(std_parts)
 
-    def _describe_modes(self, p: FloatArray, w: FloatArray, s: FloatArray, labels: IntArray,
-                        keep: IntArray) -> list[Mode]:
-        modes = []
-        total = sum(float(w[labels == k].sum()) for k in keep)
-        for k in keep:
-            members = labels == k
-            wk = w[members]
-            mass = float(wk.sum())
-            wk = wk / mass if mass > 0 else np.full(wk.size, 1.0 / wk.size)
-            mean, _ = _cloud_stats(p[members], wk)
-            modes.append(Mode(Pose.from_array(mean), mass / total,
-                              float(-0.5 * np.min(s[members])), int(members.sum())))
-        return sorted(modes, key=lambda md: -md.weight)
-
     def _record(self, p: FloatArray, w: FloatArray, beta: float, mean: FloatArray, cov: FloatArray) -> None:
         if self.snapshot_size <= 0:
             return
@@ -683,7 +576,7 @@ class ParticleFilter(Localiser):
         self.snapshots.append(Snapshot(sp.copy(), sw.copy(), float(beta), est))
 
     def _estimate_from(self, p: FloatArray, w: FloatArray) -> PoseEstimate:
-        mean, cov = _cloud_stats(p, w)
+        mean, cov = cloud_stats(p, w)
         return PoseEstimate(Pose.from_array(mean), cov, self._converged, self.iterations)
 
     def _make_estimate(self) -> PoseEstimate:

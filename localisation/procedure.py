@@ -16,17 +16,18 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 
-from toolkit.world import RngLike, Robot, Scan, angle_diff, as_rng
+from toolkit.world import ConfigError, RngLike, Robot, Scan, angle_diff, as_rng
 
-from .base import Localiser, Motion, PoseEstimate, Prior
+from .base import Localiser, Motion, PoseEstimate, Prior, Snapshot
 from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan
 
-__all__ = ["LocalisationResult", "TraceStep", "free_travel", "localise"]
+__all__ = ["LocalisationResult", "LocaliseProcedure", "TraceStep", "free_travel", "localise", "open_direction"]
 
 log = logging.getLogger(__name__)
 
@@ -55,7 +56,7 @@ class TraceStep:
     iteration: int
     scan: ProcessedScan
     aligned_turn_rad: float
-    snapshots: tuple[Any, ...]
+    snapshots: tuple[Snapshot, ...]
     estimate: PoseEstimate
     explore: Motion | None = None
 
@@ -124,6 +125,11 @@ class LocalisationResult:
         return d
 
 
+
+LocaliseProcedure: TypeAlias = Callable[..., LocalisationResult]
+"""The seam the mission and the benchmarks call: ``procedure(robot, localiser, *, prior=..., rng=...,
+**options) -> LocalisationResult``; `localise` is the one the toolkit ships, tests pass stand-ins."""
+
 def free_travel(scan: Scan, radius_cm: float, directions: Any = None) -> tuple[Any, Any]:
     """How far a disc of `radius_cm` can drive along each direction before touching a scanned point.
 
@@ -147,29 +153,40 @@ def free_travel(scan: Scan, radius_cm: float, directions: Any = None) -> tuple[A
     return phi, free
 
 
-def _explore_direction(scan: Scan, rng: np.random.Generator, avoid_rad: float | None,
-                       radius_cm: float) -> tuple[float, float]:
-    """Direction (rad, relative) with the longest free travel for the robot's disc, and that travel (cm).
+def open_direction(scan: Scan, clearance_cm: float, rng: RngLike = None, avoid_rad: float | None = None, *,
+                   avoid_deg: float = 60.0, open_cm: float | None = None, clip_to_readings: bool = True,
+                   need_open: bool = False) -> tuple[float, float]:
+    """Where to drive to break an ambiguous belief, from one scan alone (no pose needed).
 
-    Readings are the only information used (no pose). Among directions within 2 cm of the longest
-    travel, one is picked at random; directions pointing back where the robot came from (within 60
-    degrees of `avoid_rad`) are used only when nothing else is open. Directions limited by no
-    reading are never chosen: a missing echo (255) is as likely a wall seen at a glancing angle as open
-    space (the arrow tips of map3 read 255 to a real sensor), and driving into it explores nothing.
+    For every usable reading direction, the free run of a disc of radius `clearance_cm` along it
+    (`free_travel`; with `clip_to_readings`, never beyond the reading itself: a missing echo is as
+    likely a wall seen at a glancing angle as open space). Among the directions within 2 cm of the
+    longest run one is picked at random; directions within `avoid_deg` of `avoid_rad` (where the robot
+    came from) only when no other one runs beyond `open_cm` (default `clearance_cm`).
+
+    Returns
+    -------
+    (float, float)
+        The direction (rad, relative to the heading) and its free run (cm); (0, 0) when no reading is
+        usable, or, with `need_open`, when no run is longer than `open_cm` (then nothing is drawn).
     """
     ok = scan.valid & np.isfinite(scan.ranges)
     if not ok.any():
         return 0.0, 0.0
-    phi, free = free_travel(scan, radius_cm, scan.angles[ok])
-    free = np.minimum(free, scan.ranges[ok])
+    enough = clearance_cm if open_cm is None else open_cm
+    phi, free = free_travel(scan, clearance_cm, scan.angles[ok])
+    if clip_to_readings:
+        free = np.minimum(free, scan.ranges[ok])
     score = free.copy()
     if avoid_rad is not None:
-        back = np.abs(angle_diff(phi, avoid_rad)) < math.radians(60.0)
-        if (score[~back] > radius_cm).any():
+        back = np.abs(angle_diff(phi, avoid_rad)) < math.radians(avoid_deg)
+        if (score[~back] > enough).any():
             score = np.where(back, -np.inf, score)
     best = float(np.max(score))
+    if need_open and best <= enough:
+        return 0.0, 0.0
     cand = np.flatnonzero(score >= best - 2.0)
-    k = int(rng.choice(cand))
+    k = int(as_rng(rng).choice(cand))
     return float(angle_diff(phi[k], 0.0)), float(free[k])
 
 
@@ -229,7 +246,7 @@ def localise(
     """
     gen = as_rng(rng)
     if max_iterations < 1:
-        raise ValueError(f"max_iterations must be >= 1, got {max_iterations}")
+        raise ConfigError(f"max_iterations must be >= 1, got {max_iterations}")
     settings = processing or ScanProcessing()
     radius = float(getattr(getattr(robot, "geometry", None), "radius_cm", 8.0))
     safety = radius + 5.0 if safety_cm is None else float(safety_cm)
@@ -269,16 +286,16 @@ def localise(
         if len(used) < min_valid_readings:
             log.info("processed scan kept %d readings; using all usable readings", len(used))
             used = process_scan(scan, settings, centres_deg=(0.0,), window_deg=180.0).scan
-        n_snap = len(getattr(localiser, "snapshots", ()))
+        n_snap = len(localiser.snapshots)
         timed(localiser.update, used)
         est = localiser.estimate()
-        snaps = tuple(getattr(localiser, "snapshots", ())[n_snap:])
+        snaps = tuple(localiser.snapshots[n_snap:])
         step = TraceStep(it, processed, turn, snaps, est)
         if est.converged or it == max_iterations:
             trace.append(step)
             break
         # ambiguous or wide: drive toward free space and try again
-        direction, travel = _explore_direction(scan, gen, came_from, radius)
+        direction, travel = open_direction(scan, radius, gen, came_from)
         distance = max(0.0, min(max_move_cm, move_fraction * (travel - safety + radius)))
         robot.turn(direction)
         outcome = robot.move(distance) if distance > 0 else None

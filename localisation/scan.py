@@ -1,4 +1,4 @@
-"""The paper's scan processing (DESIGN.md section 4).
+"""The paper's scan processing (docs/localisers.md, "The paper's scan processing").
 
 A sonar reads well only when it faces a wall nearly perpendicularly. The paper therefore turns the
 robot toward the minimum reading of a 360-degree scan (the nearest wall is then close to
@@ -26,7 +26,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import NO_ECHO, Scan, angle_diff
+from toolkit.world import NO_ECHO, ConfigError, Scan, angle_diff
 
 __all__ = [
     "PAPER_CENTRES_DEG",
@@ -98,13 +98,13 @@ class ScanProcessing:
     def __post_init__(self) -> None:
         object.__setattr__(self, "centres_deg", tuple(float(c) for c in self.centres_deg))
         if not self.centres_deg:
-            raise ValueError("ScanProcessing needs at least one window centre")
+            raise ConfigError("ScanProcessing needs at least one window centre")
         if not (0.0 <= self.window_deg <= 180.0):
-            raise ValueError(f"window_deg must be in [0, 180], got {self.window_deg!r}")
+            raise ConfigError(f"window_deg must be in [0, 180], got {self.window_deg!r}")
         if not (0.0 <= self.min_range_cm < self.max_range_cm):
-            raise ValueError(f"need 0 <= min_range_cm < max_range_cm, got {self.min_range_cm}, {self.max_range_cm}")
+            raise ConfigError(f"need 0 <= min_range_cm < max_range_cm, got {self.min_range_cm}, {self.max_range_cm}")
         if self.reference not in ("heading", "min"):
-            raise ValueError(f"reference must be 'heading' or 'min', got {self.reference!r}")
+            raise ConfigError(f"reference must be 'heading' or 'min', got {self.reference!r}")
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Mapping
 from typing import Any
 
@@ -33,13 +32,13 @@ def lobe_options(localiser: str, sonar: str, sensor_noise: float = 1.0) -> dict[
         lobe["critical_incidence_deg"] = float(model.critical_incidence_deg)
     if hasattr(model, "max_range_cm"):
         lobe["max_range_cm"] = float(model.max_range_cm)
-    return _accepted(localiser, lobe)
+    return accepted_model_options(localiser, lobe)
 
 
-def _accepted(localiser: str, options: Mapping[str, Any]) -> dict[str, Any]:
-    """The `options` that the constructor of the localiser registered as `localiser` takes."""
-    params = inspect.signature(LOCALISERS.get(localiser).__init__).parameters
-    return {k: v for k, v in options.items() if k in params}
+def accepted_model_options(localiser: str, options: Mapping[str, Any]) -> dict[str, Any]:
+    """The robot-model `options` that the localiser registered as `localiser` takes (its `model_options`)."""
+    takes = LOCALISERS.get(localiser).model_options
+    return {k: v for k, v in options.items() if k in takes}
 
 
 def matched_localiser_options(localiser: str, *, sonar: str = "ideal", noise_model: str = "botsim",
@@ -59,4 +58,4 @@ def matched_localiser_options(localiser: str, *, sonar: str = "ideal", noise_mod
         known["sensor_sigma_cm"] = sensor_noise
     elif sonar == "nxt":
         known["sensor_sigma_cm"] = NXT_SONAR_SIGMA_CM
-    return {**_accepted(localiser, known), **lobe_options(localiser, sonar, sensor_noise)}
+    return {**accepted_model_options(localiser, known), **lobe_options(localiser, sonar, sensor_noise)}

@@ -26,7 +26,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .base import Planner, PlanningProblem
+from toolkit.world import ConfigError
+
+from .base import Planner, PlanningProblem, Solution
 
 __all__ = ["AStarPlanner"]
 
@@ -71,9 +73,9 @@ class AStarPlanner(Planner):
     def __init__(self, resolution: float | None = 2.0, connect_radius: float | None = None,
                  corner_cutting: bool | None = None) -> None:
         if resolution is not None and not (math.isfinite(resolution) and resolution > 0):
-            raise ValueError(f"resolution must be a positive number of cm or None, got {resolution!r}")
+            raise ConfigError(f"resolution must be a positive number of cm or None, got {resolution!r}")
         if connect_radius is not None and not (math.isfinite(connect_radius) and connect_radius > 0):
-            raise ValueError(f"connect_radius must be a positive number of cm, got {connect_radius!r}")
+            raise ConfigError(f"connect_radius must be a positive number of cm, got {connect_radius!r}")
         self.resolution = None if resolution is None else float(resolution)
         self._connect = None if connect_radius is None else float(connect_radius)
         self.corner_cutting = corner_cutting
@@ -84,7 +86,7 @@ class AStarPlanner(Planner):
         if self.resolution is not None:
             return self.resolution
         if problem.map.grid is None:
-            raise ValueError(f"astar with resolution=None needs a map imported from a grid; {problem.map.name!r} "
+            raise ConfigError(f"astar with resolution=None needs a map imported from a grid; {problem.map.name!r} "
                              "is polygonal (give a resolution in cm)")
         return problem.map.grid.cell_cm
 
@@ -147,7 +149,7 @@ class AStarPlanner(Planner):
         self._cache = {key: lat}  # one map at a time: a lattice can be large
         return lat, False
 
-    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+    def _solve(self, problem: PlanningProblem) -> Solution:
         checker = problem.checker
         lat, cached = self._lattice(problem)
         deadline = time.perf_counter() + problem.time_limit
@@ -188,7 +190,7 @@ class AStarPlanner(Planner):
         goal_edges = set(g_near[g_ok].tolist())
         if not start_edges or not goal_edges:
             which = "start" if not start_edges else "goal"
-            return None, f"{which} cannot reach the grid", info
+            return Solution(None, f"{which} cannot reach the grid", info)
 
         gxy = (float(problem.goal[0]), float(problem.goal[1]))
 
@@ -218,12 +220,12 @@ class AStarPlanner(Planner):
                 while parent[seq[-1]] >= 0:
                     seq.append(parent[seq[-1]])
                 info["expanded"] = expanded
-                return np.array([node_xy(k) for k in seq[::-1]]), "exact", info
+                return Solution(np.array([node_xy(k) for k in seq[::-1]]), "exact", info)
             closed.add(u)
             expanded += 1
             if expanded % 4096 == 0 and time.perf_counter() >= deadline:
                 info["expanded"] = expanded
-                return None, "timeout", info
+                return Solution(None, "timeout", info)
             gu = g_cost[u]
             nbrs = start_nbrs if u == start_id else neighbours[u]
             if u in goal_edges:
@@ -238,4 +240,4 @@ class AStarPlanner(Planner):
                     parent[v] = u
                     heapq.heappush(heap, (gv + h(v), -gv, v))
         info["expanded"] = expanded
-        return None, "no path on the grid", info
+        return Solution(None, "no path on the grid", info)

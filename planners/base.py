@@ -13,7 +13,7 @@ Writing a planner is one file with one class::
         def _solve(self, problem):
             path = np.array([problem.start, problem.goal])
             ok = problem.checker.segment_free(problem.start, problem.goal)
-            return path if ok else None, "exact" if ok else "no straight path"
+            return Solution(path if ok else None, "exact" if ok else "no straight path")
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng, make_checker
 
-__all__ = ["PLANNERS", "UNREACHABLE", "PlanResult", "Planner", "PlanningProblem", "make_planner"]
+__all__ = ["PLANNERS", "UNREACHABLE", "PlanResult", "Planner", "PlanningProblem", "Solution", "make_planner"]
 
 FloatArray = NDArray[np.float64]
 
@@ -83,6 +83,25 @@ class PlanningProblem:
     @property
     def robot_radius(self) -> float:
         return self.checker.robot_radius
+
+
+@dataclass(frozen=True, eq=False)
+class Solution:
+    """What `Planner._solve` hands back: the path (None when there is none), the status and extras.
+
+    Attributes
+    ----------
+    path : (k, 2) array_like or None
+        Waypoints from start to goal (cm), or None when the planner found no path.
+    status : str
+        ``"exact"`` for a path, otherwise why there is none (``"timeout"``, ``"no path"``, ...).
+    info : dict
+        Planner-specific extras, copied into `PlanResult.info`.
+    """
+
+    path: ArrayLike | None
+    status: str
+    info: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,9 +181,8 @@ class Planner(ABC):
               or not checker.connected(problem.start, problem.goal)):  # apart in the map, or only the robot's
             path, status = None, UNREACHABLE  # radius keeps them apart
         else:
-            out = self._solve(problem)
-            path, status = out[0], out[1]
-            info = out[2] if len(out) > 2 else {}
+            solution = self._solve(problem)
+            path, status, info = solution.path, solution.status, solution.info
         elapsed = time.perf_counter() - t0
         checks = checker.checks - checks0
         if path is None:
@@ -173,8 +191,8 @@ class Planner(ABC):
         return PlanResult(self.name, arr, True, status, elapsed, checks, info)
 
     @abstractmethod
-    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
-        """Return ``(path or None, status)`` or ``(path or None, status, info_dict)``.
+    def _solve(self, problem: PlanningProblem) -> Solution:
+        """The path (or None) with its status and extras, as a `Solution`.
 
         Start and goal are already known to be collision-free and in the same free region when this
         is called.
@@ -183,8 +201,4 @@ class Planner(ABC):
 
 def make_planner(name: str, **options: Any) -> Planner:
     """A planner by registry name with its options (``ompl:NAME`` reaches any OMPL geometric planner)."""
-    if name.startswith("ompl:"):
-        from .ompl_planners import OmplPlanner
-
-        return OmplPlanner(planner=name.split(":", 1)[1], **options)
-    return PLANNERS.get(name)(**options)
+    return PLANNERS.create(name, **options)

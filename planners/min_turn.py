@@ -37,9 +37,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import CollisionChecker
+from toolkit.world import CollisionChecker, ConfigError
 
-from .base import Planner, PlanningProblem
+from .base import Planner, PlanningProblem, Solution
 
 __all__ = ["MinTurnPlanner", "fewest_points_path", "hop_shortest_path"]
 
@@ -119,11 +119,11 @@ class MinTurnPlanner(Planner):
     def __init__(self, n_samples: int = 30, max_intermediate: int | None = None,
                  max_rounds: int | None = None) -> None:
         if int(n_samples) < 1:
-            raise ValueError(f"n_samples must be >= 1, got {n_samples!r}")
+            raise ConfigError(f"n_samples must be >= 1, got {n_samples!r}")
         if max_intermediate is not None and int(max_intermediate) < 1:
-            raise ValueError(f"max_intermediate must be >= 1, got {max_intermediate!r}")
+            raise ConfigError(f"max_intermediate must be >= 1, got {max_intermediate!r}")
         if max_rounds is not None and int(max_rounds) < 1:
-            raise ValueError(f"max_rounds must be >= 1 or None, got {max_rounds!r}")
+            raise ConfigError(f"max_rounds must be >= 1 or None, got {max_rounds!r}")
         self.n_samples = int(n_samples)
         self.max_intermediate = None if max_intermediate is None else int(max_intermediate)
         self.max_rounds = None if max_rounds is None else int(max_rounds)
@@ -148,14 +148,14 @@ class MinTurnPlanner(Planner):
         pts = np.vstack(found)[: self.n_samples]
         return pts[np.asarray(problem.checker.point_free(pts), dtype=bool)]
 
-    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+    def _solve(self, problem: PlanningProblem) -> Solution:
         checker = problem.checker
         deadline = time.perf_counter() + problem.time_limit
         start, goal = problem.start, problem.goal
         info: dict[str, Any] = {"rounds": 0, "lazy_iterations": 0, "segments_checked": 1}
         if checker.segment_free(start, goal):
             info.update(intermediate=0, rounds=1)
-            return np.array([start, goal]), "exact", info
+            return Solution(np.array([start, goal]), "exact", info)
         rounds = 0
         while time.perf_counter() < deadline and (self.max_rounds is None or rounds < self.max_rounds):
             rounds += 1
@@ -164,10 +164,10 @@ class MinTurnPlanner(Planner):
             found = fewest_points_path(checker, start, goal, samples, self.max_intermediate, deadline,
                                        info, direct_known_blocked=True)
             if found is not None:
-                return found, "exact", info
+                return Solution(found, "exact", info)
         if self.max_rounds is not None and rounds >= self.max_rounds:
-            return None, "no path in max_rounds", info
-        return None, "timeout", info
+            return Solution(None, "no path in max_rounds", info)
+        return Solution(None, "timeout", info)
 
 
 def fewest_points_path(

@@ -42,6 +42,8 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -49,9 +51,9 @@ import ompl.base as ob
 import ompl.geometric as og
 import ompl.util as ou
 
-from toolkit.world import CollisionChecker, RegistryError
+from toolkit.world import CollisionChecker, ConfigError, RegistryError
 
-from .base import Planner, PlanningProblem
+from .base import PLANNERS, Planner, PlanningProblem, Solution
 
 __all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "ompl_planner_names"]
 
@@ -152,17 +154,17 @@ class OmplPlanner(Planner):
         if planner not in known:
             raise RegistryError(f"unknown OMPL planner {planner!r}; known: {', '.join(known)}")
         if log_level not in _LOG_LEVELS:
-            raise ValueError(f"log_level must be one of {', '.join(_LOG_LEVELS)}, got {log_level!r}")
+            raise ConfigError(f"log_level must be one of {', '.join(_LOG_LEVELS)}, got {log_level!r}")
         if range is not None and not (math.isfinite(range) and range > 0):
-            raise ValueError(f"range must be a positive number of cm, got {range!r}")
+            raise ConfigError(f"range must be a positive number of cm, got {range!r}")
         if iterations_per_s is None:
             iterations_per_s = _ITERATIONS_PER_S.get(planner, _DEFAULT_ITERATIONS_PER_S)
         if not (math.isfinite(iterations_per_s) and iterations_per_s > 0):
-            raise ValueError(f"iterations_per_s must be a positive number, got {iterations_per_s!r}")
+            raise ConfigError(f"iterations_per_s must be a positive number, got {iterations_per_s!r}")
         cls = getattr(og, planner)
         for key in settings or {}:
             if not hasattr(cls, f"set{key}"):
-                raise ValueError(f"OMPL planner {planner} has no setting {key!r} (no method set{key})")
+                raise ConfigError(f"OMPL planner {planner} has no setting {key!r} (no method set{key})")
         self.planner = planner
         self.simplify = bool(simplify)
         self.range = range
@@ -174,7 +176,7 @@ class OmplPlanner(Planner):
         if type(self) is OmplPlanner:
             setattr(self, "name", f"ompl:{planner}")  # noqa: B010 (an instance name, not the registry's)
 
-    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+    def _solve(self, problem: PlanningProblem) -> Solution:
         previous = ou.getLogLevel()
         ou.setLogLevel(_LOG_LEVELS[self.log_level])
         try:
@@ -182,7 +184,7 @@ class OmplPlanner(Planner):
         finally:
             ou.setLogLevel(previous)
 
-    def _solve_quiet(self, problem: PlanningProblem) -> tuple[Any, ...]:
+    def _solve_quiet(self, problem: PlanningProblem) -> Solution:
         t0 = time.perf_counter()
         checker = problem.checker
         seed = int(problem.rng.integers(1, 2**31 - 1))
@@ -271,11 +273,11 @@ class OmplPlanner(Planner):
         info["first_solution_s"] = first.get("time", math.nan)
         info["first_solution_length_cm"] = first.get("length", math.nan)
         if not exact:
-            return None, _STATUS.get(key, key.lower().replace("_", " ")), info
+            return Solution(None, _STATUS.get(key, key.lower().replace("_", " ")), info)
         return self._finish(setup, problem, info)
 
     def _grow_roadmap(self, setup: Any, planner: Any, problem: PlanningProblem, t0: float, budget: int,
-                      deadline: float, seed: int) -> tuple[Any, ...]:
+                      deadline: float, seed: int) -> Solution:
         """PRM and PRM* reproducibly: grow the roadmap in this thread in rounds of the iteration budget;
         after each round OMPL's query (a solve with no time left) gives the roadmap's shortest path."""
         pdef = setup.getProblemDefinition()
@@ -314,12 +316,12 @@ class OmplPlanner(Planner):
                                 "first_solution_length_cm": first.get("length", math.nan)}
         if found is None:
             info["ompl_status"] = "no solution in the roadmap"
-            return None, "timeout" if ended == "time" else "no path in the roadmap", info
+            return Solution(None, "timeout" if ended == "time" else "no path in the roadmap", info)
         info["ompl_status"] = "Exact solution"
         return self._finish(setup, problem, info, found)
 
     def _finish(self, setup: Any, problem: PlanningProblem, info: dict[str, Any],
-                path: Any = None) -> tuple[Any, ...]:
+                path: Any = None) -> Solution:
         """Simplify (when asked), copy out and verify the solution path."""
         checker = problem.checker
         si = setup.getSpaceInformation()
@@ -335,8 +337,8 @@ class OmplPlanner(Planner):
         arr = np.array([[s[0], s[1]] for s in states], dtype=float)
         arr[0], arr[-1] = problem.start, problem.goal  # exact end points (OMPL may copy with rounding)
         if not checker.path_free(arr):
-            return None, "invalid path", info
-        return arr, "exact", info
+            return Solution(None, "invalid path", info)
+        return Solution(arr, "exact", info)
 
 
 class RrtStarPlanner(OmplPlanner):
@@ -357,3 +359,10 @@ class PrmPlanner(OmplPlanner):
 
     def __init__(self, **options: Any) -> None:
         super().__init__(planner="PRM", **options)
+
+
+def _ompl_member(planner: str) -> Callable[..., OmplPlanner]:
+    return partial(OmplPlanner, planner=planner)
+
+
+PLANNERS.add_family("ompl", _ompl_member, ompl_planner_names)

@@ -62,10 +62,10 @@ from numpy.typing import NDArray
 from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
-from toolkit.world import CollisionChecker, Map, PointCollisionChecker
+from toolkit.world import CollisionChecker, ConfigError, Map, PointCollisionChecker
 from toolkit.world.grid_visibility import GridVisibility
 
-from .base import Planner, PlanningProblem
+from .base import Planner, PlanningProblem, Solution
 from .metrics import turn_angle
 from .min_turn import hop_shortest_path
 from .visibility_search import VisibilityGraph
@@ -216,9 +216,9 @@ class _ReferencePlanner(Planner):
 
     def __init__(self, n_sides: int = 64, eps: float = 1e-4) -> None:
         if int(n_sides) < 8:
-            raise ValueError(f"n_sides must be >= 8, got {n_sides!r}")
+            raise ConfigError(f"n_sides must be >= 8, got {n_sides!r}")
         if not (math.isfinite(eps) and eps >= 0):
-            raise ValueError(f"eps must be a non-negative number of cm, got {eps!r}")
+            raise ConfigError(f"eps must be a non-negative number of cm, got {eps!r}")
         self.n_sides = int(n_sides)
         self.eps = float(eps)
         self._cache: dict[tuple[int, float], _Graph] = {}
@@ -367,7 +367,7 @@ class ShortestPathPlanner(_ReferencePlanner):
             ok[lo:lo + step] = problem.checker.segments_free(v[iu[lo:lo + step]], v[ju[lo:lo + step]])
         return v, prv, nxt, part, iu[ok], ju[ok], len(ok)
 
-    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+    def _solve(self, problem: PlanningProblem) -> Solution:
         checker = problem.checker
         cached = (id(problem.map), problem.robot_radius) in self._cache
         g = self._graph(problem)
@@ -378,12 +378,12 @@ class ShortestPathPlanner(_ReferencePlanner):
         if checker.segment_free(start, goal):
             path = np.array([start, goal])
             info["length_tolerance_cm"] = self._length_tolerance(problem, path)
-            return path, "exact", info
+            return Solution(path, "exact", info)
         parts = shapely.get_parts(g.extra["cspace"])
         which = [np.flatnonzero(shapely.intersects_xy(parts, *p)) for p in (start, goal)]
         same = np.intersect1d(which[0], which[1])
         if not len(same):  # different parts of the configuration space
-            return None, "no path", info
+            return Solution(None, "no path", info)
         vg: VisibilityGraph = g.extra["search"]
         si, gi = vg.seen_from(start), vg.seen_from(goal)  # lattice points of a grid: swept, exactly
         in_part = np.isin(part, same)
@@ -399,10 +399,10 @@ class ShortestPathPlanner(_ReferencePlanner):
         info["graph_arcs"] = vg.arcs
         info["graph_scanned_nodes"] = vg.scanned
         if not math.isfinite(length):
-            return None, "no path", info
+            return Solution(None, "no path", info)
         path = np.vstack([start, g.nodes[seq], goal])
         info["length_tolerance_cm"] = self._length_tolerance(problem, path)
-        return path, "exact", info
+        return Solution(path, "exact", info)
 
 
 class MinLinkPlanner(_ReferencePlanner):
@@ -433,9 +433,9 @@ class MinLinkPlanner(_ReferencePlanner):
         super().__init__(n_sides, eps)
         self.refine = bool(refine)
         if not (math.isfinite(boundary_spacing) and boundary_spacing > 0):
-            raise ValueError(f"boundary_spacing must be a positive number of cm, got {boundary_spacing!r}")
+            raise ConfigError(f"boundary_spacing must be a positive number of cm, got {boundary_spacing!r}")
         if grid_spacing is not None and not (math.isfinite(grid_spacing) and grid_spacing > 0):
-            raise ValueError(f"grid_spacing must be a positive number of cm or None, got {grid_spacing!r}")
+            raise ConfigError(f"grid_spacing must be a positive number of cm or None, got {grid_spacing!r}")
         self.boundary_spacing = float(boundary_spacing)
         self.grid_spacing = None if grid_spacing is None else float(grid_spacing)
 
@@ -462,7 +462,7 @@ class MinLinkPlanner(_ReferencePlanner):
         vis = _pairwise_visibility(problem.checker, nodes, np.ones((len(nodes), len(nodes)), dtype=bool))
         return _Graph(problem.map, problem.robot_radius, nodes, vis, {})
 
-    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+    def _solve(self, problem: PlanningProblem) -> Solution:
         checker = problem.checker
         g = self._graph(problem)
         start, goal = problem.start, problem.goal
@@ -471,7 +471,7 @@ class MinLinkPlanner(_ReferencePlanner):
         s_ok, g_ok, direct = self._query_edges(checker, g, start, goal)
         if direct:
             info["links"] = 1
-            return np.array([start, goal]), "exact", info
+            return Solution(np.array([start, goal]), "exact", info)
         # fewest hops by breadth-first search over the (fully checked) visibility graph
         n = m + 2
         adj = np.zeros((n, n), dtype=bool)
@@ -487,7 +487,7 @@ class MinLinkPlanner(_ReferencePlanner):
             frontier = np.any(adj[frontier], axis=0) & ~seen
             seen |= frontier
         if not seen[m + 1]:
-            return None, "no path", info
+            return Solution(None, "no path", info)
         allp = np.vstack([g.nodes, start, goal])
         diff = allp[:, None, :] - allp[None, :, :]
         cost = np.where(adj, np.hypot(diff[..., 0], diff[..., 1]), np.inf)
@@ -497,4 +497,4 @@ class MinLinkPlanner(_ReferencePlanner):
         info["graph_length_cm"] = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
         if self.refine:
             path = shorten_bends(checker, path, self.boundary_spacing)
-        return path, "exact", info
+        return Solution(path, "exact", info)

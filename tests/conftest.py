@@ -1,6 +1,10 @@
-"""Shared fixtures: the bundled maps and a small map with obstacles."""
+"""Shared fixtures and helpers: the bundled maps, the command line in this process and as a console script."""
 
 from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -29,3 +33,10 @@ def run_cli(argv: list[str]) -> int:
     except SystemExit as exc:
         return int(exc.code or 0)
     return 0
+
+
+def nxtnav_exe() -> str:
+    """The `nxtnav` console script next to this Python (`make install` puts it there)."""
+    exe = shutil.which("nxtnav", path=str(Path(sys.executable).parent))
+    assert exe is not None, "the nxtnav console script is not installed next to this Python: run make install"
+    return exe

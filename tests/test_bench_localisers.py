@@ -17,11 +17,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
 import toolkit.robots.sim as sim
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior
 from toolkit.bench import localisers as bench
-from toolkit.cli import main
+from toolkit.seeds import derive_seed
 from toolkit.world import Map, Pose, Scan, angle_diff, load_map, wrap_angle
 
 _ROBOTS: list[sim.SimRobot] = []
@@ -139,14 +140,6 @@ def oracles(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     _PriorRecorder.priors.clear()
 
 
-def run(args: list[str]) -> int:
-    try:
-        main(args)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
-
-
 def rows(path: Path) -> tuple[list[str], list[dict[str, str]]]:
     with path.open(newline="") as fh:
         reader = csv.DictReader(fh)
@@ -167,17 +160,17 @@ def test_success_is_2cm_and_3deg(err: float, herr: float, ok: bool) -> None:
 
 def test_trial_seeds_do_not_depend_on_localiser_or_map_order() -> None:
     cfg = bench.BenchConfig()
-    a = bench.make_tasks("global", ["map1", "map2"], ["paper-pf"] if "paper-pf" in LOCALISERS else [], 3, 7, cfg)
+    a = bench.make_tasks("global", ["map1", "map2"], ["paper-pf"], 3, 7, cfg)
     b = bench.make_tasks("global", ["map2", "map1"], [], 3, 7, cfg)
     assert not b  # no localiser, no task
     seeds = {(t.map, t.trial): t.seed for t in a}
     for t in range(3):
-        assert bench.trial_seed(7, "map1", t) == bench.trial_seed(7, "map1", t)
-        assert bench.trial_seed(7, "map1", t) != bench.trial_seed(8, "map1", t)
+        assert derive_seed(7, "map1", t) == derive_seed(7, "map1", t)
+        assert derive_seed(7, "map1", t) != derive_seed(8, "map1", t)
         if seeds:
-            assert seeds[("map1", t)] == bench.trial_seed(7, "map1", t)
+            assert seeds[("map1", t)] == derive_seed(7, "map1", t)
     m = load_map("map3")
-    poses = [bench.random_pose(m, np.random.default_rng(s), 10.0) for s in range(200)]
+    poses = [m.random_pose(np.random.default_rng(s), 10.0) for s in range(200)]
     xy = np.array([p.xy for p in poses])
     assert np.all(m.contains(xy)) and np.min(m.wall_distance(xy)) >= 10.0 - 1e-9
 
@@ -188,7 +181,7 @@ def test_trial_seeds_do_not_depend_on_localiser_or_map_order() -> None:
 def test_global_runs_csv_success_against_truth(tmp_path: Path, oracles: list[str]) -> None:
     out = tmp_path / "bench"
     locs = "test-oracle,test-oracle-far,test-oracle-turned"
-    assert run(["bench", "localisers", "--maps", "map1,map3", "--localisers", locs, "--trials", "3",
+    assert run_cli(["bench", "localisers", "--maps", "map1,map3", "--localisers", locs, "--trials", "3",
                 "--seed", "5", "--out", str(out)]) == 0
     cols, data = rows(out / "runs.csv")
     assert tuple(cols) == bench.RUNS_COLUMNS
@@ -196,7 +189,7 @@ def test_global_runs_csv_success_against_truth(tmp_path: Path, oracles: list[str
     by = {(r["map"], r["localiser"], int(r["trial"])): r for r in data}
     assert len(by) == len(data)
     for (m, loc, t), r in by.items():
-        assert int(r["seed"]) == bench.trial_seed(5, m, t)
+        assert int(r["seed"]) == derive_seed(5, m, t)
         err, herr = float(r["error_cm"]), float(r["heading_error_deg"])
         cls = TEST_LOCALISERS[loc]
         # the oracle's offset is measured against the simulator's truth at the end of the procedure
@@ -230,11 +223,11 @@ def test_non_empty_out_needs_force(tmp_path: Path, oracles: list[str], capsys: p
     out.mkdir()
     (out / "keep.txt").write_text("x")
     args = ["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle", "--trials", "1", "--out", str(out)]
-    assert run(args) == 2
+    assert run_cli(args) == 2
     err = capsys.readouterr().err
     assert "not empty" in err and len(err.strip().splitlines()) == 1
     assert not (out / "runs.csv").exists()
-    assert run([*args, "--force"]) == 0
+    assert run_cli([*args, "--force"]) == 0
     assert (out / "keep.txt").exists() and (out / "runs.csv").exists()
 
 
@@ -259,7 +252,7 @@ def test_tracker_prior(kind: str, oracles: list[str]) -> None:
 def test_summary_says_how_trackers_were_initialised(tmp_path: Path, oracles: list[str]) -> None:
     for kind, needle in (("noisy-truth", "true pose plus Gaussian noise"), ("pf", "first estimate of a `paper-pf`")):
         out = tmp_path / kind
-        assert run(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-tracker",
+        assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-tracker",
                     "--trials", "1", "--tracker-prior", kind, "--out", str(out)]) == 0
         text = (out / "summary.md").read_text()
         assert "pose trackers (test-tracker)" in text and needle in text
@@ -270,7 +263,7 @@ def test_summary_says_how_trackers_were_initialised(tmp_path: Path, oracles: lis
 
 def test_tracking_scenario_rmse_against_truth(tmp_path: Path, oracles: list[str]) -> None:
     out = tmp_path / "t"
-    assert run(["bench", "localisers", "--maps", "map1,map2", "--localisers", "test-oracle,test-dead-reckoning",
+    assert run_cli(["bench", "localisers", "--maps", "map1,map2", "--localisers", "test-oracle,test-dead-reckoning",
                 "--trials", "2", "--scenario", "tracking", "--tracking-steps", "6", "--out", str(out)]) == 0
     assert not (out / "runs.csv").exists()
     cols, data = rows(out / "tracking.csv")
@@ -290,7 +283,7 @@ def test_tracking_scenario_rmse_against_truth(tmp_path: Path, oracles: list[str]
 
 def test_tracking_rows_count_particles_and_time_updates(tmp_path: Path) -> None:
     out = tmp_path / "p"
-    assert run(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf,amcl,ekf", "--trials", "1",
+    assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf,amcl,ekf", "--trials", "1",
                 "--scenario", "tracking", "--tracking-steps", "4", "--set", "amcl.min_particles=50",
                 "--out", str(out)]) == 0
     _, data = rows(out / "tracking.csv")
@@ -306,7 +299,7 @@ def test_tracking_rows_count_particles_and_time_updates(tmp_path: Path) -> None:
 def test_scripted_drive_is_collision_free_without_noise() -> None:
     m = load_map("map3")
     rng = np.random.default_rng(4)
-    start = bench.random_pose(m, rng, 10.0)
+    start = m.random_pose(rng, 10.0)
     drive = bench.scripted_drive(m, start, 20, (6.0, 15.0), rng)
     robot = sim.SimRobot(m, start, noise=sim.MotionNoise("absolute", 0.0, 0.0), rng=1)
     pose = start
@@ -323,7 +316,7 @@ def test_scripted_drive_is_collision_free_without_noise() -> None:
 
 def test_kidnapped_scenario_recovery(tmp_path: Path, oracles: list[str]) -> None:
     out = tmp_path / "k"
-    assert run(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-dead-reckoning",
+    assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-dead-reckoning",
                 "--trials", "3", "--scenario", "kidnapped", "--recovery-rounds", "4", "--out", str(out)]) == 0
     cols, data = rows(out / "kidnapped.csv")
     assert tuple(cols) == bench.KIDNAPPED_COLUMNS
@@ -343,7 +336,7 @@ def test_kidnapped_scenario_recovery(tmp_path: Path, oracles: list[str]) -> None
 
 def test_all_scenarios_write_all_files(tmp_path: Path, oracles: list[str]) -> None:
     out = tmp_path / "all"
-    assert run(["bench", "localisers", "--maps", "map2", "--localisers", "test-oracle", "--trials", "1",
+    assert run_cli(["bench", "localisers", "--maps", "map2", "--localisers", "test-oracle", "--trials", "1",
                 "--scenario", "all", "--tracking-steps", "3", "--recovery-rounds", "2", "--out", str(out)]) == 0
     for f in ("runs.csv", "tracking.csv", "kidnapped.csv", "summary.md", "config.json"):
         assert (out / f).exists(), f
@@ -353,7 +346,7 @@ def test_all_scenarios_write_all_files(tmp_path: Path, oracles: list[str]) -> No
 
 def test_a_raising_localiser_is_a_failed_trial_not_a_crash(tmp_path: Path, oracles: list[str]) -> None:
     out = tmp_path / "b"
-    assert run(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-broken", "--trials", "2",
+    assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "test-oracle,test-broken", "--trials", "2",
                 "--scenario", "global,tracking", "--tracking-steps", "3", "--out", str(out)]) == 0
     _, data = rows(out / "runs.csv")
     broken = [r for r in data if r["localiser"] == "test-broken"]
@@ -398,7 +391,7 @@ def test_bench_bad_input_exits_2(tmp_path: Path, oracles: list[str], capsys: pyt
             args[args.index(extra[i]) + 1] = extra[i + 1]
         else:
             args += extra[i:i + 2]
-    assert run(args) == 2
+    assert run_cli(args) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("nxtnav: error:")
     assert message in err
@@ -422,7 +415,7 @@ def test_localise_bad_input_exits_2(tmp_path: Path, capsys: pytest.CaptureFixtur
             "-o", str(tmp_path / "l.png")]
     for i in range(0, len(extra), 2):
         args[args.index(extra[i]) + 1] = extra[i + 1]
-    assert run(args) == 2
+    assert run_cli(args) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("nxtnav: error:")
     assert message in err

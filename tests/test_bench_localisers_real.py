@@ -9,26 +9,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
 import localisation  # noqa: F401  (registers every localiser)
 from localisation.base import LOCALISERS
 from toolkit.bench import localisers as bench
-from toolkit.cli import main
 from toolkit.robots.sim import SimRobot
+from toolkit.seeds import derive_seed
 from toolkit.world import Pose, angle_diff, load_map
-
-
-def run(args: list[str]) -> int:
-    try:
-        main(args)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
 
 
 def test_localise_cli_json_matches_truth(tmp_path: Path) -> None:
     png, js = tmp_path / "l.png", tmp_path / "l.json"
-    assert run(["localise", "--map", "map1", "--pose", "20,20,30", "--localiser", "paper-pf", "--sonar", "ideal",
+    assert run_cli(["localise", "--map", "map1", "--pose", "20,20,30", "--localiser", "paper-pf", "--sonar", "ideal",
                 "--seed", "1", "-o", str(png), "--json", str(js)]) == 0
     doc = json.loads(js.read_text())
     for key in ("estimate", "truth", "error_cm", "heading_error_deg", "iterations", "scans", "time_s"):
@@ -53,7 +46,7 @@ def test_localise_once_truth_is_the_simulators() -> None:
     assert out.success is bench.is_success(out.error_cm, out.heading_error_deg)
 
 
-@pytest.mark.parametrize("name", [n for n in ("ekf", "ukf") if n in LOCALISERS])
+@pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_trackers_get_a_noisy_truth_prior(name: str) -> None:
     m = load_map("map1")
     cfg = bench.BenchConfig(tracker_prior="noisy-truth")
@@ -69,8 +62,8 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 def test_process_pool_matches_in_process(tmp_path: Path) -> None:
     args = ["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "2", "--seed", "4"]
-    assert run([*args, "--out", str(tmp_path / "a")]) == 0
-    assert run([*args, "--out", str(tmp_path / "b"), "--workers", "2"]) == 0
+    assert run_cli([*args, "--out", str(tmp_path / "a")]) == 0
+    assert run_cli([*args, "--out", str(tmp_path / "b"), "--workers", "2"]) == 0
     a, b = _rows(tmp_path / "a" / "runs.csv"), _rows(tmp_path / "b" / "runs.csv")
     assert len(a) == len(b) == 2
     for ra, rb in zip(a, b, strict=True):  # same seeds, same results, whatever the executor
@@ -79,13 +72,12 @@ def test_process_pool_matches_in_process(tmp_path: Path) -> None:
 
 
 def test_dask_local_tiny_run(tmp_path: Path) -> None:
-    pytest.importorskip("dask.distributed")
     out = tmp_path / "d"
-    assert run(["bench", "localisers", "--maps", "map2", "--localisers", "paper-pf", "--trials", "2", "--seed", "4",
+    assert run_cli(["bench", "localisers", "--maps", "map2", "--localisers", "paper-pf", "--trials", "2", "--seed", "4",
                 "--workers", "1", "--dask", "local", "--out", str(out)]) == 0
     rows = _rows(out / "runs.csv")
     assert [int(r["trial"]) for r in rows] == [0, 1]
-    assert all(int(r["seed"]) == bench.trial_seed(4, "map2", int(r["trial"])) for r in rows)
+    assert all(int(r["seed"]) == derive_seed(4, "map2", int(r["trial"])) for r in rows)
 
 
 def test_lobe_options_follow_the_sonar() -> None:
@@ -93,16 +85,15 @@ def test_lobe_options_follow_the_sonar() -> None:
     pf = [n for n in LOCALISERS.names() if n == "paper-pf" or n.startswith("pf-")]
     assert pf
     for name in pf:
-        assert bench.lobe_options(nxt, name) == {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0,
+        assert nxt.lobe_for(name) == {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0,
                                                  "max_range_cm": 255.0}
-        assert bench.lobe_options(bench.BenchConfig(sonar="ideal"), name) == {}
-        assert bench.lobe_options(bench.BenchConfig(sonar="nxt", lobe="off"), name) == {}
+        assert bench.BenchConfig(sonar="ideal").lobe_for(name) == {}
+        assert bench.BenchConfig(sonar="nxt", lobe="off").lobe_for(name) == {}
     # explicit options win over the lobe
     cfg = bench.BenchConfig(sonar="nxt", localiser_options={"paper-pf": {"beam_width_deg": 10.0}})
     assert bench.localiser_options(cfg, "paper-pf")["beam_width_deg"] == 10.0
     for name in ("ekf", "ukf"):
-        if name in LOCALISERS:
-            assert bench.lobe_options(nxt, name) == {}
+        assert nxt.lobe_for(name) == {}
 
 
 def test_kidnapped_recovery_does_not_raise() -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import shutil
 import sqlite3
 import subprocess
 import sys
@@ -14,9 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
+from conftest import nxtnav_exe, run_cli
 
-from toolkit.bench.planners import RUN_COLUMNS, BenchmarkConfig, known_planners, make_queries, run_seed
-from toolkit.cli import main
+from toolkit.bench.planners import RUN_COLUMNS, BenchmarkConfig, known_planners, make_queries
+from toolkit.seeds import derive_seed
 from toolkit.world import CollisionChecker, load_map
 
 MAPS = ("map1", "map2", "map3")
@@ -25,19 +25,10 @@ RADIUS = 8.0
 RUNS = 3
 
 
-def run(args: list[str]) -> int:
-    try:
-        main(args)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
-
-
 def planners_under_test() -> list[str]:
     known = known_planners()
-    names = [p for p in WANTED if p in known]
-    assert "min-turn" in names
-    return names
+    assert set(WANTED) <= set(known), f"not registered: {sorted(set(WANTED) - set(known))}"
+    return list(WANTED)
 
 
 def ompl_statistics() -> str:
@@ -57,7 +48,7 @@ def path_is_free(m_name: str, path: np.ndarray, radius: float) -> bool:
 @pytest.fixture(scope="module")
 def bench_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("bench") / "presets"
-    code = run(["bench", "planners", "--maps", ",".join(MAPS), "--planners", ",".join(planners_under_test()),
+    code = run_cli(["bench", "planners", "--maps", ",".join(MAPS), "--planners", ",".join(planners_under_test()),
                 "--runs", str(RUNS), "--time-limit", "0.2", "--seed", "4", "--out", str(out),
                 "--exec-repeats", "20"])
     assert code == 0
@@ -79,11 +70,10 @@ def test_runs_csv_columns_and_rows(bench_dir: Path) -> None:
     assert {(r["map"], r["planner"], int(r["run"])) for r in rows} == {
         (m, p, i) for m in MAPS for p in names for i in range(RUNS)}
     for r in rows:
-        assert r["seed"] == str(run_seed(4, r["map"], int(r["run"])))
+        assert r["seed"] == str(derive_seed(4, r["map"], int(r["run"])))
         if r["success"] == "true":
             assert float(r["length_cm"]) > 0
-            if "shortest" in known_planners():
-                assert float(r["length_ratio"]) >= 1.0 - 1e-6  # no planner beats the shortest path
+            assert float(r["length_ratio"]) >= 1.0 - 1e-6  # no planner beats the shortest path
             assert int(r["turns"]) >= 0
             assert float(r["exec_error_cm"]) > 0
             assert float(r["min_clearance_cm"]) >= -1e-3  # FCL distance, to its tolerance
@@ -168,7 +158,7 @@ def test_ompl_log_converts_to_a_database_with_every_planner(bench_dir: Path, tmp
 
 def test_refuses_a_non_empty_out_folder(bench_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     before = (bench_dir / "runs.csv").read_bytes()
-    code = run(["bench", "planners", "--maps", "map1", "--planners", "min-turn", "--runs", "1",
+    code = run_cli(["bench", "planners", "--maps", "map1", "--planners", "min-turn", "--runs", "1",
                 "--out", str(bench_dir)])
     err = capsys.readouterr().err.strip()
     assert code == 2
@@ -195,7 +185,7 @@ def test_bench_bad_inputs_exit_2_with_one_line(args: list[str], needle: str, tmp
     argv = ["bench", "planners", "--out", str(tmp_path / "o")]
     for k, v in base.items():
         argv += [k, v]
-    code = run(argv)
+    code = run_cli(argv)
     err = capsys.readouterr().err.strip()
     assert code == 2
     assert len(err.splitlines()) == 1 and needle in err, err
@@ -221,11 +211,10 @@ def test_random_queries_are_free_connected_and_seeded() -> None:
 
 def test_random_queries_seeded_and_same_on_every_executor(tmp_path: Path) -> None:
     """Same seed, same runs: in-process vs a local Dask cluster, with random queries."""
-    pytest.importorskip("dask.distributed")
     args = ["bench", "planners", "--maps", "map1", "--planners", "min-turn", "--runs", "2", "--time-limit", "0.2",
             "--seed", "12", "--queries", "random", "--exec-repeats", "10", "--no-plots"]
-    assert run([*args, "--out", str(tmp_path / "a")]) == 0
-    assert run([*args, "--out", str(tmp_path / "b"), "--dask", "local", "--workers", "1"]) == 0
+    assert run_cli([*args, "--out", str(tmp_path / "a")]) == 0
+    assert run_cli([*args, "--out", str(tmp_path / "b"), "--dask", "local", "--workers", "1"]) == 0
     untimed = lambda d: {k: v for k, v in d.items() if k not in ("time_s", "first_solution_s")}  # noqa: E731
     pa = [untimed(json.loads(x)) for x in (tmp_path / "a" / "paths.jsonl").read_text().splitlines()]
     pb = [untimed(json.loads(x)) for x in (tmp_path / "b" / "paths.jsonl").read_text().splitlines()]
@@ -243,7 +232,7 @@ def test_force_overwrites(tmp_path: Path) -> None:
     (out / "old.txt").write_text("x")
     (out / "ompl").mkdir()
     (out / "ompl" / "map1-presets.log").write_text("an earlier benchmark")
-    assert run(["bench", "planners", "--maps", "map2", "--planners", "min-turn", "--runs", "1", "--out", str(out),
+    assert run_cli(["bench", "planners", "--maps", "map2", "--planners", "min-turn", "--runs", "1", "--out", str(out),
                 "--force", "--exec-repeats", "0", "--no-plots"]) == 0
     rows = read_runs(out / "runs.csv")
     assert len(rows) == 1 and rows[0]["exec_error_cm"] == ""
@@ -287,7 +276,7 @@ def test_config_validation() -> None:
 # -- nxtnav plan ---------------------------------------------------------------------------------
 def test_plan_writes_figure_and_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     png, js = tmp_path / "p.png", tmp_path / "p.json"
-    assert run(["plan", "--map", "map3", "--planner", "min-turn", "--seed", "2", "--time-limit", "0.5",
+    assert run_cli(["plan", "--map", "map3", "--planner", "min-turn", "--seed", "2", "--time-limit", "0.5",
                 "-o", str(png), "--json", str(js), "--exec-repeats", "30"]) == 0
     assert png.read_bytes()[:4] == b"\x89PNG"
     doc = json.loads(js.read_text())
@@ -308,7 +297,7 @@ def test_plan_writes_figure_and_json(tmp_path: Path, capsys: pytest.CaptureFixtu
 
 def test_plan_custom_query(tmp_path: Path) -> None:
     js = tmp_path / "p.json"
-    assert run(["plan", "--map", "map1", "--planner", "min-turn", "--start", "20,80", "--goal", "90,70",
+    assert run_cli(["plan", "--map", "map1", "--planner", "min-turn", "--start", "20,80", "--goal", "90,70",
                 "-o", str(tmp_path / "p.png"), "--json", str(js), "--exec-repeats", "0"]) == 0
     doc = json.loads(js.read_text())
     assert doc["start"] == [20.0, 80.0] and doc["goal"] == [90.0, 70.0]
@@ -329,7 +318,7 @@ def test_plan_custom_query(tmp_path: Path) -> None:
 def test_plan_bad_inputs_exit_2_with_one_line(args: list[str], needle: str, tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     png = tmp_path / "p.png"
-    code = run(["plan", "--map", "map1", "--planner", "min-turn", "-o", str(png), *args])
+    code = run_cli(["plan", "--map", "map1", "--planner", "min-turn", "-o", str(png), *args])
     err = capsys.readouterr().err.strip()
     assert code == 2
     assert len(err.splitlines()) == 1 and needle in err, err
@@ -337,9 +326,7 @@ def test_plan_bad_inputs_exit_2_with_one_line(args: list[str], needle: str, tmp_
 
 
 def test_console_script_keeps_stderr_to_one_line(tmp_path: Path) -> None:
-    exe = shutil.which("nxtnav", path=str(Path(sys.executable).parent))
-    if exe is None:
-        pytest.skip("nxtnav console script not installed next to this Python")
+    exe = nxtnav_exe()
     proc = subprocess.run([exe, "plan", "--map", "map1", "--planner", "min-turn", "--start", "3,3",
                            "-o", str(tmp_path / "p.png")], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
@@ -351,9 +338,9 @@ def test_point_robot_on_a_grid_map_file(tmp_path: Path) -> None:
     from toolkit.world import import_map, make_checker
 
     grid = tmp_path / "g.map"
-    assert run(["maps", "random", "40", "-o", str(grid), "--density", "0.2", "--seed", "2"]) == 0
+    assert run_cli(["maps", "random", "40", "-o", str(grid), "--density", "0.2", "--seed", "2"]) == 0
     out = tmp_path / "b"
-    assert run(["bench", "planners", "--maps", str(grid), "--planners", "shortest,astar", "--radius", "0",
+    assert run_cli(["bench", "planners", "--maps", str(grid), "--planners", "shortest,astar", "--radius", "0",
                 "--queries", "random", "--runs", "4", "--exec-repeats", "0", "--no-plots", "--out", str(out)]) == 0
     checker = make_checker(import_map(grid), 0.0)
     best: dict[int, float] = {}
@@ -368,4 +355,4 @@ def test_point_robot_on_a_grid_map_file(tmp_path: Path) -> None:
         best[run_no] = lengths[("shortest", run_no)]
         assert length >= best[run_no] - 1e-9, planner
     assert len(best) == 4
-    assert run(["bench", "planners", "--maps", str(grid), "--radius", "-1", "--out", str(tmp_path / "c")]) == 2
+    assert run_cli(["bench", "planners", "--maps", str(grid), "--radius", "-1", "--out", str(tmp_path / "c")]) == 2

@@ -5,17 +5,15 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
+from conftest import nxtnav_exe
 
-EXE = shutil.which("nxtnav", path=str(Path(sys.executable).parent))
-pytestmark = pytest.mark.skipif(EXE is None, reason="nxtnav console script not installed next to this Python")
+EXE = nxtnav_exe()
 
 SPLIT_MAP = """name: split
 boundary: [[0, 0], [100, 0], [100, 60], [0, 60]]

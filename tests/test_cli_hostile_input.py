@@ -260,3 +260,25 @@ def test_an_interrupted_localiser_benchmark_writes_its_finished_trials(tmp_path:
 def test_a_preset_the_robot_does_not_fit_on_is_bad_input(capsys: pytest.CaptureFixture[str]) -> None:
     _fails_cleanly(["plan", "--radius", "1000", "--exec-repeats", "0", "-o", "p.png"], capsys,
                    "--start (the map's preset)", "radius 1000")
+
+
+def test_a_bug_is_not_passed_off_as_bad_input(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    # a ValueError nxtnav did not raise on purpose is a bug: it keeps its traceback instead of exit 2
+    import toolkit.cli.world_cmds as world_cmds
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise ValueError("an internal slip")
+
+    monkeypatch.setattr(world_cmds, "load_map", broken)
+    with pytest.raises(ValueError, match="an internal slip"):
+        run_cli(["maps", "show", "map1", "-o", str(tmp_path / "m.png")])
+
+
+def test_a_bad_option_value_is_a_config_error_with_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
+    from toolkit.mission import MissionConfig
+    from toolkit.world import ConfigError, NxtnavError
+
+    with pytest.raises(ConfigError) as err:
+        MissionConfig(planning_time_s=-1.0)
+    assert isinstance(err.value, NxtnavError) and isinstance(err.value, ValueError)
+    _fails_cleanly(["localise", "--pose", "20,20,0", "--set", "n_particles=5"], capsys, "n_particles", "5")

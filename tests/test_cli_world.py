@@ -9,22 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
-from toolkit.cli import main
 from toolkit.world import load_map, ray_cast
 from toolkit.world.generated import random_grid_map
 
 
-def run(args: list[str]) -> int:
-    try:
-        main(args)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
-
-
 def test_maps_list(capsys: pytest.CaptureFixture[str]) -> None:
-    assert run(["maps", "list"]) == 0
+    assert run_cli(["maps", "list"]) == 0
     out = capsys.readouterr().out
     for name in ("map1", "map2", "map3"):
         assert name in out
@@ -32,13 +24,13 @@ def test_maps_list(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_maps_show_writes_png(tmp_path: Path) -> None:
     out = tmp_path / "sub" / "m.png"
-    assert run(["maps", "show", "map3", "-o", str(out)]) == 0
+    assert run_cli(["maps", "show", "map3", "-o", str(out)]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_scan_json(tmp_path: Path) -> None:
     png, js = tmp_path / "s.png", tmp_path / "s.json"
-    assert run(["scan", "--map", "map1", "--pose", "20,85,0", "--sonar", "ideal", "--seed", "3",
+    assert run_cli(["scan", "--map", "map1", "--pose", "20,85,0", "--sonar", "ideal", "--seed", "3",
                 "-o", str(png), "--json", str(js)]) == 0
     doc = json.loads(js.read_text())
     assert doc["pose"] == [20.0, 85.0, 0.0]
@@ -50,7 +42,7 @@ def test_scan_json(tmp_path: Path) -> None:
 
 def test_scan_nxt_has_nulls_for_no_echo(tmp_path: Path) -> None:
     js = tmp_path / "s.json"
-    assert run(["scan", "--map", "map1", "--pose", "20,85,0", "--sonar", "nxt", "-o", str(tmp_path / "s.png"),
+    assert run_cli(["scan", "--map", "map1", "--pose", "20,85,0", "--sonar", "nxt", "-o", str(tmp_path / "s.png"),
                 "--json", str(js)]) == 0
     ranges = json.loads(js.read_text())["ranges_cm"]
     assert None in ranges and all(r is None or r == int(r) for r in ranges)
@@ -78,7 +70,7 @@ def test_errors_are_one_line_exit_2(tmp_path: Path, args: list[str], message: st
 
 
 def test_bench_world_prints_rates(capsys: pytest.CaptureFixture[str]) -> None:
-    assert run(["bench", "world", "--poses", "50", "--repeats", "1", "--segments", "200"]) == 0
+    assert run_cli(["bench", "world", "--poses", "50", "--repeats", "1", "--segments", "200"]) == 0
     out = capsys.readouterr().out
     assert "M rays/s" in out and "checks/s" in out
 
@@ -87,7 +79,7 @@ def test_bench_world_json_on_a_generated_grid(tmp_path: Path) -> None:
     out = tmp_path / "w.json"
     args = ["bench", "world", "--random-grid", "24", "--poses", "20", "--repeats", "1", "--segments", "300",
             "--no-peer", "--json", str(out)]
-    assert run(args) == 0
+    assert run_cli(args) == 0
     doc = json.loads(out.read_text())
     assert doc["edges"] == len(random_grid_map(24, rng=0).walls) > 100
     for key in ("rays_per_s", "segment_checks_per_s", "point_checks_per_s", "cspace_build_s",

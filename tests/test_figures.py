@@ -85,10 +85,10 @@ def test_the_figure_command_writes_every_shown_figure(tmp_path: Path, monkeypatc
 def test_table_one_figure_has_a_box_per_map_and_noise_model_and_the_paper_stars() -> None:
     import matplotlib.pyplot as plt
 
-    from toolkit.bench.paper import PAPER_TABLE, PaperTrial, TrialResult
+    from toolkit.bench.paper import PAPER_TABLE, PaperResult, PaperTrial
     from toolkit.bench.paper_plots import draw_paper_table
 
-    results = [TrialResult(PaperTrial(m, i, i, nm), i != 1, "ok", 0.1, 0.2 + 0.1 * i, 100.0 + i, 0, 100.0, 0, 1, 0)
+    results = [PaperResult(PaperTrial(m, i, i, nm), i != 1, "ok", 0.1, 0.2 + 0.1 * i, 100.0 + i, 0, 100.0, 0, 1, 0)
                for m in ("map1", "map3") for nm in ("botsim", "absolute") for i in range(3)]
     fig = draw_paper_table(results)
     err_ax, len_ax = fig.axes[:2]

@@ -12,15 +12,16 @@ import numpy as np
 import pytest
 
 import localisation
-from toolkit.mission import MissionConfig, mission_seeds, random_start, run_mission, run_sim_mission
+from toolkit.mission import MissionConfig, Outcome, run_mission, run_sim_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
+from toolkit.seeds import derive_seeds
 from toolkit.world import Pose, load_map
 
 
 def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "ideal",
                  start: Pose | None = None) -> tuple[object, SimRobot]:
     m = load_map(name)
-    s_start, s_sim, s_stack = mission_seeds(seed)
+    s_start, s_sim, s_stack = derive_seeds(seed, n=3)
     assert m.start is not None and m.target is not None
     pose = start or Pose(*m.start, np.random.default_rng(s_start).uniform(-math.pi, math.pi))
     robot = SimRobot(m, pose, noise=MotionNoise(model), sonar=sonar, rng=s_sim)
@@ -64,7 +65,7 @@ def test_mission_with_the_nxt_sonar() -> None:
 @pytest.mark.parametrize("name", ["map2", "map3"])
 def test_mission_from_a_random_start(name: str) -> None:
     m = load_map(name)
-    start = random_start(m, rng=7)
+    start = m.random_pose(rng=7)
     assert m.wall_distance(start.xy) >= 10.0
     report, robot = _sim_mission(name, seed=7, start=start)
     _check_against_truth(report, robot)
@@ -82,7 +83,7 @@ def test_run_sim_mission_is_reproducible() -> None:
 def test_target_in_wall_with_the_real_stack() -> None:
     report = run_sim_mission("map2", seed=0, target=(1.0, 1.0))
     assert not report.success
-    assert "outside the free area" in report.status or "in a wall" in report.status
+    assert report.outcome in (Outcome.TARGET_OUTSIDE, Outcome.TARGET_IN_WALL), report.status
 
 
 def test_unreachable_target_with_the_real_stack() -> None:
@@ -93,7 +94,7 @@ def test_unreachable_target_with_the_real_stack() -> None:
     cfg = MissionConfig(planning_time_s=0.2)
     report = run_sim_mission(m, seed=1, start=Pose(25, 30, 0.0), target=(95.0, 30.0), config=cfg)
     assert not report.success
-    assert "unreachable" in report.status or "lost" in report.status
+    assert report.outcome in (Outcome.UNREACHABLE, Outcome.LOST), report.status
     assert report.collisions == 0
 
 

@@ -6,21 +6,12 @@ import json
 from pathlib import Path
 
 import pytest
-
-from toolkit.cli import main
-
-
-def _exit_code(argv: list[str]) -> int:
-    try:
-        main(argv)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
+from conftest import run_cli
 
 
 def test_run_with_defaults_writes_json_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out_json, out_png = tmp_path / "m.json", tmp_path / "out" / "m.png"
-    assert _exit_code(["run", "--json", str(out_json), "--plot", str(out_png)]) == 0
+    assert run_cli(["run", "--json", str(out_json), "--plot", str(out_png)]) == 0
     doc = json.loads(out_json.read_text())
     assert doc["success"] is True
     assert doc["map"] == "map1" and doc["planner"] == "min-turn" and doc["localiser"] == "paper-pf"
@@ -36,7 +27,7 @@ def test_run_with_defaults_writes_json_and_plot(tmp_path: Path, capsys: pytest.C
 def test_run_same_seed_same_mission(tmp_path: Path) -> None:
     a, b = tmp_path / "a.json", tmp_path / "b.json"
     for f in (a, b):
-        assert _exit_code(["run", "--map", "map2", "--seed", "5", "--noise-model", "absolute", "--json", str(f)]) == 0
+        assert run_cli(["run", "--map", "map2", "--seed", "5", "--noise-model", "absolute", "--json", str(f)]) == 0
     da, db = json.loads(a.read_text()), json.loads(b.read_text())
     assert da["final_pose"] == db["final_pose"]
     strip = [(s["action"], s["estimate"], s["true_pose"], s["distance_cm"]) for s in da["trace"]]
@@ -45,7 +36,7 @@ def test_run_same_seed_same_mission(tmp_path: Path) -> None:
 
 def test_run_random_start_and_animation(tmp_path: Path) -> None:
     gif, js = tmp_path / "m.gif", tmp_path / "m.json"
-    assert _exit_code(["run", "--map", "map1", "--random-start", "--seed", "2", "--animate", str(gif),
+    assert run_cli(["run", "--map", "map1", "--random-start", "--seed", "2", "--animate", str(gif),
                        "--json", str(js)]) == 0
     assert gif.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
     doc = json.loads(js.read_text())
@@ -54,7 +45,7 @@ def test_run_random_start_and_animation(tmp_path: Path) -> None:
 
 def test_run_explicit_start_with_heading(tmp_path: Path) -> None:
     js = tmp_path / "m.json"
-    assert _exit_code(["run", "--start", "30,30,90", "--target", "20,90", "--json", str(js)]) == 0
+    assert run_cli(["run", "--start", "30,30,90", "--target", "20,90", "--json", str(js)]) == 0
     doc = json.loads(js.read_text())
     assert doc["start"] == pytest.approx([30.0, 30.0, 90.0])
     assert doc["target"] == [20.0, 90.0]
@@ -62,14 +53,14 @@ def test_run_explicit_start_with_heading(tmp_path: Path) -> None:
 
 def test_run_radius_scales_the_robot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A target 10 cm from a wall is reachable by a 5 cm robot and in a wall for a 12 cm one."""
-    assert _exit_code(["run", "--radius", "5", "--target", "10,90"]) == 0
-    assert _exit_code(["run", "--radius", "12", "--target", "10,90"]) == 2
+    assert run_cli(["run", "--radius", "5", "--target", "10,90"]) == 0
+    assert run_cli(["run", "--radius", "12", "--target", "10,90"]) == 2
     assert "in a wall" in capsys.readouterr().err
 
 
 def test_run_target_in_wall_reports_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     js = tmp_path / "m.json"
-    assert _exit_code(["run", "--target", "3,50", "--json", str(js)]) == 2
+    assert run_cli(["run", "--target", "3,50", "--json", str(js)]) == 2
     doc = json.loads(js.read_text())
     assert doc["success"] is False and "in a wall" in doc["status"]
     captured = capsys.readouterr()
@@ -103,14 +94,14 @@ def test_run_target_in_wall_reports_it(tmp_path: Path, capsys: pytest.CaptureFix
     ["paper", "--pareto", "x.png", "--settings", "no-such-setting"],
 ])
 def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
-    assert _exit_code(argv) == 2
+    assert run_cli(argv) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and err.strip()
 
 
 def test_paper_json_shape(tmp_path: Path) -> None:
     js, md = tmp_path / "t.json", tmp_path / "t.md"
-    assert _exit_code(["paper", "--trials", "1", "--seed", "3", "--json", str(js), "--markdown", str(md)]) == 0
+    assert run_cli(["paper", "--trials", "1", "--seed", "3", "--json", str(js), "--markdown", str(md)]) == 0
     doc = json.loads(js.read_text())
     assert isinstance(doc, list) and [t["noise_model"] for t in doc] == ["botsim", "absolute"]
     for table in doc:
@@ -128,7 +119,7 @@ def test_paper_json_shape(tmp_path: Path) -> None:
 
 def test_paper_random_starts(tmp_path: Path) -> None:
     js, md = tmp_path / "t.json", tmp_path / "t.md"
-    assert _exit_code(["paper", "--trials", "2", "--seed", "5", "--maps", "map1", "--noise-model", "absolute",
+    assert run_cli(["paper", "--trials", "2", "--seed", "5", "--maps", "map1", "--noise-model", "absolute",
                        "--random-start", "--json", str(js), "--markdown", str(md)]) == 0
     (table,) = json.loads(js.read_text())
     assert table["starts"] == "random" and table["rows"][0]["trials"] == 2
@@ -148,7 +139,7 @@ def test_paper_random_start_trials_start_off_the_preset() -> None:
 
 def test_paper_pareto_draws_the_front(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     png, js = tmp_path / "front.png", tmp_path / "front.json"
-    assert _exit_code(["paper", "--pareto", str(png), "--json", str(js), "--trials", "1", "--maps", "map1",
+    assert run_cli(["paper", "--pareto", str(png), "--json", str(js), "--trials", "1", "--maps", "map1",
                        "--settings", "paper-habit,default", "--sonar", "ideal"]) == 0
     assert png.stat().st_size > 1000
     doc = json.loads(js.read_text())

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,10 +18,10 @@ import pytest
 
 import toolkit.mission as mission_mod
 import toolkit.mission.runner as mission_runner
-import toolkit.mission.stack as mission_stack
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
-from planners.base import Planner, PlanningProblem
-from toolkit.mission import MissionConfig, run_mission
+from localisation.procedure import LocalisationResult
+from planners.base import Planner, PlanningProblem, Solution
+from toolkit.mission import MissionConfig, Outcome, run_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.world import Map, Pose, Scan, load_map, map_from_dict, wrap_angle
 
@@ -66,22 +65,19 @@ class OracleLocaliser(Localiser):
 OracleLocaliser.name = "oracle"  # set after class creation: stays out of the registry
 
 
-@dataclass(frozen=True)
-class _Result:
-    estimate: PoseEstimate
-
-
-def oracle_localise(robot: Any, localiser: Localiser, prior: Prior | None = None, rng: Any = None) -> _Result:
-    """Stand-in for localisation.procedure.localise: one scan, one update."""
+def oracle_localise(robot: Any, localiser: Localiser, prior: Prior | None = None, rng: Any = None,
+                    **options: Any) -> LocalisationResult:
+    """Stand-in for localisation.procedure.localise: one scan, one update (the sweep options are ignored)."""
     localiser.reset(prior)
     localiser.update(robot.ultrascan())
-    return _Result(localiser.estimate())
+    est = localiser.estimate()
+    return LocalisationResult(est, scans=1, iterations=1, converged=est.converged)
 
 
 class VisibilityPlanner(Planner):
     """Shortest path over the vertices of the c-space polygon (Dijkstra), checked by the shared checker."""
 
-    def _solve(self, problem: PlanningProblem) -> tuple[Any, ...]:
+    def _solve(self, problem: PlanningProblem) -> Solution:
         cs = problem.map.free_space(problem.checker.robot_radius + 0.05)
         rings = [cs] if cs.geom_type == "Polygon" else list(getattr(cs, "geoms", []))
         verts = [np.asarray(r.exterior.coords)[:-1] for r in rings if not r.is_empty]
@@ -109,30 +105,25 @@ class VisibilityPlanner(Planner):
                     dist[v], prev[v] = d + w, u
                     heapq.heappush(heap, (d + w, v))
         if 1 not in dist:
-            return None, "no path"
+            return Solution(None, "no path")
         path = [1]
         while path[-1] != 0:
             path.append(prev[path[-1]])
-        return pts[path[::-1]], "exact"
+        return Solution(pts[path[::-1]], "exact")
 
 
 VisibilityPlanner.name = "visibility"
-
-
-@pytest.fixture
-def standin_procedure(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(mission_stack, "_localise_procedure", lambda: oracle_localise)
 
 
 def _mission(m: Map, start: Pose, target: Any, seed: int = 0, *, noise: MotionNoise | None = None,
              converge: bool = True, sd_cm: float = 0.3, config: MissionConfig | None = None) -> tuple[Any, SimRobot]:
     robot = SimRobot(m, start, noise=noise, rng=seed)
     loc = OracleLocaliser(m, robot, sd_cm=sd_cm, converge=converge, rng=seed + 1)
-    report = run_mission(robot, m, target, planner=VisibilityPlanner(), localiser=loc, rng=seed, config=config)
+    report = run_mission(robot, m, target, planner=VisibilityPlanner(), localiser=loc,
+                         procedure=oracle_localise, rng=seed, config=config)
     return report, robot
 
 
-@pytest.mark.usefixtures("standin_procedure")
 @pytest.mark.parametrize("name", ["map1", "map2", "map3", "pillars"])
 @pytest.mark.parametrize("model", ["botsim", "absolute"])
 def test_mission_reaches_preset_target(name: str, model: str) -> None:
@@ -154,40 +145,36 @@ def test_mission_reaches_preset_target(name: str, model: str) -> None:
     assert report.trace[-1].true_pose == robot.true_pose
 
 
-@pytest.mark.usefixtures("standin_procedure")
 def test_target_in_wall_is_a_status_not_an_exception() -> None:
     m = load_map("map1")
     report, robot = _mission(m, Pose(20, 20, 0), (3.0, 50.0))
     assert not report.success
-    assert "in a wall" in report.status
+    assert report.outcome is Outcome.TARGET_IN_WALL and "in a wall" in report.status
     assert robot.odometry_cm == 0.0  # nothing was driven
 
 
-@pytest.mark.usefixtures("standin_procedure")
 def test_target_outside_map() -> None:
     m = load_map("map1")
     report, _ = _mission(m, Pose(20, 20, 0), (80.0, 20.0))  # the notch of map1 is outside
     assert not report.success
-    assert "outside the free area" in report.status
+    assert report.outcome is Outcome.TARGET_OUTSIDE, report.status
 
 
-@pytest.mark.usefixtures("standin_procedure")
 def test_unreachable_target() -> None:
     # two rooms joined by a 10 cm gap: too narrow for a robot of radius 8 cm
     m = map_from_dict({"name": "split", "boundary": [[0, 0], [60, 0], [60, 25], [65, 25], [65, 0], [120, 0],
                                                       [120, 60], [65, 60], [65, 35], [60, 35], [60, 60], [0, 60]]})
     report, robot = _mission(m, Pose(20, 30, 0), (100.0, 30.0))
     assert not report.success
-    assert "unreachable" in report.status
+    assert report.outcome is Outcome.UNREACHABLE, report.status
     assert robot.collisions == 0
 
 
-@pytest.mark.usefixtures("standin_procedure")
 def test_lost_robot() -> None:
     m = load_map("map2")
     report, _ = _mission(m, Pose(30, 20, 0), m.target, converge=False)
     assert not report.success
-    assert "lost" in report.status
+    assert report.outcome is Outcome.LOST, report.status
     assert report.relocalisations == 0
     cfg = MissionConfig()
     finals = [s for s in report.trace if s.action == "localise" and "not converged" in s.note]
@@ -198,7 +185,6 @@ def test_lost_robot() -> None:
     assert 0 < len(moves) <= cfg.max_localisation_attempts * cfg.max_explore_moves
 
 
-@pytest.mark.usefixtures("standin_procedure")
 def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
     # a first fix 20 cm short in y drives the robot at the top wall of map1: the watchdog must stop it
     m = load_map("map1")
@@ -215,7 +201,8 @@ def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
 
     loc.update = biased  # type: ignore[method-assign]
     cfg = MissionConfig(relocalise_every_cm=None, first_leg_cm=None, confirm_global=False)
-    report = run_mission(robot, m, (20.0, 88.0), planner=VisibilityPlanner(), localiser=loc, rng=0, config=cfg)
+    report = run_mission(robot, m, (20.0, 88.0), planner=VisibilityPlanner(), localiser=loc,
+                         procedure=oracle_localise, rng=0, config=cfg)
     assert robot.true_pose.distance_to((20.0, 88.0)) < 2.0
     assert report.success, report.status
     assert robot.collisions == 0
@@ -226,23 +213,22 @@ def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
     assert report.replans >= 1
 
 
-@pytest.mark.usefixtures("standin_procedure")
 def test_report_to_dict_is_json() -> None:
     import json
 
     m = load_map("map1")
     report, _ = _mission(m, Pose(20, 20, 0.3), m.target)
     d = json.loads(json.dumps(report.to_dict()))
+    assert d["outcome"] == "reached" and report.outcome is Outcome.REACHED
     for key in ("success", "final_error_cm", "completion_s", "robot_time_s", "path_length_cm", "planned_length_cm",
                 "turns", "collisions", "watchdog_stops", "relocalisations", "replans", "map", "planner", "localiser",
-                "seed", "start", "target", "final_pose", "final_estimate", "status", "trace", "plans"):
+                "seed", "start", "target", "final_pose", "final_estimate", "status", "outcome", "trace", "plans"):
         assert key in d
     assert d["start"] == [20.0, 20.0, pytest.approx(math.degrees(0.3))]
     assert d["turns"] == sum(1 for s in report.trace if s.action in ("turn", "correct-turn")
                              and abs(s.turn_rad) > math.radians(0.5))
 
 
-@pytest.mark.usefixtures("standin_procedure")
 def test_a_wrong_single_place_fix_is_caught_by_the_confirmation() -> None:
     # map3's rooms are identical: a localiser that collapses on the twin room (90 cm off) on its first
     # fix must not send the robot "home" in the wrong room
@@ -260,7 +246,8 @@ def test_a_wrong_single_place_fix_is_caught_by_the_confirmation() -> None:
             loc.pose = Pose(loc.pose.x + 90.0, loc.pose.y, loc.pose.theta)
 
     loc.update = twin  # type: ignore[method-assign]
-    report = run_mission(robot, m, m.target, planner=VisibilityPlanner(), localiser=loc, rng=0)
+    report = run_mission(robot, m, m.target, planner=VisibilityPlanner(), localiser=loc,
+                         procedure=oracle_localise, rng=0)
     assert report.success, report.status
     assert robot.true_pose.distance_to(m.target) < 2.0
     assert any("disagree" in s.note for s in report.trace)
@@ -274,7 +261,7 @@ def test_target_in_a_wall_is_reported_before_the_localiser_is_built(monkeypatch:
     m = load_map("map1")
     robot = SimRobot(m, Pose(20.0, 20.0, 0.0), rng=0)
     report = mission_mod.run_mission(robot, m, (3.0, 50.0), rng=0)
-    assert not report.success and "in a wall" in report.status
+    assert not report.success and report.outcome is Outcome.TARGET_IN_WALL
     assert report.localiser == "paper-pf" and robot.robot_time_s == 0.0
     with pytest.raises(KeyError):  # an unknown localiser name still fails at once
         mission_mod.run_mission(robot, m, (80.0, 80.0), localiser="no-such-filter", rng=0)

@@ -10,13 +10,13 @@ import pytest
 
 from toolkit.bench.paper import (
     PAPER_TABLE,
+    PaperResult,
     PaperTrial,
-    TrialResult,
     paper_tasks,
     summarise,
     tables_to_markdown,
-    trial_seed,
 )
+from toolkit.seeds import derive_seed
 
 
 def test_tasks_cover_every_model_stack_map_and_trial() -> None:
@@ -28,13 +28,13 @@ def test_tasks_cover_every_model_stack_map_and_trial() -> None:
     by = {(t.noise_model, t.stack, t.map, t.trial): t.seed for t in tasks}
     assert by[("botsim", "min-turn/paper-pf", "map2", 3)] == by[("absolute", "astar/paper-pf", "map2", 3)]
     assert len({t.seed for t in tasks}) == 3 * 4  # distinct across maps and trials
-    assert trial_seed(9, 1, 3) == by[("botsim", "min-turn/paper-pf", "map2", 3)]
+    assert derive_seed(9, 1, 3) == by[("botsim", "min-turn/paper-pf", "map2", 3)]
     with pytest.raises(ValueError):
         paper_tasks(0)
 
 
-def _result(task: PaperTrial, ok: bool, err: float, t: float, coll: int = 0) -> TrialResult:
-    return TrialResult(task, ok, "reached target" if ok else "robot lost", t, err, 100.0 + err, coll, 50.0, 0, 3, 0)
+def _result(task: PaperTrial, ok: bool, err: float, t: float, coll: int = 0) -> PaperResult:
+    return PaperResult(task, ok, "reached target" if ok else "robot lost", t, err, 100.0 + err, coll, 50.0, 0, 3, 0)
 
 
 def test_summarise_means_totals_and_order() -> None:
@@ -74,7 +74,7 @@ def test_summarise_means_totals_and_order() -> None:
 
 def test_nan_results_do_not_poison_means() -> None:
     task = paper_tasks(2, maps=("map1",), noise_models=("botsim",))
-    crashed = TrialResult(task[0], False, "crashed: RuntimeError: x", math.nan, math.nan, math.nan, 0, math.nan,
+    crashed = PaperResult(task[0], False, "crashed: RuntimeError: x", math.nan, math.nan, math.nan, 0, math.nan,
                           0, 0, 0)
     table = summarise([crashed, _result(task[1], True, 0.5, 0.2)])[0]
     row = table.rows[0]
@@ -86,7 +86,7 @@ def test_rows_carry_the_median_robot_time_and_the_mean_split() -> None:
 
     tasks = paper_tasks(3, maps=("map2",), noise_models=("botsim",))
     times = [30.0, 90.0, 40.0]
-    results = [TrialResult(t, True, "reached target", 0.1, 0.3, 100.0, 0, rt, 0, 2, 0,
+    results = [PaperResult(t, True, "reached target", 0.1, 0.3, 100.0, 0, rt, 0, 2, 0,
                            RobotTimeSplit(0.6 * rt, 0.2 * rt, 0.1 * rt, 0.1 * rt, int(10 * rt)))
                for t, rt in zip(tasks, times, strict=True)]
     row = summarise(results)[0].rows[0]
@@ -129,7 +129,7 @@ def test_pareto_front_and_points() -> None:
         name = next(k for k, v in MISSION_SETTINGS.items() if tuple(sorted(v.items())) == t.options)
         rt, err = cost[name]
         coll = 1 if name == "lean" and t.trial == 0 else 0  # a setting that collides is no choice
-        results.append(TrialResult(t, True, "reached target", 0.2, err, 100.0, coll, rt, 0, 2, 0))
+        results.append(PaperResult(t, True, "reached target", 0.2, err, 100.0, coll, rt, 0, 2, 0))
     points = {p.setting: p for p in pareto_points(results)}
     assert points["default"].on_front and points["paper-habit"].on_front
     assert not points["lean"].on_front and points["lean"].collisions == 1

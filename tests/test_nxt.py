@@ -19,8 +19,6 @@ from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
 from toolkit.world import Pose, Robot, RobotError, angle_diff, load_map, ray_cast
 
-pytest.importorskip("nxt")
-
 FAST = BrickConfig(time_factor=1000.0, max_step_s=0.01)
 
 
@@ -255,7 +253,7 @@ def test_no_server_gives_the_clear_message() -> None:
 
 
 def test_usb_without_a_brick_lists_the_fixes(monkeypatch: pytest.MonkeyPatch) -> None:
-    usb_core = pytest.importorskip("usb.core")
+    import usb.core as usb_core
     # whatever this machine has (no libusb, or libusb and no brick), the message lists the fixes
     with pytest.raises(RobotError, match=r"no NXT brick found over USB.*cable.*udev rule.*libusb") as err:
         connect_robot("usb")

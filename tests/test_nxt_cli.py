@@ -15,26 +15,16 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from conftest import run_cli
 from typer.testing import CliRunner
 
-from toolkit.cli import main
 from toolkit.cli.app import app
 from toolkit.robots.nxt import NxtProfile
 from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
 from toolkit.world import Pose, RobotGeometry, load_map
 
-pytest.importorskip("nxt")
-
 BIN = Path(sys.executable).parent
-
-
-def _exit_code(argv: list[str]) -> int:
-    try:
-        main(argv)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
 
 
 @pytest.fixture
@@ -77,23 +67,23 @@ def test_nxt_test_passes_against_brick_serve(tmp_path: Path) -> None:
 
 
 def test_brick_serve_option_errors(capsys: pytest.CaptureFixture[str]) -> None:
-    assert _exit_code(["brick", "serve", "--pose", "2,2,0", "--port", "0"]) == 2
+    assert run_cli(["brick", "serve", "--pose", "2,2,0", "--port", "0"]) == 2
     assert "collision or outside map" in capsys.readouterr().err
-    assert _exit_code(["brick", "serve", "--sonar", "laser", "--port", "0"]) == 2
-    assert _exit_code(["brick", "serve", "--time-factor", "0", "--port", "0"]) == 2
-    assert _exit_code(["brick", "serve", "--pose", "20,20", "--port", "0"]) == 2
+    assert run_cli(["brick", "serve", "--sonar", "laser", "--port", "0"]) == 2
+    assert run_cli(["brick", "serve", "--time-factor", "0", "--port", "0"]) == 2
+    assert run_cli(["brick", "serve", "--pose", "20,20", "--port", "0"]) == 2
 
 
 def test_brick_serve_port_in_use(served: tuple[BrickServer, io.StringIO], capsys: pytest.CaptureFixture[str]) -> None:
     server, _ = served
-    assert _exit_code(["brick", "serve", "--port", str(server.port)]) == 2
+    assert run_cli(["brick", "serve", "--port", str(server.port)]) == 2
     assert "cannot listen" in capsys.readouterr().err
 
 
 def test_nxt_check_prints_battery_firmware_and_sonar(served: tuple[BrickServer, io.StringIO],
                                                      capsys: pytest.CaptureFixture[str]) -> None:
     server, _ = served
-    code = _exit_code(["nxt", "check", "--nxt-backend", "socket", "--server-host", "127.0.0.1", "--server-port",
+    code = run_cli(["nxt", "check", "--nxt-backend", "socket", "--server-host", "127.0.0.1", "--server-port",
                        str(server.port)])
     out = capsys.readouterr().out
     assert code == 0
@@ -103,11 +93,11 @@ def test_nxt_check_prints_battery_firmware_and_sonar(served: tuple[BrickServer, 
 
 
 def test_nxt_check_without_a_brick_is_one_clear_line(capsys: pytest.CaptureFixture[str]) -> None:
-    code = _exit_code(["nxt", "check", "--nxt-backend", "socket", "--server-port", "1"])
+    code = run_cli(["nxt", "check", "--nxt-backend", "socket", "--server-port", "1"])
     err = capsys.readouterr().err
     assert code == 2
     assert err.count("\n") == 1 and err.startswith("nxtnav: error: no brick server at 127.0.0.1:1")
-    assert _exit_code(["nxt", "check", "--nxt-backend", "serial"]) == 2
+    assert run_cli(["nxt", "check", "--nxt-backend", "serial"]) == 2
 
 
 def test_calibrate_from_stdin_recovers_the_brick_geometry(served: tuple[BrickServer, io.StringIO],
@@ -152,7 +142,7 @@ def test_nxt_check_names_a_silent_sensor_port(served: tuple[BrickServer, io.Stri
                                               capsys: pytest.CaptureFixture[str]) -> None:
     server, _ = served
     profile = NxtProfile(sonar_port=1).save(tmp_path / "wrong-port.yaml")  # the sensor is on port 4
-    code = _exit_code(["nxt", "check", "--nxt-backend", "socket", "--server-port", str(server.port),
+    code = run_cli(["nxt", "check", "--nxt-backend", "socket", "--server-port", str(server.port),
                        "--profile", str(profile)])
     err = capsys.readouterr().err
     assert code == 2

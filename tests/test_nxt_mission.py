@@ -20,8 +20,6 @@ from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
 from toolkit.world import Pose, load_map
 
-pytest.importorskip("nxt")
-
 pytestmark = pytest.mark.slow
 
 

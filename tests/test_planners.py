@@ -12,20 +12,20 @@ import numpy as np
 import pytest
 import shapely
 
-from planners import PLANNERS, PlanningProblem, PlanResult, make_planner
+from planners import PLANNERS, Planner, PlanningProblem, PlanResult, make_planner
 from toolkit.world import CollisionChecker, Map, load_map, map_from_dict
 
 RADIUS = 8.0
 MAPS = ("map1", "map2", "map3", "pillars")
 PLANNER_NAMES = (*PLANNERS.names(), "ompl:RRTConnect")
-OMPL_BUDGET = 1.0  # s for planners that use their whole budget (ample on a loaded machine)
+OMPL_BUDGET = 1.0  # s for the one test that lets an anytime planner use its whole budget
+ANYTIME = ("rrtstar", "prm", "ompl:BITstar")  # OMPL planners that would optimise for their whole budget
+BUDGET = 5.0  # s, generous: every planner here stops as soon as it has a path
 
 
-def _budget(name: str) -> float:
-    """Planning budget of a test query (s): generous where the planner stops at its first solution."""
-    if name in ("rrtstar", "prm", "ompl:BITstar"):
-        return OMPL_BUDGET
-    return 5.0  # min-turn, astar, the references and RRTConnect stop as soon as they are done
+def _make(name: str) -> Planner:
+    """The planner `name` as the tests use it: anytime OMPL planners stop at their first solution."""
+    return make_planner(name, stop_at_first=True) if name in ANYTIME else make_planner(name)
 
 
 _MAPS: dict[str, Map] = {}
@@ -48,9 +48,9 @@ def _plan(planner: str, map_name: str, start: object = None, goal: object = None
     preset = start is None and goal is None
     if preset and (planner, map_name) in _RESULTS:
         return _RESULTS[(planner, map_name)]
-    p = _PLANNERS.setdefault(planner, make_planner(planner))
+    p = _PLANNERS.setdefault(planner, _make(planner))
     problem = PlanningProblem(m, _CHECKERS[map_name], m.start if start is None else start,
-                              m.target if goal is None else goal, budget or _budget(planner), seed)
+                              m.target if goal is None else goal, budget or BUDGET, seed)
     res = p.plan(problem)  # type: ignore[attr-defined]
     if preset:
         _RESULTS[(planner, map_name)] = res
@@ -119,12 +119,12 @@ def test_goal_behind_a_narrow_door_fails_cleanly(planner: str) -> None:
     m = map_from_dict(TWO_ROOMS)
     checker = CollisionChecker(m, RADIUS)
     assert checker.point_free(m.target) and checker.point_free(m.start)
-    res = make_planner(planner).plan(PlanningProblem(m, checker, m.start, m.target, 0.2, 3))
+    res = _make(planner).plan(PlanningProblem(m, checker, m.start, m.target, 0.2, 3))
     assert not res.success
     assert isinstance(res.status, str) and res.status and res.status != "exact"
     assert res.path.shape == (0, 2)
     # the same map with the door in reach: a path through the room on the start side works
-    ok = make_planner(planner).plan(PlanningProblem(m, checker, m.start, [60, 80], 2 * _budget(planner), 3))
+    ok = _make(planner).plan(PlanningProblem(m, checker, m.start, [60, 80], BUDGET, 3))
     assert ok.success
     assert_path_valid(m, ok.path, m.start, np.array([60.0, 80.0]))
 
@@ -214,7 +214,7 @@ def test_ompl_stop_at_first_reports_first_solution() -> None:
     assert res.success
     assert res.info["first_solution_length_cm"] == pytest.approx(res.length, rel=1e-6)
     assert res.info["first_solution_s"] <= res.time_s
-    full = _plan("rrtstar", "map3")
+    full = make_planner("rrtstar").plan(PlanningProblem(m, _CHECKERS["map3"], m.start, m.target, OMPL_BUDGET, 1))
     assert full.info["first_solution_length_cm"] >= full.length - 1e-9
 
 
@@ -249,3 +249,19 @@ def test_random_queries(map_name: str) -> None:
             assert_path_valid(m, r.path, s, g)
             assert r.length >= ref.length - ref.info["length_tolerance_cm"] - 1e-9, name
         assert res["min-link"].info["links"] - 1 <= res["min-turn"].info["intermediate"]
+
+
+def test_the_registry_resolves_the_ompl_family_itself() -> None:
+    from pathlib import Path
+
+    from planners import PLANNERS, make_planner
+    from toolkit.world import RegistryError
+
+    assert "ompl:BITstar" in PLANNERS and "ompl:NoSuchPlanner" not in PLANNERS and "ompl:" not in PLANNERS
+    assert make_planner("ompl:BITstar").name == "ompl:BITstar"
+    with pytest.raises(RegistryError, match=r"ompl:NAME: .*RRTstar"):
+        PLANNERS.check("ompl:NoSuchPlanner")
+    with pytest.raises(RegistryError, match=r"known: .*min-turn.*or ompl:NAME"):
+        make_planner("no-such-planner")
+    # the base module no longer reaches into the OMPL module (the circle the family replaced)
+    assert "ompl_planners" not in (Path(__file__).resolve().parents[1] / "planners" / "base.py").read_text()

@@ -162,7 +162,6 @@ def test_unknown_localiser_and_missing_file(tmp_path: Path, capsys: pytest.Captu
 
 @pytest.mark.slow
 def test_virtual_brick_recording_replays_bit_for_bit(tmp_path: Path) -> None:
-    pytest.importorskip("nxt")
     from toolkit.robots.nxt import connect_robot
     from toolkit.robots.virtual_brick import BrickServer
     from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld

@@ -93,7 +93,6 @@ def test_bad_sweep_options_are_refused(bad: dict[str, object]) -> None:
 
 @pytest.mark.slow
 def test_brick_clock_agrees_with_the_time_model() -> None:
-    pytest.importorskip("nxt")
     from toolkit.mission import matched_localiser_options
     from toolkit.robots.nxt import connect_robot
     from toolkit.robots.virtual_brick import BrickServer

@@ -11,20 +11,18 @@ import time
 from collections.abc import Iterator
 
 import numpy as np
-import pytest
-
-from toolkit.robots.virtual_brick import BrickServer, VirtualBrick
-from toolkit.robots.virtual_brick_protocol import Frame, Status, split_telegrams
-from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld, MotorMode, RunState
-from toolkit.world import CollisionChecker, Pose, RobotError, RobotGeometry, load_map, ray_cast
-
-pytest.importorskip("nxt")
 import nxt.brick
 import nxt.error
 import nxt.locator
 import nxt.motor
 import nxt.sensor
 import nxt.sensor.generic
+import pytest
+
+from toolkit.robots.virtual_brick import BrickServer, VirtualBrick
+from toolkit.robots.virtual_brick_protocol import Frame, Status, split_telegrams
+from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld, MotorMode, RunState
+from toolkit.world import CollisionChecker, Pose, RobotError, RobotGeometry, load_map, ray_cast
 
 FAST = BrickConfig(time_factor=1000.0, max_step_s=0.01)
 HOLD = MotorMode.ON | MotorMode.BRAKE | MotorMode.REGULATED

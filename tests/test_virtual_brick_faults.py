@@ -16,8 +16,6 @@ from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld, MotorMode, RunState
 from toolkit.world import Pose, load_map
 
-pytest.importorskip("nxt")
-
 FAST = BrickConfig(time_factor=1000.0, max_step_s=0.01)
 HOLD = MotorMode.ON | MotorMode.BRAKE | MotorMode.REGULATED
 BATTERY = bytes([0x00, 0x0B])

@@ -34,7 +34,7 @@ import numpy as np
 
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 
-from .world import Map, Pose, Scan
+from .world import ConfigError, Map, Pose, Scan
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "encode_floats", "scan_fields",
            "scan_from_fields", "versions"]
@@ -56,7 +56,7 @@ def decode_floats(values: list[Any]) -> np.ndarray:
     out = np.empty(len(values))
     for i, v in enumerate(values):
         if isinstance(v, bool) or not isinstance(v, int | float | str):
-            raise ValueError(f"item {i}: expected a number, got {v!r}")
+            raise ConfigError(f"item {i}: expected a number, got {v!r}")
         out[i] = float(v)
     return out
 
@@ -78,18 +78,18 @@ def scan_from_fields(e: dict[str, Any]) -> Scan:
     if isinstance(spec, dict):
         n, step = spec["n"], spec["step"]
         if not (isinstance(n, int) and n >= 2 and isinstance(step, int | float) and not isinstance(step, bool)):
-            raise ValueError("'angles_rad' must be a list or {\"n\": integer >= 2, \"step\": number}")
+            raise ConfigError("'angles_rad' must be a list or {\"n\": integer >= 2, \"step\": number}")
         angles = np.arange(n, dtype=np.float64) * float(step)
     else:
         angles = decode_floats(spec)
     ranges = decode_floats(e["ranges_cm"])
     if ranges.size != angles.size:
-        raise ValueError(f"'ranges_cm' has {ranges.size} values for {angles.size} angles")
+        raise ConfigError(f"'ranges_cm' has {ranges.size} values for {angles.size} angles")
     valid = np.ones(angles.size, dtype=bool)
     bad = e["invalid"]
     if not (isinstance(bad, list) and all(isinstance(i, int) and not isinstance(i, bool) and 0 <= i < angles.size
                                          for i in bad)):
-        raise ValueError(f"'invalid' must list indices 0..{angles.size - 1}")
+        raise ConfigError(f"'invalid' must list indices 0..{angles.size - 1}")
     valid[bad] = False
     return Scan(angles, ranges, valid)
 

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..robots.sim import MotionNoise, SimRobot
-from ..world import CollisionChecker, Map, PlanningError, Pose, RobotGeometry, wrap_angle
+from ..world import CollisionChecker, ConfigError, Map, PlanningError, Pose, RobotGeometry, wrap_angle
 
 __all__ = [
     "ExecutionError",
@@ -139,7 +139,7 @@ def repetition_seeds(rng: _SeedLike, repeats: int) -> list[np.random.SeedSequenc
 
 def _check_repeats(repeats: int) -> None:
     if repeats < 1:
-        raise ValueError(f"repeats must be >= 1, got {repeats}")
+        raise ConfigError(f"repeats must be >= 1, got {repeats}")
 
 
 def simulate_open_loop(

@@ -16,6 +16,8 @@ import signal
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Generic, TypeVar
 
+from toolkit.world import ConfigError
+
 __all__ = ["TasksInterrupted", "collect_tasks", "default_workers", "run_tasks"]
 
 T = TypeVar("T")
@@ -89,7 +91,7 @@ def run_tasks(
         Called with each result as it arrives (progress bars).
     """
     if workers < 1:
-        raise ValueError(f"workers must be >= 1, got {workers}")
+        raise ConfigError(f"workers must be >= 1, got {workers}")
     if dask_address is not None:
         yield from _run_dask(func, tasks, workers, dask_address, on_done)
         return

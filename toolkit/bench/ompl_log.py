@@ -22,6 +22,8 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from toolkit.world import ConfigError
+
 __all__ = [
     "OMPL_STATUS",
     "OmplExperiment",
@@ -86,15 +88,15 @@ class OmplPlannerData:
 
     def __post_init__(self) -> None:
         if not self.name or "\n" in self.name:
-            raise ValueError(f"planner name must be one non-empty line, got {self.name!r}")
+            raise ConfigError(f"planner name must be one non-empty line, got {self.name!r}")
         for pname, ptype in self.properties:
             if not _NAME_RE.match(pname):
-                raise ValueError(f"property name {pname!r}: use letters, digits, spaces and underscores")
+                raise ConfigError(f"property name {pname!r}: use letters, digits, spaces and underscores")
             if ptype not in _TYPES:
-                raise ValueError(f"property {pname!r}: type {ptype!r} is not one of {', '.join(_TYPES)}")
+                raise ConfigError(f"property {pname!r}: type {ptype!r} is not one of {', '.join(_TYPES)}")
         for i, row in enumerate(self.runs):
             if len(row) != len(self.properties):
-                raise ValueError(f"planner {self.name!r} run {i}: {len(row)} values for "
+                raise ConfigError(f"planner {self.name!r} run {i}: {len(row)} values for "
                                  f"{len(self.properties)} properties")
 
 
@@ -165,14 +167,14 @@ def _value(v: Any) -> str:
         return _value(v.item())
     text = str(v)
     if ";" in text or "\n" in text:
-        raise ValueError(f"value {text!r} may not contain ';' or a line break")
+        raise ConfigError(f"value {text!r} may not contain ';' or a line break")
     return text
 
 
 def _one_token(text: str, what: str) -> str:
     token = re.sub(r"\s+", "_", text.strip()) or "unknown"
     if not re.match(r"^[A-Za-z0-9_.:\-]+$", token):
-        raise ValueError(f"{what} {text!r} must be a single word")
+        raise ConfigError(f"{what} {text!r} must be a single word")
     return token
 
 
@@ -189,9 +191,9 @@ def format_ompl_log(exp: OmplExperiment) -> str:
         lines.append(f"{len(exp.properties)} experiment properties")
         for pname, (ptype, pvalue) in exp.properties.items():
             if not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", pname):
-                raise ValueError(f"experiment property {pname!r}: use one word of letters, digits, underscores")
+                raise ConfigError(f"experiment property {pname!r}: use one word of letters, digits, underscores")
             if ptype not in _TYPES:
-                raise ValueError(f"experiment property {pname!r}: type {ptype!r} is not one of {', '.join(_TYPES)}")
+                raise ConfigError(f"experiment property {pname!r}: type {ptype!r} is not one of {', '.join(_TYPES)}")
             lines.append(f"{pname} {ptype} = {_value(pvalue)}")
     host = exp.hostname if exp.hostname is not None else socket.gethostname()
     lines.append(f"Running on {_one_token(host, 'hostname')}")
@@ -210,7 +212,7 @@ def format_ompl_log(exp: OmplExperiment) -> str:
     for ename, labels in enums.items():
         for label in (ename, *labels):
             if "|" in label or "\n" in label:
-                raise ValueError(f"enum {ename!r}: label {label!r} may not contain '|' or a line break")
+                raise ConfigError(f"enum {ename!r}: label {label!r} may not contain '|' or a line break")
         lines.append("|".join([ename, *labels]))
     lines.append(f"{len(exp.planners)} planners")
     for p in exp.planners:

@@ -11,7 +11,7 @@ succeeds when the mission reports success and the robot is truly within the miss
 With ``random_start`` each trial starts instead from a seeded random free pose at least 10 cm from
 every wall (``nxtnav paper --random-start``); those tables say so (``starts``: ``random``).
 
-Trial ``i`` of map ``k`` has the mission seed ``SeedSequence([seed, k, i])``: the same on every
+Trial ``i`` of map ``k`` has the mission seed ``toolkit.seeds.derive_seed(seed, k, i)``: the same on every
 noise model and stack (common random numbers), and `nxtnav run --map MAP --seed SEED` replays one
 trial exactly.
 """
@@ -26,22 +26,24 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from toolkit.world import ConfigError
+
 from ..mission import MissionConfig, RobotTimeSplit, run_sim_mission
+from ..seeds import derive_seed
 from .executors import collect_tasks
 
 __all__ = [
     "PAPER_MAPS",
     "PAPER_TABLE",
+    "PaperResult",
     "PaperRow",
     "PaperTable",
     "PaperTrial",
-    "TrialResult",
     "paper_tasks",
     "run_paper",
     "run_trial",
     "summarise",
     "tables_to_markdown",
-    "trial_seed",
 ]
 
 PAPER_MAPS = ("map1", "map2", "map3")
@@ -55,9 +57,6 @@ PAPER_TABLE: dict[str, dict[str, float]] = {
 detected collisions)."""
 
 
-def trial_seed(seed: int, map_index: int, trial: int) -> int:
-    """The mission seed of trial `trial` on the `map_index`-th map for the table seed `seed`."""
-    return int(np.random.SeedSequence([int(seed), int(map_index), int(trial)]).generate_state(1)[0])
 
 
 @dataclass(frozen=True)
@@ -87,7 +86,7 @@ class PaperTrial:
 
 
 @dataclass(frozen=True)
-class TrialResult:
+class PaperResult:
     """What one trial gave (the mission report's numbers, with its task)."""
 
     task: PaperTrial
@@ -111,7 +110,7 @@ class TrialResult:
         return d
 
 
-def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> TrialResult:
+def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> PaperResult:
     """Run one trial's mission on the simulator (top-level, so it pickles for process pools);
     `config` None is the task's own (`PaperTrial.config`)."""
     config = config or task.config()
@@ -122,14 +121,14 @@ def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> TrialRes
             turn_noise=task.turn_noise, sonar=task.sonar, config=config, random_start_pose=task.random_start,
         )
     except Exception as exc:  # a crash in one trial is a failed trial, not a lost table
-        return TrialResult(task, False, f"crashed: {type(exc).__name__}: {exc}", math.nan, math.nan, math.nan,
+        return PaperResult(task, False, f"crashed: {type(exc).__name__}: {exc}", math.nan, math.nan, math.nan,
                            0, math.nan, 0, 0, 0)
     # success in the table is judged by the truth: the mission says it arrived AND the robot is truly
     # within the mission's success radius of the target
     cfg = config
     truly = r.success and r.final_error_cm is not None and r.final_error_cm <= cfg.success_radius_cm
     status = r.status if truly or not r.success else f"{r.status}, but truly {r.final_error_cm:.1f} cm away"
-    return TrialResult(
+    return PaperResult(
         task, truly, status, r.completion_s,
         math.nan if r.final_error_cm is None else r.final_error_cm,
         r.path_length_cm, int(r.collisions or 0), r.robot_time_s, r.watchdog_stops, r.relocalisations, r.replans,
@@ -155,11 +154,11 @@ def paper_tasks(
     at least 10 cm from the walls instead of the preset start; `options`: `MissionConfig` fields
     replacing the sonar's defaults)."""
     if trials < 1:
-        raise ValueError(f"trials must be >= 1, got {trials}")
+        raise ConfigError(f"trials must be >= 1, got {trials}")
     opts = tuple(sorted((options or {}).items()))
     MissionConfig.for_sonar(sonar, **dict(opts))  # a bad option fails here, not in every trial
     return [
-        PaperTrial(m, i, trial_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise,
+        PaperTrial(m, i, derive_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise,
                    random_start, opts)
         for nm in noise_models
         for p, lo in stacks
@@ -237,7 +236,7 @@ def _stat(func: Callable[[NDArray[np.float64]], Any], values: Iterable[float]) -
     return float(func(v)) if v.size else math.nan
 
 
-def _mean_split(results: Sequence[TrialResult]) -> RobotTimeSplit | None:
+def _mean_split(results: Sequence[PaperResult]) -> RobotTimeSplit | None:
     """The mean time split over the trials that have one (None when none has)."""
     splits = [r.time_split for r in results if r.time_split is not None]
     if not splits:
@@ -249,9 +248,9 @@ def _mean_split(results: Sequence[TrialResult]) -> RobotTimeSplit | None:
                           round(mean("readings")), mean("other_s"))
 
 
-def summarise(results: Iterable[TrialResult]) -> list[PaperTable]:
+def summarise(results: Iterable[PaperResult]) -> list[PaperTable]:
     """Group trial results into tables (noise model x stack x options), one row per map in the paper's order."""
-    groups: dict[tuple[str, str, str, str, bool, tuple[tuple[str, Any], ...]], dict[str, list[TrialResult]]] = {}
+    groups: dict[tuple[str, str, str, str, bool, tuple[tuple[str, Any], ...]], dict[str, list[PaperResult]]] = {}
     for r in results:
         t = r.task
         key = (t.noise_model, t.planner, t.localiser, t.sonar, t.random_start, t.options)
@@ -288,8 +287,8 @@ def run_paper(
     tasks: Sequence[PaperTrial],
     *,
     workers: int = 1,
-    on_done: Callable[[TrialResult], None] | None = None,
-) -> tuple[list[PaperTable], list[TrialResult]]:
+    on_done: Callable[[PaperResult], None] | None = None,
+) -> tuple[list[PaperTable], list[PaperResult]]:
     """Run the trials (over a process pool when `workers` > 1) and summarise them.
 
     Ctrl-C raises `toolkit.bench.executors.TasksInterrupted` carrying the finished trials

@@ -17,7 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from .paper import PAPER_MAPS, PaperTrial, TrialResult, paper_tasks
+from toolkit.world import ConfigError
+
+from .paper import PAPER_MAPS, PaperResult, PaperTrial, paper_tasks
 
 __all__ = ["MISSION_SETTINGS", "ParetoPoint", "pareto_front", "pareto_points", "pareto_tasks"]
 
@@ -42,7 +44,7 @@ def pareto_tasks(trials: int, seed: int = 0, *, settings: Sequence[str] = tuple(
     """The trials of every setting (by name) and sonar model, with the same mission seeds."""
     unknown = [s for s in settings if s not in MISSION_SETTINGS]
     if unknown:
-        raise ValueError(f"unknown mission setting(s) {', '.join(unknown)}; known: {', '.join(MISSION_SETTINGS)}")
+        raise ConfigError(f"unknown mission setting(s) {', '.join(unknown)}; known: {', '.join(MISSION_SETTINGS)}")
     return [t for so in sonars for name in settings
             for t in paper_tasks(trials, seed, maps=maps, noise_models=noise_models, sonar=so,
                                  random_start=random_start, options=MISSION_SETTINGS[name])]
@@ -109,9 +111,9 @@ def pareto_front(points: Sequence[tuple[float, float]]) -> list[bool]:
     return out
 
 
-def pareto_points(results: Iterable[TrialResult]) -> list[ParetoPoint]:
+def pareto_points(results: Iterable[PaperResult]) -> list[ParetoPoint]:
     """One point per setting, sonar and map, with the front marked among each sonar and map's points."""
-    groups: dict[tuple[str, str, str], list[TrialResult]] = {}
+    groups: dict[tuple[str, str, str], list[PaperResult]] = {}
     for r in results:
         groups.setdefault((_setting_name(r.task.options), r.task.sonar, r.task.map), []).append(r)
     raw = []

@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 from ..mission import MissionReport
 from ..plotting import draw_cspace, draw_map, draw_path, draw_pose, plain_log_axis
 from ..world import Map, RobotGeometry
-from .paper import PAPER_TABLE, TrialResult
+from .paper import PAPER_TABLE, PaperResult
 from .paper_pareto import ParetoPoint
 
 __all__ = ["animate_mission", "draw_error_spread", "draw_mission", "draw_paper_table", "draw_pareto"]
@@ -87,13 +87,13 @@ def draw_error_spread(errors: dict[str, Sequence[float]], ax: Axes | None = None
     return out
 
 
-def draw_paper_table(results: Sequence[TrialResult], size: float = 4.2) -> Figure:
+def draw_paper_table(results: Sequence[PaperResult], size: float = 4.2) -> Figure:
     """Table I as a figure: final error and driven path length per map, the paper's means as stars.
 
     One box per map (and per noise model, stack, sonar and start kind when `results` mixes them), over
     the trials that succeeded; the title of each panel counts the successes.
     """
-    groups: dict[str, list[TrialResult]] = {}
+    groups: dict[str, list[PaperResult]] = {}
     keys = ("noise_model", "stack", "sonar", "random_start")
     varying = [k for k in keys if len({getattr(r.task, k) for r in results}) > 1]
     for r in results:

@@ -80,8 +80,9 @@ def _quiet_exit(code: int) -> None:
 def main(argv: Sequence[str] | None = None) -> None:
     """Entry point of the console script: every failure becomes one line on stderr and an exit code.
 
-    0 success; 1 the plan or mission failed; 2 bad input (`NxtnavError`, usage errors, unreadable
-    or unwritable files, memory exhausted); 130 interrupted.
+    0 success; 1 the plan or mission failed; 2 bad input (`NxtnavError`, among them `ConfigError` for
+    an option value, usage errors, unreadable or unwritable files, memory exhausted); 130 interrupted.
+    Any other exception is a bug and keeps its traceback.
     """
     command = typer.main.get_command(app)
     code = EXIT_OK
@@ -113,7 +114,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         detail = f" ({exc})" if str(exc) else ""
         typer.echo(f"nxtnav: error: out of memory{detail}; try a smaller map, problem or option value", err=True)
         code = EXIT_BAD_INPUT
-    except (OSError, ValueError, OverflowError) as exc:
+    except (OSError, OverflowError) as exc:  # unreadable or unwritable files, numbers beyond a float
         typer.echo(f"nxtnav: error: {' '.join(str(exc).split())}", err=True)
         code = EXIT_BAD_INPUT
     if argv is not None:  # called from Python (tests): return normally

@@ -15,7 +15,6 @@ from typing import Any
 import typer
 import yaml
 
-from localisation.base import LOCALISERS
 from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
 
 from .app import Interrupted, app, bench_app
@@ -33,6 +32,8 @@ def _localiser_names() -> list[str]:
             __import__(mod)
         except ImportError:  # pragma: no cover - not every build ships every module
             pass
+    from localisation.base import LOCALISERS
+
     return LOCALISERS.names()
 
 
@@ -85,6 +86,8 @@ def _options_for(sets: dict[str, dict[str, Any]], names: list[str]) -> dict[str,
 def _option_types(name: str) -> dict[str, Any]:
     """The annotations of a localiser constructor's options (empty when they cannot be resolved)."""
     try:
+        from localisation.base import LOCALISERS
+
         return typing.get_type_hints(LOCALISERS.get(name).__init__)
     except Exception:  # an annotation that does not resolve: no checks beyond the constructor's own
         return {}
@@ -142,11 +145,17 @@ def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
 
 
 def _accepted_options(name: str) -> set[str] | None:
-    """Keyword options of a localiser's constructor (None when it takes any)."""
-    params = inspect.signature(LOCALISERS.get(name).__init__).parameters
-    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+    """Keyword options of a localiser's constructor, for ``--set`` (None when it forwards ``**options``).
+
+    The constructor is the one definition of a plug-in's options (its parameters, their defaults and
+    annotations), so the command line reads them from its code object rather than a second list.
+    """
+    from localisation.base import LOCALISERS
+
+    code = LOCALISERS.get(name).__init__.__code__
+    if code.co_flags & inspect.CO_VARKEYWORDS:
         return None
-    return {k for k, p in params.items() if k not in ("self", "map", "rng") and p.kind is not p.VAR_POSITIONAL}
+    return set(code.co_varnames[1:code.co_argcount + code.co_kwonlyargcount]) - {"map", "rng"}
 
 
 @app.command("localise")

@@ -34,7 +34,12 @@ def _localiser_names() -> list[str]:
 
 
 def _check_name(value: str, option: str, known: list[str], allow_ompl: bool = False) -> str:
-    if value in known or (allow_ompl and value.startswith("ompl:")):
+    if value in known:
+        return value
+    if allow_ompl:  # the planner registry knows its ompl:NAME family
+        from planners import PLANNERS
+
+        PLANNERS.check(value)
         return value
     raise typer.BadParameter(f"unknown {option.lstrip('-')} {value!r}; known: {', '.join(known) or 'none'}",
                              param_hint=option)

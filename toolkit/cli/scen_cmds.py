@@ -121,8 +121,8 @@ def bench_scen(
     from ..bench.peers import PEERS
 
     for n in names:
-        if not n.startswith(("ompl:", "peer:")):
-            PLANNERS.get(n)
+        if not n.startswith("peer:"):
+            PLANNERS.check(n)
         elif n.startswith("peer:") and n not in PEERS:
             raise NxtnavError(f"--planners: unknown peer {n!r}; known: {', '.join(PEERS)}")
     if not (math.isfinite(radius) and radius >= 0):

@@ -9,16 +9,6 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..plotting import (
-    draw_cspace,
-    draw_map,
-    draw_pose,
-    draw_radar,
-    draw_scan_rays,
-    expected_ranges,
-    new_axes,
-    save_figure,
-)
 from ..world import (
     SONAR_MODELS,
     Pose,
@@ -54,6 +44,8 @@ def maps_show(
                                  callback=non_negative),
 ) -> None:
     """Draw a map with its c-space and presets."""
+    from ..plotting import draw_cspace, draw_map, new_axes, save_figure
+
     check_writable(output, "--output")
     m = load_map(map_name)
     fig, ax = new_axes(size=5.0 if len(m.walls) < 200 else 9.0)
@@ -78,6 +70,8 @@ def scan(
     json_out: Path | None = typer.Option(None, "--json", help="Write the scan as JSON."),
 ) -> None:
     """One 360-degree scan at a pose: printed, drawn as the paper's Fig. 3 with -o (rays, radar chart)."""
+    from ..plotting import draw_map, draw_pose, draw_radar, draw_scan_rays, expected_ranges, new_axes, save_figure
+
     if sonar not in SONAR_MODELS:
         raise typer.BadParameter(f"unknown sonar model {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
                                  param_hint="--sonar")

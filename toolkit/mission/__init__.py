@@ -52,21 +52,20 @@ from localisation.sonar_options import NXT_SONAR_SIGMA_CM, lobe_options, matched
 
 from .config import MissionConfig, sweep_angles
 from .explore import explore_direction
-from .report import MissionReport, RobotTimeSplit, TraceStep
+from .report import MissionReport, Outcome, RobotTimeSplit, TraceStep
 from .runner import run_mission
-from .simulated import mission_seeds, random_start, run_sim_mission
+from .simulated import run_sim_mission
 
 __all__ = [
     "NXT_SONAR_SIGMA_CM",
     "MissionConfig",
     "MissionReport",
+    "Outcome",
     "RobotTimeSplit",
     "TraceStep",
     "explore_direction",
     "lobe_options",
     "matched_localiser_options",
-    "mission_seeds",
-    "random_start",
     "run_mission",
     "run_sim_mission",
     "sweep_angles",

@@ -10,6 +10,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from toolkit.world import ConfigError
+
 FloatArray = NDArray[np.float64]
 
 
@@ -179,36 +181,37 @@ class MissionConfig:
         for name in positive:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-                raise ValueError(f"MissionConfig.{name} must be a positive number, got {v!r}")
+                raise ConfigError(f"MissionConfig.{name} must be a positive number, got {v!r}")
         if not (math.isfinite(self.safety_margin_cm) and self.safety_margin_cm >= 0):
-            raise ValueError(f"MissionConfig.safety_margin_cm must be >= 0, got {self.safety_margin_cm!r}")
+            raise ConfigError(f"MissionConfig.safety_margin_cm must be >= 0, got {self.safety_margin_cm!r}")
         for name in ("global_scan_step_deg", "track_scan_step_deg", "final_scan_step_deg"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and 0 < v <= 90):
-                raise ValueError(f"MissionConfig.{name} must be in (0, 90] degrees, got {v!r}")
+                raise ConfigError(f"MissionConfig.{name} must be in (0, 90] degrees, got {v!r}")
         for name in ("track_window_deg", "final_window_deg"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and 0 <= v <= 180):
-                raise ValueError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
+                raise ConfigError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
         if self.track_windows not in _WINDOW_CENTRES:
-            raise ValueError(f"MissionConfig.track_windows must be one of {', '.join(_WINDOW_CENTRES)}, "
+            raise ConfigError(f"MissionConfig.track_windows must be one of {', '.join(_WINDOW_CENTRES)}, "
                              f"got {self.track_windows!r}")
         if self.fix_rule not in ("habit", "spread"):
-            raise ValueError(f"MissionConfig.fix_rule must be 'habit' or 'spread', got {self.fix_rule!r}")
+            raise ConfigError(f"MissionConfig.fix_rule must be 'habit' or 'spread', got {self.fix_rule!r}")
         for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"MissionConfig.{name} must be >= 0, got {v!r}")
+                raise ConfigError(f"MissionConfig.{name} must be >= 0, got {v!r}")
         if self.tracking not in ("continue", "prior"):
-            raise ValueError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
+            raise ConfigError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
         if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:
-            raise ValueError(f"MissionConfig.relocalise_every_cm must be > 0 or None, got {self.relocalise_every_cm!r}")
+            raise ConfigError("MissionConfig.relocalise_every_cm must be > 0 or None, "
+                              f"got {self.relocalise_every_cm!r}")
         for name in ("max_corrections", "max_replans", "max_localisation_attempts", "max_actions", "final_scans",
                      "max_legs", "max_explore_moves"):
             v = getattr(self, name)
             lowest = 0 if name in ("max_corrections", "max_replans", "max_explore_moves") else 1
             if not (isinstance(v, int) and v >= lowest):
-                raise ValueError(f"MissionConfig.{name} must be a non-negative integer, got {v!r}")
+                raise ConfigError(f"MissionConfig.{name} must be a non-negative integer, got {v!r}")
 
     def to_dict(self) -> dict[str, Any]:
         return {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in self.__dict__.items()}

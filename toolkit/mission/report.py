@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,41 @@ from ..world import (
 )
 
 FloatArray = NDArray[np.float64]
+
+
+class Outcome(Enum):
+    """How a mission ended (`MissionReport.outcome`); `MissionReport.status` says it in words."""
+
+    REACHED = "reached"
+    """The estimate ended within the success radius of the target."""
+    STOPPED_SHORT = "stopped-short"
+    """The corrections at the target ran out outside the success radius."""
+    TARGET_OUTSIDE = "target-outside"
+    """The target lies outside the map's free area."""
+    TARGET_IN_WALL = "target-in-wall"
+    """The target is closer than the robot radius to a wall."""
+    UNREACHABLE = "unreachable"
+    """The planner found no path from the estimate to the target."""
+    LOST = "lost"
+    """Global localisation did not converge, or the estimate lies in a wall with no free space near."""
+    AMBIGUOUS = "ambiguous"
+    """Several places fit the scans equally and exploring could not tell them apart."""
+    GAVE_UP = "gave-up"
+    """The action or re-plan limit was hit."""
+    ABORTED = "aborted"
+    """The robot or a plug-in raised an error (the status carries its message)."""
+
+
+class Leg(Enum):
+    """How driving toward one waypoint ended (`_Mission.drive_to`)."""
+
+    ARRIVED = "arrived"
+    WATCHDOG = "watchdog"
+    """The watchdog stopped a move."""
+    BLOCKED = "blocked"
+    """A move made almost no progress: a contact."""
+    DEVIATED = "deviated"
+    """The straight line from the estimate is no longer free, or the goal was not reached in a few legs."""
 
 
 @dataclass(frozen=True)
@@ -125,6 +161,8 @@ class MissionReport:
         The mission ended with the estimate within the success radius of the target.
     status : str
         One line: ``reached target`` or why the mission ended early.
+    outcome : Outcome
+        The same as a code (``Outcome.REACHED``, ``Outcome.LOST``, ...).
     final_error_cm : float or None
         TRUE distance from the robot to the target at the end (cm), when the robot knows its pose;
         otherwise None.
@@ -180,11 +218,13 @@ class MissionReport:
     trace: list[TraceStep] = field(default_factory=list)
     candidates: list[Pose] = field(default_factory=list)
     time_split: RobotTimeSplit | None = None
+    outcome: Outcome = Outcome.REACHED
 
     def to_dict(self, trace: bool = True) -> dict[str, Any]:
         """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
         d: dict[str, Any] = {
             "success": self.success,
+            "outcome": self.outcome.value,
             "status": self.status,
             "final_error_cm": self.final_error_cm,
             "estimate_error_cm": self.estimate_error_cm,

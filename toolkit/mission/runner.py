@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from localisation.base import LOCALISERS, Localiser, make_localiser
+from localisation.procedure import LocaliseProcedure, localise
 from planners.base import Planner, make_planner
 
 from ..world import (
@@ -25,7 +26,7 @@ from ..world import (
     load_map,
 )
 from .config import MissionConfig
-from .report import _SPLIT_COUNTERS, MissionReport, _time_split
+from .report import _SPLIT_COUNTERS, MissionReport, Outcome, _time_split
 from .stack import _Mission, _MissionEnded
 
 if TYPE_CHECKING:
@@ -54,6 +55,7 @@ def run_mission(
     rng: RngLike = None,
     config: MissionConfig | None = None,
     recorder: Recorder | None = None,
+    procedure: LocaliseProcedure = localise,
 ) -> MissionReport:
     """Run the stack on `robot` from its unknown pose to `target`.
 
@@ -77,6 +79,10 @@ def run_mission(
         Tolerances and limits; the defaults are tuned for the paper's setting.
     recorder : toolkit.recording.Recorder, optional
         Records every robot command, scan and localiser call (`toolkit.recording`); the caller closes it.
+    procedure : callable
+        The localisation procedure (`localisation.procedure.localise`, the paper's; tests pass
+        stand-ins): called as ``procedure(robot, localiser, prior=..., rng=..., **options)``, it
+        returns a `LocalisationResult`.
 
     Returns
     -------
@@ -106,15 +112,16 @@ def run_mission(
     start = start_pose if isinstance(start_pose, Pose) else None
     time0 = float(robot.robot_time_s)
     counters0 = _robot_counters(robot)
-    mission = _Mission(robot, m, tgt, plan_obj, build_localiser, plan_rng, cfg)
+    mission = _Mission(robot, m, tgt, plan_obj, build_localiser, plan_rng, cfg, procedure)
     try:
-        status, success = mission.run()
+        outcome, status = mission.run()
     except _MissionEnded as end:
-        status, success = end.status, end.success
+        outcome, status = end.outcome, end.status
     except ConfigError:
         raise  # options that cannot work (a range model over its budget): bad input, not a mission result
     except NxtnavError as exc:
-        status, success = f"aborted: {exc}", False
+        outcome, status = Outcome.ABORTED, f"aborted: {exc}"
+    success = outcome is Outcome.REACHED
     log.info("mission on %s: %s", m.name, status)
     final = mission.true_pose()
     est = mission.estimate.pose if mission.estimate is not None else None
@@ -149,6 +156,7 @@ def run_mission(
         trace=mission.trace,
         candidates=mission.candidates,
         time_split=_time_split(delta, robot_time),
+        outcome=outcome,
     )
 
 

@@ -10,16 +10,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from localisation.base import Localiser
-from localisation.sonar_options import _accepted, matched_localiser_options
+from localisation.sonar_options import accepted_model_options, matched_localiser_options
 from planners.base import Planner
 
+from ..seeds import derive_seeds
 from ..world import (
     Map,
     NxtnavError,
     Pose,
-    RngLike,
     RobotGeometry,
-    as_rng,
     load_map,
 )
 from .config import MissionConfig
@@ -28,20 +27,6 @@ from .runner import run_mission
 
 if TYPE_CHECKING:
     from ..recording import Recorder
-
-
-def mission_seeds(seed: int) -> tuple[int, int, int]:
-    """The three seeds one mission seed expands to: (start heading/pose, simulator, stack)."""
-    a, b, c = np.random.SeedSequence(int(seed)).generate_state(3)
-    return int(a), int(b), int(c)
-
-
-def random_start(m: Map, rng: RngLike = None, clearance_cm: float = 10.0) -> Pose:
-    """A random pose: position uniform over the free area at least `clearance_cm` from every wall
-    (robot centre), heading uniform."""
-    gen = as_rng(rng)
-    xy = m.sample_free(1, clearance=clearance_cm, rng=gen)[0]
-    return Pose(float(xy[0]), float(xy[1]), float(gen.uniform(-math.pi, math.pi)))
 
 
 def run_sim_mission(
@@ -68,8 +53,8 @@ def run_sim_mission(
     ----------
     map : Map or str
     seed : int
-        Expands (`mission_seeds`) into the start heading (or random start), the simulator's noise and
-        the stack's draws: the same seed gives the same mission.
+        Expands (`toolkit.seeds.derive_seeds(seed, n=3)`) into the start heading (or random start),
+        the simulator's noise and the stack's draws: the same seed gives the same mission.
     start : Pose, (x, y) or None
         True start pose; (x, y) gets a seeded random heading; None is the map's preset start with a
         seeded random heading.
@@ -96,11 +81,10 @@ def run_sim_mission(
     geometry = RobotGeometry() if robot_radius_cm is None else RobotGeometry(radius_cm=float(robot_radius_cm))
 
     m = map if isinstance(map, Map) else load_map(map)
-    s_start, s_sim, s_stack = mission_seeds(seed)
+    s_start, s_sim, s_stack = derive_seeds(seed, n=3)
     start_rng = np.random.default_rng(s_start)
     if random_start_pose:
-        pose = random_start(m, start_rng) if robot_radius_cm is None else \
-            random_start(m, start_rng, geometry.radius_cm + 2.0)
+        pose = m.random_pose(start_rng, 10.0 if robot_radius_cm is None else geometry.radius_cm + 2.0)
     elif isinstance(start, Pose):
         pose = start
     else:
@@ -120,7 +104,7 @@ def run_sim_mission(
         opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
                                          turn_noise=turn_noise, sensor_noise=sensor_noise)
         if robot_radius_cm is not None:
-            opts.update(_accepted(localiser, {"clearance_cm": geometry.radius_cm}))
+            opts.update(accepted_model_options(localiser, {"clearance_cm": geometry.radius_cm}))
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
     robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,

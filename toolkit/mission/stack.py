@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 import logging
 import math
 from collections.abc import Callable
@@ -15,6 +14,7 @@ from shapely.ops import nearest_points
 
 from localisation.ambiguity import candidate_poses, describe_candidates
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
+from localisation.procedure import LocaliseProcedure, localise
 from localisation.scan import ScanProcessing
 from planners.base import Planner, PlanningProblem, PlanResult
 
@@ -28,8 +28,8 @@ from ..world import (
     ray_cast,
 )
 from .config import _WINDOW_CENTRES, MissionConfig, sweep_angles
-from .explore import _raw_scan_of, explore_direction
-from .report import TraceStep
+from .explore import explore_direction
+from .report import Leg, Outcome, TraceStep
 
 FloatArray = NDArray[np.float64]
 log = logging.getLogger(__name__)
@@ -38,30 +38,21 @@ _TURN_EPS = math.radians(0.5)  # turns smaller than this are not counted as turn
 
 
 class _MissionEnded(Exception):
-    """Internal: the mission stops with `status` (success or not)."""
+    """Internal: the mission stops with `outcome`, `status` saying it in words."""
 
-    def __init__(self, status: str, success: bool = False) -> None:
+    def __init__(self, outcome: Outcome, status: str) -> None:
         super().__init__(status)
+        self.outcome = outcome
         self.status = status
-        self.success = success
-
-
-def _localise_procedure() -> Callable[..., Any]:
-    from localisation.procedure import localise
-
-    return localise
-
-
-def _estimate_of(result: Any, localiser: Localiser) -> PoseEstimate:
-    est = getattr(result, "estimate", None)
-    return est if isinstance(est, PoseEstimate) else localiser.estimate()
+        self.success = outcome is Outcome.REACHED
 
 
 class _Mission:
     """The mutable state of one run (counters, trace, current estimate)."""
 
     def __init__(self, robot: Robot, m: Map, target: FloatArray, planner: Planner,
-                 localiser: Callable[[], Localiser], rng: np.random.Generator, config: MissionConfig) -> None:
+                 localiser: Callable[[], Localiser], rng: np.random.Generator, config: MissionConfig,
+                 procedure: LocaliseProcedure = localise) -> None:
         self.robot = robot
         self.map = m
         self.target = target
@@ -97,9 +88,7 @@ class _Mission:
         self._last_raw_scan: Scan | None = None
         self.fresh_fix = False  # the estimate comes from a global fix not yet checked by a drive
         self.since_fix_cm = 0.0  # driven since the last converged fix
-        self._localise = _localise_procedure()
-        params = inspect.signature(self._localise).parameters
-        self._localise_kw = set(params) if not any(p.kind is p.VAR_KEYWORD for p in params.values()) else None
+        self._localise = procedure
 
     @property
     def localiser(self) -> Localiser:
@@ -123,7 +112,7 @@ class _Mission:
     def _count_action(self) -> None:
         self.actions += 1
         if self.actions > self.cfg.max_actions:
-            raise _MissionEnded(f"gave up after {self.cfg.max_actions} actions")
+            raise _MissionEnded(Outcome.GAVE_UP, f"gave up after {self.cfg.max_actions} actions")
 
     # -- localisation ---------------------------------------------------------------------------
     def _sweep_options(self, kind: str) -> dict[str, Any]:
@@ -146,14 +135,9 @@ class _Mission:
     def _call_localise(self, prior: Prior | None, kind: str = "global", **extra: Any) -> PoseEstimate:
         kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
                                   **dict(self.cfg.localise_options), **extra}
-        if self._localise_kw is not None:
-            dropped = [k for k in kwargs if k not in self._localise_kw]
-            if dropped:
-                log.debug("localise() does not take %s; dropped", ", ".join(dropped))
-            kwargs = {k: v for k, v in kwargs.items() if k in self._localise_kw}
         result = self._localise(self.robot, self.localiser, **kwargs)
-        self._last_raw_scan = _raw_scan_of(result)
-        return _estimate_of(result, self.localiser)
+        self._last_raw_scan = result.trace[-1].scan.raw if result.trace else None
+        return result.estimate
 
     def _ok(self, est: PoseEstimate) -> bool:
         return bool(est.converged) and bool(self.map.contains(est.pose.xy))
@@ -212,9 +196,9 @@ class _Mission:
                 return est
         self.candidates = candidate_poses(self._localiser)
         if self.candidates:  # several places fit the scans equally: say which, not just "lost"
-            raise _MissionEnded(f"{describe_candidates(self.candidates)}; global localisation could not tell "
-                                f"them apart in {cfg.max_localisation_attempts} attempts")
-        raise _MissionEnded(f"robot lost: global localisation did not converge in "
+            raise _MissionEnded(Outcome.AMBIGUOUS, f"{describe_candidates(self.candidates)}; global localisation "
+                                f"could not tell them apart in {cfg.max_localisation_attempts} attempts")
+        raise _MissionEnded(Outcome.LOST, f"robot lost: global localisation did not converge in "
                             f"{cfg.max_localisation_attempts} attempts")
 
     def explore_move(self, avoid_rad: float | None) -> tuple[float, float]:
@@ -226,14 +210,7 @@ class _Mission:
         from the last scan alone (`explore_direction`), which trusts the sonar's free space.
         """
         cfg = self.cfg
-        modes = getattr(self.localiser, "modes", None)
-        poses: list[Pose] = []
-        try:
-            listed = modes() if callable(modes) else modes
-            poses = [md.pose for md in (listed or []) if isinstance(getattr(md, "pose", None), Pose)]
-        except Exception:  # a localiser without usable modes: fall back to the scan
-            poses = []
-        poses = [p for p in poses if self.checker.point_free(p.xy)]
+        poses = [md.pose for md in self.localiser.modes if self.checker.point_free(md.pose.xy)]
         if poses:
             rel = np.radians(np.arange(0.0, 360.0, 5.0))
             if avoid_rad is not None:
@@ -333,7 +310,7 @@ class _Mission:
         self.relocalise("after watchdog stop")
         self.replans += 1
         if self.replans > self.cfg.max_replans:
-            raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
+            raise _MissionEnded(Outcome.GAVE_UP, f"gave up after {self.cfg.max_replans} re-plans")
 
     def safe_leg(self, xy: FloatArray, heading: float, leg: float) -> float:
         """The part of a `leg` (cm) from `xy` along `heading` (rad) that stays collision-free when the
@@ -379,7 +356,7 @@ class _Mission:
             return False
         return bool(self._margin_checker(extra).segment_free(a, goal))
 
-    def drive_to(self, goal: FloatArray, *, final: bool = False, next_goal: FloatArray | None = None) -> str:
+    def drive_to(self, goal: FloatArray, *, final: bool = False, next_goal: FloatArray | None = None) -> Leg:
         """Turn toward `goal` from the estimate and drive there in steps, re-localising on the way.
 
         Legs longer than `relocalise_every_cm` are split; after each leg the robot re-localises and
@@ -389,8 +366,8 @@ class _Mission:
         reaching it to `next_goal`), and a missed `goal` is skipped when the belief can drive on
         to `next_goal` the same way.
 
-        Returns ``arrived``, ``watchdog`` (the watchdog stopped a move), ``blocked`` (a move made
-        almost no progress: a contact) or ``deviated`` (the straight line from the estimate to the
+        Returns how the drive ended, a `Leg`: arrived, watchdog (the watchdog stopped a move), blocked (a
+        move made almost no progress: a contact) or deviated (the straight line from the estimate to the
         goal is no longer free, or the goal is not reached in a few legs).
         """
         assert self.estimate is not None
@@ -401,11 +378,11 @@ class _Mission:
             delta = goal - pose.xy
             dist = float(np.hypot(*delta))
             if dist <= cfg.waypoint_tolerance_cm and (legs > 0 or dist < 1e-6):
-                return "arrived"
+                return Leg.ARRIVED
             if legs > 0 and spread and next_goal is not None and self.spread_clear(next_goal):
-                return "arrived"  # missed the waypoint, but the way to the next one is clear for the belief
+                return Leg.ARRIVED  # missed the waypoint, but the way to the next one is clear for the belief
             if not self.checker.segment_free(pose.xy, goal):
-                return "deviated"
+                return Leg.DEVIATED
             turn = float(angle_diff(math.atan2(delta[1], delta[0]), pose.theta))
             if abs(turn) > 1e-9:
                 self.turn(turn)
@@ -419,21 +396,21 @@ class _Mission:
                 step = min(cfg.move_step_cm, leg - driven)
                 before = self.path_length
                 if self.move(step):
-                    return "watchdog"
+                    return Leg.WATCHDOG
                 if self.path_length - before < 0.5 * step:
-                    return "blocked"
+                    return Leg.BLOCKED
                 driven += step
             if final and leg >= dist:
-                return "arrived"
+                return Leg.ARRIVED
             ahead = goal if leg < dist else next_goal
             if spread and ahead is not None and self.spread_clear(ahead):
                 self.record("skip-fix", note=f"belief spread {self.estimate.std_xy_cm:.1f} cm leaves the way "
                                              "ahead clear")
                 if leg >= dist:
-                    return "arrived"
+                    return Leg.ARRIVED
                 continue
             self.relocalise("at waypoint" if leg >= dist else "along segment")
-        return "deviated"
+        return Leg.DEVIATED
 
     # -- planning -------------------------------------------------------------------------------
     def plan(self) -> FloatArray:
@@ -449,7 +426,7 @@ class _Mission:
         if not self.checker.point_free(start):
             escape = self._nearest_free(start, self.checker, self.radius + 0.5)
             if escape is None:
-                raise _MissionEnded(f"robot lost: estimate ({start[0]:.1f}, {start[1]:.1f}) is in a wall "
+                raise _MissionEnded(Outcome.LOST, f"robot lost: estimate ({start[0]:.1f}, {start[1]:.1f}) is in a wall "
                                     "and no free space is near")
             prefix = [start]
             start = escape
@@ -473,9 +450,9 @@ class _Mission:
         assert result is not None
         if path is None:
             self.record("plan", note=f"failed: {result.status}")
-            raise _MissionEnded(f"target unreachable: planner {self.planner.name} found no path from "
-                                f"({start[0]:.1f}, {start[1]:.1f}) to ({self.target[0]:.1f}, {self.target[1]:.1f}) "
-                                f"({result.status})")
+            raise _MissionEnded(Outcome.UNREACHABLE, f"target unreachable: planner {self.planner.name} found no "
+                                f"path from ({start[0]:.1f}, {start[1]:.1f}) to "
+                                f"({self.target[0]:.1f}, {self.target[1]:.1f}) ({result.status})")
         if prefix:
             path = np.vstack([*prefix, path])
         keep = np.ones(len(path), dtype=bool)
@@ -506,12 +483,14 @@ class _Mission:
         return p
 
     # -- the whole run --------------------------------------------------------------------------
-    def run(self) -> tuple[str, bool]:
+    def run(self) -> tuple[Outcome, str]:
         t = self.target
         if not self.map.contains(t):
-            raise _MissionEnded(f"target ({t[0]:.1f}, {t[1]:.1f}) is outside the free area of map {self.map.name}")
+            raise _MissionEnded(Outcome.TARGET_OUTSIDE,
+                                f"target ({t[0]:.1f}, {t[1]:.1f}) is outside the free area of map {self.map.name}")
         if not self.checker.point_free(t):
-            raise _MissionEnded(f"target ({t[0]:.1f}, {t[1]:.1f}) is in a wall: closer than the robot radius "
+            raise _MissionEnded(Outcome.TARGET_IN_WALL,
+                                f"target ({t[0]:.1f}, {t[1]:.1f}) is in a wall: closer than the robot radius "
                                 f"({self.radius:g} cm) to a wall of map {self.map.name}")
         self.localise_global()
         self.navigate()
@@ -521,22 +500,22 @@ class _Mission:
         """Plan and drive until the estimate is at the target."""
         while True:
             path = self.plan()
-            outcome = "arrived"
+            outcome = Leg.ARRIVED
             for i, wp in enumerate(path[1:], start=1):
                 nxt = path[i + 1] if i + 1 < len(path) else None
                 outcome = self.drive_to(wp, final=i == len(path) - 1, next_goal=nxt)
-                if outcome != "arrived":
+                if outcome is not Leg.ARRIVED:
                     break
-            if outcome == "arrived":
+            if outcome is Leg.ARRIVED:
                 return
-            if outcome in ("watchdog", "blocked"):
+            if outcome in (Leg.WATCHDOG, Leg.BLOCKED):
                 self.after_watchdog()
             else:
                 self.replans += 1
                 if self.replans > self.cfg.max_replans:
-                    raise _MissionEnded(f"gave up after {self.cfg.max_replans} re-plans")
+                    raise _MissionEnded(Outcome.GAVE_UP, f"gave up after {self.cfg.max_replans} re-plans")
 
-    def final_correction(self) -> tuple[str, bool]:
+    def final_correction(self) -> tuple[Outcome, str]:
         """Re-localise at the target and correct until the estimate is within the tolerance."""
         cfg = self.cfg
         for k in range(cfg.max_corrections + 1):
@@ -546,7 +525,7 @@ class _Mission:
             delta = self.target - est.pose.xy
             dist = float(np.hypot(*delta))
             if dist <= cfg.goal_tolerance_cm:
-                return f"reached target (estimate {dist:.2f} cm from it after {k} correction(s))", True
+                return Outcome.REACHED, f"reached target (estimate {dist:.2f} cm from it after {k} correction(s))"
             if k == cfg.max_corrections:
                 break
             if not self.checker.segment_free(est.pose.xy, self.target):
@@ -562,6 +541,6 @@ class _Mission:
                 self.navigate()
         dist = float(np.hypot(*(self.target - self.estimate.pose.xy))) if self.estimate else math.inf
         if dist <= cfg.success_radius_cm:
-            return (f"reached target (estimate {dist:.2f} cm from it; tolerance {cfg.goal_tolerance_cm:g} cm "
-                    f"not met in {cfg.max_corrections} corrections)"), True
-        return f"stopped {dist:.1f} cm from the target after {cfg.max_corrections} corrections", False
+            return Outcome.REACHED, (f"reached target (estimate {dist:.2f} cm from it; tolerance "
+                                     f"{cfg.goal_tolerance_cm:g} cm not met in {cfg.max_corrections} corrections)")
+        return Outcome.STOPPED_SHORT, f"stopped {dist:.1f} cm from the target after {cfg.max_corrections} corrections"

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 
 from ..world import (
     CollisionChecker,
+    ConfigError,
     Map,
     MoveOutcome,
     Pose,
@@ -65,11 +66,11 @@ class MotionNoise:
 
     def __post_init__(self) -> None:
         if self.model not in ("botsim", "absolute"):
-            raise ValueError(f"noise model must be 'botsim' or 'absolute', got {self.model!r}")
+            raise ConfigError(f"noise model must be 'botsim' or 'absolute', got {self.model!r}")
         for k in ("motion", "turn"):
             v = getattr(self, k)
             if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"{k} noise must be a non-negative number, got {v!r}")
+                raise ConfigError(f"{k} noise must be a non-negative number, got {v!r}")
 
     def to_dict(self) -> dict[str, object]:
         return {"model": self.model, "motion": self.motion, "turn": self.turn}
@@ -108,9 +109,9 @@ class RobotTiming:
         for k in ("drive_speed_cm_s", "turn_rate_deg_s", "turret_rate_deg_s"):
             v = getattr(self, k)
             if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"RobotTiming.{k} must be a positive number, got {v!r}")
+                raise ConfigError(f"RobotTiming.{k} must be a positive number, got {v!r}")
         if not (math.isfinite(self.reading_s) and self.reading_s >= 0):
-            raise ValueError(f"RobotTiming.reading_s must be >= 0, got {self.reading_s!r}")
+            raise ConfigError(f"RobotTiming.reading_s must be >= 0, got {self.reading_s!r}")
 
     def move(self, distance_cm: float) -> float:
         """Time (s) to drive `distance_cm` (either sense)."""
@@ -189,13 +190,13 @@ class SimRobot:
         self.sonar = make_sonar(sonar, noise_sd=sensor_noise) if isinstance(sonar, str) else sonar
         self.watchdog_cm = self.geometry.radius_cm + 4.0 if watchdog_cm is None else float(watchdog_cm)
         if watchdog_step_cm <= 0:
-            raise ValueError(f"watchdog_step_cm must be > 0, got {watchdog_step_cm}")
+            raise ConfigError(f"watchdog_step_cm must be > 0, got {watchdog_step_cm}")
         self.watchdog_step_cm = float(watchdog_step_cm)
         self.backoff_cm = float(backoff_cm)
         self.timing = timing or RobotTiming()
         self.rng = as_rng(rng)
         if checker is not None and checker.robot_radius != self.geometry.radius_cm:
-            raise ValueError("checker radius differs from the robot geometry radius")
+            raise ConfigError("checker radius differs from the robot geometry radius")
         self.checker = checker or CollisionChecker(map, self.geometry.radius_cm)
         if not self.checker.point_free(pose.xy):
             raise RobotError(

@@ -21,9 +21,9 @@ Example
 -------
 >>> from toolkit.world import Pose, load_map
 >>> server = BrickServer(BrickWorld(load_map("map1"), Pose(20, 20, 0)), port=0)
->>> server.start(); port = server.port   # doctest: +SKIP
+>>> port = server.start().port
 >>> # nxt.locator.find(backends=["socket"], server_host="127.0.0.1", server_port=port)
->>> server.stop()                          # doctest: +SKIP
+>>> server.stop()
 """
 
 from __future__ import annotations

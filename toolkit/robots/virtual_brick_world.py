@@ -36,6 +36,7 @@ import numpy as np
 
 from ..world import (
     CollisionChecker,
+    ConfigError,
     Map,
     Pose,
     RngLike,
@@ -164,24 +165,24 @@ class BrickConfig:
     def __post_init__(self) -> None:
         ports = (self.left_port, self.right_port, self.turret_port)
         if len(set(ports)) != 3 or not all(p in (0, 1, 2) for p in ports):
-            raise ValueError(f"motor ports must be three different values of 0, 1, 2; got {ports}")
+            raise ConfigError(f"motor ports must be three different values of 0, 1, 2; got {ports}")
         if self.sonar_port not in (0, 1, 2, 3):
-            raise ValueError(f"sonar_port must be 0..3, got {self.sonar_port}")
+            raise ConfigError(f"sonar_port must be 0..3, got {self.sonar_port}")
         for k in ("deg_per_s_per_power", "accel_deg_s2", "coast_decel_deg_s2", "substep_s", "time_factor",
                   "max_step_s", "brake_decel_deg_s2"):
             v = getattr(self, k)
             if v is None and k == "brake_decel_deg_s2":
                 continue
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-                raise ValueError(f"BrickConfig.{k} must be a positive number, got {v!r}")
+                raise ConfigError(f"BrickConfig.{k} must be a positive number, got {v!r}")
         if self.latency_s is not None and not (math.isfinite(self.latency_s) and 0 < self.latency_s <= 1):
-            raise ValueError(f"BrickConfig.latency_s must be in (0, 1] s or None, got {self.latency_s!r}")
+            raise ConfigError(f"BrickConfig.latency_s must be in (0, 1] s or None, got {self.latency_s!r}")
         if not (isinstance(self.i2c_pending_polls, int) and 0 <= self.i2c_pending_polls <= 20):
-            raise ValueError(f"BrickConfig.i2c_pending_polls must be 0..20, got {self.i2c_pending_polls!r}")
+            raise ConfigError(f"BrickConfig.i2c_pending_polls must be 0..20, got {self.i2c_pending_polls!r}")
         if not (math.isfinite(self.wheel_slip) and 0 <= self.wheel_slip < 0.5):
-            raise ValueError(f"BrickConfig.wheel_slip must be in [0, 0.5), got {self.wheel_slip!r}")
+            raise ConfigError(f"BrickConfig.wheel_slip must be in [0, 0.5), got {self.wheel_slip!r}")
         if len(self.name.encode("ascii", "replace")) > 14:
-            raise ValueError(f"brick name must be at most 14 characters, got {self.name!r}")
+            raise ConfigError(f"brick name must be at most 14 characters, got {self.name!r}")
 
 
 @dataclass

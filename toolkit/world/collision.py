@@ -26,7 +26,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from .edge_index import EdgeIndex, edge_index
-from .errors import MapError
+from .errors import ConfigError, MapError
 from .maps import Map
 
 __all__ = ["CollisionChecker"]
@@ -39,7 +39,7 @@ def segment_arrays(a: ArrayLike, b: ArrayLike) -> tuple[NDArray[np.float64], NDA
     pa = np.asarray(a, dtype=float).reshape(-1, 2)
     pb = np.asarray(b, dtype=float).reshape(-1, 2)
     if pa.shape != pb.shape:
-        raise ValueError(f"segment starts {pa.shape} and ends {pb.shape} differ in shape")
+        raise ConfigError(f"segment starts {pa.shape} and ends {pb.shape} differ in shape")
     return pa, pb
 
 

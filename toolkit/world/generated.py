@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import ConfigError
 from .geometry import RngLike, as_rng
 from .grids import OccupancyGrid
 from .maps import Map, Region
@@ -46,9 +47,9 @@ def random_grid_map(cells: int = 512, cell_cm: float = 5.0, density: float = 0.3
     (0, (0.0, 0.0, 80.0, 80.0))
     """
     if cells < 3:
-        raise ValueError(f"cells must be >= 3, got {cells}")
+        raise ConfigError(f"cells must be >= 3, got {cells}")
     if not 0.0 <= density <= 1.0:
-        raise ValueError(f"density must be in [0, 1], got {density}")
+        raise ConfigError(f"density must be in [0, 1], got {density}")
     gen = as_rng(rng)
     odd = np.arange(1, cells - 1, 2)
     ii, jj = np.meshgrid(odd, odd, indexing="ij")

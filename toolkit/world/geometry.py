@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .edge_index import edge_index
+from .errors import ConfigError
 
 __all__ = [
     "Pose",
@@ -74,7 +75,7 @@ class Pose:
         for field in ("x", "y", "theta"):
             value = float(getattr(self, field))
             if not math.isfinite(value):
-                raise ValueError(f"Pose.{field} must be finite, got {value}")
+                raise ConfigError(f"Pose.{field} must be finite, got {value}")
             object.__setattr__(self, field, value)
         object.__setattr__(self, "theta", wrap_angle(self.theta))
 
@@ -183,7 +184,7 @@ def ray_cast(
     if a.ndim <= 1:
         a = np.broadcast_to(a.reshape(1, -1), (o.shape[0], a.size))
     if a.shape[0] != o.shape[0]:
-        raise ValueError(f"angles has {a.shape[0]} rows for {o.shape[0]} origins")
+        raise ConfigError(f"angles has {a.shape[0]} rows for {o.shape[0]} origins")
     n_p, n_a = a.shape
     index = edge_index(walls)
     t, w = index.cast(np.repeat(o[:, 0], n_a), np.repeat(o[:, 1], n_a), a.ravel(), max_range=max_range)

@@ -44,7 +44,7 @@ from shapely.geometry.base import BaseGeometry
 
 from .edge_index import edge_index
 from .errors import MapError
-from .geometry import RngLike, as_rng
+from .geometry import Pose, RngLike, as_rng
 
 __all__ = ["COORDINATE_LIMIT_CM", "MAP_FIELDS", "GridSpec", "Map", "Region", "list_maps", "load_map", "map_from_dict",
            "map_search_path"]
@@ -519,6 +519,12 @@ class Map:
             out.append(keep)
             have += len(keep)
         return np.vstack(out)[:n]
+
+    def random_pose(self, rng: RngLike = None, clearance: float = 10.0) -> Pose:
+        """A pose uniform over the free area at least `clearance` cm from every wall, heading uniform (rad)."""
+        gen = as_rng(rng)
+        xy = self.sample_free(1, clearance=clearance, rng=gen)[0]
+        return Pose(float(xy[0]), float(xy[1]), float(gen.uniform(-math.pi, math.pi)))
 
     def to_dict(self) -> dict[str, Any]:
         """The map in its file form (JSON/YAML ready): ``boundary``/``obstacles`` when that form holds it."""

@@ -1,9 +1,21 @@
-"""A strict name -> class registry shared by the plug-in families (planners, localisers, sonar models)."""
+"""A strict name -> class registry shared by the plug-in families (planners, localisers, sonar models).
+
+Besides the classes registered under fixed names, a registry may hold families reached by a prefix:
+``ompl:NAME`` is any OMPL geometric planner, built by the family's factory. Lookups, membership and
+`Registry.create` treat both alike, so callers never special-case a prefix.
+
+>>> class Shape: ...
+>>> reg: Registry[Shape] = Registry("shape")
+>>> reg.add("square", Shape)
+>>> reg.add_family("poly", lambda n: Shape, lambda: ["hexagon"])
+>>> "square" in reg, "poly:hexagon" in reg, "poly:circle" in reg
+(True, True, False)
+"""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from typing import Generic, TypeVar
+from collections.abc import Callable, Iterator
+from typing import Any, Generic, TypeVar
 
 from .errors import RegistryError
 
@@ -24,6 +36,19 @@ class Registry(Generic[T]):
     def __init__(self, kind: str) -> None:
         self.kind = kind
         self._classes: dict[str, type[T]] = {}
+        self._families: dict[str, tuple[Callable[[str], Callable[..., T]], Callable[[], list[str]]]] = {}
+
+    def add_family(self, prefix: str, factory: Callable[[str], Callable[..., T]],
+                   members: Callable[[], list[str]]) -> None:
+        """Names ``prefix:NAME`` resolve to ``factory(NAME)`` (a callable building the plug-in) for every
+        NAME in ``members()``."""
+        if not prefix or ":" in prefix or prefix in self._families:
+            raise RegistryError(f"{self.kind} family prefix {prefix!r} is empty, has a colon or is taken")
+        self._families[prefix] = (factory, members)
+
+    def _family(self, name: str) -> tuple[str, str] | None:
+        prefix, sep, member = name.partition(":")
+        return (prefix, member) if sep and prefix in self._families else None
 
     def add(self, name: str, cls: type[T]) -> None:
         """Register `cls` under `name`; a second class with the same name is an error."""
@@ -38,19 +63,45 @@ class Registry(Generic[T]):
         self._classes[name] = cls
 
     def get(self, name: str) -> type[T]:
-        """The class registered under `name`; unknown names raise `RegistryError` listing the known ones."""
-        try:
+        """The class registered under `name`; other names raise `RegistryError` listing the known ones
+        (a family member ``prefix:NAME`` is built by `create`)."""
+        if name in self._classes:
             return self._classes[name]
-        except KeyError:
-            known = ", ".join(sorted(self._classes)) or "none"
-            raise RegistryError(f"unknown {self.kind} {name!r}; known: {known}") from None
+        self.check(name)
+        raise RegistryError(f"{self.kind} {name!r} has no class of its own; build it with create()")
+
+    def check(self, name: str) -> None:
+        """Raise `RegistryError` (listing the known names) unless `name` is registered or a family member."""
+        if name in self._classes:
+            return
+        family = self._family(name)
+        if family is not None:
+            members = self._families[family[0]][1]()
+            if family[1] not in members:
+                raise RegistryError(f"unknown {self.kind} {name!r}; known {family[0]}:NAME: {', '.join(members)}")
+            return
+        known = ", ".join(sorted(self._classes)) or "none"
+        more = "".join(f", or {p}:NAME" for p in sorted(self._families))
+        raise RegistryError(f"unknown {self.kind} {name!r}; known: {known}{more}")
+
+    def create(self, name: str, *args: Any, **options: Any) -> T:
+        """The plug-in `name` (a registered name or ``prefix:NAME``) built with `args` and `options`."""
+        if name in self._classes:
+            return self._classes[name](*args, **options)
+        self.check(name)
+        family = self._family(name)
+        assert family is not None
+        return self._families[family[0]][0](family[1])(*args, **options)
 
     def names(self) -> list[str]:
         """Registered names, sorted."""
         return sorted(self._classes)
 
     def __contains__(self, name: object) -> bool:
-        return name in self._classes
+        if not isinstance(name, str):
+            return False
+        family = self._family(name)
+        return name in self._classes or (family is not None and family[1] in self._families[family[0]][1]())
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.names())

@@ -13,6 +13,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import ConfigError
+
 __all__ = [
     "NO_ECHO",
     "MoveOutcome",
@@ -60,7 +62,7 @@ class RobotGeometry:
         for name in ("radius_cm", "wheel_diameter_cm", "track_width_cm", "turret_gear_ratio"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
-                raise ValueError(f"RobotGeometry.{name} must be a positive number, got {v!r}")
+                raise ConfigError(f"RobotGeometry.{name} must be a positive number, got {v!r}")
 
     @property
     def wheel_circumference_cm(self) -> float:
@@ -95,7 +97,7 @@ class Scan:
         a = np.asarray(angles, dtype=float).ravel()
         r = np.asarray(ranges, dtype=float).ravel()
         if a.shape != r.shape:
-            raise ValueError(f"{a.size} angles but {r.size} ranges")
+            raise ConfigError(f"{a.size} angles but {r.size} ranges")
         return cls(a, r, np.isfinite(r) & (r < max_range) & (r >= 0))
 
     def __len__(self) -> int:

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .edge_index import edge_index
+from .errors import ConfigError
 from .geometry import RngLike, as_rng
 from .registry import Registry
 from .robot import NO_ECHO
@@ -156,13 +157,13 @@ class NxtSonar(SonarModel):
 
     def __post_init__(self) -> None:
         if self.beam_rays < 1:
-            raise ValueError(f"beam_rays must be >= 1, got {self.beam_rays}")
+            raise ConfigError(f"beam_rays must be >= 1, got {self.beam_rays}")
         for k in ("noise_sd", "beam_width_deg", "critical_incidence_deg", "min_range_cm", "max_range_cm"):
             if not np.isfinite(getattr(self, k)) or getattr(self, k) < 0:
-                raise ValueError(f"{k} must be a non-negative number, got {getattr(self, k)!r}")
+                raise ConfigError(f"{k} must be a non-negative number, got {getattr(self, k)!r}")
         for k in ("dropout_prob", "close_no_echo_prob"):
             if not 0.0 <= getattr(self, k) <= 1.0:
-                raise ValueError(f"{k} must be a probability in [0, 1], got {getattr(self, k)!r}")
+                raise ConfigError(f"{k} must be a probability in [0, 1], got {getattr(self, k)!r}")
 
     def echo_distance(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike) -> Any:
         """Noise-free distance of the nearest echo in the lobe (inf when every ray is lost)."""

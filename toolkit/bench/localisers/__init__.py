@@ -28,7 +28,7 @@ kidnapped scenarios they get a prior, either the true pose plus Gaussian noise (
 `BenchConfig.prior_sd_cm` / `prior_sd_deg`) or the first estimate of a ``paper-pf`` run on the same
 robot (``pf``). The summary says which.
 
-Randomness: trial ``t`` of map ``m`` uses the seed ``trial_seed(seed, m, t)`` for the true pose, the
+Randomness: trial ``t`` of map ``m`` uses the seed ``toolkit.seeds.derive_seed(seed, m, t)`` for the true pose, the
 robot's noise and the localiser, whatever the localiser, so every localiser sees the same poses.
 """
 
@@ -57,15 +57,12 @@ from .records import (
 from .report import read_csv, summarise, write_csv, write_summary
 from .runner import (
     call_localise,
-    lobe_options,
     localise_once,
     localiser_options,
     make_tasks,
     particle_count,
-    random_pose,
     run_trial,
     scripted_drive,
-    trial_seed,
 )
 
 __all__ = [
@@ -87,18 +84,15 @@ __all__ = [
     "TrialTask",
     "call_localise",
     "is_success",
-    "lobe_options",
     "localise_once",
     "localiser_options",
     "make_tasks",
     "particle_count",
     "pose_error",
-    "random_pose",
     "read_csv",
     "run_trial",
     "scripted_drive",
     "summarise",
-    "trial_seed",
     "write_csv",
     "write_summary",
 ]

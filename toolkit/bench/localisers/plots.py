@@ -15,11 +15,15 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from numpy.typing import NDArray
 
+from localisation.procedure import LocalisationResult
 from toolkit.plotting import draw_map, draw_particles, draw_pose, plain_log_axis, save_figure
 from toolkit.world import Map, Pose, RobotGeometry
 
 from .records import SUCCESS_CM, SUCCESS_DEG, GlobalRun, KidnappedRun, LocalisationOutcome, TrackingRun, TrialResult
+
+FloatArray = NDArray[np.float64]
 
 __all__ = [
     "draw_localisation",
@@ -205,30 +209,22 @@ def write_plots(results: Sequence[TrialResult], out_dir: str | Path, maps: Seque
 # -- one localisation ------------------------------------------------------------------------------
 
 
-def iteration_snapshots(result: Any) -> list[tuple[str, Any, Pose | None]]:
-    """(label, particles or None, mean pose or None) per filter iteration of a procedure's trace.
+def iteration_snapshots(result: LocalisationResult) -> list[tuple[str, FloatArray | None, Pose]]:
+    """(label, particles or None, mean pose) per filter iteration of a procedure's trace.
 
     A `localisation.procedure.LocalisationResult` holds one `TraceStep` per procedure iteration
     (scan, update), each with the particle filter's snapshots of that update (one per annealed
     filter iteration: ``particles`` and ``estimate``); Kalman filters have none, and their step's
     estimate stands for the iteration.
     """
-    out: list[tuple[str, Any, Pose | None]] = []
-    for step in getattr(result, "trace", None) or ():
-        k = getattr(step, "iteration", len(out) + 1)
-        snaps = tuple(getattr(step, "snapshots", ()) or ())
-        if not snaps:
-            est = getattr(step, "estimate", None)
-            pose = getattr(est, "pose", est)
-            out.append((f"scan {k}", None, pose if isinstance(pose, Pose) else None))
+    out: list[tuple[str, FloatArray | None, Pose]] = []
+    for step in result.trace:
+        if not step.snapshots:
+            out.append((f"scan {step.iteration}", None, step.estimate.pose))
             continue
-        for j, sn in enumerate(snaps, 1):
-            parts = getattr(sn, "particles", None)
-            est = getattr(sn, "estimate", None)
-            pose = getattr(est, "pose", est)
-            out.append((f"scan {k}, filter iteration {j}/{len(snaps)}",
-                        None if parts is None else np.asarray(parts, dtype=float),
-                        pose if isinstance(pose, Pose) else None))
+        for j, sn in enumerate(step.snapshots, 1):
+            out.append((f"scan {step.iteration}, filter iteration {j}/{len(step.snapshots)}",
+                        np.asarray(sn.particles, dtype=float), sn.estimate.pose))
     return out
 
 

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from localisation.base import PoseEstimate
+from localisation.sonar_options import lobe_options
 from toolkit.robots.sim import MotionNoise
 from toolkit.world import (
     NxtnavError,
@@ -138,6 +139,12 @@ class BenchConfig:
     @property
     def noise(self) -> MotionNoise:
         return MotionNoise(self.noise_model, self.motion_noise, self.turn_noise)  # type: ignore[arg-type]
+
+    def lobe_for(self, localiser: str) -> dict[str, Any]:
+        """The simulated sonar's lobe as options of `localiser` (`localisation.sonar_options.lobe_options`:
+        for ``nxt`` its 20-degree lobe, 40-degree critical incidence and 255 cm limit, to the localisers
+        that take them); nothing with ``lobe="off"``."""
+        return {} if self.lobe == "off" else lobe_options(localiser, self.sonar, self.sensor_noise)
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -12,8 +12,8 @@ import numpy as np
 
 from localisation.base import LOCALISERS
 
+from ..common import finite_median
 from .records import COLUMNS, SUCCESS_CM, SUCCESS_DEG, BenchConfig, TrialResult
-from .runner import lobe_options
 
 
 def _fmt(v: Any) -> Any:
@@ -61,13 +61,6 @@ def read_csv(path: str | Path) -> list[dict[str, Any]]:
     return out
 
 
-def _median(values: Sequence[float]) -> float:
-    """Median of the finite values (NaN marks a trial that raised); NaN when there are none."""
-    a = np.asarray(values, dtype=float)
-    a = a[np.isfinite(a)]
-    return float(np.median(a)) if a.size else math.nan
-
-
 def _rms(values: Sequence[float]) -> float:
     a = np.asarray(values, dtype=float)
     a = a[np.isfinite(a)]
@@ -90,23 +83,23 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str],
                     "success_rate": sum(r.success for r in rs) / n,
                     "converged_rate": sum(r.converged for r in rs) / n,
                     "ambiguous_rate": sum(r.candidates > 1 for r in rs) / n,
-                    "median_error_cm": _median([r.error_cm for r in rs]),
-                    "median_heading_error_deg": _median([abs(r.heading_error_deg) for r in rs]),
-                    "median_time_s": _median([r.time_s for r in rs]),
-                    "median_cpu_time_s": _median([r.cpu_time_s for r in rs]),
-                    "median_scans": _median([r.scans for r in rs]),
+                    "median_error_cm": finite_median([r.error_cm for r in rs]),
+                    "median_heading_error_deg": finite_median([abs(r.heading_error_deg) for r in rs]),
+                    "median_time_s": finite_median([r.time_s for r in rs]),
+                    "median_cpu_time_s": finite_median([r.cpu_time_s for r in rs]),
+                    "median_scans": finite_median([r.scans for r in rs]),
                 }
             elif scen == "tracking":
                 table[key] = {
                     "trials": n,
                     "rmse_cm": _rms([r.rmse_cm for r in rs]),
                     "rmse_heading_deg": _rms([r.rmse_heading_deg for r in rs]),
-                    "median_final_error_cm": _median([r.final_error_cm for r in rs]),
-                    "median_time_s": _median([r.time_s / max(r.steps, 1) for r in rs]),
-                    "median_particles": _median([r.median_particles for r in rs]),
+                    "median_final_error_cm": finite_median([r.final_error_cm for r in rs]),
+                    "median_time_s": finite_median([r.time_s / max(r.steps, 1) for r in rs]),
+                    "median_particles": finite_median([r.median_particles for r in rs]),
                     "max_particles": float(np.nanmax([r.max_particles for r in rs] + [math.nan]))
                     if any(math.isfinite(r.max_particles) for r in rs) else math.nan,
-                    "median_update_ms": _median([r.update_ms for r in rs]),
+                    "median_update_ms": finite_median([r.update_ms for r in rs]),
                 }
             else:
                 loc = [r for r in rs if r.localised]
@@ -115,7 +108,7 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str],
                     "trials": n,
                     "localised": len(loc),
                     "recovery_rate": len(rec) / len(loc) if loc else math.nan,
-                    "median_recovery_scans": _median([r.recovery_scans for r in rec]),
+                    "median_recovery_scans": finite_median([r.recovery_scans for r in rec]),
                 }
             out[scen] = table
     return out
@@ -164,9 +157,9 @@ def write_summary(
         + ("the paper's processing (align to the minimum reading, rescan, keep +-15 degrees around "
            "0/90/180/270)" if config.scan_processing == "paper" else "raw (every usable reading)"),
     ]
-    lobed = [n for n in localisers if lobe_options(config, n)]
+    lobed = [n for n in localisers if config.lobe_for(n)]
     if lobed:
-        ex = lobe_options(config, lobed[0])
+        ex = config.lobe_for(lobed[0])
         lines.append(f"- sonar lobe given to the localisers that model it ({', '.join(lobed)}): "
                      + ", ".join(f"`{k}={v:g}`" for k, v in ex.items()) + " (`--lobe auto`); the others use a thin ray")
     elif config.lobe == "off" and config.sonar != "ideal":

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import inspect
 import logging
 import math
 import time
-import zlib
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -14,19 +12,19 @@ import numpy as np
 
 from localisation.ambiguity import candidate_poses
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
-from localisation.sonar_options import lobe_options as mission_lobe_options
+from localisation.procedure import LocalisationResult, LocaliseProcedure, localise
 from toolkit.robots.sim import SimRobot
+from toolkit.seeds import derive_seed
 from toolkit.world import (
-    LocalisationError,
     Map,
     NxtnavError,
     Pose,
     RobotGeometry,
     Scan,
-    load_map,
     wrap_angle,
 )
 
+from ..common import cached_map
 from .records import (
     SCENARIOS,
     BenchConfig,
@@ -43,53 +41,11 @@ from .records import (
 log = logging.getLogger(__name__)
 
 
-def trial_seed(seed: int, map_name: str, trial: int) -> int:
-    """The seed of trial `trial` on map `map_name`: independent of the localiser and of the map order."""
-    ss = np.random.SeedSequence([int(seed) & 0xFFFFFFFF, zlib.crc32(map_name.encode()), int(trial)])
-    return int(ss.generate_state(1)[0])
-
-
-def random_pose(m: Map, rng: np.random.Generator, clearance_cm: float) -> Pose:
-    """A pose uniform over the free space at least `clearance_cm` from every wall, heading uniform."""
-    xy = m.sample_free(1, clearance=clearance_cm, rng=rng)[0]
-    return Pose(float(xy[0]), float(xy[1]), float(rng.uniform(-math.pi, math.pi)))
-
-
-def _procedure() -> Callable[..., Any]:
-    try:
-        from localisation.procedure import localise
-    except ImportError as exc:  # pragma: no cover - the procedure ships with the package
-        raise LocalisationError(f"the localisation procedure is not available: {exc}") from exc
-    return localise
-
-
 def call_localise(robot: SimRobot, localiser: Localiser, prior: Prior | None, rng: Any,
-                  options: Mapping[str, Any] | None = None) -> Any:
-    """`localisation.procedure.localise(robot, localiser, prior=..., rng=..., **options)`.
-
-    Options the procedure does not accept are dropped (logged at debug level), so one benchmark
-    configuration works with every version of the procedure.
-    """
-    localise = _procedure()
-    kwargs: dict[str, Any] = {"prior": prior, "rng": rng, **dict(options or {})}
-    params = inspect.signature(localise).parameters
-    if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
-        dropped = [k for k in kwargs if k not in params]
-        if dropped:
-            log.debug("localise() does not take %s; dropped", ", ".join(dropped))
-        kwargs = {k: v for k, v in kwargs.items() if k in params}
-    return localise(robot, localiser, **kwargs)
-
-
-def _count(value: Any, default: int) -> int:
-    if value is None:
-        return default
-    if isinstance(value, int | np.integer):
-        return int(value)
-    try:
-        return len(value)
-    except TypeError:
-        return default
+                  options: Mapping[str, Any] | None = None, *,
+                  procedure: LocaliseProcedure = localise) -> LocalisationResult:
+    """`procedure(robot, localiser, prior=..., rng=..., **options)`: the paper's procedure by default."""
+    return procedure(robot, localiser, prior=prior, rng=rng, **dict(options or {}))
 
 
 def _noisy_truth(truth: Pose, cfg: BenchConfig, rng: np.random.Generator) -> Prior:
@@ -148,7 +104,7 @@ def localise_once(
                                    **localiser_options(cfg, localiser_name))
     prior: Prior | None = None
     prior_kind = "global"
-    if getattr(localiser, "needs_prior", False):
+    if localiser.needs_prior:
         prior_kind = cfg.tracker_prior
         if cfg.tracker_prior == "noisy-truth":
             prior = _noisy_truth(robot.true_pose, cfg, np.random.default_rng(prior_ss))
@@ -157,12 +113,11 @@ def localise_once(
                                 **localiser_options(cfg, "paper-pf"))
             first = call_localise(robot, pf, None, np.random.default_rng(prior_ss.spawn(1)[0]),
                                   _procedure_options(cfg))
-            prior = _prior_from_estimate(_estimate_of(first, pf), cfg)
+            prior = _prior_from_estimate(first.estimate, cfg)
     t0, c0 = time.perf_counter(), time.thread_time()
     result = call_localise(robot, localiser, prior, np.random.default_rng(proc_ss), _procedure_options(cfg))
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
-    compute = getattr(result, "compute_time_s", None)
-    est = _estimate_of(result, localiser)
+    est = result.estimate
     final_truth = robot.true_pose
     err, herr = pose_error(est.pose, final_truth)
     outcome = LocalisationOutcome(
@@ -170,10 +125,10 @@ def localise_once(
         truth=final_truth,
         error_cm=err,
         heading_error_deg=herr,
-        iterations=_count(getattr(result, "iterations", None), est.iterations),
-        scans=_count(getattr(result, "scans", None), 0),
-        converged=bool(getattr(result, "converged", est.converged)),
-        time_s=float(compute) if isinstance(compute, int | float) else wall,
+        iterations=result.iterations,
+        scans=result.scans,
+        converged=result.converged,
+        time_s=result.compute_time_s,
         wall_time_s=wall,
         cpu_time_s=cpu,
         robot_time_s=float(robot.robot_time_s),
@@ -184,21 +139,9 @@ def localise_once(
     return outcome, robot, localiser
 
 
-def lobe_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
-    """The sonar's lobe as localiser options, for localisers that take them (``lobe="auto"``).
-
-    A localiser whose constructor accepts ``beam_width_deg`` / ``critical_incidence_deg`` (the
-    particle filters' range tables) gets the simulated sonar's values (for ``nxt``: its 20-degree
-    lobe and 40-degree critical incidence; a thin ray for ``ideal``). Nothing for ``lobe="off"``.
-    """
-    if cfg.lobe == "off":
-        return {}
-    return mission_lobe_options(name, cfg.sonar, cfg.sensor_noise)
-
-
 def localiser_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
-    """Constructor options of localiser `name`: the sonar's lobe (see `lobe_options`), then `--set` options."""
-    return {**lobe_options(cfg, name), **dict(cfg.localiser_options.get(name, {}))}
+    """Constructor options of localiser `name`: the sonar's lobe (`BenchConfig.lobe_for`), then `--set` options."""
+    return {**cfg.lobe_for(name), **dict(cfg.localiser_options.get(name, {}))}
 
 
 def _procedure_options(cfg: BenchConfig) -> dict[str, Any]:
@@ -209,11 +152,6 @@ def _entropy(rng: Any) -> Any:
     if isinstance(rng, np.random.Generator):
         return int(rng.integers(0, 2**63 - 1))
     return rng
-
-
-def _estimate_of(result: Any, localiser: Localiser) -> PoseEstimate:
-    est = getattr(result, "estimate", None)
-    return est if isinstance(est, PoseEstimate) else localiser.estimate()
 
 
 # -- the scenarios ----------------------------------------------------------------------------------
@@ -235,20 +173,11 @@ def make_tasks(
     for name in localisers:
         LOCALISERS.get(name)
     return [
-        TrialTask(scenario, m, name, t, trial_seed(seed, m, t), config)
+        TrialTask(scenario, m, name, t, derive_seed(seed, m, t), config)
         for t in range(trials)
         for m in maps
         for name in localisers
     ]
-
-
-_MAPS: dict[str, Map] = {}
-
-
-def _map(name: str) -> Map:
-    if name not in _MAPS:
-        _MAPS[name] = load_map(name)
-    return _MAPS[name]
 
 
 def run_trial(task: TrialTask) -> TrialResult:
@@ -287,9 +216,9 @@ def _trial_streams(task: TrialTask) -> tuple[np.random.Generator, np.random.Gene
 
 
 def _run_global(task: TrialTask) -> GlobalRun:
-    m = _map(task.map)
+    m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
-    truth = random_pose(m, pose_rng, task.config.clearance_cm)
+    truth = m.random_pose(pose_rng, task.config.clearance_cm)
     out, _, loc = localise_once(m, truth, task.localiser, config=task.config, rng=run_rng)
     return GlobalRun(task.map, task.localiser, task.trial, task.seed, out.success, out.error_cm,
                      out.heading_error_deg, out.time_s, out.iterations, out.scans, out.converged, out.cpu_time_s,
@@ -328,9 +257,9 @@ def scripted_drive(m: Map, start: Pose, steps: int, step_cm: tuple[float, float]
 
 def _run_tracking(task: TrialTask) -> TrackingRun:
     cfg = task.config
-    m = _map(task.map)
+    m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
-    truth = random_pose(m, pose_rng, cfg.clearance_cm)
+    truth = m.random_pose(pose_rng, cfg.clearance_cm)
     drive = scripted_drive(m, truth, cfg.tracking_steps, cfg.tracking_step_cm, pose_rng)
     robot_ss, loc_ss, prior_ss = np.random.SeedSequence(_entropy(run_rng)).spawn(3)
     robot = SimRobot(m, truth, noise=cfg.noise, sonar=cfg.sonar, sensor_noise=cfg.sensor_noise,
@@ -388,9 +317,9 @@ def _scan_preparer(loc: Localiser, processing: str) -> Callable[[Scan], Scan]:
 
 def _run_kidnapped(task: TrialTask) -> KidnappedRun:
     cfg = task.config
-    m = _map(task.map)
+    m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
-    truth = random_pose(m, pose_rng, cfg.clearance_cm)
+    truth = m.random_pose(pose_rng, cfg.clearance_cm)
     t0 = time.perf_counter()
     out, robot, loc = localise_once(m, truth, task.localiser, config=cfg, rng=run_rng)
     localised = out.converged and out.success
@@ -408,9 +337,9 @@ def _run_kidnapped(task: TrialTask) -> KidnappedRun:
     opts = {**_procedure_options(cfg), "reset": False}
     for _ in range(cfg.recovery_rounds):
         res = call_localise(robot, loc, None, run_rng, opts)
-        est = _estimate_of(res, loc)
-        iterations += _count(getattr(res, "iterations", None), 1)
-        scans += _count(getattr(res, "scans", None), 1)
+        est = res.estimate
+        iterations += res.iterations
+        scans += res.scans
         err, herr = pose_error(est.pose, robot.true_pose)
         if est.converged and is_success(err, herr):
             recovered = True

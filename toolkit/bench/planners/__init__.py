@@ -38,12 +38,10 @@ from .report import check_out_dir, format_summary, summarise, turns_error_correl
 from .runner import (
     check_planner_names,
     known_planners,
-    load_planner_plugins,
     make_queries,
     planner_for,
     run_benchmark,
     run_reference,
-    run_seed,
     run_task,
 )
 
@@ -63,12 +61,10 @@ __all__ = [
     "check_planner_names",
     "format_summary",
     "known_planners",
-    "load_planner_plugins",
     "make_queries",
     "planner_for",
     "run_benchmark",
     "run_reference",
-    "run_seed",
     "run_task",
     "summarise",
     "turns_error_correlation",

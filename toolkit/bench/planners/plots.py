@@ -17,7 +17,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ...plotting import draw_cspace, draw_map, draw_path, save_figure
-from ...world import load_map
+from ...world import ConfigError, load_map
 from .records import BenchmarkResult, RunRecord
 
 __all__ = ["BOXPLOT_METRICS", "draw_exec_vs_turns", "draw_metric_boxplot", "draw_paths_grid", "save_boxplots",
@@ -43,7 +43,7 @@ def _values(records: Sequence[RunRecord], map_name: str, planner: str, metric: s
 def draw_metric_boxplot(result: BenchmarkResult, metric: str, map_name: str, ax: Axes) -> list[Any]:
     """One box per planner of `metric` over the successful runs on `map_name` (with the points jittered)."""
     if metric not in BOXPLOT_METRICS:
-        raise ValueError(f"unknown metric {metric!r}; known: {', '.join(BOXPLOT_METRICS)}")
+        raise ConfigError(f"unknown metric {metric!r}; known: {', '.join(BOXPLOT_METRICS)}")
     label, _, log_scale = BOXPLOT_METRICS[metric]
     planners = list(result.config.planners)
     data = [_values(result.records, map_name, p, metric) for p in planners]

@@ -6,23 +6,19 @@ import csv
 import json
 import math
 import platform
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ...world import NxtnavError
+from ..common import finite_median
 from ..ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
 from .records import RUN_COLUMNS, BenchmarkResult, RunRecord
 
 
 # -- summaries -----------------------------------------------------------------------------------
-def _median(values: Iterable[float]) -> float:
-    v = np.array([x for x in values if x is not None and math.isfinite(x)], dtype=float)
-    return float(np.median(v)) if len(v) else math.nan
-
-
 def summarise(result: BenchmarkResult) -> dict[str, list[dict[str, Any]]]:
     """Per map, one row per planner: runs, success rate and medians over the successful runs."""
     out: dict[str, list[dict[str, Any]]] = {}
@@ -35,16 +31,16 @@ def summarise(result: BenchmarkResult) -> dict[str, list[dict[str, Any]]]:
                 "planner": p,
                 "runs": len(rs),
                 "success_rate": len(ok) / len(rs) if rs else math.nan,
-                "median_time_s": _median(r.time_s for r in ok),
-                "median_first_solution_s": _median(r.first_solution_s for r in ok),
-                "median_length_cm": _median(r.length_cm for r in ok),
-                "median_length_ratio": _median(r.length_ratio for r in ok),
-                "median_turns": _median(r.turns for r in ok),
-                "median_turn_ratio": _median(r.turn_ratio for r in ok),
-                "median_min_clearance_cm": _median(r.min_clearance_cm for r in ok),
-                "median_exec_error_cm": _median(r.exec_error_cm for r in ok),
-                "median_exec_collision_fraction": _median(r.exec_collision_fraction for r in ok),
-                "median_collision_checks": _median(float(r.collision_checks) for r in ok),
+                "median_time_s": finite_median(r.time_s for r in ok),
+                "median_first_solution_s": finite_median(r.first_solution_s for r in ok),
+                "median_length_cm": finite_median(r.length_cm for r in ok),
+                "median_length_ratio": finite_median(r.length_ratio for r in ok),
+                "median_turns": finite_median(r.turns for r in ok),
+                "median_turn_ratio": finite_median(r.turn_ratio for r in ok),
+                "median_min_clearance_cm": finite_median(r.min_clearance_cm for r in ok),
+                "median_exec_error_cm": finite_median(r.exec_error_cm for r in ok),
+                "median_exec_collision_fraction": finite_median(r.exec_collision_fraction for r in ok),
+                "median_collision_checks": finite_median(float(r.collision_checks) for r in ok),
             })
         out[m] = rows
     return out
@@ -87,9 +83,9 @@ def format_summary(result: BenchmarkResult) -> str:
                          f"{r.query.goal[1]:g}); shortest {_fmt(r.shortest_length_cm, '.1f')} cm, min-link "
                          f"{'–' if r.min_link_turns is None else r.min_link_turns} turns.")
         elif refs:
-            ml_turns = _median(float(r.min_link_turns) for r in refs if r.min_link_turns is not None)
+            ml_turns = finite_median(float(r.min_link_turns) for r in refs if r.min_link_turns is not None)
             lines.append(f"{len(refs)} random queries; median shortest path "
-                         f"{_fmt(_median(r.shortest_length_cm for r in refs), '.1f')} cm, median min-link turns "
+                         f"{_fmt(finite_median(r.shortest_length_cm for r in refs), '.1f')} cm, median min-link turns "
                          f"{_fmt(ml_turns, 'g')}.")
         lines += ["",
                   "| planner | success | median time (ms) | first solution (ms) | length ratio | turns | "

@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import importlib
 import logging
 import math
-import pkgutil
 import time
-import zlib
 from collections.abc import Callable, Sequence
 from datetime import datetime
 from functools import lru_cache
@@ -16,7 +13,12 @@ from typing import Any
 import numpy as np
 import shapely
 
+from planners import PLANNERS, PlanningProblem, make_planner
+from planners.metrics import count_turns, path_length, path_metrics
+
+from ...seeds import derive_seed
 from ...world import CollisionChecker, Map, NxtnavError, PlanningError, load_map, make_checker
+from ..common import cached_map
 from ..execution import execution_error
 from ..executors import TasksInterrupted, collect_tasks
 from .records import (
@@ -36,50 +38,19 @@ log = logging.getLogger(__name__)
 
 
 # -- planners ------------------------------------------------------------------------------------
-def load_planner_plugins() -> None:
-    """Import every module of the `planners` package so that all planners are registered."""
-    import planners
-
-    for info in pkgutil.iter_modules(planners.__path__):
-        if not info.name.startswith("_"):
-            try:
-                importlib.import_module(f"planners.{info.name}")
-            except ImportError as exc:  # pragma: no cover - an optional dependency missing
-                log.warning("planner module planners.%s not loaded: %s", info.name, exc)
-
-
 def known_planners() -> list[str]:
     """Registered planner names (``ompl:NAME`` reaches any OMPL geometric planner as well)."""
-    load_planner_plugins()
-    from planners import PLANNERS
-
     return PLANNERS.names()
 
 
 def check_planner_names(names: Sequence[str]) -> None:
-    """Raise `PlanningError` for a name that is neither registered nor ``ompl:NAME``."""
-    known = known_planners()
-    bad = [n for n in names if n not in known and not (n.startswith("ompl:") and len(n) > 5)]
-    if bad:
-        raise PlanningError(f"unknown planner {', '.join(bad)}; known: {', '.join(known)} (or ompl:NAME)")
-    from planners import make_planner
-
+    """Raise `RegistryError` (listing the known names) for a name that is neither registered nor
+    ``ompl:NAME`` of an OMPL planner."""
     for n in names:
-        if n.startswith("ompl:"):
-            make_planner(n)  # an unknown OMPL planner name fails here, listing the known ones
+        PLANNERS.check(n)
 
 
 # -- seeds and queries ---------------------------------------------------------------------------
-def _name_key(name: str) -> int:
-    return zlib.crc32(name.encode("utf-8"))
-
-
-def run_seed(seed: int, map_name: str, run: int) -> int:
-    """The seed of run `run` on map `map_name` (shared by all planners), derived from `seed`."""
-    ss = np.random.SeedSequence([int(seed) & 0xFFFFFFFF, _name_key(map_name), int(run)])
-    return int(ss.generate_state(1, np.uint32)[0])
-
-
 def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence, np.random.SeedSequence]:
     """Independent (planning, execution, query) seed sequences of a run seed."""
     plan, execute, query = np.random.SeedSequence(seed).spawn(3)
@@ -127,7 +98,7 @@ def make_queries(m: Map, mode: QueryMode, runs: int, seed: int, robot_radius: fl
     sep = 0.25 * math.hypot(xmax - xmin, ymax - ymin)
     out = []
     for r in range(runs):
-        rng = np.random.default_rng(_streams(run_seed(seed, name, r))[2])
+        rng = np.random.default_rng(_streams(derive_seed(seed, name, r))[2])
         s, g = _random_query(m, checker, rng, sep)
         out.append(Query(name, r, s, g))
     return out
@@ -135,13 +106,8 @@ def make_queries(m: Map, mode: QueryMode, runs: int, seed: int, robot_radius: fl
 
 # -- per-process caches --------------------------------------------------------------------------
 @lru_cache(maxsize=32)
-def _map(name: str) -> Map:
-    return load_map(name)
-
-
-@lru_cache(maxsize=32)
 def _checker(map_name: str, radius: float) -> CollisionChecker:
-    return make_checker(_map(map_name), radius)
+    return make_checker(cached_map(map_name), radius)
 
 
 def planner_for(name: str, m: Map) -> Any:
@@ -150,9 +116,6 @@ def planner_for(name: str, m: Map) -> Any:
     On a map imported from a grid, `astar` plans on the map's own cells; on a map of more than
     `LARGE_MAP_WALLS` walls the references adapt (see there).
     """
-    load_planner_plugins()
-    from planners import make_planner
-
     large = len(m.walls) > LARGE_MAP_WALLS
     if name == "astar" and m.grid is not None:
         return make_planner(name, resolution=None)
@@ -165,7 +128,7 @@ def planner_for(name: str, m: Map) -> Any:
 
 @lru_cache(maxsize=64)
 def _planner(name: str, map_name: str) -> Any:
-    return planner_for(name, _map(map_name))
+    return planner_for(name, cached_map(map_name))
 
 
 def _path_tuple(path: np.ndarray) -> tuple[tuple[float, float], ...]:
@@ -174,24 +137,17 @@ def _path_tuple(path: np.ndarray) -> tuple[tuple[float, float], ...]:
 
 def run_reference(task: ReferenceTask) -> ReferenceResult:
     """Solve one query with `shortest` and `min-link` (the yardsticks of the ratios)."""
-    from planners import PLANNERS, PlanningProblem
-    from planners.metrics import count_turns, path_length
-
-    load_planner_plugins()
     q = task.query
     checker = _checker(q.map, task.robot_radius)
     t0 = time.perf_counter()
     results: dict[str, Any] = {}
     statuses = []
     for name in REFERENCE_PLANNERS:
-        if name not in PLANNERS:
-            statuses.append(f"{name}: not registered")
-            continue
         planner = _planner(name, q.map)
         if planner is None:
-            statuses.append(f"{name}: skipped on a map of {len(_map(q.map).walls)} walls")
+            statuses.append(f"{name}: skipped on a map of {len(cached_map(q.map).walls)} walls")
             continue
-        problem = PlanningProblem(_map(q.map), checker, np.array(q.start), np.array(q.goal), task.time_limit,
+        problem = PlanningProblem(cached_map(q.map), checker, np.array(q.start), np.array(q.goal), task.time_limit,
                                   np.random.default_rng(0))
         res = planner.plan(problem)
         statuses.append(f"{name}: {res.status}")
@@ -216,11 +172,8 @@ def run_task(task: RunTask) -> RunRecord:
 
     A planner that raises is recorded as a failed run with status ``error: ...`` (never lost).
     """
-    from planners import PlanningProblem
-    from planners.metrics import path_metrics
-
     q = task.query
-    m = _map(task.map)
+    m = cached_map(task.map)
     checker = _checker(task.map, task.robot_radius)
     plan_ss, exec_ss, _ = _streams(task.seed)
     base: dict[str, Any] = {"map": task.map, "planner": task.planner, "run": task.run, "seed": task.seed,
@@ -323,7 +276,7 @@ def run_benchmark(
             ref = ref_of[(name, qi)]
             for planner in config.planners:
                 tasks.append(RunTask(
-                    map=name, planner=planner, run=run, seed=run_seed(config.seed, name, run),
+                    map=name, planner=planner, run=run, seed=derive_seed(config.seed, name, run),
                     query=ref.query, time_limit=config.time_limit, robot_radius=config.robot_radius,
                     exec_repeats=config.exec_repeats, noise=config.noise,
                     reference_length=None if math.isnan(ref.shortest_length_cm) else ref.shortest_length_cm,
