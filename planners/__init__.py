@@ -8,7 +8,7 @@ See ``docs/planners.md``.
 
 from . import astar, min_turn, ompl_planners, reference
 from .astar import AStarPlanner
-from .base import PLANNERS, UNREACHABLE, Planner, PlanningProblem, PlanResult, make_planner
+from .base import PLANNERS, Planner, PlanningProblem, PlanResult, PlanStatus, make_planner
 from .metrics import PathMetrics, count_turns, path_length, path_metrics, turn_angle
 from .min_turn import MinTurnPlanner
 from .ompl_planners import OmplPlanner
@@ -16,13 +16,13 @@ from .reference import MinLinkPlanner, ShortestPathPlanner
 
 __all__ = [
     "PLANNERS",
-    "UNREACHABLE",
     "AStarPlanner",
     "MinLinkPlanner",
     "MinTurnPlanner",
     "OmplPlanner",
     "PathMetrics",
     "PlanResult",
+    "PlanStatus",
     "Planner",
     "PlanningProblem",
     "ShortestPathPlanner",

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from toolkit.world import ConfigError
 
-from .base import Planner, PlanningProblem, Solution
+from .base import Planner, PlanningProblem, PlanStatus, Solution
 
 __all__ = ["AStarPlanner"]
 
@@ -190,7 +190,7 @@ class AStarPlanner(Planner):
         goal_edges = set(g_near[g_ok].tolist())
         if not start_edges or not goal_edges:
             which = "start" if not start_edges else "goal"
-            return Solution(None, f"{which} cannot reach the grid", info)
+            return Solution(None, PlanStatus.NO_PATH, info, f"{which} cannot reach the grid")
 
         gxy = (float(problem.goal[0]), float(problem.goal[1]))
 
@@ -220,12 +220,12 @@ class AStarPlanner(Planner):
                 while parent[seq[-1]] >= 0:
                     seq.append(parent[seq[-1]])
                 info["expanded"] = expanded
-                return Solution(np.array([node_xy(k) for k in seq[::-1]]), "exact", info)
+                return Solution(np.array([node_xy(k) for k in seq[::-1]]), PlanStatus.EXACT, info)
             closed.add(u)
             expanded += 1
             if expanded % 4096 == 0 and time.perf_counter() >= deadline:
                 info["expanded"] = expanded
-                return Solution(None, "timeout", info)
+                return Solution(None, PlanStatus.TIMEOUT, info)
             gu = g_cost[u]
             nbrs = start_nbrs if u == start_id else neighbours[u]
             if u in goal_edges:
@@ -240,4 +240,4 @@ class AStarPlanner(Planner):
                     parent[v] = u
                     heapq.heappush(heap, (gv + h(v), -gv, v))
         info["expanded"] = expanded
-        return Solution(None, "no path on the grid", info)
+        return Solution(None, PlanStatus.NO_PATH, info, "no path on the grid")

@@ -13,7 +13,8 @@ Writing a planner is one file with one class::
         def _solve(self, problem):
             path = np.array([problem.start, problem.goal])
             ok = problem.checker.segment_free(problem.start, problem.goal)
-            return Solution(path if ok else None, "exact" if ok else "no straight path")
+            return Solution(path if ok else None, PlanStatus.EXACT if ok else PlanStatus.NO_PATH,
+                            detail="" if ok else "no straight path")
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, ClassVar
 
 import numpy as np
@@ -29,14 +31,33 @@ from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng, make_checker
 
-__all__ = ["PLANNERS", "UNREACHABLE", "PlanResult", "Planner", "PlanningProblem", "Solution", "make_planner"]
+__all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "make_planner"]
 
 FloatArray = NDArray[np.float64]
 
 PLANNERS: Registry[Planner] = Registry("planner")
 
-UNREACHABLE = "unreachable: start and goal lie in different free regions"
-"""Status of a query no path can solve (told at once, before any search)."""
+
+
+class PlanStatus(StrEnum):
+    """How a plan ended: a code (`PlanResult.status`); `PlanResult.detail` adds the planner's words."""
+
+    EXACT = "exact"
+    """A path from start to goal, checked free."""
+    APPROXIMATE = "approximate solution"
+    """A path that stops short of the goal (OMPL): a failure."""
+    TIMEOUT = "timeout"
+    """The budget ran out before a path was found."""
+    NO_PATH = "no path"
+    """The planner's search ended without a path (its graph, grid or rounds hold none)."""
+    UNREACHABLE = "unreachable"
+    """No path can exist: start and goal lie in different free regions (told before any search)."""
+    START_IN_COLLISION = "start in collision"
+    GOAL_IN_COLLISION = "goal in collision"
+    INVALID_PATH = "invalid path"
+    """The planner returned a path the shared checker refuses."""
+    ERROR = "error"
+    """The planner (or a peer) failed in another way; the detail says how."""
 
 
 @dataclass(eq=False)
@@ -93,15 +114,18 @@ class Solution:
     ----------
     path : (k, 2) array_like or None
         Waypoints from start to goal (cm), or None when the planner found no path.
-    status : str
-        ``"exact"`` for a path, otherwise why there is none (``"timeout"``, ``"no path"``, ...).
+    status : PlanStatus
+        `PlanStatus.EXACT` for a path, otherwise why there is none.
     info : dict
         Planner-specific extras, copied into `PlanResult.info`.
+    detail : str
+        The planner's own words on the status (e.g. ``"no path on the grid"``), or "".
     """
 
     path: ArrayLike | None
-    status: str
+    status: PlanStatus
     info: dict[str, Any] = field(default_factory=dict)
+    detail: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,23 +140,31 @@ class PlanResult:
         Waypoints from start to goal in cm (empty (0, 2) when it failed).
     success : bool
         True when `path` joins start and goal and is collision-free.
-    status : str
-        "exact" on success, otherwise why it failed ("timeout", "start in collision", ...).
+    status : PlanStatus
+        `PlanStatus.EXACT` on success, otherwise why it failed.
     time_s : float
         Planning wall-clock time (s).
     collision_checks : int
         Checks the planner asked of the shared checker.
     info : dict
         Planner-specific extras (e.g. path length before simplification).
+    detail : str
+        The planner's own words on the status, or "".
     """
 
     planner: str
     path: FloatArray
     success: bool
-    status: str
+    status: PlanStatus
     time_s: float
     collision_checks: int = 0
     info: dict[str, Any] = field(default_factory=dict)
+    detail: str = ""
+
+    @property
+    def message(self) -> str:
+        """The status in words, with the planner's detail (``"no path (no path on the grid)"``)."""
+        return f"{self.status} ({self.detail})" if self.detail and self.detail != self.status else str(self.status)
 
     @property
     def length(self) -> float:
@@ -145,7 +177,8 @@ class PlanResult:
         return {
             "planner": self.planner,
             "success": self.success,
-            "status": self.status,
+            "status": str(self.status),
+            "detail": self.detail,
             "time_s": self.time_s,
             "collision_checks": self.collision_checks,
             "length_cm": self.length if self.success else None,
@@ -173,22 +206,24 @@ class Planner(ABC):
         checks0 = checker.checks
         t0 = time.perf_counter()
         info: dict[str, Any] = {}
+        detail = ""
         if not checker.point_free(problem.start):
-            path, status = None, "start in collision"
+            path, status = None, PlanStatus.START_IN_COLLISION
         elif not checker.point_free(problem.goal):
-            path, status = None, "goal in collision"
-        elif (problem.map.region_of(problem.start) != problem.map.region_of(problem.goal)
-              or not checker.connected(problem.start, problem.goal)):  # apart in the map, or only the robot's
-            path, status = None, UNREACHABLE  # radius keeps them apart
+            path, status = None, PlanStatus.GOAL_IN_COLLISION
+        elif problem.map.region_of(problem.start) != problem.map.region_of(problem.goal):
+            path, status, detail = None, PlanStatus.UNREACHABLE, "start and goal lie in different free regions"
+        elif not checker.connected(problem.start, problem.goal):
+            path, status, detail = None, PlanStatus.UNREACHABLE, "the robot's radius keeps start and goal apart"
         else:
             solution = self._solve(problem)
-            path, status, info = solution.path, solution.status, solution.info
+            path, status, info, detail = solution.path, PlanStatus(solution.status), solution.info, solution.detail
         elapsed = time.perf_counter() - t0
         checks = checker.checks - checks0
         if path is None:
-            return PlanResult(self.name, np.empty((0, 2)), False, status, elapsed, checks, info)
+            return PlanResult(self.name, np.empty((0, 2)), False, status, elapsed, checks, info, detail)
         arr = np.asarray(path, dtype=float).reshape(-1, 2)
-        return PlanResult(self.name, arr, True, status, elapsed, checks, info)
+        return PlanResult(self.name, arr, True, status, elapsed, checks, info, detail)
 
     @abstractmethod
     def _solve(self, problem: PlanningProblem) -> Solution:

@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, ConfigError
 
-from .base import Planner, PlanningProblem, Solution
+from .base import Planner, PlanningProblem, PlanStatus, Solution
 
 __all__ = ["MinTurnPlanner", "fewest_points_path", "hop_shortest_path"]
 
@@ -155,7 +155,7 @@ class MinTurnPlanner(Planner):
         info: dict[str, Any] = {"rounds": 0, "lazy_iterations": 0, "segments_checked": 1}
         if checker.segment_free(start, goal):
             info.update(intermediate=0, rounds=1)
-            return Solution(np.array([start, goal]), "exact", info)
+            return Solution(np.array([start, goal]), PlanStatus.EXACT, info)
         rounds = 0
         while time.perf_counter() < deadline and (self.max_rounds is None or rounds < self.max_rounds):
             rounds += 1
@@ -164,10 +164,10 @@ class MinTurnPlanner(Planner):
             found = fewest_points_path(checker, start, goal, samples, self.max_intermediate, deadline,
                                        info, direct_known_blocked=True)
             if found is not None:
-                return Solution(found, "exact", info)
+                return Solution(found, PlanStatus.EXACT, info)
         if self.max_rounds is not None and rounds >= self.max_rounds:
-            return Solution(None, "no path in max_rounds", info)
-        return Solution(None, "timeout", info)
+            return Solution(None, PlanStatus.NO_PATH, info, "no path in max_rounds")
+        return Solution(None, PlanStatus.TIMEOUT, info)
 
 
 def fewest_points_path(

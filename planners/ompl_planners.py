@@ -33,9 +33,9 @@ says what ended each call (``iterations``, ``solution`` or ``time``; only ``time
 reproducible). ``deterministic=False`` restores the wall-clock budget (all of it for the
 asymptotically optimal planners).
 
-OMPL statuses map to `PlanResult` statuses: an exact solution is a success ("exact"); an approximate
-solution (a path that stops short of the goal) is a failure ("approximate solution"); "timeout",
-"invalid start", "invalid goal", "infeasible", ... are failures too.
+OMPL statuses map to `PlanStatus`: an exact solution is a success (``EXACT``); an approximate
+solution (a path that stops short of the goal) is a failure (``APPROXIMATE``); a timeout, an invalid
+start or goal, an infeasible problem are failures too, with OMPL's own words as the detail.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ import ompl.util as ou
 
 from toolkit.world import CollisionChecker, ConfigError, RegistryError
 
-from .base import PLANNERS, Planner, PlanningProblem, Solution
+from .base import PLANNERS, Planner, PlanningProblem, PlanStatus, Solution
 
 __all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "ompl_planner_names"]
 
@@ -74,17 +74,14 @@ _ROADMAP_ROUNDS = 10  # deterministic PRM: roadmap growth rounds (a query after 
 _ITERATIONS_PER_S = {"PRMstar": 1000.0, "BITstar": 50000.0, "ABITstar": 50000.0, "AITstar": 50000.0}
 _DEFAULT_ITERATIONS_PER_S = 5000.0
 
-_STATUS = {
-    "EXACT_SOLUTION": "exact",
-    "APPROXIMATE_SOLUTION": "approximate solution",
-    "TIMEOUT": "timeout",
-    "INVALID_START": "invalid start",
-    "INVALID_GOAL": "invalid goal",
-    "UNRECOGNIZED_GOAL_TYPE": "unrecognized goal type",
-    "CRASH": "crash",
-    "ABORT": "abort",
-    "UNREACHABLE": "infeasible",
-    "UNKNOWN": "no solution",
+_STATUS = {  # OMPL's PlannerStatus names -> ours (OMPL's own words stay in info["ompl_status"] and the detail)
+    "EXACT_SOLUTION": PlanStatus.EXACT,
+    "APPROXIMATE_SOLUTION": PlanStatus.APPROXIMATE,
+    "TIMEOUT": PlanStatus.TIMEOUT,
+    "INVALID_START": PlanStatus.START_IN_COLLISION,
+    "INVALID_GOAL": PlanStatus.GOAL_IN_COLLISION,
+    "UNREACHABLE": PlanStatus.UNREACHABLE,
+    "UNKNOWN": PlanStatus.NO_PATH,
 }
 
 
@@ -273,7 +270,7 @@ class OmplPlanner(Planner):
         info["first_solution_s"] = first.get("time", math.nan)
         info["first_solution_length_cm"] = first.get("length", math.nan)
         if not exact:
-            return Solution(None, _STATUS.get(key, key.lower().replace("_", " ")), info)
+            return Solution(None, _STATUS.get(key, PlanStatus.ERROR), info, info["ompl_status"])
         return self._finish(setup, problem, info)
 
     def _grow_roadmap(self, setup: Any, planner: Any, problem: PlanningProblem, t0: float, budget: int,
@@ -316,7 +313,9 @@ class OmplPlanner(Planner):
                                 "first_solution_length_cm": first.get("length", math.nan)}
         if found is None:
             info["ompl_status"] = "no solution in the roadmap"
-            return Solution(None, "timeout" if ended == "time" else "no path in the roadmap", info)
+            if ended == "time":
+                return Solution(None, PlanStatus.TIMEOUT, info)
+            return Solution(None, PlanStatus.NO_PATH, info, "no path in the roadmap")
         info["ompl_status"] = "Exact solution"
         return self._finish(setup, problem, info, found)
 
@@ -337,8 +336,8 @@ class OmplPlanner(Planner):
         arr = np.array([[s[0], s[1]] for s in states], dtype=float)
         arr[0], arr[-1] = problem.start, problem.goal  # exact end points (OMPL may copy with rounding)
         if not checker.path_free(arr):
-            return Solution(None, "invalid path", info)
-        return Solution(arr, "exact", info)
+            return Solution(None, PlanStatus.INVALID_PATH, info)
+        return Solution(arr, PlanStatus.EXACT, info)
 
 
 class RrtStarPlanner(OmplPlanner):

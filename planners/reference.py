@@ -65,7 +65,7 @@ from shapely.geometry.base import BaseGeometry
 from toolkit.world import CollisionChecker, ConfigError, Map, PointCollisionChecker
 from toolkit.world.grid_visibility import GridVisibility
 
-from .base import Planner, PlanningProblem, Solution
+from .base import Planner, PlanningProblem, PlanStatus, Solution
 from .metrics import turn_angle
 from .min_turn import hop_shortest_path
 from .visibility_search import VisibilityGraph
@@ -378,12 +378,12 @@ class ShortestPathPlanner(_ReferencePlanner):
         if checker.segment_free(start, goal):
             path = np.array([start, goal])
             info["length_tolerance_cm"] = self._length_tolerance(problem, path)
-            return Solution(path, "exact", info)
+            return Solution(path, PlanStatus.EXACT, info)
         parts = shapely.get_parts(g.extra["cspace"])
         which = [np.flatnonzero(shapely.intersects_xy(parts, *p)) for p in (start, goal)]
         same = np.intersect1d(which[0], which[1])
         if not len(same):  # different parts of the configuration space
-            return Solution(None, "no path", info)
+            return Solution(None, PlanStatus.NO_PATH, info)
         vg: VisibilityGraph = g.extra["search"]
         si, gi = vg.seen_from(start), vg.seen_from(goal)  # lattice points of a grid: swept, exactly
         in_part = np.isin(part, same)
@@ -399,10 +399,10 @@ class ShortestPathPlanner(_ReferencePlanner):
         info["graph_arcs"] = vg.arcs
         info["graph_scanned_nodes"] = vg.scanned
         if not math.isfinite(length):
-            return Solution(None, "no path", info)
+            return Solution(None, PlanStatus.NO_PATH, info)
         path = np.vstack([start, g.nodes[seq], goal])
         info["length_tolerance_cm"] = self._length_tolerance(problem, path)
-        return Solution(path, "exact", info)
+        return Solution(path, PlanStatus.EXACT, info)
 
 
 class MinLinkPlanner(_ReferencePlanner):
@@ -471,7 +471,7 @@ class MinLinkPlanner(_ReferencePlanner):
         s_ok, g_ok, direct = self._query_edges(checker, g, start, goal)
         if direct:
             info["links"] = 1
-            return Solution(np.array([start, goal]), "exact", info)
+            return Solution(np.array([start, goal]), PlanStatus.EXACT, info)
         # fewest hops by breadth-first search over the (fully checked) visibility graph
         n = m + 2
         adj = np.zeros((n, n), dtype=bool)
@@ -487,7 +487,7 @@ class MinLinkPlanner(_ReferencePlanner):
             frontier = np.any(adj[frontier], axis=0) & ~seen
             seen |= frontier
         if not seen[m + 1]:
-            return Solution(None, "no path", info)
+            return Solution(None, PlanStatus.NO_PATH, info)
         allp = np.vstack([g.nodes, start, goal])
         diff = allp[:, None, :] - allp[None, :, :]
         cost = np.where(adj, np.hypot(diff[..., 0], diff[..., 1]), np.inf)
@@ -497,4 +497,4 @@ class MinLinkPlanner(_ReferencePlanner):
         info["graph_length_cm"] = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
         if self.refine:
             path = shorten_bends(checker, path, self.boundary_spacing)
-        return Solution(path, "exact", info)
+        return Solution(path, PlanStatus.EXACT, info)

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from planners import PlanStatus
 from toolkit.bench.ompl_log import (
     OMPL_STATUS,
     OmplExperiment,
@@ -79,11 +80,11 @@ def test_ompl_parser_reads_it(tmp_path: Path) -> None:
 
 
 def test_status_mapping() -> None:
-    assert OMPL_STATUS[ompl_status(True, "exact")] == "Exact solution"
-    assert OMPL_STATUS[ompl_status(False, "timeout")] == "Timeout"
-    assert OMPL_STATUS[ompl_status(False, "start in collision")] == "Invalid start"
-    assert OMPL_STATUS[ompl_status(False, "goal in collision")] == "Invalid goal"
-    assert OMPL_STATUS[ompl_status(False, "error: RuntimeError: boom")] == "Crash"
+    assert OMPL_STATUS[ompl_status(True, PlanStatus.EXACT)] == "Exact solution"
+    assert OMPL_STATUS[ompl_status(False, PlanStatus.TIMEOUT)] == "Timeout"
+    assert OMPL_STATUS[ompl_status(False, PlanStatus.START_IN_COLLISION)] == "Invalid start"
+    assert OMPL_STATUS[ompl_status(False, PlanStatus.GOAL_IN_COLLISION)] == "Invalid goal"
+    assert OMPL_STATUS[ompl_status(False, PlanStatus.ERROR)] == "Crash"
     assert OMPL_STATUS[ompl_status(False, "something else")] == "Unknown status"
 
 

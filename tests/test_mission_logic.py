@@ -20,7 +20,7 @@ import toolkit.mission as mission_mod
 import toolkit.mission.runner as mission_runner
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 from localisation.procedure import LocalisationResult
-from planners.base import Planner, PlanningProblem, Solution
+from planners.base import Planner, PlanningProblem, PlanStatus, Solution
 from toolkit.mission import MissionConfig, Outcome, run_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.world import Map, Pose, Scan, load_map, map_from_dict, wrap_angle
@@ -105,11 +105,11 @@ class VisibilityPlanner(Planner):
                     dist[v], prev[v] = d + w, u
                     heapq.heappush(heap, (d + w, v))
         if 1 not in dist:
-            return Solution(None, "no path")
+            return Solution(None, PlanStatus.NO_PATH)
         path = [1]
         while path[-1] != 0:
             path.append(prev[path[-1]])
-        return Solution(pts[path[::-1]], "exact")
+        return Solution(pts[path[::-1]], PlanStatus.EXACT)
 
 
 VisibilityPlanner.name = "visibility"

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import shapely
 
-from planners import PLANNERS, Planner, PlanningProblem, PlanResult, make_planner
+from planners import PLANNERS, Planner, PlanningProblem, PlanResult, PlanStatus, make_planner
 from toolkit.world import CollisionChecker, Map, load_map, map_from_dict
 
 RADIUS = 8.0
@@ -75,7 +75,7 @@ def test_preset_paths_are_collision_free(planner: str, map_name: str) -> None:
     m = _map(map_name)
     res = _plan(planner, map_name)
     assert res.success, f"{planner} failed on {map_name}: {res.status}"
-    assert res.status == "exact"
+    assert res.status is PlanStatus.EXACT
     assert res.time_s >= 0 and res.collision_checks >= 0
     assert_path_valid(m, res.path, m.start, m.target)
     assert res.to_dict()["length_cm"] == pytest.approx(res.length)
@@ -93,7 +93,7 @@ def test_no_planner_beats_shortest(planner: str, map_name: str) -> None:
 def test_goal_in_obstacle_fails_cleanly(planner: str) -> None:
     res = _plan(planner, "pillars", goal=[40.0, 30.0], budget=0.2)  # inside the first pillar
     assert not res.success
-    assert res.status == "goal in collision"
+    assert res.status is PlanStatus.GOAL_IN_COLLISION
     assert res.path.shape == (0, 2)
     assert math.isinf(res.length)
 
@@ -101,7 +101,7 @@ def test_goal_in_obstacle_fails_cleanly(planner: str) -> None:
 @pytest.mark.parametrize("planner", PLANNER_NAMES)
 def test_start_against_wall_fails_cleanly(planner: str) -> None:
     res = _plan(planner, "map1", start=[3.0, 50.0], budget=0.2)  # the disc overlaps the left wall
-    assert not res.success and res.status == "start in collision"
+    assert not res.success and res.status is PlanStatus.START_IN_COLLISION
 
 
 TWO_ROOMS = {
@@ -121,7 +121,7 @@ def test_goal_behind_a_narrow_door_fails_cleanly(planner: str) -> None:
     assert checker.point_free(m.target) and checker.point_free(m.start)
     res = _make(planner).plan(PlanningProblem(m, checker, m.start, m.target, 0.2, 3))
     assert not res.success
-    assert isinstance(res.status, str) and res.status and res.status != "exact"
+    assert isinstance(res.status, PlanStatus) and res.status is not PlanStatus.EXACT
     assert res.path.shape == (0, 2)
     # the same map with the door in reach: a path through the room on the start side works
     ok = _make(planner).plan(PlanningProblem(m, checker, m.start, [60, 80], BUDGET, 3))

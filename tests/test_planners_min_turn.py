@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from planners import PlanStatus
 from planners.min_turn import MinTurnPlanner, fewest_points_path, hop_shortest_path
 from toolkit.world import CollisionChecker, load_map
 
@@ -117,4 +118,8 @@ def test_max_rounds_limits_retries() -> None:
     checker = CollisionChecker(m, 8.0)
     res = MinTurnPlanner(n_samples=3, max_intermediate=1, max_rounds=4).plan(
         PlanningProblem(m, checker, m.start, m.target, 10.0, 0))
-    assert not res.success and res.status == "no path in max_rounds" and res.info["rounds"] == 4
+    assert not res.success and res.status is PlanStatus.NO_PATH and res.detail == "no path in max_rounds"
+    assert res.info["rounds"] == 4
+    assert res.message == "no path (no path in max_rounds)"
+    doc = res.to_dict()
+    assert doc["status"] == "no path" and doc["detail"] == "no path in max_rounds"

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from conftest import run_cli
 
-from planners import PLANNERS, UNREACHABLE, PlanningProblem, make_planner
+from planners import PLANNERS, PlanningProblem, PlanStatus, make_planner
 from toolkit.world import load_map, map_from_dict
 
 OMPL_PLANNERS = ["rrtstar", "prm", "ompl:RRTConnect", "ompl:PRMstar", "ompl:BITstar"]
@@ -87,5 +87,5 @@ SPLIT = {"name": "split", "boundary": [[0, 0], [100, 0], [100, 60], [0, 60]],
 def test_start_and_goal_in_different_free_regions_fail_at_once(name: str) -> None:
     m = map_from_dict(SPLIT)
     r = make_planner(name).plan(PlanningProblem.create(m, 8.0, (20, 30), (80, 30), 5.0, rng=0))
-    assert not r.success and r.status == UNREACHABLE
+    assert not r.success and r.status is PlanStatus.UNREACHABLE
     assert r.collision_checks == 2  # the start and goal checks: no search was made

@@ -22,6 +22,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from planners import PlanStatus
 from toolkit.world import ConfigError
 
 __all__ = [
@@ -51,17 +52,23 @@ _TYPES = ("REAL", "INTEGER", "BOOLEAN", "ENUM", "VARCHAR(512)")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_ ]*$")
 
 
-def ompl_status(success: bool, status: str) -> int:
+_OMPL_LABEL = {
+    PlanStatus.EXACT: "Exact solution",
+    PlanStatus.APPROXIMATE: "Approximate solution",
+    PlanStatus.TIMEOUT: "Timeout",
+    PlanStatus.NO_PATH: "Infeasible",
+    PlanStatus.UNREACHABLE: "Infeasible",
+    PlanStatus.START_IN_COLLISION: "Invalid start",
+    PlanStatus.GOAL_IN_COLLISION: "Invalid goal",
+    PlanStatus.ERROR: "Crash",
+}
+
+
+def ompl_status(success: bool, status: PlanStatus) -> int:
     """The OMPL status enum value for one of our results (`PlanResult.success`, `.status`)."""
     if success:
         return OMPL_STATUS.index("Exact solution")
-    s = status.lower()
-    for key, label in (("error", "Crash"), ("crash", "Crash"), ("start", "Invalid start"), ("goal", "Invalid goal"),
-                       ("timeout", "Timeout"), ("time limit", "Timeout"), ("infeasible", "Infeasible"),
-                       ("no path", "Infeasible"), ("unreachable", "Infeasible")):
-        if key in s:
-            return OMPL_STATUS.index(label)
-    return OMPL_STATUS.index("Unknown status")
+    return OMPL_STATUS.index(_OMPL_LABEL.get(status, "Unknown status"))
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from planners import PlanStatus
+
 from ..world import Map, NxtnavError, PointCollisionChecker
 
 __all__ = ["PEERS", "PEER_KIND", "peer_path"]
@@ -64,8 +66,8 @@ def _extremity(m: Map, checker: PointCollisionChecker, start: np.ndarray, goal: 
 
 
 def peer_path(name: str, m: Map, checker: PointCollisionChecker, start: np.ndarray,
-              goal: np.ndarray) -> tuple[np.ndarray | None, str]:
-    """The peer's path (None when it finds none) and a status; paths through walls are refused."""
+              goal: np.ndarray) -> tuple[np.ndarray | None, PlanStatus, str]:
+    """The peer's path (None when it finds none), a status and its detail; paths through walls are refused."""
     run = {"peer:pyastar2d": _pyastar2d, "peer:extremitypathfinder": _extremity}.get(name)
     if run is None:
         raise NxtnavError(f"unknown peer {name!r}; known: {', '.join(PEERS)}")
@@ -74,9 +76,9 @@ def peer_path(name: str, m: Map, checker: PointCollisionChecker, start: np.ndarr
     except NxtnavError:
         raise
     except Exception as exc:  # a peer's crash is its result
-        return None, f"peer error: {type(exc).__name__}: {exc}"
+        return None, PlanStatus.ERROR, f"peer error: {type(exc).__name__}: {exc}"
     if path is None:
-        return None, "no path"
+        return None, PlanStatus.NO_PATH, ""
     if len(path) >= 2 and not checker.path_free(path):
-        return None, "invalid: the peer's path leaves the free space"
-    return path, "exact"
+        return None, PlanStatus.INVALID_PATH, "the peer's path leaves the free space"
+    return path, PlanStatus.EXACT, ""

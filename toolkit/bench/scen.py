@@ -23,7 +23,7 @@ from typing import Any, Literal
 import numpy as np
 
 from planners import make_planner
-from planners.base import Planner, PlanningProblem
+from planners.base import Planner, PlanningProblem, PlanStatus
 
 from ..world import Map, MapError, NxtnavError, import_map, make_checker
 from .executors import run_tasks
@@ -176,7 +176,8 @@ class ScenRecord:
     length: float
     time_s: float
     preprocess_s: float
-    status: str
+    status: PlanStatus
+    detail: str = ""
 
     @property
     def error(self) -> float:
@@ -194,7 +195,7 @@ class ScenRecord:
                 "goal_y": q.goal[1], "planner": self.planner, "success": self.success,
                 "length": _num(self.length), "optimal": q.optimal, "error": _num(self.error),
                 "rel_error": _num(self.rel_error), "time_s": self.time_s, "preprocess_s": self.preprocess_s,
-                "status": self.status}
+                "status": f"{self.status} ({self.detail})" if self.detail else str(self.status)}
 
 
 def _num(v: float) -> float | str:
@@ -238,7 +239,7 @@ def _run_one(task: _Task) -> ScenRecord:
     pre = float(res.info.get("graph_build_s", 0.0) or res.info.get("grid_build_s", 0.0) or 0.0)
     scale = 1.0 / m.grid.cell_cm if m.grid is not None else 1.0
     return ScenRecord(task.query, task.planner, res.success, res.length * scale if res.success else math.nan,
-                      max(res.time_s - pre, 0.0), pre, res.status)
+                      max(res.time_s - pre, 0.0), pre, res.status, res.detail)
 
 
 def _run_peer(task: _Task, m: Map) -> ScenRecord:
@@ -247,14 +248,14 @@ def _run_peer(task: _Task, m: Map) -> ScenRecord:
     start, goal = task.query.world(m, c.kind)
     first = ("peer-ready", c.map_path, task.planner) not in _PROCESS_CACHE
     t0 = time.perf_counter()
-    path, status = peer_path(task.planner, m, checker, start, goal)
+    path, status, detail = peer_path(task.planner, m, checker, start, goal)
     elapsed = time.perf_counter() - t0
     _PROCESS_CACHE[("peer-ready", c.map_path, task.planner)] = True
     assert m.grid is not None
     length = float(np.sum(np.hypot(*np.diff(path, axis=0).T))) / m.grid.cell_cm if path is not None else math.nan
     # a peer's preparation happens inside its first query: reported as that query's preprocessing
     return ScenRecord(task.query, task.planner, path is not None, length, 0.0 if first else elapsed,
-                      elapsed if first else 0.0, status)
+                      elapsed if first else 0.0, status, detail)
 
 
 @dataclass

@@ -130,7 +130,7 @@ def plan(
     draw_cspace(m, radius, ax)
     ax.plot(*start, "o", color="tab:green", ms=9, label="start", zorder=6)
     ax.plot(*goal, "*", color="tab:red", ms=14, label="goal", zorder=6)
-    lines = [f"{planner} on {m.name}: {result.status} in {1e3 * result.time_s:.2f} ms"]
+    lines = [f"{planner} on {m.name}: {result.message} in {1e3 * result.time_s:.2f} ms"]
     if result.success:
         from planners.metrics import count_turns, path_length
 
@@ -164,7 +164,7 @@ def plan(
     for line in lines:
         typer.echo(line)
     if not result.success:
-        raise fail(f"{planner} found no path on {m.name}: {result.status}", code=1)
+        raise fail(f"{planner} found no path on {m.name}: {result.message}", code=1)
 
 
 @bench_app.command("planners")

@@ -449,10 +449,10 @@ class _Mission:
                 path = result.path
         assert result is not None
         if path is None:
-            self.record("plan", note=f"failed: {result.status}")
+            self.record("plan", note=f"failed: {result.message}")
             raise _MissionEnded(Outcome.UNREACHABLE, f"target unreachable: planner {self.planner.name} found no "
                                 f"path from ({start[0]:.1f}, {start[1]:.1f}) to "
-                                f"({self.target[0]:.1f}, {self.target[1]:.1f}) ({result.status})")
+                                f"({self.target[0]:.1f}, {self.target[1]:.1f}) ({result.message})")
         if prefix:
             path = np.vstack([*prefix, path])
         keep = np.ones(len(path), dtype=bool)

@@ -107,7 +107,7 @@ def draw_paths_grid(result: BenchmarkResult, run: int = 0, size: float = 3.6) ->
                 ax.set_title(f"{m} / {p}\n{rec.length_cm:.0f} cm, {int(rec.turns)} turns, "
                              f"{1e3 * rec.time_s:.1f} ms", fontsize=9)
             else:
-                ax.set_title(f"{m} / {p}\nfailed: {rec.status}", fontsize=9)
+                ax.set_title(f"{m} / {p}\nfailed: {rec.status}{f' ({rec.detail})' if rec.detail else ''}", fontsize=9)
             ax.set_xlabel("")
             ax.set_ylabel("")
     fig.tight_layout()

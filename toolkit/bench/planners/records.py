@@ -7,6 +7,8 @@ from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from typing import Any, Literal
 
+from planners import PlanStatus
+
 from ...robots.sim import MotionNoise
 from ...world import PlanningError, RobotGeometry
 
@@ -108,7 +110,7 @@ class RunRecord:
     start: tuple[float, float]
     goal: tuple[float, float]
     success: bool
-    status: str
+    status: PlanStatus
     time_s: float
     collision_checks: int
     length_cm: float = math.nan
@@ -123,9 +125,11 @@ class RunRecord:
     exec_collision_fraction: float = math.nan
     first_solution_s: float = math.nan
     path: tuple[tuple[float, float], ...] = field(default=(), repr=False)
+    detail: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
+        d["status"] = str(self.status)
         d["path"] = [list(p) for p in self.path]
         d["start"], d["goal"] = list(self.start), list(self.goal)
         return d

@@ -165,7 +165,7 @@ def write_paths_jsonl(result: BenchmarkResult, path: Path) -> None:
     with path.open("w", encoding="utf-8") as fh:
         for r in result.records:
             doc = {"map": r.map, "planner": r.planner, "run": r.run, "seed": r.seed, "success": r.success,
-                   "path": [list(p) for p in r.path], "status": r.status, "query": r.query,
+                   "path": [list(p) for p in r.path], "status": str(r.status), "detail": r.detail, "query": r.query,
                    "start": list(r.start), "goal": list(r.goal), "time_s": r.time_s,
                    "first_solution_s": r.first_solution_s if math.isfinite(r.first_solution_s) else None}
             fh.write(json.dumps(doc) + "\n")

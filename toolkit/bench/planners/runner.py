@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from planners import PLANNERS, PlanningProblem, make_planner
+from planners import PLANNERS, PlanningProblem, PlanStatus, make_planner
 from planners.metrics import count_turns, path_length, path_metrics
 
 from ...seeds import derive_seed
@@ -150,7 +150,7 @@ def run_reference(task: ReferenceTask) -> ReferenceResult:
         problem = PlanningProblem(cached_map(q.map), checker, np.array(q.start), np.array(q.goal), task.time_limit,
                                   np.random.default_rng(0))
         res = planner.plan(problem)
-        statuses.append(f"{name}: {res.status}")
+        statuses.append(f"{name}: {res.message}")
         if res.success:
             results[name] = res.path
     sp, ml = results.get("shortest"), results.get("min-link")
@@ -170,7 +170,7 @@ def run_reference(task: ReferenceTask) -> ReferenceResult:
 def run_task(task: RunTask) -> RunRecord:
     """Run one planner on one query (a picklable top-level function for the executors).
 
-    A planner that raises is recorded as a failed run with status ``error: ...`` (never lost).
+    A planner that raises is recorded as a failed run with status `PlanStatus.ERROR` (never lost).
     """
     q = task.query
     m = cached_map(task.map)
@@ -188,10 +188,10 @@ def run_task(task: RunTask) -> RunRecord:
         raise
     except Exception as exc:  # a crashing planner is a result, not the end of the benchmark
         log.warning("planner %s crashed on %s run %d: %s", task.planner, task.map, task.run, exc)
-        return RunRecord(**base, success=False, status=f"error: {type(exc).__name__}: {exc}",
+        return RunRecord(**base, success=False, status=PlanStatus.ERROR, detail=f"{type(exc).__name__}: {exc}",
                          time_s=time.perf_counter() - t0, collision_checks=checker.checks - checks0)
     if not res.success or len(res.path) < 1:
-        return RunRecord(**base, success=False, status=res.status, time_s=res.time_s,
+        return RunRecord(**base, success=False, status=res.status, detail=res.detail, time_s=res.time_s,
                          collision_checks=res.collision_checks)
     path = np.asarray(res.path, dtype=float).reshape(-1, 2)
     met = path_metrics(path, checker, reference_length=task.reference_length,
@@ -205,6 +205,7 @@ def run_task(task: RunTask) -> RunRecord:
         **base,
         success=True,
         status=res.status,
+        detail=res.detail,
         time_s=res.time_s,
         collision_checks=res.collision_checks,
         length_cm=met.length_cm,
