@@ -65,9 +65,8 @@ def test_segments_along_cell_lines_and_through_corners() -> None:
     x0, y0 = r.origin
     k = np.arange(0, min(r.shape) - 1, 3, dtype=float)
     a = np.column_stack([x0 + k * r.cell, y0 + k[::-1] * r.cell])
-    ends = [a + [37 * r.cell, 0.0], a + [0.0, -29 * r.cell], a + [23 * r.cell, 23 * r.cell],
-            a + [-17 * r.cell, 17 * r.cell]]
-    for b in ends:
+    steps = np.array([[37.0, 0.0], [0.0, -29.0], [23.0, 23.0], [-17.0, 17.0]]) * r.cell
+    for b in (a + step for step in steps):
         np.testing.assert_array_equal(cc.segments_free(a, b), truth_segments(GRID, a, b, radius))
 
 
