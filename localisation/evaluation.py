@@ -164,7 +164,7 @@ def _reading_stats(errors: list[FloatArray], n_poses: int, gross_cm: float) -> R
 
 def _sweep(map: Map, sonar: SonarModel, pose: Pose, angles: FloatArray, gen: np.random.Generator) -> Scan:
     ranges = np.asarray(sonar.measure(map.walls, pose.xy, pose.theta + angles, gen), dtype=float)
-    return Scan.from_readings(angles, ranges)
+    return sonar.to_scan(angles, ranges)
 
 
 def compare_scan_processing(

@@ -85,10 +85,9 @@ def scan(
                                  param_hint="--pose")
     model = make_sonar(sonar, noise_sd=sensor_noise)
     angles = default_scan_angles()
-    from ..world import Scan
 
     readings = model.measure(m.walls, pose.xy, pose.theta + angles, rng=seed)
-    s = Scan.from_readings(angles, readings)
+    s = model.to_scan(angles, readings)
     echo = s.ranges[s.valid]
     typer.echo(f"scan at ({pose.x:g}, {pose.y:g}, {pose.heading_deg:g} deg) on {m.name}, sonar {sonar}: "
                f"{int(s.valid.sum())}/{len(s)} readings with an echo"
