@@ -230,7 +230,7 @@ def compare_scan_processing(
         turned = Pose(x, y, th + a_min)
         second = _sweep(map, model, turned, angles, gen)
         variants = {
-            "raw": (pose, raw_scan(first, settings.min_range_cm, settings.max_range_cm)),
+            "raw": (pose, raw_scan(first, settings.min_range_cm, settings.range_limit_cm)),
             "processed": (turned, process_scan(second, settings).scan),
         }
         for label, (truth, scan) in variants.items():

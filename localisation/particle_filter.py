@@ -128,6 +128,11 @@ class ParticleFilter(Localiser):
         for the NXT).
     refine_exact : bool
         Run the last iterations with exact ray casting (removes the table's quantisation).
+    tracking_prior : bool
+        In an update from a belief that was not global (tracking), the Metropolis moves target the
+        predicted belief (a Gaussian fitted to the predicted cloud) times the tempered likelihood,
+        not the likelihood alone: a scan with few readings then leaves the belief as predicted along
+        the directions it does not constrain, instead of letting the moves spread the cloud there.
     cache_dir : path, optional
         Disk cache for the table (see `range_table`).
     snapshot_size : int
@@ -174,6 +179,7 @@ class ParticleFilter(Localiser):
         beam_width_deg: float = 0.0,
         critical_incidence_deg: float | None = None,
         refine_exact: bool = False,
+        tracking_prior: bool = True,
         cache_dir: str | None = None,
         snapshot_size: int = 300,
     ) -> None:
@@ -206,6 +212,7 @@ class ParticleFilter(Localiser):
         self.recovery_threshold = recovery_threshold
         self.use_table = bool(use_table)
         self.refine_exact = bool(refine_exact)
+        self.tracking_prior = bool(tracking_prior)
         self.snapshot_size = int(snapshot_size)
         self.table: RangeTable | None = (
             range_table(map, table_resolution_cm, table_angles, cache_dir, beam_width_deg, critical_incidence_deg,
@@ -306,7 +313,7 @@ class ParticleFilter(Localiser):
             tracking = False
         if self._global and self.lattice is not None:
             self._lattice_start(rel, meas)
-        self._iterate(rel, meas)
+        self._iterate(rel, meas, self._predicted_prior() if tracking and self.tracking_prior else None)
         if tracking and self.recovery_threshold is not None and self._best_fit > self.recovery_threshold:
             # no pose near the belief explains the scan: the robot was kidnapped (or the belief was wrong)
             log.info("%.0f %% of the beams are outliers at the best particle: restarting global localisation",
@@ -419,8 +426,29 @@ class ParticleFilter(Localiser):
                 break
         return max(a, beta + 1e-9)
 
-    def _iterate(self, rel: FloatArray, meas: FloatArray) -> None:
-        """Annealed SMC on one scan: reweigh by a likelihood increment, resample, move (Metropolis)."""
+    def _predicted_prior(self) -> tuple[FloatArray, FloatArray]:
+        """Mean and inverse covariance of a Gaussian fitted to the current (predicted) cloud.
+
+        The covariance gets a floor of (0.05 cm)^2 and (0.05 degree)^2, so that a cloud collapsed to
+        nearly one pose still leaves the moves room.
+        """
+        mean, cov = _cloud_stats(self.particles, log_normalise(self.log_weights))
+        cov = cov + np.diag([0.05**2, 0.05**2, math.radians(0.05) ** 2])
+        return mean, np.linalg.inv(cov)
+
+    def _iterate(self, rel: FloatArray, meas: FloatArray, prior: tuple[FloatArray, FloatArray] | None = None) -> None:
+        """Annealed SMC on one scan: reweigh by a likelihood increment, resample, move (Metropolis).
+
+        With a `prior` (mean, inverse covariance; see `tracking_prior`) the moves target the prior
+        times the tempered likelihood; without, the tempered likelihood alone (a uniform prior).
+        """
+
+        def log_prior(x: FloatArray) -> FloatArray | float:
+            if prior is None:
+                return 0.0
+            d = np.column_stack([x[:, 0] - prior[0][0], x[:, 1] - prior[0][1], angle_diff(x[:, 2], prior[0][2])])
+            return -0.5 * np.einsum("ni,ij,nj->n", d, prior[1], d)
+
         p = self.particles
         log_w = self.log_weights
         n_beams = meas.size
@@ -507,7 +535,9 @@ class ParticleFilter(Localiser):
             s_q = self._sq_residuals(q, rel, meas)
             if self.table is not None and clear > 0:
                 s_q = np.where(self.table.free(q[:, :2], clear), s_q, np.inf)
-            accept = np.log(self.rng.random(n)) < -0.5 * beta * (s_q - s)
+            with np.errstate(invalid="ignore"):  # inf - inf: both outside, rejected below
+                log_ratio = -0.5 * beta * (s_q - s) + (log_prior(q) - log_prior(p))
+            accept = np.log(self.rng.random(n)) < log_ratio
             p = np.where(accept[:, None], q, p)
             s = np.where(accept, s_q, s)
         keep_p = self.log_weights > math.log(1e-300)
