@@ -126,8 +126,12 @@ class ParticleFilter(Localiser):
     critical_incidence_deg : float, optional
         With a lobe: rays meeting a wall further than this from its normal do not echo (about 40
         for the NXT).
-    refine_exact : bool
-        Run the last iterations with exact ray casting (removes the table's quantisation).
+    tracking_exact : bool or None
+        In a tracking update (the belief was not global), expected ranges come from exact ray
+        casting (the indexed walls make 1000 particles x 124 beams a few milliseconds) instead of the
+        table. None (default): when the table only approximates a thin ray (no lobe) on cells coarser
+        than 1 cm, a map too large for the memory budget at 1 cm, where the table's cells and whole
+        degrees cost centimetres at long range; a lobe is only modelled by the table.
     tracking_prior : bool
         In an update from a belief that was not global (tracking), the Metropolis moves target the
         predicted belief (a Gaussian fitted to the predicted cloud) times the tempered likelihood,
@@ -178,7 +182,7 @@ class ParticleFilter(Localiser):
         max_range_cm: float | None = None,
         beam_width_deg: float = 0.0,
         critical_incidence_deg: float | None = None,
-        refine_exact: bool = False,
+        tracking_exact: bool | None = None,
         tracking_prior: bool = True,
         cache_dir: str | None = None,
         snapshot_size: int = 300,
@@ -211,7 +215,6 @@ class ParticleFilter(Localiser):
         self.mode_share = float(mode_share)
         self.recovery_threshold = recovery_threshold
         self.use_table = bool(use_table)
-        self.refine_exact = bool(refine_exact)
         self.tracking_prior = bool(tracking_prior)
         self.snapshot_size = int(snapshot_size)
         self.table: RangeTable | None = (
@@ -219,6 +222,10 @@ class ParticleFilter(Localiser):
                         range_memory_mb, lattice_step if global_init == "lattice" else None, max_range_cm)
             if use_table else None
         )
+        if tracking_exact is None:
+            tracking_exact = self.table is not None and self.table.resolution_cm > 1.0 and not beam_width_deg > 0
+        self.tracking_exact = bool(tracking_exact)
+        self._exact = False
         if global_init not in ("lattice", "uniform"):
             raise ConfigError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
         if global_init == "lattice" and self.table is None:
@@ -313,7 +320,11 @@ class ParticleFilter(Localiser):
             tracking = False
         if self._global and self.lattice is not None:
             self._lattice_start(rel, meas)
-        self._iterate(rel, meas, self._predicted_prior() if tracking and self.tracking_prior else None)
+        self._exact = tracking and self.tracking_exact
+        try:
+            self._iterate(rel, meas, self._predicted_prior() if tracking and self.tracking_prior else None)
+        finally:
+            self._exact = False
         if tracking and self.recovery_threshold is not None and self._best_fit > self.recovery_threshold:
             # no pose near the belief explains the scan: the robot was kidnapped (or the belief was wrong)
             log.info("%.0f %% of the beams are outliers at the best particle: restarting global localisation",
@@ -383,7 +394,7 @@ class ParticleFilter(Localiser):
     # -- internals ----------------------------------------------------------------------------------
     def _sq_residuals(self, poses: FloatArray, rel: FloatArray, meas: FloatArray, exact: bool = False) -> FloatArray:
         """Summed capped squared normalised residuals per pose; inf for poses outside the free space."""
-        if self.table is None or exact:
+        if self.table is None or exact or self._exact:
             expected = exact_ranges(self.map, poses, rel)
             s = self.likelihood.sq_residuals(expected, meas)
             inside = np.asarray(self.map.contains(poses[:, :2]), dtype=bool)
@@ -558,7 +569,7 @@ class ParticleFilter(Localiser):
     def _outlier_fraction(self, pose: FloatArray, rel: FloatArray, meas: FloatArray) -> float:
         """Fraction of the beams more than 3 sigma off at `pose`."""
         p = pose.reshape(1, 3)
-        if self.table is not None:
+        if self.table is not None and not self._exact:
             e, inside = self.table.lookup(p, rel)
             if not inside[0]:
                 return 1.0

@@ -17,7 +17,7 @@ import numpy as np
 import shapely
 
 from localisation.models import range_table
-from toolkit.mission import lobe_options
+from localisation.sonar_options import lobe_options
 from toolkit.world import CollisionChecker, Map, RngLike, as_rng, default_scan_angles, ray_cast
 
 __all__ = ["bench_world_figures", "peer_raycast2d"]
