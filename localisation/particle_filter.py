@@ -493,7 +493,10 @@ class ParticleFilter(Localiser):
             keep = np.zeros(0, dtype=np.int64)
             log_mode_w = np.zeros(0)
             if clustered:
-                best_ll = np.array([-0.5 * float(np.min(s[labels == k])) for k in range(log_masses.size)])
+                # a mode's fit: its best particle's log-likelihood (plus log prior when tracking,
+                # so that a mode far out in the predicted belief's tail does not count as a twin)
+                fit = -0.5 * s + log_prior(p)
+                best_ll = np.array([float(np.max(fit[labels == k])) for k in range(log_masses.size)])
                 ok = np.isfinite(log_masses)
                 if beta >= 1.0:
                     # judge the modes by their best fit: twins fit alike, and their weights are too
