@@ -420,3 +420,27 @@ def test_localise_bad_input_exits_2(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert len(err.splitlines()) == 1 and err.startswith("nxtnav: error:")
     assert message in err
     assert not (tmp_path / "l.png").exists()
+
+
+def test_radius_scales_the_robot_of_every_scenario(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`--radius` as in `nxtnav run`: the simulated robot, the true poses' clearance, the drive and the
+    localisers' clearance follow it."""
+    cfg = bench.BenchConfig(robot_radius_cm=5.0)
+    assert cfg.geometry.radius_cm == 5.0 and cfg.pose_clearance_cm == 7.0
+    assert bench.localiser_options(cfg, "paper-pf")["clearance_cm"] == 5.0
+    assert "clearance_cm" not in bench.localiser_options(bench.BenchConfig(), "paper-pf")
+    out = tmp_path / "r"
+    assert run(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "2",
+                "--scenario", "tracking", "--tracking-steps", "3", "--radius", "5", "--out", str(out)]) == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["robot_radius_cm"] == 5.0 and config["clearance_cm"] == 7.0
+    assert "--radius 5" in (out / "summary.md").read_text()
+    _, data = rows(out / "tracking.csv")
+    assert len(data) == 2 and all(int(r["collisions"]) == 0 for r in data)
+    # a robot too wide for map1's corridors at the pose is refused in one line
+    assert run(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "25"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "radius 25" in err
+    assert run(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "5", "--json",
+                str(tmp_path / "l.json")]) == 0
+    assert json.loads((tmp_path / "l.json").read_text())["error_cm"] < 2.0

@@ -11,6 +11,7 @@ from rich.table import Table
 
 from ..world import (
     SONAR_MODELS,
+    CollisionChecker,
     Pose,
     RobotGeometry,
     default_scan_angles,
@@ -65,6 +66,9 @@ def scan(
     sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
     sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm).", callback=non_negative),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
+    radius: float | None = typer.Option(None, "--radius", min=0.1,
+                                        help="Robot's radius (cm; default 8): a robot scaled to the map; the "
+                                             "disc must fit at the pose."),
     output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
                                        help="Draw the scan (rays on the map, radar chart)."),
     json_out: Path | None = typer.Option(None, "--json", help="Write the scan as JSON."),
@@ -83,6 +87,10 @@ def scan(
     if not m.contains(pose.xy):
         raise typer.BadParameter(f"pose ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
                                  param_hint="--pose")
+    geometry = RobotGeometry() if radius is None else RobotGeometry(radius_cm=radius)
+    if radius is not None and not CollisionChecker(m, radius).point_free(pose.xy):
+        raise typer.BadParameter(f"a robot of radius {radius:g} cm at ({pose.x:g}, {pose.y:g}) touches a wall of "
+                                 f"{m.name}", param_hint="--pose")
     model = make_sonar(sonar, noise_sd=sensor_noise)
     angles = default_scan_angles()
 
@@ -93,7 +101,8 @@ def scan(
                f"{int(s.valid.sum())}/{len(s)} readings with an echo"
                + (f", {echo.min():.1f} to {echo.max():.1f} cm" if echo.size else ""))
     if json_out is not None:
-        doc = {"map": m.name, "sonar": sonar, "seed": seed, "pose": pose.to_list_deg(), **s.to_dict()}
+        doc = {"map": m.name, "sonar": sonar, "seed": seed, "pose": pose.to_list_deg(),
+               "radius_cm": geometry.radius_cm, **s.to_dict()}
         json_out.write_text(json.dumps(doc, indent=1))
         typer.echo(f"wrote {json_out}")
     if output is None:
@@ -104,7 +113,7 @@ def scan(
     ax1 = fig.add_subplot(1, 2, 2, projection="polar")
     draw_map(m, ax0, presets=False)
     draw_scan_rays(pose, s, ax0)
-    draw_pose(pose, ax0, radius=RobotGeometry().radius_cm)
+    draw_pose(pose, ax0, radius=geometry.radius_cm)
     ax0.set_title(f"{m.name}: scan at ({pose.x:g}, {pose.y:g}, {pose.heading_deg:g}°), sonar {sonar}")
     draw_radar(s, ax1, expected=expected_ranges(m, pose, s))
     ax1.set_title("readings (cm) vs sensor angle")

@@ -146,7 +146,7 @@ def write_summary(
         f"localiser; seed {seed}",
         f"- simulator: sonar `{config.sonar}` ({config.sensor_noise:g} cm noise), motion noise "
         f"`{noise.model}` (motion {noise.motion:g}, turn {noise.turn:g})",
-        f"- true poses: uniform over the free space at least {config.clearance_cm:g} cm from the walls, "
+        f"- true poses: uniform over the free space at least {config.pose_clearance_cm:g} cm from the walls, "
         "heading uniform; the same poses for every localiser",
         f"- success: final estimate within {SUCCESS_CM:g} cm and {SUCCESS_DEG:g} degrees of the simulator's "
         "true pose at the end of the procedure; time = the localiser's computation time (its reset, predict "
