@@ -41,7 +41,8 @@ RUNS_COLUMNS = (
 
 TRACKING_COLUMNS = (
     "map", "localiser", "trial", "seed", "steps", "rmse_cm", "rmse_heading_deg", "final_error_cm",
-    "max_error_cm", "time_s", "collisions", "median_particles", "max_particles", "update_ms",
+    "max_error_cm", "time_s", "collisions", "median_particles", "max_particles", "update_ms", "blind_steps",
+    "rmse_echo_cm",
 )
 
 
@@ -310,6 +311,10 @@ class TrackingRun:
     max_particles: float = math.nan
     update_ms: float = math.nan
     errors_cm: tuple[float, ...] = field(default=(), repr=False)
+    blind_steps: int = 0
+    """Actions after which the localiser's scan held no reading (no wall within the sonar's reach)."""
+    rmse_echo_cm: float = math.nan
+    """RMSE over the other actions (NaN when every scan was blind)."""
     failure: str = field(default="", repr=False)
     scenario: str = field(default="tracking", repr=False)
 

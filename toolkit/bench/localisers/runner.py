@@ -275,6 +275,7 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     herrs: list[float] = []
     counts: list[int] = []
     update_s: list[float] = []
+    blind: list[bool] = []
     t0 = time.perf_counter()
     loc.reset(_noisy_truth(truth, cfg, np.random.default_rng(prior_ss)))
     for motion in drive:
@@ -283,6 +284,7 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
         dist = robot.move(motion.distance_cm).distance_cm if motion.distance_cm else 0.0
         loc.predict(Motion(motion.turn_rad, dist))
         scan = prep(robot.ultrascan())
+        blind.append(not bool(np.any(scan.valid)))
         tu = time.perf_counter()
         loc.update(scan)
         update_s.append(time.perf_counter() - tu)
@@ -293,10 +295,12 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     elapsed = time.perf_counter() - t0
     ea, ha = np.asarray(errs), np.asarray(herrs)
     ca = np.asarray(counts, dtype=float)
+    echo = ~np.asarray(blind)
     return TrackingRun(task.map, task.localiser, task.trial, task.seed, len(drive),
                        float(np.sqrt(np.mean(ea**2))), float(np.sqrt(np.mean(ha**2))), float(ea[-1]),
                        float(ea.max()), elapsed, int(robot.collisions), float(np.median(ca)), float(ca.max()),
-                       1e3 * float(np.median(update_s)), tuple(float(e) for e in ea))
+                       1e3 * float(np.median(update_s)), tuple(float(e) for e in ea), int((~echo).sum()),
+                       float(np.sqrt(np.mean(ea[echo] ** 2))) if echo.any() else math.nan)
 
 
 def particle_count(loc: Localiser) -> int:
