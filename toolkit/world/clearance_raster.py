@@ -11,7 +11,10 @@ walls within reach, and each must be tested. This raster answers most queries wi
   at least ``r + rho`` from c, every disc centred in the cell is clear, and inside or outside the
   free area as c is (no wall lies between them): the cell is ``FREE`` or ``BLOCKED``; when some
   wall is closer than ``r - rho`` to c, every disc centred in the cell touches it: ``BLOCKED``;
-  otherwise ``UNKNOWN``, and the exact test decides;
+  otherwise the cell is in the band: when c lies inside, at least 0.75 r from the walls, the byte
+  holds c's wall distance (quantised to 1/126 of rho), and a point query there uses its own
+  distance to c instead of rho (the wall distance is 1-Lipschitz), which decides about half of
+  the band's points; the rest are ``UNKNOWN``, and the exact test decides;
 * a point beyond the raster (which covers the map's bounds) lies outside the free area, and a
   segment with an end there crosses a wall: ``BLOCKED``;
 * a segment walks the cells it passes through (a 4-connected staircase from its start cell to
@@ -20,7 +23,7 @@ walls within reach, and each must be tested. This raster answers most queries wi
   neighbouring cell, which lies within eps of the segment, so the bounds still hold.
 
 Every answer given here is the exact test's answer (the tests compare both on random queries); the
-raster only removes work. Only the band of centres within rho of distance r stays ``UNKNOWN``.
+raster only removes work. Segments treat band cells as ``UNKNOWN``.
 """
 
 from __future__ import annotations
@@ -37,6 +40,9 @@ __all__ = ["BLOCKED", "FREE", "UNKNOWN", "ClearanceRaster"]
 
 BLOCKED, FREE, UNKNOWN = 0, 1, 2
 """Cell states: every disc centred in the cell collides / is free / undecided here."""
+_BAND = 3
+"""Codes _BAND ... 255 of a cell in the band: inside, its centre's wall distance quantised (see `build`)."""
+_LEVELS = 255 - _BAND
 
 _MAX_CELLS = 16_000_000
 """Largest raster (cells, one byte each); a larger map gets coarser cells."""
@@ -55,14 +61,29 @@ def _outside(fx: float, fy: float) -> int:
 
 @_jit
 def _points_state(state: NDArray[np.uint8], x0: float, y0: float, s: float, nx: int, ny: int,
+                  band_lo: float, band_step: float, radius: float, tol: float,
                   pts: FloatArray, out: NDArray[np.uint8]) -> None:
-    """out[k] = state of the cell holding point k (UNKNOWN outside the raster)."""
+    """out[k] = state of the disc at point k: its cell's, or for a band cell decided from the centre's
+    distance and the point's own distance to the centre."""
     for k in range(pts.shape[0]):
         fx, fy = (pts[k, 0] - x0) / s, (pts[k, 1] - y0) / s
         if not (0.0 <= fx < nx and 0.0 <= fy < ny):
             out[k] = _outside(fx, fy)
             continue
-        out[k] = state[int(fx) * ny + int(fy)]
+        i, j = int(fx), int(fy)
+        c = state[i * ny + j]
+        if c < _BAND:
+            out[k] = c
+            continue
+        # the wall distance d of the point is within |p - centre| of the centre's
+        off = math.hypot(pts[k, 0] - (x0 + (i + 0.5) * s), pts[k, 1] - (y0 + (j + 0.5) * s))
+        d_lo = band_lo + (c - _BAND) * band_step
+        if d_lo - off - tol >= radius:
+            out[k] = FREE
+        elif d_lo + band_step + off + tol < radius:
+            out[k] = BLOCKED
+        else:
+            out[k] = UNKNOWN
 
 
 @_jit
@@ -91,6 +112,8 @@ def _segments_state(state: NDArray[np.uint8], x0: float, y0: float, s: float, nx
         dtx = 1.0 / abs(dx) if ni > 0 else np.inf
         dty = 1.0 / abs(dy) if nj > 0 else np.inf
         verdict = state[i * ny + j]
+        if verdict > FREE:
+            verdict = UNKNOWN
         while verdict != BLOCKED and (ni > 0 or nj > 0):
             if nj == 0 or (ni > 0 and tx < ty):
                 i += si
@@ -103,7 +126,7 @@ def _segments_state(state: NDArray[np.uint8], x0: float, y0: float, s: float, nx
             c = state[i * ny + j]
             if c == BLOCKED:
                 verdict = BLOCKED
-            elif c == UNKNOWN:
+            elif c != FREE:
                 verdict = UNKNOWN
         out[k] = verdict
 
@@ -128,16 +151,24 @@ class ClearanceRaster:
     cell: float
     shape: tuple[int, int]
     state: NDArray[np.uint8]
+    radius: float = 0.0
+    band_lo: float = 0.0
+    band_step: float = 0.0
 
     @classmethod
     def build(cls, bounds: tuple[float, float, float, float], radius: float,
               clear: Callable[[FloatArray, float], NDArray[np.bool_]],
               inside_if_clear: Callable[[FloatArray], NDArray[np.bool_]],
+              distance: Callable[[FloatArray], FloatArray] | None = None,
               max_cells: int = _MAX_CELLS) -> ClearanceRaster:
         """The raster of a disc of `radius` cm over `bounds` (xmin, ymin, xmax, ymax).
 
         `clear(points, d)` tells exactly whether no wall is closer than d cm to each point;
-        `inside_if_clear(points)` whether points at least `radius` from every wall lie in the free area.
+        `inside_if_clear(points)` whether points at least 0.75 `radius` from every wall lie in the
+        free area; `distance(points)` their exact distance to the nearest wall. With `distance`,
+        the cells of the band (centre within rho of distance r) keep that distance, quantised to
+        1/126 of rho, so that a point query there decides with its own distance to the centre
+        instead of the cell's half-diagonal (about half of the band's points).
         """
         xmin, ymin, xmax, ymax = (float(v) for v in bounds)
         w, h = max(xmax - xmin, 1e-9), max(ymax - ymin, 1e-9)
@@ -152,7 +183,16 @@ class ClearanceRaster:
         if radius - rho > 0:
             rest = np.flatnonzero(state == UNKNOWN)
             state[rest[~clear(centres[rest], radius - rho)]] = BLOCKED
-        return cls(np.array([xmin, ymin]), s, (nx, ny), state)
+        band_lo, band_step = radius - rho, 2.0 * rho / _LEVELS
+        if distance is not None and radius - rho >= 0.75 * radius:
+            band = np.flatnonzero(state == UNKNOWN)
+            d = distance(centres[band])
+            keep = d >= 0.75 * radius  # so that inside_if_clear holds (and the centre is a point's side)
+            keep[keep] = inside_if_clear(centres[band[keep]])
+            # level k holds distances in [band_lo + k step, band_lo + (k + 1) step) (up to rounding)
+            code = np.clip(np.floor((d[keep] - band_lo) / band_step), 0, _LEVELS - 1)
+            state[band[keep]] = (_BAND + code).astype(np.uint8)
+        return cls(np.array([xmin, ymin]), s, (nx, ny), state, radius, band_lo, band_step)
 
     @staticmethod
     def layout(bounds: tuple[float, float, float, float], radius: float,
@@ -177,7 +217,8 @@ class ClearanceRaster:
         """State of the disc centred at each point of an (n, 2) array."""
         out = np.empty(len(pts), dtype=np.uint8)
         _points_state(self.state, float(self.origin[0]), float(self.origin[1]), self.cell, self.shape[0],
-                      self.shape[1], np.ascontiguousarray(pts, dtype=np.float64), out)
+                      self.shape[1], self.band_lo, self.band_step, self.radius, 1e-9 * (self.radius + self.cell),
+                      np.ascontiguousarray(pts, dtype=np.float64), out)
         return out
 
     def segments(self, a: FloatArray, b: FloatArray) -> NDArray[np.uint8]:

@@ -12,8 +12,8 @@ building of 100,000.
 Most checks never reach the walls: a byte raster of cells an eighth of the radius wide
 (`toolkit.world.clearance_raster`, built once the checker has been asked enough to pay for it)
 knows for most cells that every disc centred there is free, or that every one collides; a
-segment walks its cells. Only the rest (discs within a cell's reach of touching a wall) take the
-exact test, which is therefore what decides every answer.
+segment walks its cells. The rest (discs within a cell's reach of touching a wall) take the exact
+test, and the raster's own answers are exact too, so the checker's answers are unchanged.
 
 Inside-ness of a disc already clear of every wall is read from a raster of sample points spaced
 at most the radius apart, each classified once by shapely: the disc holds no wall, so it lies
@@ -101,7 +101,7 @@ class CollisionChecker:
         if self._clearance is None:
             self._clearance = ClearanceRaster.build(
                 self.map.bounds, self.robot_radius, lambda p, d: self.index.capsules_clear(p, p, d),
-                self._clear_inside)
+                self._clear_inside, self.index.nearest_distance)
         return self._clearance
 
     def _decided(self, n: int) -> ClearanceRaster | None:
