@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 from typing import ClassVar
 
 import numpy as np
@@ -301,6 +302,11 @@ class ParticleFilter(Localiser):
         if self._global:
             return  # a uniform belief stays uniform; the first scan will start the global search
         self.particles = self.motion_model.sample(self.particles, motion, self.rng)
+        # the modes move with the cloud: an ambiguous belief's estimate is its best mode's pose, which
+        # otherwise stayed where the last scan left it while the robot drove on (a blind depot track
+        # reported a pose 38 cm and 166 degrees off while its cloud was 3 cm wide around the truth)
+        self._modes = [replace(md, pose=Pose.from_array(self.motion_model.mean(md.pose.as_array(), motion)))
+                       for md in self._modes]
         self._converged = False
         self._estimate = self._make_estimate()
 

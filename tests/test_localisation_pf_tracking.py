@@ -61,3 +61,18 @@ def test_coarse_thin_ray_tables_track_by_exact_rays() -> None:
         worst = max(worst, est.distance_to(robot.true_pose))
         assert abs(math.degrees(angle_diff(est.theta, robot.true_pose.theta))) < 3.0
     assert worst < 1.5, worst
+
+
+def test_an_ambiguous_belief_moves_its_modes_with_the_robot() -> None:
+    """The estimate of an ambiguous belief (its best mode's pose) follows the motion."""
+    from localisation.particle_filter import Mode
+
+    pf = ParticleFilter(MAP1, rng=0)
+    pf.reset(Prior(Pose(20.0, 20.0, 0.0)))
+    pf._modes = [Mode(Pose(20.0, 20.0, 0.0), 0.6, -1.0, 600), Mode(Pose(80.0, 80.0, math.pi), 0.4, -2.0, 400)]
+    pf.predict(Motion(math.pi / 2, 10.0))
+    est = pf.estimate()
+    assert not est.converged
+    assert est.pose.distance_to(Pose(20.0, 30.0, math.pi / 2)) < 1e-9
+    assert abs(angle_diff(est.pose.theta, math.pi / 2)) < 1e-9
+    assert pf.modes[1].pose.distance_to(Pose(80.0, 70.0, -math.pi / 2)) < 1e-9
