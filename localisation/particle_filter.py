@@ -33,7 +33,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, wrap_angle
+from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, angle_diff, wrap_angle
 
 from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .clusters import cloud_stats, cluster, describe_modes, mode_stds
@@ -449,7 +449,7 @@ class ParticleFilter(Localiser):
         The covariance gets a floor of (0.05 cm)^2 and (0.05 degree)^2, so that a cloud collapsed to
         nearly one pose still leaves the moves room.
         """
-        mean, cov = _cloud_stats(self.particles, log_normalise(self.log_weights))
+        mean, cov = cloud_stats(self.particles, log_normalise(self.log_weights))
         cov = cov + np.diag([0.05**2, 0.05**2, math.radians(0.05) ** 2])
         return mean, np.linalg.inv(cov)
 

@@ -454,7 +454,7 @@ def test_radius_scales_the_robot_of_every_scenario(tmp_path: Path, capsys: pytes
     assert bench.localiser_options(cfg, "paper-pf")["clearance_cm"] == 5.0
     assert "clearance_cm" not in bench.localiser_options(bench.BenchConfig(), "paper-pf")
     out = tmp_path / "r"
-    assert run(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "2",
+    assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "2",
                 "--scenario", "tracking", "--tracking-steps", "3", "--radius", "5", "--out", str(out)]) == 0
     config = json.loads((out / "config.json").read_text())
     assert config["robot_radius_cm"] == 5.0 and config["clearance_cm"] == 7.0
@@ -462,9 +462,9 @@ def test_radius_scales_the_robot_of_every_scenario(tmp_path: Path, capsys: pytes
     _, data = rows(out / "tracking.csv")
     assert len(data) == 2 and all(int(r["collisions"]) == 0 for r in data)
     # a robot too wide for map1's corridors at the pose is refused in one line
-    assert run(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "25"]) == 2
+    assert run_cli(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "25"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "radius 25" in err
-    assert run(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "5", "--json",
+    assert run_cli(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "5", "--json",
                 str(tmp_path / "l.json")]) == 0
     assert json.loads((tmp_path / "l.json").read_text())["error_cm"] < 2.0
