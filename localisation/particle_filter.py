@@ -451,7 +451,7 @@ class ParticleFilter(Localiser):
         """
         mean, cov = cloud_stats(self.particles, log_normalise(self.log_weights))
         cov = cov + np.diag([0.05**2, 0.05**2, math.radians(0.05) ** 2])
-        return mean, np.linalg.inv(cov)
+        return mean, np.asarray(np.linalg.inv(cov), dtype=np.float64)
 
     def _iterate(self, rel: FloatArray, meas: FloatArray, prior: tuple[FloatArray, FloatArray] | None = None) -> None:
         """Annealed SMC on one scan: reweigh by a likelihood increment, resample, move (Metropolis).
