@@ -134,10 +134,11 @@ class ParticleFilter(Localiser):
         than 1 cm, a map too large for the memory budget at 1 cm, where the table's cells and whole
         degrees cost centimetres at long range; a lobe is only modelled by the table.
     tracking_prior : bool
-        In an update from a belief that was not global (tracking), the Metropolis moves target the
-        predicted belief (a Gaussian fitted to the predicted cloud) times the tempered likelihood,
-        not the likelihood alone: a scan with few readings then leaves the belief as predicted along
-        the directions it does not constrain, instead of letting the moves spread the cloud there.
+        In an update from a one-mode belief that was not global (tracking), the Metropolis moves
+        target the predicted belief (a Gaussian fitted to the predicted cloud) times the tempered
+        likelihood, not the likelihood alone: a scan with few readings then leaves the belief as
+        predicted along the directions it does not constrain, instead of letting the moves spread
+        the cloud there. An ambiguous belief (several modes) keeps the likelihood alone.
     cache_dir : path, optional
         Disk cache for the table (see `range_table`).
     snapshot_size : int
@@ -328,7 +329,11 @@ class ParticleFilter(Localiser):
             self._lattice_start(rel, meas)
         self._exact = tracking and self.tracking_exact
         try:
-            self._iterate(rel, meas, self._predicted_prior() if tracking and self.tracking_prior else None)
+            # one Gaussian stands for a one-mode belief only: twins keep the uniform prior, so that
+            # a fit to their joint cloud cannot pick one of them
+            unimodal = len(self._modes) <= 1
+            self._iterate(rel, meas, self._predicted_prior() if tracking and self.tracking_prior and unimodal
+                          else None)
         finally:
             self._exact = False
         if tracking and self.recovery_threshold is not None and self._best_fit > self.recovery_threshold:
