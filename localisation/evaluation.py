@@ -164,7 +164,7 @@ def _reading_stats(errors: list[FloatArray], n_poses: int, gross_cm: float) -> R
 
 def _sweep(map: Map, sonar: SonarModel, pose: Pose, angles: FloatArray, gen: np.random.Generator) -> Scan:
     ranges = np.asarray(sonar.measure(map.walls, pose.xy, pose.theta + angles, gen), dtype=float)
-    return Scan.from_readings(angles, ranges)
+    return sonar.to_scan(angles, ranges)
 
 
 def compare_scan_processing(
@@ -230,7 +230,7 @@ def compare_scan_processing(
         turned = Pose(x, y, th + a_min)
         second = _sweep(map, model, turned, angles, gen)
         variants = {
-            "raw": (pose, raw_scan(first, settings.min_range_cm, settings.max_range_cm)),
+            "raw": (pose, raw_scan(first, settings.min_range_cm, settings.range_limit_cm)),
             "processed": (turned, process_scan(second, settings).scan),
         }
         for label, (truth, scan) in variants.items():

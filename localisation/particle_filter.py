@@ -27,12 +27,13 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, wrap_angle
+from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, angle_diff, wrap_angle
 
 from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .clusters import cloud_stats, cluster, describe_modes, mode_stds
@@ -126,8 +127,18 @@ class ParticleFilter(Localiser):
     critical_incidence_deg : float, optional
         With a lobe: rays meeting a wall further than this from its normal do not echo (about 40
         for the NXT).
-    refine_exact : bool
-        Run the last iterations with exact ray casting (removes the table's quantisation).
+    tracking_exact : bool or None
+        In a tracking update (the belief was not global), expected ranges come from exact ray
+        casting (the indexed walls make 1000 particles x 124 beams a few milliseconds) instead of the
+        table. None (default): when the table only approximates a thin ray (no lobe) on cells coarser
+        than 1 cm, a map too large for the memory budget at 1 cm, where the table's cells and whole
+        degrees cost centimetres at long range; a lobe is only modelled by the table.
+    tracking_prior : bool
+        In an update from a one-mode belief that was not global (tracking), the Metropolis moves
+        target the predicted belief (a Gaussian fitted to the predicted cloud) times the tempered
+        likelihood, not the likelihood alone: a scan with few readings then leaves the belief as
+        predicted along the directions it does not constrain, instead of letting the moves spread
+        the cloud there. An ambiguous belief (several modes) keeps the likelihood alone.
     cache_dir : path, optional
         Disk cache for the table (see `range_table`).
     snapshot_size : int
@@ -173,7 +184,8 @@ class ParticleFilter(Localiser):
         max_range_cm: float | None = None,
         beam_width_deg: float = 0.0,
         critical_incidence_deg: float | None = None,
-        refine_exact: bool = False,
+        tracking_exact: bool | None = None,
+        tracking_prior: bool = True,
         cache_dir: str | None = None,
         snapshot_size: int = 300,
     ) -> None:
@@ -205,13 +217,17 @@ class ParticleFilter(Localiser):
         self.mode_share = float(mode_share)
         self.recovery_threshold = recovery_threshold
         self.use_table = bool(use_table)
-        self.refine_exact = bool(refine_exact)
+        self.tracking_prior = bool(tracking_prior)
         self.snapshot_size = int(snapshot_size)
         self.table: RangeTable | None = (
             range_table(map, table_resolution_cm, table_angles, cache_dir, beam_width_deg, critical_incidence_deg,
                         range_memory_mb, lattice_step if global_init == "lattice" else None, max_range_cm)
             if use_table else None
         )
+        if tracking_exact is None:
+            tracking_exact = self.table is not None and self.table.resolution_cm > 1.0 and not beam_width_deg > 0
+        self.tracking_exact = bool(tracking_exact)
+        self._exact = False
         if global_init not in ("lattice", "uniform"):
             raise ConfigError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
         if global_init == "lattice" and self.table is None:
@@ -287,6 +303,11 @@ class ParticleFilter(Localiser):
         if self._global:
             return  # a uniform belief stays uniform; the first scan will start the global search
         self.particles = self.motion_model.sample(self.particles, motion, self.rng)
+        # the modes move with the cloud: an ambiguous belief's estimate is its best mode's pose, which
+        # otherwise stayed where the last scan left it while the robot drove on (a blind depot track
+        # reported a pose 38 cm and 166 degrees off while its cloud was 3 cm wide around the truth)
+        self._modes = [replace(md, pose=Pose.from_array(self.motion_model.mean(md.pose.as_array(), motion)))
+                       for md in self._modes]
         self._converged = False
         self._estimate = self._make_estimate()
 
@@ -306,7 +327,15 @@ class ParticleFilter(Localiser):
             tracking = False
         if self._global and self.lattice is not None:
             self._lattice_start(rel, meas)
-        self._iterate(rel, meas)
+        self._exact = tracking and self.tracking_exact
+        try:
+            # one Gaussian stands for a one-mode belief only: twins keep the uniform prior, so that
+            # a fit to their joint cloud cannot pick one of them
+            unimodal = len(self._modes) <= 1
+            self._iterate(rel, meas, self._predicted_prior() if tracking and self.tracking_prior and unimodal
+                          else None)
+        finally:
+            self._exact = False
         if tracking and self.recovery_threshold is not None and self._best_fit > self.recovery_threshold:
             # no pose near the belief explains the scan: the robot was kidnapped (or the belief was wrong)
             log.info("%.0f %% of the beams are outliers at the best particle: restarting global localisation",
@@ -376,7 +405,7 @@ class ParticleFilter(Localiser):
     # -- internals ----------------------------------------------------------------------------------
     def _sq_residuals(self, poses: FloatArray, rel: FloatArray, meas: FloatArray, exact: bool = False) -> FloatArray:
         """Summed capped squared normalised residuals per pose; inf for poses outside the free space."""
-        if self.table is None or exact:
+        if self.table is None or exact or self._exact:
             expected = exact_ranges(self.map, poses, rel)
             s = self.likelihood.sq_residuals(expected, meas)
             inside = np.asarray(self.map.contains(poses[:, :2]), dtype=bool)
@@ -419,8 +448,29 @@ class ParticleFilter(Localiser):
                 break
         return max(a, beta + 1e-9)
 
-    def _iterate(self, rel: FloatArray, meas: FloatArray) -> None:
-        """Annealed SMC on one scan: reweigh by a likelihood increment, resample, move (Metropolis)."""
+    def _predicted_prior(self) -> tuple[FloatArray, FloatArray]:
+        """Mean and inverse covariance of a Gaussian fitted to the current (predicted) cloud.
+
+        The covariance gets a floor of (0.05 cm)^2 and (0.05 degree)^2, so that a cloud collapsed to
+        nearly one pose still leaves the moves room.
+        """
+        mean, cov = cloud_stats(self.particles, log_normalise(self.log_weights))
+        cov = cov + np.diag([0.05**2, 0.05**2, math.radians(0.05) ** 2])
+        return mean, np.asarray(np.linalg.inv(cov), dtype=np.float64)
+
+    def _iterate(self, rel: FloatArray, meas: FloatArray, prior: tuple[FloatArray, FloatArray] | None = None) -> None:
+        """Annealed SMC on one scan: reweigh by a likelihood increment, resample, move (Metropolis).
+
+        With a `prior` (mean, inverse covariance; see `tracking_prior`) the moves target the prior
+        times the tempered likelihood; without, the tempered likelihood alone (a uniform prior).
+        """
+
+        def log_prior(x: FloatArray) -> FloatArray | float:
+            if prior is None:
+                return 0.0
+            d = np.column_stack([x[:, 0] - prior[0][0], x[:, 1] - prior[0][1], angle_diff(x[:, 2], prior[0][2])])
+            return -0.5 * np.einsum("ni,ij,nj->n", d, prior[1], d)
+
         p = self.particles
         log_w = self.log_weights
         n_beams = meas.size
@@ -454,7 +504,10 @@ class ParticleFilter(Localiser):
             keep = np.zeros(0, dtype=np.int64)
             log_mode_w = np.zeros(0)
             if clustered:
-                best_ll = np.array([-0.5 * float(np.min(s[labels == k])) for k in range(log_masses.size)])
+                # a mode's fit: its best particle's log-likelihood (plus log prior when tracking,
+                # so that a mode far out in the predicted belief's tail does not count as a twin)
+                fit = -0.5 * s + log_prior(p)
+                best_ll = np.array([float(np.max(fit[labels == k])) for k in range(log_masses.size)])
                 ok = np.isfinite(log_masses)
                 if beta >= 1.0:
                     # judge the modes by their best fit: twins fit alike, and their weights are too
@@ -507,7 +560,9 @@ class ParticleFilter(Localiser):
             s_q = self._sq_residuals(q, rel, meas)
             if self.table is not None and clear > 0:
                 s_q = np.where(self.table.free(q[:, :2], clear), s_q, np.inf)
-            accept = np.log(self.rng.random(n)) < -0.5 * beta * (s_q - s)
+            with np.errstate(invalid="ignore"):  # inf - inf: both outside, rejected below
+                log_ratio = -0.5 * beta * (s_q - s) + (log_prior(q) - log_prior(p))
+            accept = np.log(self.rng.random(n)) < log_ratio
             p = np.where(accept[:, None], q, p)
             s = np.where(accept, s_q, s)
         keep_p = self.log_weights > math.log(1e-300)
@@ -528,7 +583,7 @@ class ParticleFilter(Localiser):
     def _outlier_fraction(self, pose: FloatArray, rel: FloatArray, meas: FloatArray) -> float:
         """Fraction of the beams more than 3 sigma off at `pose`."""
         p = pose.reshape(1, 3)
-        if self.table is not None:
+        if self.table is not None and not self._exact:
             e, inside = self.table.lookup(p, rel)
             if not inside[0]:
                 return 1.0

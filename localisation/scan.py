@@ -3,7 +3,8 @@
 A sonar reads well only when it faces a wall nearly perpendicularly. The paper therefore turns the
 robot toward the minimum reading of a 360-degree scan (the nearest wall is then close to
 perpendicular), rescans, and keeps the readings within +-15 degrees of 0, 90, 180 and 270 degrees,
-dropping those without an echo (255 on the NXT, ``inf`` in the simulator) and those out of range.
+dropping those without an echo (255 on the NXT, ``inf`` in the simulator) and those out of range
+(the sensor's own range: a scan's `valid` mask; optionally a limit of the processing).
 
 `process_scan` does the selection on a scan already aligned (the robot has turned), or aligns
 virtually (``reference="min"``: the windows are centred on the minimum reading's direction), which is
@@ -82,8 +83,10 @@ class ScanProcessing:
         Half-width of each window (the paper: 15 degrees).
     min_range_cm : float
         Readings below this are dropped (the NXT is unreliable under about 5-7 cm).
-    max_range_cm : float
-        Readings at or above this are dropped (255 = no echo on the NXT).
+    max_range_cm : float or None
+        Readings at or above this are dropped; default none (None or inf): the scan's `valid` mask
+        already says which readings are echoes (255 is none on the NXT; the ideal simulated sonar
+        has no range limit).
     reference : {"heading", "min"}
         ``heading``: windows around the robot's heading (the robot has turned toward the minimum
         and rescanned); ``min``: windows around the minimum reading's direction of this scan.
@@ -92,26 +95,33 @@ class ScanProcessing:
     centres_deg: Sequence[float] = PAPER_CENTRES_DEG
     window_deg: float = PAPER_WINDOW_DEG
     min_range_cm: float = 0.0
-    max_range_cm: float = NO_ECHO
+    max_range_cm: float | None = math.inf
     reference: Literal["heading", "min"] = "heading"
 
     def __post_init__(self) -> None:
+        if self.max_range_cm is None:
+            object.__setattr__(self, "max_range_cm", math.inf)
         object.__setattr__(self, "centres_deg", tuple(float(c) for c in self.centres_deg))
         if not self.centres_deg:
             raise ConfigError("ScanProcessing needs at least one window centre")
         if not (0.0 <= self.window_deg <= 180.0):
             raise ConfigError(f"window_deg must be in [0, 180], got {self.window_deg!r}")
-        if not (0.0 <= self.min_range_cm < self.max_range_cm):
+        if not (0.0 <= self.min_range_cm < self.range_limit_cm):
             raise ConfigError(f"need 0 <= min_range_cm < max_range_cm, got {self.min_range_cm}, {self.max_range_cm}")
         if self.reference not in ("heading", "min"):
             raise ConfigError(f"reference must be 'heading' or 'min', got {self.reference!r}")
+
+    @property
+    def range_limit_cm(self) -> float:
+        """`max_range_cm` as a number (inf: no limit)."""
+        return math.inf if self.max_range_cm is None else float(self.max_range_cm)
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "centres_deg": list(self.centres_deg),
             "window_deg": self.window_deg,
             "min_range_cm": self.min_range_cm,
-            "max_range_cm": self.max_range_cm,
+            "max_range_cm": self.range_limit_cm if math.isfinite(self.range_limit_cm) else None,
             "reference": self.reference,
         }
 
@@ -199,7 +209,7 @@ def process_scan(scan: Scan, settings: ScanProcessing | None = None, **overrides
     in_win = window_mask(scan.angles, reference, s.centres_deg, s.window_deg)
     r = scan.ranges
     usable = scan.valid & np.isfinite(r) & (r != NO_ECHO)
-    in_range = (r >= s.min_range_cm) & (r < s.max_range_cm)
+    in_range = (r >= s.min_range_cm) & (r < s.range_limit_cm)
     kept = in_win & usable & in_range
     return ProcessedScan(
         scan=scan.subset(kept),
@@ -215,7 +225,7 @@ def process_scan(scan: Scan, settings: ScanProcessing | None = None, **overrides
     )
 
 
-def raw_scan(scan: Scan, min_range_cm: float = 0.0, max_range_cm: float = NO_ECHO) -> Scan:
+def raw_scan(scan: Scan, min_range_cm: float = 0.0, max_range_cm: float = math.inf) -> Scan:
     """All usable readings of `scan` (no window selection): the baseline the processing is compared with."""
     r = scan.ranges
     ok = scan.valid & np.isfinite(r) & (r != NO_ECHO) & (r >= min_range_cm) & (r < max_range_cm)

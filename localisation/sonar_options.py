@@ -41,6 +41,12 @@ def accepted_model_options(localiser: str, options: Mapping[str, Any]) -> dict[s
     return {k: v for k, v in options.items() if k in takes}
 
 
+def geometry_options(localiser: str, radius_cm: float) -> dict[str, Any]:
+    """The robot's radius as options of `localiser`: ``clearance_cm`` (particles are kept that far
+    from the walls) when it takes it."""
+    return accepted_model_options(localiser, {"clearance_cm": float(radius_cm)})
+
+
 def matched_localiser_options(localiser: str, *, sonar: str = "ideal", noise_model: str = "botsim",
                               motion_noise: float = 0.1, turn_noise: float = 0.005,
                               sensor_noise: float = 1.0) -> dict[str, Any]:

@@ -277,6 +277,8 @@ def test_tracking_scenario_rmse_against_truth(tmp_path: Path, oracles: list[str]
         else:  # dead reckoning drifts with the motion noise, and never below zero
             assert float(r["rmse_cm"]) > 0.0
         assert int(r["collisions"]) == 0
+        # map1 and map2 are small: every scan has readings, so the RMSE with echo is the RMSE
+        assert int(r["blind_steps"]) == 0 and float(r["rmse_echo_cm"]) == pytest.approx(float(r["rmse_cm"]))
     assert "## Tracking" in (out / "summary.md").read_text()
     assert (out / "tracking.png").exists()
 
@@ -420,3 +422,49 @@ def test_localise_bad_input_exits_2(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert len(err.splitlines()) == 1 and err.startswith("nxtnav: error:")
     assert message in err
     assert not (tmp_path / "l.png").exists()
+
+
+def test_blind_actions_are_counted_apart(monkeypatch: pytest.MonkeyPatch, oracles: list[str]) -> None:
+    """Actions whose scan has no reading are counted, and the RMSE with echo leaves them out."""
+    real = sim.SimRobot.ultrascan
+    calls = {"n": 0}
+
+    def every_other_blind(self: sim.SimRobot, angles: Any = None) -> Scan:
+        calls["n"] += 1
+        s = real(self, angles)
+        return s if calls["n"] % 2 else Scan(s.angles, np.full(len(s), np.inf), np.zeros(len(s), dtype=bool))
+
+    monkeypatch.setattr(sim.SimRobot, "ultrascan", every_other_blind)
+    task = bench.make_tasks("tracking", ["map1"], ["test-dead-reckoning"], 1, 0,
+                            bench.BenchConfig(tracking_steps=6))[0]
+    r = bench.run_trial(task)
+    assert isinstance(r, bench.TrackingRun)
+    assert r.blind_steps == 3
+    e = np.asarray(r.errors_cm)
+    assert r.rmse_echo_cm == pytest.approx(float(np.sqrt(np.mean(e[0::2] ** 2))))
+    summary = bench.summarise([r])["tracking"][("map1", "test-dead-reckoning")]
+    assert summary["blind_fraction"] == 0.5 and summary["rmse_echo_cm"] == pytest.approx(r.rmse_echo_cm)
+
+
+def test_radius_scales_the_robot_of_every_scenario(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`--radius` as in `nxtnav run`: the simulated robot, the true poses' clearance, the drive and the
+    localisers' clearance follow it."""
+    cfg = bench.BenchConfig(robot_radius_cm=5.0)
+    assert cfg.geometry.radius_cm == 5.0 and cfg.pose_clearance_cm == 7.0
+    assert bench.localiser_options(cfg, "paper-pf")["clearance_cm"] == 5.0
+    assert "clearance_cm" not in bench.localiser_options(bench.BenchConfig(), "paper-pf")
+    out = tmp_path / "r"
+    assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "2",
+                "--scenario", "tracking", "--tracking-steps", "3", "--radius", "5", "--out", str(out)]) == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["robot_radius_cm"] == 5.0 and config["clearance_cm"] == 7.0
+    assert "--radius 5" in (out / "summary.md").read_text()
+    _, data = rows(out / "tracking.csv")
+    assert len(data) == 2 and all(int(r["collisions"]) == 0 for r in data)
+    # a robot too wide for map1's corridors at the pose is refused in one line
+    assert run_cli(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "25"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "radius 25" in err
+    assert run_cli(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "5", "--json",
+                str(tmp_path / "l.json")]) == 0
+    assert json.loads((tmp_path / "l.json").read_text())["error_cm"] < 2.0

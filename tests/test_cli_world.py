@@ -96,3 +96,14 @@ def test_bench_world_range_budget_errors(budget: str) -> None:
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "--range-memory-mb" in lines[0] and "Traceback" not in proc.stderr
+
+
+def test_scan_radius_draws_a_scaled_robot_that_must_fit(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    js = tmp_path / "s.json"
+    assert run_cli(["scan", "--map", "map1", "--pose", "30,30,0", "--radius", "12", "--json", str(js)]) == 0
+    assert json.loads(js.read_text())["radius_cm"] == 12.0
+    capsys.readouterr()
+    assert run_cli(["scan", "--map", "map1", "--pose", "30,30,0", "--radius", "40"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "radius 40" in err
+    assert run_cli(["scan", "--map", "map1", "--pose", "30,30,0", "--radius", "0"]) == 2

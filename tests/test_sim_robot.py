@@ -116,3 +116,15 @@ def test_seeded_and_errors() -> None:
     r.close()
     with pytest.raises(RobotError, match="closed"):
         r.turn(1.0)
+
+
+def test_ideal_sonar_has_no_range_limit_and_the_nxt_stops_at_255() -> None:
+    """In a 7 m room the ideal model (BotSim's ultraScan) reads every wall, 350 cm away or more; the NXT none."""
+    from toolkit.world.generated import random_grid_map
+
+    room = random_grid_map(140, cell_cm=5.0, density=0.0)
+    ideal = SimRobot(room, Pose(350.0, 350.0, 0.0), sonar="ideal", rng=0).ultrascan()
+    assert ideal.valid.all()
+    assert ideal.ranges.min() > 345.0
+    nxt = SimRobot(room, Pose(350.0, 350.0, 0.0), sonar="nxt", rng=0).ultrascan()
+    assert not nxt.valid.any()

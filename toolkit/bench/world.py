@@ -17,6 +17,7 @@ import numpy as np
 import shapely
 
 from localisation.models import range_table
+from localisation.sonar_options import lobe_options
 from toolkit.world import CollisionChecker, Map, RngLike, as_rng, default_scan_angles, ray_cast
 
 __all__ = ["bench_world_figures", "peer_raycast2d"]
@@ -82,18 +83,29 @@ def peer_raycast2d(m: Map, origins: np.ndarray, angles: np.ndarray, repeats: int
     }
 
 
+STEP_RADII = 2.5
+"""Standard deviation of a benchmark segment's x and y steps, in robot radii (20 cm for 8 cm)."""
+LONG_STEP_RADII = 10.0
+"""The same for the long segments (80 cm for 8 cm): motions across rooms rather than within reach."""
+
+
 def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repeats: int = 5,
                         segments: int = 20000, range_model: bool = True, range_memory_mb: float | None = None,
-                        peer: bool = True, rng: RngLike = 0) -> dict[str, Any]:
+                        sonar: str = "ideal", peer: bool = True, rng: RngLike = 0) -> dict[str, Any]:
     """The figures of `nxtnav bench world` as a JSON-ready dict (rates per second, times in s, bytes).
 
     Rates come twice: per wall-clock second and per CPU second of this process (``*_per_cpu_s``),
-    which is steadier on a shared machine.
+    which is steadier on a shared machine. Checks: points uniform over the map's bounds; segments
+    from those points with normal x and y steps of `STEP_RADII` robot radii (and, for the
+    ``long_segment`` figures, `LONG_STEP_RADII`): the same distribution relative to the robot on
+    every map. The range model is the particle filters' table for `sonar` (``nxt``: its lobe,
+    specular loss and 255 cm range limit).
     """
     gen = as_rng(rng)
     t0, c0 = time.perf_counter(), time.process_time()
     cc = CollisionChecker(m, radius)
     m.free_space(radius)
+    raster_bytes = cc.clearance_raster.nbytes  # built here, so that it counts in the c-space build
     cspace_s, cspace_c = time.perf_counter() - t0, time.process_time() - c0
     origins = m.sample_free(poses, rng=gen)
     angles = default_scan_angles()
@@ -101,9 +113,11 @@ def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repea
     ray_s, ray_c = _median_time(lambda: ray_cast(m.walls, origins, angles), repeats)
     xmin, ymin, xmax, ymax = m.bounds
     a = gen.uniform([xmin, ymin], [xmax, ymax], (segments, 2))
-    b = a + gen.normal(0.0, 20.0, (segments, 2))
+    b = a + gen.normal(0.0, STEP_RADII * radius, (segments, 2))
+    far = a + gen.normal(0.0, LONG_STEP_RADII * radius, (segments, 2))
     cc.segments_free(a[:10], b[:10])
     seg_s, seg_c = _median_time(lambda: cc.segments_free(a, b), repeats)
+    long_s, long_c = _median_time(lambda: cc.segments_free(a, far), repeats)
     pt_s, pt_c = _median_time(lambda: cc.point_free(a), repeats)
     fig: dict[str, Any] = {
         "map": m.name,
@@ -117,18 +131,26 @@ def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repea
         "rays_per_cpu_s": poses * angles.size / ray_c,
         "segment_checks_per_cpu_s": segments / seg_c,
         "point_checks_per_cpu_s": segments / pt_c,
+        "segment_step_sd_cm": STEP_RADII * radius,
+        "mean_segment_cm": float(np.mean(np.hypot(*(b - a).T))),
+        "long_segment_checks_per_s": segments / long_s,
+        "long_segment_checks_per_cpu_s": segments / long_c,
+        "mean_long_segment_cm": float(np.mean(np.hypot(*(far - a).T))),
         "free_fraction_points": float(np.mean(cc.point_free(a))),
         "free_fraction_segments": float(np.mean(cc.segments_free(a, b))),
+        "free_fraction_long_segments": float(np.mean(cc.segments_free(a, far))),
         "cspace_build_s": cspace_s,
         "cspace_build_cpu_s": cspace_c,
         "index_bytes": cc.index.nbytes,
+        "clearance_raster_bytes": raster_bytes,
         "range_model_build_s": None,
         "range_model_bytes": None,
     }
     if range_model:
         t0, c0 = time.perf_counter(), time.process_time()
-        table = range_table(m, memory_mb=range_memory_mb, lattice_step=2)
-        fig.update(range_model_build_s=time.perf_counter() - t0, range_model_build_cpu_s=time.process_time() - c0,
+        table = range_table(m, memory_mb=range_memory_mb, lattice_step=2, **lobe_options("paper-pf", sonar))
+        fig.update(range_model_sonar=sonar, range_model_build_s=time.perf_counter() - t0,
+                   range_model_build_cpu_s=time.process_time() - c0,
                    range_model_bytes=table.nbytes,
                    range_model_resolution_cm=table.resolution_cm, range_model_dtype=table.dtype)
     if peer:

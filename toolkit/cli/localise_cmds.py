@@ -169,6 +169,8 @@ def localise_cmd(
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
+    radius: float | None = typer.Option(None, "--radius", min=0.1,
+                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     sets: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="Localiser option (repeatable)."),
     output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
@@ -194,7 +196,7 @@ def localise_cmd(
     if not m.contains(pose.xy):
         raise NxtnavError(f"--pose: ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
-                      scan_processing=scan_processing, lobe=lobe,
+                      scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
                       localiser_options=_options_for(_parse_sets(sets, "--set"), [localiser]))
     out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
     candidates = candidate_poses(loc)
@@ -241,6 +243,8 @@ def bench_localisers(
                                                 "from a kidnapping.", callback=count),
     scan_processing: str = typer.Option("paper", help="Scans for the localisers: paper (processed) or raw."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
+    radius: float | None = typer.Option(None, "--radius", min=0.1,
+                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
                                    help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
@@ -283,7 +287,7 @@ def bench_localisers(
     options = _options_for(_parse_sets(sets, "--set"), locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
-                      lobe=lobe, localiser_options=options)
+                      lobe=lobe, robot_radius_cm=radius, localiser_options=options)
     _check_construction(load_map(maps[0]), options)
     tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
     out.mkdir(parents=True, exist_ok=True)
@@ -307,7 +311,7 @@ def bench_localisers(
         "nxtnav", "bench", "localisers", "--maps", ",".join(maps), "--localisers", ",".join(locs),
         "--trials", str(trials), "--sonar", sonar, "--scenario", ",".join(scenarios), "--seed", str(seed),
         "--tracker-prior", tracker_prior, "--scan-processing", scan_processing, "--lobe", lobe,
-        "--out", str(out),
+        *(["--radius", f"{radius:g}"] if radius is not None else []), "--out", str(out),
         "--workers", str(workers),
         *(["--dask", dask] if dask else []), *[a for s in sets for a in ("--set", s)]])
     written.append(write_summary(results, out / "summary.md", config=cfg, maps=maps, localisers=locs,

@@ -11,6 +11,7 @@ from rich.table import Table
 
 from ..world import (
     SONAR_MODELS,
+    CollisionChecker,
     Pose,
     RobotGeometry,
     default_scan_angles,
@@ -65,6 +66,9 @@ def scan(
     sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
     sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm).", callback=non_negative),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
+    radius: float | None = typer.Option(None, "--radius", min=0.1,
+                                        help="Robot's radius (cm; default 8): a robot scaled to the map; the "
+                                             "disc must fit at the pose."),
     output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
                                        help="Draw the scan (rays on the map, radar chart)."),
     json_out: Path | None = typer.Option(None, "--json", help="Write the scan as JSON."),
@@ -83,18 +87,22 @@ def scan(
     if not m.contains(pose.xy):
         raise typer.BadParameter(f"pose ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
                                  param_hint="--pose")
+    geometry = RobotGeometry() if radius is None else RobotGeometry(radius_cm=radius)
+    if radius is not None and not CollisionChecker(m, radius).point_free(pose.xy):
+        raise typer.BadParameter(f"a robot of radius {radius:g} cm at ({pose.x:g}, {pose.y:g}) touches a wall of "
+                                 f"{m.name}", param_hint="--pose")
     model = make_sonar(sonar, noise_sd=sensor_noise)
     angles = default_scan_angles()
-    from ..world import Scan
 
     readings = model.measure(m.walls, pose.xy, pose.theta + angles, rng=seed)
-    s = Scan.from_readings(angles, readings)
+    s = model.to_scan(angles, readings)
     echo = s.ranges[s.valid]
     typer.echo(f"scan at ({pose.x:g}, {pose.y:g}, {pose.heading_deg:g} deg) on {m.name}, sonar {sonar}: "
                f"{int(s.valid.sum())}/{len(s)} readings with an echo"
                + (f", {echo.min():.1f} to {echo.max():.1f} cm" if echo.size else ""))
     if json_out is not None:
-        doc = {"map": m.name, "sonar": sonar, "seed": seed, "pose": pose.to_list_deg(), **s.to_dict()}
+        doc = {"map": m.name, "sonar": sonar, "seed": seed, "pose": pose.to_list_deg(),
+               "radius_cm": geometry.radius_cm, **s.to_dict()}
         json_out.write_text(json.dumps(doc, indent=1))
         typer.echo(f"wrote {json_out}")
     if output is None:
@@ -105,7 +113,7 @@ def scan(
     ax1 = fig.add_subplot(1, 2, 2, projection="polar")
     draw_map(m, ax0, presets=False)
     draw_scan_rays(pose, s, ax0)
-    draw_pose(pose, ax0, radius=RobotGeometry().radius_cm)
+    draw_pose(pose, ax0, radius=geometry.radius_cm)
     ax0.set_title(f"{m.name}: scan at ({pose.x:g}, {pose.y:g}, {pose.heading_deg:g}°), sonar {sonar}")
     draw_radar(s, ax1, expected=expected_ranges(m, pose, s))
     ax1.set_title("readings (cm) vs sensor angle")
@@ -132,6 +140,7 @@ def bench_world(
     range_memory_mb: float | None = typer.Option(None, "--range-memory-mb",
                                                  help="Range model memory budget (MB; default 1024 or "
                                                       "$NXTNAV_RANGE_MEMORY_MB)."),
+    sonar: str = typer.Option("ideal", help="Sonar of the range model: ideal (thin ray) or nxt (lobe, 255 cm)."),
     peer: bool = typer.Option(True, "--peer/--no-peer", help="Measure raycast2d (optional extra) in the same run."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     json_out: Path | None = typer.Option(None, "--json", help="Write the figures as JSON."),
@@ -139,12 +148,16 @@ def bench_world(
     """Throughput of ray casting and collision checks, c-space and range-model build; medians of repeats.
 
     Rays: `poses` random free positions x 360 directions. Checks: `CollisionChecker` on random points
-    over the map's bounds and random segments from them (normal steps of 20 cm). The c-space is the
-    free area shrunk by the radius plus the checker's index. The peer (``pip install nxtnav[peers]``)
+    over the map's bounds and random segments from them (normal x and y steps of 2.5 robot radii,
+    20 cm for 8 cm; long segments: 10 radii). The c-space is the free area shrunk by the radius plus
+    the checker's index and clearance raster. The peer (``pip install nxtnav[peers]``)
     casts the same rays on the map rasterised at 1 cm (or coarser, at most 4096 pixels a side).
     """
     from ..bench.world import bench_world_figures
 
+    if sonar not in SONAR_MODELS:
+        raise typer.BadParameter(f"unknown sonar model {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
+                                 param_hint="--sonar")
     if random_grid:
         from ..world.generated import random_grid_map
 
@@ -156,17 +169,23 @@ def bench_world(
     else:
         m = load_map(map_name)
     fig = bench_world_figures(m, radius=radius, poses=poses, repeats=repeats, segments=segments,
-                              range_model=range_model, range_memory_mb=range_memory_mb, peer=peer, rng=seed)
+                              range_model=range_model, range_memory_mb=range_memory_mb, sonar=sonar, peer=peer,
+                              rng=seed)
     table = Table("measure", "value", title=f"{m.name}: {fig['edges']} walls, medians of {repeats}")
     table.add_row("ray casting", f"{fig['rays_per_s'] / 1e6:.2f} M rays/s "
                   f"({fig['rays_per_cpu_s'] / 1e6:.2f} M per CPU second)")
-    table.add_row("segment checks", f"{fig['segment_checks_per_s'] / 1e3:.0f} k checks/s "
+    table.add_row(f"segment checks ({fig['mean_segment_cm']:.0f} cm mean)",
+                  f"{fig['segment_checks_per_s'] / 1e3:.0f} k checks/s "
                   f"({fig['segment_checks_per_cpu_s'] / 1e3:.0f} k per CPU second)")
+    table.add_row(f"long segment checks ({fig['mean_long_segment_cm']:.0f} cm mean)",
+                  f"{fig['long_segment_checks_per_s'] / 1e3:.0f} k checks/s "
+                  f"({fig['long_segment_checks_per_cpu_s'] / 1e3:.0f} k per CPU second)")
     table.add_row("point checks", f"{fig['point_checks_per_s'] / 1e3:.0f} k checks/s "
                   f"({fig['point_checks_per_cpu_s'] / 1e3:.0f} k per CPU second)")
     table.add_row("c-space build", f"{fig['cspace_build_s']:.2f} s")
     if fig.get("range_model_bytes") is not None:
-        table.add_row("range model build", f"{fig['range_model_build_s']:.1f} s "
+        table.add_row(f"range model build ({sonar})", f"{fig['range_model_build_s']:.1f} s "
+                      f"({fig['range_model_build_cpu_s']:.1f} CPU s) "
                       f"({fig['range_model_resolution_cm']:g} cm, {fig['range_model_dtype']})")
         table.add_row("range model memory", f"{fig['range_model_bytes'] / 2**20:.0f} MB")
     if fig.get("peer"):

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from localisation.base import Localiser
-from localisation.sonar_options import accepted_model_options, matched_localiser_options
+from localisation.sonar_options import geometry_options, matched_localiser_options
 from planners.base import Planner
 
 from ..seeds import derive_seeds
@@ -104,7 +104,7 @@ def run_sim_mission(
         opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
                                          turn_noise=turn_noise, sensor_noise=sensor_noise)
         if robot_radius_cm is not None:
-            opts.update(accepted_model_options(localiser, {"clearance_cm": geometry.radius_cm}))
+            opts.update(geometry_options(localiser, geometry.radius_cm))
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
     robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,

@@ -316,7 +316,7 @@ class SimRobot:
         self.turret_return_s += back
         self.readings += int(rel.size)
         self._time += sweep + back
-        return Scan.from_readings(rel, ranges)
+        return self.sonar.to_scan(rel, ranges)
 
     def stop(self) -> None:
         """Nothing moves between calls in the simulator; present for the protocol."""

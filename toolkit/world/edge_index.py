@@ -278,14 +278,16 @@ def _segment_segment_distance(ax: float, ay: float, bx: float, by: float,
 
 
 @_jit
-def _capsules_clear(walls: FloatArray, x0: float, y0: float, h: float, nx: int, ny: int, start: IntArray,
+def _capsules_clear(cell_walls: FloatArray, x0: float, y0: float, h: float, nx: int, ny: int, start: IntArray,
                     items: IntArray, a: FloatArray, b: FloatArray, radius: float, out: NDArray[np.bool_],
                     stamp: IntArray, base: int) -> None:
     """out[s] = no wall closer than `radius` to segment s (a[s] -> b[s]; a point when a == b).
 
-    ``stamp[e] == base + s`` marks wall e as tested for segment s (a wall listed in several cells is
-    tested once); `stamp` holds values below `base` on entry.
+    ``cell_walls[q]`` is wall ``items[q]`` (each cell's walls side by side in memory). For a segment,
+    ``stamp[e] == base + s`` marks wall e as tested (a wall listed in several cells is tested once);
+    `stamp` holds values below `base` on entry. A point tests such a wall again (cheaper than the mark).
     """
+    far2 = radius * radius * (1.0 + 1e-9) + 1e-9 * h * h
     for s0 in range(a.shape[0]):
         s = base + s0
         ax, ay, bx, by = a[s0, 0], a[s0, 1], b[s0, 0], b[s0, 1]
@@ -309,17 +311,24 @@ def _capsules_clear(walls: FloatArray, x0: float, y0: float, h: float, nx: int, 
             i0 = _cell(min(xa, xb) - radius, x0, h, nx)
             i1 = _cell(max(xa, xb) + radius, x0, h, nx)
             for i in range(i0, i1 + 1):
+                if point:
+                    # a cell whose box is farther than the radius holds no wall within it
+                    gx = max(x0 + i * h - ax, 0.0, ax - (x0 + (i + 1) * h))
+                    gy = max(y0 + j * h - ay, 0.0, ay - (y0 + (j + 1) * h))
+                    if gx * gx + gy * gy > far2:
+                        continue
                 c = i * ny + j
                 for q in range(start[c], start[c + 1]):
-                    e = items[q]
-                    if stamp[e] == s:
-                        continue
-                    stamp[e] = s
                     if point:
-                        d = _point_segment_distance(ax, ay, walls[e, 0], walls[e, 1], walls[e, 2], walls[e, 3])
+                        d = _point_segment_distance(ax, ay, cell_walls[q, 0], cell_walls[q, 1], cell_walls[q, 2],
+                                                    cell_walls[q, 3])
                     else:
-                        d = _segment_segment_distance(ax, ay, bx, by, walls[e, 0], walls[e, 1], walls[e, 2],
-                                                      walls[e, 3])
+                        e = items[q]
+                        if stamp[e] == s:
+                            continue
+                        stamp[e] = s
+                        d = _segment_segment_distance(ax, ay, bx, by, cell_walls[q, 0], cell_walls[q, 1],
+                                                      cell_walls[q, 2], cell_walls[q, 3])
                     if d < radius:
                         clear = False
                         break
@@ -475,7 +484,7 @@ class EdgeIndex:
         scratch = self._scratch.__dict__
         if "stamp" not in scratch:
             scratch["stamp"], scratch["base"] = np.full(len(self.walls), -1, dtype=np.int64), 0
-        _capsules_clear(self.walls, float(self.origin[0]), float(self.origin[1]), self.cell, self.shape[0],
+        _capsules_clear(self.cell_walls, float(self.origin[0]), float(self.origin[1]), self.cell, self.shape[0],
                         self.shape[1], self.start, self.items, np.ascontiguousarray(a, dtype=np.float64),
                         np.ascontiguousarray(b, dtype=np.float64), float(radius), out, scratch["stamp"],
                         scratch["base"])

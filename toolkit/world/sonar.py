@@ -31,7 +31,7 @@ from .edge_index import edge_index
 from .errors import ConfigError
 from .geometry import RngLike, as_rng
 from .registry import Registry
-from .robot import NO_ECHO
+from .robot import NO_ECHO, Scan
 
 __all__ = ["SONAR_MODELS", "IdealSonar", "NxtSonar", "SonarModel", "make_sonar"]
 
@@ -72,6 +72,11 @@ class SonarModel(ABC):
         Shapes as in `toolkit.world.geometry.ray_cast`: a (2,) origin with (A,) angles gives (A,);
         (P, 2) origins with (A,) or (P, A) angles give (P, A).
         """
+
+    def to_scan(self, angles: ArrayLike, readings: ArrayLike) -> Scan:
+        """`readings` along the relative `angles` (rad) as a `Scan`: an echo is a finite reading below
+        the model's ``no_echo`` (so the ideal model keeps every hit, however far; the NXT none at 255)."""
+        return Scan.from_readings(angles, readings, max_range=self.no_echo)
 
     def to_dict(self) -> dict[str, Any]:
         """The model's name and parameters."""

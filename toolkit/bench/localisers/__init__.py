@@ -4,7 +4,7 @@ Three scenarios, each a list of independent trials that `toolkit.bench.executors
 this process, over a process pool or on a Dask cluster:
 
 ``global``
-    A `SimRobot` is put at a random free pose (seeded; at least `BenchConfig.clearance_cm` from every
+    A `SimRobot` is put at a random free pose (seeded; at least `BenchConfig.pose_clearance_cm` from every
     wall, heading uniform) and `localisation.procedure.localise` runs the paper's procedure (scan,
     turn toward the minimum reading, rescan, iterate). The final estimate is compared with the
     simulator's true pose at the end of the procedure. Success = within `SUCCESS_CM` (2 cm) and

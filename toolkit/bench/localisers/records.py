@@ -15,6 +15,7 @@ from toolkit.robots.sim import MotionNoise
 from toolkit.world import (
     NxtnavError,
     Pose,
+    RobotGeometry,
     angle_diff,
 )
 
@@ -40,7 +41,8 @@ RUNS_COLUMNS = (
 
 TRACKING_COLUMNS = (
     "map", "localiser", "trial", "seed", "steps", "rmse_cm", "rmse_heading_deg", "final_error_cm",
-    "max_error_cm", "time_s", "collisions", "median_particles", "max_particles", "update_ms",
+    "max_error_cm", "time_s", "collisions", "median_particles", "max_particles", "update_ms", "blind_steps",
+    "rmse_echo_cm",
 )
 
 
@@ -78,7 +80,11 @@ class BenchConfig:
         Standard deviations of the noisy-truth prior (cm, degrees); also the prior of every localiser
         in the tracking scenario.
     clearance_cm : float
-        Least distance from true poses to the walls (cm).
+        Least distance from true poses to the walls (cm); with `robot_radius_cm`, that radius + 2 cm.
+    robot_radius_cm : float or None
+        The simulated robot's radius (cm): a robot scaled to the map, as ``nxtnav run --radius``
+        (localisers that take ``clearance_cm`` get it, the scripted drive keeps it plus 3 cm from
+        the walls). None: `RobotGeometry`'s 8 cm and `clearance_cm` as given.
     tracking_steps : int
         Actions (turn + move) of the scripted drive.
     tracking_step_cm : tuple of float
@@ -109,6 +115,7 @@ class BenchConfig:
     prior_sd_cm: float = 3.0
     prior_sd_deg: float = 5.0
     clearance_cm: float = 10.0
+    robot_radius_cm: float | None = None
     tracking_steps: int = 12
     tracking_step_cm: tuple[float, float] = (6.0, 15.0)
     kidnap_min_cm: float = 30.0
@@ -135,6 +142,19 @@ class BenchConfig:
         if not 0 < lo <= hi:
             raise NxtnavError(f"tracking_step_cm must be 0 < low <= high, got {self.tracking_step_cm}")
         MotionNoise(self.noise_model, self.motion_noise, self.turn_noise)  # type: ignore[arg-type]
+        r = self.robot_radius_cm
+        if r is not None and not (math.isfinite(r) and r > 0):
+            raise NxtnavError(f"robot radius must be a positive number of cm, got {r!r}")
+
+    @property
+    def geometry(self) -> RobotGeometry:
+        """The simulated robot's constants (`robot_radius_cm`, or the default 8 cm robot)."""
+        return RobotGeometry() if self.robot_radius_cm is None else RobotGeometry(radius_cm=self.robot_radius_cm)
+
+    @property
+    def pose_clearance_cm(self) -> float:
+        """Least distance of true poses from the walls: `clearance_cm`, or the given radius + 2 cm."""
+        return self.clearance_cm if self.robot_radius_cm is None else self.robot_radius_cm + 2.0
 
     @property
     def noise(self) -> MotionNoise:
@@ -150,7 +170,8 @@ class BenchConfig:
         return {
             "sonar": self.sonar, "sensor_noise": self.sensor_noise, "noise": self.noise.to_dict(),
             "tracker_prior": self.tracker_prior, "prior_sd_cm": self.prior_sd_cm,
-            "prior_sd_deg": self.prior_sd_deg, "clearance_cm": self.clearance_cm,
+            "prior_sd_deg": self.prior_sd_deg, "clearance_cm": self.pose_clearance_cm,
+            "robot_radius_cm": self.geometry.radius_cm,
             "tracking_steps": self.tracking_steps, "tracking_step_cm": list(self.tracking_step_cm),
             "kidnap_min_cm": self.kidnap_min_cm, "recovery_rounds": self.recovery_rounds,
             "scan_processing": self.scan_processing, "lobe": self.lobe,
@@ -290,6 +311,10 @@ class TrackingRun:
     max_particles: float = math.nan
     update_ms: float = math.nan
     errors_cm: tuple[float, ...] = field(default=(), repr=False)
+    blind_steps: int = 0
+    """Actions after which the localiser's scan held no reading (no wall within the sonar's reach)."""
+    rmse_echo_cm: float = math.nan
+    """RMSE over the other actions (NaN when every scan was blind)."""
     failure: str = field(default="", repr=False)
     scenario: str = field(default="tracking", repr=False)
 

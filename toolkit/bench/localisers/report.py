@@ -94,6 +94,8 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str],
                     "trials": n,
                     "rmse_cm": _rms([r.rmse_cm for r in rs]),
                     "rmse_heading_deg": _rms([r.rmse_heading_deg for r in rs]),
+                    "blind_fraction": sum(r.blind_steps for r in rs) / max(sum(r.steps for r in rs), 1),
+                    "rmse_echo_cm": _pooled_rms([(r.rmse_echo_cm, r.steps - r.blind_steps) for r in rs]),
                     "median_final_error_cm": finite_median([r.final_error_cm for r in rs]),
                     "median_time_s": finite_median([r.time_s / max(r.steps, 1) for r in rs]),
                     "median_particles": finite_median([r.median_particles for r in rs]),
@@ -112,6 +114,13 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str],
                 }
             out[scen] = table
     return out
+
+
+def _pooled_rms(parts: Sequence[tuple[float, int]]) -> float:
+    """RMS over the steps of several trials from each trial's RMS and step count (NaN without steps)."""
+    num = sum(v * v * k for v, k in parts if k > 0 and math.isfinite(v))
+    den = sum(k for v, k in parts if k > 0 and math.isfinite(v))
+    return math.sqrt(num / den) if den else math.nan
 
 
 def _pct(x: float) -> str:
@@ -146,7 +155,7 @@ def write_summary(
         f"localiser; seed {seed}",
         f"- simulator: sonar `{config.sonar}` ({config.sensor_noise:g} cm noise), motion noise "
         f"`{noise.model}` (motion {noise.motion:g}, turn {noise.turn:g})",
-        f"- true poses: uniform over the free space at least {config.clearance_cm:g} cm from the walls, "
+        f"- true poses: uniform over the free space at least {config.pose_clearance_cm:g} cm from the walls, "
         "heading uniform; the same poses for every localiser",
         f"- success: final estimate within {SUCCESS_CM:g} cm and {SUCCESS_DEG:g} degrees of the simulator's "
         "true pose at the end of the procedure; time = the localiser's computation time (its reset, predict "
@@ -196,19 +205,22 @@ def write_summary(
                   f"A scripted drive of {config.tracking_steps} actions (turn, then a move of "
                   f"{config.tracking_step_cm[0]:g}-{config.tracking_step_cm[1]:g} cm); every localiser starts "
                   f"from the true pose plus noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} degrees) "
-                  "and predicts + updates with a full scan after every action. RMSE over all actions and trials; "
+                  "and predicts + updates with a full scan after every action. RMSE over all actions and trials "
+                  "(blind = actions whose scan held no reading, no wall within the sonar's reach; RMSE with "
+                  "echo = over the other actions); "
                   "particles = the particles held after each update (median over the trials of each trial's "
                   "median, and the largest count seen); update = median time of one `update` call.", ""]
         for m in maps:
-            lines += [f"### {m}", "", "| localiser | trials | RMSE (cm) | heading RMSE (deg) | "
-                      "median final error (cm) | median time per action (ms) | particles median / max | "
-                      "update (ms) |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+            lines += [f"### {m}", "", "| localiser | trials | RMSE (cm) | heading RMSE (deg) | blind | "
+                      "RMSE with echo (cm) | median final error (cm) | median time per action (ms) | "
+                      "particles median / max | update (ms) |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
             for n in localisers:
                 row = s["tracking"].get((m, n))
                 if row is None:
                     continue
                 lines.append(f"| {n} | {row['trials']:.0f} | {_num(row['rmse_cm'])} | "
-                             f"{_num(row['rmse_heading_deg'])} | {_num(row['median_final_error_cm'])} | "
+                             f"{_num(row['rmse_heading_deg'])} | {_pct(row['blind_fraction'])} | "
+                             f"{_num(row['rmse_echo_cm'])} | {_num(row['median_final_error_cm'])} | "
                              f"{_num(1e3 * row['median_time_s'], '', 1)} | "
                              f"{_num(row['median_particles'], '', 0)} / {_num(row['max_particles'], '', 0)} | "
                              f"{_num(row['median_update_ms'], '', 1)} |")

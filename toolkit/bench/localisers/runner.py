@@ -13,6 +13,7 @@ import numpy as np
 from localisation.ambiguity import candidate_poses
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from localisation.procedure import LocalisationResult, LocaliseProcedure, localise
+from localisation.sonar_options import geometry_options
 from toolkit.robots.sim import SimRobot
 from toolkit.seeds import derive_seed
 from toolkit.world import (
@@ -97,8 +98,8 @@ def localise_once(
     ss = np.random.SeedSequence(_entropy(rng))
     robot_ss, loc_ss, prior_ss, proc_ss = ss.spawn(4)
     if robot is None:
-        robot = SimRobot(m, truth, noise=cfg.noise, sonar=cfg.sonar, sensor_noise=cfg.sensor_noise,
-                         rng=np.random.default_rng(robot_ss))
+        robot = SimRobot(m, truth, geometry=cfg.geometry, noise=cfg.noise, sonar=cfg.sonar,
+                         sensor_noise=cfg.sensor_noise, rng=np.random.default_rng(robot_ss))
     if localiser is None:
         localiser = make_localiser(localiser_name, m, rng=np.random.default_rng(loc_ss),
                                    **localiser_options(cfg, localiser_name))
@@ -140,8 +141,10 @@ def localise_once(
 
 
 def localiser_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
-    """Constructor options of localiser `name`: the sonar's lobe (`BenchConfig.lobe_for`), then `--set` options."""
-    return {**cfg.lobe_for(name), **dict(cfg.localiser_options.get(name, {}))}
+    """Constructor options of localiser `name`: the sonar's lobe (`BenchConfig.lobe_for`), the robot's
+    radius when given (``clearance_cm``), then `--set` options."""
+    size = {} if cfg.robot_radius_cm is None else geometry_options(name, cfg.robot_radius_cm)
+    return {**cfg.lobe_for(name), **size, **dict(cfg.localiser_options.get(name, {}))}
 
 
 def _procedure_options(cfg: BenchConfig) -> dict[str, Any]:
@@ -218,7 +221,7 @@ def _trial_streams(task: TrialTask) -> tuple[np.random.Generator, np.random.Gene
 def _run_global(task: TrialTask) -> GlobalRun:
     m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
-    truth = m.random_pose(pose_rng, task.config.clearance_cm)
+    truth = m.random_pose(pose_rng, task.config.pose_clearance_cm)
     out, _, loc = localise_once(m, truth, task.localiser, config=task.config, rng=run_rng)
     return GlobalRun(task.map, task.localiser, task.trial, task.seed, out.success, out.error_cm,
                      out.heading_error_deg, out.time_s, out.iterations, out.scans, out.converged, out.cpu_time_s,
@@ -226,16 +229,16 @@ def _run_global(task: TrialTask) -> GlobalRun:
 
 
 def scripted_drive(m: Map, start: Pose, steps: int, step_cm: tuple[float, float], rng: np.random.Generator,
-                   margin_cm: float = 3.0) -> list[Motion]:
+                   margin_cm: float = 3.0, radius_cm: float | None = None) -> list[Motion]:
     """A drive of `steps` (turn, move) actions from `start`, collision-free for the noise-free robot.
 
     Each action turns by a random angle (preferring headings with room ahead) and moves a random
-    length in `step_cm`; the path keeps `margin_cm` beyond the robot radius from every wall. When no
-    heading has room, the action is a turn in place.
+    length in `step_cm`; the path keeps `margin_cm` beyond the robot radius (`radius_cm`, default
+    `RobotGeometry`'s) from every wall. When no heading has room, the action is a turn in place.
     """
     from toolkit.world import CollisionChecker
 
-    checker = CollisionChecker(m, RobotGeometry().radius_cm + margin_cm)
+    checker = CollisionChecker(m, (RobotGeometry().radius_cm if radius_cm is None else radius_cm) + margin_cm)
     x, y, th = start.x, start.y, start.theta
     out: list[Motion] = []
     for _ in range(steps):
@@ -259,11 +262,12 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     cfg = task.config
     m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
-    truth = m.random_pose(pose_rng, cfg.clearance_cm)
-    drive = scripted_drive(m, truth, cfg.tracking_steps, cfg.tracking_step_cm, pose_rng)
+    truth = m.random_pose(pose_rng, cfg.pose_clearance_cm)
+    drive = scripted_drive(m, truth, cfg.tracking_steps, cfg.tracking_step_cm, pose_rng,
+                           radius_cm=cfg.geometry.radius_cm)
     robot_ss, loc_ss, prior_ss = np.random.SeedSequence(_entropy(run_rng)).spawn(3)
-    robot = SimRobot(m, truth, noise=cfg.noise, sonar=cfg.sonar, sensor_noise=cfg.sensor_noise,
-                     rng=np.random.default_rng(robot_ss))
+    robot = SimRobot(m, truth, geometry=cfg.geometry, noise=cfg.noise, sonar=cfg.sonar,
+                     sensor_noise=cfg.sensor_noise, rng=np.random.default_rng(robot_ss))
     loc = make_localiser(task.localiser, m, rng=np.random.default_rng(loc_ss),
                          **localiser_options(cfg, task.localiser))
     prep = _scan_preparer(loc, cfg.scan_processing)
@@ -271,6 +275,7 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     herrs: list[float] = []
     counts: list[int] = []
     update_s: list[float] = []
+    blind: list[bool] = []
     t0 = time.perf_counter()
     loc.reset(_noisy_truth(truth, cfg, np.random.default_rng(prior_ss)))
     for motion in drive:
@@ -279,6 +284,7 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
         dist = robot.move(motion.distance_cm).distance_cm if motion.distance_cm else 0.0
         loc.predict(Motion(motion.turn_rad, dist))
         scan = prep(robot.ultrascan())
+        blind.append(not bool(np.any(scan.valid)))
         tu = time.perf_counter()
         loc.update(scan)
         update_s.append(time.perf_counter() - tu)
@@ -289,10 +295,12 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     elapsed = time.perf_counter() - t0
     ea, ha = np.asarray(errs), np.asarray(herrs)
     ca = np.asarray(counts, dtype=float)
+    echo = ~np.asarray(blind)
     return TrackingRun(task.map, task.localiser, task.trial, task.seed, len(drive),
                        float(np.sqrt(np.mean(ea**2))), float(np.sqrt(np.mean(ha**2))), float(ea[-1]),
                        float(ea.max()), elapsed, int(robot.collisions), float(np.median(ca)), float(ca.max()),
-                       1e3 * float(np.median(update_s)), tuple(float(e) for e in ea))
+                       1e3 * float(np.median(update_s)), tuple(float(e) for e in ea), int((~echo).sum()),
+                       float(np.sqrt(np.mean(ea[echo] ** 2))) if echo.any() else math.nan)
 
 
 def particle_count(loc: Localiser) -> int:
@@ -319,13 +327,13 @@ def _run_kidnapped(task: TrialTask) -> KidnappedRun:
     cfg = task.config
     m = cached_map(task.map)
     pose_rng, run_rng = _trial_streams(task)
-    truth = m.random_pose(pose_rng, cfg.clearance_cm)
+    truth = m.random_pose(pose_rng, cfg.pose_clearance_cm)
     t0 = time.perf_counter()
     out, robot, loc = localise_once(m, truth, task.localiser, config=cfg, rng=run_rng)
     localised = out.converged and out.success
     # teleport: a random free pose at least kidnap_min_cm away (the closest of 50 draws if none is)
     here = robot.true_pose
-    cands = m.sample_free(50, clearance=cfg.clearance_cm, rng=pose_rng)
+    cands = m.sample_free(50, clearance=cfg.pose_clearance_cm, rng=pose_rng)
     dist = np.hypot(*(cands - here.xy).T)
     far = np.flatnonzero(dist >= cfg.kidnap_min_cm)
     i = int(far[0]) if far.size else int(np.argmax(dist))
