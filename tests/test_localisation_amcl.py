@@ -23,7 +23,7 @@ def test_registered_with_nav2_defaults() -> None:
     assert LOCALISERS.get("amcl") is Amcl
     a = make_localiser("amcl", load_map("map1"), rng=0)
     assert isinstance(a, Amcl)
-    assert (a.min_particles, a.max_particles, a.pf_err, a.pf_z) == (500, 2000, 0.05, 0.99)
+    assert (a.min_particles, a.max_particles, a.pf_err, a.pf_z) == (150, 2000, 0.05, 0.99)
     assert (a.alpha_slow, a.alpha_fast) == (0.001, 0.1)
     assert a.model == "field"
     assert make_localiser("amcl", load_map("map1"), rng=0, beam_width_deg=20.0).model == "beam"
