@@ -23,7 +23,7 @@ Augmented MCL (recovery)
     (nav2's beam weights, a sum of cubes, have the same effect). Fresh particles are drawn from the
     scan (`recovery_sampler="scan"`: sensor resetting, Lenser and Veloso 2000) or uniformly over the
     free space (``"uniform"``, Thrun's table 8.3). There is no other kidnap detection: recovery is
-    this mechanism alone.
+    this mechanism alone (with the fresh draws of an ambiguous fix, `ambiguity_injection`).
 A new fix is refined (resample-move)
     When the belief has no fix yet (a global start) or jumps (fresh particles took over), its
     particles came from the scan, not from a motion history, and one weighting collapses them onto
@@ -204,8 +204,11 @@ class Amcl(Localiser):
         `mode_radius_cm` or `mode_heading_deg` in one update), no lattice pose that far from the
         estimate explains the scan within `ambiguity_nats` of the best one near it (the twin rooms of
         map3: the procedure then moves and rescans). Once a fix passes, tracking relies on the motion
-        history, which tells the twins apart. 0 disables the check. It only qualifies the verdict;
-        the particles are not touched.
+        history, which tells the twins apart. 0 disables the check.
+    ambiguity_injection : float
+        While the check finds the fix ambiguous, at least this fraction of the resampled particles is
+        drawn fresh from the scan (as augmented MCL draws them), so a twin the weights dropped can come
+        back when a later scan tells the twins apart.
     beam_width_deg, critical_incidence_deg : float
         Sonar lobe and specular loss of the beam model's range table (see `RangeTable`).
     lattice_step : int
@@ -262,6 +265,7 @@ class Amcl(Localiser):
         refine_steps: int = 12,
         refine_particles: int = 200,
         beam_interpolation: bool = True,
+        ambiguity_injection: float = 0.1,
     ) -> None:
         super().__init__(map, rng=rng)
         if model not in AMCL_MODELS:
@@ -278,6 +282,8 @@ class Amcl(Localiser):
             raise ConfigError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
         if resample_interval < 1 or kld_bin_cm <= 0 or kld_bin_deg <= 0:
             raise ConfigError("resample_interval must be >= 1 and the KLD bins positive")
+        if not 0 <= ambiguity_injection <= 1:
+            raise ConfigError(f"ambiguity_injection must be in [0, 1], got {ambiguity_injection}")
         if refine_steps < 0 or refine_particles < 1:
             raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, "
                               f"{refine_particles}")
@@ -306,6 +312,8 @@ class Amcl(Localiser):
         self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
         self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
         self.beam_interpolation = bool(beam_interpolation)
+        self.ambiguity_injection = float(ambiguity_injection)
+        self._ambiguous_fix = False
         self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
         self.field: DistanceField | None = (
             DistanceField(map, field_resolution_cm, laser_likelihood_max_dist) if self.model == "field" else None)
@@ -396,8 +404,10 @@ class Amcl(Localiser):
         if self._fixing and self.refine_steps > 0:
             self._refine(rel, meas, ll)
             self._estimate = self._make_estimate()
+        self._ambiguous_fix = False
         if self._fixing and self._estimate.converged and self.ambiguity_nats > 0:
-            if self._ambiguous(rel, meas, self._estimate.pose):
+            self._ambiguous_fix = self._ambiguous(rel, meas, self._estimate.pose)
+            if self._ambiguous_fix:
                 self._estimate = replace(self._estimate, converged=False)
             else:
                 self._fixing = False  # a fix the scan singles out; from here on the motion history does
@@ -523,7 +533,7 @@ class Amcl(Localiser):
         cdf = np.cumsum(w)
         cdf[-1] = max(cdf[-1], 1.0)
         cand = self.particles[np.searchsorted(cdf, self.rng.random(m), side="right").clip(0, w.size - 1)]
-        p_inject = self.injection_probability
+        p_inject = max(self.injection_probability, self.ambiguity_injection if self._ambiguous_fix else 0.0)
         fresh = self.rng.random(m) < p_inject if p_inject > 0 else np.zeros(m, dtype=bool)
         if fresh.any():
             k = int(fresh.sum())
