@@ -1,7 +1,7 @@
 """``amcl``: adaptive Monte Carlo localisation as nav2's AMCL does it, for a rotating sonar.
 
 Three things the paper's filter does not do (Thrun, Burgard and Fox, *Probabilistic Robotics*,
-ch. 8; nav2 ``amcl``):
+ch. 8; nav2 ``amcl``), and one step nav2 does not take (the refinement of a new fix):
 
 KLD-sampling (Fox 2003)
     Resampling draws particles one at a time and stops as soon as their number exceeds the bound
@@ -15,18 +15,30 @@ KLD-sampling (Fox 2003)
 Augmented MCL (recovery)
     Short- and long-term averages of the particles' likelihood, ``w_fast += recovery_alpha_fast *
     (w_avg - w_fast)`` and ``w_slow += recovery_alpha_slow * (w_avg - w_slow)`` (both start at the
-    first average and restart after an injection, as in nav2); every resampled particle is
+    first average, as in nav2, and are not reset after an injection, as in Thrun's table 8.3); every
+    resampled particle is
     replaced, with probability ``max(0, 1 - w_fast / w_slow)``, by a fresh one. The averages use
     each particle's likelihood per beam (the scan's likelihood to the power 1 / beams), so that scans
     with different numbers of readings compare and the averages stay within floating-point range
     (nav2's beam weights, a sum of cubes, have the same effect). Fresh particles are drawn from the
     scan (`recovery_sampler="scan"`: sensor resetting, Lenser and Veloso 2000) or uniformly over the
     free space (``"uniform"``, Thrun's table 8.3). There is no other kidnap detection: recovery is
-    this mechanism alone.
+    this mechanism alone (with the fresh draws of an ambiguous fix, `ambiguity_injection`).
+A new fix is refined (resample-move)
+    When the belief has no fix yet (a global start) or jumps (fresh particles took over), its
+    particles came from the scan, not from a motion history, and one weighting collapses them onto
+    the one or two that happened to fall nearest the truth: a spread of 0, a heading a few degrees
+    off. Such an update then draws `refine_particles` particles from the weights and makes
+    `refine_steps` Metropolis moves on this scan's likelihood (Gilks and Berzuini 2001), with a
+    proposal of the cloud's own covariance (scaled by 2.38^2 / 3) plus a floor shrinking from 2 cm /
+    2 degrees to 0.1 cm / 0.1 degrees, so the cloud samples the likelihood around its mode and its
+    spread tells how well the scan pins the pose. While tracking (a motion history) nothing changes.
 Two measurement models (`model`)
     ``beam``: Thrun's beam model, the mixture ``z_hit N(r; e, sigma_hit) + z_short lambda_short
     exp(-lambda_short r) [r < e] + z_rand / laser_max_range`` around the expected range ``e`` of a
-    precomputed `RangeTable` (which can model the NXT's lobe and specular loss). ``field``: the
+    precomputed `RangeTable` (which can model the NXT's lobe and specular loss), interpolated
+    trilinearly between the table's 1 cm cells and 1-degree directions (`beam_interpolation`) so the
+    likelihood does not step at every cell edge. ``field``: the
     likelihood field, ``z_hit N(d; 0, sigma_hit) + z_rand / laser_max_range`` of the distance ``d``
     from each beam's end point to the nearest wall, read from a distance transform of the walls
     (exact distances at the nodes of a `field_resolution_cm` grid, bilinear in between): O(1) per
@@ -152,7 +164,10 @@ class Amcl(Localiser):
         ray, the beam model when a sonar lobe is given (`beam_width_deg` > 0), which the field cannot
         represent.
     min_particles, max_particles : int
-        Bounds of the KLD particle count (nav2: 500, 2000).
+        Bounds of the KLD particle count (nav2: 500, 2000). The default minimum is 150: while tracking,
+        one sonar scan leaves the particles in a few KLD bins, so the bound asks fewer than any minimum
+        and the minimum is the count held; 150 keeps the tracking RMSE at paper-pf's with its 1000
+        (nav2's 500 is sized for metre-scale rooms and a laser; measured in docs/localisers.md).
     pf_err, pf_z : float
         KLD error bound and quantile (nav2: 0.05, 0.99).
     kld_bin_cm, kld_bin_deg : float
@@ -189,12 +204,19 @@ class Amcl(Localiser):
         `mode_radius_cm` or `mode_heading_deg` in one update), no lattice pose that far from the
         estimate explains the scan within `ambiguity_nats` of the best one near it (the twin rooms of
         map3: the procedure then moves and rescans). Once a fix passes, tracking relies on the motion
-        history, which tells the twins apart. 0 disables the check. It only qualifies the verdict;
-        the particles are not touched.
+        history, which tells the twins apart. 0 disables the check.
+    ambiguity_injection : float
+        While the check finds the fix ambiguous, at least this fraction of the resampled particles is
+        drawn fresh from the scan (as augmented MCL draws them), so a twin the weights dropped can come
+        back when a later scan tells the twins apart.
     beam_width_deg, critical_incidence_deg : float
         Sonar lobe and specular loss of the beam model's range table (see `RangeTable`).
     lattice_step : int
         Lattice spacing (table cells) of the scan draws.
+    refine_steps, refine_particles : int
+        Metropolis moves and particles of the refinement of a new fix (0 steps: no refinement).
+    beam_interpolation : bool
+        Beam model: interpolate the range table's expected ranges (False: the nearest cell and direction).
     """
 
     name: ClassVar[str] = "amcl"
@@ -206,7 +228,7 @@ class Amcl(Localiser):
         *,
         rng: RngLike = None,
         model: str = "auto",
-        min_particles: int = 500,
+        min_particles: int = 150,
         max_particles: int = 2000,
         pf_err: float = 0.05,
         pf_z: float = 0.99,
@@ -240,6 +262,10 @@ class Amcl(Localiser):
         beam_width_deg: float = 0.0,
         critical_incidence_deg: float | None = None,
         lattice_step: int = 2,
+        refine_steps: int = 12,
+        refine_particles: int = 200,
+        beam_interpolation: bool = True,
+        ambiguity_injection: float = 0.1,
     ) -> None:
         super().__init__(map, rng=rng)
         if model not in AMCL_MODELS:
@@ -256,6 +282,11 @@ class Amcl(Localiser):
             raise ConfigError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
         if resample_interval < 1 or kld_bin_cm <= 0 or kld_bin_deg <= 0:
             raise ConfigError("resample_interval must be >= 1 and the KLD bins positive")
+        if not 0 <= ambiguity_injection <= 1:
+            raise ConfigError(f"ambiguity_injection must be in [0, 1], got {ambiguity_injection}")
+        if refine_steps < 0 or refine_particles < 1:
+            raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, "
+                              f"{refine_particles}")
         self.model = model if model != "auto" else ("beam" if beam_width_deg > 0 else "field")
         self.min_particles, self.max_particles = int(min_particles), int(max_particles)
         self.pf_err, self.pf_z = float(pf_err), float(pf_z)
@@ -279,6 +310,10 @@ class Amcl(Localiser):
         self.mode_radius_cm = float(mode_radius_cm)
         self.mode_heading_rad = math.radians(mode_heading_deg)
         self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
+        self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
+        self.beam_interpolation = bool(beam_interpolation)
+        self.ambiguity_injection = float(ambiguity_injection)
+        self._ambiguous_fix = False
         self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
         self.field: DistanceField | None = (
             DistanceField(map, field_resolution_cm, laser_likelihood_max_dist) if self.model == "field" else None)
@@ -366,8 +401,13 @@ class Amcl(Localiser):
         if (after.distance_to(before) > self.mode_radius_cm
                 or abs(float(angle_diff(after.theta, before.theta))) > self.mode_heading_rad):
             self._fixing = True  # the belief jumped (fresh particles took over): a new fix, to be checked
+        if self._fixing and self.refine_steps > 0:
+            self._refine(rel, meas, ll)
+            self._estimate = self._make_estimate()
+        self._ambiguous_fix = False
         if self._fixing and self._estimate.converged and self.ambiguity_nats > 0:
-            if self._ambiguous(rel, meas, after):
+            self._ambiguous_fix = self._ambiguous(rel, meas, self._estimate.pose)
+            if self._ambiguous_fix:
                 self._estimate = replace(self._estimate, converged=False)
             else:
                 self._fixing = False  # a fix the scan singles out; from here on the motion history does
@@ -395,8 +435,7 @@ class Amcl(Localiser):
         rand = self.z_rand / self.laser_max_range
         norm = self.z_hit / (_SQRT_2PI * self.sigma_hit)
         if self.field is None:
-            expected, inside = self.table.lookup(p, rel)
-            e = expected.astype(float)
+            e, inside = self._expected_ranges(p, rel)
             with np.errstate(invalid="ignore", over="ignore"):
                 r = (meas[None, :] - e) / self.sigma_hit
                 dens = norm * np.exp(-0.5 * np.where(np.isfinite(r), r * r, np.inf)) + rand
@@ -415,6 +454,30 @@ class Amcl(Localiser):
         return np.where(inside, ll, -np.inf)
 
     # -- internals ----------------------------------------------------------------------------------
+    def _expected_ranges(self, p: FloatArray, rel: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """Expected ranges (N, B) of the beam model and the poses inside the table: with
+        `beam_interpolation`, trilinear between the 8 surrounding table nodes (cell centres x table
+        directions) where all 8 are free and see a wall, the nearest node elsewhere."""
+        near, inside = self.table.lookup(p, rel)
+        if not self.beam_interpolation:
+            return near.astype(float), inside
+        t = self.table
+        u = (p[:, :2] - t.origin) / t.resolution_cm - 0.5
+        g = np.floor(u)
+        f = u - g
+        k = t.n_angles / (2.0 * math.pi)
+        h = np.floor(p[:, 2] * k)
+        fh = p[:, 2] * k - h
+        total = np.zeros(near.shape)
+        ok = np.ones(near.shape, dtype=bool)
+        for di, dj, dh in np.ndindex(2, 2, 2):
+            node = np.column_stack([t.origin + (g + (di, dj) + 0.5) * t.resolution_cm, (h + dh) / k])
+            e, ins = t.lookup(node, rel)
+            w = (f[:, 0] if di else 1 - f[:, 0]) * (f[:, 1] if dj else 1 - f[:, 1]) * (fh if dh else 1 - fh)
+            ok &= ins[:, None] & np.isfinite(e)
+            total += w[:, None] * np.where(np.isfinite(e), e, 0.0)
+        return np.where(ok, total, near), inside
+
     def _lattice_ssd(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
         """The lattice's sums of squared residuals for this update's scan (computed once per update)."""
         if self._ssd is None:
@@ -436,6 +499,33 @@ class Amcl(Localiser):
                   ssd[close][:, ~aligned].min() if (~aligned).any() else math.inf)
         return bool(0.5 * (far - near) / self.sigma_hit**2 <= self.ambiguity_nats)
 
+    def _refine(self, rel: FloatArray, meas: FloatArray, ll: FloatArray) -> None:
+        """Resample-move on a new fix: `refine_particles` draws from the weights, then `refine_steps`
+        Metropolis moves targeting this scan's likelihood, with step sizes shrinking from 2 cm / 2 degrees
+        to 0.1 cm / 0.1 degrees.
+
+        A new fix's particles came from the scan (a global start, or fresh particles that took over), so
+        the prior is flat at the scale of the likelihood: the moves then sample the posterior of the fix
+        instead of one lucky particle, and its spread tells how well the scan pins the pose.
+        """
+        w = log_normalise(np.where(self._weighed, self.log_weights, -np.inf))
+        k = min(self.refine_particles, self.max_particles)
+        idx = systematic_resample(w, k, self.rng)
+        p, cur = self.particles[idx].copy(), ll[idx].copy()
+        scales = np.geomspace(2.0, 0.1, self.refine_steps) if self.refine_steps > 1 else np.array([0.5])
+        for sc in scales:
+            d = np.column_stack([p[:, :2] - p[:, :2].mean(axis=0), angle_diff(p[:, 2], circular_mean(p[:, 2]))])
+            cov = (2.38**2 / 3.0) * (d.T @ d) / k + np.diag([sc, sc, math.radians(sc)]) ** 2
+            q = p + self.rng.standard_normal(p.shape) @ np.linalg.cholesky(cov).T
+            q[:, 2] = wrap_angle(q[:, 2])
+            new = self.log_likelihood(q, rel, meas)
+            with np.errstate(invalid="ignore"):
+                accept = np.log(self.rng.random(k)) < new - cur
+            p[accept], cur[accept] = q[accept], new[accept]
+        self.particles = p
+        self.log_weights = np.full(k, -math.log(k))
+        self._weighed = np.ones(k, dtype=bool)
+
     def _resample(self, rel: FloatArray, meas: FloatArray) -> None:
         """KLD-sampling with augmented-MCL injection, vectorised over the `max_particles` candidates."""
         w = log_normalise(self.log_weights)
@@ -443,7 +533,7 @@ class Amcl(Localiser):
         cdf = np.cumsum(w)
         cdf[-1] = max(cdf[-1], 1.0)
         cand = self.particles[np.searchsorted(cdf, self.rng.random(m), side="right").clip(0, w.size - 1)]
-        p_inject = self.injection_probability
+        p_inject = max(self.injection_probability, self.ambiguity_injection if self._ambiguous_fix else 0.0)
         fresh = self.rng.random(m) < p_inject if p_inject > 0 else np.zeros(m, dtype=bool)
         if fresh.any():
             k = int(fresh.sum())

@@ -10,9 +10,10 @@ import shapely
 
 from localisation import LOCALISERS, Motion, Prior, localise, make_localiser
 from localisation.amcl import Amcl, DistanceField, kld_bound
+from localisation.models import exact_ranges
 from localisation.scan import process_scan
 from toolkit.robots.sim import SimRobot
-from toolkit.world import Pose, load_map
+from toolkit.world import Pose, angle_diff, load_map
 
 
 def _scan(m, pose: Pose, seed: int = 0):  # type: ignore[no-untyped-def]
@@ -23,14 +24,15 @@ def test_registered_with_nav2_defaults() -> None:
     assert LOCALISERS.get("amcl") is Amcl
     a = make_localiser("amcl", load_map("map1"), rng=0)
     assert isinstance(a, Amcl)
-    assert (a.min_particles, a.max_particles, a.pf_err, a.pf_z) == (500, 2000, 0.05, 0.99)
+    assert (a.min_particles, a.max_particles, a.pf_err, a.pf_z) == (150, 2000, 0.05, 0.99)
     assert (a.alpha_slow, a.alpha_fast) == (0.001, 0.1)
     assert a.model == "field"
     assert make_localiser("amcl", load_map("map1"), rng=0, beam_width_deg=20.0).model == "beam"
 
 
 @pytest.mark.parametrize("bad", [{"model": "sonar"}, {"min_particles": 0}, {"min_particles": 3000},
-                                 {"pf_err": 0.0}, {"recovery_alpha_fast": 2.0}, {"recovery_sampler": "x"}])
+                                 {"pf_err": 0.0}, {"recovery_alpha_fast": 2.0}, {"recovery_sampler": "x"},
+                                 {"refine_steps": -1}, {"refine_particles": 0}, {"ambiguity_injection": 2.0}])
 def test_bad_options_are_refused(bad: dict[str, object]) -> None:
     with pytest.raises(ValueError):
         Amcl(load_map("map1"), rng=0, **bad)  # type: ignore[arg-type]
@@ -99,11 +101,11 @@ def test_global_localisation_with_the_procedure(model: str) -> None:
     assert res.estimate.pose.distance_to(robot.true_pose) < 2.0
 
 
-def _kidnap(**options: object) -> tuple[Amcl, Pose]:
+def _kidnap(seed: int = 5, **options: object) -> tuple[Amcl, Pose]:
     """Track at A for four scans, then feed scans taken at B, 50 cm away; returns the localiser and B."""
     m = load_map("map1")
     a_pose, b_pose = Pose(25.0, 25.0, 0.5), Pose(80.0, 80.0, -2.5)
-    loc = Amcl(m, rng=5, **options)  # type: ignore[arg-type]
+    loc = Amcl(m, rng=seed, **options)  # type: ignore[arg-type]
     loc.reset(Prior(a_pose, np.diag([1.0, 1.0, 1e-3])))
     for k in range(4):
         loc.predict(Motion(0.0, 0.0))
@@ -123,3 +125,30 @@ def test_without_recovery_the_kidnapped_filter_stays_lost() -> None:
     loc, b = _kidnap(recovery_alpha_slow=0.0)
     assert loc.injected == 0
     assert loc.estimate().pose.distance_to(b) > 20.0
+
+
+def test_beam_interpolation_follows_exact_ranges() -> None:
+    m = load_map("map1")
+    poses = np.column_stack([m.sample_free(300, clearance=10.0, rng=1), np.random.default_rng(2).uniform(-3, 3, 300)])
+    rel = np.radians(np.arange(0.0, 360.0, 7.0))
+    exact = exact_ranges(m, poses, rel)
+    errors = []
+    for interpolate in (True, False):
+        expected, inside = Amcl(m, rng=0, model="beam", beam_interpolation=interpolate)._expected_ranges(poses, rel)
+        assert inside.all()
+        errors.append(np.median(np.abs(expected - exact)[np.isfinite(exact)]))
+    # the nearest 1 cm cell and 1-degree direction are off by ~0.3 cm; trilinear interpolation far less
+    assert errors[0] < 0.05 < errors[1]
+
+
+def test_a_new_fix_is_refined_on_its_scan() -> None:
+    errors = {}
+    for steps in (0, 12):
+        errs = []
+        for seed in range(3):
+            loc, b = _kidnap(refine_steps=steps, seed=seed)
+            est = loc.estimate()
+            errs.append(est.pose.distance_to(b) + abs(math.degrees(float(angle_diff(est.pose.theta, b.theta)))) / 3)
+        errors[steps] = max(errs)
+    # unrefined, the fresh particles that took over collapse onto the one nearest the truth, and stay
+    assert errors[12] < 0.5 < errors[0]
