@@ -77,7 +77,18 @@ class MissionConfig:
         open space (chosen from the scan with room for the robot disc and the margin).
     explore_heading_tolerance_deg : float
         An exploration move planned from the localiser's modes must stay free when the modes'
-        headings are off by this much either way.
+        headings are off by this much either way. From a belief that knows the place (position
+        spread and modes within `tracking_std_cm`) the move allows for three standard deviations
+        of the belief's heading and position instead, when more (its mean stands for the modes
+        when there are none).
+    align_sweeps : int
+        When a global belief that knows the place (position spread and modes within
+        `tracking_std_cm`) but not its heading finds no exploration move that is safe for its
+        heading spread, the robot settles the heading the paper's way on the spot instead (turning
+        cannot touch a wall): turn toward the minimum reading, sweep the four windows around the
+        axes again, update the same belief; up to this many times per global attempt. (Done before
+        every exploration, it cost map2's `nxt` missions 20 s of robot time for no gain: a move
+        tells more than a second look from the same place.)
     confirm_global : bool
         Confirm a global fix that rests on scans from one place with a second, independent one
         (guards against a localiser that collapses on one of several identical places); fixes further apart than
@@ -155,6 +166,7 @@ class MissionConfig:
     max_explore_moves: int = 6
     explore_step_cm: float = 30.0
     explore_heading_tolerance_deg: float = 12.0
+    align_sweeps: int = 2
     tracking: str = "continue"
     confirm_global: bool = True
     confirm_tolerance_cm: float = 5.0
@@ -207,9 +219,9 @@ class MissionConfig:
             raise ConfigError("MissionConfig.relocalise_every_cm must be > 0 or None, "
                               f"got {self.relocalise_every_cm!r}")
         for name in ("max_corrections", "max_replans", "max_localisation_attempts", "max_actions", "final_scans",
-                     "max_legs", "max_explore_moves"):
+                     "max_legs", "max_explore_moves", "align_sweeps"):
             v = getattr(self, name)
-            lowest = 0 if name in ("max_corrections", "max_replans", "max_explore_moves") else 1
+            lowest = 0 if name in ("max_corrections", "max_replans", "max_explore_moves", "align_sweeps") else 1
             if not (isinstance(v, int) and v >= lowest):
                 raise ConfigError(f"MissionConfig.{name} must be a non-negative integer, got {v!r}")
 
