@@ -113,14 +113,17 @@ class MissionConfig:
         keep the windows around the axes. False: one sweep, keeping the windows around the minimum
         reading's direction of that sweep (the same near-perpendicular readings, half the sweeps).
     track_window_deg : float
-        Sweeps of a tracking re-localisation (from a belief, no alignment) read only the four windows
-        of +-this many degrees around the robot's axes (15: the 124 readings the paper's processing
-        keeps); 180 sweeps the full turn.
+        Sweeps of a tracking re-localisation (from a belief, no alignment) read only windows of
+        +-this many degrees around the robot's axes (`track_windows`; 15: the paper's window);
+        180 sweeps the full turn.
     track_scan_step_deg : float
         Turret step (deg) inside those windows.
-    track_windows : {"axes", "sides"}
-        ``axes``: the four windows around 0, 90, 180 and 270 degrees; ``sides``: only the three
-        ahead and to the sides (-90, 0, 90), a shorter turret travel.
+    track_windows : {"sides", "axes"}
+        ``sides``: the three windows ahead and to the sides (-90, 0, 90); ``axes``: the paper's
+        four, around 0, 90, 180 and 270 degrees. A tracking belief needs no look behind: over 30
+        Table I trials per map, ``sides`` (45 readings and 420 degrees of turret travel at 2 degrees,
+        2.8 s, against 62 and 600, 4.0 s) cut the median robot time by 2-14 s at the same
+        accuracy.
     track_align : bool
         Re-localise along the way the paper's way (full sweep, align, full sweep) instead of one
         window sweep; the window settings are then ignored.
@@ -178,7 +181,7 @@ class MissionConfig:
     global_align: bool = False
     track_window_deg: float = 15.0
     track_scan_step_deg: float = 2.0
-    track_windows: str = "axes"
+    track_windows: str = "sides"
     track_align: bool = False
     final_window_deg: float = 15.0
     final_scan_step_deg: float = 1.0
