@@ -117,3 +117,38 @@ def test_nxt_sonar_mission_among_the_slanted_walls_of_map2() -> None:
     assert report.success, report.status
     assert report.final_error_cm is not None and report.final_error_cm <= 3.0
     assert report.collisions == 0
+
+
+def test_exploring_from_a_loose_heading_touches_no_wall() -> None:
+    # Table I trial 94 of map2 with the nxt sonar: one sweep at the preset start put the heading
+    # 18-30 degrees off in two modes at the right place; an exploration move planned from those
+    # modes with a 12-degree tolerance touched the corner at (30, 40) and the robot ended lost
+    report = run_sim_mission("map2", seed=3224138600, sonar="nxt")
+    assert report.success, report.status
+    assert report.collisions == 0
+    assert report.final_error_cm is not None and report.final_error_cm <= 1.0
+    assert any(s.action == "explore-move" for s in report.trace)  # it did explore, and safely
+
+
+def test_without_a_safe_exploration_move_the_robot_turns_and_sweeps_again() -> None:
+    # exploration moves shorter than 1 cm are no moves: at map2's start the nxt sonar's first sweep
+    # knows the place but not the heading, and the robot settles it the paper's way on the spot
+    cfg = MissionConfig.for_sonar("nxt", explore_step_cm=0.5)
+    report = run_sim_mission("map2", seed=3964924996, sonar="nxt", config=cfg)
+    assert report.success, report.status
+    assert report.collisions == 0
+    actions = [s.action for s in report.trace]
+    first_drive = actions.index("move")
+    assert "align-turn" in actions[:first_drive] and "explore-move" not in actions
+    assert all(s.distance_cm == 0.0 for s in report.trace[:first_drive])  # turned on the spot only
+    off = MissionConfig.for_sonar("nxt", explore_step_cm=0.5, align_sweeps=0)
+    lost = run_sim_mission("map2", seed=3964924996, sonar="nxt", config=off)
+    assert "align-turn" not in [s.action for s in lost.trace]
+
+
+def test_report_counts_the_cpu_time_of_the_mission() -> None:
+    report = run_sim_mission("map1", seed=2)
+    assert report.success
+    assert 0.0 < report.cpu_s < math.inf
+    assert report.to_dict(trace=False)["cpu_s"] == report.cpu_s
+    assert "s CPU" in report.summary()

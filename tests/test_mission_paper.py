@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -136,3 +137,15 @@ def test_pareto_front_and_points() -> None:
     assert points["default"].robot_time_median_s == pytest.approx(50.0)
     with pytest.raises(ValueError, match="unknown mission setting"):
         pareto_tasks(1, settings=("nope",))
+
+
+def test_rows_carry_the_median_cpu_time_per_mission() -> None:
+    tasks = paper_tasks(3, maps=("map1",), noise_models=("botsim",))
+    cpus = [0.4, 2.5, 0.3]  # the slow one: the worker's first mission (range table precomputation)
+    results = [replace(_result(t, True, 0.3, 1.0), cpu_s=c) for t, c in zip(tasks, cpus, strict=True)]
+    row = summarise(results)[0].rows[0]
+    assert row.cpu_median_s == pytest.approx(0.4)
+    doc = json.loads(json.dumps(summarise(results)[0].to_dict()))
+    assert doc["rows"][0]["cpu_median_s"] == pytest.approx(0.4)
+    md = tables_to_markdown(summarise(results))
+    assert "Median CPU (s)" in md and "| 0.400 |" in md

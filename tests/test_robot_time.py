@@ -85,7 +85,8 @@ def test_scan_less_defaults_cost_less_robot_time_than_the_papers_habit() -> None
 
 
 @pytest.mark.parametrize("bad", [{"track_window_deg": 200.0}, {"global_scan_step_deg": 0.0},
-                                 {"fix_rule": "sometimes"}, {"spread_sigmas": -1.0}])
+                                 {"fix_rule": "sometimes"}, {"spread_sigmas": -1.0},
+                                 {"align_sweeps": -1}])
 def test_bad_sweep_options_are_refused(bad: dict[str, object]) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         MissionConfig(**bad)  # type: ignore[arg-type]

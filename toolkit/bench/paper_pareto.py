@@ -31,7 +31,7 @@ MISSION_SETTINGS: dict[str, dict[str, Any]] = {
     "fix-every-leg": {"fix_rule": "habit", "relocalise_every_cm": 40.0},
     "default": {},
     "dense-windows": {"track_scan_step_deg": 1.0},
-    "side-windows": {"track_windows": "sides"},
+    "axes-windows": {"track_windows": "axes"},
     "lean": {"track_scan_step_deg": 3.0, "final_scan_step_deg": 2.0, "first_leg_cm": None},
 }
 """Named mission settings (`MissionConfig` options over the sonar model's defaults), from the

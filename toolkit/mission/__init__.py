@@ -17,7 +17,7 @@ or a real NXT) from an unknown start pose to a target, the way the paper's syste
    is tracked through the motion. Legs end at each waypoint, after a short first leg following a
    global fix, where a heading error of a few degrees could bring the robot to a wall, and every
    `relocalise_every_cm` when set. Where a leg ends the robot re-localises (tracking: one sweep of
-   the paper's four windows around its axes, from its belief) only when the belief's predicted
+   the paper's windows ahead and to the sides, from its belief) only when the belief's predicted
    spread would not leave the way ahead clear of the walls (`MissionConfig.fix_rule`); a missed
    waypoint is skipped when the belief can drive on to the next one. A next segment that is no longer free
    from the new estimate is re-planned.

@@ -61,7 +61,7 @@ class TraceStep:
     ----------
     action : str
         ``localise``, ``relocalise``, ``plan``, ``turn``, ``move``, ``turnback``, ``explore-turn``,
-        ``explore-move``, ``correct-turn`` or ``correct-move``.
+        ``explore-move``, ``align-turn``, ``correct-turn`` or ``correct-move``.
     estimate : Pose or None
         The localiser's mean pose after the action.
     true_pose : Pose or None
@@ -170,6 +170,9 @@ class MissionReport:
         Distance between the final estimate and the target (cm).
     completion_s : float
         Wall-clock time of the whole run (s).
+    cpu_s : float
+        CPU time the process spent on the run (s, `time.process_time`: every thread of the process,
+        so on a shared machine the cost of the computation where the wall clock also counts waiting).
     robot_time_s : float
         Time the robot spent acting (modelled on the simulator) (s).
     path_length_cm : float
@@ -219,6 +222,7 @@ class MissionReport:
     candidates: list[Pose] = field(default_factory=list)
     time_split: RobotTimeSplit | None = None
     outcome: Outcome = Outcome.REACHED
+    cpu_s: float = math.nan
 
     def to_dict(self, trace: bool = True) -> dict[str, Any]:
         """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
@@ -229,6 +233,7 @@ class MissionReport:
             "final_error_cm": self.final_error_cm,
             "estimate_error_cm": self.estimate_error_cm,
             "completion_s": self.completion_s,
+            "cpu_s": self.cpu_s,
             "robot_time_s": self.robot_time_s,
             "robot_time_split": None if self.time_split is None else self.time_split.to_dict(),
             "path_length_cm": self.path_length_cm,
@@ -284,7 +289,8 @@ class MissionReport:
             f"map {self.map}, planner {self.planner}, localiser {self.localiser}, seed {self.seed}",
             f"final error {err} (estimate {_fmt(self.estimate_error_cm)} cm from target), "
             f"collisions {coll}",
-            f"completion {self.completion_s:.3f} s wall-clock, robot time {self.robot_time_s:.1f} s"
+            f"completion {self.completion_s:.3f} s wall-clock ({self.cpu_s:.3f} s CPU), "
+            f"robot time {self.robot_time_s:.1f} s"
             + ("" if self.time_split is None else f": {self.time_split.describe()}"),
             f"driven {self.path_length_cm:.1f} cm (planned {self.planned_length_cm:.1f} cm), turns {self.turns}, "
             f"watchdog stops {self.watchdog_stops}, re-localisations {self.relocalisations}, "

@@ -91,7 +91,7 @@ def run_mission(
         what happened and ``success`` is False. Malformed arguments (unknown planner name, a target
         that is not two finite numbers) raise `NxtnavError`/`ValueError`.
     """
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     cfg = config or MissionConfig()
     m = map if isinstance(map, Map) else load_map(map)
     tgt = np.asarray(target, dtype=float).ravel()
@@ -136,6 +136,7 @@ def run_mission(
         final_error_cm=None if final is None else final.distance_to(tgt),
         estimate_error_cm=None if est is None else est.distance_to(tgt),
         completion_s=time.perf_counter() - t0,
+        cpu_s=time.process_time() - cpu0,
         robot_time_s=robot_time,
         path_length_cm=path_length,
         planned_length_cm=mission.planned_length,

@@ -15,7 +15,7 @@ from shapely.ops import nearest_points
 from localisation.ambiguity import candidate_poses, describe_candidates
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 from localisation.procedure import LocaliseProcedure, localise
-from localisation.scan import ScanProcessing
+from localisation.scan import ScanProcessing, min_reading
 from planners.base import Planner, PlanningProblem, PlanResult
 
 from ..world import (
@@ -147,7 +147,8 @@ class _Mission:
 
         Each attempt runs one iteration of the localisation procedure at a time. A converged fix is
         confirmed by a second, independent global localisation on a fresh scan (`confirm_global`):
-        two fixes that disagree reveal a symmetric place the localiser collapsed on too early. While
+        two fixes that disagree reveal a symmetric place the localiser collapsed on too early (a
+        second belief at the same place whose heading is still loose confirms the place). While
         the belief is ambiguous the mission drives toward open space along a direction where the scan
         shows room for the whole robot disc, and localises again from there.
         """
@@ -155,7 +156,7 @@ class _Mission:
         for attempt in range(1, cfg.max_localisation_attempts + 1):
             est = self._call_localise(None, reset=True, max_iterations=1)
             self.estimate = est
-            explores = 0
+            explores = aligns = 0
             fresh = False
             from_one_place = True  # the fix rests on scans from one place only
             while True:
@@ -164,9 +165,16 @@ class _Mission:
                         break
                     est2 = self._call_localise(None, reset=True, max_iterations=1)
                     self.estimate = est2
-                    if self._ok(est2) and est2.pose.distance_to(est.pose) <= cfg.confirm_tolerance_cm:
-                        est = est2
-                        break
+                    if est2.pose.distance_to(est.pose) <= cfg.confirm_tolerance_cm:
+                        if self._ok(est2):
+                            est = est2
+                            break
+                        if self._place_known(est2):
+                            # the same place again, only its heading still loose (no twin place):
+                            # the first fix stands, and the belief is the first fix's again
+                            self.localiser.reset(Prior(est.pose, est.cov))
+                            self.estimate = est
+                            break
                     self.record("localise", note=f"global attempt {attempt}: two fixes disagree "
                                                  f"({est.pose.x:.0f}, {est.pose.y:.0f}) vs "
                                                  f"({est2.pose.x:.0f}, {est2.pose.y:.0f})")
@@ -175,7 +183,11 @@ class _Mission:
                 if explores >= cfg.max_explore_moves:
                     break
                 direction, distance = self.explore_move(math.pi if explores else None)
-                if distance < 1.0:
+                if distance < 1.0:  # no move is safe from this belief: settle its heading on the spot
+                    if aligns < cfg.align_sweeps and self._place_known(est):
+                        est = self._align_sweep()
+                        aligns += 1
+                        continue
                     break
                 self.record("localise", note=f"global attempt {attempt}: ambiguous (spread "
                                              f"{est.std_xy_cm:.1f} cm), exploring")
@@ -201,6 +213,28 @@ class _Mission:
         raise _MissionEnded(Outcome.LOST, f"robot lost: global localisation did not converge in "
                             f"{cfg.max_localisation_attempts} attempts")
 
+    def _place_known(self, est: PoseEstimate) -> bool:
+        """Whether a global belief knows the place whatever its heading: position spread and every
+        mode within `tracking_std_cm` of the mean, the mean inside the map."""
+        near = self.cfg.tracking_std_cm
+        return (bool(np.all(np.isfinite(est.cov))) and est.std_xy_cm <= near
+                and all(md.pose.distance_to(est.pose) <= near for md in self.localiser.modes)
+                and bool(self.map.contains(est.pose.xy)))
+
+    def _align_sweep(self) -> PoseEstimate:
+        """The paper's turn-and-sweep-again, on the spot: turn toward the minimum reading of the last
+        sweep, sweep the windows around the axes and update the same belief."""
+        scan = self._last_raw_scan if self._last_raw_scan is not None else self.robot.ultrascan()
+        turn, _ = min_reading(scan)
+        self.turn(turn, action="align-turn")
+        est = self._call_localise(None, reset=False, max_iterations=1, align=False, processing=None,
+                                  scan_angles=sweep_angles(self.cfg.global_scan_step_deg, 15.0))
+        self.estimate = est
+        self.record("localise", note=f"no safe exploration move: turned toward the nearest wall, swept again: "
+                                     f"{'converged' if self._ok(est) else 'not converged'}, heading spread "
+                                     f"{math.degrees(math.sqrt(max(float(est.cov[2][2]), 0.0))):.1f} deg")
+        return est
+
     def explore_move(self, avoid_rad: float | None) -> tuple[float, float]:
         """A turn (rad) and distance (cm) toward open space while the belief is ambiguous.
 
@@ -210,13 +244,18 @@ class _Mission:
         from the last scan alone (`explore_direction`), which trusts the sonar's free space.
         """
         cfg = self.cfg
+        checker = self.safe_checkers[-1] if self.safe_checkers else self.checker
+        tol = math.radians(cfg.explore_heading_tolerance_deg)
         poses = [md.pose for md in self.localiser.modes if self.checker.point_free(md.pose.xy)]
+        est = self.estimate
+        if est is not None and self._place_known(est):
+            # one place, loose heading (the modes differ in heading only): allow for the belief's spread
+            poses = poses or [est.pose]
+            tol = max(tol, 3.0 * math.sqrt(max(float(est.cov[2][2]), 0.0)))
         if poses:
             rel = np.radians(np.arange(0.0, 360.0, 5.0))
             if avoid_rad is not None:
                 rel = rel[np.abs(angle_diff(rel, avoid_rad)) >= math.radians(45.0)]
-            checker = self.safe_checkers[-1] if self.safe_checkers else self.checker
-            tol = math.radians(cfg.explore_heading_tolerance_deg)
             for length in (cfg.explore_step_cm, 0.5 * cfg.explore_step_cm, 0.25 * cfg.explore_step_cm):
                 ok = np.ones(rel.size, dtype=bool)
                 room = np.full(rel.size, np.inf)
