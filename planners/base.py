@@ -31,7 +31,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng, make_checker
 
-__all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "make_planner"]
+__all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "make_planner",
+           "status_message"]
 
 FloatArray = NDArray[np.float64]
 
@@ -106,6 +107,11 @@ class PlanningProblem:
         return self.checker.robot_radius
 
 
+def status_message(status: PlanStatus, detail: str = "") -> str:
+    """A status in words with its detail: ``"no path (no path on the grid)"``, or just ``"exact"``."""
+    return f"{status} ({detail})" if detail and detail != status else str(status)
+
+
 @dataclass(frozen=True, eq=False)
 class Solution:
     """What `Planner._solve` hands back: the path (None when there is none), the status and extras.
@@ -164,7 +170,7 @@ class PlanResult:
     @property
     def message(self) -> str:
         """The status in words, with the planner's detail (``"no path (no path on the grid)"``)."""
-        return f"{self.status} ({self.detail})" if self.detail and self.detail != self.status else str(self.status)
+        return status_message(self.status, self.detail)
 
     @property
     def length(self) -> float:

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from toolkit.world.grid_visibility import GridVisibility, seen_from
+from toolkit.world.grid_visibility import GridVisibility, tangent_corners
 
 __all__ = ["VisibilityGraph"]
 
@@ -34,19 +34,16 @@ IntArray = NDArray[np.int64]
 def _scan_node(u: int, arrays: tuple, corners: IntArray, quad: IntArray, ids: IntArray, big: int,
                first: IntArray, count: IntArray, pool: IntArray, n_pool: int, out: IntArray) -> tuple:
     free, pinch, target, free_f, pinch_f, target_f = arrays
-    ux, uy = corners[u, 0], corners[u, 1]
-    out, n = seen_from(free, pinch, target, free_f, pinch_f, target_f, ux, uy, quad[u, 0] * quad[u, 1], big, out)
+    seen, out = tangent_corners(free, pinch, target, free_f, pinch_f, target_f, corners[u, 0], corners[u, 1],
+                                quad[u, 0] * quad[u, 1], big, corners, quad, ids, out)
+    n = seen.shape[0]
     if n_pool + n > pool.shape[0]:
         bigger = np.empty(max(2 * pool.shape[0], n_pool + n), dtype=np.int64)
         bigger[:n_pool] = pool[:n_pool]
         pool = bigger
     first[u] = n_pool
-    for k in range(n):
-        w = ids[out[k, 1], out[k, 0]]
-        dx, dy = ux - corners[w, 0], uy - corners[w, 1]
-        if w != u and dx * dy * quad[w, 0] * quad[w, 1] <= 0:  # tangent at w too
-            pool[n_pool] = w
-            n_pool += 1
+    pool[n_pool:n_pool + n] = seen
+    n_pool += n
     count[u] = n_pool - first[u]
     return pool, n_pool, out
 
@@ -155,12 +152,10 @@ class VisibilityGraph:
         if np.abs(cell - xy).max() > 1e-9 or not (0 <= xy[0] <= w and 0 <= xy[1] <= h):
             return None
         f, p, t, f_f, p_f, t_f = self.grid.arrays
-        out, n = seen_from(f, p, t, f_f, p_f, t_f, int(xy[0]), int(xy[1]), 0, self.grid.big,
-                           np.empty((64, 6), dtype=np.int64))
-        ids = self.grid.ids[out[:n, 1], out[:n, 0]]
-        d = xy[None, :].astype(np.int64) - self.grid.corners[ids]
-        quad = self.grid.quadrants[ids]
-        return np.asarray(ids[d[:, 0] * d[:, 1] * quad[:, 0] * quad[:, 1] <= 0])
+        g = self.grid
+        seen, _ = tangent_corners(f, p, t, f_f, p_f, t_f, int(xy[0]), int(xy[1]), 0, g.big, g.corners, g.quadrants,
+                                  g.ids, np.empty((64, 6), dtype=np.int64))
+        return np.asarray(seen)
 
     @property
     def arcs(self) -> int:

@@ -23,7 +23,7 @@ from typing import Any, Literal
 import numpy as np
 
 from planners import make_planner
-from planners.base import Planner, PlanningProblem, PlanStatus
+from planners.base import Planner, PlanningProblem, PlanStatus, status_message
 
 from ..world import Map, MapError, NxtnavError, import_map, make_checker
 from .executors import run_tasks
@@ -195,7 +195,7 @@ class ScenRecord:
                 "goal_y": q.goal[1], "planner": self.planner, "success": self.success,
                 "length": _num(self.length), "optimal": q.optimal, "error": _num(self.error),
                 "rel_error": _num(self.rel_error), "time_s": self.time_s, "preprocess_s": self.preprocess_s,
-                "status": f"{self.status} ({self.detail})" if self.detail else str(self.status)}
+                "status": status_message(self.status, self.detail)}
 
 
 def _num(v: float) -> float | str:

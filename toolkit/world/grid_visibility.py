@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -28,7 +29,8 @@ from numpy.typing import NDArray
 
 from .grid_kernel import grid_pinches
 
-__all__ = ["GridVisibility", "grid_reflex_corners", "grid_visibility_edges", "grid_visible_points", "seen_from"]
+__all__ = ["GridVisibility", "grid_reflex_corners", "grid_visibility_edges", "grid_visible_points", "seen_from",
+           "tangent_corners"]
 
 IntArray = NDArray[np.int64]
 
@@ -234,6 +236,26 @@ def seen_from(free: NDArray[np.bool_], pinch: NDArray[np.bool_], target: NDArray
     return out, n_out
 
 
+@njit(cache=True)
+def tangent_corners(free: NDArray[np.bool_], pinch: NDArray[np.bool_], target: NDArray[np.bool_],
+                    free_f: NDArray[np.bool_], pinch_f: NDArray[np.bool_], target_f: NDArray[np.bool_], ux: int,
+                    uy: int, sigma: int, big: int, corners: IntArray, quad: IntArray, ids: IntArray,
+                    out: IntArray) -> tuple[IntArray, IntArray]:
+    """Ids of the reflex corners (`target`) that lattice point (ux, uy) sees along lines tangent at the
+    corner, looking as `seen_from` does with `sigma`; (ux, uy) itself is left out. Returns the ids and
+    the (possibly grown) scratch array `out`."""
+    out, n = seen_from(free, pinch, target, free_f, pinch_f, target_f, ux, uy, sigma, big, out)
+    found = np.empty(n, dtype=np.int64)
+    m = 0
+    for k in range(n):
+        w = ids[out[k, 1], out[k, 0]]
+        dx, dy = ux - corners[w, 0], uy - corners[w, 1]
+        if (dx != 0 or dy != 0) and dx * dy * quad[w, 0] * quad[w, 1] <= 0:
+            found[m] = w
+            m += 1
+    return found[:m], out
+
+
 def grid_reflex_corners(free: NDArray[np.bool_]) -> tuple[IntArray, IntArray]:
     """Lattice points where exactly one of the four cells around is blocked (outside counts as blocked).
 
@@ -276,14 +298,18 @@ class GridVisibility:
     def of(cls, free: NDArray[np.bool_]) -> GridVisibility:
         free = np.ascontiguousarray(free, dtype=bool)
         xy, quad = grid_reflex_corners(free)
-        pinch = grid_pinches(free)
-        target = np.zeros(pinch.shape, dtype=bool)
+        target = np.zeros((free.shape[0] + 1, free.shape[1] + 1), dtype=bool)
         target[xy[:, 1], xy[:, 0]] = True
-        ids = np.full(pinch.shape, -1, dtype=np.int64)
+        ids = np.full(target.shape, -1, dtype=np.int64)
         ids[xy[:, 1], xy[:, 0]] = np.arange(len(xy))
-        free_f, pinch_f, target_f = (np.ascontiguousarray(a[::-1]) for a in (free, pinch, target))
-        return cls(free, xy, quad, ids, (free, pinch, target, free_f, pinch_f, target_f),
-                   4 * (free.shape[0] + free.shape[1] + 4))
+        return cls(free, xy, quad, ids, *_sweep_arrays(free, target))
+
+
+def _sweep_arrays(free: NDArray[np.bool_], target: NDArray[np.bool_]) -> tuple[Any, int]:
+    """`seen_from`'s grid arguments (the arrays and their mirror images) and its direction bound."""
+    pinch = grid_pinches(free)
+    free_f, pinch_f, target_f = (np.ascontiguousarray(a[::-1]) for a in (free, pinch, target))
+    return (free, pinch, target, free_f, pinch_f, target_f), 4 * (free.shape[0] + free.shape[1] + 4)
 
 
 def grid_visible_points(free: NDArray[np.bool_], target: NDArray[np.bool_], x: int, y: int) -> IntArray:
@@ -291,13 +317,9 @@ def grid_visible_points(free: NDArray[np.bool_], target: NDArray[np.bool_], x: i
 
     Exact under the point robot's rules (see the module docstring); ``(x, y)`` itself is not listed.
     """
-    free = np.ascontiguousarray(free, dtype=bool)
-    target = np.ascontiguousarray(target, dtype=bool)
-    pinch = grid_pinches(free)
-    free_f, pinch_f, target_f = (np.ascontiguousarray(a[::-1]) for a in (free, pinch, target))
-    big = 4 * (free.shape[0] + free.shape[1] + 4)
-    out, n = seen_from(free, pinch, target, free_f, pinch_f, target_f, int(x), int(y), 0, big,
-                       np.empty((64, 6), dtype=np.int64))
+    (f, p, t, f_f, p_f, t_f), big = _sweep_arrays(np.ascontiguousarray(free, dtype=bool),
+                                                  np.ascontiguousarray(target, dtype=bool))
+    out, n = seen_from(f, p, t, f_f, p_f, t_f, int(x), int(y), 0, big, np.empty((64, 6), dtype=np.int64))
     return np.asarray(out[:n, :2])
 
 
@@ -309,15 +331,10 @@ def _edges(free: NDArray[np.bool_], pinch: NDArray[np.bool_], target: NDArray[np
     n_edges = 0
     out = np.empty((64, 6), dtype=np.int64)
     for u in range(xy.shape[0]):
-        ux, uy = xy[u, 0], xy[u, 1]
-        out, n = seen_from(free, pinch, target, free_f, pinch_f, target_f, ux, uy, quad[u, 0] * quad[u, 1], big,
-                           out)
-        for k in range(n):
-            w = ids[out[k, 1], out[k, 0]]
+        seen, out = tangent_corners(free, pinch, target, free_f, pinch_f, target_f, xy[u, 0], xy[u, 1],
+                                    quad[u, 0] * quad[u, 1], big, xy, quad, ids, out)
+        for w in seen:
             if w <= u:
-                continue
-            dx, dy = ux - xy[w, 0], uy - xy[w, 1]
-            if dx * dy * quad[w, 0] * quad[w, 1] > 0:  # not tangent at w
                 continue
             if n_edges == edges.shape[0]:
                 bigger = np.empty((2 * n_edges, 2), dtype=np.int64)

@@ -16,6 +16,8 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from planners.base import status_message
+
 from ...plotting import draw_cspace, draw_map, draw_path, save_figure
 from ...world import ConfigError, load_map
 from .records import BenchmarkResult, RunRecord
@@ -107,7 +109,7 @@ def draw_paths_grid(result: BenchmarkResult, run: int = 0, size: float = 3.6) ->
                 ax.set_title(f"{m} / {p}\n{rec.length_cm:.0f} cm, {int(rec.turns)} turns, "
                              f"{1e3 * rec.time_s:.1f} ms", fontsize=9)
             else:
-                ax.set_title(f"{m} / {p}\nfailed: {rec.status}{f' ({rec.detail})' if rec.detail else ''}", fontsize=9)
+                ax.set_title(f"{m} / {p}\nfailed: {status_message(rec.status, rec.detail)}", fontsize=9)
             ax.set_xlabel("")
             ax.set_ylabel("")
     fig.tight_layout()
