@@ -462,6 +462,7 @@ def test_radius_scales_the_robot_of_every_scenario(tmp_path: Path, capsys: pytes
     _, data = rows(out / "tracking.csv")
     assert len(data) == 2 and all(int(r["collisions"]) == 0 for r in data)
     # a robot too wide for map1's corridors at the pose is refused in one line
+    capsys.readouterr()  # the benchmark's progress lines
     assert run_cli(["localise", "--map", "map1", "--pose", "20,20,0", "--radius", "25"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "radius 25" in err
