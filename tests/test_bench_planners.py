@@ -33,8 +33,7 @@ def planners_under_test() -> list[str]:
 
 def ompl_statistics() -> str:
     exe = Path(sys.executable).with_name("ompl_benchmark_statistics")
-    if not exe.exists():
-        pytest.skip("ompl_benchmark_statistics is not installed next to this Python")
+    assert exe.exists(), "ompl_benchmark_statistics (OMPL's wheel) is not installed next to this Python"
     return str(exe)
 
 
