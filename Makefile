@@ -20,16 +20,19 @@ run: $(STAMP)
 	mkdir -p out
 	$(BIN)/nxtnav run --plot out/mission.png --json out/mission.json
 
+# pytest runs on every core (pytest-xdist)
+PYTEST := $(BIN)/python -m pytest -q -n auto
+
 test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -q
+	$(PYTEST)
 
 # the same without the slow end-to-end checks (pytest -m "not slow"), for a quick loop while editing
 test-fast: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(PYTEST) -m "not slow"
 
 bench: $(STAMP)
 	$(BIN)/nxtnav bench world --map map1

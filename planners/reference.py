@@ -53,7 +53,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.ndimage
@@ -63,12 +63,13 @@ from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
 from toolkit.world import CollisionChecker, ConfigError, Map, PointCollisionChecker
-from toolkit.world.grid_visibility import GridVisibility
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
 from .metrics import turn_angle
 from .min_turn import hop_shortest_path
-from .visibility_search import VisibilityGraph
+
+if TYPE_CHECKING:
+    from .visibility_search import VisibilityGraph
 
 __all__ = [
     "MinLinkPlanner",
@@ -286,6 +287,10 @@ def _exact_grid(problem: PlanningProblem) -> NDArray[np.bool_] | None:
 
 def _grid_graph(map: Map, free: NDArray[np.bool_], cs: BaseGeometry) -> tuple[Any, ...]:
     """The reflex corners of a grid map as a lazily scanned graph, with each corner's ring neighbours and part."""
+    from toolkit.world.grid_visibility import GridVisibility  # compiled: loaded when first needed
+
+    from .visibility_search import VisibilityGraph
+
     g = map.grid
     assert g is not None
     gv = GridVisibility.of(free)
@@ -339,6 +344,8 @@ class ShortestPathPlanner(_ReferencePlanner):
     name = "shortest"
 
     def _build(self, problem: PlanningProblem) -> _Graph:
+        from .visibility_search import VisibilityGraph  # compiled: loaded when first needed
+
         t0 = time.perf_counter()
         cs = cspace_polygon(problem.map, problem.robot_radius, self.n_sides, self.eps)
         free = _exact_grid(problem)

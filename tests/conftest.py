@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import fcntl
+import os
 import shutil
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -40,3 +43,25 @@ def nxtnav_exe() -> str:
     exe = shutil.which("nxtnav", path=str(Path(sys.executable).parent))
     assert exe is not None, "the nxtnav console script is not installed next to this Python: run make install"
     return exe
+
+
+def built_once(factory: pytest.TempPathFactory, name: str, build: Callable[[Path], None]) -> Path:
+    """A folder that `build` fills once per test run, shared by the pytest-xdist workers of that run.
+
+    Without xdist it is a fresh temporary folder. With it, the first worker to ask builds it under
+    the run's common temporary folder while the others wait on a file lock, then read it.
+    """
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        out = factory.mktemp(name)
+        build(out)
+        return out
+    shared = factory.getbasetemp().parent  # the run's folder; each worker's basetemp lies inside it
+    out, done = shared / name, shared / f"{name}.built"
+    with (shared / f"{name}.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.exists():
+            shutil.rmtree(out, ignore_errors=True)  # a build that failed half way is done again
+            out.mkdir()
+            build(out)
+            done.touch()
+    return out

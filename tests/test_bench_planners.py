@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
-from conftest import nxtnav_exe, run_cli
+from conftest import built_once, nxtnav_exe, run_cli
 
 from toolkit.bench.planners import RUN_COLUMNS, BenchmarkConfig, known_planners, make_queries
 from toolkit.seeds import derive_seed
@@ -33,8 +33,7 @@ def planners_under_test() -> list[str]:
 
 def ompl_statistics() -> str:
     exe = Path(sys.executable).with_name("ompl_benchmark_statistics")
-    if not exe.exists():
-        pytest.skip("ompl_benchmark_statistics is not installed next to this Python")
+    assert exe.exists(), "ompl_benchmark_statistics (OMPL's wheel) is not installed next to this Python"
     return str(exe)
 
 
@@ -45,14 +44,15 @@ def path_is_free(m_name: str, path: np.ndarray, radius: float) -> bool:
     return bool(m.polygon.covers(line)) and float(line.distance(m.wall_lines)) >= radius - 1e-6
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def bench_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("bench") / "presets"
-    code = run_cli(["bench", "planners", "--maps", ",".join(MAPS), "--planners", ",".join(planners_under_test()),
-                "--runs", str(RUNS), "--time-limit", "0.2", "--seed", "4", "--out", str(out),
-                "--exec-repeats", "20"])
-    assert code == 0
-    return out
+    def build(folder: Path) -> None:
+        code = run_cli(["bench", "planners", "--maps", ",".join(MAPS), "--planners", ",".join(planners_under_test()),
+                        "--runs", str(RUNS), "--time-limit", "0.2", "--seed", "4", "--out", str(folder / "presets"),
+                        "--exec-repeats", "20"])
+        assert code == 0
+
+    return built_once(tmp_path_factory, "bench_planners", build) / "presets"
 
 
 def read_runs(path: Path) -> list[dict[str, str]]:

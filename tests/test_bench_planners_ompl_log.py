@@ -56,8 +56,7 @@ def test_format_follows_the_grammar() -> None:
 
 def test_ompl_parser_reads_it(tmp_path: Path) -> None:
     exe = Path(sys.executable).with_name("ompl_benchmark_statistics")
-    if not exe.exists():
-        pytest.skip("ompl_benchmark_statistics is not installed")
+    assert exe.exists(), "ompl_benchmark_statistics (OMPL's wheel) is not installed next to this Python"
     log = write_ompl_log(tmp_path / "sub" / "b.log", experiment())
     db = tmp_path / "b.db"
     proc = subprocess.run([str(exe), str(log), "-d", str(db)], capture_output=True, text=True, timeout=60)

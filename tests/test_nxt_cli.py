@@ -38,8 +38,8 @@ def served() -> Iterator[tuple[BrickServer, io.StringIO]]:
     server.stop()
 
 
-@pytest.mark.skipif(shutil.which("nxt-test", path=str(BIN)) is None, reason="nxt-test is not installed")
 def test_nxt_test_passes_against_brick_serve(tmp_path: Path) -> None:
+    assert shutil.which("nxt-test", path=str(BIN)), "nxt-test (nxt-python) is not installed next to this Python"
     log = tmp_path / "truth.jsonl"
     nxtnav = shutil.which("nxtnav", path=str(BIN)) or "nxtnav"
     serve = subprocess.Popen(

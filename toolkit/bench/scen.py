@@ -25,6 +25,7 @@ import numpy as np
 from planners import make_planner
 from planners.base import Planner, PlanningProblem, PlanStatus, status_message
 
+from ..formats import MISSING, cell, csv_cell
 from ..world import Map, MapError, NxtnavError, import_map, make_checker
 from .executors import run_tasks
 from .ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
@@ -193,13 +194,9 @@ class ScenRecord:
         q = self.query
         return {"query": q.index, "start_x": q.start[0], "start_y": q.start[1], "goal_x": q.goal[0],
                 "goal_y": q.goal[1], "planner": self.planner, "success": self.success,
-                "length": _num(self.length), "optimal": q.optimal, "error": _num(self.error),
-                "rel_error": _num(self.rel_error), "time_s": self.time_s, "preprocess_s": self.preprocess_s,
+                "length": self.length, "optimal": q.optimal, "error": self.error,
+                "rel_error": self.rel_error, "time_s": self.time_s, "preprocess_s": self.preprocess_s,
                 "status": status_message(self.status, self.detail)}
-
-
-def _num(v: float) -> float | str:
-    return "" if not math.isfinite(v) else v
 
 
 @dataclass(frozen=True)
@@ -320,10 +317,6 @@ def summarise(result: ScenResult) -> list[PlannerSummary]:
     return out
 
 
-def _fmt(v: float, spec: str) -> str:
-    return "-" if not math.isfinite(v) else format(v, spec)
-
-
 def summary_markdown(result: ScenResult, total_queries: int) -> str:
     c = result.config
     lines = [f"# Scenario benchmark: {Path(c.scen).name} ({c.kind})", "",
@@ -335,8 +328,9 @@ def summary_markdown(result: ScenResult, total_queries: int) -> str:
               "| median time (ms) | preprocessing (s) |", "|---|---|---|---|---|---|---|---|---|"]
     for s in summarise(result):
         lines.append(f"| {s.planner} | {s.success}/{s.queries} | {'yes' if s.exact else 'no'} | "
-                     f"{s.mismatches if s.exact else '-'} | {s.below_optimum} | {_fmt(s.median_rel_error, '.3g')} | "
-                     f"{_fmt(s.max_rel_error, '.3g')} | {_fmt(s.median_time_s * 1e3, '.2f')} | "
+                     f"{s.mismatches if s.exact else MISSING} | {s.below_optimum} | "
+                     f"{cell(s.median_rel_error, '.3g')} | {cell(s.max_rel_error, '.3g')} | "
+                     f"{cell(s.median_time_s * 1e3, '.2f')} | "
                      f"{s.preprocess_s:.2f} |")
     lines += _peer_ratios(result)
     lines += ["", f"Exact planner for {c.kind}: `{EXACT_PLANNER[c.kind]}` (point robot); a mismatch is a failure "
@@ -379,7 +373,7 @@ def write_scen_outputs(result: ScenResult, out_dir: Path, total_queries: int) ->
         w = csv.DictWriter(fh, fieldnames=SCEN_COLUMNS)
         w.writeheader()
         for r in result.records:
-            w.writerow(r.row())
+            w.writerow({k: csv_cell(v, digits=None) for k, v in r.row().items()})  # exact: optima compared
     files["summary"].write_text(summary_markdown(result, total_queries), encoding="utf-8")
     c = result.config
     props = [("time REAL", "REAL"), ("solved BOOLEAN", "BOOLEAN"), ("status ENUM", "ENUM"),

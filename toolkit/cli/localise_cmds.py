@@ -21,6 +21,7 @@ from .app import Interrupted, app, bench_app
 from .options import check_writable, count, non_negative, parse_list, parse_pose
 from .options import seed as seed_ok
 from .options import workers as workers_ok
+from .progress import progress
 
 __all__: list[str] = []
 
@@ -254,15 +255,6 @@ def bench_localisers(
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
 ) -> None:
     """Benchmark localisers on random true poses: runs.csv, summary.md and plots in --out."""
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
     from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.localisers import FILES, BenchConfig, TrialResult, make_tasks, run_trial, write_csv, write_summary
     from ..bench.localisers.plots import write_plots
@@ -293,14 +285,10 @@ def bench_localisers(
     out.mkdir(parents=True, exist_ok=True)
     results: list[TrialResult] = []
     t0 = time.perf_counter()
-    columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-               TextColumn("eta"), TimeRemainingColumn())
     interrupted = False
-    with Progress(*columns, transient=False) as progress:
-        bar = progress.add_task(f"{', '.join(scenarios)} on {', '.join(maps)}", total=len(tasks))
+    with progress(f"{', '.join(scenarios)} on {', '.join(maps)}", len(tasks)) as advance:
         try:
-            results = collect_tasks(run_trial, tasks, workers=workers, dask_address=dask,
-                                    on_done=lambda _r: progress.advance(bar))
+            results = collect_tasks(run_trial, tasks, workers=workers, dask_address=dask, on_done=advance)
         except TasksInterrupted as exc:  # keep what finished; the files say they are incomplete
             results, interrupted = list(exc.results), True
             if not results:

@@ -9,14 +9,13 @@ from typing import Any
 
 import numpy as np
 import typer
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ..world import SONAR_MODELS, CollisionChecker, NxtnavError, Pose, RobotGeometry, load_map
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
 from .options import check_writable, count, parse_floats, parse_list, parse_pose, parse_xy, port
 from .options import seed as seed_ok
 from .options import workers as workers_ok
+from .progress import progress
 
 __all__: list[str] = []
 
@@ -269,11 +268,8 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
     names = _names(settings or ",".join(MISSION_SETTINGS), "--settings", list(MISSION_SETTINGS))
     tasks = pareto_tasks(trials, seed, settings=names, sonars=sonars, maps=maps, noise_models=models,
                          random_start=random_start)
-    console = Console(stderr=True)
-    with Progress(TextColumn("[bold]missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=console, transient=True) as progress:
-        bar = progress.add_task("missions", total=len(tasks))
-        _, results = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
+    with progress("missions", len(tasks), transient=True) as advance:
+        _, results = run_paper(tasks, workers=workers, on_done=advance)
     points = pareto_points(results)
     typer.echo("| Setting | Sonar | Map | Trials | Success | Collisions | Mean final error (cm) "
                "| Median robot time (s) | Median completion (s) | On the front |")
@@ -361,13 +357,10 @@ def paper(
     tasks = [t for so in sonars
              for t in paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=so,
                                   random_start=random_start, options=options)]
-    console = Console(stderr=True)
-    with Progress(TextColumn("[bold]missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=console, transient=True) as progress:
-        bar = progress.add_task("missions", total=len(tasks))
+    with progress("missions", len(tasks), transient=True) as advance:
         done = len(tasks)
         try:
-            tables, results = run_paper(tasks, workers=workers, on_done=lambda _r: progress.advance(bar))
+            tables, results = run_paper(tasks, workers=workers, on_done=advance)
         except TasksInterrupted as exc:  # keep the finished missions; every output says it is incomplete
             results = list(exc.results)
             done, tables = len(results), summarise(results)

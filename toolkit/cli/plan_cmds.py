@@ -9,8 +9,6 @@ from typing import Any
 
 import numpy as np
 import typer
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import Interrupted, app, bench_app, fail
@@ -19,6 +17,7 @@ from .options import repeats as repeats_ok
 from .options import seed as seed_ok
 from .options import time_limit as time_limit_ok
 from .options import workers as workers_ok
+from .progress import progress
 
 __all__: list[str] = []
 
@@ -208,12 +207,8 @@ def bench_planners(
                              exec_repeats=exec_repeats, robot_radius=radius,
                              noise=_noise(noise_model, motion_noise, turn_noise))
     out_dir = check_out_dir(out, force)
-    console = Console(stderr=True)
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TimeRemainingColumn(), console=console, transient=False) as progress:
-        task = progress.add_task("references and runs", total=config.n_tasks())
-        result = run_benchmark(config, workers=workers, dask_address=dask,
-                               on_done=lambda _: progress.advance(task))
+    with progress("references and runs", config.n_tasks()) as advance:
+        result = run_benchmark(config, workers=workers, dask_address=dask, on_done=advance)
     if not result.records:
         raise Interrupted("no planner run had finished; nothing written")
     files = write_results(result, out_dir, plots=plots)

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import typer
 
+from ..formats import cell
 from .app import app
 from .options import parse_list
 
@@ -18,10 +18,6 @@ def _localiser_names() -> list[str]:
     from localisation import LOCALISERS
 
     return LOCALISERS.names()
-
-
-def _fmt(v: float, digits: int = 2) -> str:
-    return "-" if not math.isfinite(v) else f"{v:.{digits}f}"
 
 
 @app.command("replay")
@@ -56,15 +52,15 @@ def replay_cmd(
                    "(deg) | median spread (cm) |")
         typer.echo("|---|---:|---:|---:|---:|---:|---:|")
         for n, r in summary.items():
-            typer.echo(f"| {n} | {r['updates']:.0f} | {_fmt(r['rmse_cm'])} | {_fmt(r['median_error_cm'])} | "
-                       f"{_fmt(r['final_error_cm'])} | {_fmt(r['final_heading_error_deg'])} | "
-                       f"{_fmt(r['median_spread_cm'])} |")
+            typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['rmse_cm'])} | {cell(r['median_error_cm'])} | "
+                       f"{cell(r['final_error_cm'])} | {cell(r['final_heading_error_deg'])} | "
+                       f"{cell(r['median_spread_cm'])} |")
     else:
         typer.echo(f"| localiser | updates | median distance to {names[0]} (cm) | largest (cm) | median spread (cm) |")
         typer.echo("|---|---:|---:|---:|---:|")
         for n, r in summary.items():
-            typer.echo(f"| {n} | {r['updates']:.0f} | {_fmt(r['median_agreement_cm'])} | "
-                       f"{_fmt(r['max_agreement_cm'])} | {_fmt(r['median_spread_cm'])} |")
+            typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['median_agreement_cm'])} | "
+                       f"{cell(r['max_agreement_cm'])} | {cell(r['median_spread_cm'])} |")
     for n, ok in report.reproduced.items():
         if ok is None:
             why = "holds no live estimate" if not report.compared else "lacks the localiser's random stream"

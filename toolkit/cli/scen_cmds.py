@@ -11,6 +11,7 @@ import yaml
 from ..world import NxtnavError, import_map
 from .app import bench_app, maps_app
 from .options import parse_list
+from .progress import progress
 
 __all__: list[str] = []
 
@@ -101,15 +102,6 @@ def bench_scen(
 
     Writes DIR/scen.csv, DIR/summary.md and DIR/scen.log (OMPL format, for Planner Arena).
     """
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
     from planners import PLANNERS
 
     from ..bench.scen import ScenConfig, load_scen_map, read_scen, run_scen, select_queries, summarise
@@ -144,12 +136,8 @@ def bench_scen(
     chosen = select_queries(queries, limit)
     out.mkdir(parents=True, exist_ok=True)
     config = ScenConfig(str(scen), str(map_path), kind, tuple(names), radius, cell_cm, time_limit, seed)  # type: ignore[arg-type]
-    columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-               TextColumn("eta"), TimeRemainingColumn())
-    with Progress(*columns, transient=False) as progress:
-        bar = progress.add_task(f"{scen.name}: {', '.join(names)}", total=len(chosen) * len(names))
-        result = run_scen(config, chosen, workers=workers, dask_address=dask,
-                          on_done=lambda _r: progress.advance(bar))
+    with progress(f"{scen.name}: {', '.join(names)}", len(chosen) * len(names)) as advance:
+        result = run_scen(config, chosen, workers=workers, dask_address=dask, on_done=advance)
     files = write_outputs(result, out, len(chosen))
     typer.echo(files["summary"].read_text(encoding="utf-8"))
     typer.echo(f"wrote {', '.join(str(p) for p in files.values())}")

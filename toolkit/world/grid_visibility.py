@@ -38,15 +38,21 @@ IntArray = NDArray[np.int64]
 # from +x, i.e. the right end of the interval on a row above u)
 _LDX, _LDY, _LOP, _HDX, _HDY, _HOP = 0, 1, 2, 3, 4, 5
 
+# The helpers below are compiled for one explicit signature each: called with literal constants
+# (``_push(out, n, x, y, 0, 0, 0, 0)``) numba would otherwise compile a version per combination of
+# literals (eleven of `_push`), tripling the first, uncached compilation.
+_GRIDS = "boolean[:, ::1], boolean[:, ::1], boolean[:, ::1]"  # free cells, pinches, targets
+_GROWN = "Tuple((int64[:, ::1], int64))"  # a growable output array and its rows filled
 
-@njit(cache=True)
+
+@njit("int64(int64, int64, int64, int64)", cache=True)
 def _cmp(ax: int, ay: int, bx: int, by: int) -> int:
     """Sign of angle(a) - angle(b) for directions in the closed upper half-plane (never opposite)."""
     c = ax * by - ay * bx
     return -1 if c > 0 else (1 if c < 0 else 0)
 
 
-@njit(cache=True)
+@njit("int64[:, ::1](int64[:, ::1], int64, int64, int64, int64, int64, int64, int64)", cache=True)
 def _push(buf: IntArray, n: int, ldx: int, ldy: int, lop: int, hdx: int, hdy: int, hop: int) -> IntArray:
     if n == buf.shape[0]:
         bigger = np.empty((2 * n, 6), dtype=np.int64)
@@ -56,30 +62,30 @@ def _push(buf: IntArray, n: int, ldx: int, ldy: int, lop: int, hdx: int, hdy: in
     return buf
 
 
-@njit(cache=True)
+@njit("boolean(int64, int64, int64, int64, int64, int64)", cache=True)
 def _nonempty(ldx: int, ldy: int, lop: int, hdx: int, hdy: int, hop: int) -> bool:
     c = _cmp(ldx, ldy, hdx, hdy)
     return c < 0 or (c == 0 and lop == 0 and hop == 0)
 
 
-@njit(cache=True)
+@njit("boolean(int64[::1], int64, int64)", cache=True)
 def _contains(iv: IntArray, dx: int, dy: int) -> bool:
     a = _cmp(iv[_LDX], iv[_LDY], dx, dy)
     b = _cmp(dx, dy, iv[_HDX], iv[_HDY])
     return (a < 0 or (a == 0 and iv[_LOP] == 0)) and (b < 0 or (b == 0 and iv[_HOP] == 0))
 
 
-@njit(cache=True)
+@njit("float64(int64, int64, int64)", cache=True)
 def _x_at(dx: int, dy: int, h: int) -> float:
     return dx * h / dy
 
 
-@njit(cache=True)
+@njit("boolean(boolean[:, ::1], int64, int64)", cache=True)
 def _blocked(free: NDArray[np.bool_], i: int, j: int) -> bool:
     return not (0 <= j < free.shape[0] and 0 <= i < free.shape[1] and free[j, i])
 
 
-@njit(cache=True)
+@njit("UniTuple(int64, 2)(int64[::1], int64, int64, int64, int64, int64, int64)", cache=True)
 def _row_range(iv: IntArray, ux: int, h0: int, h1: int, lo: int, hi: int, pad: int) -> tuple[int, int]:
     """Columns that rays of `iv` can reach between row lines h0 and h1 (a superset), clipped to [lo, hi]."""
     xs0 = ux + _x_at(iv[_HDX], iv[_HDY], h0)
@@ -91,7 +97,7 @@ def _row_range(iv: IntArray, ux: int, h0: int, h1: int, lo: int, hi: int, pad: i
     return a, b
 
 
-@njit(cache=True)
+@njit(f"{_GROWN}({_GRIDS}, int64, int64, int64[::1], int64[:, ::1], int64)", cache=True)
 def _scan_up(free: NDArray[np.bool_], pinch: NDArray[np.bool_], target: NDArray[np.bool_], ux: int, uy: int,
              first: IntArray, out: IntArray, n_out: int) -> tuple[IntArray, int]:
     """Append to `out` the target lattice points strictly above row line ``uy`` that ``(ux, uy)`` sees.
@@ -181,7 +187,7 @@ def _scan_up(free: NDArray[np.bool_], pinch: NDArray[np.bool_], target: NDArray[
     return out, n_out
 
 
-@njit(cache=True)
+@njit(f"{_GROWN}({_GRIDS}, int64, int64, int64, int64[:, ::1], int64)", cache=True)
 def _walk_row(free: NDArray[np.bool_], pinch: NDArray[np.bool_], target: NDArray[np.bool_], ux: int, uy: int,
               step: int, out: IntArray, n_out: int) -> tuple[IntArray, int]:
     """Append the targets seen along row line ``uy`` from ``(ux, uy)`` towards ``step`` (+1 or -1)."""

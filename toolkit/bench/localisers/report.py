@@ -12,16 +12,9 @@ import numpy as np
 
 from localisation.base import LOCALISERS
 
+from ...formats import cell, csv_cell, percent
 from ..common import finite_median
 from .records import COLUMNS, SUCCESS_CM, SUCCESS_DEG, BenchConfig, TrialResult
-
-
-def _fmt(v: Any) -> Any:
-    if isinstance(v, bool | np.bool_):
-        return "true" if v else "false"
-    if isinstance(v, float):
-        return f"{v:.6g}"
-    return v
 
 
 def write_csv(results: Iterable[TrialResult], path: str | Path, scenario: str = "global") -> Path:
@@ -34,12 +27,12 @@ def write_csv(results: Iterable[TrialResult], path: str | Path, scenario: str = 
         w.writerow(cols)
         for r in rows:
             d = r.to_dict()
-            w.writerow([_fmt(d[c]) for c in cols])
+            w.writerow([csv_cell(d[c], digits=6) for c in cols])
     return p
 
 
 def read_csv(path: str | Path) -> list[dict[str, Any]]:
-    """Rows of a benchmark CSV with numbers and booleans parsed."""
+    """Rows of a benchmark CSV with numbers and booleans parsed (an empty cell is NaN)."""
     out: list[dict[str, Any]] = []
     with Path(path).open(newline="") as fh:
         for row in csv.DictReader(fh):
@@ -49,6 +42,8 @@ def read_csv(path: str | Path) -> list[dict[str, Any]]:
                     parsed[k] = v == "true"
                 elif k in ("map", "localiser"):
                     parsed[k] = v
+                elif v == "":  # a value that does not exist (`csv_cell`)
+                    parsed[k] = math.nan
                 else:
                     try:
                         parsed[k] = int(v)
@@ -123,14 +118,6 @@ def _pooled_rms(parts: Sequence[tuple[float, int]]) -> float:
     return math.sqrt(num / den) if den else math.nan
 
 
-def _pct(x: float) -> str:
-    return "-" if not math.isfinite(x) else f"{100 * x:.1f} %"
-
-
-def _num(x: float, unit: str = "", digits: int = 2) -> str:
-    return "-" if not math.isfinite(x) else f"{x:.{digits}f}{unit}"
-
-
 def write_summary(
     results: Sequence[TrialResult],
     path: str | Path,
@@ -194,11 +181,11 @@ def write_summary(
                 row = s["global"].get((m, n))
                 if row is None:
                     continue
-                lines.append(f"| {n} | {row['trials']:.0f} | {_pct(row['success_rate'])} | "
-                             f"{_pct(row['converged_rate'])} | {_pct(row['ambiguous_rate'])} | "
-                             f"{_num(row['median_error_cm'])} | "
-                             f"{_num(row['median_heading_error_deg'])} | {_num(1e3 * row['median_time_s'], '', 1)} | "
-                             f"{_num(1e3 * row['median_cpu_time_s'], '', 1)} | {_num(row['median_scans'], '', 0)} |")
+                lines.append(f"| {n} | {row['trials']:.0f} | {percent(row['success_rate'], 1)} | "
+                             f"{percent(row['converged_rate'], 1)} | {percent(row['ambiguous_rate'], 1)} | "
+                             f"{cell(row['median_error_cm'])} | "
+                             f"{cell(row['median_heading_error_deg'])} | {cell(1e3 * row['median_time_s'], '.1f')} | "
+                             f"{cell(1e3 * row['median_cpu_time_s'], '.1f')} | {cell(row['median_scans'], '.0f')} |")
             lines.append("")
     if "tracking" in s:
         lines += ["## Tracking", "",
@@ -218,12 +205,12 @@ def write_summary(
                 row = s["tracking"].get((m, n))
                 if row is None:
                     continue
-                lines.append(f"| {n} | {row['trials']:.0f} | {_num(row['rmse_cm'])} | "
-                             f"{_num(row['rmse_heading_deg'])} | {_pct(row['blind_fraction'])} | "
-                             f"{_num(row['rmse_echo_cm'])} | {_num(row['median_final_error_cm'])} | "
-                             f"{_num(1e3 * row['median_time_s'], '', 1)} | "
-                             f"{_num(row['median_particles'], '', 0)} / {_num(row['max_particles'], '', 0)} | "
-                             f"{_num(row['median_update_ms'], '', 1)} |")
+                lines.append(f"| {n} | {row['trials']:.0f} | {cell(row['rmse_cm'])} | "
+                             f"{cell(row['rmse_heading_deg'])} | {percent(row['blind_fraction'], 1)} | "
+                             f"{cell(row['rmse_echo_cm'])} | {cell(row['median_final_error_cm'])} | "
+                             f"{cell(1e3 * row['median_time_s'], '.1f')} | "
+                             f"{cell(row['median_particles'], '.0f')} / {cell(row['max_particles'], '.0f')} | "
+                             f"{cell(row['median_update_ms'], '.1f')} |")
             lines.append("")
     if "kidnapped" in s:
         lines += ["## Kidnapped robot", "",
@@ -240,7 +227,7 @@ def write_summary(
                 if row is None:
                     continue
                 lines.append(f"| {n} | {row['trials']:.0f} | {row['localised']:.0f} | "
-                             f"{_pct(row['recovery_rate'])} | {_num(row['median_recovery_scans'], '', 0)} |")
+                             f"{percent(row['recovery_rate'], 1)} | {cell(row['median_recovery_scans'], '.0f')} |")
             lines.append("")
     failed = [r for r in results if r.failure]
     if failed:

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ...formats import cell, csv_cell, percent
 from ...world import NxtnavError
 from ..common import finite_median
 from ..ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
@@ -46,14 +47,6 @@ def summarise(result: BenchmarkResult) -> dict[str, list[dict[str, Any]]]:
     return out
 
 
-def _fmt(v: float, spec: str) -> str:
-    return "–" if v is None or not math.isfinite(v) else format(v, spec)
-
-
-def _pct(v: float) -> str:
-    return "–" if v is None or not math.isfinite(v) else f"{100 * v:.0f}%"
-
-
 def format_summary(result: BenchmarkResult) -> str:
     """``summary.md``: the settings, then one Markdown table per map."""
     c = result.config
@@ -80,25 +73,25 @@ def format_summary(result: BenchmarkResult) -> str:
         if c.queries == "presets" and refs:
             r = refs[0]
             lines.append(f"Query: start ({r.query.start[0]:g}, {r.query.start[1]:g}), goal ({r.query.goal[0]:g}, "
-                         f"{r.query.goal[1]:g}); shortest {_fmt(r.shortest_length_cm, '.1f')} cm, min-link "
+                         f"{r.query.goal[1]:g}); shortest {cell(r.shortest_length_cm, '.1f')} cm, min-link "
                          f"{'–' if r.min_link_turns is None else r.min_link_turns} turns.")
         elif refs:
             ml_turns = finite_median(float(r.min_link_turns) for r in refs if r.min_link_turns is not None)
             lines.append(f"{len(refs)} random queries; median shortest path "
-                         f"{_fmt(finite_median(r.shortest_length_cm for r in refs), '.1f')} cm, median min-link turns "
-                         f"{_fmt(ml_turns, 'g')}.")
+                         f"{cell(finite_median(r.shortest_length_cm for r in refs), '.1f')} cm, median min-link turns "
+                         f"{cell(ml_turns, 'g')}.")
         lines += ["",
                   "| planner | success | median time (ms) | first solution (ms) | length ratio | turns | "
                   "exec error (cm) | exec collisions | collision checks |",
                   "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for row in summary[m]:
             lines.append(
-                f"| {row['planner']} | {_pct(row['success_rate'])} | "
-                f"{_fmt(1e3 * row['median_time_s'], '.2f')} | {_fmt(1e3 * row['median_first_solution_s'], '.2f')} | "
-                f"{_fmt(row['median_length_ratio'], '.3f')} | "
-                f"{_fmt(row['median_turns'], 'g')} | {_fmt(row['median_exec_error_cm'], '.2f')} | "
-                f"{_pct(row['median_exec_collision_fraction'])} | "
-                f"{_fmt(row['median_collision_checks'], '.0f')} |")
+                f"| {row['planner']} | {percent(row['success_rate'])} | "
+                f"{cell(1e3 * row['median_time_s'], '.2f')} | {cell(1e3 * row['median_first_solution_s'], '.2f')} | "
+                f"{cell(row['median_length_ratio'], '.3f')} | "
+                f"{cell(row['median_turns'], 'g')} | {cell(row['median_exec_error_cm'], '.2f')} | "
+                f"{percent(row['median_exec_collision_fraction'])} | "
+                f"{cell(row['median_collision_checks'], '.0f')} |")
         rho, n = turns_error_correlation(result, m)
         if math.isfinite(rho):
             lines += ["", f"Execution error vs turns over all successful runs: Spearman rank correlation "
@@ -135,18 +128,6 @@ def check_out_dir(out: str | Path, force: bool = False) -> Path:
     return p
 
 
-def _csv_value(v: Any) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, float):
-        if not math.isfinite(v):
-            return ""
-        return f"{v:.10g}"
-    return str(v)
-
-
 def write_runs_csv(result: BenchmarkResult, path: Path) -> None:
     with path.open("w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
@@ -157,7 +138,7 @@ def write_runs_csv(result: BenchmarkResult, path: Path) -> None:
                 v = getattr(r, col)
                 if col == "turns" and isinstance(v, float) and math.isfinite(v):
                     v = int(v)
-                row.append(_csv_value(v))
+                row.append(csv_cell(v))
             w.writerow(row)
 
 
@@ -179,7 +160,7 @@ def write_references_csv(result: BenchmarkResult, path: Path) -> None:
         w.writerow(cols)
         for r in result.references:
             q = r.query
-            w.writerow([_csv_value(v) for v in (q.map, q.index, q.start[0], q.start[1], q.goal[0], q.goal[1],
+            w.writerow([csv_cell(v) for v in (q.map, q.index, q.start[0], q.start[1], q.goal[0], q.goal[1],
                                                 r.shortest_length_cm, r.min_link_turns, r.min_link_length_cm,
                                                 r.status)])
 
@@ -238,7 +219,7 @@ def _ompl_experiment(result: BenchmarkResult, maps: Sequence[str], name: str) ->
         if ref.query.map in maps:
             q = ref.query
             setup.append(f"{q.map} query {q.index}: start {q.start} goal {q.goal} shortest "
-                         f"{_fmt(ref.shortest_length_cm, '.3f')} cm min-link turns {ref.min_link_turns}")
+                         f"{cell(ref.shortest_length_cm, '.3f')} cm min-link turns {ref.min_link_turns}")
     return OmplExperiment(
         name=name,
         planners=planners,

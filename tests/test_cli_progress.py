@@ -1,0 +1,38 @@
+"""Progress lines for stderr that is not a terminal (logs, CI): how often and what they say."""
+
+from __future__ import annotations
+
+import io
+import re
+
+from toolkit.cli.progress import LineProgress
+
+
+def _counts(text: str, total: int) -> list[int]:
+    lines = text.splitlines()
+    assert all(re.fullmatch(rf"missions: \d+/{total} \(\d+ %\), \d+ s", ln) for ln in lines), lines
+    return [int(ln.split()[1].split("/")[0]) for ln in lines]
+
+
+def test_first_every_tenth_and_last() -> None:
+    out = io.StringIO()
+    bar = LineProgress("missions", 200, out)
+    for _ in range(200):
+        bar.advance("a result")
+    assert _counts(out.getvalue(), 200) == [1, *range(20, 201, 20)]
+
+
+def test_a_quiet_spell_longer_than_every_s_gets_a_line() -> None:
+    out = io.StringIO()
+    bar = LineProgress("missions", 1000, out, every_s=0.0)
+    for _ in range(5):
+        bar.advance()
+    assert _counts(out.getvalue(), 1000) == [1, 2, 3, 4, 5]
+
+
+def test_fewer_tasks_than_tenths() -> None:
+    out = io.StringIO()
+    bar = LineProgress("missions", 3, out)
+    for _ in range(3):
+        bar.advance()
+    assert _counts(out.getvalue(), 3) == [1, 2, 3]

@@ -1,0 +1,87 @@
+"""Progress of long commands on stderr: a live bar on a terminal, a plain line now and then otherwise.
+
+Benchmarks and paper tables often run for hours under ``nohup``, in CI or with stderr sent to a
+file, where a live bar shows nothing until it ends. There `progress` writes a line such as
+``missions: 12/200 (6 %), 31 s`` when the first task finishes, then at every further tenth of the
+work or half a minute, whichever comes first, and when all are done.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import TextIO
+
+__all__ = ["LineProgress", "progress"]
+
+Advance = Callable[..., None]
+"""Called once per finished task (any arguments are ignored, so it can be an ``on_done`` callback)."""
+
+
+class LineProgress:
+    """Plain progress lines for a stream that is not a terminal.
+
+    Parameters
+    ----------
+    label : str
+        What is counted, e.g. ``"missions"``.
+    total : int
+        How many tasks there are.
+    stream : TextIO
+        Where the lines go.
+    every_s : float
+        Longest quiet spell between two lines while tasks finish (s).
+    """
+
+    def __init__(self, label: str, total: int, stream: TextIO, every_s: float = 30.0) -> None:
+        self.label, self.total, self.stream, self.every_s = label, total, stream, every_s
+        self.done = 0
+        self._t0 = self._last_t = time.monotonic()
+        self._last_tenth = -1
+
+    def advance(self, *_: object) -> None:
+        self.done += 1
+        now = time.monotonic()
+        tenth = 10 * self.done // max(self.total, 1)
+        if self.done in (1, self.total) or tenth > self._last_tenth or now - self._last_t >= self.every_s:
+            self._last_t, self._last_tenth = now, tenth
+            pct = 100.0 * self.done / max(self.total, 1)
+            print(f"{self.label}: {self.done}/{self.total} ({pct:.0f} %), {now - self._t0:.0f} s",
+                  file=self.stream, flush=True)
+
+
+@contextmanager
+def progress(label: str, total: int, *, transient: bool = False) -> Iterator[Advance]:
+    """Report the progress of `total` tasks on stderr; yields the function to call as each finishes.
+
+    On a terminal a live bar (removed at the end when `transient`); otherwise `LineProgress`.
+
+    >>> import io, contextlib
+    >>> err = io.StringIO()
+    >>> with contextlib.redirect_stderr(err), progress("trials", 3) as advance:
+    ...     for _ in range(3):
+    ...         advance()
+    >>> err.getvalue().splitlines()[-1].startswith("trials: 3/3 (100 %)")
+    True
+    """
+    from rich.console import Console
+
+    console = Console(file=sys.stderr)
+    if not console.is_terminal:
+        yield LineProgress(label, total, sys.stderr).advance
+        return
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("eta"), TimeRemainingColumn(), console=console, transient=transient) as bar:
+        task = bar.add_task(label, total=total)
+        yield lambda *_: bar.advance(task)
