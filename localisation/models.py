@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import ConfigError, Map, RngLike, as_rng, ray_cast, wrap_angle
+from toolkit.world import ConfigError, Map, NxtSonar, RngLike, as_rng, ray_cast, wrap_angle
 
 from .base import Motion
 from .range_table import (
@@ -151,15 +151,27 @@ class MotionModel:
         return {"model": self.model, "motion": self.motion, "turn": self.turn, "inflation": self.inflation}
 
 
-def exact_ranges(map: Map, poses: ArrayLike, rel_angles: ArrayLike) -> FloatArray:
+def exact_ranges(map: Map, poses: ArrayLike, rel_angles: ArrayLike, *, beam_width_deg: float = 0.0,
+                 beam_rays: int = 9, critical_incidence_deg: float | None = None,
+                 max_range_cm: float | None = None) -> FloatArray:
     """Expected ranges (cm) by exact ray casting: poses (N, 3) x sensor angles (B,) relative to the heading.
 
-    Returns (N, B); ``inf`` where a ray meets no wall.
+    With ``beam_width_deg > 0`` each range is a lobe's nearest echo, cast as `toolkit.world.NxtSonar`
+    casts it: `beam_rays` rays spread evenly over the lobe, a ray meeting its wall further than
+    `critical_incidence_deg` from the normal does not echo (None: every ray echoes). Walls beyond
+    `max_range_cm` (None: no limit) are not seen, which keeps rays short on large open maps.
+
+    Returns (N, B); ``inf`` where nothing echoes.
     """
     p = np.asarray(poses, dtype=float).reshape(-1, 3)
     rel = np.asarray(rel_angles, dtype=float).ravel()
     absolute = p[:, 2:3] + rel[None, :]
-    return np.asarray(ray_cast(map.walls, p[:, :2], absolute), dtype=float)
+    reach = math.inf if max_range_cm is None else float(max_range_cm)
+    if beam_width_deg > 0:
+        crit = 90.0 if critical_incidence_deg is None else float(critical_incidence_deg)
+        lobe = NxtSonar(beam_width_deg=float(beam_width_deg), beam_rays=int(beam_rays), critical_incidence_deg=crit)
+        return np.asarray(lobe.echo_distance(map.walls, p[:, :2], absolute, max_range=reach), dtype=float)
+    return np.asarray(ray_cast(map.walls, p[:, :2], absolute, max_range=reach), dtype=float)
 
 
 @dataclass(frozen=True)
