@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import ConfigError, Map, NxtSonar, RngLike, as_rng, ray_cast, wrap_angle
+from toolkit.world import ConfigError, Map, RngLike, as_rng, ray_cast, wrap_angle
 
 from .base import Motion
 from .range_table import (
@@ -158,20 +158,32 @@ def exact_ranges(map: Map, poses: ArrayLike, rel_angles: ArrayLike, *, beam_widt
 
     With ``beam_width_deg > 0`` each range is a lobe's nearest echo, cast as `toolkit.world.NxtSonar`
     casts it: `beam_rays` rays spread evenly over the lobe, a ray meeting its wall further than
-    `critical_incidence_deg` from the normal does not echo (None: every ray echoes). Walls beyond
+    `critical_incidence_deg` from the normal does not echo (None: every ray echoes). Neighbouring
+    beams share rays (beams a degree apart, rays 2.5 degrees apart: a window of 31 beams has 101
+    distinct rays, not 279), so each distinct direction is cast once per pose. Walls beyond
     `max_range_cm` (None: no limit) are not seen, which keeps rays short on large open maps.
 
     Returns (N, B); ``inf`` where nothing echoes.
     """
     p = np.asarray(poses, dtype=float).reshape(-1, 3)
     rel = np.asarray(rel_angles, dtype=float).ravel()
-    absolute = p[:, 2:3] + rel[None, :]
     reach = math.inf if max_range_cm is None else float(max_range_cm)
-    if beam_width_deg > 0:
-        crit = 90.0 if critical_incidence_deg is None else float(critical_incidence_deg)
-        lobe = NxtSonar(beam_width_deg=float(beam_width_deg), beam_rays=int(beam_rays), critical_incidence_deg=crit)
-        return np.asarray(lobe.echo_distance(map.walls, p[:, :2], absolute, max_range=reach), dtype=float)
-    return np.asarray(ray_cast(map.walls, p[:, :2], absolute, max_range=reach), dtype=float)
+    if not beam_width_deg > 0:
+        return np.asarray(ray_cast(map.walls, p[:, :2], p[:, 2:3] + rel[None, :], max_range=reach), dtype=float)
+    half = math.radians(beam_width_deg) / 2.0
+    offsets = np.linspace(-half, half, beam_rays) if beam_rays > 1 else np.zeros(1)
+    # the lobe's rays relative to the heading, merged where beams share them (to a nanoradian)
+    rays = (rel[:, None] + offsets[None, :]).ravel()
+    _, first, ray_of = np.unique(np.round(rays, 9), return_index=True, return_inverse=True)
+    absolute = p[:, 2:3] + rays[first][None, :]
+    t, hit = ray_cast(map.walls, p[:, :2], absolute, return_wall=True, max_range=reach)
+    if critical_incidence_deg is not None:
+        # specular loss: a ray meeting its wall further than the critical angle from the normal
+        w = map.walls[np.maximum(hit, 0)]
+        ex, ey = w[..., 2] - w[..., 0], w[..., 3] - w[..., 1]
+        cos_inc = np.abs(np.cos(absolute) * ey - np.sin(absolute) * ex) / np.hypot(ex, ey)
+        t = np.where(cos_inc >= math.cos(math.radians(critical_incidence_deg)), t, np.inf)
+    return np.asarray(t[:, ray_of.reshape(rel.size, offsets.size)].min(axis=2), dtype=float)
 
 
 @dataclass(frozen=True)
