@@ -239,12 +239,11 @@ class ParticleFilter(Localiser):
         )
         if beam_rays < 1:
             raise ConfigError(f"beam_rays must be >= 1, got {beam_rays}")
+        # exact casts may stop a cap beyond the range limit: a wall farther than that costs a reading
+        # below the limit the capped residual anyway
+        reach = None if max_range_cm is None else float(max_range_cm) + residual_cap * sensor_sigma_cm
         self.lobe: dict[str, Any] = {"beam_width_deg": max(float(beam_width_deg), 0.0), "beam_rays": int(beam_rays),
-                     "critical_incidence_deg": critical_incidence_deg, "max_range_cm": max_range_cm}
-        if max_range_cm is not None:
-            # a wall farther than the cap beyond the limit costs a reading below it the capped residual
-            # anyway: the cast may stop there
-            self.lobe["max_range_cm"] = float(max_range_cm) + residual_cap * sensor_sigma_cm
+                                     "critical_incidence_deg": critical_incidence_deg, "max_range_cm": reach}
         if tracking_exact is None:
             tracking_exact = self.table is not None and self.table.resolution_cm > 1.0
         self.tracking_exact = bool(tracking_exact)
@@ -351,8 +350,9 @@ class ParticleFilter(Localiser):
             self._lattice_start(rel, meas)
         self._exact = tracking and self.tracking_exact
         try:
-            # one Gaussian stands for a one-mode belief only: twins keep the uniform prior, so that
-            # a fit to their joint cloud cannot pick one of them
+            # one Gaussian stands for a one-mode belief only: twins keep the uniform prior (or, with
+            # tracking_prior_modes, one Gaussian each), so that a fit to their joint cloud cannot pick
+            # one of them
             unimodal = len(self._modes) <= 1
             use_prior = tracking and self.tracking_prior and (unimodal or self.tracking_prior_modes)
             self._iterate(rel, meas, self._predicted_prior(not unimodal) if use_prior else None)

@@ -20,7 +20,6 @@ Two models, both seeded through an ``rng`` argument:
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from dataclasses import asdict, dataclass, is_dataclass
 from typing import Any, ClassVar
@@ -171,13 +170,8 @@ class NxtSonar(SonarModel):
             if not 0.0 <= getattr(self, k) <= 1.0:
                 raise ConfigError(f"{k} must be a probability in [0, 1], got {getattr(self, k)!r}")
 
-    def echo_distance(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike,
-                      max_range: float = math.inf) -> Any:
-        """Noise-free distance of the nearest echo in the lobe (inf when every ray is lost).
-
-        Rays stop at `max_range` cm (walls beyond do not echo; a range-limited reader's shortcut, the
-        simulated readings themselves use the whole ray).
-        """
+    def echo_distance(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike) -> Any:
+        """Noise-free distance of the nearest echo in the lobe (inf when every ray is lost)."""
         index = edge_index(walls)
         w = index.walls
         o, a, shape = _flatten(origins, angles)
@@ -185,8 +179,7 @@ class NxtSonar(SonarModel):
         offsets = np.linspace(-half, half, self.beam_rays) if self.beam_rays > 1 else np.zeros(1)
         ang = (a[:, None] + offsets[None, :]).ravel()
         dx, dy = np.cos(ang), np.sin(ang)
-        t, hit = index.cast(np.repeat(o[:, 0], offsets.size), np.repeat(o[:, 1], offsets.size), ang,
-                            max_range=max_range)
+        t, hit = index.cast(np.repeat(o[:, 0], offsets.size), np.repeat(o[:, 1], offsets.size), ang)
         first, idx = t[:, 0], np.maximum(hit[:, 0], 0)
         if len(w) == 0:
             return np.full(shape, np.inf)
