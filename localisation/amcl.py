@@ -220,7 +220,7 @@ class Amcl(Localiser):
     """
 
     name: ClassVar[str] = "amcl"
-    model_options: ClassVar[frozenset[str]] = MODEL_OPTIONS - {"sensor_sigma_cm", "max_range_cm"}
+    model_options: ClassVar[frozenset[str]] = MODEL_OPTIONS - {"sensor_sigma_cm", "max_range_cm", "beam_rays"}
 
     def __init__(
         self,

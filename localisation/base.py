@@ -36,9 +36,10 @@ FloatArray = NDArray[np.float64]
 LOCALISERS: Registry[Localiser] = Registry("localiser")
 
 MODEL_OPTIONS = frozenset({"noise_model", "motion_noise", "turn_noise", "sensor_sigma_cm", "beam_width_deg",
-                           "critical_incidence_deg", "max_range_cm", "clearance_cm"})
+                           "beam_rays", "critical_incidence_deg", "max_range_cm", "clearance_cm"})
 """Constructor options that describe the robot rather than the algorithm: motion noise (model, cm or
-fraction, rad or fraction), sonar noise (cm), sonar lobe (deg), range limit (cm), robot radius (cm)."""
+fraction, rad or fraction), sonar noise (cm), sonar lobe (deg, rays that sample it), range limit (cm),
+robot radius (cm)."""
 
 
 @dataclass(frozen=True)

@@ -151,15 +151,39 @@ class MotionModel:
         return {"model": self.model, "motion": self.motion, "turn": self.turn, "inflation": self.inflation}
 
 
-def exact_ranges(map: Map, poses: ArrayLike, rel_angles: ArrayLike) -> FloatArray:
+def exact_ranges(map: Map, poses: ArrayLike, rel_angles: ArrayLike, *, beam_width_deg: float = 0.0,
+                 beam_rays: int = 9, critical_incidence_deg: float | None = None,
+                 max_range_cm: float | None = None) -> FloatArray:
     """Expected ranges (cm) by exact ray casting: poses (N, 3) x sensor angles (B,) relative to the heading.
 
-    Returns (N, B); ``inf`` where a ray meets no wall.
+    With ``beam_width_deg > 0`` each range is a lobe's nearest echo, cast as `toolkit.world.NxtSonar`
+    casts it: `beam_rays` rays spread evenly over the lobe, a ray meeting its wall further than
+    `critical_incidence_deg` from the normal does not echo (None: every ray echoes). Neighbouring
+    beams share rays (beams a degree apart, rays 2.5 degrees apart: a window of 31 beams has 101
+    distinct rays, not 279), so each distinct direction is cast once per pose. Walls beyond
+    `max_range_cm` (None: no limit) are not seen, which keeps rays short on large open maps.
+
+    Returns (N, B); ``inf`` where nothing echoes.
     """
     p = np.asarray(poses, dtype=float).reshape(-1, 3)
     rel = np.asarray(rel_angles, dtype=float).ravel()
-    absolute = p[:, 2:3] + rel[None, :]
-    return np.asarray(ray_cast(map.walls, p[:, :2], absolute), dtype=float)
+    reach = math.inf if max_range_cm is None else float(max_range_cm)
+    if not beam_width_deg > 0:
+        return np.asarray(ray_cast(map.walls, p[:, :2], p[:, 2:3] + rel[None, :], max_range=reach), dtype=float)
+    half = math.radians(beam_width_deg) / 2.0
+    offsets = np.linspace(-half, half, beam_rays) if beam_rays > 1 else np.zeros(1)
+    # the lobe's rays relative to the heading, merged where beams share them (to a nanoradian)
+    rays = (rel[:, None] + offsets[None, :]).ravel()
+    _, first, ray_of = np.unique(np.round(rays, 9), return_index=True, return_inverse=True)
+    absolute = p[:, 2:3] + rays[first][None, :]
+    t, hit = ray_cast(map.walls, p[:, :2], absolute, return_wall=True, max_range=reach)
+    if critical_incidence_deg is not None:
+        # specular loss: a ray meeting its wall further than the critical angle from the normal
+        w = map.walls[np.maximum(hit, 0)]
+        ex, ey = w[..., 2] - w[..., 0], w[..., 3] - w[..., 1]
+        cos_inc = np.abs(np.cos(absolute) * ey - np.sin(absolute) * ex) / np.hypot(ex, ey)
+        t = np.where(cos_inc >= math.cos(math.radians(critical_incidence_deg)), t, np.inf)
+    return np.asarray(t[:, ray_of.reshape(rel.size, offsets.size)].min(axis=2), dtype=float)
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import replace
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -123,22 +123,33 @@ class ParticleFilter(Localiser):
         The sonar's range limit: the table sees no wall beyond it (the NXT's 255 cm).
     beam_width_deg : float
         Sonar lobe width for the expected ranges (0: a thin ray, right for the ``ideal`` sonar; about
-        20 for the NXT, whose reading is the nearest echo in its lobe). Table lookups only.
+        20 for the NXT, whose reading is the nearest echo in its lobe).
+    beam_rays : int
+        Rays that sample the lobe when it is cast exactly (`tracking_exact`), as the sonar model
+        samples it (`toolkit.world.NxtSonar`, 9); the table takes the minimum over its whole-degree
+        directions instead.
     critical_incidence_deg : float, optional
         With a lobe: rays meeting a wall further than this from its normal do not echo (about 40
         for the NXT).
     tracking_exact : bool or None
         In a tracking update (the belief was not global), expected ranges come from exact ray
-        casting (the indexed walls make 1000 particles x 124 beams a few milliseconds) instead of the
-        table. None (default): when the table only approximates a thin ray (no lobe) on cells coarser
-        than 1 cm, a map too large for the memory budget at 1 cm, where the table's cells and whole
-        degrees cost centimetres at long range; a lobe is only modelled by the table.
+        casting (the indexed walls make 1000 particles x 124 beams a few milliseconds; a lobe costs
+        `beam_rays` rays a beam) instead of the table. None (default): when the table's cells are
+        coarser than 1 cm (a map too large for the memory budget at 1 cm), where its cells and whole
+        degrees cost centimetres at long range (for a lobe, also the lobe's discrete rays).
     tracking_prior : bool
         In an update from a one-mode belief that was not global (tracking), the Metropolis moves
         target the predicted belief (a Gaussian fitted to the predicted cloud) times the tempered
         likelihood, not the likelihood alone: a scan with few readings then leaves the belief as
         predicted along the directions it does not constrain, instead of letting the moves spread
-        the cloud there. An ambiguous belief (several modes) keeps the likelihood alone.
+        the cloud there. An ambiguous belief (several modes) keeps the likelihood alone, unless
+        `tracking_prior_modes`.
+    tracking_prior_modes : bool or None
+        With `tracking_prior`, an ambiguous belief's prior is a mixture of one Gaussian per mode of
+        the predicted cloud (weighted by the modes' weights) instead of none: twins keep their own
+        Gaussian (none is picked), and a belief that a few long readings leave spread along a wall
+        (split into neighbouring modes) stays where odometry puts it along that wall instead of
+        being re-fitted anywhere on it. None (default): with `tracking_exact`.
     cache_dir : path, optional
         Disk cache for the table (see `range_table`).
     snapshot_size : int
@@ -184,8 +195,10 @@ class ParticleFilter(Localiser):
         max_range_cm: float | None = None,
         beam_width_deg: float = 0.0,
         critical_incidence_deg: float | None = None,
+        beam_rays: int = 9,
         tracking_exact: bool | None = None,
         tracking_prior: bool = True,
+        tracking_prior_modes: bool | None = None,
         cache_dir: str | None = None,
         snapshot_size: int = 300,
     ) -> None:
@@ -224,9 +237,17 @@ class ParticleFilter(Localiser):
                         range_memory_mb, lattice_step if global_init == "lattice" else None, max_range_cm)
             if use_table else None
         )
+        if beam_rays < 1:
+            raise ConfigError(f"beam_rays must be >= 1, got {beam_rays}")
+        # exact casts may stop a cap beyond the range limit: a wall farther than that costs a reading
+        # below the limit the capped residual anyway
+        reach = None if max_range_cm is None else float(max_range_cm) + residual_cap * sensor_sigma_cm
+        self.lobe: dict[str, Any] = {"beam_width_deg": max(float(beam_width_deg), 0.0), "beam_rays": int(beam_rays),
+                                     "critical_incidence_deg": critical_incidence_deg, "max_range_cm": reach}
         if tracking_exact is None:
-            tracking_exact = self.table is not None and self.table.resolution_cm > 1.0 and not beam_width_deg > 0
+            tracking_exact = self.table is not None and self.table.resolution_cm > 1.0
         self.tracking_exact = bool(tracking_exact)
+        self.tracking_prior_modes = self.tracking_exact if tracking_prior_modes is None else bool(tracking_prior_modes)
         self._exact = False
         if global_init not in ("lattice", "uniform"):
             raise ConfigError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
@@ -329,11 +350,12 @@ class ParticleFilter(Localiser):
             self._lattice_start(rel, meas)
         self._exact = tracking and self.tracking_exact
         try:
-            # one Gaussian stands for a one-mode belief only: twins keep the uniform prior, so that
-            # a fit to their joint cloud cannot pick one of them
+            # one Gaussian stands for a one-mode belief only: twins keep the uniform prior (or, with
+            # tracking_prior_modes, one Gaussian each), so that a fit to their joint cloud cannot pick
+            # one of them
             unimodal = len(self._modes) <= 1
-            self._iterate(rel, meas, self._predicted_prior() if tracking and self.tracking_prior and unimodal
-                          else None)
+            use_prior = tracking and self.tracking_prior and (unimodal or self.tracking_prior_modes)
+            self._iterate(rel, meas, self._predicted_prior(not unimodal) if use_prior else None)
         finally:
             self._exact = False
         if tracking and self.recovery_threshold is not None and self._best_fit > self.recovery_threshold:
@@ -406,7 +428,7 @@ class ParticleFilter(Localiser):
     def _sq_residuals(self, poses: FloatArray, rel: FloatArray, meas: FloatArray, exact: bool = False) -> FloatArray:
         """Summed capped squared normalised residuals per pose; inf for poses outside the free space."""
         if self.table is None or exact or self._exact:
-            expected = exact_ranges(self.map, poses, rel)
+            expected = exact_ranges(self.map, poses, rel, **self.lobe)
             s = self.likelihood.sq_residuals(expected, meas)
             inside = np.asarray(self.map.contains(poses[:, :2]), dtype=bool)
         else:
@@ -448,28 +470,54 @@ class ParticleFilter(Localiser):
                 break
         return max(a, beta + 1e-9)
 
-    def _predicted_prior(self) -> tuple[FloatArray, FloatArray]:
-        """Mean and inverse covariance of a Gaussian fitted to the current (predicted) cloud.
+    def _predicted_prior(self, per_mode: bool = False) -> list[tuple[FloatArray, FloatArray, float]]:
+        """Gaussians fitted to the current (predicted) cloud: (mean, inverse covariance, log coefficient).
 
-        The covariance gets a floor of (0.05 cm)^2 and (0.05 degree)^2, so that a cloud collapsed to
-        nearly one pose still leaves the moves room.
+        One for the whole cloud, or with `per_mode` one per cluster of the cloud (`cluster`, the modes'
+        radius and heading), each with the log of its weight over the square root of its covariance's
+        determinant, so that their mixture is the predicted belief. Each covariance gets a floor of
+        (0.05 cm)^2 and (0.05 degree)^2, so that a cloud collapsed to nearly one pose still leaves the
+        moves room.
         """
-        mean, cov = cloud_stats(self.particles, log_normalise(self.log_weights))
-        cov = cov + np.diag([0.05**2, 0.05**2, math.radians(0.05) ** 2])
-        return mean, np.asarray(np.linalg.inv(cov), dtype=np.float64)
+        floor = np.diag([0.05**2, 0.05**2, math.radians(0.05) ** 2])
+        w = log_normalise(self.log_weights)
+        if not per_mode:
+            mean, cov = cloud_stats(self.particles, w)
+            return [(mean, np.asarray(np.linalg.inv(cov + floor), dtype=np.float64), 0.0)]
+        labels, log_masses = cluster(self.particles, self.log_weights, self.mode_radius_cm, self.mode_heading_rad,
+                                     self.max_modes)
+        out = []
+        for k, lm in enumerate(log_masses):
+            members = labels == k
+            wk = w[members]
+            if not np.isfinite(lm) or wk.sum() <= 0:
+                continue
+            mean, cov = cloud_stats(self.particles[members], wk / wk.sum())
+            cov = cov + floor
+            out.append((mean, np.asarray(np.linalg.inv(cov), dtype=np.float64),
+                        float(lm) - 0.5 * float(np.linalg.slogdet(cov)[1])))
+        return out
 
-    def _iterate(self, rel: FloatArray, meas: FloatArray, prior: tuple[FloatArray, FloatArray] | None = None) -> None:
+    def _iterate(self, rel: FloatArray, meas: FloatArray,
+                 prior: list[tuple[FloatArray, FloatArray, float]] | None = None) -> None:
         """Annealed SMC on one scan: reweigh by a likelihood increment, resample, move (Metropolis).
 
-        With a `prior` (mean, inverse covariance; see `tracking_prior`) the moves target the prior
+        With a `prior` (Gaussians of `_predicted_prior`; see `tracking_prior`) the moves target the prior
         times the tempered likelihood; without, the tempered likelihood alone (a uniform prior).
         """
 
         def log_prior(x: FloatArray) -> FloatArray | float:
             if prior is None:
                 return 0.0
-            d = np.column_stack([x[:, 0] - prior[0][0], x[:, 1] - prior[0][1], angle_diff(x[:, 2], prior[0][2])])
-            return -0.5 * np.einsum("ni,ij,nj->n", d, prior[1], d)
+            terms = []
+            for mean, inv, coef in prior:
+                d = np.column_stack([x[:, 0] - mean[0], x[:, 1] - mean[1], angle_diff(x[:, 2], mean[2])])
+                terms.append(coef - 0.5 * np.einsum("ni,ij,nj->n", d, inv, d))
+            if len(terms) == 1:
+                return terms[0]
+            t = np.vstack(terms)
+            top = t.max(axis=0)
+            return top + np.log(np.exp(t - top).sum(axis=0))
 
         p = self.particles
         log_w = self.log_weights
@@ -589,7 +637,7 @@ class ParticleFilter(Localiser):
                 return 1.0
             expected = e[0].astype(float)
         else:
-            expected = exact_ranges(self.map, p, rel)[0]
+            expected = exact_ranges(self.map, p, rel, **self.lobe)[0]
         with np.errstate(invalid="ignore"):
             off = ~(np.abs(expected - meas) <= 3.0 * self.likelihood.sigma_cm)
         return float(np.mean(off))

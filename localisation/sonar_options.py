@@ -19,15 +19,17 @@ def lobe_options(localiser: str, sonar: str, sensor_noise: float = 1.0) -> dict[
 
     A localiser whose constructor takes ``beam_width_deg`` (and ``critical_incidence_deg``), such as
     the particle filters' range tables, gets the sonar model's values: for ``nxt`` (and a real NXT) a
-    20-degree lobe with specular loss beyond 40 degrees of incidence and its 255 cm range limit
-    (``max_range_cm``, when the localiser takes it); nothing for the thin-ray ``ideal`` sonar or for
-    localisers without the options.
+    20-degree lobe with specular loss beyond 40 degrees of incidence, the rays that sample it
+    (``beam_rays``) and its 255 cm range limit (``max_range_cm``), when the localiser takes them;
+    nothing for the thin-ray ``ideal`` sonar or for localisers without the options.
     """
     model = make_sonar(sonar, noise_sd=sensor_noise)
     width = float(getattr(model, "beam_width_deg", 0.0))
     if width <= 0.0:
         return {}
     lobe = {"beam_width_deg": width}
+    if hasattr(model, "beam_rays"):
+        lobe["beam_rays"] = int(model.beam_rays)
     if hasattr(model, "critical_incidence_deg"):
         lobe["critical_incidence_deg"] = float(model.critical_incidence_deg)
     if hasattr(model, "max_range_cm"):

@@ -444,8 +444,24 @@ def test_blind_actions_are_counted_apart(monkeypatch: pytest.MonkeyPatch, oracle
     assert r.blind_steps == 3
     e = np.asarray(r.errors_cm)
     assert r.rmse_echo_cm == pytest.approx(float(np.sqrt(np.mean(e[0::2] ** 2))))
+    assert r.rmse_blind_cm == pytest.approx(float(np.sqrt(np.mean(e[1::2] ** 2))))
     summary = bench.summarise([r])["tracking"][("map1", "test-dead-reckoning")]
     assert summary["blind_fraction"] == 0.5 and summary["rmse_echo_cm"] == pytest.approx(r.rmse_echo_cm)
+    assert summary["rmse_blind_cm"] == pytest.approx(r.rmse_blind_cm)
+
+
+def test_dead_reckoning_baseline_is_the_prior_moved_by_odometry(oracles: list[str]) -> None:
+    """A tracker that reports its prior's mean moved by the executed actions (never reading a scan) has
+    exactly the run's dead-reckoning error; the baseline belongs to the trial, not to the localiser."""
+    cfg = bench.BenchConfig(tracking_steps=8)
+    reckoner = bench.run_trial(bench.make_tasks("tracking", ["map1"], ["test-tracker"], 1, 3, cfg)[0])
+    assert isinstance(reckoner, bench.TrackingRun) and reckoner.steps == 8
+    assert reckoner.dead_reckoning_rmse_cm > 0.5  # the 3 cm prior noise
+    assert reckoner.rmse_cm == pytest.approx(reckoner.dead_reckoning_rmse_cm, rel=1e-9)
+    oracle = bench.run_trial(bench.make_tasks("tracking", ["map1"], ["test-oracle"], 1, 3, cfg)[0])
+    assert isinstance(oracle, bench.TrackingRun)
+    assert oracle.dead_reckoning_rmse_cm == pytest.approx(reckoner.dead_reckoning_rmse_cm)
+    assert math.isnan(oracle.rmse_blind_cm)
 
 
 def test_radius_scales_the_robot_of_every_scenario(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

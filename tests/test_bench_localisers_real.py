@@ -85,8 +85,8 @@ def test_lobe_options_follow_the_sonar() -> None:
     pf = [n for n in LOCALISERS.names() if n == "paper-pf" or n.startswith("pf-")]
     assert pf
     for name in pf:
-        assert nxt.lobe_for(name) == {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0,
-                                                 "max_range_cm": 255.0}
+        assert nxt.lobe_for(name) == {"beam_width_deg": 20.0, "beam_rays": 9, "critical_incidence_deg": 40.0,
+                                      "max_range_cm": 255.0}
         assert bench.BenchConfig(sonar="ideal").lobe_for(name) == {}
         assert bench.BenchConfig(sonar="nxt", lobe="off").lobe_for(name) == {}
     # explicit options win over the lobe

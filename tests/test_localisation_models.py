@@ -63,6 +63,35 @@ def test_range_table_agrees_with_ray_casting(name: str) -> None:
     assert np.mean(err < 3.0) > 0.97  # large errors only at range discontinuities (corners)
 
 
+def test_exact_lobe_ranges_are_the_nxt_sonars_echoes() -> None:
+    """With a lobe, `exact_ranges` is the noise-free reading of `NxtSonar` (same rays, same specular
+    loss; rays shared by neighbouring beams are cast once, so equal to a nanometre rather than
+    bit for bit), and a range limit only removes echoes beyond it."""
+    from toolkit.world import NxtSonar
+
+    m = load_map("map2")
+    rng = np.random.default_rng(4)
+    xy = m.sample_free(150, 8.0, rng)
+    poses = np.column_stack([xy, rng.uniform(-math.pi, math.pi, 150)])
+    rel = np.radians(np.r_[np.arange(0, 360, 11.0), np.arange(80.0, 111.0)])  # a window of shared rays
+    sonar = NxtSonar(beam_width_deg=20.0, beam_rays=9, critical_incidence_deg=40.0)
+    want = sonar.echo_distance(m.walls, poses[:, :2], poses[:, 2:3] + rel[None, :])
+    got = exact_ranges(m, poses, rel, beam_width_deg=20.0, beam_rays=9, critical_incidence_deg=40.0)
+
+    def same(a: np.ndarray, b: np.ndarray) -> bool:
+        fin = np.isfinite(b)
+        return bool(np.array_equal(np.isfinite(a), fin) and np.allclose(a[fin], b[fin], rtol=0.0, atol=1e-7))
+
+    assert same(got, want)
+    assert np.isinf(got).any() and np.isfinite(got).any()  # specular loss happens, echoes too
+    near = exact_ranges(m, poses, rel, beam_width_deg=20.0, beam_rays=9, critical_incidence_deg=40.0,
+                        max_range_cm=40.0)
+    assert same(near, np.where(want <= 40.0, want, np.inf))
+    # without specular loss every ray echoes: the lobe reads no farther than its middle ray
+    wide = exact_ranges(m, poses, rel, beam_width_deg=20.0, beam_rays=9)
+    assert np.isfinite(wide).all() and np.all(wide <= exact_ranges(m, poses, rel) + 1e-9)
+
+
 def test_lattice_ssd_equals_direct_sum() -> None:
     m = load_map("map2")
     table = range_table(m)

@@ -12,7 +12,8 @@ from toolkit.world import load_map
 
 # a value of each model option that every localiser taking it accepts
 _VALUES = {"noise_model": "absolute", "motion_noise": 0.2, "turn_noise": 0.01, "sensor_sigma_cm": 2.0,
-           "beam_width_deg": 20.0, "critical_incidence_deg": 40.0, "max_range_cm": 255.0, "clearance_cm": 6.0}
+           "beam_width_deg": 20.0, "beam_rays": 9, "critical_incidence_deg": 40.0, "max_range_cm": 255.0,
+           "clearance_cm": 6.0}
 
 
 def test_the_values_cover_every_model_option() -> None:

@@ -148,7 +148,8 @@ def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repea
     }
     if range_model:
         t0, c0 = time.perf_counter(), time.process_time()
-        table = range_table(m, memory_mb=range_memory_mb, lattice_step=2, **lobe_options("paper-pf", sonar))
+        lobe = {k: v for k, v in lobe_options("paper-pf", sonar).items() if k != "beam_rays"}  # the table's own lobe
+        table = range_table(m, memory_mb=range_memory_mb, lattice_step=2, **lobe)
         fig.update(range_model_sonar=sonar, range_model_build_s=time.perf_counter() - t0,
                    range_model_build_cpu_s=time.process_time() - c0,
                    range_model_bytes=table.nbytes,

@@ -42,7 +42,7 @@ RUNS_COLUMNS = (
 TRACKING_COLUMNS = (
     "map", "localiser", "trial", "seed", "steps", "rmse_cm", "rmse_heading_deg", "final_error_cm",
     "max_error_cm", "time_s", "collisions", "median_particles", "max_particles", "update_ms", "blind_steps",
-    "rmse_echo_cm",
+    "rmse_echo_cm", "rmse_blind_cm", "dead_reckoning_rmse_cm",
 )
 
 
@@ -315,6 +315,12 @@ class TrackingRun:
     """Actions after which the localiser's scan held no reading (no wall within the sonar's reach)."""
     rmse_echo_cm: float = math.nan
     """RMSE over the other actions (NaN when every scan was blind)."""
+    rmse_blind_cm: float = math.nan
+    """RMSE over the blind actions (NaN when none was)."""
+    dead_reckoning_rmse_cm: float = math.nan
+    """RMSE of dead reckoning: the prior's mean moved by each action as executed, without noise, never
+    corrected by a reading. With no reading that is the best estimate there is (no filter beats it on
+    average on blind actions); elsewhere it shows what the readings are worth."""
     failure: str = field(default="", repr=False)
     scenario: str = field(default="tracking", repr=False)
 

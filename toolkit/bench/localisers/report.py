@@ -91,6 +91,8 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, dict[tuple[str, str],
                     "rmse_heading_deg": _rms([r.rmse_heading_deg for r in rs]),
                     "blind_fraction": sum(r.blind_steps for r in rs) / max(sum(r.steps for r in rs), 1),
                     "rmse_echo_cm": _pooled_rms([(r.rmse_echo_cm, r.steps - r.blind_steps) for r in rs]),
+                    "rmse_blind_cm": _pooled_rms([(r.rmse_blind_cm, r.blind_steps) for r in rs]),
+                    "dead_reckoning_rmse_cm": _rms([r.dead_reckoning_rmse_cm for r in rs]),
                     "median_final_error_cm": finite_median([r.final_error_cm for r in rs]),
                     "median_time_s": finite_median([r.time_s / max(r.steps, 1) for r in rs]),
                     "median_particles": finite_median([r.median_particles for r in rs]),
@@ -194,20 +196,23 @@ def write_summary(
                   f"from the true pose plus noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} degrees) "
                   "and predicts + updates with a full scan after every action. RMSE over all actions and trials "
                   "(blind = actions whose scan held no reading, no wall within the sonar's reach; RMSE with "
-                  "echo = over the other actions); "
+                  "echo / blind = over the other / those actions; dead reckoning = the prior's mean moved by the "
+                  "executed actions without noise and never corrected, the best estimate without readings); "
                   "particles = the particles held after each update (median over the trials of each trial's "
                   "median, and the largest count seen); update = median time of one `update` call.", ""]
         for m in maps:
             lines += [f"### {m}", "", "| localiser | trials | RMSE (cm) | heading RMSE (deg) | blind | "
-                      "RMSE with echo (cm) | median final error (cm) | median time per action (ms) | "
-                      "particles median / max | update (ms) |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+                      "RMSE with echo (cm) | RMSE blind (cm) | dead reckoning RMSE (cm) | median final error (cm) | "
+                      "median time per action (ms) | particles median / max | update (ms) |",
+                      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
             for n in localisers:
                 row = s["tracking"].get((m, n))
                 if row is None:
                     continue
                 lines.append(f"| {n} | {row['trials']:.0f} | {cell(row['rmse_cm'])} | "
                              f"{cell(row['rmse_heading_deg'])} | {percent(row['blind_fraction'], 1)} | "
-                             f"{cell(row['rmse_echo_cm'])} | {cell(row['median_final_error_cm'])} | "
+                             f"{cell(row['rmse_echo_cm'])} | {cell(row['rmse_blind_cm'])} | "
+                             f"{cell(row['dead_reckoning_rmse_cm'])} | {cell(row['median_final_error_cm'])} | "
                              f"{cell(1e3 * row['median_time_s'], '.1f')} | "
                              f"{cell(row['median_particles'], '.0f')} / {cell(row['max_particles'], '.0f')} | "
                              f"{cell(row['median_update_ms'], '.1f')} |")

@@ -277,12 +277,17 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     update_s: list[float] = []
     blind: list[bool] = []
     t0 = time.perf_counter()
-    loc.reset(_noisy_truth(truth, cfg, np.random.default_rng(prior_ss)))
+    prior = _noisy_truth(truth, cfg, np.random.default_rng(prior_ss))
+    loc.reset(prior)
+    reckoned = prior.mean
+    dr_errs: list[float] = []
     for motion in drive:
         if motion.turn_rad:
             robot.turn(motion.turn_rad)
         dist = robot.move(motion.distance_cm).distance_cm if motion.distance_cm else 0.0
         loc.predict(Motion(motion.turn_rad, dist))
+        reckoned = _dead_reckon(reckoned, Motion(motion.turn_rad, dist))
+        dr_errs.append(reckoned.distance_to(robot.true_pose))
         scan = prep(robot.ultrascan())
         blind.append(not bool(np.any(scan.valid)))
         tu = time.perf_counter()
@@ -300,7 +305,15 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
                        float(np.sqrt(np.mean(ea**2))), float(np.sqrt(np.mean(ha**2))), float(ea[-1]),
                        float(ea.max()), elapsed, int(robot.collisions), float(np.median(ca)), float(ca.max()),
                        1e3 * float(np.median(update_s)), tuple(float(e) for e in ea), int((~echo).sum()),
-                       float(np.sqrt(np.mean(ea[echo] ** 2))) if echo.any() else math.nan)
+                       float(np.sqrt(np.mean(ea[echo] ** 2))) if echo.any() else math.nan,
+                       float(np.sqrt(np.mean(ea[~echo] ** 2))) if (~echo).any() else math.nan,
+                       float(np.sqrt(np.mean(np.asarray(dr_errs) ** 2))))
+
+
+def _dead_reckon(pose: Pose, motion: Motion) -> Pose:
+    """`pose` moved by `motion` without noise: turn in place, then drive straight."""
+    th = wrap_angle(pose.theta + motion.turn_rad)
+    return Pose(pose.x + motion.distance_cm * math.cos(th), pose.y + motion.distance_cm * math.sin(th), th)
 
 
 def particle_count(loc: Localiser) -> int:
