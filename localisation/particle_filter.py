@@ -33,12 +33,13 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, angle_diff, wrap_angle
+from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, wrap_angle
 
+from .annealing import GaussianPrior, best_lattice_poses, log_prior, next_beta, predicted_prior
 from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .clusters import cloud_stats, cluster, describe_modes, mode_stds
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
-from .resampling import effective_sample_size, log_normalise, systematic_resample
+from .resampling import log_normalise, systematic_resample
 
 __all__ = ["Mode", "ParticleFilter", "Snapshot"]
 
@@ -371,37 +372,11 @@ class ParticleFilter(Localiser):
     def _lattice_start(self, rel: FloatArray, meas: FloatArray) -> None:
         """Replace the uniform cloud by the best lattice poses for this scan (see `global_init`)."""
         assert self.lattice is not None and self.table is not None
-        ssd = self.lattice.ssd(rel, meas).ravel()
-        n_ang = self.table.n_angles
-        k = min(self.n_particles, ssd.size)
-        # the best lattice poses, at most `per_bin` from each coarse bin (mode_radius x mode_heading),
-        # so that a twin slightly worse on the lattice is not crowded out by the best mode's neighbours
-        m = min(20 * k, ssd.size)
-        cand = np.argpartition(ssd, m - 1)[:m]
-        cand = cand[np.argsort(ssd[cand], kind="stable")]
-        c_cell, c_head = np.divmod(cand, n_ang)
-        xy = self.lattice.xy[c_cell]
-        bx = np.floor(xy[:, 0] / self.mode_radius_cm).astype(np.int64)
-        by = np.floor(xy[:, 1] / self.mode_radius_cm).astype(np.int64)
-        bh = (c_head * (360 // n_ang if n_ang <= 360 else 1)) // max(int(math.degrees(self.mode_heading_rad)), 1)
-        bins = (bx * 100_003 + by) * 1009 + bh
-        order = np.argsort(bins, kind="stable")
-        sb = bins[order]
-        start = np.r_[0, np.flatnonzero(np.diff(sb)) + 1]
-        rank = np.arange(sb.size) - np.repeat(start, np.diff(np.r_[start, sb.size]))
-        keep = np.zeros(cand.size, dtype=bool)
-        keep[order[rank < max(4, k // 100)]] = True
-        best = cand[keep][:k]
-        k = best.size
-        cell, head = np.divmod(best, n_ang)
-        half = 0.5 * self.lattice.step * self.table.resolution_cm
-        xy = self.lattice.xy[cell] + self.rng.uniform(-half, half, size=(k, 2))
-        dth = math.pi / n_ang
-        theta = wrap_angle(head * (2.0 * math.pi / n_ang) + self.rng.uniform(-dth, dth, size=k))
-        self.particles = np.column_stack([xy, theta])
+        self.particles, self._move_cap = best_lattice_poses(self.lattice, self.table, rel, meas, self.n_particles,
+                                                            self.mode_radius_cm, self.mode_heading_rad, self.rng)
+        k = len(self.particles)
         self.log_weights = np.full(k, -math.log(k))
         self._global = False
-        self._move_cap = (half, 2.0 * dth)
 
     def estimate(self) -> PoseEstimate:
         """The belief: mean pose and covariance of the cloud; when several modes are plausible, the
@@ -436,88 +411,17 @@ class ParticleFilter(Localiser):
             s = self.likelihood.sq_residuals(expected32, meas)
         return np.where(inside, s, np.inf)
 
-    def _next_beta(self, log_w: FloatArray, s: FloatArray, beta: float, groups: IntArray | None = None) -> float:
-        """Largest beta' in (beta, 1] whose incremental weights keep the ESS at or above the target.
+    def _predicted_prior(self, per_mode: bool = False) -> GaussianPrior:
+        """The predicted belief as Gaussians (one, or one per mode): see `annealing.predicted_prior`."""
+        return predicted_prior(self.particles, self.log_weights, per_mode, self.mode_radius_cm,
+                               self.mode_heading_rad, self.max_modes)
 
-        With `groups` (the mode of each particle), the ESS of every mode must stay at the target, so
-        that a light twin mode is refined as carefully as the heavy one.
-        """
-        finite = np.isfinite(s) & np.isfinite(log_w)
-        s0 = np.where(finite, s, np.inf)
-        if groups is None:
-            parts = [np.arange(s.size)]
-        else:
-            parts = [np.flatnonzero(groups == g) for g in np.unique(groups)]
-        parts = [ix for ix in parts if np.isfinite(s0[ix]).any()]
-        targets = [self.ess_target * np.count_nonzero(finite[ix]) for ix in parts]
-
-        def ok(b: float) -> bool:
-            return all(
-                effective_sample_size(log_normalise(log_w[ix] - 0.5 * (b - beta) * s0[ix])) >= t
-                for ix, t in zip(parts, targets, strict=True)
-            )
-
-        if ok(1.0):
-            return 1.0
-        a, b = beta, 1.0
-        for _ in range(40):
-            mid = math.sqrt(max(a, 1e-12) * b) if a > 0 else (1e-9 if b > 1e-8 else 0.5 * b)
-            if ok(mid):
-                a = mid
-            else:
-                b = mid
-            if b - a <= 1e-3 * b:
-                break
-        return max(a, beta + 1e-9)
-
-    def _predicted_prior(self, per_mode: bool = False) -> list[tuple[FloatArray, FloatArray, float]]:
-        """Gaussians fitted to the current (predicted) cloud: (mean, inverse covariance, log coefficient).
-
-        One for the whole cloud, or with `per_mode` one per cluster of the cloud (`cluster`, the modes'
-        radius and heading), each with the log of its weight over the square root of its covariance's
-        determinant, so that their mixture is the predicted belief. Each covariance gets a floor of
-        (0.05 cm)^2 and (0.05 degree)^2, so that a cloud collapsed to nearly one pose still leaves the
-        moves room.
-        """
-        floor = np.diag([0.05**2, 0.05**2, math.radians(0.05) ** 2])
-        w = log_normalise(self.log_weights)
-        if not per_mode:
-            mean, cov = cloud_stats(self.particles, w)
-            return [(mean, np.asarray(np.linalg.inv(cov + floor), dtype=np.float64), 0.0)]
-        labels, log_masses = cluster(self.particles, self.log_weights, self.mode_radius_cm, self.mode_heading_rad,
-                                     self.max_modes)
-        out = []
-        for k, lm in enumerate(log_masses):
-            members = labels == k
-            wk = w[members]
-            if not np.isfinite(lm) or wk.sum() <= 0:
-                continue
-            mean, cov = cloud_stats(self.particles[members], wk / wk.sum())
-            cov = cov + floor
-            out.append((mean, np.asarray(np.linalg.inv(cov), dtype=np.float64),
-                        float(lm) - 0.5 * float(np.linalg.slogdet(cov)[1])))
-        return out
-
-    def _iterate(self, rel: FloatArray, meas: FloatArray,
-                 prior: list[tuple[FloatArray, FloatArray, float]] | None = None) -> None:
+    def _iterate(self, rel: FloatArray, meas: FloatArray, prior: GaussianPrior | None = None) -> None:
         """Annealed SMC on one scan: reweigh by a likelihood increment, resample, move (Metropolis).
 
         With a `prior` (Gaussians of `_predicted_prior`; see `tracking_prior`) the moves target the prior
         times the tempered likelihood; without, the tempered likelihood alone (a uniform prior).
         """
-
-        def log_prior(x: FloatArray) -> FloatArray | float:
-            if prior is None:
-                return 0.0
-            terms = []
-            for mean, inv, coef in prior:
-                d = np.column_stack([x[:, 0] - mean[0], x[:, 1] - mean[1], angle_diff(x[:, 2], mean[2])])
-                terms.append(coef - 0.5 * np.einsum("ni,ij,nj->n", d, inv, d))
-            if len(terms) == 1:
-                return terms[0]
-            t = np.vstack(terms)
-            top = t.max(axis=0)
-            return top + np.log(np.exp(t - top).sum(axis=0))
 
         p = self.particles
         log_w = self.log_weights
@@ -541,7 +445,7 @@ class ParticleFilter(Localiser):
         # (within a lattice cell and a table direction) so that narrow optima are not diffused away
         cap_xy, cap_th = self._move_cap
         for _ in range(self.max_iterations):
-            new_beta = self._next_beta(log_w, s, beta, groups if self.per_mode_ess else None)
+            new_beta = next_beta(log_w, s, beta, self.ess_target, groups if self.per_mode_ess else None)
             log_w = log_w - 0.5 * (new_beta - beta) * s
             beta = new_beta
             log_w = log_w - np.max(log_w)
@@ -554,7 +458,7 @@ class ParticleFilter(Localiser):
             if clustered:
                 # a mode's fit: its best particle's log-likelihood (plus log prior when tracking,
                 # so that a mode far out in the predicted belief's tail does not count as a twin)
-                fit = -0.5 * s + log_prior(p)
+                fit = -0.5 * s + log_prior(prior, p)
                 best_ll = np.array([float(np.max(fit[labels == k])) for k in range(log_masses.size)])
                 ok = np.isfinite(log_masses)
                 if beta >= 1.0:
@@ -609,7 +513,7 @@ class ParticleFilter(Localiser):
             if self.table is not None and clear > 0:
                 s_q = np.where(self.table.free(q[:, :2], clear), s_q, np.inf)
             with np.errstate(invalid="ignore"):  # inf - inf: both outside, rejected below
-                log_ratio = -0.5 * beta * (s_q - s) + (log_prior(q) - log_prior(p))
+                log_ratio = -0.5 * beta * (s_q - s) + (log_prior(prior, q) - log_prior(prior, p))
             accept = np.log(self.rng.random(n)) < log_ratio
             p = np.where(accept[:, None], q, p)
             s = np.where(accept, s_q, s)
