@@ -69,6 +69,7 @@ from toolkit.world import (
     ConfigError,
     LocalisationError,
     Map,
+    NxtSonar,
     Pose,
     RngLike,
     Scan,
@@ -217,6 +218,9 @@ class Amcl(Localiser):
         Metropolis moves and particles of the refinement of a new fix (0 steps: no refinement).
     beam_interpolation : bool
         Beam model: interpolate the range table's expected ranges (False: the nearest cell and direction).
+    lobe_edges : bool
+        Beam model with a lobe (and `beam_interpolation`): the lobe's inside from the table, its two
+        edge rays cast exactly (`_lobe_ranges`); False: the table's lobe interpolated trilinearly.
     """
 
     name: ClassVar[str] = "amcl"
@@ -266,6 +270,7 @@ class Amcl(Localiser):
         refine_particles: int = 200,
         beam_interpolation: bool = True,
         ambiguity_injection: float = 0.1,
+        lobe_edges: bool = True,
     ) -> None:
         super().__init__(map, rng=rng)
         if model not in AMCL_MODELS:
@@ -312,6 +317,11 @@ class Amcl(Localiser):
         self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
         self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
         self.beam_interpolation = bool(beam_interpolation)
+        self._edges: NxtSonar | None = None
+        if lobe_edges and self.table.beam_width_deg > 0:
+            crit = self.table.critical_incidence_deg
+            self._edges = NxtSonar(noise_sd=0.0, beam_width_deg=0.0, beam_rays=1, min_range_cm=0.0,
+                                   critical_incidence_deg=90.0 if crit is None else float(crit))
         self.ambiguity_injection = float(ambiguity_injection)
         self._ambiguous_fix = False
         self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
@@ -461,6 +471,8 @@ class Amcl(Localiser):
         near, inside = self.table.lookup(p, rel)
         if not self.beam_interpolation:
             return near.astype(float), inside
+        if self._edges is not None:
+            return self._lobe_ranges(p, rel), inside
         t = self.table
         u = (p[:, :2] - t.origin) / t.resolution_cm - 0.5
         g = np.floor(u)
@@ -477,6 +489,47 @@ class Amcl(Localiser):
             ok &= ins[:, None] & np.isfinite(e)
             total += w[:, None] * np.where(np.isfinite(e), e, 0.0)
         return np.where(ok, total, near), inside
+
+    def _lobe_ranges(self, p: FloatArray, rel: FloatArray) -> FloatArray:
+        """Expected lobe readings (N, B): the nearest echo within the lobe around each beam's axis.
+
+        The lobe around an axis between table directions ``h`` and ``h + 1`` is its inside (the table
+        directions strictly within it, ``h - half + 1 .. h + half``) and its two edge rays. The inside is
+        at least the larger of the table's lobes at ``h`` and ``h + 1`` (it lies in both), and equal to
+        it unless both of their outer directions echo nearer than the inside; it is read at the four
+        cell centres around the position (bilinear where all four are free and echo, the nearest
+        cell's elsewhere). The edge rays are cast exactly from the pose, with the specular loss,
+        so that a wall entering the lobe at its edge steps the reading where the sensor's does:
+        interpolating the table's lobe between directions smears that step over a whole direction
+        (and the likelihood then prefers a heading where no step falls between the beams).
+        """
+        t = self.table
+        n = t.n_angles
+        k = n / (2.0 * math.pi)
+        axis = p[:, 2:3] + rel[None, :]
+        h = np.floor(axis * k).astype(np.int64)
+        u = (p[:, :2] - t.origin) / t.resolution_cm - 0.5
+        g = np.floor(u).astype(np.int64)
+        f = u - g
+        nx, ny = t.shape
+        total = np.zeros(axis.shape)
+        ok = np.ones(axis.shape, dtype=bool)
+        for di, dj in np.ndindex(2, 2):
+            gi, gj = g[:, 0] + di, g[:, 1] + dj
+            valid = (gi >= 0) & (gi < nx) & (gj >= 0) & (gj < ny)
+            r = np.where(valid, t.cell_row[np.where(valid, gi * ny + gj, 0)], -1)
+            e = np.maximum(t.at(np.maximum(r, 0), h), t.at(np.maximum(r, 0), h + 1))
+            w = (f[:, 0] if di else 1 - f[:, 0]) * (f[:, 1] if dj else 1 - f[:, 1])
+            ok &= (r >= 0)[:, None] & np.isfinite(e)
+            total += w[:, None] * np.where(np.isfinite(e), e, 0.0)
+        rows = np.maximum(t.cells(p[:, :2]), 0)
+        inner = np.where(ok, total, np.maximum(t.at(rows, h), t.at(rows, h + 1)))
+        half = round(t.beam_width_deg / 2.0 / (360.0 / n)) / k
+        assert self._edges is not None
+        walls = self.map.walls
+        left = self._edges.echo_distance(walls, p[:, :2], axis - half)
+        right = self._edges.echo_distance(walls, p[:, :2], axis + half)
+        return np.asarray(np.minimum(inner, np.minimum(left, right)), dtype=float)
 
     def _lattice_ssd(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
         """The lattice's sums of squared residuals for this update's scan (computed once per update)."""
