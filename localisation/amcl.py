@@ -218,9 +218,10 @@ class Amcl(Localiser):
         Metropolis moves and particles of the refinement of a new fix (0 steps: no refinement).
     beam_interpolation : bool
         Beam model: interpolate the range table's expected ranges (False: the nearest cell and direction).
-    lobe_edges : bool
-        Beam model with a lobe (and `beam_interpolation`): the lobe's inside from the table, its two
-        edge rays cast exactly (`_lobe_ranges`); False: the table's lobe interpolated trilinearly.
+    lobe_rays : int
+        Beam model with a lobe (and `beam_interpolation`): where the table nodes around a pose differ
+        by more than a smooth reading can (a wall entering the lobe, a corner), the lobe is cast
+        exactly with this many rays, its edges included (`_lobe_ranges`); 0: the table everywhere.
     """
 
     name: ClassVar[str] = "amcl"
@@ -270,7 +271,7 @@ class Amcl(Localiser):
         refine_particles: int = 200,
         beam_interpolation: bool = True,
         ambiguity_injection: float = 0.1,
-        lobe_edges: bool = True,
+        lobe_rays: int = 21,
     ) -> None:
         super().__init__(map, rng=rng)
         if model not in AMCL_MODELS:
@@ -317,11 +318,17 @@ class Amcl(Localiser):
         self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
         self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
         self.beam_interpolation = bool(beam_interpolation)
-        self._edges: NxtSonar | None = None
-        if lobe_edges and self.table.beam_width_deg > 0:
+        self._lobe: NxtSonar | None = None
+        half = round(self.table.beam_width_deg / 2.0 / (360.0 / self.table.n_angles))
+        if lobe_rays > 0 and half >= 1:
             crit = self.table.critical_incidence_deg
-            self._edges = NxtSonar(noise_sd=0.0, beam_width_deg=0.0, beam_rays=1, min_range_cm=0.0,
-                                   critical_incidence_deg=90.0 if crit is None else float(crit))
+            self._lobe = NxtSonar(noise_sd=0.0, beam_width_deg=2.0 * half * 360.0 / self.table.n_angles,
+                                  beam_rays=int(lobe_rays), min_range_cm=0.0,
+                                  critical_incidence_deg=90.0 if crit is None else float(crit))
+            cos_crit = max(math.cos(math.radians(self._lobe.critical_incidence_deg)), 0.1)
+            # how far a smooth lobe reading can change across one table cell and one direction
+            self._step_cm = math.sqrt(2.0) * self.table.resolution_cm / cos_crit
+            self._step_per_cm = math.sqrt(1.0 / cos_crit**2 - 1.0) * 2.0 * math.pi / self.table.n_angles
         self.ambiguity_injection = float(ambiguity_injection)
         self._ambiguous_fix = False
         self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
@@ -471,8 +478,6 @@ class Amcl(Localiser):
         near, inside = self.table.lookup(p, rel)
         if not self.beam_interpolation:
             return near.astype(float), inside
-        if self._edges is not None:
-            return self._lobe_ranges(p, rel), inside
         t = self.table
         u = (p[:, :2] - t.origin) / t.resolution_cm - 0.5
         g = np.floor(u)
@@ -482,54 +487,37 @@ class Amcl(Localiser):
         fh = p[:, 2] * k - h
         total = np.zeros(near.shape)
         ok = np.ones(near.shape, dtype=bool)
+        lo, hi = np.full(near.shape, np.inf), np.full(near.shape, -np.inf)
         for di, dj, dh in np.ndindex(2, 2, 2):
             node = np.column_stack([t.origin + (g + (di, dj) + 0.5) * t.resolution_cm, (h + dh) / k])
             e, ins = t.lookup(node, rel)
             w = (f[:, 0] if di else 1 - f[:, 0]) * (f[:, 1] if dj else 1 - f[:, 1]) * (fh if dh else 1 - fh)
             ok &= ins[:, None] & np.isfinite(e)
             total += w[:, None] * np.where(np.isfinite(e), e, 0.0)
-        return np.where(ok, total, near), inside
+            lo, hi = np.minimum(lo, e), np.maximum(hi, e)
+        expected = np.where(ok, total, near)
+        if self._lobe is not None:
+            with np.errstate(invalid="ignore"):
+                smooth = hi - lo <= self._step_cm + self._step_per_cm * lo
+            self._lobe_ranges(p, rel, expected, inside[:, None] & ~(ok & smooth))
+        return expected, inside
 
-    def _lobe_ranges(self, p: FloatArray, rel: FloatArray) -> FloatArray:
-        """Expected lobe readings (N, B): the nearest echo within the lobe around each beam's axis.
+    def _lobe_ranges(self, p: FloatArray, rel: FloatArray, out: FloatArray, where: NDArray[np.bool_]) -> None:
+        """Cast the lobe exactly (`lobe_rays` rays, with the specular loss) for the beams `where` (N, B)
+        of poses `p` and write the nearest echoes into `out`.
 
-        The lobe around an axis between table directions ``h`` and ``h + 1`` is its inside (the table
-        directions strictly within it, ``h - half + 1 .. h + half``) and its two edge rays. The inside is
-        at least the larger of the table's lobes at ``h`` and ``h + 1`` (it lies in both), and equal to
-        it unless both of their outer directions echo nearer than the inside; it is read at the four
-        cell centres around the position (bilinear where all four are free and echo, the nearest
-        cell's elsewhere). The edge rays are cast exactly from the pose, with the specular loss,
-        so that a wall entering the lobe at its edge steps the reading where the sensor's does:
-        interpolating the table's lobe between directions smears that step over a whole direction
-        (and the likelihood then prefers a heading where no step falls between the beams).
+        Used where the table's nodes around a pose disagree by more than a smooth reading can change
+        across one cell and one direction: there a wall enters the lobe at its edge or a corner passes
+        through it, and interpolating the table would smear the reading's step over a whole cell and
+        direction, while the sensor's reading steps where the geometry does (the likelihood would then
+        prefer a pose where no step falls between the beams).
         """
-        t = self.table
-        n = t.n_angles
-        k = n / (2.0 * math.pi)
-        axis = p[:, 2:3] + rel[None, :]
-        h = np.floor(axis * k).astype(np.int64)
-        u = (p[:, :2] - t.origin) / t.resolution_cm - 0.5
-        g = np.floor(u).astype(np.int64)
-        f = u - g
-        nx, ny = t.shape
-        total = np.zeros(axis.shape)
-        ok = np.ones(axis.shape, dtype=bool)
-        for di, dj in np.ndindex(2, 2):
-            gi, gj = g[:, 0] + di, g[:, 1] + dj
-            valid = (gi >= 0) & (gi < nx) & (gj >= 0) & (gj < ny)
-            r = np.where(valid, t.cell_row[np.where(valid, gi * ny + gj, 0)], -1)
-            e = np.maximum(t.at(np.maximum(r, 0), h), t.at(np.maximum(r, 0), h + 1))
-            w = (f[:, 0] if di else 1 - f[:, 0]) * (f[:, 1] if dj else 1 - f[:, 1])
-            ok &= (r >= 0)[:, None] & np.isfinite(e)
-            total += w[:, None] * np.where(np.isfinite(e), e, 0.0)
-        rows = np.maximum(t.cells(p[:, :2]), 0)
-        inner = np.where(ok, total, np.maximum(t.at(rows, h), t.at(rows, h + 1)))
-        half = round(t.beam_width_deg / 2.0 / (360.0 / n)) / k
-        assert self._edges is not None
-        walls = self.map.walls
-        left = self._edges.echo_distance(walls, p[:, :2], axis - half)
-        right = self._edges.echo_distance(walls, p[:, :2], axis + half)
-        return np.asarray(np.minimum(inner, np.minimum(left, right)), dtype=float)
+        i, j = np.nonzero(where)
+        if i.size == 0:
+            return
+        assert self._lobe is not None
+        axis = p[i, 2] + rel[j]
+        out[i, j] = self._lobe.echo_distance(self.map.walls, p[i, :2], axis[:, None])[:, 0]
 
     def _lattice_ssd(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
         """The lattice's sums of squared residuals for this update's scan (computed once per update)."""
