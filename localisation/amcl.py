@@ -38,7 +38,10 @@ Two measurement models (`model`)
     exp(-lambda_short r) [r < e] + z_rand / laser_max_range`` around the expected range ``e`` of a
     precomputed `RangeTable` (which can model the NXT's lobe and specular loss), interpolated
     trilinearly between the table's 1 cm cells and 1-degree directions (`beam_interpolation`) so the
-    likelihood does not step at every cell edge. ``field``: the
+    likelihood does not step at every cell edge. With a lobe, where the 8 table nodes around a pose
+    differ by more than a smooth reading can (a wall entering the lobe at its edge, a corner), the
+    lobe is cast exactly instead (`lobe_rays` rays): interpolation would smear the reading's step
+    that the sensor takes where the geometry puts it. ``field``: the
     likelihood field, ``z_hit N(d; 0, sigma_hit) + z_rand / laser_max_range`` of the distance ``d``
     from each beam's end point to the nearest wall, read from a distance transform of the walls
     (exact distances at the nodes of a `field_resolution_cm` grid, bilinear in between): O(1) per
@@ -290,6 +293,8 @@ class Amcl(Localiser):
             raise ConfigError("resample_interval must be >= 1 and the KLD bins positive")
         if not 0 <= ambiguity_injection <= 1:
             raise ConfigError(f"ambiguity_injection must be in [0, 1], got {ambiguity_injection}")
+        if lobe_rays < 0 or lobe_rays == 1:
+            raise ConfigError(f"lobe_rays must be 0 (off) or >= 2 (the lobe's edges and inside), got {lobe_rays}")
         if refine_steps < 0 or refine_particles < 1:
             raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, "
                               f"{refine_particles}")

@@ -32,7 +32,8 @@ def test_registered_with_nav2_defaults() -> None:
 
 @pytest.mark.parametrize("bad", [{"model": "sonar"}, {"min_particles": 0}, {"min_particles": 3000},
                                  {"pf_err": 0.0}, {"recovery_alpha_fast": 2.0}, {"recovery_sampler": "x"},
-                                 {"refine_steps": -1}, {"refine_particles": 0}, {"ambiguity_injection": 2.0}])
+                                 {"refine_steps": -1}, {"refine_particles": 0}, {"ambiguity_injection": 2.0},
+                                 {"lobe_rays": 1}, {"lobe_rays": -3}])
 def test_bad_options_are_refused(bad: dict[str, object]) -> None:
     with pytest.raises(ValueError):
         Amcl(load_map("map1"), rng=0, **bad)  # type: ignore[arg-type]
