@@ -255,13 +255,6 @@ class RangeTable:
         """The stored ranges (cm, float32; inf: no wall) of table rows `rows`, shape (len(rows), n_angles)."""
         return self._decode_values(self.ranges[np.asarray(rows, dtype=np.int64)])
 
-    def at(self, rows: ArrayLike, directions: ArrayLike) -> NDArray[np.float32]:
-        """The stored ranges (cm, float32; inf: no wall) of table rows `rows` (N,) along direction
-        indices `directions` (N, B) (wrapped modulo `n_angles`)."""
-        r = np.asarray(rows, dtype=np.int64).reshape(-1, 1)
-        d = np.mod(np.asarray(directions, dtype=np.int64), self.n_angles)
-        return self._decode_values(self._flat[d + r * self.n_angles])
-
     @property
     def nbytes(self) -> int:
         """Memory of the stored ranges (bytes)."""
