@@ -72,7 +72,6 @@ from toolkit.world import (
     ConfigError,
     LocalisationError,
     Map,
-    NxtSonar,
     Pose,
     RngLike,
     Scan,
@@ -82,7 +81,7 @@ from toolkit.world import (
 )
 
 from .base import MODEL_OPTIONS, Localiser, Motion, PoseEstimate, Prior
-from .models import MotionModel, RangeLattice, RangeTable, range_lattice, range_table
+from .models import MotionModel, RangeLattice, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import log_normalise, systematic_resample
 
 __all__ = ["AMCL_MODELS", "Amcl", "DistanceField", "kld_bound"]
@@ -323,14 +322,13 @@ class Amcl(Localiser):
         self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
         self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
         self.beam_interpolation = bool(beam_interpolation)
-        self._lobe: NxtSonar | None = None
+        self._lobe: dict[str, Any] | None = None
         half = round(self.table.beam_width_deg / 2.0 / (360.0 / self.table.n_angles))
         if lobe_rays > 0 and half >= 1:
             crit = self.table.critical_incidence_deg
-            self._lobe = NxtSonar(noise_sd=0.0, beam_width_deg=2.0 * half * 360.0 / self.table.n_angles,
-                                  beam_rays=int(lobe_rays), min_range_cm=0.0,
-                                  critical_incidence_deg=90.0 if crit is None else float(crit))
-            cos_crit = max(math.cos(math.radians(self._lobe.critical_incidence_deg)), 0.1)
+            self._lobe = {"beam_width_deg": 2.0 * half * 360.0 / self.table.n_angles, "beam_rays": int(lobe_rays),
+                          "critical_incidence_deg": crit}
+            cos_crit = max(math.cos(math.radians(90.0 if crit is None else crit)), 0.1)
             # how far a smooth lobe reading can change across one table cell and one direction
             self._step_cm = math.sqrt(2.0) * self.table.resolution_cm / cos_crit
             self._step_per_cm = math.sqrt(1.0 / cos_crit**2 - 1.0) * 2.0 * math.pi / self.table.n_angles
@@ -508,8 +506,8 @@ class Amcl(Localiser):
         return expected, inside
 
     def _lobe_ranges(self, p: FloatArray, rel: FloatArray, out: FloatArray, where: NDArray[np.bool_]) -> None:
-        """Cast the lobe exactly (`lobe_rays` rays, with the specular loss) for the beams `where` (N, B)
-        of poses `p` and write the nearest echoes into `out`.
+        """Cast the lobe exactly (`exact_ranges` with `lobe_rays` rays and the specular loss) for the
+        beams `where` (N, B) of poses `p` and write the nearest echoes into `out`.
 
         Used where the table's nodes around a pose disagree by more than a smooth reading can change
         across one cell and one direction: there a wall enters the lobe at its edge or a corner passes
@@ -521,8 +519,8 @@ class Amcl(Localiser):
         if i.size == 0:
             return
         assert self._lobe is not None
-        axis = p[i, 2] + rel[j]
-        out[i, j] = self._lobe.echo_distance(self.map.walls, p[i, :2], axis[:, None])[:, 0]
+        along = np.column_stack([p[i, :2], p[i, 2] + rel[j]])  # each beam as a pose facing its axis
+        out[i, j] = exact_ranges(self.map, along, np.zeros(1), **self._lobe)[:, 0]
 
     def _lattice_ssd(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
         """The lattice's sums of squared residuals for this update's scan (computed once per update)."""
