@@ -38,7 +38,10 @@ Two measurement models (`model`)
     exp(-lambda_short r) [r < e] + z_rand / laser_max_range`` around the expected range ``e`` of a
     precomputed `RangeTable` (which can model the NXT's lobe and specular loss), interpolated
     trilinearly between the table's 1 cm cells and 1-degree directions (`beam_interpolation`) so the
-    likelihood does not step at every cell edge. ``field``: the
+    likelihood does not step at every cell edge. With a lobe, where the 8 table nodes around a pose
+    differ by more than a smooth reading can (a wall entering the lobe at its edge, a corner), the
+    lobe is cast exactly instead (`lobe_rays` rays): interpolation would smear the reading's step
+    that the sensor takes where the geometry puts it. ``field``: the
     likelihood field, ``z_hit N(d; 0, sigma_hit) + z_rand / laser_max_range`` of the distance ``d``
     from each beam's end point to the nearest wall, read from a distance transform of the walls
     (exact distances at the nodes of a `field_resolution_cm` grid, bilinear in between): O(1) per
@@ -78,7 +81,7 @@ from toolkit.world import (
 )
 
 from .base import MODEL_OPTIONS, Localiser, Motion, PoseEstimate, Prior
-from .models import MotionModel, RangeLattice, RangeTable, range_lattice, range_table
+from .models import MotionModel, RangeLattice, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import log_normalise, systematic_resample
 
 __all__ = ["AMCL_MODELS", "Amcl", "DistanceField", "kld_bound"]
@@ -217,6 +220,10 @@ class Amcl(Localiser):
         Metropolis moves and particles of the refinement of a new fix (0 steps: no refinement).
     beam_interpolation : bool
         Beam model: interpolate the range table's expected ranges (False: the nearest cell and direction).
+    lobe_rays : int
+        Beam model with a lobe (and `beam_interpolation`): where the table nodes around a pose differ
+        by more than a smooth reading can (a wall entering the lobe, a corner), the lobe is cast
+        exactly with this many rays, its edges included (`_lobe_ranges`); 0: the table everywhere.
     """
 
     name: ClassVar[str] = "amcl"
@@ -266,6 +273,7 @@ class Amcl(Localiser):
         refine_particles: int = 200,
         beam_interpolation: bool = True,
         ambiguity_injection: float = 0.1,
+        lobe_rays: int = 21,
     ) -> None:
         super().__init__(map, rng=rng)
         if model not in AMCL_MODELS:
@@ -284,6 +292,8 @@ class Amcl(Localiser):
             raise ConfigError("resample_interval must be >= 1 and the KLD bins positive")
         if not 0 <= ambiguity_injection <= 1:
             raise ConfigError(f"ambiguity_injection must be in [0, 1], got {ambiguity_injection}")
+        if lobe_rays < 0 or lobe_rays == 1:
+            raise ConfigError(f"lobe_rays must be 0 (off) or >= 2 (the lobe's edges and inside), got {lobe_rays}")
         if refine_steps < 0 or refine_particles < 1:
             raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, "
                               f"{refine_particles}")
@@ -312,6 +322,16 @@ class Amcl(Localiser):
         self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
         self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
         self.beam_interpolation = bool(beam_interpolation)
+        self._lobe: dict[str, Any] | None = None
+        half = round(self.table.beam_width_deg / 2.0 / (360.0 / self.table.n_angles))
+        if lobe_rays > 0 and half >= 1:
+            crit = self.table.critical_incidence_deg
+            self._lobe = {"beam_width_deg": 2.0 * half * 360.0 / self.table.n_angles, "beam_rays": int(lobe_rays),
+                          "critical_incidence_deg": crit}
+            cos_crit = max(math.cos(math.radians(90.0 if crit is None else crit)), 0.1)
+            # how far a smooth lobe reading can change across one table cell and one direction
+            self._step_cm = math.sqrt(2.0) * self.table.resolution_cm / cos_crit
+            self._step_per_cm = math.sqrt(1.0 / cos_crit**2 - 1.0) * 2.0 * math.pi / self.table.n_angles
         self.ambiguity_injection = float(ambiguity_injection)
         self._ambiguous_fix = False
         self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
@@ -470,13 +490,37 @@ class Amcl(Localiser):
         fh = p[:, 2] * k - h
         total = np.zeros(near.shape)
         ok = np.ones(near.shape, dtype=bool)
+        lo, hi = np.full(near.shape, np.inf), np.full(near.shape, -np.inf)
         for di, dj, dh in np.ndindex(2, 2, 2):
             node = np.column_stack([t.origin + (g + (di, dj) + 0.5) * t.resolution_cm, (h + dh) / k])
             e, ins = t.lookup(node, rel)
             w = (f[:, 0] if di else 1 - f[:, 0]) * (f[:, 1] if dj else 1 - f[:, 1]) * (fh if dh else 1 - fh)
             ok &= ins[:, None] & np.isfinite(e)
             total += w[:, None] * np.where(np.isfinite(e), e, 0.0)
-        return np.where(ok, total, near), inside
+            lo, hi = np.minimum(lo, e), np.maximum(hi, e)
+        expected = np.where(ok, total, near)
+        if self._lobe is not None:
+            with np.errstate(invalid="ignore"):
+                smooth = hi - lo <= self._step_cm + self._step_per_cm * lo
+            self._lobe_ranges(p, rel, expected, inside[:, None] & ~(ok & smooth))
+        return expected, inside
+
+    def _lobe_ranges(self, p: FloatArray, rel: FloatArray, out: FloatArray, where: NDArray[np.bool_]) -> None:
+        """Cast the lobe exactly (`exact_ranges` with `lobe_rays` rays and the specular loss) for the
+        beams `where` (N, B) of poses `p` and write the nearest echoes into `out`.
+
+        Used where the table's nodes around a pose disagree by more than a smooth reading can change
+        across one cell and one direction: there a wall enters the lobe at its edge or a corner passes
+        through it, and interpolating the table would smear the reading's step over a whole cell and
+        direction, while the sensor's reading steps where the geometry does (the likelihood would then
+        prefer a pose where no step falls between the beams).
+        """
+        i, j = np.nonzero(where)
+        if i.size == 0:
+            return
+        assert self._lobe is not None
+        along = np.column_stack([p[i, :2], p[i, 2] + rel[j]])  # each beam as a pose facing its axis
+        out[i, j] = exact_ranges(self.map, along, np.zeros(1), **self._lobe)[:, 0]
 
     def _lattice_ssd(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
         """The lattice's sums of squared residuals for this update's scan (computed once per update)."""

@@ -13,7 +13,7 @@ from localisation.amcl import Amcl, DistanceField, kld_bound
 from localisation.models import exact_ranges
 from localisation.scan import process_scan
 from toolkit.robots.sim import SimRobot
-from toolkit.world import Pose, angle_diff, load_map
+from toolkit.world import NxtSonar, Pose, angle_diff, load_map
 
 
 def _scan(m, pose: Pose, seed: int = 0):  # type: ignore[no-untyped-def]
@@ -32,7 +32,8 @@ def test_registered_with_nav2_defaults() -> None:
 
 @pytest.mark.parametrize("bad", [{"model": "sonar"}, {"min_particles": 0}, {"min_particles": 3000},
                                  {"pf_err": 0.0}, {"recovery_alpha_fast": 2.0}, {"recovery_sampler": "x"},
-                                 {"refine_steps": -1}, {"refine_particles": 0}, {"ambiguity_injection": 2.0}])
+                                 {"refine_steps": -1}, {"refine_particles": 0}, {"ambiguity_injection": 2.0},
+                                 {"lobe_rays": 1}, {"lobe_rays": -3}])
 def test_bad_options_are_refused(bad: dict[str, object]) -> None:
     with pytest.raises(ValueError):
         Amcl(load_map("map1"), rng=0, **bad)  # type: ignore[arg-type]
@@ -139,6 +140,39 @@ def test_beam_interpolation_follows_exact_ranges() -> None:
         errors.append(np.median(np.abs(expected - exact)[np.isfinite(exact)]))
     # the nearest 1 cm cell and 1-degree direction are off by ~0.3 cm; trilinear interpolation far less
     assert errors[0] < 0.05 < errors[1]
+
+
+def test_lobe_readings_follow_the_nxt_sonar() -> None:
+    m = load_map("map1")
+    rng = np.random.default_rng(3)
+    poses = np.column_stack([m.sample_free(150, clearance=10.0, rng=rng), rng.uniform(-math.pi, math.pi, 150)])
+    rel = np.radians(np.arange(0.0, 360.0, 3.0))
+    lobe = NxtSonar(beam_rays=161)  # a near-continuous 20-degree lobe, specular loss beyond 40 degrees
+    sensor = lobe.echo_distance(m.walls, poses[:, :2], poses[:, 2:3] + rel[None, :])
+    off = {}
+    for edges in (True, False):
+        a = Amcl(m, rng=0, beam_width_deg=20.0, critical_incidence_deg=40.0, lobe_rays=21 if edges else 0)
+        expected, inside = a._expected_ranges(poses, rel)
+        assert inside.all()
+        with np.errstate(invalid="ignore"):
+            agree = (np.abs(expected - sensor) <= 1.0) | (np.isinf(expected) & np.isinf(sensor))
+        off[edges] = float(np.mean(~agree))
+    # the table's lobe interpolated between directions misses ~1 % of the readings by more than 1 cm
+    assert off[True] < 0.006 and off[True] < off[False] / 2
+
+
+def test_a_wall_entering_the_lobe_edge_steps_the_reading() -> None:
+    # map1, a pose 12 cm from a wall whose end enters the lobes of beams 346-349 degrees at their edge
+    m = load_map("map1")
+    pose = np.array([[32.96, 46.21, -0.02475]])
+    rel = np.radians([345.0, 346.0, 347.0, 348.0, 349.0, 350.0])
+    sensor = NxtSonar(beam_rays=161).echo_distance(m.walls, pose[:, :2], pose[:, 2:3] + rel[None, :])[0]
+    kw = {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0}
+    edges = Amcl(m, rng=0, **kw)._expected_ranges(pose, rel)[0][0]  # type: ignore[arg-type]
+    smeared = Amcl(m, rng=0, lobe_rays=0, **kw)._expected_ranges(pose, rel)[0][0]  # type: ignore[arg-type]
+    assert np.all(sensor[1:] < 12.5)
+    assert np.allclose(edges, sensor, atol=0.1)
+    assert np.max(np.abs(smeared - sensor)) > 2.0
 
 
 def test_a_new_fix_is_refined_on_its_scan() -> None:
