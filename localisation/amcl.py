@@ -65,7 +65,6 @@ from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
-import shapely
 from numpy.typing import NDArray
 
 from toolkit.world import (
@@ -80,7 +79,9 @@ from toolkit.world import (
     wrap_angle,
 )
 
+from .adaptive import kld_bound, log_blend, log_mean_exp
 from .base import MODEL_OPTIONS, Localiser, Motion, PoseEstimate, Prior
+from .likelihood_field import DistanceField
 from .models import MotionModel, RangeLattice, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import log_normalise, systematic_resample
 
@@ -91,68 +92,6 @@ log = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 AMCL_MODELS = ("auto", "beam", "field")
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
-
-
-def kld_bound(k: Any, pf_err: float, pf_z: float) -> NDArray[np.int64]:
-    """Particles needed for `k` occupied bins (Fox 2003, with nav2's use of `pf_z`; 0 for k <= 1).
-
-    >>> [int(n) for n in kld_bound([1, 2, 10, 100], 0.05, 0.99)]
-    [0, 20, 131, 1129]
-    """
-    kk = np.asarray(k, dtype=float)
-    km1 = np.maximum(kk - 1.0, 1.0)
-    b = 2.0 / (9.0 * km1)
-    x = 1.0 - b + np.sqrt(b) * pf_z
-    n = np.ceil(km1 / (2.0 * pf_err) * x**3)
-    return np.where(kk <= 1, 0, n).astype(np.int64)
-
-
-class DistanceField:
-    """Distance (cm) from any point to the nearest wall: exact at the nodes of a square grid, bilinear between.
-
-    Built once per map with an STR-tree of the wall segments (one nearest-segment query per node);
-    a lookup is four array reads per point, independent of the number of walls. Distances are capped
-    at `max_dist_cm`.
-
-    Parameters
-    ----------
-    map : Map
-    resolution_cm : float
-        Node spacing (cm).
-    max_dist_cm : float
-        Cap on the distance (nav2's ``laser_likelihood_max_dist``, here in cm).
-    """
-
-    def __init__(self, map: Map, resolution_cm: float = 0.5, max_dist_cm: float = 20.0) -> None:
-        if not (resolution_cm > 0 and math.isfinite(resolution_cm)):
-            raise ConfigError(f"field resolution must be a positive number of cm, got {resolution_cm!r}")
-        xmin, ymin, xmax, ymax = map.bounds
-        self.resolution_cm = float(resolution_cm)
-        self.max_dist_cm = float(max_dist_cm)
-        self.origin = np.array([xmin, ymin], dtype=float)
-        nx = math.ceil((xmax - xmin) / resolution_cm) + 1
-        ny = math.ceil((ymax - ymin) / resolution_cm) + 1
-        gx, gy = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
-        nodes = self.origin + np.column_stack([gx.ravel(), gy.ravel()]) * resolution_cm
-        segs = shapely.linestrings(np.asarray(map.walls, dtype=float).reshape(-1, 2, 2))
-        tree = shapely.STRtree(segs)
-        _, dist = tree.query_nearest(shapely.points(nodes), return_distance=True, all_matches=False)
-        self.grid = np.minimum(dist, self.max_dist_cm).reshape(nx, ny)
-
-    def __call__(self, xy: FloatArray) -> FloatArray:
-        """Distances (cm) of points `xy` (..., 2) to the nearest wall, capped at `max_dist_cm`; a point
-        outside the grid reads the nearest grid point's distance plus its distance to the grid."""
-        g = (np.asarray(xy, dtype=float) - self.origin) / self.resolution_cm
-        nx, ny = self.grid.shape
-        gx = np.clip(g[..., 0], 0.0, nx - 1.000001)
-        gy = np.clip(g[..., 1], 0.0, ny - 1.000001)
-        outside = np.hypot(g[..., 0] - gx, g[..., 1] - gy) * self.resolution_cm
-        ix, iy = gx.astype(np.int64), gy.astype(np.int64)
-        fx, fy = gx - ix, gy - iy
-        d = self.grid
-        val = ((d[ix, iy] * (1 - fx) + d[ix + 1, iy] * fx) * (1 - fy)
-               + (d[ix, iy + 1] * (1 - fx) + d[ix + 1, iy + 1] * fx) * fy)
-        return np.minimum(val + outside, self.max_dist_cm)
 
 
 class Amcl(Localiser):
@@ -410,12 +349,12 @@ class Amcl(Localiser):
         self._weighed = np.ones(self.particles.shape[0], dtype=bool)
         # augmented MCL: short- and long-term averages of the per-beam likelihood (log domain)
         per_beam = np.where(np.isfinite(ll), ll / meas.size, -np.inf)
-        log_w_avg = _log_mean_exp(per_beam)
+        log_w_avg = log_mean_exp(per_beam)
         if self._log_w_slow == -math.inf:
             self._log_w_slow = self._log_w_fast = log_w_avg
         else:
-            self._log_w_slow = _log_blend(self._log_w_slow, log_w_avg, self.alpha_slow)
-            self._log_w_fast = _log_blend(self._log_w_fast, log_w_avg, self.alpha_fast)
+            self._log_w_slow = log_blend(self._log_w_slow, log_w_avg, self.alpha_slow)
+            self._log_w_fast = log_blend(self._log_w_fast, log_w_avg, self.alpha_fast)
         self._estimate = self._make_estimate()
         after = self._estimate.pose
         if (after.distance_to(before) > self.mode_radius_cm
@@ -646,22 +585,3 @@ class Amcl(Localiser):
         converged = (not self._uniform and math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)) < self.converged_xy_cm
                      and math.sqrt(max(cov[2, 2], 0.0)) < self.converged_heading_rad)
         return PoseEstimate(Pose.from_array(mean), cov, bool(converged), self.iterations)
-
-
-def _log_mean_exp(x: FloatArray) -> float:
-    top = float(np.max(x))
-    if not math.isfinite(top):
-        return -math.inf
-    return top + math.log(float(np.mean(np.exp(x - top))))
-
-
-def _log_blend(log_a: float, log_b: float, alpha: float) -> float:
-    """log((1 - alpha) a + alpha b) from log a and log b."""
-    if alpha <= 0:
-        return log_a
-    terms = [v for v in (math.log1p(-alpha) + log_a if alpha < 1 else -math.inf, math.log(alpha) + log_b)
-             if math.isfinite(v)]
-    if not terms:
-        return -math.inf
-    top = max(terms)
-    return top + math.log(sum(math.exp(t - top) for t in terms))
