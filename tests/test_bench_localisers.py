@@ -4,7 +4,7 @@ The plumbing is checked with two test-only localisers that read the simulator's 
 real localiser never sees): ``test-oracle`` reports the truth shifted by a fixed offset, so its
 success is known in advance; ``test-dead-reckoning`` starts at the truth and only integrates the
 commanded motions, so it cannot notice a kidnapping. They are registered for one test at a time
-(monkeypatched into the registry) so that tests parametrised over the registry never see them.
+(`LOCALISERS.added`) so that tests parametrised over the registry never see them.
 """
 
 from __future__ import annotations
@@ -126,16 +126,16 @@ TEST_LOCALISERS = {
 def oracles(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     """Register the test localisers and record every SimRobot built, for this test only."""
     for name, cls in TEST_LOCALISERS.items():
-        monkeypatch.setattr(cls, "name", name, raising=False)
-        monkeypatch.setitem(LOCALISERS._classes, name, cls)
+        monkeypatch.setattr(cls, "name", name, raising=False)  # not in the class body: that would register it
     original = sim.SimRobot.__init__
 
     def recording_init(self: sim.SimRobot, *args: Any, **kwargs: Any) -> None:
         original(self, *args, **kwargs)
         _ROBOTS.append(self)
 
-    monkeypatch.setattr(sim.SimRobot, "__init__", recording_init)
-    yield list(TEST_LOCALISERS)
+    monkeypatch.setattr(sim.SimRobot, "__init__", recording_init)  # the oracles read the truth of the last robot
+    with LOCALISERS.added(TEST_LOCALISERS):
+        yield list(TEST_LOCALISERS)
     _ROBOTS.clear()
     _PriorRecorder.priors.clear()
 

@@ -16,9 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-import toolkit.mission as mission_mod
-import toolkit.mission.runner as mission_runner
-from localisation.base import Localiser, Motion, PoseEstimate, Prior
+from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior
 from localisation.procedure import LocalisationResult
 from planners.base import Planner, PlanningProblem, PlanStatus, Solution
 from toolkit.mission import MissionConfig, Outcome, run_mission
@@ -253,15 +251,22 @@ def test_a_wrong_single_place_fix_is_caught_by_the_confirmation() -> None:
     assert any("disagree" in s.note for s in report.trace)
 
 
-def test_target_in_a_wall_is_reported_before_the_localiser_is_built(monkeypatch: pytest.MonkeyPatch) -> None:
-    def no_localiser(*args: object, **kwargs: object) -> None:
+class _Unbuildable(OracleLocaliser):
+    """A localiser whose construction fails the test: it must never be built."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
         raise AssertionError("the localiser should not be built for a target in a wall")
 
-    monkeypatch.setattr(mission_runner, "make_localiser", no_localiser)
+
+_Unbuildable.name = "test-unbuildable"  # not in the class body, which would register it for every test
+
+
+def test_target_in_a_wall_is_reported_before_the_localiser_is_built() -> None:
     m = load_map("map1")
     robot = SimRobot(m, Pose(20.0, 20.0, 0.0), rng=0)
-    report = mission_mod.run_mission(robot, m, (3.0, 50.0), rng=0)
+    with LOCALISERS.added({_Unbuildable.name: _Unbuildable}):
+        report = run_mission(robot, m, (3.0, 50.0), localiser=_Unbuildable.name, rng=0)
     assert not report.success and report.outcome is Outcome.TARGET_IN_WALL
-    assert report.localiser == "paper-pf" and robot.robot_time_s == 0.0
+    assert report.localiser == "test-unbuildable" and robot.robot_time_s == 0.0
     with pytest.raises(KeyError):  # an unknown localiser name still fails at once
-        mission_mod.run_mission(robot, m, (80.0, 80.0), localiser="no-such-filter", rng=0)
+        run_mission(robot, m, (80.0, 80.0), localiser="no-such-filter", rng=0)

@@ -14,7 +14,8 @@ Besides the classes registered under fixed names, a registry may hold families r
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from typing import Any, Generic, TypeVar
 
 from .errors import RegistryError
@@ -61,6 +62,29 @@ class Registry(Generic[T]):
                 f"and {cls.__module__}.{cls.__qualname__}"
             )
         self._classes[name] = cls
+
+    @contextmanager
+    def added(self, classes: Mapping[str, type[T]]) -> Iterator[None]:
+        """Register `classes` (name -> class) for the length of a ``with`` block, then remove them again.
+
+        For plug-ins of a script, a notebook or a test that should not outlive it; names registered
+        before the block stay registered after it.
+
+        >>> class Shape: ...
+        >>> reg: Registry[Shape] = Registry("shape")
+        >>> with reg.added({"blob": Shape}):
+        ...     inside = reg.names()
+        >>> inside, reg.names()
+        (['blob'], [])
+        """
+        new = [name for name in classes if name not in self._classes]
+        for name, cls in classes.items():
+            self.add(name, cls)
+        try:
+            yield
+        finally:
+            for name in new:
+                self._classes.pop(name, None)
 
     def get(self, name: str) -> type[T]:
         """The class registered under `name`; other names raise `RegistryError` listing the known ones
