@@ -103,7 +103,7 @@ class BenchConfig:
     localiser_options : mapping
         Per localiser name, keyword arguments for `make_localiser` (they override the lobe options).
     localise_options : mapping
-        Extra keyword arguments for `localisation.procedure.localise` (those it does not accept are dropped).
+        Extra keyword arguments for `localisation.procedure.localise`.
     """
 
     sonar: str = "ideal"

@@ -12,6 +12,7 @@ import numpy as np
 
 from localisation.ambiguity import candidate_poses
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from localisation.models import MotionModel
 from localisation.procedure import LocalisationResult, LocaliseProcedure, localise
 from localisation.sonar_options import geometry_options
 from toolkit.robots.sim import SimRobot
@@ -286,7 +287,7 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
             robot.turn(motion.turn_rad)
         dist = robot.move(motion.distance_cm).distance_cm if motion.distance_cm else 0.0
         loc.predict(Motion(motion.turn_rad, dist))
-        reckoned = _dead_reckon(reckoned, Motion(motion.turn_rad, dist))
+        reckoned = Pose.from_array(MotionModel().mean(reckoned.as_array(), Motion(motion.turn_rad, dist)))
         dr_errs.append(reckoned.distance_to(robot.true_pose))
         scan = prep(robot.ultrascan())
         blind.append(not bool(np.any(scan.valid)))
@@ -308,12 +309,6 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
                        float(np.sqrt(np.mean(ea[echo] ** 2))) if echo.any() else math.nan,
                        float(np.sqrt(np.mean(ea[~echo] ** 2))) if (~echo).any() else math.nan,
                        float(np.sqrt(np.mean(np.asarray(dr_errs) ** 2))))
-
-
-def _dead_reckon(pose: Pose, motion: Motion) -> Pose:
-    """`pose` moved by `motion` without noise: turn in place, then drive straight."""
-    th = wrap_angle(pose.theta + motion.turn_rad)
-    return Pose(pose.x + motion.distance_cm * math.cos(th), pose.y + motion.distance_cm * math.sin(th), th)
 
 
 def particle_count(loc: Localiser) -> int:
