@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -120,6 +120,57 @@ def _pooled_rms(parts: Sequence[tuple[float, int]]) -> float:
     return math.sqrt(num / den) if den else math.nan
 
 
+Row = dict[str, float]
+Column = tuple[str, Callable[[Row], str]]
+"""A column of a summary table: its header and how it shows a `summarise` row."""
+
+_GLOBAL_COLUMNS: list[Column] = [
+    ("trials", lambda r: f"{r['trials']:.0f}"),
+    ("success", lambda r: percent(r["success_rate"], 1)),
+    ("converged", lambda r: percent(r["converged_rate"], 1)),
+    ("ambiguous", lambda r: percent(r["ambiguous_rate"], 1)),
+    ("median error (cm)", lambda r: cell(r["median_error_cm"])),
+    ("median heading error (deg)", lambda r: cell(r["median_heading_error_deg"])),
+    ("median time (ms)", lambda r: cell(1e3 * r["median_time_s"], ".1f")),
+    ("median CPU time (ms)", lambda r: cell(1e3 * r["median_cpu_time_s"], ".1f")),
+    ("median scans", lambda r: cell(r["median_scans"], ".0f")),
+]
+_TRACKING_COLUMNS: list[Column] = [
+    ("trials", lambda r: f"{r['trials']:.0f}"),
+    ("RMSE (cm)", lambda r: cell(r["rmse_cm"])),
+    ("heading RMSE (deg)", lambda r: cell(r["rmse_heading_deg"])),
+    ("blind", lambda r: percent(r["blind_fraction"], 1)),
+    ("RMSE with echo (cm)", lambda r: cell(r["rmse_echo_cm"])),
+    ("RMSE blind (cm)", lambda r: cell(r["rmse_blind_cm"])),
+    ("dead reckoning RMSE (cm)", lambda r: cell(r["dead_reckoning_rmse_cm"])),
+    ("median final error (cm)", lambda r: cell(r["median_final_error_cm"])),
+    ("median time per action (ms)", lambda r: cell(1e3 * r["median_time_s"], ".1f")),
+    ("particles median / max", lambda r: f"{cell(r['median_particles'], '.0f')} / {cell(r['max_particles'], '.0f')}"),
+    ("update (ms)", lambda r: cell(r["median_update_ms"], ".1f")),
+]
+_KIDNAPPED_COLUMNS: list[Column] = [
+    ("trials", lambda r: f"{r['trials']:.0f}"),
+    ("localised first", lambda r: f"{r['localised']:.0f}"),
+    ("recovered", lambda r: percent(r["recovery_rate"], 1)),
+    ("median scans to recover", lambda r: cell(r["median_recovery_scans"], ".0f")),
+]
+
+
+def _map_tables(summary: Mapping[tuple[str, str], Row], maps: Sequence[str], localisers: Sequence[str],
+                columns: list[Column]) -> list[str]:
+    """One Markdown table per map, a row per localiser that has results there."""
+    lines: list[str] = []
+    for m in maps:
+        lines += [f"### {m}", "", "| localiser | " + " | ".join(h for h, _ in columns) + " |",
+                  "|---|" + "---:|" * len(columns)]
+        for n in localisers:
+            row = summary.get((m, n))
+            if row is not None:
+                lines.append(f"| {n} | " + " | ".join(show(row) for _, show in columns) + " |")
+        lines.append("")
+    return lines
+
+
 def write_summary(
     results: Sequence[TrialResult],
     path: str | Path,
@@ -175,20 +226,7 @@ def write_summary(
     lines.append("")
     if "global" in s:
         lines += ["## Global localisation", ""]
-        for m in maps:
-            lines += [f"### {m}", "", "| localiser | trials | success | converged | ambiguous | median error (cm) | "
-                      "median heading error (deg) | median time (ms) | median CPU time (ms) | median scans |",
-                      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-            for n in localisers:
-                row = s["global"].get((m, n))
-                if row is None:
-                    continue
-                lines.append(f"| {n} | {row['trials']:.0f} | {percent(row['success_rate'], 1)} | "
-                             f"{percent(row['converged_rate'], 1)} | {percent(row['ambiguous_rate'], 1)} | "
-                             f"{cell(row['median_error_cm'])} | "
-                             f"{cell(row['median_heading_error_deg'])} | {cell(1e3 * row['median_time_s'], '.1f')} | "
-                             f"{cell(1e3 * row['median_cpu_time_s'], '.1f')} | {cell(row['median_scans'], '.0f')} |")
-            lines.append("")
+        lines += _map_tables(s["global"], maps, localisers, _GLOBAL_COLUMNS)
     if "tracking" in s:
         lines += ["## Tracking", "",
                   f"A scripted drive of {config.tracking_steps} actions (turn, then a move of "
@@ -200,23 +238,7 @@ def write_summary(
                   "executed actions without noise and never corrected, the best estimate without readings); "
                   "particles = the particles held after each update (median over the trials of each trial's "
                   "median, and the largest count seen); update = median time of one `update` call.", ""]
-        for m in maps:
-            lines += [f"### {m}", "", "| localiser | trials | RMSE (cm) | heading RMSE (deg) | blind | "
-                      "RMSE with echo (cm) | RMSE blind (cm) | dead reckoning RMSE (cm) | median final error (cm) | "
-                      "median time per action (ms) | particles median / max | update (ms) |",
-                      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-            for n in localisers:
-                row = s["tracking"].get((m, n))
-                if row is None:
-                    continue
-                lines.append(f"| {n} | {row['trials']:.0f} | {cell(row['rmse_cm'])} | "
-                             f"{cell(row['rmse_heading_deg'])} | {percent(row['blind_fraction'], 1)} | "
-                             f"{cell(row['rmse_echo_cm'])} | {cell(row['rmse_blind_cm'])} | "
-                             f"{cell(row['dead_reckoning_rmse_cm'])} | {cell(row['median_final_error_cm'])} | "
-                             f"{cell(1e3 * row['median_time_s'], '.1f')} | "
-                             f"{cell(row['median_particles'], '.0f')} / {cell(row['max_particles'], '.0f')} | "
-                             f"{cell(row['median_update_ms'], '.1f')} |")
-            lines.append("")
+        lines += _map_tables(s["tracking"], maps, localisers, _TRACKING_COLUMNS)
     if "kidnapped" in s:
         lines += ["## Kidnapped robot", "",
                   f"After the global localisation the robot is teleported at least {config.kidnap_min_cm:g} cm "
@@ -224,16 +246,7 @@ def write_summary(
                   f"{config.recovery_rounds} times. Recovered = a run ends converged within the success "
                   "tolerance. The rate counts the trials whose first localisation succeeded; scans to "
                   "recover count from the teleport.", ""]
-        for m in maps:
-            lines += [f"### {m}", "", "| localiser | trials | localised first | recovered | "
-                      "median scans to recover |", "|---|---:|---:|---:|---:|"]
-            for n in localisers:
-                row = s["kidnapped"].get((m, n))
-                if row is None:
-                    continue
-                lines.append(f"| {n} | {row['trials']:.0f} | {row['localised']:.0f} | "
-                             f"{percent(row['recovery_rate'], 1)} | {cell(row['median_recovery_scans'], '.0f')} |")
-            lines.append("")
+        lines += _map_tables(s["kidnapped"], maps, localisers, _KIDNAPPED_COLUMNS)
     failed = [r for r in results if r.failure]
     if failed:
         lines += ["## Trials that raised", "",
