@@ -1,0 +1,245 @@
+"""Sweep sets: real 360-degree sonar sweeps taken at known waypoints of a known map.
+
+A sweep set is a folder::
+
+    sweeps.csv        one row per sweep (columns below)
+    <raw files>       one reading a line (whole cm, 255 = no echo), as `sweeps.csv`'s ``raw`` names them
+    arena.yaml        the map (another file with ``--map``)
+
+``sweeps.csv`` columns (the order does not matter; extra columns are ignored):
+
+==================  =========================================================================================
+``repo``, ``file``  where the sweep comes from (a label; ``commit`` and ``licence`` are kept when present)
+``raw``             path of the readings file, relative to the folder
+``x_cm``, ``y_cm``  the waypoint (cm, map frame)
+``n_bins``          readings per sweep
+``step_deg``        angle between consecutive readings (degrees, > 0)
+``direction``       ``cw`` or ``ccw``: the way the turret turned
+``start_deg``       turret angle of the first reading relative to the robot heading (degrees)
+``heading_deg``     optional: a heading aligned with the map (not a measurement; empty when unknown)
+``invalid_values``  optional: readings that mean "no reading", separated by ``;`` or spaces (default 255)
+==================  =========================================================================================
+
+Reading ``k`` was taken at ``start_deg + s * k * step_deg`` relative to the heading (``s`` = +1 for
+``ccw``, -1 for ``cw``). A 255 is the sensor's no-echo reading and stays in the scan as an invalid
+reading with range 255 (evidence: nothing echoed); any other invalid value (0 where a source marks bins
+it never visited) is no reading at all and is left out of the scan.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
+
+__all__ = ["REQUIRED_COLUMNS", "Sweep", "SweepSet", "SweepSetError", "load_sweep_set", "sweep_angles"]
+
+REQUIRED_COLUMNS = ("repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg")
+DEFAULT_MAP = "arena.yaml"
+
+
+class SweepSetError(NxtnavError, ValueError):
+    """A sweep set that cannot be read: the message names the file, the line or field and the problem."""
+
+
+def sweep_angles(n: int, step_deg: float, direction: str = "ccw", start_deg: float = 0.0) -> NDArray[np.float64]:
+    """Sensor angles (rad, relative to the heading) of `n` readings taken `step_deg` apart from `start_deg`,
+    turning ``ccw`` (angles grow) or ``cw`` (angles shrink)."""
+    if direction not in ("cw", "ccw"):
+        raise ConfigError(f"direction must be 'cw' or 'ccw', got {direction!r}")
+    s = 1.0 if direction == "ccw" else -1.0
+    return np.radians(start_deg + s * np.arange(n) * step_deg)
+
+
+@dataclass(frozen=True, eq=False)
+class Sweep:
+    """One real sweep at a known waypoint.
+
+    Attributes
+    ----------
+    repo, file : str
+        Where it comes from (labels).
+    x_cm, y_cm : float
+        The waypoint (cm).
+    angles : (n,) ndarray
+        Sensor angle of each reading relative to the robot heading (rad).
+    readings : (n,) ndarray
+        The raw readings (cm), invalid values included.
+    invalid_values : tuple of float
+        Readings that mean "no reading"; 255 among them is the no-echo reading.
+    heading_deg : float
+        A heading aligned with the map, or nan (unknown: the real heading was not measured).
+    """
+
+    repo: str
+    file: str
+    x_cm: float
+    y_cm: float
+    angles: NDArray[np.float64]
+    readings: NDArray[np.float64]
+    invalid_values: tuple[float, ...] = (NO_ECHO,)
+    heading_deg: float = math.nan
+    step_deg: float = 1.0
+    direction: str = "ccw"
+    raw: str = ""
+    extra: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def label(self) -> str:
+        """``repo/file``."""
+        return f"{self.repo}/{self.file}"
+
+    @property
+    def missing(self) -> NDArray[np.bool_]:
+        """Readings that are no reading at all (invalid values other than the no-echo 255)."""
+        others = [v for v in self.invalid_values if v != NO_ECHO]
+        return np.isin(self.readings, others) if others else np.zeros(self.readings.size, dtype=bool)
+
+    def scan(self) -> Scan:
+        """The sweep as a `Scan`: no-echo readings kept (invalid, 255), missing ones left out."""
+        keep = ~self.missing
+        r = self.readings[keep]
+        valid = ~np.isin(r, self.invalid_values) & (r >= 0)
+        return Scan(self.angles[keep].copy(), np.where(valid, r, NO_ECHO), valid)
+
+    @property
+    def no_echo_share(self) -> float:
+        """Share of the readings (missing ones left out) that are no-echo."""
+        s = self.scan()
+        return float(np.mean(~s.valid)) if len(s) else math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"repo": self.repo, "file": self.file, "x_cm": self.x_cm, "y_cm": self.y_cm,
+                "n_bins": int(self.readings.size), "step_deg": self.step_deg, "direction": self.direction,
+                "heading_deg": None if math.isnan(self.heading_deg) else self.heading_deg}
+
+
+@dataclass(frozen=True, eq=False)
+class SweepSet:
+    """The sweeps of a folder and the map they were taken in."""
+
+    folder: Path
+    map: Map
+    sweeps: tuple[Sweep, ...]
+
+    def __iter__(self) -> Iterator[Sweep]:
+        return iter(self.sweeps)
+
+    def __len__(self) -> int:
+        return len(self.sweeps)
+
+    @property
+    def repos(self) -> list[str]:
+        """The sources, in order of first appearance."""
+        return list(dict.fromkeys(s.repo for s in self.sweeps))
+
+
+def _number(row: dict[str, str], key: str, where: str, *, positive: bool = False) -> float:
+    text = (row.get(key) or "").strip()
+    try:
+        v = float(text)
+    except ValueError:
+        raise SweepSetError(f"{where}: field {key!r} is not a number: {text!r}") from None
+    if not math.isfinite(v) or (positive and v <= 0):
+        raise SweepSetError(f"{where}: field {key!r} must be a {'positive' if positive else 'finite'} number, "
+                            f"got {text!r}")
+    return v
+
+
+def _invalid_values(row: dict[str, str], where: str) -> tuple[float, ...]:
+    text = (row.get("invalid_values") or "").replace(";", " ").replace(",", " ").split()
+    if not text:
+        return (NO_ECHO,)
+    try:
+        return tuple(float(t) for t in text)
+    except ValueError:
+        raise SweepSetError(f"{where}: field 'invalid_values' is not a list of numbers: "
+                            f"{row.get('invalid_values')!r}") from None
+
+
+def read_readings(path: Path, n_bins: int) -> NDArray[np.float64]:
+    """The readings of one raw sweep file (one number a line; blank lines ignored), checked against `n_bins`."""
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as e:
+        raise SweepSetError(f"{path}: cannot read the sweep file ({e.strerror or e})") from None
+    values: list[float] = []
+    for i, line in enumerate(lines, 1):
+        t = line.strip()
+        if not t:
+            continue
+        try:
+            v = float(t)
+        except ValueError:
+            raise SweepSetError(f"{path}:{i}: not a number: {t!r}") from None
+        if not math.isfinite(v) or v < 0:
+            raise SweepSetError(f"{path}:{i}: a reading must be a non-negative number, got {t!r}")
+        values.append(v)
+    if len(values) != n_bins:
+        raise SweepSetError(f"{path}: {len(values)} readings, but sweeps.csv says n_bins = {n_bins}")
+    return np.array(values)
+
+
+def _sweep(folder: Path, row: dict[str, str], where: str, m: Map) -> Sweep:
+    n_f = _number(row, "n_bins", where, positive=True)
+    if n_f != int(n_f):
+        raise SweepSetError(f"{where}: field 'n_bins' must be a whole number, got {row['n_bins']!r}")
+    n = int(n_f)
+    step = _number(row, "step_deg", where, positive=True)
+    start = _number(row, "start_deg", where)
+    direction = (row.get("direction") or "").strip().lower()
+    if direction not in ("cw", "ccw"):
+        raise SweepSetError(f"{where}: field 'direction' must be 'cw' or 'ccw', got {row.get('direction')!r}")
+    x, y = _number(row, "x_cm", where), _number(row, "y_cm", where)
+    if not bool(m.contains(np.array([[x, y]]))[0]):
+        raise SweepSetError(f"{where}: waypoint ({x:g}, {y:g}) lies outside the free space of map {m.name!r}")
+    raw_text = (row.get("raw") or "").strip()
+    if not raw_text:
+        raise SweepSetError(f"{where}: field 'raw' is empty")
+    raw = (folder / raw_text).resolve()
+    heading_text = (row.get("heading_deg") or "").strip()
+    heading = _number(row, "heading_deg", where) if heading_text else math.nan
+    known = set(REQUIRED_COLUMNS) | {"heading_deg", "invalid_values"}
+    return Sweep(repo=row["repo"].strip(), file=row["file"].strip(), x_cm=x, y_cm=y,
+                 angles=sweep_angles(n, step, direction, start), readings=read_readings(raw, n),
+                 invalid_values=_invalid_values(row, where), heading_deg=heading, step_deg=step,
+                 direction=direction, raw=raw_text,
+                 extra={k: v for k, v in row.items() if k not in known and isinstance(k, str) and v is not None})
+
+
+def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> SweepSet:
+    """Read and check a sweep set (module docstring). Raises `SweepSetError` naming file, line and field."""
+    root = Path(folder)
+    table = root / "sweeps.csv"
+    if not table.is_file():
+        raise SweepSetError(f"{root}: not a sweep set (no sweeps.csv)")
+    if map is None:
+        map_path = root / DEFAULT_MAP
+        if not map_path.is_file():
+            raise SweepSetError(f"{root}: no {DEFAULT_MAP}; name the map with --map")
+        m = load_map(map_path)
+    else:
+        m = load_map(map)
+    try:
+        with table.open(newline="") as fh:
+            reader = csv.DictReader(fh)
+            columns = reader.fieldnames or []
+            missing = [c for c in REQUIRED_COLUMNS if c not in columns]
+            if missing:
+                raise SweepSetError(f"{table}: missing column{'s' if len(missing) > 1 else ''} "
+                                    f"{', '.join(missing)}")
+            rows = list(reader)
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise SweepSetError(f"{table}: cannot read ({e})") from None
+    if not rows:
+        raise SweepSetError(f"{table}: no sweeps")
+    sweeps = tuple(_sweep(root, row, f"{table}:{i}", m) for i, row in enumerate(rows, 2))
+    return SweepSet(root, m, sweeps)
