@@ -119,17 +119,18 @@ def log_prior(prior: GaussianPrior | None, x: FloatArray) -> FloatArray | float:
     return top + np.log(np.exp(t - top).sum(axis=0))
 
 
-def best_lattice_poses(lattice: RangeLattice, table: RangeTable, rel: FloatArray, meas: FloatArray, k: int,
+def best_lattice_poses(lattice: RangeLattice, table: RangeTable, costs: FloatArray, k: int,
                        mode_radius_cm: float, mode_heading_rad: float,
                        rng: np.random.Generator) -> tuple[FloatArray, tuple[float, float]]:
-    """The `k` lattice poses that fit a scan best, each jittered within its lattice cell and direction.
+    """The `k` lattice poses that fit a scan best (lowest `costs`, (cells, directions) from
+    `localisation.beam_model.lattice_costs`), each jittered within its lattice cell and direction.
 
     At most ``max(4, k // 100)`` come from each coarse bin of `mode_radius_cm` x `mode_heading_rad`,
     so that a twin slightly worse on the lattice is not crowded out by the best mode's neighbours.
     Returns the (k', 3) poses (k' <= k) and the half cell and direction step (cm, rad) that bound
     the first moves (narrow optima must not be diffused away).
     """
-    ssd = lattice.ssd(rel, meas).ravel()
+    ssd = np.asarray(costs).ravel()
     n_ang = table.n_angles
     k = min(k, ssd.size)
     m = min(20 * k, ssd.size)

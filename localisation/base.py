@@ -36,10 +36,10 @@ FloatArray = NDArray[np.float64]
 LOCALISERS: Registry[Localiser] = Registry("localiser")
 
 MODEL_OPTIONS = frozenset({"noise_model", "motion_noise", "turn_noise", "sensor_sigma_cm", "beam_width_deg",
-                           "beam_rays", "critical_incidence_deg", "max_range_cm", "clearance_cm"})
+                           "beam_rays", "critical_incidence_deg", "max_range_cm", "clearance_cm", "sonar_model"})
 """Constructor options that describe the robot rather than the algorithm: motion noise (model, cm or
 fraction, rad or fraction), sonar noise (cm), sonar lobe (deg, rays that sample it), range limit (cm),
-robot radius (cm)."""
+robot radius (cm), and the sonar's whole model (`toolkit.world.NxtSonar`)."""
 
 
 @dataclass(frozen=True)

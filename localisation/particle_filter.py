@@ -33,10 +33,11 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, wrap_angle
+from toolkit.world import NO_ECHO, ConfigError, LocalisationError, Map, NxtSonar, Pose, RngLike, Scan, wrap_angle
 
 from .annealing import GaussianPrior, best_lattice_poses, log_prior, next_beta, predicted_prior
 from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
+from .beam_model import BeamLikelihood, MeasurementModel, lattice_costs, scan_readings
 from .clusters import cloud_stats, cluster, describe_modes, mode_stds
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import log_normalise, systematic_resample
@@ -151,6 +152,12 @@ class ParticleFilter(Localiser):
         Gaussian (none is picked), and a belief that a few long readings leave spread along a wall
         (split into neighbouring modes) stays where odometry puts it along that wall instead of
         being re-fitted anywhere on it. None (default): with `tracking_exact`.
+    sonar_model : NxtSonar, optional
+        The sonar's beam mixture (`localisation.beam_model.BeamLikelihood`): no-echo readings count as
+        evidence, wrong readings cannot outvote the rest, and the lobe, specular loss and range limit
+        are the model's (they replace `beam_width_deg`, `beam_rays`, `critical_incidence_deg` and
+        `max_range_cm`; `sensor_sigma_cm` and `residual_cap` are unused). None: the Gaussian of
+        `sensor_sigma_cm` on the valid readings (the paper's model).
     cache_dir : path, optional
         Disk cache for the table (see `range_table`).
     snapshot_size : int
@@ -198,6 +205,7 @@ class ParticleFilter(Localiser):
         critical_incidence_deg: float | None = None,
         beam_rays: int = 9,
         tracking_exact: bool | None = None,
+        sonar_model: NxtSonar | None = None,
         tracking_prior: bool = True,
         tracking_prior_modes: bool | None = None,
         cache_dir: str | None = None,
@@ -213,7 +221,13 @@ class ParticleFilter(Localiser):
         self.n_particles = int(n_particles)
         self.n_global = int(n_global)
         self.clearance_cm = float(clearance_cm)
-        self.likelihood = RangeLikelihood(sensor_sigma_cm, residual_cap)
+        if sonar_model is not None:
+            # the sonar's own beam mixture: its lobe, specular loss and range limit shape the table
+            beam_width_deg, beam_rays = sonar_model.beam_width_deg, sonar_model.beam_rays
+            critical_incidence_deg, max_range_cm = sonar_model.critical_incidence_deg, sonar_model.max_range_cm
+        self.likelihood: MeasurementModel = (BeamLikelihood(sonar_model) if sonar_model is not None
+                                             else RangeLikelihood(sensor_sigma_cm, residual_cap))
+        self._likelihood = self.likelihood
         self.motion_model = MotionModel(noise_model, motion_noise, turn_noise, motion_inflation)
         self.ess_target = float(ess_target)
         self.max_iterations = int(max_iterations)
@@ -334,10 +348,8 @@ class ParticleFilter(Localiser):
         self._estimate = self._make_estimate()
 
     def update(self, scan: Scan) -> None:
-        ok = scan.valid & np.isfinite(scan.ranges)
-        rel = np.asarray(scan.angles[ok], dtype=float)
-        meas = np.asarray(scan.ranges[ok], dtype=float)
-        if meas.size == 0:
+        rel, meas, self.likelihood = scan_readings(scan, self._likelihood)
+        if not np.any(meas < NO_ECHO):
             log.warning("scan without usable readings: belief unchanged")
             return
         tracking = not self._global
@@ -372,7 +384,8 @@ class ParticleFilter(Localiser):
     def _lattice_start(self, rel: FloatArray, meas: FloatArray) -> None:
         """Replace the uniform cloud by the best lattice poses for this scan (see `global_init`)."""
         assert self.lattice is not None and self.table is not None
-        self.particles, self._move_cap = best_lattice_poses(self.lattice, self.table, rel, meas, self.n_particles,
+        costs = lattice_costs(self.lattice, rel, meas, self.likelihood)
+        self.particles, self._move_cap = best_lattice_poses(self.lattice, self.table, costs, self.n_particles,
                                                             self.mode_radius_cm, self.mode_heading_rad, self.rng)
         k = len(self.particles)
         self.log_weights = np.full(k, -math.log(k))
@@ -426,7 +439,7 @@ class ParticleFilter(Localiser):
         p = self.particles
         log_w = self.log_weights
         n_beams = meas.size
-        typical_range = float(np.median(meas))
+        typical_range = float(np.median(meas[meas < NO_ECHO]))
         clear = max(self.clearance_cm - 1.0, 0.0)
         if self._global and n_beams > self.global_beams:
             sub = np.linspace(0, n_beams - 1, self.global_beams).round().astype(np.int64)
@@ -542,6 +555,8 @@ class ParticleFilter(Localiser):
             expected = e[0].astype(float)
         else:
             expected = exact_ranges(self.map, p, rel, **self.lobe)[0]
+        if isinstance(self.likelihood, BeamLikelihood):
+            return float(np.mean(self.likelihood.outliers(expected, meas)))
         with np.errstate(invalid="ignore"):
             off = ~(np.abs(expected - meas) <= 3.0 * self.likelihood.sigma_cm)
         return float(np.mean(off))

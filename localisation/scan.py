@@ -19,6 +19,7 @@ what a localiser can do with a scan it cannot ask the robot to repeat.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -32,13 +33,18 @@ from toolkit.world import NO_ECHO, ConfigError, Scan, angle_diff
 __all__ = [
     "PAPER_CENTRES_DEG",
     "PAPER_WINDOW_DEG",
+    "STUCK_ARC_DEG",
     "ProcessedScan",
     "ScanProcessing",
+    "drop_stuck",
     "min_reading",
     "process_scan",
     "raw_scan",
+    "stuck_mask",
     "window_mask",
 ]
+
+log = logging.getLogger(__name__)
 
 PAPER_CENTRES_DEG = (0.0, 90.0, 180.0, 270.0)
 PAPER_WINDOW_DEG = 15.0
@@ -231,3 +237,42 @@ def raw_scan(scan: Scan, min_range_cm: float = 0.0, max_range_cm: float = math.i
     ok = scan.valid & np.isfinite(r) & (r != NO_ECHO) & (r >= min_range_cm) & (r < max_range_cm)
     return scan.subset(ok)
 
+
+
+STUCK_ARC_DEG = 45.0
+"""A run of one repeated echo reading spanning at least this turret arc (degrees) is a stuck sensor: a
+flat wall keeps a lobe's rounded reading constant over at most about 40 degrees (real sweeps: 40 at
+most), while a sensor that stops refreshing repeats its last value over 50-250 degrees."""
+
+
+def stuck_mask(scan: Scan, min_arc_deg: float = STUCK_ARC_DEG) -> NDArray[np.bool_]:
+    """Readings that belong to a stuck run: consecutive (in sweep order) identical echo readings whose
+    run spans at least `min_arc_deg` of turret angle (run length x the sweep's step). No-echo readings
+    are never stuck (a long silent arc is a real answer)."""
+    n = len(scan)
+    out = np.zeros(n, dtype=bool)
+    if n < 2 or not min_arc_deg > 0:
+        return out
+    steps = np.abs(angle_diff(scan.angles[1:], scan.angles[:-1]))
+    step_deg = float(np.degrees(np.median(steps))) if steps.size else 0.0
+    if step_deg <= 0:
+        return out
+    r = np.where(scan.valid, scan.ranges, np.nan)
+    start = 0
+    for i in range(1, n + 1):
+        if i == n or not (r[i] == r[start]):
+            if math.isfinite(r[start]) and (i - start) * step_deg >= min_arc_deg:
+                out[start:i] = True
+            start = i
+    return out
+
+
+def drop_stuck(scan: Scan, min_arc_deg: float = STUCK_ARC_DEG) -> tuple[Scan, int]:
+    """`scan` without its stuck readings (`stuck_mask`) and how many were dropped; says so once in the log."""
+    stuck = stuck_mask(scan, min_arc_deg)
+    k = int(stuck.sum())
+    if k:
+        log.warning("stuck sonar: %d readings repeat %s cm over %.0f degrees or more; not used", k,
+                    "/".join(f"{v:g}" for v in np.unique(scan.ranges[stuck])), min_arc_deg)
+        return scan.subset(~stuck), k
+    return scan, 0

@@ -20,12 +20,14 @@ Two models, both seeded through an ``rng`` argument:
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import asdict, dataclass, is_dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.special import ndtr as _ndtr
 
 from .edge_index import edge_index
 from .errors import ConfigError
@@ -126,49 +128,108 @@ class IdealSonar(SonarModel):
 
 @dataclass
 class NxtSonar(SonarModel):
-    """A LEGO NXT ultrasonic sensor (see the module docstring); defaults from the hardware facts.
+    """A LEGO NXT ultrasonic sensor: a lobe with specular loss and a beam mixture (module docstring).
+
+    The defaults are the parameters fitted by maximum likelihood to the real sweeps of
+    ``docs/real-sonar.md`` (``nxtnav sonar fit``); `NxtSonar.hardware_facts()` gives the model
+    built from the published hardware facts alone.
 
     Parameters
     ----------
     noise_sd : float
-        Gaussian noise (cm) before rounding; the sensor is good to about +-3 cm.
+        Standard deviation (cm) of a true echo's reading at zero range, before rounding.
+    noise_per_m : float
+        Growth of that standard deviation per metre of range (cm/m).
+    bias_cm : float
+        Mean offset of a true echo's reading from the echo distance (cm).
     beam_width_deg : float
-        Full width of the lobe (about 20 cm wide at 40-70 cm away, i.e. ~20 degrees).
+        Full width of the lobe (degrees).
     beam_rays : int
         Rays sampling the lobe (odd, so one lies on the axis).
     critical_incidence_deg : float
         Largest angle between a ray and a wall's normal that still echoes back.
     min_range_cm : float
-        Below this true distance readings are unreliable: 255 with probability `close_no_echo_prob`,
-        otherwise a uniform value in [0, min_range_cm).
+        Below this echo distance readings are unreliable: 255 with probability `close_no_echo_prob`,
+        otherwise a uniform whole number in [0, min_range_cm).
     max_range_cm : float
         Readings at or beyond this are reported as 255.
     dropout_prob : float
-        Probability that a reading is lost (255) for no geometric reason.
+        Probability that an echo within reach is lost (255) at short range.
+    far_dropout_prob : float
+        The same far beyond `reach_cm`: the loss probability rises from `dropout_prob` to this along a
+        logistic curve centred on `reach_cm`, `reach_width_cm` wide.
+    reach_cm, reach_width_cm : float
+        See `far_dropout_prob` (cm).
+    phantom_prob : float
+        Probability of a (uniformly random) reading when nothing in the lobe echoes.
+    short_prob : float
+        Share of the readings of an echo that come from something nearer than the wall (uniform
+        between 0 and the echo distance: a passer-by, crosstalk, the lobe's edge).
+    outlier_prob : float
+        Share of the readings of an echo that are uniformly random in [0, max_range_cm).
     close_no_echo_prob : float
         See `min_range_cm`.
+    correlation_deg : float
+        Readings closer than this in turret angle are not independent evidence (neighbouring lobes
+        overlap and share their errors): a localiser counts each reading of a sweep `step` degrees
+        apart with weight ``min(1, step / correlation_deg)``.
     """
 
     name: ClassVar[str] = "nxt"
     no_echo: ClassVar[float] = NO_ECHO
     noise_sd: float = 1.0
+    noise_per_m: float = 0.0
+    bias_cm: float = 0.0
     beam_width_deg: float = 20.0
     beam_rays: int = 9
     critical_incidence_deg: float = 40.0
     min_range_cm: float = 6.0
     max_range_cm: float = 255.0
     dropout_prob: float = 0.02
+    far_dropout_prob: float = 0.02
+    reach_cm: float = 200.0
+    reach_width_cm: float = 20.0
+    phantom_prob: float = 0.0
+    short_prob: float = 0.0
+    outlier_prob: float = 0.0
     close_no_echo_prob: float = 0.5
+    correlation_deg: float = 0.0
+
+    PROBABILITIES: ClassVar[tuple[str, ...]] = ("dropout_prob", "far_dropout_prob", "phantom_prob", "short_prob",
+                                                "outlier_prob", "close_no_echo_prob")
+    LIMITS: ClassVar[dict[str, tuple[float, float]]] = {
+        "noise_sd": (0.0, 100.0), "noise_per_m": (0.0, 100.0), "bias_cm": (-50.0, 50.0),
+        "beam_width_deg": (0.0, 120.0), "beam_rays": (1, 1001), "critical_incidence_deg": (0.0, 90.0),
+        "min_range_cm": (0.0, 255.0), "max_range_cm": (1.0, 10_000.0), "reach_cm": (0.0, 10_000.0),
+        "reach_width_cm": (0.1, 10_000.0), "correlation_deg": (0.0, 360.0),
+    }
+    """Allowed range of every non-probability parameter (inclusive)."""
 
     def __post_init__(self) -> None:
-        if self.beam_rays < 1:
-            raise ConfigError(f"beam_rays must be >= 1, got {self.beam_rays}")
-        for k in ("noise_sd", "beam_width_deg", "critical_incidence_deg", "min_range_cm", "max_range_cm"):
-            if not np.isfinite(getattr(self, k)) or getattr(self, k) < 0:
-                raise ConfigError(f"{k} must be a non-negative number, got {getattr(self, k)!r}")
-        for k in ("dropout_prob", "close_no_echo_prob"):
-            if not 0.0 <= getattr(self, k) <= 1.0:
-                raise ConfigError(f"{k} must be a probability in [0, 1], got {getattr(self, k)!r}")
+        for k, (lo, hi) in self.LIMITS.items():
+            v = getattr(self, k)
+            if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and lo <= v <= hi):
+                raise ConfigError(f"{k} must be a number in [{lo:g}, {hi:g}], got {v!r}")
+        if self.beam_rays != int(self.beam_rays):
+            raise ConfigError(f"beam_rays must be a whole number, got {self.beam_rays!r}")
+        self.beam_rays = int(self.beam_rays)
+        for k in self.PROBABILITIES:
+            v = getattr(self, k)
+            if not (isinstance(v, int | float) and 0.0 <= v <= 1.0):
+                raise ConfigError(f"{k} must be a probability in [0, 1], got {v!r}")
+        if self.short_prob + self.outlier_prob > 1.0:
+            raise ConfigError(f"short_prob + outlier_prob must be <= 1, got {self.short_prob + self.outlier_prob:g}")
+
+    @classmethod
+    def hardware_facts(cls, **overrides: Any) -> NxtSonar:
+        """The model from the published hardware facts alone (the toolkit's `nxt` default before any
+        real sweep was fitted): 1 cm noise, a 20-degree lobe, specular loss beyond 40 degrees, 2 %
+        dropouts, no wrong readings."""
+        base = {"noise_sd": 1.0, "noise_per_m": 0.0, "bias_cm": 0.0, "beam_width_deg": 20.0, "beam_rays": 9,
+                "critical_incidence_deg": 40.0, "min_range_cm": 6.0, "max_range_cm": 255.0, "dropout_prob": 0.02,
+                "far_dropout_prob": 0.02, "reach_cm": 200.0, "reach_width_cm": 20.0, "phantom_prob": 0.0,
+                "short_prob": 0.0, "outlier_prob": 0.0, "close_no_echo_prob": 0.5, "correlation_deg": 0.0}
+        return cls(**{**base, **overrides})
 
     def echo_distance(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike) -> Any:
         """Noise-free distance of the nearest echo in the lobe (inf when every ray is lost)."""
@@ -191,25 +252,89 @@ class NxtSonar(SonarModel):
         per_ray = np.where(echo, first, np.inf).reshape(-1, offsets.size)
         return per_ray.min(axis=1).reshape(shape)
 
-    def measure(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike, rng: RngLike = None) -> Any:
+    # -- the beam mixture ---------------------------------------------------------------------------
+    def loss_probability(self, d: ArrayLike) -> FloatArray:
+        """Probability (same shape as `d`) that an echo from distance `d` (cm) is lost (reads 255)."""
+        dd = np.asarray(d, dtype=float)
+        z = np.clip((dd - self.reach_cm) / self.reach_width_cm, -50.0, 50.0)
+        rise = 1.0 / (1.0 + np.exp(-np.where(np.isfinite(z), z, 50.0)))
+        return np.asarray(self.dropout_prob + (self.far_dropout_prob - self.dropout_prob) * rise)
+
+    def reading_sd(self, d: ArrayLike) -> FloatArray:
+        """Standard deviation (cm) of a true echo's reading from distance `d` (before rounding)."""
+        dd = np.where(np.isfinite(np.asarray(d, dtype=float)), np.asarray(d, dtype=float), 0.0)
+        return np.asarray(np.maximum(self.noise_sd + self.noise_per_m * dd / 100.0, 0.05))
+
+    def _levels(self) -> int:
+        return max(math.ceil(self.max_range_cm), 1)
+
+    def log_pmf(self, d: ArrayLike, readings: ArrayLike) -> FloatArray:
+        """log P(reading | echo distance): the probability of each whole-cm reading (255: no echo).
+
+        `d` (cm, inf where nothing in the lobe echoes) and `readings` broadcast together. Readings
+        are rounded to whole centimetres; any reading at or beyond `max_range_cm` counts as no echo.
+        This is the distribution `measure` draws from, so fitting and simulating agree.
+        """
+        dd, r = np.broadcast_arrays(np.asarray(d, dtype=float), np.rint(np.asarray(readings, dtype=float)))
+        levels = self._levels()
+        silent = r >= self.max_range_cm
+        echo = np.isfinite(dd) & (dd < self.max_range_cm)
+        close = echo & (dd < self.min_range_cm)
+        mu = dd + self.bias_cm
+        sd = self.reading_sd(dd)
+        with np.errstate(invalid="ignore"):
+            upper = np.where(r <= 0, np.inf, r + 0.5)
+            hit = _ndtr((upper - mu) / sd) - _ndtr((r - 0.5 - mu) / sd)
+            beyond = 1.0 - _ndtr((self.max_range_cm - 0.5 - mu) / sd)
+        n_short = np.maximum(np.floor(np.where(echo, dd, 1.0)), 1.0)
+        short = np.where(r < n_short, 1.0 / n_short, 0.0)
+        z_hit = 1.0 - self.short_prob - self.outlier_prob
+        valid = z_hit * hit + self.short_prob * short + self.outlier_prob / levels
+        lost = self.loss_probability(dd)
+        p_echo = np.where(silent, lost + (1.0 - lost) * z_hit * beyond, (1.0 - lost) * valid)
+        n_close = max(math.ceil(self.min_range_cm), 1)
+        p_close = np.where(silent, self.close_no_echo_prob, np.where(r < n_close, (1.0 - self.close_no_echo_prob)
+                                                                     / n_close, 0.0))
+        p_none = np.where(silent, 1.0 - self.phantom_prob, self.phantom_prob / levels)
+        p = np.where(close, p_close, np.where(echo, p_echo, p_none))
+        with np.errstate(divide="ignore"):
+            return np.asarray(np.log(np.maximum(p, 0.0)))
+
+    def sample(self, d: ArrayLike, rng: RngLike = None) -> FloatArray:
+        """Readings (whole cm, 255 = no echo) drawn for echo distances `d` (cm, inf: nothing echoes)."""
         gen = as_rng(rng)
-        d = np.asarray(self.echo_distance(walls, origins, angles), dtype=float)
-        noisy = d + gen.standard_normal(d.shape) * self.noise_sd
-        reading = np.rint(np.clip(noisy, 0.0, None))
-        reading = np.where(np.isfinite(d) & (reading < self.max_range_cm), reading, NO_ECHO)
-        close = np.isfinite(d) & (d < self.min_range_cm)
+        dd = np.asarray(d, dtype=float)
+        shape = dd.shape
+        levels = self._levels()
+        echo = np.isfinite(dd) & (dd < self.max_range_cm)
+        de = np.where(echo, dd, 0.0)
+        hit = np.rint(np.clip(de + self.bias_cm + gen.standard_normal(shape) * self.reading_sd(de), 0.0, None))
+        n_short = np.maximum(np.floor(de), 1.0)
+        short = np.floor(gen.random(shape) * n_short)
+        rand = np.floor(gen.random(shape) * levels)
+        pick = gen.random(shape)
+        reading = np.where(pick < self.short_prob, short, np.where(pick < self.short_prob + self.outlier_prob, rand, hit))
+        reading = np.where(gen.random(shape) < self.loss_probability(de), NO_ECHO, reading)
+        reading = np.where(echo, reading, np.where(gen.random(shape) < self.phantom_prob, rand, NO_ECHO))
+        close = echo & (dd < self.min_range_cm)
         if close.any():
-            junk = np.where(
-                gen.random(d.shape) < self.close_no_echo_prob,
-                NO_ECHO,
-                np.floor(gen.uniform(0.0, self.min_range_cm, d.shape)),
-            )
+            junk = np.where(gen.random(shape) < self.close_no_echo_prob, NO_ECHO,
+                            np.floor(gen.random(shape) * max(math.ceil(self.min_range_cm), 1)))
             reading = np.where(close, junk, reading)
-        if self.dropout_prob > 0:
-            reading = np.where(gen.random(d.shape) < self.dropout_prob, NO_ECHO, reading)
-        return reading
+        return np.asarray(np.where(reading >= self.max_range_cm, NO_ECHO, reading))
+
+    def measure(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike, rng: RngLike = None) -> Any:
+        d = np.asarray(self.echo_distance(walls, origins, angles), dtype=float)
+        return self.sample(d, rng)
+
+    def reading_weight(self, step_rad: float) -> float:
+        """Weight of one reading of a sweep whose readings are `step_rad` apart (see `correlation_deg`)."""
+        if self.correlation_deg <= 0:
+            return 1.0
+        return float(min(1.0, math.degrees(abs(step_rad)) / self.correlation_deg))
 
 
 def make_sonar(name: str, **params: Any) -> SonarModel:
     """A sonar model by registry name (``ideal``, ``nxt``) with its parameters."""
     return SONAR_MODELS.get(name)(**params)
+

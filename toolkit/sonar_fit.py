@@ -1,0 +1,322 @@
+"""Fitting and scoring the `nxt` sonar model on real sweeps taken at known positions.
+
+The model is `toolkit.world.NxtSonar`: a lobe with specular loss gives each reading's echo distance
+``d`` (from the map, the waypoint and the heading); a beam mixture gives P(reading | d). A fit
+maximises the summed log-probability of every reading of every sweep:
+
+* the lobe (`beam_width_deg`, `critical_incidence_deg`) on a grid, since each value needs new ray casts;
+* for each lobe, the mixture's continuous parameters by L-BFGS-B (scipy), alternating with the
+  heading of each sweep (not measured on the real robot: the best of every 0.5 degrees);
+* the lobe with the highest likelihood wins; then `correlation_deg` is the integrated
+  autocorrelation time of the readings' log-probabilities along the finest sweeps (how many
+  neighbouring readings carry one reading's worth of evidence).
+
+Positions are not fitted: the waypoints are the ground truth the localisers are judged against.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+from scipy.optimize import minimize
+
+from localisation.scan import drop_stuck
+
+from .sweeps import Sweep, SweepSet
+from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar
+
+__all__ = ["FIT_PARAMETERS", "FitResult", "SonarProfileError", "SweepScore", "fit_sonar", "load_sonar_profile",
+           "save_sonar_profile", "score_sonar"]
+
+log = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+FIT_PARAMETERS = ("noise_sd", "noise_per_m", "bias_cm", "dropout_prob", "far_dropout_prob", "reach_cm",
+                  "reach_width_cm", "phantom_prob", "short_prob", "outlier_prob")
+"""The mixture's continuous parameters fitted for each lobe."""
+_BOUNDS = {"noise_sd": (0.3, 20.0), "noise_per_m": (0.0, 20.0), "bias_cm": (-10.0, 10.0),
+           "dropout_prob": (1e-4, 0.9), "far_dropout_prob": (1e-4, 0.999), "reach_cm": (20.0, 255.0),
+           "reach_width_cm": (1.0, 100.0), "phantom_prob": (1e-4, 0.999), "short_prob": (1e-4, 0.9),
+           "outlier_prob": (1e-4, 0.9)}
+HEADING_STEP_DEG = 0.5
+DEFAULT_WIDTHS = (10.0, 15.0, 20.0, 25.0, 30.0, 40.0)
+DEFAULT_CRITICALS = (30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0)
+
+
+class SonarProfileError(NxtnavError, ValueError):
+    """A sonar profile file that cannot be used: the message names the file, the field and the problem."""
+
+
+@dataclass(frozen=True)
+class _Sweep:
+    """One sweep prepared for fitting: its scan and a function of the lobe giving echo distances."""
+
+    sweep: Sweep
+    angles: FloatArray
+    readings: FloatArray
+
+
+def _prepare(sweeps: Sequence[Sweep]) -> list[_Sweep]:
+    out = []
+    for s in sweeps:
+        scan, _ = drop_stuck(s.scan())
+        readings = np.where(scan.valid, scan.ranges, NO_ECHO)
+        out.append(_Sweep(s, scan.angles, readings))
+    return out
+
+
+def _directions() -> FloatArray:
+    return np.radians(np.arange(0.0, 360.0, HEADING_STEP_DEG))
+
+
+def _echo_by_heading(model: NxtSonar, m: Map, sw: _Sweep) -> FloatArray:
+    """Echo distances (H, n) of the sweep's readings for every candidate heading (HEADING_STEP_DEG apart)."""
+    dirs = _directions()
+    d = np.asarray(model.echo_distance(m.walls, np.array([sw.sweep.x_cm, sw.sweep.y_cm]), dirs), dtype=float)
+    k = dirs.size
+    rel = np.rint(np.degrees(sw.angles) / HEADING_STEP_DEG).astype(np.int64)
+    idx = (np.arange(k)[:, None] + rel[None, :]) % k
+    return d[idx]
+
+
+def _best_headings(model: NxtSonar, echoes: list[FloatArray], sweeps: list[_Sweep]) -> list[int]:
+    return [int(np.argmax(model.log_pmf(e, sw.readings[None, :]).sum(axis=1))) for e, sw in zip(echoes, sweeps,
+                                                                                                   strict=True)]
+
+
+def _with(model: NxtSonar, names: Sequence[str], x: FloatArray) -> NxtSonar:
+    params = asdict(model)
+    params.update({k: float(v) for k, v in zip(names, x, strict=True)})
+    return NxtSonar(**params)
+
+
+def _fit_mixture(model: NxtSonar, d: FloatArray, r: FloatArray) -> NxtSonar:
+    """The mixture parameters that maximise sum log P(r | d), starting from `model`'s."""
+    names = FIT_PARAMETERS
+    lo = np.array([_BOUNDS[k][0] for k in names])
+    hi = np.array([_BOUNDS[k][1] for k in names])
+    x0 = np.clip(np.array([getattr(model, k) for k in names], dtype=float), lo, hi)
+
+    def nll(x: FloatArray) -> float:
+        if x[names.index("short_prob")] + x[names.index("outlier_prob")] >= 0.99:
+            return 1e12
+        lp = _with(model, names, x).log_pmf(d, r)
+        return float(-np.sum(np.maximum(lp, -700.0)))
+
+    res = minimize(nll, x0, method="L-BFGS-B", bounds=list(zip(lo, hi, strict=True)),
+                   options={"maxiter": 200, "eps": 1e-5})
+    return _with(model, names, np.asarray(res.x, dtype=float))
+
+
+def _gather(echoes: list[FloatArray], headings: list[int], sweeps: list[_Sweep]) -> tuple[FloatArray, FloatArray]:
+    d = np.concatenate([e[h] for e, h in zip(echoes, headings, strict=True)])
+    r = np.concatenate([sw.readings for sw in sweeps])
+    return d, r
+
+
+def _expected_log_pmf(model: NxtSonar, d: FloatArray) -> FloatArray:
+    """E[log P(R | d)] over the model's own readings R, for each echo distance in `d`."""
+    levels = np.arange(model._levels() + 1, dtype=float)
+    levels[-1] = NO_ECHO
+    lp = np.maximum(model.log_pmf(d[:, None], levels[None, :]), -700.0)
+    return np.asarray(np.sum(np.exp(lp) * lp, axis=1))
+
+
+def _correlation_deg(model: NxtSonar, d_per: list[FloatArray], sweeps: list[_Sweep]) -> float:
+    """Integrated autocorrelation time (degrees) of the readings' surprise along the sweeps with the
+    finest step: log P(r | d) minus its expectation given d (so that a long arc of far walls, poorly
+    explained by design, is not mistaken for correlated errors). The sum over lags stops at the first
+    negative autocorrelation."""
+    finest = min(sw.sweep.step_deg for sw in sweeps)
+    taus = []
+    for d, sw in zip(d_per, sweeps, strict=True):
+        if sw.sweep.step_deg != finest:
+            continue
+        x = np.maximum(model.log_pmf(d, sw.readings), -30.0) - _expected_log_pmf(model, d)
+        x = x - x.mean()
+        var = float(np.mean(x * x))
+        if var <= 0:
+            continue
+        tau = 1.0
+        for lag in range(1, x.size // 4):
+            rho = float(np.mean(x[:-lag] * x[lag:])) / var
+            if rho <= 0:
+                break
+            tau += 2.0 * rho
+        taus.append(tau)
+    return float(np.median(taus) * finest) if taus else 0.0
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fitted model, the heading of each sweep, and how well it explains the readings."""
+
+    model: NxtSonar
+    headings_deg: dict[str, float]
+    mean_log_likelihood: float
+    readings: int
+    sweeps: int
+    lobes: list[dict[str, float]] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"model": self.model.to_dict(), "headings_deg": self.headings_deg,
+                "mean_log_likelihood": self.mean_log_likelihood, "readings": self.readings, "sweeps": self.sweeps,
+                "lobes": self.lobes}
+
+
+def fit_sonar(sets: Sequence[SweepSet], *, widths: Sequence[float] = DEFAULT_WIDTHS,
+              criticals: Sequence[float] = DEFAULT_CRITICALS, start: NxtSonar | None = None, rounds: int = 3,
+              progress: Callable[[int, int], None] | None = None) -> FitResult:
+    """Fit the `nxt` sonar model by maximum likelihood to the sweeps of `sets` (module docstring).
+
+    Parameters
+    ----------
+    sets : sequence of SweepSet
+        Sweeps at known positions, each set with its map.
+    widths, criticals : sequences of float
+        The lobe widths and specular incidence limits tried (degrees).
+    start : NxtSonar, optional
+        Starting mixture parameters (default: a heavy-tailed guess).
+    rounds : int
+        Alternations of headings and mixture per lobe.
+    progress : callable, optional
+        Called with (lobes done, lobes in all).
+    """
+    items = [(s.map, sw) for s in sets for sw in _prepare(list(s))]
+    if not items:
+        raise ConfigError("no sweeps to fit")
+    base = start or NxtSonar(noise_sd=2.0, noise_per_m=1.0, dropout_prob=0.02, far_dropout_prob=0.5, reach_cm=100.0,
+                             reach_width_cm=20.0, phantom_prob=0.5, short_prob=0.1, outlier_prob=0.05)
+    best: tuple[float, NxtSonar, list[int], list[FloatArray]] | None = None
+    lobes: list[dict[str, float]] = []
+    grid = [(w, c) for w in widths for c in criticals]
+    sweeps = [sw for _, sw in items]
+    for i, (w, c) in enumerate(grid):
+        model = NxtSonar(**{**asdict(base), "beam_width_deg": float(w), "critical_incidence_deg": float(c),
+                            "beam_rays": max(round(w / 2.5) | 1, 1)})
+        echoes = [_echo_by_heading(model, m, sw) for m, sw in items]
+        headings = _best_headings(model, echoes, sweeps)
+        for _ in range(rounds):
+            d, r = _gather(echoes, headings, sweeps)
+            model = _fit_mixture(model, d, r)
+            new = _best_headings(model, echoes, sweeps)
+            if new == headings:
+                break
+            headings = new
+        d, r = _gather(echoes, headings, sweeps)
+        ll = float(np.mean(model.log_pmf(d, r)))
+        lobes.append({"beam_width_deg": float(w), "critical_incidence_deg": float(c), "mean_log_likelihood": ll})
+        log.info("lobe %g deg, specular %g deg: %.4f nats per reading", w, c, ll)
+        if best is None or ll > best[0]:
+            best = (ll, model, headings, echoes)
+        if progress is not None:
+            progress(i + 1, len(grid))
+    assert best is not None
+    ll, model, headings, echoes = best
+    d_per = [e[h] for e, h in zip(echoes, headings, strict=True)]
+    model = NxtSonar(**{**asdict(model), "correlation_deg": round(_correlation_deg(model, d_per, sweeps), 2)})
+    heading_deg = {sw.sweep.label: float(np.degrees(_directions()[h])) for sw, h in zip(sweeps, headings, strict=True)}
+    heading_deg = {k: (v + 180.0) % 360.0 - 180.0 for k, v in heading_deg.items()}
+    return FitResult(model, heading_deg, ll, int(sum(sw.readings.size for sw in sweeps)), len(sweeps), lobes)
+
+
+@dataclass(frozen=True)
+class SweepScore:
+    """How well a model explains real sweeps at their known positions (headings aligned by the model)."""
+
+    mean_log_likelihood: float
+    no_echo_real: float
+    no_echo_model: float
+    median_abs_diff_cm: float
+    readings: int
+    sweeps: int
+    per_sweep: list[dict[str, Any]] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
+    """Mean log-probability per reading, no-echo share real against model, and the median |real - model|
+    of the readings where both answer (the model's noise-free reading ``d + bias``), each sweep at the
+    heading the model finds most likely."""
+    items = [(s.map, sw) for s in sets for sw in _prepare(list(s))]
+    if not items:
+        raise ConfigError("no sweeps to score")
+    sweeps = [sw for _, sw in items]
+    echoes = [_echo_by_heading(model, m, sw) for m, sw in items]
+    headings = _best_headings(model, echoes, sweeps)
+    d, r = _gather(echoes, headings, sweeps)
+    lp = model.log_pmf(d, r)
+    p_silent = np.exp(model.log_pmf(d, np.full(d.shape, NO_ECHO)))
+    both = (r < model.max_range_cm) & np.isfinite(d)
+    diff = np.abs(r - (d + model.bias_cm))[both]
+    per = []
+    start = 0
+    for sw, h in zip(sweeps, headings, strict=True):
+        n = sw.readings.size
+        per.append({"sweep": sw.sweep.label, "heading_deg": (float(h * HEADING_STEP_DEG) + 180.0) % 360.0 - 180.0,
+                    "mean_log_likelihood": float(np.mean(lp[start:start + n])),
+                    "no_echo_real": float(np.mean(r[start:start + n] >= model.max_range_cm)),
+                    "no_echo_model": float(np.mean(p_silent[start:start + n]))})
+        start += n
+    return SweepScore(float(np.mean(np.maximum(lp, -700.0))), float(np.mean(r >= model.max_range_cm)),
+                      float(np.mean(p_silent)), float(np.median(diff)) if diff.size else math.nan, int(r.size),
+                      len(sweeps), per)
+
+
+# -- profile files ---------------------------------------------------------------------------------
+PROFILE_KIND = "nxtnav-sonar-profile"
+
+
+def save_sonar_profile(model: NxtSonar, path: str | Path, *, fit: dict[str, Any] | None = None) -> None:
+    """Write `model` as a sonar profile (YAML: kind, sonar, params, and optional fit provenance)."""
+    doc: dict[str, Any] = {"kind": PROFILE_KIND, "sonar": model.name,
+                           "params": {k: (int(v) if k == "beam_rays" else round(float(v), 6))
+                                      for k, v in asdict(model).items()}}
+    if fit:
+        doc["fit"] = fit
+    out = Path(path)
+    tmp = out.with_name(out.name + ".part")
+    tmp.write_text(yaml.safe_dump(doc, sort_keys=False))
+    tmp.replace(out)
+
+
+def load_sonar_profile(path: str | Path) -> NxtSonar:
+    """The `nxt` sonar model of a profile file; `SonarProfileError` names the file and field on bad input.
+
+    Parameters the file leaves out keep the model's defaults.
+    """
+    p = Path(path)
+    try:
+        doc = yaml.safe_load(p.read_text())
+    except OSError as e:
+        raise SonarProfileError(f"{p}: cannot read the sonar profile ({e.strerror or e})") from None
+    except yaml.YAMLError as e:
+        raise SonarProfileError(f"{p}: not valid YAML ({str(e).splitlines()[0]})") from None
+    if not isinstance(doc, dict):
+        raise SonarProfileError(f"{p}: a sonar profile is a mapping with 'sonar' and 'params'")
+    if doc.get("sonar", "nxt") != "nxt":
+        raise SonarProfileError(f"{p}: field 'sonar' must be 'nxt', got {doc.get('sonar')!r}")
+    params = doc.get("params")
+    if not isinstance(params, dict):
+        raise SonarProfileError(f"{p}: field 'params' must be a mapping of parameter: value")
+    known = list(NxtSonar.__dataclass_fields__)
+    for k, v in params.items():
+        if k not in known:
+            raise SonarProfileError(f"{p}: unknown parameter params.{k} (known: {', '.join(known)})")
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise SonarProfileError(f"{p}: params.{k} must be a number, got {v!r}")
+    try:
+        return NxtSonar(**params)
+    except ConfigError as e:
+        raise SonarProfileError(f"{p}: params.{e}") from None
