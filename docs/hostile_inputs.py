@@ -145,6 +145,9 @@ def _cases() -> list[Case]:
         f"{sc} --angles 0:5:0", f"{sc} --angles 0:5:2.5", f"{sc} --angles 0:5", f"{sc} --angles a:b:c",
         f"{sc} --angles 0:5:1e12", f"{sc} --direction up")
     add("scan", 0, sc, f"{sc} --angles 0:5:72 --direction cw", f"{sc} --angles 180:1:1")
+    # import
+    add("import", 2, "import", "import sweeps", "import sweeps nowhere -o r.jsonl", "import sweeps full -o r.jsonl",
+        "import sweeps . -o r.jsonl", "import sweeps full --map nomap -o r.jsonl", "import bag x -o r.jsonl")
     # bench world
     add("bench world", 2, "bench world --poses 0", "bench world --poses -1", "bench world --poses 100000000",
         "bench world --poses abc", "bench world --repeats -1", "bench world --repeats 0", "bench world --segments 0",

@@ -20,9 +20,12 @@ def import_sweeps(
                                         help="The map the sweeps were taken in (default: DIR/arena.yaml)."),
     output: Path = typer.Option(..., "-o", "--output", metavar="REC.jsonl", help="The recording to write."),
 ) -> None:
-    """Write a sweep set as one recording: each sweep a global-localisation episode (a global reset, then
-    the sweep), its waypoint the true position (no heading: a real sweep's heading is not known).
-    Score localisers on it with `nxtnav replay REC.jsonl --localisers A,B`."""
+    """A sweep set as one recording, each sweep a global-localisation episode; score it with nxtnav replay.
+
+    Each sweep becomes a global reset of the localiser and an update with the sweep, its waypoint the
+    true position (without a heading: a real sweep's heading is not known). Then
+    `nxtnav replay REC.jsonl --localisers A,B` scores the localisers' position after each sweep.
+    """
     from ..imports import import_sweep_set
     from ..sweeps import load_sweep_set
 

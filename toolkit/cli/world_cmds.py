@@ -79,8 +79,11 @@ def scan(
                                   help="The way the turret turns: reading k at START + k*STEP (ccw) or "
                                        "START - k*STEP (cw)."),
 ) -> None:
-    """One scan at a pose (a full turn, or the angles of a real sweep with --angles and --direction):
-    printed, drawn as the paper's Fig. 3 with -o (rays, radar chart)."""
+    """One scan at a pose: printed, drawn as the paper's Fig. 3 with -o (rays, radar chart).
+
+    A full turn, one reading a degree counter-clockwise by default; the angles of a real sweep with
+    --angles and --direction (`--angles 0:1:360 --direction cw`).
+    """
     from ..plotting import draw_map, draw_pose, draw_radar, draw_scan_rays, expected_ranges, new_axes, save_figure
     from ..sweeps import sweep_angles
 
