@@ -141,8 +141,13 @@ def _cases() -> list[Case]:
     sc = "scan --pose 20,20,0"
     add("scan", 2, "scan --pose 1,1", "scan --pose 500,1,0", "scan --pose x,y,z", f"{sc} --sonar laser",
         f"{sc} --sensor-noise -1", f"{sc} --sensor-noise inf", f"{sc} --seed -1", f"{sc} -o full",
-        f"{sc} --json blocker/s.json", "scan --map nomap --pose 1,1,0")
-    add("scan", 0, sc)
+        f"{sc} --json blocker/s.json", "scan --map nomap --pose 1,1,0", f"{sc} --angles 0:0:72",
+        f"{sc} --angles 0:5:0", f"{sc} --angles 0:5:2.5", f"{sc} --angles 0:5", f"{sc} --angles a:b:c",
+        f"{sc} --angles 0:5:1e12", f"{sc} --direction up")
+    add("scan", 0, sc, f"{sc} --angles 0:5:72 --direction cw", f"{sc} --angles 180:1:1")
+    # import
+    add("import", 2, "import", "import sweeps", "import sweeps nowhere -o r.jsonl", "import sweeps full -o r.jsonl",
+        "import sweeps . -o r.jsonl", "import sweeps full --map nomap -o r.jsonl", "import bag x -o r.jsonl")
     # bench world
     add("bench world", 2, "bench world --poses 0", "bench world --poses -1", "bench world --poses 100000000",
         "bench world --poses abc", "bench world --repeats -1", "bench world --repeats 0", "bench world --segments 0",

@@ -11,10 +11,23 @@ from pathlib import Path
 
 import pytest
 
-from toolkit.world import Map, load_map
+from toolkit.world import Map, load_map, map_from_dict
 
 BOTSIM_MAPS = ("map1", "map2", "map3")
 ALL_MAPS = (*BOTSIM_MAPS, "pillars")
+
+REAL_NXT = Path(__file__).parents[1] / "maps" / "real-nxt"
+"""The shipped sweep set: the three MIT-licensed real NXT sweeps (maps/real-nxt/README.md)."""
+ARENA_BOUNDARY = [[0, 0], [0, 168], [84, 168], [84, 210], [168, 210], [168, 84], [210, 84], [210, 0]]
+"""The CO333 arena's outer walls (cm), without its free-standing stub wall."""
+
+
+def real_nxt_arena() -> Map:
+    """The arena of the shipped sweeps: the folder's arena.yaml when it is there, else its outer walls."""
+    yaml = REAL_NXT / "arena.yaml"
+    if yaml.is_file():
+        return load_map(yaml)
+    return map_from_dict({"name": "co333-arena", "boundary": ARENA_BOUNDARY})
 
 
 @pytest.fixture(params=ALL_MAPS)

@@ -76,6 +76,35 @@ def test_numbers_out_of_range_name_their_option(argv: list[str], option: str, tm
 
 
 @pytest.mark.parametrize(("value", "needle"), [
+    ("0:0:72", "STEP must be a number of degrees > 0"),
+    ("0:-5:72", "STEP must be a number of degrees > 0"),
+    ("0:nan:72", "STEP must be"),
+    ("0:5:0", "COUNT must be a whole number from 1"),
+    ("0:5:-3", "COUNT must be a whole number from 1"),
+    ("0:5:2.5", "COUNT must be a whole number"),
+    ("0:5:1e12", "COUNT must be a whole number from 1 to 100000"),
+    ("inf:5:72", "START must be a finite angle"),
+    ("north:5:72", "expected START:STEP:COUNT"),
+    ("0:five:72", "expected START:STEP:COUNT"),
+    ("0:5", "expected START:STEP:COUNT"),
+    ("0:5:72:1", "expected START:STEP:COUNT"),
+    ("", "expected START:STEP:COUNT"),
+    ("0,5,72", "expected START:STEP:COUNT"),
+])
+def test_scan_angles_are_checked(value: str, needle: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                 capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.chdir(tmp_path)
+    _fails_cleanly(["scan", "--pose", "20,20,0", "--angles", value, "--json", "s.json", "-o", "s.png"], capsys,
+                   "--angles", needle)
+    assert not any(tmp_path.iterdir())  # refused before any work
+
+
+def test_scan_direction_is_cw_or_ccw(capsys: pytest.CaptureFixture[str]) -> None:
+    _fails_cleanly(["scan", "--pose", "20,20,0", "--angles", "0:1:360", "--direction", "clockwise"], capsys,
+                   "--direction", "cw or ccw", "'clockwise'")
+
+
+@pytest.mark.parametrize(("value", "needle"), [
     ("n_particles=abc", "expected an integer, got 'abc'"),
     ("n_particles=100.5", "expected an integer, got 100.5"),
     ("sensor_sigma_cm=wide", "expected a finite number"),

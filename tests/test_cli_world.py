@@ -40,6 +40,39 @@ def test_scan_json(tmp_path: Path) -> None:
     assert png.exists()
 
 
+@pytest.mark.parametrize(("spec", "direction", "expected_deg"), [
+    ("0:1:360", "cw", -np.arange(360.0)),
+    ("0:5:72", "ccw", 5.0 * np.arange(72)),
+    ("180:5:72", "cw", 180.0 - 5.0 * np.arange(72)),
+    ("-90:2.5:3", "ccw", [-90.0, -87.5, -85.0]),
+    ("30:1:1", "cw", [30.0]),
+])
+def test_scan_at_any_angles(tmp_path: Path, spec: str, direction: str, expected_deg: list[float]) -> None:
+    js = tmp_path / "s.json"
+    assert run_cli(["scan", "--map", "map1", "--pose", "20,85,30", "--sonar", "ideal", "--sensor-noise", "0",
+                    "--angles", spec, "--direction", direction, "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    start, step, count = (float(v) for v in spec.split(":"))
+    assert doc["sweep"] == {"start_deg": start, "step_deg": step, "count": count, "direction": direction}
+    assert len(doc["angles_deg"]) == len(doc["ranges_cm"]) == int(count)
+    assert np.allclose(doc["angles_deg"], expected_deg, rtol=0, atol=1e-9)
+    # reading k looks along heading + angle k: the exact range there (no noise asked)
+    exact = ray_cast(load_map("map1").walls, [20, 85], np.radians(30.0 + np.asarray(doc["angles_deg"])))
+    assert np.allclose(doc["ranges_cm"], exact, rtol=0, atol=1e-9)
+
+
+def test_scan_mirrors_a_real_sweep_reading_for_reading(tmp_path: Path) -> None:
+    from conftest import REAL_NXT, real_nxt_arena
+
+    from toolkit.sweeps import load_sweep_set
+
+    real = load_sweep_set(REAL_NXT, map=real_nxt_arena()).sweeps[0]  # 360 readings, 1 degree apart, cw
+    js = tmp_path / "s.json"
+    assert run_cli(["scan", "--pose", "20,85,0", "--angles", f"0:{real.step_deg:g}:{real.readings.size}",
+                    "--direction", real.direction, "--json", str(js)]) == 0
+    assert np.allclose(np.radians(json.loads(js.read_text())["angles_deg"]), real.angles, rtol=0, atol=1e-12)
+
+
 def test_scan_nxt_has_nulls_for_no_echo(tmp_path: Path) -> None:
     js = tmp_path / "s.json"
     assert run_cli(["scan", "--map", "map1", "--pose", "20,85,0", "--sonar", "nxt", "-o", str(tmp_path / "s.png"),

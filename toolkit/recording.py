@@ -15,6 +15,10 @@ call through unchanged and write what went in and what came out:
 * the true pose after each robot event where one is known (the simulator, or a `truth` callable such
   as the virtual brick's world).
 
+Data taken elsewhere is written with the same `Recorder`: `Recorder.known_scan` writes a scan taken
+without a robot clock at a known position, perhaps without a known heading (format version 2), as
+`toolkit.imports.import_sweep_set` does for each real sweep of a sweep set.
+
 Floats are written with Python's shortest round-trip representation, so replaying the calls with the
 same localiser and seed (`toolkit.replay`) reproduces the live estimates bit for bit.
 """
@@ -40,7 +44,10 @@ __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "encode
            "scan_from_fields", "versions"]
 
 FORMAT_NAME = "nxtnav-recording"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+"""Version 2 adds to version 1: a ``true_pose`` whose heading is null (the position is known, the
+heading is not), scans whose ``t_start`` and ``t`` are null (no robot clock) and a scan's ``label``.
+Readers read both versions; a version-1 reader refuses version-2 files by their version."""
 
 
 def encode_floats(values: Any) -> list[float | str]:
@@ -201,10 +208,28 @@ class Recorder:
         t1 = float(robot.robot_time_s)
         times = getattr(robot, "last_scan_times_s", None)
         timed = {} if times is None or len(times) != len(scan) else {"times_s": encode_floats(times)}
-        self.event("scan", id=self._scans, t_start=t0, t=t1, **scan_fields(scan), **timed,
-                   true_pose=self.true_pose(robot))
+        self._scan_line(scan, t0, t1, **timed, true_pose=self.true_pose(robot))
+
+    def known_scan(self, scan: Scan, xy: tuple[float, float], heading: float | None = None,
+                   label: str | None = None) -> int:
+        """A scan taken without a robot clock (``t_start`` and ``t`` null) at a known position `xy` (cm),
+        with a known `heading` (rad) or none (the true pose's heading is null); `label` says where it
+        comes from. Returns the scan's id (for the update that uses it)."""
+        x, y = float(xy[0]), float(xy[1])
+        truth = [x, y, None if heading is None else float(heading)]
+        return self._scan_line(scan, None, None, true_pose=truth, **({} if label is None else {"label": str(label)}))
+
+    def _scan_line(self, scan: Scan, t_start: float | None, t: float | None, **fields: Any) -> int:
+        sid = self._scans
+        self.event("scan", id=sid, t_start=t_start, t=t, **scan_fields(scan), **fields)
         self._last_scan = scan
         self._scans += 1
+        return sid
+
+    def reset_event(self, prior: Prior | None) -> None:
+        """A reset of the localiser: global (`prior` None) or around a prior."""
+        self.event("reset", prior=None if prior is None else {
+            "mean": _pose(prior.mean), "cov": [encode_floats(r) for r in np.asarray(prior.cov, dtype=float)]})
 
     def update_event(self, scan: Scan) -> None:
         """An update: as indices into the last scan when it is a subset of it (the usual case), else in full."""
@@ -282,8 +307,7 @@ class _RecordingLocaliser(Localiser):
         self._rec.event("estimate", **_estimate(self._inner.estimate()))
 
     def reset(self, prior: Prior | None = None) -> None:
-        self._rec.event("reset", prior=None if prior is None else {
-            "mean": _pose(prior.mean), "cov": [encode_floats(r) for r in np.asarray(prior.cov, dtype=float)]})
+        self._rec.reset_event(prior)
         self._inner.reset(prior)
         self._after()
 

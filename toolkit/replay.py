@@ -8,14 +8,17 @@ line incomplete, or no ``end`` line) is not an error: it is read up to the break
 `replay` runs each localiser through the recorded localiser calls (``reset``, ``predict``,
 ``update``) in order, offline, and reports after every call its estimate, its spread and, where the
 recording knows the true pose, its error; without a truth, the localisers' agreement (distance to
-the first one's estimate). The localiser used live is rebuilt with its recorded options and random
-stream, so its replayed estimates equal the recorded ones bit for bit (`ReplayReport.reproduced`);
+the first one's estimate). A truth without a heading (a real sweep at a known waypoint, format
+version 2) scores the position only: the heading error is NaN (null in JSON), never a number. The
+localiser used live is rebuilt with its recorded options and random stream, so its replayed
+estimates equal the recorded ones bit for bit (`ReplayReport.reproduced`);
 the others get the options `toolkit.mission.matched_localiser_options` gives them for the recorded
 sonar and motion noise, and the replay's seed.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
@@ -127,6 +130,27 @@ def _pose_field(obj: dict[str, Any], key: str, where: str) -> Pose | None:
     return Pose(float(a[0]), float(a[1]), float(a[2]))
 
 
+def _truth_field(e: dict[str, Any], where: str, version: int) -> None:
+    """Check a robot event's ``true_pose``: null, a pose, or (version 2) ``[x, y, null]``."""
+    v = e.get("true_pose")
+    if isinstance(v, list) and len(v) == 3 and v[2] is None:
+        if version < 2:
+            raise RecordingError(f"{where}: field 'true_pose' has a null heading, which needs format version 2 "
+                                 f"(the header says {version})")
+        _floats({"true_pose": v[:2]}, "true_pose", where, 2)
+    else:
+        _pose_field(e, "true_pose", where)
+
+
+def _truth(e: dict[str, Any]) -> tuple[Pose, bool] | None:
+    """A checked robot event's true pose and whether its heading is known (a pose of heading 0 when not)."""
+    a = e.get("true_pose")
+    if a is None:
+        return None
+    known = a[2] is not None
+    return Pose(float(a[0]), float(a[1]), float(a[2]) if known else 0.0), known
+
+
 def _cov(obj: dict[str, Any], key: str, where: str) -> np.ndarray:
     rows = _need(obj, key, list, where)
     if len(rows) != 3 or not all(isinstance(r, list) for r in rows):
@@ -143,11 +167,11 @@ def _scan(e: dict[str, Any], where: str) -> Scan:
         raise RecordingError(f"{where}: bad scan: {' '.join(str(exc).split())}") from None
 
 
-def _check_event(e: dict[str, Any], where: str, scans: dict[int, int]) -> None:
+def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: int) -> None:
     kind = e["type"]
     if kind in ("turn", "move", "turnback", "scan"):
-        _need(e, "t", _NUM, where)
-        _pose_field(e, "true_pose", where)
+        _need(e, "t", _NUM, where, nullable=kind == "scan" and version >= 2)
+        _truth_field(e, where, version)
     if kind == "turn":
         _need(e, "angle_rad", _NUM, where)
     elif kind in ("move", "turnback"):
@@ -156,7 +180,9 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int]) -> None:
         _need(e, "watchdog", bool, where)
     elif kind == "scan":
         sid = _need(e, "id", int, where)
-        _need(e, "t_start", _NUM, where)
+        _need(e, "t_start", _NUM, where, nullable=version >= 2)
+        if "label" in e:
+            _need(e, "label", str, where)
         n = len(_scan(e, where))
         if "times_s" in e:
             _floats(e, "times_s", where, n)
@@ -240,7 +266,8 @@ def read_recording(path: str | Path) -> Recording:
             continue
         if obj["type"] == "header":
             raise RecordingError(f"{where}: a second header")
-        _check_event(obj, where, scans)
+        assert header is not None
+        _check_event(obj, where, scans, header["version"])
         events.append((i, obj))
         if obj["type"] == "end" and not last:
             raise RecordingError(f"{p} line {i + 1}: lines after the 'end' line")
@@ -292,6 +319,11 @@ class ReplayStep:
         Per localiser, its `PoseEstimate` (None once it has failed).
     live : PoseEstimate or None
         The estimate recorded live after this call.
+    truth_heading : bool
+        Whether the truth's heading is known; when not, ``truth.theta`` means nothing and only the
+        position is scored.
+    label : str or None
+        Where the last scan came from, when the recording says (an imported sweep's ``repo/file``).
     """
 
     index: int
@@ -300,14 +332,18 @@ class ReplayStep:
     truth: Pose | None
     estimates: dict[str, PoseEstimate | None]
     live: PoseEstimate | None
+    truth_heading: bool = True
+    label: str | None = None
 
     def error_cm(self, name: str) -> float:
+        """Distance (cm) from the estimate of `name` to the true position (NaN without either)."""
         e = self.estimates.get(name)
         return math.nan if e is None or self.truth is None else e.pose.distance_to(self.truth)
 
     def heading_error_deg(self, name: str) -> float:
+        """Absolute heading error (degrees); NaN without an estimate, a truth or the truth's heading."""
         e = self.estimates.get(name)
-        if e is None or self.truth is None:
+        if e is None or self.truth is None or not self.truth_heading:
             return math.nan
         return abs(math.degrees(float(angle_diff(e.pose.theta, self.truth.theta))))
 
@@ -316,9 +352,11 @@ class ReplayStep:
         return math.nan if a is None or b is None else a.pose.distance_to(b.pose)
 
     def to_dict(self, reference: str) -> dict[str, Any]:
-        out: dict[str, Any] = {"index": self.index, "line": self.line, "call": self.call,
-                               "truth": None if self.truth is None else self.truth.to_list_deg(),
-                               "estimates": {}}
+        truth: list[float | None] | None = None
+        if self.truth is not None:
+            truth = [self.truth.x, self.truth.y, self.truth.heading_deg if self.truth_heading else None]
+        out: dict[str, Any] = {"index": self.index, "line": self.line, "call": self.call, "truth": truth,
+                               "label": self.label, "estimates": {}}
         for name, e in self.estimates.items():
             out["estimates"][name] = None if e is None else {
                 "pose": e.pose.to_list_deg(), "spread_cm": e.std_xy_cm,
@@ -365,6 +403,11 @@ class ReplayReport:
     def has_truth(self) -> bool:
         return any(s.truth is not None for s in self.steps)
 
+    @property
+    def truth_heading(self) -> bool:
+        """Whether every true pose of the replay has a heading (False: some errors are of position only)."""
+        return all(s.truth_heading for s in self.steps if s.truth is not None)
+
     def summary(self) -> dict[str, dict[str, float]]:
         """Per localiser: over the updates, RMSE / median / final error against the truth, or the
         median and largest distance to the reference localiser; the median spread; the final spread."""
@@ -393,6 +436,7 @@ class ReplayReport:
         ref = self.localisers[0]
         return {"recording": str(self.recording.path), "truncated": self.recording.truncated,
                 "localisers": self.localisers, "reference": ref, "truth": self.has_truth,
+                "truth_heading": self.has_truth and self.truth_heading,
                 "live_localiser": None if self.recording.localiser is None else self.recording.localiser.name,
                 "reproduced": self.reproduced, "live_estimates_compared": self.compared,
                 "diverged_at_line": self.diverged, "failures": self.failures,
@@ -448,7 +492,8 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
             locs[name], exact[name] = None, False
             failures[name] = f"not built: {' '.join(str(exc).split())}"
     scans: dict[int, Scan] = {}
-    truth: Pose | None = None
+    truth: tuple[Pose, bool] | None = None
+    label: str | None = None
     steps: list[ReplayStep] = []
     reproduced = {n: True for n, ok in exact.items() if ok}
     diverged: dict[str, int] = {}
@@ -456,14 +501,13 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
     for line, e in rec.events:
         kind = e["type"]
         if kind in _ROBOT_EVENTS and e.get("true_pose") is not None:
-            a = e["true_pose"]
-            truth = Pose(float(a[0]), float(a[1]), float(a[2]))
+            truth = _truth(e)
         if kind == "scan":
             scans[int(e["id"])] = scan_from_fields(e)
+            label = e.get("label")
         elif kind == "estimate" and pending is not None:
             k = pending[0]
-            live = _live_estimate(e)
-            steps[k] = ReplayStep(k, steps[k].line, steps[k].call, steps[k].truth, steps[k].estimates, live)
+            steps[k] = dataclasses.replace(steps[k], live=_live_estimate(e))
             for n in reproduced:
                 got = steps[k].estimates.get(n)
                 if reproduced[n] and (got is None or _estimate(got) != _strip(e)):
@@ -496,7 +540,8 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
                     failures[name] = f"line {line}: {' '.join(str(exc).split())}"
                     locs[name] = None
                     ests[name] = None
-            steps.append(ReplayStep(len(steps), line, kind, truth, ests, None))
+            steps.append(ReplayStep(len(steps), line, kind, None if truth is None else truth[0], ests, None,
+                                    truth_heading=truth is None or truth[1], label=label))
             pending = (len(steps) - 1, kind)
     compared = sum(1 for s in steps if s.live is not None)
     out_reproduced: dict[str, bool | None] = {

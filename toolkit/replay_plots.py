@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from .plotting import draw_map, new_axes
 
@@ -25,7 +25,10 @@ def draw_replay(report: ReplayReport) -> Figure:
     ups = [s for s in report.steps if s.call == "update"]
     truth = np.array([s.truth.as_array()[:2] for s in ups if s.truth is not None]).reshape(-1, 2)
     if truth.size:
-        ax_map.plot(truth[:, 0], truth[:, 1], "k-", lw=1.5, label="truth")
+        # a robot that never moved while recorded (an imported sweep set): separate places, not a path
+        moved = any(e["type"] in ("turn", "move", "turnback") for _, e in report.recording.events)
+        ax_map.plot(truth[:, 0], truth[:, 1], "k-" if moved else "k+", lw=1.5, ms=10, mew=2,
+                    label="truth" if moved else "true positions")
     ref = report.localisers[0]
     top = 0.0
     for name in report.localisers:
@@ -37,7 +40,8 @@ def draw_replay(report: ReplayReport) -> Figure:
         ax_err.plot(range(1, len(ups) + 1), y, ".-", label=name)
         top = max([top, *(v for v in y if v is not None and np.isfinite(v))])
     ax_map.legend(loc="best", fontsize=8)
-    ax_err.set_xlabel("update")
+    ax_err.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax_err.set_xlabel("update" if report.truth_heading else "update (position error only: no true heading)")
     ax_err.set_ylabel("error (cm)" if report.has_truth else f"distance to {ref} (cm)")
     if top > 1.0:  # a lost localiser (tens of cm) beside sub-centimetre ones: linear below 1 cm, log above
         ax_err.set_yscale("symlog", linthresh=1.0)

@@ -6,7 +6,8 @@ A sweep set is a folder::
     <raw files>       one reading a line (whole cm, 255 = no echo), as `sweeps.csv`'s ``raw`` names them
     arena.yaml        the map (another file with ``--map``)
 
-``sweeps.csv`` columns (the order does not matter; extra columns are ignored):
+``sweeps.csv`` columns (the order does not matter; other columns are kept in `Sweep.extra`; blank lines
+are skipped; a row with more or fewer fields than the header is an error naming its line):
 
 ==================  =========================================================================================
 ``repo``, ``file``  where the sweep comes from (a label; ``commit`` and ``licence`` are kept when present)
@@ -142,7 +143,7 @@ class SweepSet:
         return list(dict.fromkeys(s.repo for s in self.sweeps))
 
 
-def _number(row: dict[str, str], key: str, where: str, *, positive: bool = False) -> float:
+def _number(row: dict[str, str | None], key: str, where: str, *, positive: bool = False) -> float:
     text = (row.get(key) or "").strip()
     try:
         v = float(text)
@@ -154,7 +155,7 @@ def _number(row: dict[str, str], key: str, where: str, *, positive: bool = False
     return v
 
 
-def _invalid_values(row: dict[str, str], where: str) -> tuple[float, ...]:
+def _invalid_values(row: dict[str, str | None], where: str) -> tuple[float, ...]:
     text = (row.get("invalid_values") or "").replace(";", " ").replace(",", " ").split()
     if not text:
         return (NO_ECHO,)
@@ -168,9 +169,11 @@ def _invalid_values(row: dict[str, str], where: str) -> tuple[float, ...]:
 def read_readings(path: Path, n_bins: int) -> NDArray[np.float64]:
     """The readings of one raw sweep file (one number a line; blank lines ignored), checked against `n_bins`."""
     try:
-        lines = path.read_text().splitlines()
+        lines = path.read_text(encoding="utf-8").splitlines()
     except OSError as e:
         raise SweepSetError(f"{path}: cannot read the sweep file ({e.strerror or e})") from None
+    except UnicodeDecodeError:
+        raise SweepSetError(f"{path}: not a text file of readings (not UTF-8)") from None
     values: list[float] = []
     for i, line in enumerate(lines, 1):
         t = line.strip()
@@ -188,7 +191,14 @@ def read_readings(path: Path, n_bins: int) -> NDArray[np.float64]:
     return np.array(values)
 
 
-def _sweep(folder: Path, row: dict[str, str], where: str, m: Map) -> Sweep:
+def _text(row: dict[str, str | None], key: str, where: str) -> str:
+    text = (row.get(key) or "").strip()
+    if not text:
+        raise SweepSetError(f"{where}: field {key!r} is empty")
+    return text
+
+
+def _sweep(folder: Path, row: dict[str, str | None], where: str, m: Map) -> Sweep:
     n_f = _number(row, "n_bins", where, positive=True)
     if n_f != int(n_f):
         raise SweepSetError(f"{where}: field 'n_bins' must be a whole number, got {row['n_bins']!r}")
@@ -201,18 +211,16 @@ def _sweep(folder: Path, row: dict[str, str], where: str, m: Map) -> Sweep:
     x, y = _number(row, "x_cm", where), _number(row, "y_cm", where)
     if not bool(m.contains(np.array([[x, y]]))[0]):
         raise SweepSetError(f"{where}: waypoint ({x:g}, {y:g}) lies outside the free space of map {m.name!r}")
-    raw_text = (row.get("raw") or "").strip()
-    if not raw_text:
-        raise SweepSetError(f"{where}: field 'raw' is empty")
-    raw = (folder / raw_text).resolve()
+    repo, file, raw_text = _text(row, "repo", where), _text(row, "file", where), _text(row, "raw", where)
     heading_text = (row.get("heading_deg") or "").strip()
     heading = _number(row, "heading_deg", where) if heading_text else math.nan
+    invalid = _invalid_values(row, where)
+    readings = read_readings((folder / raw_text).resolve(), n)  # checks the count before any n-sized array
     known = set(REQUIRED_COLUMNS) | {"heading_deg", "invalid_values"}
-    return Sweep(repo=row["repo"].strip(), file=row["file"].strip(), x_cm=x, y_cm=y,
-                 angles=sweep_angles(n, step, direction, start), readings=read_readings(raw, n),
-                 invalid_values=_invalid_values(row, where), heading_deg=heading, step_deg=step,
+    return Sweep(repo=repo, file=file, x_cm=x, y_cm=y, angles=sweep_angles(n, step, direction, start),
+                 readings=readings, invalid_values=invalid, heading_deg=heading, step_deg=step,
                  direction=direction, raw=raw_text,
-                 extra={k: v for k, v in row.items() if k not in known and isinstance(k, str) and v is not None})
+                 extra={k: v for k, v in row.items() if k not in known and v is not None})
 
 
 def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> SweepSet:
@@ -220,7 +228,8 @@ def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> S
     root = Path(folder)
     table = root / "sweeps.csv"
     if not table.is_file():
-        raise SweepSetError(f"{root}: not a sweep set (no sweeps.csv)")
+        why = "is a folder" if table.is_dir() else "does not exist"
+        raise SweepSetError(f"{table}: {why}; a sweep set is a folder with a sweeps.csv")
     if map is None:
         map_path = root / DEFAULT_MAP
         if not map_path.is_file():
@@ -228,18 +237,34 @@ def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> S
         m = load_map(map_path)
     else:
         m = load_map(map)
+    rows: list[tuple[int, dict[str, str | None]]] = []
     try:
-        with table.open(newline="") as fh:
-            reader = csv.DictReader(fh)
-            columns = reader.fieldnames or []
+        with table.open(newline="", encoding="utf-8") as fh:
+            reader = csv.reader(fh)
+            header = next(reader, None)
+            if header is None:
+                raise SweepSetError(f"{table}: empty file, expected a header line with the columns "
+                                    f"{', '.join(REQUIRED_COLUMNS)}")
+            columns = [c.strip() for c in header]
             missing = [c for c in REQUIRED_COLUMNS if c not in columns]
             if missing:
-                raise SweepSetError(f"{table}: missing column{'s' if len(missing) > 1 else ''} "
+                raise SweepSetError(f"{table}:1: missing column{'s' if len(missing) > 1 else ''} "
                                     f"{', '.join(missing)}")
-            rows = list(reader)
+            twice = sorted({c for c in columns if columns.count(c) > 1 and c})
+            if twice:
+                raise SweepSetError(f"{table}:1: column{'s' if len(twice) > 1 else ''} {', '.join(twice)} "
+                                    "named more than once")
+            for values in reader:
+                line = reader.line_num
+                if not any(v.strip() for v in values):
+                    continue  # a blank line
+                if len(values) != len(columns):
+                    raise SweepSetError(f"{table}:{line}: {len(values)} fields, but the header has "
+                                        f"{len(columns)} columns")
+                rows.append((line, dict(zip(columns, values, strict=True))))
     except (OSError, UnicodeDecodeError, csv.Error) as e:
-        raise SweepSetError(f"{table}: cannot read ({e})") from None
+        raise SweepSetError(f"{table}: cannot read ({' '.join(str(e).split())})") from None
     if not rows:
-        raise SweepSetError(f"{table}: no sweeps")
-    sweeps = tuple(_sweep(root, row, f"{table}:{i}", m) for i, row in enumerate(rows, 2))
+        raise SweepSetError(f"{table}: no sweeps (a header and no rows)")
+    sweeps = tuple(_sweep(root, row, f"{table}:{line}", m) for line, row in rows)
     return SweepSet(root, m, sweeps)

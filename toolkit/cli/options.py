@@ -18,6 +18,7 @@ from ..world import COORDINATE_LIMIT_CM, NxtnavError, Pose
 
 __all__ = [
     "MAX_COUNT",
+    "MAX_SWEEP_READINGS",
     "check_writable",
     "count",
     "in_range",
@@ -25,6 +26,7 @@ __all__ = [
     "parse_floats",
     "parse_list",
     "parse_pose",
+    "parse_sweep",
     "parse_xy",
     "port",
     "port_or_zero",
@@ -37,6 +39,8 @@ __all__ = [
 
 MAX_COUNT = 1_000_000
 """Largest count (trials, runs, poses, repeats, ...) an option accepts: more would only exhaust memory."""
+MAX_SWEEP_READINGS = 100_000
+"""Most readings one simulated sweep may have (a real NXT sweep has 360 at most)."""
 
 
 def in_range(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
@@ -147,3 +151,23 @@ def parse_list(text: str, option: str, known: list[str] | None = None) -> list[s
         if bad:
             raise NxtnavError(f"{option}: unknown {', '.join(bad)}; known: {', '.join(known)}")
     return names
+
+
+def parse_sweep(text: str, option: str) -> tuple[float, float, int]:
+    """``START:STEP:COUNT``: the first angle and the step (degrees; STEP > 0) and the number of readings
+    (a whole number from 1 to `MAX_SWEEP_READINGS`)."""
+    parts = [p.strip() for p in str(text).split(":")]
+    usage = f"expected START:STEP:COUNT (degrees, degrees, readings; e.g. 0:1:360), got {text!r}"
+    if len(parts) != 3:
+        raise NxtnavError(f"{option}: {usage}")
+    try:
+        start, step, n = (float(p) for p in parts)
+    except ValueError:
+        raise NxtnavError(f"{option}: {usage}") from None
+    if not (math.isfinite(start) and abs(start) <= 360.0 * MAX_SWEEP_READINGS):
+        raise NxtnavError(f"{option}: START must be a finite angle in degrees, got {parts[0]!r}")
+    if not (math.isfinite(step) and 0.0 < step <= 360.0):
+        raise NxtnavError(f"{option}: STEP must be a number of degrees > 0 and <= 360, got {parts[1]!r}")
+    if not (math.isfinite(n) and n == int(n) and 1 <= n <= MAX_SWEEP_READINGS):
+        raise NxtnavError(f"{option}: COUNT must be a whole number from 1 to {MAX_SWEEP_READINGS}, got {parts[2]!r}")
+    return start, step, int(n)

@@ -1,4 +1,4 @@
-"""`nxtnav replay`: run localisers offline over a recording made with `nxtnav run --record`."""
+"""`nxtnav replay`: run localisers offline over a recording (`nxtnav run --record`, `nxtnav import`)."""
 
 from __future__ import annotations
 
@@ -22,7 +22,8 @@ def _localiser_names() -> list[str]:
 
 @app.command("replay")
 def replay_cmd(
-    recording: Path = typer.Argument(..., metavar="FILE.jsonl", help="A recording (nxtnav run --record)."),
+    recording: Path = typer.Argument(..., metavar="FILE.jsonl",
+                                     help="A recording (nxtnav run --record, nxtnav import)."),
     localisers_text: str = typer.Option("", "--localisers", metavar="A,B,...",
                                         help="Localisers to compare (default: the one used live)."),
     seed: int = typer.Option(0, help="Seed of the localisers other than the live one."),
@@ -47,6 +48,8 @@ def replay_cmd(
                f"{rec.header['sonar'].get('model')}, live localiser {live}, {rec.calls} localiser calls, "
                f"{'with' if report.has_truth else 'without'} true poses")
     summary = report.summary()
+    if report.has_truth and not report.truth_heading:
+        typer.echo("the true poses have no heading (real sweeps at known waypoints): errors are of position only")
     if report.has_truth:
         typer.echo("| localiser | updates | RMSE (cm) | median error (cm) | final error (cm) | final heading error "
                    "(deg) | median spread (cm) |")

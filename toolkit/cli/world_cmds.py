@@ -20,7 +20,7 @@ from ..world import (
     make_sonar,
 )
 from .app import app, bench_app, maps_app
-from .options import check_writable, count, non_negative, parse_pose
+from .options import check_writable, count, non_negative, parse_pose, parse_sweep
 from .options import seed as seed_ok
 
 __all__: list[str] = []
@@ -72,10 +72,24 @@ def scan(
     output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
                                        help="Draw the scan (rays on the map, radar chart)."),
     json_out: Path | None = typer.Option(None, "--json", help="Write the scan as JSON."),
+    angles_text: str | None = typer.Option(None, "--angles", metavar="START:STEP:COUNT",
+                                           help="The sensor angles (degrees, relative to the heading): COUNT "
+                                                "readings STEP apart from START (default 0:1:360)."),
+    direction: str = typer.Option("ccw", "--direction", metavar="cw|ccw",
+                                  help="The way the turret turns: reading k at START + k*STEP (ccw) or "
+                                       "START - k*STEP (cw)."),
 ) -> None:
-    """One 360-degree scan at a pose: printed, drawn as the paper's Fig. 3 with -o (rays, radar chart)."""
-    from ..plotting import draw_map, draw_pose, draw_radar, draw_scan_rays, expected_ranges, new_axes, save_figure
+    """One scan at a pose: printed, drawn as the paper's Fig. 3 with -o (rays, radar chart).
 
+    A full turn, one reading a degree counter-clockwise by default; the angles of a real sweep with
+    --angles and --direction (`--angles 0:1:360 --direction cw`).
+    """
+    from ..plotting import draw_map, draw_pose, draw_radar, draw_scan_rays, expected_ranges, new_axes, save_figure
+    from ..sweeps import sweep_angles
+
+    if direction not in ("cw", "ccw"):
+        raise typer.BadParameter(f"must be cw or ccw, got {direction!r}", param_hint="--direction")
+    start_deg, step_deg, n = (0.0, 1.0, 360) if angles_text is None else parse_sweep(angles_text, "--angles")
     if sonar not in SONAR_MODELS:
         raise typer.BadParameter(f"unknown sonar model {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
                                  param_hint="--sonar")
@@ -92,7 +106,9 @@ def scan(
         raise typer.BadParameter(f"a robot of radius {radius:g} cm at ({pose.x:g}, {pose.y:g}) touches a wall of "
                                  f"{m.name}", param_hint="--pose")
     model = make_sonar(sonar, noise_sd=sensor_noise)
-    angles = default_scan_angles()
+    # the default full turn keeps its exact angles (k * 2 pi / 360); any other sweep is built as a real one
+    default = angles_text is None and direction == "ccw"
+    angles = default_scan_angles() if default else sweep_angles(n, step_deg, direction, start_deg)
 
     readings = model.measure(m.walls, pose.xy, pose.theta + angles, rng=seed)
     s = model.to_scan(angles, readings)
@@ -102,7 +118,9 @@ def scan(
                + (f", {echo.min():.1f} to {echo.max():.1f} cm" if echo.size else ""))
     if json_out is not None:
         doc = {"map": m.name, "sonar": sonar, "seed": seed, "pose": pose.to_list_deg(),
-               "radius_cm": geometry.radius_cm, **s.to_dict()}
+               "radius_cm": geometry.radius_cm,
+               "sweep": {"start_deg": start_deg, "step_deg": step_deg, "count": n, "direction": direction},
+               **s.to_dict()}
         json_out.write_text(json.dumps(doc, indent=1))
         typer.echo(f"wrote {json_out}")
     if output is None:
