@@ -8,11 +8,16 @@ filters' ``modes``) report them; the others never call themselves ambiguous.
 
 from __future__ import annotations
 
-from toolkit.world import Pose
+import math
+from typing import Any
+
+import numpy as np
+
+from toolkit.world import Pose, angle_diff, wrap_angle
 
 from .base import Localiser
 
-__all__ = ["candidate_poses", "describe_candidates"]
+__all__ = ["candidate_poses", "describe_candidates", "lattice_candidates"]
 
 
 def candidate_poses(localiser: Localiser | None) -> list[Pose]:
@@ -39,3 +44,46 @@ def describe_candidates(poses: list[Pose], shown: int = 4) -> str:
     listed = ", ".join(f"({p.x:.1f}, {p.y:.1f}, {p.heading_deg:.0f} deg)" for p in poses[:shown])
     more = f" and {len(poses) - shown} more" if len(poses) > shown else ""
     return f"ambiguous: {len(poses)} candidate poses {listed}{more}"
+
+
+def lattice_candidates(xy: Any, n_angles: int, costs: Any, *, within_nats: float, radius_cm: float,
+                       heading_rad: float, max_candidates: int = 8, pool: int = 5000) -> list[tuple[Pose, float]]:
+    """Distinct good poses of a scored lattice: the best pose, then the best of those further than
+    `radius_cm` or `heading_rad` from every pose already taken, while within `within_nats` of the best.
+
+    Parameters
+    ----------
+    xy : (P, 2) array
+        Lattice cell centres (cm).
+    n_angles : int
+        Directions per cell (heading ``k * 2 pi / n_angles``).
+    costs : (P, n_angles) array
+        ``-2 log-likelihood`` of each pose (`localisation.beam_model.lattice_costs`).
+
+    Returns
+    -------
+    list of (Pose, float)
+        The candidates with their log-likelihood relative to the best (0 for the first), best first.
+    """
+    c = np.asarray(costs, dtype=float).ravel()
+    k = min(pool, c.size)
+    top = np.argpartition(c, k - 1)[:k]
+    top = top[np.argsort(c[top], kind="stable")]
+    best = c[top[0]]
+    cell, head = np.divmod(top, n_angles)
+    pts = np.asarray(xy, dtype=float)[cell]
+    theta = head * (2.0 * math.pi / n_angles)
+    taken: list[int] = []
+    for i in range(top.size):
+        ll = -0.5 * (c[top[i]] - best)
+        if -ll > within_nats or len(taken) >= max_candidates:
+            break
+        if taken:
+            t = np.asarray(taken)
+            near = (np.hypot(pts[t, 0] - pts[i, 0], pts[t, 1] - pts[i, 1]) <= radius_cm) & \
+                (np.abs(angle_diff(theta[t], theta[i])) <= heading_rad)
+            if near.any():
+                continue
+        taken.append(i)
+    return [(Pose(float(pts[i, 0]), float(pts[i, 1]), float(wrap_angle(theta[i]))), -0.5 * (c[top[i]] - best))
+            for i in taken]

@@ -68,9 +68,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from toolkit.world import (
+    NO_ECHO,
     ConfigError,
     LocalisationError,
     Map,
+    NxtSonar,
     Pose,
     RngLike,
     Scan,
@@ -80,9 +82,11 @@ from toolkit.world import (
 )
 
 from .adaptive import kld_bound, log_blend, log_mean_exp
-from .base import MODEL_OPTIONS, Localiser, Motion, PoseEstimate, Prior
+from .ambiguity import lattice_candidates
+from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior
+from .beam_model import BeamLikelihood, lattice_costs, scan_readings
 from .likelihood_field import DistanceField
-from .models import MotionModel, RangeLattice, RangeTable, exact_ranges, range_lattice, range_table
+from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import log_normalise, systematic_resample
 
 __all__ = ["AMCL_MODELS", "Amcl", "DistanceField", "kld_bound"]
@@ -159,6 +163,11 @@ class Amcl(Localiser):
         Metropolis moves and particles of the refinement of a new fix (0 steps: no refinement).
     beam_interpolation : bool
         Beam model: interpolate the range table's expected ranges (False: the nearest cell and direction).
+    sonar_model : NxtSonar, optional
+        Beam model with the sonar's own beam mixture (`localisation.beam_model.BeamLikelihood`: no-echo
+        readings are evidence, wrong readings are bounded) instead of the nav2 mixture of `sigma_hit`
+        and the `z` weights; its lobe, specular loss and range limit replace `beam_width_deg` and
+        `critical_incidence_deg`.
     lobe_rays : int
         Beam model with a lobe (and `beam_interpolation`): where the table nodes around a pose differ
         by more than a smooth reading can (a wall entering the lobe, a corner), the lobe is cast
@@ -167,6 +176,7 @@ class Amcl(Localiser):
 
     name: ClassVar[str] = "amcl"
     model_options: ClassVar[frozenset[str]] = MODEL_OPTIONS - {"sensor_sigma_cm", "max_range_cm", "beam_rays"}
+    # with a sonar_model, its range limit and lobe rays come with it
 
     def __init__(
         self,
@@ -213,6 +223,7 @@ class Amcl(Localiser):
         beam_interpolation: bool = True,
         ambiguity_injection: float = 0.1,
         lobe_rays: int = 21,
+        sonar_model: NxtSonar | None = None,
     ) -> None:
         super().__init__(map, rng=rng)
         if model not in AMCL_MODELS:
@@ -236,6 +247,14 @@ class Amcl(Localiser):
         if refine_steps < 0 or refine_particles < 1:
             raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, "
                               f"{refine_particles}")
+        max_range_cm: float | None = None
+        if sonar_model is not None:
+            if model == "field":
+                raise ConfigError("amcl: the likelihood field cannot use a sonar_model (its lobe); use model='beam'")
+            beam_width_deg, critical_incidence_deg = sonar_model.beam_width_deg, sonar_model.critical_incidence_deg
+            max_range_cm = sonar_model.max_range_cm
+        self._beam = BeamLikelihood(sonar_model) if sonar_model is not None else None
+        self._lik: Any = self._beam
         self.model = model if model != "auto" else ("beam" if beam_width_deg > 0 else "field")
         self.min_particles, self.max_particles = int(min_particles), int(max_particles)
         self.pf_err, self.pf_z = float(pf_err), float(pf_z)
@@ -258,7 +277,9 @@ class Amcl(Localiser):
         self.ambiguity_nats = float(ambiguity_nats)
         self.mode_radius_cm = float(mode_radius_cm)
         self.mode_heading_rad = math.radians(mode_heading_deg)
-        self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg)
+        self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg,
+                                             max_range_cm=max_range_cm)
+        self._gaussian = RangeLikelihood(self.sigma_hit)
         self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
         self.beam_interpolation = bool(beam_interpolation)
         self._lobe: dict[str, Any] | None = None
@@ -287,6 +308,7 @@ class Amcl(Localiser):
         self._updates = 0
         self._log_w_slow = self._log_w_fast = -math.inf
         self._estimate: PoseEstimate | None = None
+        self._modes: list[Mode] = []
         self._ssd: FloatArray | None = None
         self.reset()
 
@@ -318,10 +340,13 @@ class Amcl(Localiser):
         self._estimate = self._make_estimate()
 
     def update(self, scan: Scan) -> None:
-        ok = scan.valid & np.isfinite(scan.ranges) & (scan.ranges < self.laser_max_range)
-        rel = np.asarray(scan.angles[ok], dtype=float)
-        meas = np.asarray(scan.ranges[ok], dtype=float)
-        if meas.size == 0:
+        if self._beam is not None:
+            rel, meas, self._lik = scan_readings(scan, self._beam)
+        else:
+            ok = scan.valid & np.isfinite(scan.ranges) & (scan.ranges < self.laser_max_range)
+            rel = np.asarray(scan.angles[ok], dtype=float)
+            meas = np.asarray(scan.ranges[ok], dtype=float)
+        if not np.any(meas < NO_ECHO):
             log.warning("scan without usable readings: belief unchanged")
             return
         self._ssd = None
@@ -364,12 +389,15 @@ class Amcl(Localiser):
             self._refine(rel, meas, ll)
             self._estimate = self._make_estimate()
         self._ambiguous_fix = False
+        self._modes = []
         if self._fixing and self._estimate.converged and self.ambiguity_nats > 0:
             self._ambiguous_fix = self._ambiguous(rel, meas, self._estimate.pose)
             if self._ambiguous_fix:
                 self._estimate = replace(self._estimate, converged=False)
             else:
                 self._fixing = False  # a fix the scan singles out; from here on the motion history does
+        if self._fixing and self.ambiguity_nats > 0:
+            self._modes = self._candidates(rel, meas)
         if self._updates % self.resample_interval == 0:
             self._resample(rel, meas)
         self.particle_counts.append(int(self.particles.shape[0]))
@@ -391,6 +419,9 @@ class Amcl(Localiser):
         """Log-likelihood (N,) of the readings `meas` (B,) at angles `rel` (B,) from each pose (N, 3);
         ``-inf`` for poses outside the free area."""
         p = np.asarray(poses, dtype=float).reshape(-1, 3)
+        if self._lik is not None:
+            e, inside = self._expected_ranges(p, rel)
+            return np.where(inside, self._lik.log_likelihood(e, meas), -np.inf)
         rand = self.z_rand / self.laser_max_range
         norm = self.z_hit / (_SQRT_2PI * self.sigma_hit)
         if self.field is None:
@@ -461,16 +492,17 @@ class Amcl(Localiser):
         along = np.column_stack([p[i, :2], p[i, 2] + rel[j]])  # each beam as a pose facing its axis
         out[i, j] = exact_ranges(self.map, along, np.zeros(1), **self._lobe)[:, 0]
 
-    def _lattice_ssd(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
-        """The lattice's sums of squared residuals for this update's scan (computed once per update)."""
+    def _lattice_costs(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
+        """``-2 log-likelihood`` of every lattice pose for this update's scan (computed once per update):
+        the beam mixture of a `sonar_model`, else the Gaussian of `sigma_hit` (`lattice_costs`)."""
         if self._ssd is None:
-            self._ssd = self.lattice.ssd(rel, meas)
+            self._ssd = lattice_costs(self.lattice, rel, meas, self._lik if self._lik is not None else self._gaussian)
         return self._ssd
 
     def _ambiguous(self, rel: FloatArray, meas: FloatArray, pose: Pose) -> bool:
         """Whether a lattice pose away from `pose` (further than `mode_radius_cm` or `mode_heading_deg`)
         explains the scan within `ambiguity_nats` of the best lattice pose near it."""
-        ssd = self._lattice_ssd(rel, meas)  # (cells, directions), cm^2
+        ssd = self._lattice_costs(rel, meas)  # (cells, directions), -2 log-likelihood
         n_ang = self.table.n_angles
         close = np.hypot(self.lattice.xy[:, 0] - pose.x, self.lattice.xy[:, 1] - pose.y) <= self.mode_radius_cm
         if not close.any():
@@ -480,7 +512,19 @@ class Amcl(Localiser):
         near = ssd[close][:, aligned].min()
         far = min(ssd[~close].min() if (~close).any() else math.inf,
                   ssd[close][:, ~aligned].min() if (~aligned).any() else math.inf)
-        return bool(0.5 * (far - near) / self.sigma_hit**2 <= self.ambiguity_nats)
+        return bool(0.5 * (far - near) <= self.ambiguity_nats)
+
+    @property
+    def modes(self) -> list[Mode]:
+        """While a new fix is ambiguous (or has not converged), the distinct lattice poses that explain
+        the scan within `ambiguity_nats` of the best (`lattice_candidates`), best first; else none."""
+        return list(self._modes)
+
+    def _candidates(self, rel: FloatArray, meas: FloatArray) -> list[Mode]:
+        found = lattice_candidates(self.lattice.xy, self.table.n_angles, self._lattice_costs(rel, meas),
+                                   within_nats=self.ambiguity_nats, radius_cm=self.mode_radius_cm,
+                                   heading_rad=self.mode_heading_rad)
+        return [Mode(pose, 0.0, ll, 0) for pose, ll in found] if len(found) > 1 else []
 
     def _refine(self, rel: FloatArray, meas: FloatArray, ll: FloatArray) -> None:
         """Resample-move on a new fix: `refine_particles` draws from the weights, then `refine_steps`
@@ -550,7 +594,7 @@ class Amcl(Localiser):
     def _scan_poses(self, n: int, rel: FloatArray, meas: FloatArray) -> FloatArray:
         """`n` poses drawn from the lattice scored against the scan, tempered to about `scan_sample_ess`
         effective candidates, jittered within their lattice cell and direction."""
-        ssd = self._lattice_ssd(rel, meas).ravel() / self.sigma_hit**2
+        ssd = self._lattice_costs(rel, meas).ravel()
         top = min(20000, ssd.size)
         cand = np.argpartition(ssd, top - 1)[:top]
         s = ssd[cand] - ssd[cand].min()

@@ -67,6 +67,7 @@ class BeamLikelihood:
     sonar: NxtSonar
     weight: float = 1.0
     table: NDArray[np.float32] = field(init=False, repr=False)
+    table_by_reading: NDArray[np.float32] = field(init=False, repr=False)
     uses_no_echo: bool = field(init=False, default=True)
 
     def __post_init__(self) -> None:
@@ -75,6 +76,7 @@ class BeamLikelihood:
         readings = np.append(np.arange(levels, dtype=float), NO_ECHO)
         lp = np.maximum(self.sonar.log_pmf(d[:, None], readings[None, :]), -50.0)
         object.__setattr__(self, "table", np.ascontiguousarray(-2.0 * (lp - lp.max()), dtype=np.float32))
+        object.__setattr__(self, "table_by_reading", np.ascontiguousarray(self.table.T))
 
     @property
     def sigma_cm(self) -> float:
@@ -87,7 +89,7 @@ class BeamLikelihood:
         if w == self.weight:
             return self
         out = object.__new__(BeamLikelihood)
-        for k in ("sonar", "table", "uses_no_echo"):
+        for k in ("sonar", "table", "table_by_reading", "uses_no_echo"):
             object.__setattr__(out, k, getattr(self, k))
         object.__setattr__(out, "weight", w)
         return out
@@ -127,29 +129,40 @@ class BeamLikelihood:
 
 
 @njit("void(uint16[:, ::1], int64[::1], int64[::1], float32[:, ::1], float64[:, ::1])", cache=True)
-def _lattice_gather(rows: Any, dirs: Any, cols: Any, table: Any, out: Any) -> None:  # pragma: no cover (compiled)
+def _lattice_gather(rows: Any, dirs: Any, cols: Any, by_reading: Any, out: Any) -> None:  # pragma: no cover
     n_cells, n_ang = rows.shape
     for c in range(n_cells):
         row = rows[c]
         for h in range(n_ang):
-            acc = 0.0
-            for j in range(dirs.size):
-                acc += table[row[(h + dirs[j]) % n_ang], cols[j]]
-            out[c, h] = acc
+            out[c, h] = 0.0
+        for j in range(dirs.size):
+            cost = by_reading[cols[j]]
+            shift = dirs[j]
+            for h in range(n_ang):
+                k = h + shift
+                if k >= n_ang:
+                    k -= n_ang
+                out[c, h] += cost[row[k]]
 
 
 _ROWS: dict[int, NDArray[np.uint16]] = {}
 
 
-def lattice_costs(lattice: RangeLattice, rel: Any, measured: Any, model: Any) -> FloatArray:
+def lattice_costs(lattice: RangeLattice, rel: Any, measured: Any, model: Any, max_beams: int = 48) -> FloatArray:
     """``-2 log-likelihood`` (up to a constant) of every lattice cell x table direction: (P, n_angles).
 
     A `BeamLikelihood` is gathered from its table (compiled, no approximation but the table's
-    0.25 cm and whole directions); any other model is the Gaussian sum of squares of
-    `RangeLattice.ssd` over ``sigma_cm^2`` (readings without an echo left out).
+    0.25 cm and whole directions) on at most `max_beams` evenly chosen readings, scaled up to all
+    of them (the lattice only picks where the annealing starts); any other model is the Gaussian sum
+    of squares of `RangeLattice.ssd` over ``sigma_cm^2`` (readings without an echo left out).
     """
     rel = np.asarray(rel, dtype=float).ravel()
     m = np.asarray(measured, dtype=float).ravel()
+    scale = 1.0
+    if isinstance(model, BeamLikelihood) and m.size > max_beams > 0:
+        pick = np.linspace(0, m.size - 1, max_beams).round().astype(np.int64)
+        scale = m.size / pick.size
+        rel, m = rel[pick], m[pick]
     if not isinstance(model, BeamLikelihood):
         ok = np.isfinite(m) & (m < NO_ECHO)
         return np.asarray(lattice.ssd(rel[ok], m[ok]) / model.sigma_cm**2)
@@ -162,8 +175,9 @@ def lattice_costs(lattice: RangeLattice, rel: Any, measured: Any, model: Any) ->
     n_ang = lattice.table.n_angles
     dirs = np.mod(np.rint(rel * n_ang / (2.0 * math.pi)).astype(np.int64), n_ang)
     out = np.empty((len(lattice), n_ang))
-    _lattice_gather(np.ascontiguousarray(rows), np.ascontiguousarray(dirs), model.columns(m), model.table, out)
-    return out * model.weight
+    _lattice_gather(np.ascontiguousarray(rows), np.ascontiguousarray(dirs), model.columns(m), model.table_by_reading,
+                    out)
+    return out * (model.weight * scale)
 
 
 def scan_readings(scan: Scan, model: Any) -> tuple[FloatArray, FloatArray, Any]:
