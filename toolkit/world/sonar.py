@@ -283,8 +283,8 @@ class NxtSonar(SonarModel):
         mu = dd + self.bias_cm
         sd = self.reading_sd(dd)
         with np.errstate(invalid="ignore"):
-            upper = np.where(r <= 0, np.inf, r + 0.5)
-            hit = _ndtr((upper - mu) / sd) - _ndtr((r - 0.5 - mu) / sd)
+            lower = np.where(r <= 0, -np.inf, r - 0.5)  # the simulator clips at 0: reading 0 takes what lies below
+            hit = _ndtr((r + 0.5 - mu) / sd) - _ndtr((lower - mu) / sd)
             beyond = 1.0 - _ndtr((self.max_range_cm - 0.5 - mu) / sd)
         n_short = np.maximum(np.floor(np.where(echo, dd, 1.0)), 1.0)
         short = np.where(r < n_short, 1.0 / n_short, 0.0)
@@ -313,7 +313,8 @@ class NxtSonar(SonarModel):
         short = np.floor(gen.random(shape) * n_short)
         rand = np.floor(gen.random(shape) * levels)
         pick = gen.random(shape)
-        reading = np.where(pick < self.short_prob, short, np.where(pick < self.short_prob + self.outlier_prob, rand, hit))
+        reading = np.where(pick < self.short_prob, short,
+                           np.where(pick < self.short_prob + self.outlier_prob, rand, hit))
         reading = np.where(gen.random(shape) < self.loss_probability(de), NO_ECHO, reading)
         reading = np.where(echo, reading, np.where(gen.random(shape) < self.phantom_prob, rand, NO_ECHO))
         close = echo & (dd < self.min_range_cm)

@@ -1,0 +1,96 @@
+"""`nxtnav bench sweeps`: localisers on real sweeps at known waypoints (global, one sweep, no motion)."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import time
+from pathlib import Path
+
+import typer
+
+from toolkit.world import NxtnavError
+
+from .app import Interrupted, bench_app
+from .options import parse_list
+from .options import workers as workers_ok
+from .progress import progress
+
+
+def _seeds(text: str) -> list[int]:
+    out = []
+    for part in parse_list(text, "--seeds"):
+        try:
+            v = int(part)
+        except ValueError:
+            raise NxtnavError(f"--seeds: not a whole number: {part!r}") from None
+        if v < 0:
+            raise NxtnavError(f"--seeds: seeds are >= 0, got {v}")
+        out.append(v)
+    return out
+
+
+@bench_app.command("sweeps")
+def bench_sweeps(
+    folder: Path = typer.Argument(..., help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
+    map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
+    localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated global localisers."),
+    seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
+    sonar_profile: Path | None = typer.Option(None, "--sonar-profile",
+                                              help="nxt sonar model (YAML profile; default: the fitted default)."),
+    out: Path = typer.Option(Path("out/sweeps"), "--out", help="Output folder (must be empty or new, unless --force)."),
+    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
+    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+) -> None:
+    """Global localisation from each real sweep alone: sweeps.csv and summary.md in --out."""
+    from localisation.base import LOCALISERS
+    from toolkit.bench.executors import TasksInterrupted, collect_tasks
+    from toolkit.bench.sweeps import make_sweep_tasks, run_sweep, write_sweeps_csv, write_sweeps_summary
+    from toolkit.sonar_fit import load_sonar_profile
+    from toolkit.sweeps import load_sweep_set
+    from toolkit.world import NxtSonar
+
+    names = LOCALISERS.names()
+    locs = parse_list(localisers_text, "--localisers", list(names))
+    trackers = [n for n in locs if n in ("ekf", "ukf")]
+    if trackers:
+        raise NxtnavError(f"--localisers: {', '.join(trackers)} track a known pose and cannot localise from one "
+                          "sweep alone; use particle filters (paper-pf, amcl, pf-*)")
+    seeds = _seeds(seeds_text)
+    sweeps = load_sweep_set(folder, map_file)
+    sonar = load_sonar_profile(sonar_profile) if sonar_profile is not None else NxtSonar()
+    if out.exists() and not out.is_dir():
+        raise NxtnavError(f"--out: {out} exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not force:
+        raise NxtnavError(f"--out: {out} is not empty (use --force to write into it)")
+    tasks = make_sweep_tasks(sweeps, map_file, locs, seeds, sonar)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    complete = True
+    with progress(f"{len(sweeps)} sweeps x {len(locs)} localisers x {len(seeds)} seeds", len(tasks)) as advance:
+        try:
+            runs = collect_tasks(run_sweep, tasks, workers=workers, on_done=advance)
+        except TasksInterrupted as exc:
+            runs, complete = list(exc.results), False
+            if not runs:
+                raise Interrupted(f"no run had finished (of {len(tasks)}); nothing written") from None
+    wall = time.perf_counter() - t0
+    order = {(t.localiser, t.seed, t.index): i for i, t in enumerate(tasks)}
+    label = {(s.repo, s.file): i for i, s in enumerate(sweeps)}
+    runs = sorted(runs, key=lambda r: order[(r.localiser, r.seed, label[(r.repo, r.file)])])
+    command = " ".join(shlex.quote(a) for a in [
+        "nxtnav", "bench", "sweeps", str(folder), *(["--map", map_file] if map_file else []),
+        "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)),
+        *(["--sonar-profile", str(sonar_profile)] if sonar_profile else []), "--out", str(out),
+        "--workers", str(workers)])
+    csv_path = write_sweeps_csv(runs, out / "sweeps.csv")
+    md = write_sweeps_summary(runs, out / "summary.md", localisers=locs, sweeps=sweeps, seeds=seeds, sonar=sonar,
+                              command=command, wall_time_s=wall, complete=complete)
+    (out / "config.json").write_text(json.dumps({"folder": str(folder), "map": map_file, "localisers": locs,
+                                                 "seeds": seeds, "sonar": sonar.to_dict(), "complete": complete,
+                                                 "runs_done": len(runs), "runs_planned": len(tasks),
+                                                 "wall_time_s": wall}, indent=1))
+    typer.echo(md.read_text())
+    typer.echo(f"wrote {csv_path}, {md} ({len(runs)} runs in {wall:.1f} s)")
+    if not complete:
+        raise Interrupted(f"{len(runs)} of {len(tasks)} runs done; partial results (marked incomplete) in {out}")
