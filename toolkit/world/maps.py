@@ -324,7 +324,8 @@ def _thin_walls(value: Any, label: str, free: BaseGeometry) -> tuple[FloatArray,
         covered = shapely.covers(free, segs)
         if not covered.all():
             i = int(np.flatnonzero(~covered)[0])
-            pt = shapely.difference(segs[i], free).representative_point()
+            outside = shapely.get_parts(shapely.difference(segs[i], free))[0]
+            pt = shapely.line_interpolate_point(outside, 0.5, normalized=True)
             raise MapError(f"{where}: segment vertex {i} -> {i + 1} leaves the free space of the map at "
                            f"({pt.x:.6g}, {pt.y:.6g})")
         out.append(line)
