@@ -579,13 +579,17 @@ class Map:
         every thin wall grown by the radius.
 
         Arcs are drawn as chords (16 per quarter circle). For radius 0 the thin walls are cut out as
-        slits `THIN_WALL_SLIT_CM` wide, so a point on one is not in the result.
+        slits `THIN_WALL_SLIT_CM` wide (and no longer than the walls), so a point on one is not in
+        the result.
         """
         r = float(radius)
         space = self.polygon if r <= 0 else self.polygon.buffer(-r, quad_segs=16)
         if not self.thin_walls:
             return space
-        grown = shapely.buffer(self.thin_lines, max(r, THIN_WALL_SLIT_CM), quad_segs=16 if r > 0 else 1)
+        if r > 0:
+            grown = shapely.buffer(self.thin_lines, r, quad_segs=16)
+        else:  # square ends: the slit ends at the wall's ends
+            grown = shapely.buffer(self.thin_lines, THIN_WALL_SLIT_CM, quad_segs=1, cap_style="flat")
         return shapely.difference(space, grown)
 
     def contains(self, xy: ArrayLike) -> Any:
