@@ -523,25 +523,31 @@ class Map:
     def _thin_tree(self) -> shapely.STRtree:
         return shapely.STRtree(shapely.linestrings(self.thin_segments.reshape(-1, 2, 2)))
 
+    def _thin_hits(self, a: FloatArray, b: FloatArray, points: bool) -> NDArray[np.bool_]:
+        """Whether each point a[k] (`points`) or segment a[k] -> b[k] meets a thin wall: exact shapely
+        predicates, asked only for those the thin walls' grid index finds within a hair of one."""
+        out = np.zeros(len(a), dtype=bool)
+        if not self.thin_walls or not len(a):
+            return out
+        near = np.flatnonzero(~edge_index(self.thin_segments).capsules_clear(a, b, THIN_WALL_SLIT_CM))
+        if len(near):
+            geoms = shapely.points(a[near]) if points else shapely.linestrings(np.stack([a[near], b[near]], axis=1))
+            hit, _ = self._thin_tree.query(geoms, predicate="intersects")
+            out[near[hit]] = True
+        return out
+
     def on_thin_wall(self, xy: ArrayLike) -> Any:
-        """Whether points lie on a thin wall (exact predicate; (2,) -> bool, (..., 2) -> bool array)."""
+        """Whether points lie on a thin wall (exact; (2,) -> bool, (..., 2) -> bool array)."""
         p = np.asarray(xy, dtype=float)
         pts = p.reshape(-1, 2)
-        out = np.zeros(len(pts), dtype=bool)
-        if len(self.thin_walls) and len(pts):
-            hit, _ = self._thin_tree.query(shapely.points(pts), predicate="intersects")
-            out[hit] = True
+        out = self._thin_hits(pts, pts, points=True)
         return bool(out[0]) if p.ndim == 1 else out.reshape(p.shape[:-1])
 
     def meets_thin_wall(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
         """Whether each segment ``a[k] -> b[k]`` ((n, 2) arrays, cm) crosses or touches a thin wall (exact)."""
         pa = np.asarray(a, dtype=float).reshape(-1, 2)
         pb = np.asarray(b, dtype=float).reshape(-1, 2)
-        out = np.zeros(len(pa), dtype=bool)
-        if len(self.thin_walls) and len(pa):
-            hit, _ = self._thin_tree.query(shapely.linestrings(np.stack([pa, pb], axis=1)), predicate="intersects")
-            out[hit] = True
-        return out
+        return self._thin_hits(pa, pb, points=False)
 
     @cached_property
     def wall_lines(self) -> shapely.MultiLineString:
