@@ -93,14 +93,15 @@ def cspace_polygon(map: Map, radius: float, n_sides: int = 64, eps: float = 1e-4
 
     Every boundary point of the result is at least ``radius + eps`` cm from every wall. The result
     is a Polygon or MultiPolygon (empty when the disc fits nowhere), oriented with exteriors
-    counter-clockwise and holes clockwise.
+    counter-clockwise and holes clockwise. For a point robot (radius 0) the free area itself, which
+    it may touch, minus the thin walls (`Map.thin_walls`, which it may not touch) grown by ``eps``.
     """
-    if radius == 0:  # a point robot: the free area itself, exactly
+    if radius == 0 and not map.thin_walls:  # a point robot: the free area itself, exactly
         return shapely.MultiPolygon([shapely_polygon.orient(p, 1.0) for p in shapely.get_parts(map.polygon)])
     big = circumradius(radius, n_sides, eps)
     ang = (np.arange(n_sides) + 0.5) * (2.0 * math.pi / n_sides)
     ngon = big * np.column_stack([np.cos(ang), np.sin(ang)])
-    walls = map.walls
+    walls = map.walls if radius > 0 else map.thin_segments
     pts = np.concatenate([walls[:, None, :2] + ngon[None], walls[:, None, 2:] + ngon[None]], axis=1)
     hulls = shapely.convex_hull(shapely.multipoints(pts))
     blocked = shapely.union_all(hulls)
@@ -251,7 +252,7 @@ class _ReferencePlanner(Planner):
         return s_ok, g_ok, direct
 
     def _length_tolerance(self, problem: PlanningProblem, path: FloatArray) -> float:
-        if problem.robot_radius == 0:
+        if problem.robot_radius == 0 and not problem.map.thin_walls:
             return 0.0  # the point robot's graph is exact
         big = circumradius(problem.robot_radius, self.n_sides, self.eps)
         return (big - problem.robot_radius) * (turn_angle(path) + 2.0 * math.pi)
@@ -278,9 +279,11 @@ def _tangent_pairs(v: FloatArray, prv: FloatArray, nxt: FloatArray, part: NDArra
 
 
 def _exact_grid(problem: PlanningProblem) -> NDArray[np.bool_] | None:
-    """The free cells of a point robot's grid map whose free space is exactly those cells, else None."""
+    """The free cells of a point robot's grid map whose free space is exactly those cells, else None
+    (also when thin walls cut the cells, which the cell sweeps cannot see)."""
     checker = problem.checker
-    if problem.robot_radius != 0 or not isinstance(checker, PointCollisionChecker) or not checker.use_grid:
+    if (problem.robot_radius != 0 or not isinstance(checker, PointCollisionChecker) or not checker.use_grid
+            or problem.map.thin_walls):
         return None
     return checker.cells
 
@@ -329,7 +332,10 @@ class ShortestPathPlanner(_ReferencePlanner):
     See the module docstring for the guarantee: ``L* <= length <= L* + info["length_tolerance_cm"]``
     (to first order), where ``L*`` is the true shortest length. For a point robot (radius 0) the
     configuration space is the free area itself and the result is exact (tolerance 0): paths may run
-    along walls and round corners but never through a pinch point of the map.
+    along walls and round corners but never through a pinch point of the map. Thin walls
+    (`Map.thin_walls`) may not be touched, so for them the point grows by ``eps`` like a disc, and
+    the tolerance is that of a disc of radius 0 (a few ``eps``). For a disc a thin wall is a wall
+    like any other: its end points become arcs, and their polygon's vertices visibility nodes.
 
     The graph is kept per (map, radius) and searched by A* (`planners.visibility_search`). Its
     edges join reflex vertices whose joining line is tangent at both ends. On a point robot's grid

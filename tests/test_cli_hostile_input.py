@@ -141,6 +141,21 @@ def test_coordinates_are_bounded(tmp_path: Path, capsys: pytest.CaptureFixture[s
     _fails_cleanly(["plan", "--start", "1e300,5", "-o", str(tmp_path / "p.png")], capsys, "--start", "within")
 
 
+def test_a_bad_thin_wall_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    room = tmp_path / "stub.yaml"
+    room.write_text("boundary: [[0, 0], [100, 0], [100, 60], [0, 60]]\n"
+                    "walls: [[[50, 0], [50, 30]], [[20, 20], [20, 20]]]\n")
+    _fails_cleanly(["maps", "show", str(room), "-o", str(tmp_path / "m.png")], capsys, "stub.yaml",
+                   "wall 1 vertex 1: zero-length segment")
+    room.write_text("boundary: [[0, 0], [100, 0], [100, 60], [0, 60]]\nwalls: [[[50, 0], [50, 80]]]\n")
+    _fails_cleanly(["plan", "--map", str(room), "--start", "20,20", "--goal", "80,20", "-o", str(tmp_path / "p.png")],
+                   capsys, "stub.yaml", "wall 0 vertex 1: [50.0, 80.0] is outside the free space")
+    room.write_text("boundary: [[0, 0], [100, 0], [100, 60], [0, 60]]\nwalls: [[[50, 0], [50, .nan]]]\n")
+    _fails_cleanly(["scan", "--map", str(room), "--pose", "20,20,0"], capsys, "stub.yaml", "wall 0 vertex 1[1]",
+                   "finite")
+    assert not any(p.suffix == ".png" for p in tmp_path.iterdir())
+
+
 def test_a_range_model_too_large_for_memory_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     huge = tmp_path / "huge.yaml"
     huge.write_text("name: huge\nboundary: [[0, 0], [900000, 0], [900000, 900000], [0, 900000]]\n")

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from conftest import run_cli
@@ -26,6 +27,29 @@ def test_maps_show_writes_png(tmp_path: Path) -> None:
     out = tmp_path / "sub" / "m.png"
     assert run_cli(["maps", "show", "map3", "-o", str(out)]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_maps_list_and_show_the_co333_arena(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli(["maps", "list"]) == 0
+    assert "co333-arena" in capsys.readouterr().out
+    out = tmp_path / "arena.png"
+    assert run_cli(["maps", "show", "co333-arena", "-o", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_thin_walls_are_drawn_thick() -> None:
+    from toolkit.plotting import draw_map, new_axes
+
+    m = load_map("co333-arena")
+    fig, ax = new_axes()
+    artists = draw_map(m, ax)
+    thin = [a for a in artists if a.get_label() == "thin wall"]
+    edges = [a for a in artists if a not in thin and hasattr(a, "get_segments")]
+    assert len(thin) == 1 and len(edges) == 1
+    np.testing.assert_array_equal(np.asarray(thin[0].get_segments()), [[[84, 126], [84, 168]]])
+    assert len(edges[0].get_segments()) == len(m.boundary)  # the stub is drawn once, as a thin wall
+    assert min(thin[0].get_linewidths()) >= 3.0 > max(edges[0].get_linewidths())
+    plt.close(fig)
 
 
 def test_scan_json(tmp_path: Path) -> None:

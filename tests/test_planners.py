@@ -13,7 +13,7 @@ import pytest
 import shapely
 
 from planners import PLANNERS, Planner, PlanningProblem, PlanResult, PlanStatus, make_planner
-from toolkit.world import CollisionChecker, Map, load_map, map_from_dict
+from toolkit.world import CollisionChecker, Map, load_map, make_checker, map_from_dict
 
 RADIUS = 8.0
 MAPS = ("map1", "map2", "map3", "pillars")
@@ -265,3 +265,71 @@ def test_the_registry_resolves_the_ompl_family_itself() -> None:
         make_planner("no-such-planner")
     # the base module no longer reaches into the OMPL module (the circle the family replaced)
     assert "ompl_planners" not in (Path(__file__).resolve().parents[1] / "planners" / "base.py").read_text()
+
+
+# -- thin walls (zero thickness) ------------------------------------------------------------------
+
+SPLIT = {
+    "name": "split",
+    "boundary": [[0, 0], [200, 0], [200, 100], [0, 100]],
+    "walls": [[[100, 0], [100, 70]]],  # stands on the floor; the gap above it is 30 cm
+    "start": [50, 20],
+    "target": [150, 20],
+}
+
+
+def split_optimum(radius: float) -> float:
+    """Shortest length from (50, 20) to (150, 20) round the wall's end E = (100, 70) for a disc of `radius`.
+
+    Both ends are d = 50 sqrt(2) from E, in directions 225 and 315 degrees. The path is a tangent to
+    the circle of `radius` about E, an arc over E, and the mirror tangent: the tangent points lie
+    ``acos(radius / d)`` from those directions (at 225 - a and -45 + a degrees), so the arc spans
+    ``2 (135 deg - a)``; the top of the arc (y = 70 + radius) stays clear of the ceiling for radius < 15.
+    """
+    d = math.hypot(50.0, 50.0)
+    a = math.acos(radius / d)
+    return 2.0 * math.sqrt(d * d - radius * radius) + radius * 2.0 * (0.75 * math.pi - a)
+
+
+@pytest.mark.parametrize("radius", [RADIUS, 0.0])
+@pytest.mark.parametrize("planner", PLANNER_NAMES)
+def test_planners_route_round_a_thin_wall(planner: str, radius: float) -> None:
+    m = map_from_dict(SPLIT)
+    checker = make_checker(m, radius)
+    assert m.start is not None and m.target is not None
+    res = _make(planner).plan(PlanningProblem(m, checker, m.start, m.target, BUDGET, 3))
+    assert res.success, f"{planner}: {res.status}"
+    assert_path_valid(m, res.path, m.start, m.target, radius)
+    segs = shapely.linestrings(np.stack([res.path[:-1], res.path[1:]], axis=1))
+    assert not shapely.intersects(segs, m.thin_lines).any(), "a segment meets the thin wall"
+    assert res.path[:, 1].max() > 70.0 + radius - 1e-6  # it went over the wall's end
+    best = split_optimum(radius)
+    assert res.length >= best - 1e-9  # the optimum is a proof: anything shorter went through the wall
+    if planner == "shortest":
+        assert res.length <= best + res.info["length_tolerance_cm"] + 1e-9
+        assert res.length == pytest.approx(best, abs=0.02)
+
+
+def test_split_optimum_by_hand() -> None:
+    """The formula against the numbers for radius 8: tangents of sqrt(5000 - 64), an arc of 103 degrees."""
+    a = math.degrees(math.acos(8.0 / math.hypot(50.0, 50.0)))
+    assert 2 * (135.0 - a) == pytest.approx(103.0, abs=0.1)
+    assert split_optimum(8.0) == pytest.approx(2 * math.sqrt(4936.0) + 8.0 * math.radians(2 * (135.0 - a)))
+    assert split_optimum(0.0) == pytest.approx(100.0 * math.sqrt(2.0))
+
+
+def test_grid_astar_on_cells_respects_thin_walls() -> None:
+    """A point robot on a grid map's own cells: a thin wall through the cells is never crossed."""
+    from toolkit.world import OccupancyGrid, grid_to_map
+
+    base = grid_to_map(OccupancyGrid(np.ones((10, 20), dtype=bool), cell_cm=5.0), "cells")
+    m = map_from_dict({**base.to_dict(), "walls": [[[52.5, 0], [52.5, 40]]]})  # through the cells of column 10
+    checker = make_checker(m, 0.0)
+    start, goal = np.array([27.5, 7.5]), np.array([77.5, 7.5])
+    res = make_planner("astar", resolution=None).plan(PlanningProblem(m, checker, start, goal, BUDGET, 1))
+    assert res.success
+    segs = shapely.linestrings(np.stack([res.path[:-1], res.path[1:]], axis=1))
+    assert not shapely.intersects(segs, m.thin_lines).any()
+    assert res.path[:, 1].max() > 40.0
+    ref = make_planner("shortest").plan(PlanningProblem(m, checker, start, goal, BUDGET, 1))
+    assert ref.length == pytest.approx(2 * math.hypot(25.0, 32.5), abs=1e-3) and res.length >= ref.length

@@ -10,7 +10,7 @@ from toolkit.world.fcl_collision import FclCollisionChecker
 
 
 @pytest.mark.parametrize(("name", "radius"), [("map1", 8.0), ("map2", 8.0), ("map3", 8.0), ("pillars", 8.0),
-                                              ("turtlebot3_world", 8.0), ("arena2", 2.0)])
+                                              ("turtlebot3_world", 8.0), ("arena2", 2.0), ("co333-arena", 8.0)])
 def test_index_and_fcl_agree(name: str, radius: float) -> None:
     m = load_map(name)
     index, ref = make_checker(m, radius), make_checker(m, radius, backend="fcl")

@@ -144,13 +144,14 @@ numbers = st.one_of(
 points = st.one_of(st.lists(numbers, min_size=0, max_size=4), numbers)
 rings = st.one_of(st.lists(points, max_size=7), numbers)
 maps = st.dictionaries(
-    st.sampled_from(["name", "description", "boundary", "obstacles", "start", "target", "extra"]),
+    st.sampled_from(["name", "description", "boundary", "obstacles", "walls", "start", "target", "extra"]),
     st.one_of(rings, st.lists(rings, max_size=3), points, st.text(max_size=5)),
 )
 plausible = st.builds(
-    lambda b, o, s, t: {"boundary": b, "obstacles": o, "start": s, "target": t},
+    lambda b, o, w, s, t: {"boundary": b, "obstacles": o, "walls": w, "start": s, "target": t},
     st.lists(st.tuples(st.integers(-5, 105), st.integers(-5, 105)).map(list), min_size=0, max_size=8),
     st.lists(st.lists(st.tuples(st.integers(0, 100), st.integers(0, 100)).map(list), max_size=5), max_size=3),
+    st.lists(st.lists(st.tuples(st.integers(0, 100), st.integers(0, 100)).map(list), max_size=4), max_size=3),
     st.one_of(st.none(), st.tuples(st.integers(-10, 110), st.integers(-10, 110)).map(list)),
     st.one_of(st.none(), st.tuples(st.floats(-10, 110), st.floats(-10, 110)).map(list)),
 )
@@ -163,6 +164,7 @@ def check_valid(m: Map) -> None:
     for p in (m.start, m.target):
         if p is not None:
             assert m.contains(p)
+    assert all(len(w) >= 2 for w in m.thin_walls) and (not m.thin_walls or m.polygon.covers(m.thin_lines))
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

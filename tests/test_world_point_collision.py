@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import shapely
 
-from toolkit.world import CollisionChecker, PointCollisionChecker, import_map, load_map, make_checker
+from toolkit.world import CollisionChecker, PointCollisionChecker, import_map, load_map, make_checker, map_from_dict
 from toolkit.world.grid_kernel import grid_segments_free
 
 _MAPS = ("arena2", "depot")
@@ -84,3 +85,22 @@ def test_make_checker_picks_the_point_checker_for_radius_zero() -> None:
     assert cc.robot_radius == 0.0
     assert cc.point_free([0, 0]) and not cc.point_free([-1, 0])
     assert cc.clearance([20, 20]) == pytest.approx(20.0)
+
+
+def test_thin_walls_cut_a_grid_map() -> None:
+    """A thin wall on a grid map: the cell walk still decides the cells, the walls' segments the rest."""
+    base = import_map_rows(["........", "..@@....", "........", "........"])
+    m = map_from_dict({**base.to_dict(), "walls": [[[5.5, 0], [5.5, 3]], [[0.5, 3.5], [2, 3.5], [2, 3]]]})
+    grid, exact = PointCollisionChecker(m), PointCollisionChecker(m, use_grid=False)
+    assert grid.use_grid and not exact.use_grid
+    rng = np.random.default_rng(4)
+    a = np.vstack([rng.uniform([0, 0], [8, 4], (3000, 2)), rng.integers(0, 9, (1000, 2)) * [1, 0.5]])
+    b = a + rng.normal(0.0, 2.0, a.shape)
+    lines = shapely.linestrings(np.stack([a, b], axis=1))
+    on_thin = shapely.intersects(lines, m.thin_lines)
+    truth = shapely.covers(m.polygon, lines) & ~on_thin
+    assert 0.2 < truth.mean() < 0.8 and int(np.sum(on_thin & shapely.covers(m.polygon, lines))) > 300
+    assert np.array_equal(grid.segments_free(a, b), truth) and np.array_equal(exact.segments_free(a, b), truth)
+    want = shapely.intersects_xy(m.polygon, *a.T) & ~shapely.intersects_xy(m.thin_lines, *a.T)
+    assert np.array_equal(grid.point_free(a), want) and np.array_equal(exact.point_free(a), want)
+    assert not grid.point_free([5.5, 1.5]) and not grid.segment_free([4.5, 1.5], [6.5, 1.5])

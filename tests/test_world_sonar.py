@@ -29,7 +29,7 @@ def shapely_ray(m, origin, angle, length=1000.0) -> float:
     return np.inf if hit.is_empty else o.distance(hit)
 
 
-@pytest.mark.parametrize("name", ["map1", "map2", "map3", "pillars"])
+@pytest.mark.parametrize("name", ["map1", "map2", "map3", "pillars", "co333-arena"])
 def test_ray_cast_matches_shapely(name: str) -> None:
     m = load_map(name)
     rng = np.random.default_rng(5)

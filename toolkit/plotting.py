@@ -87,7 +87,8 @@ def _geometry_patch(geom: BaseGeometry, **kw: Any) -> list[PathPatch]:
 
 
 def draw_map(m: Map, ax: Axes | None = None, presets: bool = True, title: bool = True) -> list[Any]:
-    """The walls (black), the free area (white on grey) and the start/target presets."""
+    """The walls (black), the free area (white on grey), the thin walls (thick dark lines, labelled)
+    and the start/target presets."""
     ax = _ax(ax)
     artists: list[Any] = []
     xmin, ymin, xmax, ymax = m.bounds
@@ -97,8 +98,12 @@ def draw_map(m: Map, ax: Axes | None = None, presets: bool = True, title: bool =
         artists.append(ax.add_patch(patch))
     # one collection for all walls (a real map has thousands); thinner lines as the map grows
     lw = float(np.clip(2.0 * math.sqrt(60.0 / max(len(m.walls), 1)), 0.3, 2.0))
-    artists.append(ax.add_collection(LineCollection(list(np.asarray(m.walls).reshape(-1, 2, 2)), colors="black",
+    edges = np.asarray(m.walls)[:len(m.walls) - len(m.thin_segments)]
+    artists.append(ax.add_collection(LineCollection(list(edges.reshape(-1, 2, 2)), colors="black",
                                                     linewidths=lw, zorder=3)))
+    if m.thin_walls:  # zero thickness in the map: drawn thick so that they show at any size
+        artists.append(ax.add_collection(LineCollection(list(m.thin_walls), colors="0.15", linewidths=max(3.0, 2 * lw),
+                                                        capstyle="round", zorder=4, label="thin wall")))
     if presets:
         if m.start is not None:
             artists.extend(ax.plot(*m.start, marker="o", color="tab:green", ms=9, ls="", label="start", zorder=6))

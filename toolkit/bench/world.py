@@ -46,6 +46,10 @@ def peer_raycast2d(m: Map, origins: np.ndarray, angles: np.ndarray, repeats: int
     w, h = math.ceil((xmax - xmin) / pixel) + 2, math.ceil((ymax - ymin) / pixel) + 2
     gx, gy = np.meshgrid(xmin + (np.arange(w) - 0.5) * pixel, ymin + (np.arange(h) - 0.5) * pixel)
     img = shapely.contains_xy(m.polygon, gx, gy).astype(np.uint8)  # row = y, column = x; 1 = free
+    for x1, y1, x2, y2 in m.thin_segments:  # a thin wall blocks every pixel it passes (sampled at 1/8 pixel)
+        t = np.linspace(0.0, 1.0, math.ceil(8.0 * math.hypot(x2 - x1, y2 - y1) / pixel) + 2)
+        img[np.floor((y1 + t * (y2 - y1) - ymin) / pixel + 1.0).astype(np.int64),
+            np.floor((x1 + t * (x2 - x1) - xmin) / pixel + 1.0).astype(np.int64)] = 0
     px = np.clip(np.floor((origins[:, 0] - xmin) / pixel + 1.0).astype(np.int64), 1, w - 2)
     py = np.clip(np.floor((origins[:, 1] - ymin) / pixel + 1.0).astype(np.int64), 1, h - 2)
     ok = img[py, px] == 1

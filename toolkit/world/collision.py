@@ -7,7 +7,9 @@ that keeps r > 0 from every wall cannot cross one, so the whole motion stays ins
 distances are exact planar point-segment and segment-segment distances, computed by a compiled
 kernel that visits only the walls listed in the grid cells near the query
 (`toolkit.world.edge_index`), so a check costs about the same on a room of 8 walls and on a
-building of 100,000.
+building of 100,000. The walls are `Map.walls`: the edges of the free area's polygons and the
+segments of its thin walls (zero thickness, `Map.thin_walls`) alike, so a disc keeps r from a thin
+wall and a motion that crosses one is never free.
 
 Most checks never reach the walls: a byte raster of cells an eighth of the radius wide
 (`toolkit.world.clearance_raster`, built once the checker has been asked enough to pay for it)
@@ -56,7 +58,7 @@ class CollisionChecker:
     Parameters
     ----------
     map : Map
-        The map; its walls (boundary and obstacles) are the obstacles.
+        The map; its walls (boundary, obstacles and thin walls) are the obstacles.
     robot_radius : float
         Radius of the robot disc in cm (> 0). A disc at distance < radius from a wall collides.
 

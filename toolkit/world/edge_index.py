@@ -28,13 +28,17 @@ import numpy as np
 import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["EdgeIndex", "edge_index"]
+__all__ = ["ALONG_CM", "EdgeIndex", "edge_index"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 _MARGIN = 1e-7
 """Relative growth of each cell (times the cell side) when listing walls: rounding can never drop a wall."""
+
+ALONG_CM = 1e-9
+"""A ray parallel to a wall and this close (cm) to its line runs along the wall: it stops at the wall's
+nearer end (or at once, from a point on the wall). A thin wall met end-on is hit, not seen through."""
 
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -110,7 +114,11 @@ def _ray_hit(walls: FloatArray, e: int, ox: float, oy: float, dx: float, dy: flo
     ex, ey = walls[e, 2] - x1, walls[e, 3] - y1
     qx, qy = x1 - ox, y1 - oy
     denom = dx * ey - dy * ex
-    if not abs(denom) > 1e-12:
+    if not abs(denom) > 1e-12:  # parallel: a hit only when the ray runs along the wall (`ALONG_CM`)
+        t1 = qx * dx + qy * dy
+        t2 = t1 + ex * dx + ey * dy
+        if abs(qx * dy - qy * dx) <= ALONG_CM and max(t1, t2) >= 0.0:
+            return max(min(t1, t2), 0.0)
         return np.inf
     t = (qx * ey - qy * ex) / denom
     u = (qx * dy - qy * dx) / denom

@@ -1,8 +1,9 @@
 """The same disc checks on python-fcl: the reference backend the indexed checker is tested against.
 
-The walls become one FCL BVH of vertical rectangles (two triangles each) spanning z in [-H, H]. The
-robot is a sphere of its radius centred at z = 0: its distance to a vertical wall rectangle equals the
-planar distance from the robot centre to the wall segment, so sphere-vs-mesh is the exact disc test.
+The walls (`Map.walls`: polygon edges and thin walls alike) become one FCL BVH of vertical rectangles
+(two triangles each) spanning z in [-H, H]. The robot is a sphere of its radius centred at z = 0:
+its distance to a vertical wall rectangle equals the planar distance from the robot centre to the
+wall segment, so sphere-vs-mesh is the exact disc test.
 A straight motion is the disc swept along the segment: an FCL capsule of the robot radius lying in
 the z = 0 plane along the segment, checked with one discrete collide (exact, no tunnelling, and no
 `continuousCollide`, which crashes on BVH meshes in python-fcl). Inside-ness is shapely's

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .edge_index import edge_index
+from .edge_index import ALONG_CM, edge_index
 from .errors import ConfigError
 
 __all__ = [
@@ -123,7 +123,9 @@ def ray_wall_distances(
 ) -> FloatArray:
     """Distance along each of n rays (origin ox, oy; unit direction dx, dy) to each of W walls.
 
-    Returns an (n, W) array, ``inf`` where the ray misses the wall (parallel rays miss).
+    Returns an (n, W) array, ``inf`` where the ray misses the wall. A ray parallel to a wall misses it
+    unless it runs along it (within `toolkit.world.edge_index.ALONG_CM` of its line): then it stops
+    at the wall's nearer end, so a thin wall seen end-on is hit.
     """
     x1, y1 = walls[:, 0], walls[:, 1]
     ex, ey = walls[:, 2] - x1, walls[:, 3] - y1
@@ -134,7 +136,10 @@ def ray_wall_distances(
         t = (qx * ey[None, :] - qy * ex[None, :]) / denom
         u = (qx * ry - qy * rx) / denom
     ok = (np.abs(denom) > 1e-12) & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
-    return np.where(ok, t, np.inf)
+    t1 = qx * rx + qy * ry
+    t2 = t1 + ex[None, :] * rx + ey[None, :] * ry
+    along = ~(np.abs(denom) > 1e-12) & (np.abs(qx * ry - qy * rx) <= ALONG_CM) & (np.maximum(t1, t2) >= 0.0)
+    return np.where(ok, t, np.where(along, np.maximum(np.minimum(t1, t2), 0.0), np.inf))
 
 
 def ray_cast(

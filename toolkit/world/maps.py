@@ -6,6 +6,7 @@ A map file is YAML with the fields (units: cm)::
     description: BotSim map 1       # optional
     boundary: [[0, 0], [60, 0], ...]            # >= 3 vertices, simple polygon, non-zero area
     obstacles: [[[20, 20], [30, 20], [30, 30]]] # optional: polygons strictly inside, not overlapping
+    walls: [[[40, 0], [40, 30]]]    # optional: thin walls (zero thickness), each a polyline of >= 2 points
     start: [20, 20]                 # optional preset, must lie in free space
     target: [80, 80]                # optional preset, must lie in free space
 
@@ -18,13 +19,23 @@ A map with several disjoint free regions (an imported grid map, say) lists them 
       - boundary: [[50, 0], ...]
     grid: {cell_cm: 1.0, origin: [0, 0], width: 281, height: 209}   # optional: the cells it came from
 
+A thin wall (a free-standing stub of cardboard or plywood) is a polyline ``[[x, y], [x, y], ...]``
+whose consecutive points are its segments (``[[x1, y1], [x2, y2]]`` for one segment). Each segment
+has non-zero length and lies in the closure of the free area (it may touch the boundary or run along
+it, never leave it or enter an obstacle). Thin walls are walls like any other (`Map.walls` lists them
+after the polygons' edges, so rays stop at them and the disc checkers keep clear of them), and a point
+on one is not free: `Map.contains` and every checker refuse it, even for a point robot, so no motion
+crosses or touches one. Both forms (``boundary`` and ``regions``) may have ``walls``.
+
 Points where the free space's boundary touches itself (``Map.pinch_points``) close the passage:
 no motion may pass through one.
 
-Names such as ``map1`` resolve to the files in the repository's ``maps/`` and ``maps/external/``
-folders, and to files in the folders listed in the environment variable ``NXTNAV_MAPS`` (separated
-like ``PATH``). Besides the YAML files above, a name may be a Moving AI ``.map`` file or a ROS
-map_server YAML, which are imported (`toolkit.world.importers`).
+Names such as ``map1`` resolve to the files in the repository's ``maps/``, ``maps/external/`` and
+``maps/real-nxt/`` folders, and to files in the folders listed in the environment variable
+``NXTNAV_MAPS`` (separated like ``PATH``). A file's name is its stem, except that the map of a sweep
+set (`toolkit.sweeps`), which is always called ``arena.yaml``, goes by its ``name`` field
+(``co333-arena`` for ``maps/real-nxt/arena.yaml``). Besides the YAML files above, a name may be a
+Moving AI ``.map`` file or a ROS map_server YAML, which are imported (`toolkit.world.importers`).
 """
 
 from __future__ import annotations
@@ -46,20 +57,23 @@ from .edge_index import edge_index
 from .errors import MapError
 from .geometry import Pose, RngLike, as_rng
 
-__all__ = ["COORDINATE_LIMIT_CM", "MAP_FIELDS", "GridSpec", "Map", "Region", "list_maps", "load_map", "map_from_dict",
-           "map_search_path"]
+__all__ = ["COORDINATE_LIMIT_CM", "MAP_FIELDS", "THIN_WALL_SLIT_CM", "GridSpec", "Map", "Region", "list_maps",
+           "load_map", "map_from_dict", "map_search_path"]
 
-MAP_FIELDS = ("name", "description", "boundary", "obstacles", "regions", "grid", "start", "target")
+MAP_FIELDS = ("name", "description", "boundary", "obstacles", "walls", "regions", "grid", "start", "target")
 _BUNDLED = Path(__file__).resolve().parents[2] / "maps"
 _MAP_GLOBS = ("*.yaml", "*.yml", "*.map")
+_SWEEP_SET_MAP = "arena.yaml"
+"""File name of a sweep set's map: such a file is listed under its ``name`` field, not its stem."""
 
 FloatArray = NDArray[np.float64]
 
 
 def map_search_path() -> list[Path]:
-    """Folders searched for map names: ``$NXTNAV_MAPS`` entries first, then the bundled ``maps/``."""
+    """Folders searched for map names: ``$NXTNAV_MAPS`` entries first, then the bundled ``maps/``,
+    ``maps/external/`` and ``maps/real-nxt/``."""
     extra = [Path(p) for p in os.environ.get("NXTNAV_MAPS", "").split(os.pathsep) if p]
-    return [*extra, _BUNDLED, _BUNDLED / "external"]
+    return [*extra, _BUNDLED, _BUNDLED / "external", _BUNDLED / "real-nxt"]
 
 
 def list_maps() -> dict[str, Path]:
@@ -68,8 +82,21 @@ def list_maps() -> dict[str, Path]:
     for folder in map_search_path():
         if folder.is_dir():
             for f in sorted(f for pattern in _MAP_GLOBS for f in folder.glob(pattern)):
-                found.setdefault(f.stem, f)
+                found.setdefault(_listed_name(f), f)
     return dict(sorted(found.items()))
+
+
+def _listed_name(path: Path) -> str:
+    """The name a map file resolves by: its stem, or a sweep set's map's own ``name`` field (the stem
+    when that field is missing or the file unreadable, so that `load_map` reports the problem)."""
+    if path.name != _SWEEP_SET_MAP:
+        return path.stem
+    try:
+        data = _read_yaml(path)
+    except MapError:
+        return path.stem
+    name = data.get("name") if isinstance(data, dict) else None
+    return name if isinstance(name, str) and name else path.stem
 
 
 def _resolve(name_or_path: str | os.PathLike[str]) -> Path:
@@ -269,6 +296,42 @@ def _regions(value: Any, label: str) -> tuple[Region, ...]:
     return tuple(out)
 
 
+def _thin_walls(value: Any, label: str, free: BaseGeometry) -> tuple[FloatArray, ...]:
+    """The ``walls`` field: polylines of >= 2 points, segments of non-zero length in the closed free area."""
+    if value is None:
+        return ()
+    if not isinstance(value, list):
+        raise MapError(f"{label}: field 'walls' must be a list of polylines [[x, y], [x, y], ...], "
+                       f"got {type(value).__name__}")
+    out: list[FloatArray] = []
+    for k, item in enumerate(value):
+        where = f"{label}: wall {k}"
+        if not isinstance(item, list | tuple):
+            raise MapError(f"{where}: expected a list of [x, y] points, got {type(item).__name__} {item!r}")
+        line = np.array([_point(v, f"{where} vertex {i}") for i, v in enumerate(item)], dtype=np.float64)
+        if len(line) < 2:
+            raise MapError(f"{where}: a wall needs at least 2 points, got {len(line)}")
+        same = np.flatnonzero((line[1:] == line[:-1]).all(axis=1))
+        if len(same):
+            i = int(same[0])
+            raise MapError(f"{where} vertex {i + 1}: zero-length segment, the same point {line[i].tolist()} "
+                           f"as vertex {i}")
+        inside = shapely.intersects_xy(free, line[:, 0], line[:, 1])
+        if not inside.all():
+            i = int(np.flatnonzero(~inside)[0])
+            raise MapError(f"{where} vertex {i}: {line[i].tolist()} is outside the free space of the map")
+        segs = shapely.linestrings(np.stack([line[:-1], line[1:]], axis=1))
+        covered = shapely.covers(free, segs)
+        if not covered.all():
+            i = int(np.flatnonzero(~covered)[0])
+            outside = shapely.get_parts(shapely.difference(segs[i], free))[0]
+            pt = shapely.line_interpolate_point(outside, 0.5, normalized=True)
+            raise MapError(f"{where}: segment vertex {i} -> {i + 1} leaves the free space of the map at "
+                           f"({pt.x:.6g}, {pt.y:.6g})")
+        out.append(line)
+    return tuple(out)
+
+
 def _grid(value: Any, label: str) -> GridSpec | None:
     if value is None:
         return None
@@ -316,6 +379,8 @@ def map_from_dict(
         regions = (Region(boundary, obstacles),)
     grid = _grid(data.get("grid"), label)
     free = regions[0].polygon if len(regions) == 1 else shapely.MultiPolygon([r.polygon for r in regions])
+    shapely.prepare(free)
+    thin = _thin_walls(data.get("walls"), label, free)
     presets: dict[str, FloatArray | None] = {}
     for key in ("start", "target"):
         if data.get(key) is None:
@@ -324,6 +389,9 @@ def map_from_dict(
         p = _point(data[key], f"{label}: {key}")
         if not free.contains(shapely.Point(p)):
             raise MapError(f"{label}: {key} {p.tolist()} is outside the free space of the map")
+        on = [k for k, w in enumerate(thin) if shapely.intersects_xy(shapely.LineString(w), *p)]
+        if on:
+            raise MapError(f"{label}: {key} {p.tolist()} lies on wall {on[0]}")
         presets[key] = p
     return Map(
         name=name,
@@ -332,6 +400,7 @@ def map_from_dict(
         start=presets["start"],
         target=presets["target"],
         grid=grid,
+        thin_walls=thin,
         source=source,
     )
 
@@ -381,12 +450,20 @@ class GridSpec:
         return {"cell_cm": self.cell_cm, "origin": list(self.origin), "width": self.width, "height": self.height}
 
 
+THIN_WALL_SLIT_CM = 1e-6
+"""Width (cm) of the slit `Map.free_space` cuts along a thin wall for radius 0: shapely cannot take a
+segment out of an area (the difference of an area and a line is the area again). Only that geometry
+is widened: `Map.contains` and the checkers test the segments themselves, exactly."""
+
+
 @dataclass(frozen=True, eq=False)
 class Map:
-    """A validated polygonal map (cm): free regions (boundaries with holes) and optional start/target presets.
+    """A validated polygonal map (cm): free regions (boundaries with holes), optional thin walls and
+    optional start/target presets.
 
     Most maps have one region (`boundary` with `obstacles` inside); an imported grid map may have
-    several disjoint ones. Build one with `load_map` or `map_from_dict`; the constructor trusts its
+    several disjoint ones. `thin_walls` are polylines ((k, 2) arrays, k >= 2) of zero thickness in the
+    closed free area. Build one with `load_map` or `map_from_dict`; the constructor trusts its
     arguments.
     """
 
@@ -396,6 +473,7 @@ class Map:
     target: FloatArray | None = None
     description: str = ""
     grid: GridSpec | None = None
+    thin_walls: tuple[FloatArray, ...] = ()
     source: Path | None = field(default=None, repr=False)
 
     @property
@@ -417,15 +495,59 @@ class Map:
 
     @cached_property
     def walls(self) -> FloatArray:
-        """All wall segments as a (W, 4) array [x1, y1, x2, y2] (each region's boundary, then its holes)."""
+        """All wall segments as a (W, 4) array [x1, y1, x2, y2]: each region's boundary, then its holes,
+        then the thin walls' segments (`thin_segments`, the last rows)."""
         segs = []
         for region in self.regions:
             for ring in (region.boundary, *region.holes):
                 nxt = np.roll(ring, -1, axis=0)
                 segs.append(np.hstack([ring, nxt]))
-        walls = np.vstack(segs)
+        walls = np.vstack([*segs, self.thin_segments])
         walls.setflags(write=False)  # read-only: ray casting and collision checks index it once
         return walls
+
+    @cached_property
+    def thin_segments(self) -> FloatArray:
+        """The thin walls' segments as a (T, 4) array [x1, y1, x2, y2] (cm; T = 0 without thin walls)."""
+        segs = [np.hstack([w[:-1], w[1:]]) for w in self.thin_walls]
+        out = np.vstack(segs) if segs else np.empty((0, 4))
+        out.setflags(write=False)
+        return out
+
+    @cached_property
+    def thin_lines(self) -> shapely.MultiLineString:
+        """The thin walls as one shapely geometry (empty without thin walls)."""
+        return shapely.multilinestrings(self.thin_segments.reshape(-1, 2, 2))
+
+    @cached_property
+    def _thin_tree(self) -> shapely.STRtree:
+        return shapely.STRtree(shapely.linestrings(self.thin_segments.reshape(-1, 2, 2)))
+
+    def _thin_hits(self, a: FloatArray, b: FloatArray, points: bool) -> NDArray[np.bool_]:
+        """Whether each point a[k] (`points`) or segment a[k] -> b[k] meets a thin wall: exact shapely
+        predicates, asked only for those the thin walls' grid index finds within a hair of one."""
+        out = np.zeros(len(a), dtype=bool)
+        if not self.thin_walls or not len(a):
+            return out
+        near = np.flatnonzero(~edge_index(self.thin_segments).capsules_clear(a, b, THIN_WALL_SLIT_CM))
+        if len(near):
+            geoms = shapely.points(a[near]) if points else shapely.linestrings(np.stack([a[near], b[near]], axis=1))
+            hit, _ = self._thin_tree.query(geoms, predicate="intersects")
+            out[near[hit]] = True
+        return out
+
+    def on_thin_wall(self, xy: ArrayLike) -> Any:
+        """Whether points lie on a thin wall (exact; (2,) -> bool, (..., 2) -> bool array)."""
+        p = np.asarray(xy, dtype=float)
+        pts = p.reshape(-1, 2)
+        out = self._thin_hits(pts, pts, points=True)
+        return bool(out[0]) if p.ndim == 1 else out.reshape(p.shape[:-1])
+
+    def meets_thin_wall(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
+        """Whether each segment ``a[k] -> b[k]`` ((n, 2) arrays, cm) crosses or touches a thin wall (exact)."""
+        pa = np.asarray(a, dtype=float).reshape(-1, 2)
+        pb = np.asarray(b, dtype=float).reshape(-1, 2)
+        return self._thin_hits(pa, pb, points=False)
 
     @cached_property
     def wall_lines(self) -> shapely.MultiLineString:
@@ -459,15 +581,32 @@ class Map:
         return float(self.polygon.area)
 
     def free_space(self, radius: float = 0.0) -> BaseGeometry:
-        """The configuration space of a disc of `radius` cm: the free area shrunk by the radius."""
-        if radius <= 0:
-            return self.polygon
-        return self.polygon.buffer(-float(radius), quad_segs=16)
+        """The configuration space of a disc of `radius` cm: the free area shrunk by the radius, minus
+        every thin wall grown by the radius.
+
+        Arcs are drawn as chords (16 per quarter circle). For radius 0 the thin walls are cut out as
+        slits `THIN_WALL_SLIT_CM` wide (and no longer than the walls), so a point on one is not in
+        the result.
+        """
+        r = float(radius)
+        space = self.polygon if r <= 0 else self.polygon.buffer(-r, quad_segs=16)
+        if not self.thin_walls:
+            return space
+        if r > 0:
+            grown = shapely.buffer(self.thin_lines, r, quad_segs=16)
+        else:  # square ends: the slit ends at the wall's ends
+            grown = shapely.buffer(self.thin_lines, THIN_WALL_SLIT_CM, quad_segs=1, cap_style="flat")
+        return shapely.difference(space, grown)
 
     def contains(self, xy: ArrayLike) -> Any:
-        """Whether points lie strictly inside the free area ((2,) -> bool, (n, 2) -> (n,) bool array)."""
+        """Whether points lie strictly inside the free area and on no thin wall.
+
+        (2,) -> bool; (..., 2) -> bool array.
+        """
         p = np.asarray(xy, dtype=float)
         res = shapely.contains_xy(self.polygon, p[..., 0], p[..., 1])
+        if self.thin_walls:
+            res = res & ~np.asarray(self.on_thin_wall(p), dtype=bool)
         return bool(res) if p.ndim == 1 else res
 
     @cached_property
@@ -536,6 +675,8 @@ class Map:
                 d["obstacles"] = [o.tolist() for o in self.obstacles]
         else:
             d["regions"] = [r.to_dict() for r in self.regions]
+        if self.thin_walls:
+            d["walls"] = [w.tolist() for w in self.thin_walls]
         if self.grid is not None:
             d["grid"] = self.grid.to_dict()
         if self.start is not None:

@@ -13,6 +13,10 @@ exact predicates instead:
   pinch points.
 
 The two agree (the tests compare them on random segments of grid maps).
+
+Thin walls (`Map.thin_walls`) are not part of the closed free space: a position on one is not free,
+and neither is a motion that crosses or touches one (exact predicates against the thin walls'
+segments, `Map.on_thin_wall` and `Map.meets_thin_wall`, after either test above).
 """
 
 from __future__ import annotations
@@ -53,7 +57,7 @@ def make_checker(map: Map, robot_radius: float, backend: str = "index") -> Colli
 
 
 class PointCollisionChecker(CollisionChecker):
-    """Exact checks of a point robot in `map` (radius 0; touching walls is allowed).
+    """Exact checks of a point robot in `map` (radius 0; touching walls is allowed, touching a thin wall is not).
 
     The interface is `CollisionChecker`'s; ``clearance`` is the distance to the nearest wall.
 
@@ -113,24 +117,30 @@ class PointCollisionChecker(CollisionChecker):
             out = grid_points_free(self.cells, self._to_cells(pts))
         else:
             out = np.asarray(shapely.intersects_xy(self.map.polygon, pts[:, 0], pts[:, 1]), dtype=bool)
+        if self.map.thin_walls and out.any():
+            out[out] = ~np.asarray(self.map.on_thin_wall(pts[out]), dtype=bool)
         self.point_checks += len(pts)
         return bool(out[0]) if p.ndim == 1 else out
 
     def segments_free(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
-        """Whether each segment ``a[k] -> b[k]`` lies in the closed free space and passes no pinch point."""
+        """Whether each segment ``a[k] -> b[k]`` lies in the closed free space, passes no pinch point and
+        meets no thin wall."""
         pa, pb = segment_arrays(a, b)
         self.segment_checks += len(pa)
         if not len(pa):
             return np.zeros(0, dtype=bool)
         if self.use_grid:
-            return grid_segments_free(self.cells, self._pinch_grid, self._to_cells(pa), self._to_cells(pb))
-        lines = shapely.linestrings(np.stack([pa, pb], axis=1))
-        out = np.asarray(shapely.covers(self.map.polygon, lines), dtype=bool)
-        if len(self.map.pinch_points) and out.any():
-            seg, pin = self._pinch_tree.query(lines, predicate="intersects")
-            pts = self.map.pinch_points[pin]
-            at_end = np.all(pts == pa[seg], axis=1) | np.all(pts == pb[seg], axis=1)
-            out[seg[~at_end]] = False
+            out = grid_segments_free(self.cells, self._pinch_grid, self._to_cells(pa), self._to_cells(pb))
+        else:
+            lines = shapely.linestrings(np.stack([pa, pb], axis=1))
+            out = np.asarray(shapely.covers(self.map.polygon, lines), dtype=bool)
+            if len(self.map.pinch_points) and out.any():
+                seg, pin = self._pinch_tree.query(lines, predicate="intersects")
+                pts = self.map.pinch_points[pin]
+                at_end = np.all(pts == pa[seg], axis=1) | np.all(pts == pb[seg], axis=1)
+                out[seg[~at_end]] = False
+        if self.map.thin_walls and out.any():
+            out[out] = ~self.map.meets_thin_wall(pa[out], pb[out])
         return out
 
     def clearance(self, xy: ArrayLike) -> Any:
