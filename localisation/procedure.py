@@ -22,14 +22,17 @@ from typing import Any, TypeAlias
 
 import numpy as np
 
-from toolkit.world import ConfigError, RngLike, Robot, Scan, angle_diff, as_rng
+from toolkit.world import ConfigError, LocalisationError, RngLike, Robot, Scan, angle_diff, as_rng
 
 from .base import Localiser, Motion, PoseEstimate, Prior, Snapshot
-from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan
+from .scan import STUCK_ARC_DEG, ProcessedScan, ScanProcessing, min_reading, process_scan, stuck_mask
 
 __all__ = ["LocalisationResult", "LocaliseProcedure", "TraceStep", "free_travel", "localise", "open_direction"]
 
 log = logging.getLogger(__name__)
+
+STUCK_SWEEPS = 3
+"""Sweeps taken in a row before a stuck sonar (`localisation.scan.stuck_mask`) ends the localisation."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,9 +270,22 @@ def localise(
     moves = 0
     came_from: float | None = None
     est = localiser.estimate()
+    def sweep() -> Scan:
+        # a stuck sensor (one value repeated over a long arc) is swept again; one that stays stuck ends here
+        nonlocal scans
+        for attempt in range(1, STUCK_SWEEPS + 1):
+            scan = robot.ultrascan(scan_angles)
+            scans += 1
+            stuck = int(stuck_mask(scan).sum())
+            if not stuck:
+                return scan
+            log.warning("sweep %d: the sonar repeated one reading over %d readings (stuck); sweeping again",
+                        attempt, stuck)
+        raise LocalisationError(f"the sonar stayed stuck: {STUCK_SWEEPS} sweeps in a row repeated one reading "
+                                f"over {STUCK_ARC_DEG:.0f} degrees or more; check the sensor and its cable")
+
     for it in range(1, max_iterations + 1):
-        scan = robot.ultrascan(scan_angles)
-        scans += 1
+        scan = sweep()
         turn = 0.0
         if align:
             turn, _ = min_reading(scan, settings.min_range_cm)
@@ -278,13 +294,12 @@ def localise(
                 timed(localiser.predict, Motion(turn_rad=turn))
                 if came_from is not None:
                     came_from = float(angle_diff(came_from, turn))
-            scan = robot.ultrascan(scan_angles)
-            scans += 1
+            scan = sweep()
         processed = process_scan(scan, settings) if process else process_scan(
             scan, settings, centres_deg=(0.0,), window_deg=180.0)
         used = processed.scan
-        if len(used) < min_valid_readings:
-            log.info("processed scan kept %d readings; using all usable readings", len(used))
+        if int(np.sum(used.valid)) < min_valid_readings:
+            log.info("processed scan kept %d readings; using all usable readings", int(np.sum(used.valid)))
             used = process_scan(scan, settings, centres_deg=(0.0,), window_deg=180.0).scan
         n_snap = len(localiser.snapshots)
         timed(localiser.update, used)

@@ -139,7 +139,8 @@ class ProcessedScan:
     Attributes
     ----------
     scan : Scan
-        The kept readings (all valid), angles relative to the robot heading.
+        The kept readings, angles relative to the robot heading: the valid ones (`kept`) and the
+        windows' no-echo readings (invalid, for localisers that model the sensor's silence).
     raw : Scan
         The scan that was processed.
     reference_rad : float
@@ -165,11 +166,11 @@ class ProcessedScan:
     settings: ScanProcessing = field(default_factory=ScanProcessing)
 
     def __len__(self) -> int:
-        return len(self.scan)
+        return int(self.kept.sum())
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "kept": len(self.scan),
+            "kept": int(self.kept.sum()),
             "raw": len(self.raw),
             "in_window": self.in_window,
             "dropped_invalid": self.dropped_invalid,
@@ -217,8 +218,11 @@ def process_scan(scan: Scan, settings: ScanProcessing | None = None, **overrides
     usable = scan.valid & np.isfinite(r) & (r != NO_ECHO)
     in_range = (r >= s.min_range_cm) & (r < s.range_limit_cm)
     kept = in_win & usable & in_range
+    # no-echo readings in the windows travel with the kept ones, marked invalid: a localiser that models
+    # the sensor's silence uses them, the others skip invalid readings
+    silent = in_win & ~scan.valid & ((r >= NO_ECHO) | ~np.isfinite(r))
     return ProcessedScan(
-        scan=scan.subset(kept),
+        scan=scan.subset(kept | silent),
         raw=scan,
         reference_rad=float(reference),
         min_angle_rad=a_min,

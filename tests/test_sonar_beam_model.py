@@ -149,7 +149,7 @@ def test_scan_readings_keep_no_echo_and_drop_stuck() -> None:
     r = 40.0 + np.arange(360) % 3
     r[0:50] = NO_ECHO
     r[100:170] = 33.0
-    rel, meas, weighted = scan_readings(Scan.from_readings(default_scan_angles(), r), lik)
+    _, meas, weighted = scan_readings(Scan.from_readings(default_scan_angles(), r), lik)
     assert meas.size == 290 and np.sum(meas == NO_ECHO) == 50
     assert weighted.weight == pytest.approx(NxtSonar().reading_weight(math.radians(1.0)))
 

@@ -11,7 +11,9 @@ maximises the summed log-probability of every reading of every sweep:
   autocorrelation time of the readings' log-probabilities along the finest sweeps (how many
   neighbouring readings carry one reading's worth of evidence).
 
-Positions are not fitted: the waypoints are the ground truth the localisers are judged against.
+Each sweep's position may sit up to 3 cm from its waypoint (`POSITION_OFFSETS_CM`: the robots drove there
+by odometry); headings and these offsets are nuisance parameters of the fit, and scoring aligns a
+sweep the same way for every model it compares.
 """
 
 from __future__ import annotations
@@ -33,8 +35,18 @@ from localisation.scan import drop_stuck
 from .sweeps import Sweep, SweepSet
 from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar
 
-__all__ = ["FIT_PARAMETERS", "FitResult", "SonarProfileError", "SweepScore", "fit_sonar", "load_sonar_profile",
-           "save_sonar_profile", "score_sonar"]
+__all__ = [
+    "FIT_PARAMETERS",
+    "AlignedSweep",
+    "FitResult",
+    "SonarProfileError",
+    "SweepScore",
+    "align_sweeps",
+    "fit_sonar",
+    "load_sonar_profile",
+    "save_sonar_profile",
+    "score_sonar",
+]
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +60,9 @@ _BOUNDS = {"noise_sd": (0.3, 20.0), "noise_per_m": (0.0, 20.0), "bias_cm": (-10.
            "reach_width_cm": (1.0, 100.0), "phantom_prob": (1e-4, 0.999), "short_prob": (1e-4, 0.9),
            "outlier_prob": (1e-4, 0.9)}
 HEADING_STEP_DEG = 0.5
+POSITION_OFFSETS_CM = tuple((dx, dy) for dx in (-3.0, 0.0, 3.0) for dy in (-3.0, 0.0, 3.0))
+"""Positions tried around each waypoint: the robots drove to them by odometry, a few cm off; without this
+nuisance a fit widens the lobe to forgive the position error."""
 DEFAULT_WIDTHS = (10.0, 15.0, 20.0, 25.0, 30.0, 40.0)
 DEFAULT_CRITICALS = (30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0)
 
@@ -79,13 +94,18 @@ def _directions() -> FloatArray:
 
 
 def _echo_by_heading(model: NxtSonar, m: Map, sw: _Sweep) -> FloatArray:
-    """Echo distances (H, n) of the sweep's readings for every candidate heading (HEADING_STEP_DEG apart)."""
+    """Echo distances (K * H, n) of the sweep's readings for every position of `POSITION_OFFSETS_CM`
+    around the waypoint (K) and every candidate heading (H, HEADING_STEP_DEG apart); row ``k * H + h``."""
     dirs = _directions()
-    d = np.asarray(model.echo_distance(m.walls, np.array([sw.sweep.x_cm, sw.sweep.y_cm]), dirs), dtype=float)
     k = dirs.size
     rel = np.rint(np.degrees(sw.angles) / HEADING_STEP_DEG).astype(np.int64)
     idx = (np.arange(k)[:, None] + rel[None, :]) % k
-    return d[idx]
+    out = []
+    for dx, dy in POSITION_OFFSETS_CM:
+        xy = np.array([sw.sweep.x_cm + dx, sw.sweep.y_cm + dy])
+        d = np.asarray(model.echo_distance(m.walls, xy, dirs), dtype=np.float32)
+        out.append(d[idx])
+    return np.concatenate(out)
 
 
 def _best_headings(model: NxtSonar, echoes: list[FloatArray], sweeps: list[_Sweep]) -> list[int]:
@@ -224,7 +244,9 @@ def fit_sonar(sets: Sequence[SweepSet], *, widths: Sequence[float] = DEFAULT_WID
     ll, model, headings, echoes = best
     d_per = [e[h] for e, h in zip(echoes, headings, strict=True)]
     model = NxtSonar(**{**asdict(model), "correlation_deg": round(_correlation_deg(model, d_per, sweeps), 2)})
-    heading_deg = {sw.sweep.label: float(np.degrees(_directions()[h])) for sw, h in zip(sweeps, headings, strict=True)}
+    n_dir = _directions().size
+    heading_deg = {sw.sweep.label: float(np.degrees(_directions()[h % n_dir])) for sw, h in zip(sweeps, headings,
+                                                                                                   strict=True)}
     heading_deg = {k: (v + 180.0) % 360.0 - 180.0 for k, v in heading_deg.items()}
     return FitResult(model, heading_deg, ll, int(sum(sw.readings.size for sw in sweeps)), len(sweeps), lobes)
 
@@ -264,7 +286,9 @@ def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
     start = 0
     for sw, h in zip(sweeps, headings, strict=True):
         n = sw.readings.size
-        per.append({"sweep": sw.sweep.label, "heading_deg": (float(h * HEADING_STEP_DEG) + 180.0) % 360.0 - 180.0,
+        dx, dy = POSITION_OFFSETS_CM[h // _directions().size]
+        per.append({"sweep": sw.sweep.label, "offset_cm": [dx, dy],
+                    "heading_deg": (float((h % _directions().size) * HEADING_STEP_DEG) + 180.0) % 360.0 - 180.0,
                     "mean_log_likelihood": float(np.mean(lp[start:start + n])),
                     "no_echo_real": float(np.mean(r[start:start + n] >= model.max_range_cm)),
                     "no_echo_model": float(np.mean(p_silent[start:start + n]))})
@@ -272,6 +296,34 @@ def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
     return SweepScore(float(np.mean(np.maximum(lp, -700.0))), float(np.mean(r >= model.max_range_cm)),
                       float(np.mean(p_silent)), float(np.median(diff)) if diff.size else math.nan, int(r.size),
                       len(sweeps), per)
+
+
+@dataclass(frozen=True, eq=False)
+class AlignedSweep:
+    """A sweep at the pose where a model finds it most likely, with the model's echo distance per reading."""
+
+    sweep: Sweep
+    x_cm: float
+    y_cm: float
+    heading_rad: float
+    angles: FloatArray
+    readings: FloatArray
+    echo: FloatArray
+    walls: FloatArray
+
+
+def align_sweeps(model: NxtSonar, sweeps: SweepSet) -> list[AlignedSweep]:
+    """Every sweep of `sweeps` (stuck runs dropped) aligned by `model` (heading and position offset)."""
+    prepared = _prepare(list(sweeps))
+    echoes = [_echo_by_heading(model, sweeps.map, sw) for sw in prepared]
+    best = _best_headings(model, echoes, prepared)
+    n_dir = _directions().size
+    out = []
+    for sw, e, i in zip(prepared, echoes, best, strict=True):
+        dx, dy = POSITION_OFFSETS_CM[i // n_dir]
+        out.append(AlignedSweep(sw.sweep, sw.sweep.x_cm + dx, sw.sweep.y_cm + dy, float(_directions()[i % n_dir]),
+                                sw.angles, sw.readings, np.asarray(e[i], dtype=float), sweeps.map.walls))
+    return out
 
 
 # -- profile files ---------------------------------------------------------------------------------

@@ -1,0 +1,122 @@
+"""Figures of real sweeps against the `nxt` sonar model: radar charts and no-echo probability curves.
+
+Every sweep is drawn where the model finds it most likely (`toolkit.sonar_fit.align_sweeps`: heading
+and a few cm of position around its waypoint), so real and model are compared reading for reading.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import NDArray
+
+from .sonar_fit import AlignedSweep, align_sweeps
+from .sweeps import SweepSet
+from .world import NO_ECHO, NxtSonar, ray_cast
+
+__all__ = ["draw_incidence_curves", "draw_sweep_radar", "real_sonar_figures"]
+
+FloatArray = NDArray[np.float64]
+
+
+def draw_sweep_radar(ax: object, a: AlignedSweep, model: NxtSonar, *, rng: int = 0) -> None:
+    """One sweep on polar axes: the real readings, the model's noise-free echo and one draw of the
+    model at the same angles (no-echo readings as crosses on the rim)."""
+    ax_ = ax  # matplotlib's PolarAxes (typed loosely: matplotlib's stubs do not know it)
+    theta = a.heading_rad + a.angles  # map frame: the chart is oriented like the map
+    real = a.readings
+    echo = np.where(np.isfinite(a.echo), a.echo + model.bias_cm, np.nan)
+    draw = model.sample(a.echo, rng)
+    rim = 1.08 * max(np.nanmax(np.where(real < NO_ECHO, real, np.nan), initial=50.0),
+                     np.nanmax(np.where(draw < NO_ECHO, draw, np.nan), initial=50.0))
+    order = np.argsort(theta % (2 * math.pi))
+    t = theta[order] % (2 * math.pi)
+    ax_.plot(t, echo[order], color="0.55", lw=1.0, label="model, noise-free echo")  # type: ignore[attr-defined]
+    for values, colour, label, marker in ((real, "tab:blue", "real", "o"), (draw, "tab:orange", "model draw", ".")):
+        v = values[order]
+        heard = v < NO_ECHO
+        ax_.scatter(t[heard], v[heard], s=6, color=colour, marker=marker, label=label)  # type: ignore[attr-defined]
+        ax_.scatter(t[~heard], np.full(int((~heard).sum()), rim), s=10, color=colour,  # type: ignore[attr-defined]
+                    marker="x")
+    ax_.set_ylim(0, rim * 1.04)  # type: ignore[attr-defined]
+    ax_.set_title(f"({a.sweep.x_cm:g}, {a.sweep.y_cm:g}) {a.sweep.file}", fontsize=9)  # type: ignore[attr-defined]
+
+
+def incidence_deg(a: AlignedSweep) -> FloatArray:
+    """Angle (degrees) between each reading's axis and the normal of the wall the axis meets (nan: none)."""
+    absolute = a.heading_rad + a.angles
+    walls = a.walls
+    t, w = ray_cast(walls, np.array([a.x_cm, a.y_cm]), absolute, return_wall=True)
+    seg = walls[np.maximum(w, 0)]
+    ex, ey = seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1]
+    cos_inc = np.abs(np.cos(absolute) * ey - np.sin(absolute) * ex) / np.hypot(ex, ey)
+    return np.where((w >= 0) & np.isfinite(t), np.degrees(np.arccos(np.clip(cos_inc, 0.0, 1.0))), np.nan)
+
+
+def draw_incidence_curves(ax_inc: object, ax_range: object, aligned: Sequence[AlignedSweep],
+                          model: NxtSonar) -> None:
+    """No-echo share against the axis's incidence on its wall and against the axis's range: real (points
+    with binomial error bars) and the model's mean probability over the same readings (line)."""
+    inc = np.concatenate([incidence_deg(a) for a in aligned])
+    rng_axis = np.concatenate([np.asarray(ray_cast(a.walls, np.array([a.x_cm, a.y_cm]), a.heading_rad + a.angles))
+                               for a in aligned])
+    silent = np.concatenate([a.readings >= NO_ECHO for a in aligned])
+    p_model = np.concatenate([np.exp(model.log_pmf(a.echo, np.full(a.echo.shape, NO_ECHO))) for a in aligned])
+    for ax_, x, edges, label in ((ax_inc, inc, np.arange(0.0, 91.0, 10.0), "incidence of the axis on its wall (deg)"),
+                                 (ax_range, rng_axis, np.array([0, 30, 45, 60, 80, 100, 130, 160, 200, 260.0]),
+                                  "range along the axis (cm)")):
+        centres, real, err, mod = [], [], [], []
+        for lo, hi in itertools.pairwise(edges):
+            sel = (x >= lo) & (x < hi)
+            n = int(sel.sum())
+            if n < 10:
+                continue
+            share = float(silent[sel].mean())
+            centres.append(0.5 * (lo + hi))
+            real.append(share)
+            err.append(math.sqrt(max(share * (1 - share), 1e-4) / n))
+            mod.append(float(p_model[sel].mean()))
+        ax_.errorbar(centres, real, yerr=err, fmt="o", color="tab:blue", label="real")  # type: ignore[attr-defined]
+        ax_.plot(centres, mod, "-", color="tab:orange", label="model")  # type: ignore[attr-defined]
+        ax_.set_xlabel(label)  # type: ignore[attr-defined]
+        ax_.set_ylabel("share of no-echo readings (255)")  # type: ignore[attr-defined]
+        ax_.set_ylim(0, 1)  # type: ignore[attr-defined]
+        ax_.grid(alpha=0.3)  # type: ignore[attr-defined]
+        ax_.legend(fontsize=8)  # type: ignore[attr-defined]
+
+
+def real_sonar_figures(sets: Sequence[SweepSet], model: NxtSonar, out: Path, *, radar_sweeps: int = 3,
+                       rng: int = 0) -> list[Path]:
+    """``real_sonar_radar.png`` (the first `radar_sweeps` sweeps at distinct waypoints, real against
+    model) and ``real_sonar_no_echo.png`` (no-echo share against incidence and range) in `out`."""
+    out.mkdir(parents=True, exist_ok=True)
+    aligned = [x for s in sets for x in align_sweeps(model, s)]
+    seen: set[tuple[float, float]] = set()
+    picks = []
+    for a in aligned:
+        key = (a.sweep.x_cm, a.sweep.y_cm)
+        if key not in seen:
+            seen.add(key)
+            picks.append(a)
+    picks = picks[:radar_sweeps]
+    fig = Figure(figsize=(4.2 * len(picks), 4.6))
+    for i, a in enumerate(picks):
+        ax = fig.add_subplot(1, len(picks), i + 1, projection="polar")
+        draw_sweep_radar(ax, a, model, rng=rng + i)
+        if i == 0:
+            ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(-0.15, -0.2))
+    fig.suptitle("real NXT sweeps (blue; stuck runs left out) against the nxt sonar model (orange: one draw; "
+                 "grey: noise-free echo), map frame; x on the rim: no echo", fontsize=9)
+    radar = out / "real_sonar_radar.png"
+    fig.savefig(radar, dpi=110, bbox_inches="tight")
+    fig2 = Figure(figsize=(10, 4))
+    draw_incidence_curves(fig2.add_subplot(1, 2, 1), fig2.add_subplot(1, 2, 2), aligned, model)
+    fig2.suptitle(f"no-echo readings of {len(aligned)} real sweeps against the model", fontsize=10)
+    curves = out / "real_sonar_no_echo.png"
+    fig2.savefig(curves, dpi=110, bbox_inches="tight")
+    return [radar, curves]
