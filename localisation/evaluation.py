@@ -234,9 +234,10 @@ def compare_scan_processing(
             "processed": (turned, process_scan(second, settings).scan),
         }
         for label, (truth, scan) in variants.items():
-            if len(scan):
-                exact = np.asarray(ray_cast(map.walls, truth.xy, truth.theta + scan.angles), dtype=float)
-                read_err[label].append(scan.ranges - exact)
+            heard = scan.subset(scan.valid)  # the reading errors of echoes (no-echo readings have none)
+            if len(heard):
+                exact = np.asarray(ray_cast(map.walls, truth.xy, truth.theta + heard.angles), dtype=float)
+                read_err[label].append(heard.ranges - exact)
             if loc is not None:
                 t0 = time.perf_counter()
                 loc.reset()

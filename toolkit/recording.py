@@ -38,7 +38,7 @@ import numpy as np
 
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 
-from .world import ConfigError, Map, Pose, Scan
+from .world import ConfigError, Map, Pose, Scan, SonarModel
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "encode_floats", "scan_fields",
            "scan_from_fields", "versions"]
@@ -200,8 +200,10 @@ class Recorder:
                        rng: Any = None) -> _RecordingLocaliser:
         """`localiser` with its calls recorded; `options` and `rng` (the Generator it was built with)
         let a replay rebuild it exactly."""
-        self.event("localiser", name=getattr(localiser, "name", type(localiser).__name__),
-                   options=dict(options or {}), rng=_rng_state(rng))
+        # a sonar model among the options is written as its name and parameters (`replay` rebuilds it)
+        opts = {k: (v.to_dict() if isinstance(v, SonarModel) else v) for k, v in (options or {}).items()}
+        self.event("localiser", name=getattr(localiser, "name", type(localiser).__name__), options=opts,
+                   rng=_rng_state(rng))
         return _RecordingLocaliser(localiser, self)
 
     def scan_event(self, scan: Scan, robot: Any, t0: float) -> None:
