@@ -164,3 +164,12 @@ def test_exact_ranges_match_table_on_the_arena() -> None:
     cast = exact_ranges(m, pose, rel, beam_width_deg=model.beam_width_deg, beam_rays=model.beam_rays,
                         critical_incidence_deg=model.critical_incidence_deg)[0]
     np.testing.assert_allclose(cast, sensor, rtol=1e-9)
+
+
+def test_default_is_the_shipped_fitted_profile() -> None:
+    from conftest import REAL_NXT
+
+    from toolkit.sonar_fit import load_sonar_profile
+
+    assert load_sonar_profile(REAL_NXT / "nxt-sonar.yaml") == NxtSonar()
+    assert NxtSonar() != NxtSonar.hardware_facts()

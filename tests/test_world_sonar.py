@@ -96,7 +96,7 @@ def test_nxt_readings_are_whole_cm_or_255() -> None:
 def test_nxt_specular_loss_at_steep_incidence() -> None:
     """Facing a long wall head-on echoes; at 70 degrees off its normal the near wall is lost."""
     walls = np.array([[50, -1000, 50, 1000]], float)  # one wall, nothing behind it
-    sonar = NxtSonar(noise_sd=0.0, dropout_prob=0.0, beam_width_deg=10)
+    sonar = NxtSonar.hardware_facts(noise_sd=0.0, dropout_prob=0.0, far_dropout_prob=0.0, beam_width_deg=10)
     head_on = sonar.measure(walls, [0, 0], np.array([0.0]), rng=0)
     steep = sonar.measure(walls, [0, 0], np.radians([70.0]), rng=0)
     assert head_on[0] == 50
@@ -110,7 +110,7 @@ def test_nxt_specular_loss_at_steep_incidence() -> None:
 def test_nxt_lobe_reads_short_near_corners() -> None:
     """A lobe sees the nearest echoing surface within its width, so it reads shorter than its axis."""
     m = load_map("map1")
-    sonar = NxtSonar(noise_sd=0.0, dropout_prob=0.0)
+    sonar = NxtSonar.hardware_facts(noise_sd=0.0, dropout_prob=0.0, far_dropout_prob=0.0)
     axis = ray_cast(m.walls, [42, 20], np.radians([90.0]))[0]  # passes just left of the notch corner
     lobe = sonar.measure(m.walls, [42, 20], np.radians([90.0]), rng=0)[0]
     assert axis == pytest.approx(85.0)
@@ -129,8 +129,11 @@ def test_nxt_dropouts_and_close_range() -> None:
 
 def test_nxt_max_range() -> None:
     walls = np.array([[300, -1000, 300, 1000]], float)
-    r = NxtSonar(dropout_prob=0.0).measure(walls, [0, 0], np.zeros(10), rng=0)
+    r = NxtSonar.hardware_facts(dropout_prob=0.0).measure(walls, [0, 0], np.zeros(10), rng=0)
     assert np.all(r == NO_ECHO)
+    # the fitted model's phantom readings: where nothing echoes, some random readings all the same
+    silent = NxtSonar().measure(walls, np.zeros((4000, 2)), np.zeros(1), rng=0)
+    assert np.mean(silent != NO_ECHO) == pytest.approx(NxtSonar().phantom_prob, abs=0.03)
 
 
 def test_registry_and_validation() -> None:

@@ -12,10 +12,14 @@ Two models, both seeded through an ``rng`` argument:
 ``nxt``
     A LEGO NXT ultrasonic sensor: a lobe of ``beam_width_deg`` sampled by ``beam_rays`` rays; a ray that
     meets a flat wall at more than ``critical_incidence_deg`` from the wall's normal is reflected away
-    (specular loss), so the reading comes from a farther surface seen by another ray of the lobe, or is
-    255 (no echo). Readings are the nearest echo plus Gaussian noise, rounded to whole centimetres,
-    255 beyond ``max_range_cm``, unreliable below ``min_range_cm`` and dropped (255) with probability
-    ``dropout_prob``.
+    (specular loss), so the lobe's echo comes from the nearest surface another of its rays meets square
+    enough, or from nothing. A beam mixture then gives the reading (Thrun, Burgard and Fox,
+    *Probabilistic Robotics*, ch. 6): the echo plus Gaussian noise growing with range, rounded to whole
+    centimetres; or a reading nearer than the echo; or a random one; or no echo (255), whose probability
+    rises from ``dropout_prob`` to ``far_dropout_prob`` around ``reach_cm``, and is ``1 - phantom_prob``
+    where the lobe meets nothing. `NxtSonar.log_pmf` is that distribution and `NxtSonar.sample` draws from
+    it, so a model fitted to real sweeps (``toolkit.sonar_fit``) is the model the simulator uses. Its
+    defaults are fitted to real sweeps; `NxtSonar.hardware_facts` is the model from the published facts.
 """
 
 from __future__ import annotations
@@ -177,23 +181,25 @@ class NxtSonar(SonarModel):
 
     name: ClassVar[str] = "nxt"
     no_echo: ClassVar[float] = NO_ECHO
-    noise_sd: float = 1.0
-    noise_per_m: float = 0.0
-    bias_cm: float = 0.0
-    beam_width_deg: float = 20.0
-    beam_rays: int = 9
-    critical_incidence_deg: float = 40.0
+    # fitted to the 19 real sweeps of docs/real-sonar.md (`nxtnav sonar fit`); the same values are in
+    # maps/real-nxt/nxt-sonar.yaml, and a test keeps the two equal
+    noise_sd: float = 1.188316
+    noise_per_m: float = 0.925943
+    bias_cm: float = -0.480274
+    beam_width_deg: float = 40.0
+    beam_rays: int = 17
+    critical_incidence_deg: float = 30.0
     min_range_cm: float = 6.0
     max_range_cm: float = 255.0
-    dropout_prob: float = 0.02
-    far_dropout_prob: float = 0.02
-    reach_cm: float = 200.0
-    reach_width_cm: float = 20.0
-    phantom_prob: float = 0.0
-    short_prob: float = 0.0
-    outlier_prob: float = 0.0
+    dropout_prob: float = 0.00795
+    far_dropout_prob: float = 0.334932
+    reach_cm: float = 57.853445
+    reach_width_cm: float = 1.0
+    phantom_prob: float = 0.716444
+    short_prob: float = 0.123682
+    outlier_prob: float = 0.079517
     close_no_echo_prob: float = 0.5
-    correlation_deg: float = 0.0
+    correlation_deg: float = 29.47
 
     PROBABILITIES: ClassVar[tuple[str, ...]] = ("dropout_prob", "far_dropout_prob", "phantom_prob", "short_prob",
                                                 "outlier_prob", "close_no_echo_prob")
