@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import typer
 
+from ..formats import json_safe
 from ..world import SONAR_MODELS, CollisionChecker, NxtnavError, Pose, RobotGeometry, load_map
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
 from .options import check_writable, count, parse_floats, parse_list, parse_pose, parse_xy, port
@@ -173,7 +174,7 @@ def run(
             doc["simulator"] = {"sonar": sonar, "noise_model": noise_model, "sensor_noise": sensor_noise,
                                 "motion_noise": motion_noise, "turn_noise": turn_noise}
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(_no_nan(doc), indent=1, allow_nan=False))
+        json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
     if plot is not None or animate is not None:
         from ..bench.paper_plots import animate_mission, draw_mission
@@ -209,17 +210,6 @@ def _finish(recorder: Any, report: Any) -> None:
     if recorder is not None:
         recorder.close(None if report is None else report.status, None if report is None else report.success,
                        end=report is not None)
-
-
-def _no_nan(obj: Any) -> Any:
-    """The object with every NaN or infinite float replaced by None (strict JSON)."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _no_nan(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_no_nan(v) for v in obj]
-    return obj
 
 
 def _names(text: str, option: str, known: list[str]) -> list[str]:
@@ -288,7 +278,7 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         doc = {"settings": {k: MISSION_SETTINGS[k] for k in names}, "points": [p.to_dict() for p in points]}
-        json_out.write_text(json.dumps(_no_nan(doc), indent=1, allow_nan=False))
+        json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
 
 
@@ -378,7 +368,7 @@ def paper(
                 typer.echo(f"{t.noise_model} {r.map}: {f}", err=True)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        doc = _no_nan([{**t.to_dict(), "complete": complete, "missions_done": done,
+        doc = json_safe([{**t.to_dict(), "complete": complete, "missions_done": done,
                         "missions_planned": len(tasks)} for t in tables])
         json_out.write_text(json.dumps(doc, indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
