@@ -12,6 +12,7 @@ import json
 import logging
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from dataclasses import asdict
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -272,20 +273,24 @@ def sonar_loo(
             order = {f.repo: i for i, f in enumerate(folds)}
             held = sorted(done, key=lambda h: order[h.repo])
     loo = LeaveOneOut.of(held)
-    table = Table("held out", "sweeps", "readings", "log-lik fitted", "log-lik hardware", "no echo real",
-                  "no echo fitted", "no echo hardware", "median |Δ| fitted", "median |Δ| hardware",
-                  title="leave one repository out (log-lik: nats per reading, higher is better)")
+    table = Table(title="leave one repository out (log-lik: nats per reading, higher is better; |Δ|: "
+                        "|real - model| where both answer)")
+    table.add_column("held out", overflow="fold")
+    for name in ("sweeps", "readings", "log-lik fitted / hardware", "no echo real / fitted / hardware",
+                 "median |Δ| fitted / hardware"):
+        table.add_column(name)
+
+    def row(label: str, sweeps: int, readings: int, fit: dict[str, float], base: dict[str, float]) -> None:
+        table.add_row(label, str(sweeps), str(readings),
+                      f"{cell(fit['mean_log_likelihood'], '.3f')} / {cell(base['mean_log_likelihood'], '.3f')}",
+                      f"{percent(fit['no_echo_real'], 1)} / {percent(fit['no_echo_model'], 1)} / "
+                      f"{percent(base['no_echo_model'], 1)}",
+                      f"{cell(fit['median_abs_diff_cm'], '.1f')} / {cell(base['median_abs_diff_cm'], '.1f', ' cm')}")
+
     for h in held:
-        table.add_row(h.repo, str(h.fitted.sweeps), str(h.readings), cell(h.fitted.mean_log_likelihood, ".3f"),
-                      cell(h.baseline.mean_log_likelihood, ".3f"), percent(h.fitted.no_echo_real, 1),
-                      percent(h.fitted.no_echo_model, 1), percent(h.baseline.no_echo_model, 1),
-                      cell(h.fitted.median_abs_diff_cm, ".1f", " cm"),
-                      cell(h.baseline.median_abs_diff_cm, ".1f", " cm"))
+        row(h.repo, h.fitted.sweeps, h.readings, asdict(h.fitted), asdict(h.baseline))
     f, b = loo.fitted, loo.baseline
-    table.add_row("weighted mean", str(sum(h.fitted.sweeps for h in held)), str(loo.readings),
-                  cell(f["mean_log_likelihood"], ".3f"), cell(b["mean_log_likelihood"], ".3f"),
-                  percent(f["no_echo_real"], 1), percent(f["no_echo_model"], 1), percent(b["no_echo_model"], 1),
-                  cell(f["median_abs_diff_cm"], ".1f", " cm"), cell(b["median_abs_diff_cm"], ".1f", " cm"))
+    row("weighted mean", sum(h.fitted.sweeps for h in held), loo.readings, f, b)
     Console().print(table)
     typer.echo(f"fitted beats the hardware facts on held-out readings: {'yes' if loo.beats_baseline else 'no'} "
                f"({f['mean_log_likelihood']:.3f} against {b['mean_log_likelihood']:.3f} nats per reading)")
