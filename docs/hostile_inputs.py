@@ -58,6 +58,8 @@ FILES = {
     "unknown_field.yaml": "boundary: [[0, 0], [100, 0], [100, 100], [0, 100]]\ncolour: red\n",
     "bad_profile.yaml": "wheel_diameter_cm: -3\n",
     "profile_text.yaml": "just words\n",
+    "sonar.yaml": "kind: nxtnav-sonar-profile\nsonar: nxt\nparams:\n  noise_sd: 2.0\n  dropout_prob: 0.1\n",
+    "bad_sonar.yaml": "params:\n  noise_sd: -1\n",
     "blocker": "a file where a folder is expected\n",
     "notamap.map": "this is not a Moving AI map\n",
     "notascen.scen": "version 1\ngarbage line\n",
@@ -190,6 +192,18 @@ def _cases() -> list[Case]:
         "nxt calibrate --nxt-backend socket --server-port 1 --distance nan",
         "nxt calibrate --nxt-backend socket --server-port 1 --angle -5",
         "nxt calibrate --nxt-backend socket --server-port -1", "nxt calibrate --nxt-backend socket --server-port 1")
+    # sonar profiles (nxtnav sonar fit writes them; --sonar-profile reads them) and the sonar commands
+    sp = "--sonar nxt --sonar-profile"
+    add("sonar profile", 2, f"{sc} {sp} missing.yaml", f"{sc} {sp} binary.yaml", f"{sc} {sp} syntax.yaml",
+        f"{sc} {sp} profile_text.yaml", f"{sc} {sp} bad_profile.yaml", f"{sc} {sp} folder.yaml",
+        f"{sc} {sp} bad_sonar.yaml", f"{sc} --sonar ideal --sonar-profile sonar.yaml",
+        f"localise --pose 20,20,0 {sp} bad_sonar.yaml", f"run {sp} bad_sonar.yaml",
+        f"paper --trials 1 {sp} bad_sonar.yaml", f"{bl} {sp} bad_sonar.yaml", f"brick serve {sp} bad_sonar.yaml",
+        "sonar fit nowhere -o p.yaml", "sonar fit full -o p.yaml", "sonar fit . -o full",
+        "sonar fit . -o p.yaml --widths 0", "sonar fit . -o p.yaml --criticals 91,x", "sonar score nowhere",
+        "sonar score . --sonar-profile bad_sonar.yaml", "sonar score . --baseline nope", "sonar loo nowhere",
+        "sonar loo . --workers 0")
+    add("sonar profile", 0, f"{sc} {sp} sonar.yaml")
     # map import and scenario files
     add("maps import", 2, "maps import missing.map -o out.yaml", "maps import notamap.map -o out.yaml",
         "maps import syntax.yaml -o out.yaml", "maps import notamap.map -o blocker/out.yaml")

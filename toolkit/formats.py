@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MISSING", "cell", "csv_cell", "percent"]
+__all__ = ["MISSING", "cell", "csv_cell", "json_safe", "percent"]
 
 MISSING = "–"
 """What a table shows for a value that does not exist (a failed run's time, an empty median)."""
@@ -57,3 +57,19 @@ def percent(fraction: float | None, digits: int = 0) -> str:
     """
     return cell(None if fraction is None else 100.0 * fraction, f".{digits}f", " %")
 
+
+
+def json_safe(obj: Any) -> Any:
+    """`obj` (dicts, lists and tuples of values) with every NaN or infinite float replaced by None, so that
+    it is strict JSON (``json.dumps(..., allow_nan=False)``): a value that does not exist is ``null``.
+
+    >>> json_safe({"a": [1.5, float("nan")], "b": (float("-inf"), "x")})
+    {'a': [1.5, None], 'b': [None, 'x']}
+    """
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [json_safe(v) for v in obj]
+    return obj

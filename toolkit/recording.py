@@ -25,6 +25,7 @@ same localiser and seed (`toolkit.replay`) reproduces the live estimates bit for
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import json
 import math
@@ -38,10 +39,14 @@ import numpy as np
 
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 
+<<<<<<< HEAD
 from .world import ConfigError, Map, Pose, Scan, SonarModel
+=======
+from .world import SONAR_MODELS, ConfigError, Map, NxtnavError, Pose, Scan, SonarModel
+>>>>>>> s7-prof
 
-__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "encode_floats", "scan_fields",
-           "scan_from_fields", "versions"]
+__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
+           "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "versions"]
 
 FORMAT_NAME = "nxtnav-recording"
 FORMAT_VERSION = 2
@@ -66,6 +71,39 @@ def decode_floats(values: list[Any]) -> np.ndarray:
             raise ConfigError(f"item {i}: expected a number, got {v!r}")
         out[i] = float(v)
     return out
+
+
+def encode_options(options: dict[str, Any]) -> dict[str, Any]:
+    """A localiser's constructor options for JSON: a sonar model (the ``sonar_model`` option) as its
+    ``to_dict`` (name and parameters); everything else as it is."""
+    return {k: (v.to_dict() if isinstance(v, SonarModel) else v) for k, v in options.items()}
+
+
+def sonar_from_dict(d: Any) -> SonarModel:
+    """The sonar model a ``to_dict`` describes (``{"name": "nxt", "noise_sd": 1.0, ...}``); `ConfigError`
+    says what is wrong with it."""
+    if not isinstance(d, dict) or not isinstance(d.get("name"), str):
+        raise ConfigError(f"a sonar model is a mapping with a 'name' and its parameters, got {d!r}")
+    params = {k: v for k, v in d.items() if k != "name"}
+    try:
+        cls = SONAR_MODELS.get(d["name"])
+    except NxtnavError as exc:  # an unknown name: the message lists the known ones
+        raise ConfigError(str(exc)) from None
+    known: set[str] = {f.name for f in dataclasses.fields(cls)} if dataclasses.is_dataclass(cls) else set()
+    unknown = sorted(set(params) - known)
+    if unknown:
+        raise ConfigError(f"sonar model {d['name']!r} has no parameter {', '.join(unknown)}")
+    try:
+        return cls(**params)
+    except NxtnavError as exc:
+        raise ConfigError(f"sonar model {d['name']!r}: {exc}") from None
+
+
+def decode_options(options: dict[str, Any]) -> dict[str, Any]:
+    """The inverse of `encode_options`: a ``sonar_model`` option rebuilt as its model."""
+    if isinstance(options.get("sonar_model"), dict):
+        return {**options, "sonar_model": sonar_from_dict(options["sonar_model"])}
+    return dict(options)
 
 
 def scan_fields(scan: Scan) -> dict[str, Any]:
@@ -200,10 +238,15 @@ class Recorder:
                        rng: Any = None) -> _RecordingLocaliser:
         """`localiser` with its calls recorded; `options` and `rng` (the Generator it was built with)
         let a replay rebuild it exactly."""
+<<<<<<< HEAD
         # a sonar model among the options is written as its name and parameters (`replay` rebuilds it)
         opts = {k: (v.to_dict() if isinstance(v, SonarModel) else v) for k, v in (options or {}).items()}
         self.event("localiser", name=getattr(localiser, "name", type(localiser).__name__), options=opts,
                    rng=_rng_state(rng))
+=======
+        self.event("localiser", name=getattr(localiser, "name", type(localiser).__name__),
+                   options=encode_options(dict(options or {})), rng=_rng_state(rng))
+>>>>>>> s7-prof
         return _RecordingLocaliser(localiser, self)
 
     def scan_event(self, scan: Scan, robot: Any, t0: float) -> None:

@@ -29,8 +29,21 @@ import numpy as np
 
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 
+<<<<<<< HEAD
 from .recording import FORMAT_NAME, FORMAT_VERSION, _estimate, decode_floats, scan_from_fields
 from .world import Map, MapError, NxtnavError, Pose, Scan, angle_diff, make_sonar, map_from_dict
+=======
+from .recording import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    _estimate,
+    decode_floats,
+    decode_options,
+    scan_from_fields,
+    sonar_from_dict,
+)
+from .world import Map, MapError, NxtnavError, NxtSonar, Pose, Scan, SonarModel, angle_diff, map_from_dict
+>>>>>>> s7-prof
 
 __all__ = ["LocaliserSpec", "Recording", "RecordingError", "ReplayReport", "ReplayStep", "read_recording", "replay"]
 
@@ -191,7 +204,7 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
         name = _need(e, "name", str, where)
         if name not in LOCALISERS:
             raise RecordingError(f"{where}: unknown localiser {name!r}; known: {', '.join(LOCALISERS.names())}")
-        _need(e, "options", dict, where)
+        _decoded(_need(e, "options", dict, where), where)
         rng = _need(e, "rng", dict, where, nullable=True)
         if rng is not None:
             ent = rng.get("entropy")
@@ -278,8 +291,29 @@ def read_recording(path: str | Path) -> Recording:
         m = map_from_dict(header["map"], source=p)
     except MapError as exc:
         raise RecordingError(f"{p} line 1: field 'map': {exc}") from None
+<<<<<<< HEAD
     specs = [LocaliserSpec(e["name"], _rebuilt(e["options"]), e["rng"]) for _, e in events if e["type"] == "localiser"]
+=======
+    specs = [LocaliserSpec(e["name"], decode_options(e["options"]), e["rng"]) for _, e in events
+             if e["type"] == "localiser"]
+>>>>>>> s7-prof
     return Recording(p, header, m, specs[0] if specs else None, events, truncated)
+
+
+def _decoded(options: dict[str, Any], where: str) -> dict[str, Any]:
+    """A localiser event's options with its sonar model rebuilt (`toolkit.recording.decode_options`)."""
+    try:
+        return decode_options(options)
+    except NxtnavError as exc:
+        raise RecordingError(f"{where}: options.sonar_model: {exc}") from None
+
+
+def _sonar_params(sonar: dict[str, Any], where: str) -> SonarModel:
+    """The model of the header's ``sonar.params`` (its ``to_dict``)."""
+    try:
+        return sonar_from_dict(sonar["params"])
+    except NxtnavError as exc:
+        raise RecordingError(f"{where}: sonar.params: {exc}") from None
 
 
 def _check_header(obj: dict[str, Any], where: str) -> dict[str, Any]:
@@ -294,6 +328,8 @@ def _check_header(obj: dict[str, Any], where: str) -> dict[str, Any]:
     _need(robot, "kind", str, where + ": robot")
     sonar = _need(obj, "sonar", dict, where)
     _need(sonar, "model", str, where + ": sonar")
+    if "params" in sonar:
+        _sonar_params(sonar, where)
     _need(obj, "seed", int, where, nullable=True)
     _need(obj, "versions", dict, where)
     return obj
@@ -476,6 +512,10 @@ def _options_for(rec: Recording, name: str) -> dict[str, Any]:
             kw[key] = noise[src]
     if isinstance(rec.header["sonar"].get("sensor_noise"), int | float):
         kw["sensor_noise"] = float(rec.header["sonar"]["sensor_noise"])
+    if kw["sonar"] == "nxt" and "params" in rec.header["sonar"]:  # the recorded model, a profile's say
+        model = sonar_from_dict(rec.header["sonar"]["params"])
+        if isinstance(model, NxtSonar):
+            kw["sonar_model"] = model
     return matched_localiser_options(name, **kw)
 
 

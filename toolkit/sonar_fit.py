@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -35,18 +35,9 @@ from localisation.scan import drop_stuck
 from .sweeps import Sweep, SweepSet
 from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar
 
-__all__ = [
-    "FIT_PARAMETERS",
-    "AlignedSweep",
-    "FitResult",
-    "SonarProfileError",
-    "SweepScore",
-    "align_sweeps",
-    "fit_sonar",
-    "load_sonar_profile",
-    "save_sonar_profile",
-    "score_sonar",
-]
+__all__ = ["FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
+           "SonarProfileError", "SweepScore", "align_sweeps", "fit_sonar", "load_sonar_profile", "repo_folds",
+           "save_sonar_profile", "score_fold", "score_sonar"]
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +54,9 @@ HEADING_STEP_DEG = 0.5
 POSITION_OFFSETS_CM = tuple((dx, dy) for dx in (-3.0, 0.0, 3.0) for dy in (-3.0, 0.0, 3.0))
 """Positions tried around each waypoint: the robots drove to them by odometry, a few cm off; without this
 nuisance a fit widens the lobe to forgive the position error."""
+LOG_FLOOR = -700.0
+"""Least log-probability a reading counts for in a score (a reading the model calls impossible, such as
+a wrong reading under a model without outliers, would otherwise make the mean -inf)."""
 DEFAULT_WIDTHS = (10.0, 15.0, 20.0, 25.0, 30.0, 40.0)
 DEFAULT_CRITICALS = (30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0)
 
@@ -130,7 +124,7 @@ def _fit_mixture(model: NxtSonar, d: FloatArray, r: FloatArray) -> NxtSonar:
         if x[names.index("short_prob")] + x[names.index("outlier_prob")] >= 0.99:
             return 1e12
         lp = _with(model, names, x).log_pmf(d, r)
-        return float(-np.sum(np.maximum(lp, -700.0)))
+        return float(-np.sum(np.maximum(lp, LOG_FLOOR)))
 
     res = minimize(nll, x0, method="L-BFGS-B", bounds=list(zip(lo, hi, strict=True)),
                    options={"maxiter": 200, "eps": 1e-5})
@@ -147,7 +141,7 @@ def _expected_log_pmf(model: NxtSonar, d: FloatArray) -> FloatArray:
     """E[log P(R | d)] over the model's own readings R, for each echo distance in `d`."""
     levels = np.arange(model._levels() + 1, dtype=float)
     levels[-1] = NO_ECHO
-    lp = np.maximum(model.log_pmf(d[:, None], levels[None, :]), -700.0)
+    lp = np.maximum(model.log_pmf(d[:, None], levels[None, :]), LOG_FLOOR)
     return np.asarray(np.sum(np.exp(lp) * lp, axis=1))
 
 
@@ -278,24 +272,133 @@ def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
     echoes = [_echo_by_heading(model, m, sw) for m, sw in items]
     headings = _best_headings(model, echoes, sweeps)
     d, r = _gather(echoes, headings, sweeps)
-    lp = model.log_pmf(d, r)
+    lp = np.maximum(model.log_pmf(d, r), LOG_FLOOR)
     p_silent = np.exp(model.log_pmf(d, np.full(d.shape, NO_ECHO)))
     both = (r < model.max_range_cm) & np.isfinite(d)
-    diff = np.abs(r - (d + model.bias_cm))[both]
+    diff = np.where(both, np.abs(r - (d + model.bias_cm)), np.nan)
     per = []
     start = 0
     for sw, h in zip(sweeps, headings, strict=True):
         n = sw.readings.size
+        part = slice(start, start + n)
         dx, dy = POSITION_OFFSETS_CM[h // _directions().size]
         per.append({"sweep": sw.sweep.label, "offset_cm": [dx, dy],
                     "heading_deg": (float((h % _directions().size) * HEADING_STEP_DEG) + 180.0) % 360.0 - 180.0,
-                    "mean_log_likelihood": float(np.mean(lp[start:start + n])),
-                    "no_echo_real": float(np.mean(r[start:start + n] >= model.max_range_cm)),
-                    "no_echo_model": float(np.mean(p_silent[start:start + n]))})
+                    "readings": int(n), "mean_log_likelihood": float(np.mean(lp[part])),
+                    "no_echo_real": float(np.mean(r[part] >= model.max_range_cm)),
+                    "no_echo_model": float(np.mean(p_silent[part])),
+                    "median_abs_diff_cm": _median(diff[part])})
         start += n
-    return SweepScore(float(np.mean(np.maximum(lp, -700.0))), float(np.mean(r >= model.max_range_cm)),
-                      float(np.mean(p_silent)), float(np.median(diff)) if diff.size else math.nan, int(r.size),
-                      len(sweeps), per)
+    return SweepScore(float(np.mean(lp)), float(np.mean(r >= model.max_range_cm)),
+                      float(np.mean(p_silent)), _median(diff), int(r.size), len(sweeps), per)
+
+
+def _median(values: FloatArray) -> float:
+    """The median of the values that are not NaN; NaN when none is."""
+    v = values[~np.isnan(values)]
+    return float(np.median(v)) if v.size else math.nan
+
+
+# -- leave one repository out ----------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class RepoFold:
+    """One fold of a leave-one-repository-out test: the sweeps of `repo` held out, the others to fit on."""
+
+    repo: str
+    train: list[SweepSet]
+    held_out: list[SweepSet]
+
+
+def repo_folds(sets: Sequence[SweepSet]) -> list[RepoFold]:
+    """One fold per source (``repo`` column) of the sweeps, in order of first appearance; each set keeps
+    its map. Raises `ConfigError` when the sweeps come from fewer than two sources."""
+    repos = list(dict.fromkeys(sw.repo for s in sets for sw in s))
+    if len(repos) < 2:
+        raise ConfigError("leaving one repository out needs sweeps from two or more repositories; these all "
+                          f"come from {', '.join(repos) or 'none'}")
+
+    def pick(repo: str, held: bool) -> list[SweepSet]:
+        out = [SweepSet(s.folder, s.map, tuple(sw for sw in s if (sw.repo == repo) == held)) for s in sets]
+        return [s for s in out if len(s)]
+
+    return [RepoFold(repo, pick(repo, False), pick(repo, True)) for repo in repos]
+
+
+@dataclass(frozen=True)
+class HeldOutScore:
+    """The sweeps of one source scored by the model fitted without them and by a baseline model."""
+
+    repo: str
+    fitted: SweepScore
+    baseline: SweepScore
+    model: NxtSonar
+
+    @property
+    def readings(self) -> int:
+        return self.fitted.readings
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"repo": self.repo, "readings": self.readings, "sweeps": self.fitted.sweeps,
+                "fitted": self.fitted.to_dict(), "baseline": self.baseline.to_dict(), "model": self.model.to_dict()}
+
+
+def score_fold(fold: RepoFold, *, widths: Sequence[float] = DEFAULT_WIDTHS,
+               criticals: Sequence[float] = DEFAULT_CRITICALS, baseline: NxtSonar | None = None,
+               progress: Callable[[int, int], None] | None = None) -> HeldOutScore:
+    """Fit on the fold's training sweeps (`fit_sonar` with `widths` and `criticals`), then score its held-out
+    sweeps with that model and with `baseline` (default `NxtSonar.hardware_facts()`)."""
+    fit = fit_sonar(fold.train, widths=widths, criticals=criticals, progress=progress)
+    base = baseline if baseline is not None else NxtSonar.hardware_facts()
+    return HeldOutScore(fold.repo, score_sonar(fit.model, fold.held_out), score_sonar(base, fold.held_out), fit.model)
+
+
+SCORE_FIELDS = ("mean_log_likelihood", "no_echo_real", "no_echo_model", "median_abs_diff_cm")
+
+
+@dataclass(frozen=True)
+class LeaveOneOut:
+    """Every fold of a leave-one-repository-out test, and their means weighted by the held-out readings.
+
+    `fitted` and `baseline` hold the weighted means of `SCORE_FIELDS` (the median difference's mean is a
+    mean of per-source medians); `beats_baseline` says whether the fitted models explain the held-out
+    readings better (a higher mean log-likelihood per reading), `no_echo_gap` how far their no-echo share
+    lies from the real one.
+    """
+
+    folds: list[HeldOutScore]
+    fitted: dict[str, float]
+    baseline: dict[str, float]
+
+    @classmethod
+    def of(cls, folds: Sequence[HeldOutScore]) -> LeaveOneOut:
+        w = np.array([f.readings for f in folds], dtype=float)
+
+        def mean(which: str) -> dict[str, float]:
+            out = {}
+            for k in SCORE_FIELDS:
+                v = np.array([getattr(getattr(f, which), k) for f in folds], dtype=float)
+                ok = ~np.isnan(v)
+                out[k] = float(np.average(v[ok], weights=w[ok])) if ok.any() and w[ok].sum() > 0 else math.nan
+            return out
+
+        return cls(list(folds), mean("fitted"), mean("baseline"))
+
+    @property
+    def readings(self) -> int:
+        return sum(f.readings for f in self.folds)
+
+    @property
+    def beats_baseline(self) -> bool:
+        return self.fitted["mean_log_likelihood"] > self.baseline["mean_log_likelihood"]
+
+    @property
+    def no_echo_gap(self) -> float:
+        return abs(self.fitted["no_echo_model"] - self.fitted["no_echo_real"])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"folds": [f.to_dict() for f in self.folds], "readings": self.readings,
+                "weighted_mean": {"fitted": self.fitted, "baseline": self.baseline},
+                "beats_baseline": self.beats_baseline, "no_echo_gap": self.no_echo_gap}
 
 
 @dataclass(frozen=True, eq=False)
@@ -339,35 +442,52 @@ def save_sonar_profile(model: NxtSonar, path: str | Path, *, fit: dict[str, Any]
         doc["fit"] = fit
     out = Path(path)
     tmp = out.with_name(out.name + ".part")
-    tmp.write_text(yaml.safe_dump(doc, sort_keys=False))
-    tmp.replace(out)
+    text = yaml.safe_dump(doc, sort_keys=False)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(out)
+    finally:  # a failed write leaves neither a half-written profile nor its part file
+        tmp.unlink(missing_ok=True)
 
 
 def load_sonar_profile(path: str | Path) -> NxtSonar:
     """The `nxt` sonar model of a profile file; `SonarProfileError` names the file and field on bad input.
 
-    Parameters the file leaves out keep the model's defaults.
+    Parameters the file leaves out keep the model's defaults. The file's fields are ``kind`` (optional,
+    `PROFILE_KIND`), ``sonar`` (optional, ``nxt``), ``params`` and ``fit`` (provenance, not read); any
+    other field is an error, as is an unknown parameter.
     """
     p = Path(path)
     try:
-        doc = yaml.safe_load(p.read_text())
+        doc = yaml.safe_load(p.read_text(encoding="utf-8"))
     except OSError as e:
         raise SonarProfileError(f"{p}: cannot read the sonar profile ({e.strerror or e})") from None
+    except UnicodeDecodeError:
+        raise SonarProfileError(f"{p}: not a sonar profile (not UTF-8 text)") from None
     except yaml.YAMLError as e:
         raise SonarProfileError(f"{p}: not valid YAML ({str(e).splitlines()[0]})") from None
     if not isinstance(doc, dict):
         raise SonarProfileError(f"{p}: a sonar profile is a mapping with 'sonar' and 'params'")
+    stray = [str(k) for k in doc if k not in ("kind", "sonar", "params", "fit")]
+    if stray:
+        raise SonarProfileError(f"{p}: unknown field {', '.join(map(repr, stray))} (known: kind, sonar, params, fit)")
+    if doc.get("kind", PROFILE_KIND) != PROFILE_KIND:
+        raise SonarProfileError(f"{p}: field 'kind' must be {PROFILE_KIND!r}, got {doc.get('kind')!r}")
     if doc.get("sonar", "nxt") != "nxt":
         raise SonarProfileError(f"{p}: field 'sonar' must be 'nxt', got {doc.get('sonar')!r}")
     params = doc.get("params")
     if not isinstance(params, dict):
         raise SonarProfileError(f"{p}: field 'params' must be a mapping of parameter: value")
-    known = list(NxtSonar.__dataclass_fields__)
+    known = [f.name for f in fields(NxtSonar)]
     for k, v in params.items():
         if k not in known:
             raise SonarProfileError(f"{p}: unknown parameter params.{k} (known: {', '.join(known)})")
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise SonarProfileError(f"{p}: params.{k} must be a number, got {v!r}")
+        try:
+            float(v)
+        except OverflowError:
+            raise SonarProfileError(f"{p}: params.{k} is too large a number") from None
     try:
         return NxtSonar(**params)
     except ConfigError as e:

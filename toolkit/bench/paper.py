@@ -20,15 +20,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError
+from toolkit.world import ConfigError, NxtSonar
 
 from ..mission import MissionConfig, RobotTimeSplit, run_sim_mission
+from ..robots.sim import simulated_sonar
 from ..seeds import derive_seed
 from .executors import collect_tasks
 
@@ -75,10 +76,22 @@ class PaperTrial:
     turn_noise: float = 0.005
     random_start: bool = False
     options: tuple[tuple[str, Any], ...] = ()
+    sonar_params: tuple[tuple[str, Any], ...] = ()
+    """The ``nxt`` sonar's parameters (a fitted profile's; empty: the model's defaults)."""
 
     @property
     def stack(self) -> str:
         return f"{self.planner}/{self.localiser}"
+
+    @property
+    def sonar_model(self) -> NxtSonar | None:
+        """The ``nxt`` sonar's model given by `sonar_params` (None: the model's defaults)."""
+        return NxtSonar(**dict(self.sonar_params)) if self.sonar_params else None
+
+    def sonar_dict(self) -> dict[str, Any]:
+        """The simulated sonar's name and parameters (``to_dict`` of the model the simulator reads with)."""
+        return simulated_sonar(self.sonar if self.sonar_model is None else self.sonar_model,
+                               self.sensor_noise).to_dict()
 
     def config(self) -> MissionConfig:
         """The mission configuration: the sonar's defaults with this trial's `options` applied."""
@@ -106,8 +119,9 @@ class PaperResult:
     def to_dict(self) -> dict[str, Any]:
         d = {k: v for k, v in self.__dict__.items() if k not in ("task", "time_split")}
         d["robot_time_split"] = None if self.time_split is None else self.time_split.to_dict()
-        d.update({k: v for k, v in self.task.__dict__.items() if k != "options"})
+        d.update({k: v for k, v in self.task.__dict__.items() if k not in ("options", "sonar_params")})
         d["options"] = dict(self.task.options)
+        d["sonar_model"] = self.task.sonar_dict()
         return d
 
 
@@ -119,7 +133,8 @@ def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> PaperRes
         r = run_sim_mission(
             task.map, seed=task.seed, planner=task.planner, localiser=task.localiser,
             noise_model=task.noise_model, sensor_noise=task.sensor_noise, motion_noise=task.motion_noise,
-            turn_noise=task.turn_noise, sonar=task.sonar, config=config, random_start_pose=task.random_start,
+            turn_noise=task.turn_noise, sonar=task.sonar, sonar_model=task.sonar_model, config=config,
+            random_start_pose=task.random_start,
         )
     except Exception as exc:  # a crash in one trial is a failed trial, not a lost table
         return PaperResult(task, False, f"crashed: {type(exc).__name__}: {exc}", math.nan, math.nan, math.nan,
@@ -150,17 +165,21 @@ def paper_tasks(
     turn_noise: float = 0.005,
     random_start: bool = False,
     options: Mapping[str, Any] | None = None,
+    sonar_model: NxtSonar | None = None,
 ) -> list[PaperTrial]:
     """Every trial of the table, in a fixed order (`random_start`: a seeded random free start pose
     at least 10 cm from the walls instead of the preset start; `options`: `MissionConfig` fields
-    replacing the sonar's defaults)."""
+    replacing the sonar's defaults; `sonar_model`: the ``nxt`` sonar's model, a fitted profile's)."""
     if trials < 1:
         raise ConfigError(f"trials must be >= 1, got {trials}")
+    if sonar_model is not None and sonar != "nxt":
+        raise ConfigError(f"a sonar model (profile) is for the nxt sonar, not {sonar!r}")
     opts = tuple(sorted((options or {}).items()))
     MissionConfig.for_sonar(sonar, **dict(opts))  # a bad option fails here, not in every trial
+    params = () if sonar_model is None else tuple(asdict(sonar_model).items())
     return [
         PaperTrial(m, i, derive_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise,
-                   random_start, opts)
+                   random_start, opts, params)
         for nm in noise_models
         for p, lo in stacks
         for k, m in enumerate(maps)
@@ -220,6 +239,8 @@ class PaperTable:
     rows: list[PaperRow]
     starts: str = "preset"
     options: tuple[tuple[str, Any], ...] = ()
+    sonar_model: dict[str, Any] = field(default_factory=dict)
+    """The simulated sonar's name and parameters (`PaperTrial.sonar_dict`)."""
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -227,6 +248,7 @@ class PaperTable:
             "planner": self.planner,
             "localiser": self.localiser,
             "sonar": self.sonar,
+            "sonar_model": dict(self.sonar_model),
             "starts": self.starts,
             "options": dict(self.options),
             "rows": [r.to_dict() for r in self.rows],
@@ -253,13 +275,15 @@ def _mean_split(results: Sequence[PaperResult]) -> RobotTimeSplit | None:
 
 def summarise(results: Iterable[PaperResult]) -> list[PaperTable]:
     """Group trial results into tables (noise model x stack x options), one row per map in the paper's order."""
-    groups: dict[tuple[str, str, str, str, bool, tuple[tuple[str, Any], ...]], dict[str, list[PaperResult]]] = {}
+    Key = tuple[str, str, str, str, bool, tuple[tuple[str, Any], ...], tuple[tuple[str, Any], ...], float]
+    groups: dict[Key, dict[str, list[PaperResult]]] = {}
     for r in results:
         t = r.task
-        key = (t.noise_model, t.planner, t.localiser, t.sonar, t.random_start, t.options)
+        key = (t.noise_model, t.planner, t.localiser, t.sonar, t.random_start, t.options, t.sonar_params,
+               t.sensor_noise)
         groups.setdefault(key, {}).setdefault(t.map, []).append(r)
     tables = []
-    for (nm, p, lo, so, rs_, opts), by_map in groups.items():
+    for (nm, p, lo, so, rs_, opts, _, _), by_map in groups.items():
         order = sorted(by_map, key=lambda m: (PAPER_MAPS.index(m) if m in PAPER_MAPS else len(PAPER_MAPS), m))
         rows = []
         for m in order:
@@ -281,7 +305,8 @@ def summarise(results: Iterable[PaperResult]) -> list[PaperTable]:
                 time_split=_mean_split(rs),
                 cpu_median_s=_stat(np.median, [r.cpu_s for r in rs]),
             ))
-        tables.append(PaperTable(nm, p, lo, so, rows, "random" if rs_ else "preset", opts))
+        first = next(iter(by_map.values()))[0].task
+        tables.append(PaperTable(nm, p, lo, so, rows, "random" if rs_ else "preset", opts, first.sonar_dict()))
     model_order = {"botsim": 0, "absolute": 1}
     tables.sort(key=lambda t: (model_order.get(t.noise_model, 2), t.noise_model))
     return tables

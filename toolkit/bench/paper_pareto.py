@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from toolkit.world import ConfigError
+from toolkit.world import ConfigError, NxtSonar
 
 from .paper import PAPER_MAPS, PaperResult, PaperTrial, paper_tasks
 
@@ -40,14 +40,17 @@ paper's habit to the leanest; ``default`` is `MissionConfig`'s own."""
 
 def pareto_tasks(trials: int, seed: int = 0, *, settings: Sequence[str] = tuple(MISSION_SETTINGS),
                  sonars: Sequence[str] = ("ideal", "nxt"), maps: Sequence[str] = PAPER_MAPS,
-                 noise_models: Sequence[str] = ("botsim",), random_start: bool = False) -> list[PaperTrial]:
-    """The trials of every setting (by name) and sonar model, with the same mission seeds."""
+                 noise_models: Sequence[str] = ("botsim",), random_start: bool = False,
+                 sonar_model: NxtSonar | None = None) -> list[PaperTrial]:
+    """The trials of every setting (by name) and sonar model, with the same mission seeds (`sonar_model`:
+    the ``nxt`` sonar's model, a fitted profile's, for the ``nxt`` trials)."""
     unknown = [s for s in settings if s not in MISSION_SETTINGS]
     if unknown:
         raise ConfigError(f"unknown mission setting(s) {', '.join(unknown)}; known: {', '.join(MISSION_SETTINGS)}")
     return [t for so in sonars for name in settings
             for t in paper_tasks(trials, seed, maps=maps, noise_models=noise_models, sonar=so,
-                                 random_start=random_start, options=MISSION_SETTINGS[name])]
+                                 random_start=random_start, options=MISSION_SETTINGS[name],
+                                 sonar_model=sonar_model if so == "nxt" else None)]
 
 
 def _setting_name(options: tuple[tuple[str, Any], ...]) -> str:

@@ -13,7 +13,7 @@ from typer.exceptions import TyperException
 from ..world import NxtnavError
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "Interrupted", "app", "bench_app",
-           "brick_app", "fail", "import_app", "main", "maps_app", "nxt_app"]
+           "brick_app", "fail", "import_app", "main", "maps_app", "nxt_app", "sonar_app"]
 
 EXIT_OK = 0
 """The command did what was asked."""
@@ -43,11 +43,14 @@ brick_app = typer.Typer(help="The virtual NXT brick (a simulated robot behind nx
                         no_args_is_help=True, context_settings=_SETTINGS)
 import_app = typer.Typer(help="Turn data taken elsewhere into recordings that nxtnav replay scores.",
                          no_args_is_help=True, context_settings=_SETTINGS)
+sonar_app = typer.Typer(help="The nxt sonar model against real sweeps: fit a profile, score a model, leave one "
+                             "source out.", no_args_is_help=True, context_settings=_SETTINGS)
 app.add_typer(maps_app, name="maps")
 app.add_typer(bench_app, name="bench")
 app.add_typer(nxt_app, name="nxt")
 app.add_typer(brick_app, name="brick")
 app.add_typer(import_app, name="import")
+app.add_typer(sonar_app, name="sonar")
 
 
 @app.callback()

@@ -18,7 +18,16 @@ import yaml
 from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
 
 from .app import Interrupted, app, bench_app
-from .options import check_writable, count, non_negative, parse_list, parse_pose
+from .options import (
+    SENSOR_NOISE_HELP,
+    SONAR_PROFILE_HELP,
+    check_writable,
+    count,
+    non_negative,
+    parse_list,
+    parse_pose,
+    sonar_profile,
+)
 from .options import seed as seed_ok
 from .options import workers as workers_ok
 from .progress import progress
@@ -165,7 +174,8 @@ def localise_cmd(
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="True start pose (cm, cm, deg)."),
     localiser: str = typer.Option("paper-pf", "--localiser", help="Registered localiser."),
     sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
-    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm).", callback=non_negative),
+    sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
+    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
     noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
@@ -189,6 +199,7 @@ def localise_cmd(
     if parse_list(localiser, "--localiser", names) != [localiser]:
         raise NxtnavError(f"--localiser: expected one localiser, got {localiser!r}")
     _check_sonar(sonar)
+    profile = sonar_profile(sonar_profile_path, sonar)
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -198,7 +209,7 @@ def localise_cmd(
         raise NxtnavError(f"--pose: ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
-                      localiser_options=_options_for(_parse_sets(sets, "--set"), [localiser]))
+                      localiser_options=_options_for(_parse_sets(sets, "--set"), [localiser]), sonar_model=profile)
     out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
     candidates = candidate_poses(loc)
     if candidates:  # the mean of several modes means nothing: name the candidates instead
@@ -210,7 +221,8 @@ def localise_cmd(
                f"{out.iterations} iterations, {out.scans} scans, {1e3 * out.time_s:.1f} ms "
                f"({'success' if out.success else 'failure'}{', converged' if out.converged else ', not converged'})")
     if json_out is not None:
-        doc = {"map": m.name, "localiser": localiser, "sonar": sonar, "seed": seed, **out.to_dict(),
+        doc = {"map": m.name, "localiser": localiser, "sonar": sonar, "sonar_model": cfg.simulated_sonar.to_dict(),
+               "seed": seed, **out.to_dict(),
                "ambiguous": bool(candidates), "candidates": [c.to_list_deg() for c in candidates]}
         json_out.write_text(json.dumps(doc, indent=1))
         typer.echo(f"wrote {json_out}")
@@ -234,7 +246,8 @@ def bench_localisers(
     localisers_text: str = typer.Option("all", "--localisers", help="Comma-separated localisers, or all."),
     trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser.", callback=count),
     sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
-    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm).", callback=non_negative),
+    sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
+    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
     noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
     scenario: str = typer.Option("global", help="global, tracking, kidnapped, a comma list, or all."),
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf (paper-pf's "
@@ -265,6 +278,7 @@ def bench_localisers(
     for m in maps:
         load_map(m)
     _check_sonar(sonar)
+    profile = sonar_profile(sonar_profile_path, sonar)
     scenarios = _scenarios(scenario)
     if trials < 1:
         raise NxtnavError(f"--trials must be >= 1, got {trials}")
@@ -279,7 +293,7 @@ def bench_localisers(
     options = _options_for(_parse_sets(sets, "--set"), locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
-                      lobe=lobe, robot_radius_cm=radius, localiser_options=options)
+                      lobe=lobe, robot_radius_cm=radius, localiser_options=options, sonar_model=profile)
     _check_construction(load_map(maps[0]), options)
     tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
     out.mkdir(parents=True, exist_ok=True)
@@ -297,7 +311,9 @@ def bench_localisers(
     written = [write_csv(results, out / FILES[s], s) for s in scenarios]
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "localisers", "--maps", ",".join(maps), "--localisers", ",".join(locs),
-        "--trials", str(trials), "--sonar", sonar, "--scenario", ",".join(scenarios), "--seed", str(seed),
+        "--trials", str(trials), "--sonar", sonar,
+        *(["--sonar-profile", str(sonar_profile_path)] if sonar_profile_path is not None else []),
+        "--scenario", ",".join(scenarios), "--seed", str(seed),
         "--tracker-prior", tracker_prior, "--scan-processing", scan_processing, "--lobe", lobe,
         *(["--radius", f"{radius:g}"] if radius is not None else []), "--out", str(out),
         "--workers", str(workers),

@@ -10,9 +10,20 @@ from typing import Any
 import numpy as np
 import typer
 
-from ..world import SONAR_MODELS, CollisionChecker, NxtnavError, Pose, RobotGeometry, load_map
+from ..formats import json_safe
+from ..world import SONAR_MODELS, CollisionChecker, NxtnavError, NxtSonar, Pose, RobotGeometry, load_map
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
-from .options import check_writable, count, parse_floats, parse_list, parse_pose, parse_xy, port
+from .options import (
+    SONAR_PROFILE_HELP,
+    check_writable,
+    count,
+    parse_floats,
+    parse_list,
+    parse_pose,
+    parse_xy,
+    port,
+    sonar_profile,
+)
 from .options import seed as seed_ok
 from .options import workers as workers_ok
 from .progress import progress
@@ -72,9 +83,13 @@ def run(
     localiser: str = typer.Option("paper-pf", help="Localiser (registry name)."),
     robot_kind: str = typer.Option("sim", "--robot", help="sim or nxt."),
     sonar: str = typer.Option("ideal", help=f"Sonar model of the simulator: {', '.join(SONAR_MODELS.names())}."),
+    sonar_profile_path: Path | None = typer.Option(
+        None, "--sonar-profile", metavar="FILE",
+        help=SONAR_PROFILE_HELP + " With --robot nxt: the real sensor's model, for the localiser."),
     noise_model: str = typer.Option("botsim", "--noise-model", help="botsim (proportional) or absolute."),
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
-                                   help="Sonar noise (cm), motion noise, turn noise (the paper's by default)."),
+                                   help="Noise of the ideal sonar (cm; the nxt sonar's comes from its model), "
+                                        "motion noise, turn noise (the paper's by default)."),
     seed: int = typer.Option(0, help="Random seed (start heading, simulator noise, stack).", callback=seed_ok),
     radius: float | None = typer.Option(None, "--radius", min=0.1,
                                         help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
@@ -91,6 +106,7 @@ def run(
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
     from ..mission import MissionConfig, matched_localiser_options, run_mission, run_sim_mission
+    from ..robots.sim import simulated_sonar
 
     m = load_map(map_name)
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
@@ -106,6 +122,7 @@ def run(
         raise typer.BadParameter(f"expected usb, bluetooth or socket, got {nxt_backend!r}",
                                  param_hint="--nxt-backend")
     sensor_noise, motion_noise, turn_noise = _noise(noise_text)
+    fitted_sonar = sonar_profile(sonar_profile_path, "nxt" if robot_kind == "nxt" else sonar)
     check_writable(json_out, "--json")
     check_writable(plot, "--plot")
     check_writable(animate, "--animate")
@@ -114,6 +131,9 @@ def run(
     target = np.array(parse_xy(target_text, "--target")) if target_text is not None else m.target
     if target is None:
         raise typer.BadParameter(f"map {m.name} has no preset target; give --target X,Y", param_hint="--target")
+    # the sonar model: the simulator's readings come from it; a real NXT's localiser is told it
+    named = "nxt" if robot_kind == "nxt" else sonar
+    sonar_model = simulated_sonar(named if fitted_sonar is None else fitted_sonar, sensor_noise)
     if robot_kind == "nxt":
         if start_text is not None or random_start:
             raise typer.BadParameter("the start of a real robot is unknown; --start/--random-start are for the "
@@ -127,8 +147,9 @@ def run(
         try:
             if record is not None:
                 recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
-                                                 "profile": robot.profile.to_dict()}, {"model": "nxt"}, seed, None)
-            opts = matched_localiser_options(localiser, sonar="nxt")
+                                                 "profile": robot.profile.to_dict()},
+                                     {"model": "nxt", "params": sonar_model.to_dict()}, seed, None)
+            opts = matched_localiser_options(localiser, sonar="nxt", sonar_model=fitted_sonar)
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=recorder)
         finally:
@@ -148,14 +169,14 @@ def run(
 
         recorder = None if record is None else _recorder(
             record, m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
-            {"model": sonar, "sensor_noise": sensor_noise}, seed,
+            {"model": sonar, "sensor_noise": sensor_noise, "params": sonar_model.to_dict()}, seed,
             {"model": noise_model, "motion": motion_noise, "turn": turn_noise})
         report = None
         try:
             report = run_sim_mission(
                 m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
                 localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
-                turn_noise=turn_noise, sonar=sonar, recorder=recorder, robot_radius_cm=radius,
+                turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar, recorder=recorder, robot_radius_cm=radius,
             )
         finally:
             _finish(recorder, report)
@@ -167,13 +188,14 @@ def run(
     if json_out is not None:
         doc = report.to_dict()
         doc["robot"] = robot_kind
+        doc["sonar_model"] = sonar_model.to_dict()
         if robot_kind == "nxt":
             doc["model_robot_time_s"] = model_time
         if robot_kind == "sim":
             doc["simulator"] = {"sonar": sonar, "noise_model": noise_model, "sensor_noise": sensor_noise,
                                 "motion_noise": motion_noise, "turn_noise": turn_noise}
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(_no_nan(doc), indent=1, allow_nan=False))
+        json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
     if plot is not None or animate is not None:
         from ..bench.paper_plots import animate_mission, draw_mission
@@ -209,17 +231,6 @@ def _finish(recorder: Any, report: Any) -> None:
     if recorder is not None:
         recorder.close(None if report is None else report.status, None if report is None else report.success,
                        end=report is not None)
-
-
-def _no_nan(obj: Any) -> Any:
-    """The object with every NaN or infinite float replaced by None (strict JSON)."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _no_nan(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_no_nan(v) for v in obj]
-    return obj
 
 
 def _names(text: str, option: str, known: list[str]) -> list[str]:
@@ -258,7 +269,8 @@ def _parse_options(items: list[str] | None) -> dict[str, Any]:
 
 
 def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list[str], models: list[str],
-                settings: str | None, workers: int, random_start: bool, json_out: Path | None) -> None:
+                settings: str | None, workers: int, random_start: bool, json_out: Path | None,
+                profile: NxtSonar | None = None) -> None:
     """`nxtnav paper --pareto`: every mission setting, both sonar models; a figure and a table."""
     from ..bench.paper import run_paper
     from ..bench.paper_pareto import MISSION_SETTINGS, pareto_points, pareto_tasks
@@ -267,7 +279,7 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
 
     names = _names(settings or ",".join(MISSION_SETTINGS), "--settings", list(MISSION_SETTINGS))
     tasks = pareto_tasks(trials, seed, settings=names, sonars=sonars, maps=maps, noise_models=models,
-                         random_start=random_start)
+                         random_start=random_start, sonar_model=profile)
     with progress("missions", len(tasks), transient=True) as advance:
         _, results = run_paper(tasks, workers=workers, on_done=advance)
     points = pareto_points(results)
@@ -287,8 +299,10 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
     typer.echo(f"wrote {png}")
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        doc = {"settings": {k: MISSION_SETTINGS[k] for k in names}, "points": [p.to_dict() for p in points]}
-        json_out.write_text(json.dumps(_no_nan(doc), indent=1, allow_nan=False))
+        models_used = {t.sonar: t.sonar_dict() for t in tasks}
+        doc = {"settings": {k: MISSION_SETTINGS[k] for k in names}, "sonar_models": models_used,
+               "points": [p.to_dict() for p in points]}
+        json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
 
 
@@ -320,6 +334,8 @@ def paper(
     sonar: str | None = typer.Option(
         None, metavar="NAME[,NAME]",
         help=f"Sonar model(s): {', '.join(SONAR_MODELS.names())} (default ideal; with --pareto both)."),
+    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE",
+                                                   help=SONAR_PROFILE_HELP + " For the nxt tables."),
     noise_model: list[str] | None = typer.Option(
         None, "--noise-model", help="Noise model(s) (default both: botsim and absolute; with --pareto botsim)."),
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
@@ -340,6 +356,7 @@ def paper(
     from ..bench.paper import paper_tasks, run_paper, summarise, tables_to_markdown
 
     sonars = _names(sonar or ("ideal,nxt" if pareto is not None else "ideal"), "--sonar", SONAR_MODELS.names())
+    profile = sonar_profile(sonar_profile_path, sonars)
     models = noise_model or (["botsim"] if pareto is not None else ["botsim", "absolute"])
     for nm in models:
         if nm not in ("botsim", "absolute"):
@@ -352,11 +369,13 @@ def paper(
     stacks = _parse_stacks(stack)
     options = _parse_options(option)
     if pareto is not None:
-        _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out)
+        _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out,
+                    profile)
         return
     tasks = [t for so in sonars
              for t in paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=so,
-                                  random_start=random_start, options=options)]
+                                  random_start=random_start, options=options,
+                                  sonar_model=profile if so == "nxt" else None)]
     with progress("missions", len(tasks), transient=True) as advance:
         done = len(tasks)
         try:
@@ -378,7 +397,7 @@ def paper(
                 typer.echo(f"{t.noise_model} {r.map}: {f}", err=True)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        doc = _no_nan([{**t.to_dict(), "complete": complete, "missions_done": done,
+        doc = json_safe([{**t.to_dict(), "complete": complete, "missions_done": done,
                         "missions_planned": len(tasks)} for t in tables])
         json_out.write_text(json.dumps(doc, indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")

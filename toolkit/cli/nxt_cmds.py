@@ -16,7 +16,17 @@ from ..robots.virtual_brick import BrickServer
 from ..robots.virtual_brick_world import BrickConfig, BrickWorld
 from ..world import SONAR_MODELS, Pose, RobotGeometry, load_map
 from .app import brick_app, nxt_app
-from .options import check_writable, count, non_negative, parse_pose, port, port_or_zero, positive
+from .options import (
+    SENSOR_NOISE_HELP,
+    check_writable,
+    count,
+    non_negative,
+    parse_pose,
+    port,
+    port_or_zero,
+    positive,
+    sonar_profile,
+)
 from .options import seed as seed_ok
 
 __all__: list[str] = []
@@ -60,7 +70,11 @@ def brick_serve(
         None, "--max-step", help="Largest brick-time step per exchange (s); default 0.25 in real time, "
                                  "0.02 when faster.", callback=positive),
     sonar: str = typer.Option("ideal", "--sonar", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
-    sensor_noise: float = typer.Option(1.0, "--sensor-noise", help="Sonar noise (cm).", callback=non_negative),
+    sensor_noise: float = typer.Option(1.0, "--sensor-noise", help=SENSOR_NOISE_HELP, callback=non_negative),
+    sonar_profile_path: Path | None = typer.Option(
+        None, "--sonar-profile", metavar="FILE",
+        help="A sonar profile (nxtnav sonar fit) for the nxt sonar: the brick's readings are drawn from its model. "
+             "Default: the nxt model's own parameters."),
     seed: int | None = typer.Option(None, "--seed", help="Random seed (sonar noise, wheel slip).", callback=seed_ok),
     log: Path | None = typer.Option(None, "--log", help="Truth log: one JSON line (t, pose, collisions) per motion."),
     wheel_diameter: float = typer.Option(RobotGeometry().wheel_diameter_cm, "--wheel-diameter",
@@ -84,6 +98,7 @@ def brick_serve(
     if sonar not in SONAR_MODELS.names():
         raise typer.BadParameter(f"expected one of {', '.join(SONAR_MODELS.names())}, got {sonar!r}",
                                  param_hint="--sonar")
+    profile = sonar_profile(sonar_profile_path, sonar)
     check_writable(log, "--log")
     m = load_map(map_name)
     if pose_text is None:
@@ -105,7 +120,8 @@ def brick_serve(
                              brake_decel_deg_s2=brake_decel, brake_on_disconnect=not run_on)
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from None
-    world = BrickWorld(m, pose, config, sonar=sonar, sensor_noise=sensor_noise, rng=seed, log=log)
+    world = BrickWorld(m, pose, config, sonar=sonar if profile is None else profile, sensor_noise=sensor_noise,
+                       rng=seed, log=log)
     try:
         server = BrickServer(world, host=host, port=port)
     except OSError as exc:
@@ -118,7 +134,8 @@ def brick_serve(
 
     previous = signal.signal(signal.SIGTERM, _terminate)
     _echo(f"virtual NXT brick on {server.host}:{server.port}: map {m.name}, pose ({pose.x:g}, {pose.y:g}, "
-          f"{pose.heading_deg:g} deg), time factor {time_factor:g}, sonar {sonar}; Ctrl-C stops")
+          f"{pose.heading_deg:g} deg), time factor {time_factor:g}, sonar {sonar}"
+          f"{'' if sonar_profile_path is None else f' (profile {sonar_profile_path})'}; Ctrl-C stops")
     try:
         server.serve_forever()
     except KeyboardInterrupt:

@@ -8,17 +8,19 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import typer
 
-from ..world import COORDINATE_LIMIT_CM, NxtnavError, Pose
+from ..world import COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
 
 __all__ = [
     "MAX_COUNT",
     "MAX_SWEEP_READINGS",
+    "SENSOR_NOISE_HELP",
+    "SONAR_PROFILE_HELP",
     "check_writable",
     "count",
     "in_range",
@@ -33,6 +35,7 @@ __all__ = [
     "positive",
     "repeats",
     "seed",
+    "sonar_profile",
     "time_limit",
     "workers",
 ]
@@ -41,6 +44,9 @@ MAX_COUNT = 1_000_000
 """Largest count (trials, runs, poses, repeats, ...) an option accepts: more would only exhaust memory."""
 MAX_SWEEP_READINGS = 100_000
 """Most readings one simulated sweep may have (a real NXT sweep has 360 at most)."""
+SENSOR_NOISE_HELP = "Noise of the ideal sonar (cm); the nxt sonar's comes from its model (see --sonar-profile)."
+SONAR_PROFILE_HELP = ("A sonar profile (nxtnav sonar fit) for the nxt sonar: the readings are drawn from its model "
+                      "and the localisers are told it. Default: the nxt model's own parameters.")
 
 
 def in_range(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
@@ -171,3 +177,21 @@ def parse_sweep(text: str, option: str) -> tuple[float, float, int]:
     if not (math.isfinite(n) and n == int(n) and 1 <= n <= MAX_SWEEP_READINGS):
         raise NxtnavError(f"{option}: COUNT must be a whole number from 1 to {MAX_SWEEP_READINGS}, got {parts[2]!r}")
     return start, step, int(n)
+
+
+def sonar_profile(path: Path | None, sonars: str | Sequence[str], option: str = "--sonar-profile") -> NxtSonar | None:
+    """The ``nxt`` sonar's model from the profile file `path` (None without one).
+
+    A profile describes the ``nxt`` sonar only: with `sonars` (the chosen sonar, or several) that do not
+    include it, it is an error naming `option`; a file that cannot be used is a `SonarProfileError`
+    naming the file and the field.
+    """
+    if path is None:
+        return None
+    chosen = [sonars] if isinstance(sonars, str) else list(sonars)
+    if "nxt" not in chosen:
+        raise NxtnavError(f"{option}: a sonar profile describes the nxt sonar; it cannot be used with --sonar "
+                          f"{','.join(chosen)}")
+    from ..sonar_fit import load_sonar_profile
+
+    return load_sonar_profile(path)

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import typer
 
+from ..formats import json_safe
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import Interrupted, app, bench_app, fail
 from .options import check_writable, count, non_negative, parse_list, parse_xy
@@ -31,24 +32,10 @@ def _noise(model: str, motion: float, turn: float) -> Any:
         raise NxtnavError(f"--noise-model/--motion-noise/--turn-noise: {exc}") from None
 
 
-def _finite(v: float) -> float | None:
-    return v if v is not None and math.isfinite(v) else None
-
-
-def _json_safe(obj: Any) -> Any:
-    if isinstance(obj, float):
-        return _finite(obj)
-    if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_json_safe(v) for v in obj]
-    return obj
-
-
 def _to_builtin(obj: Any) -> Any:
     """numpy scalars and arrays (planner `info` extras) as JSON values."""
     if isinstance(obj, np.ndarray | np.generic):
-        return _json_safe(obj.tolist())
+        return json_safe(obj.tolist())
     raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
 
 
@@ -158,7 +145,7 @@ def plan(
     save_figure(fig, output)
     typer.echo(f"wrote {output}")
     if json_out is not None:
-        json_out.write_text(json.dumps(_json_safe(doc), indent=1, default=_to_builtin), encoding="utf-8")
+        json_out.write_text(json.dumps(json_safe(doc), indent=1, default=_to_builtin), encoding="utf-8")
         typer.echo(f"wrote {json_out}")
     for line in lines:
         typer.echo(line)

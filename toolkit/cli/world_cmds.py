@@ -9,6 +9,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from ..robots.sim import simulated_sonar
 from ..world import (
     SONAR_MODELS,
     CollisionChecker,
@@ -17,10 +18,18 @@ from ..world import (
     default_scan_angles,
     list_maps,
     load_map,
-    make_sonar,
 )
 from .app import app, bench_app, maps_app
-from .options import check_writable, count, non_negative, parse_pose, parse_sweep
+from .options import (
+    SENSOR_NOISE_HELP,
+    SONAR_PROFILE_HELP,
+    check_writable,
+    count,
+    non_negative,
+    parse_pose,
+    parse_sweep,
+    sonar_profile,
+)
 from .options import seed as seed_ok
 
 __all__: list[str] = []
@@ -64,7 +73,8 @@ def scan(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="Robot pose (cm, cm, deg)."),
     sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
-    sensor_noise: float = typer.Option(1.0, help="Sonar noise (cm).", callback=non_negative),
+    sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
+    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     radius: float | None = typer.Option(None, "--radius", min=0.1,
                                         help="Robot's radius (cm; default 8): a robot scaled to the map; the "
@@ -93,6 +103,7 @@ def scan(
     if sonar not in SONAR_MODELS:
         raise typer.BadParameter(f"unknown sonar model {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
                                  param_hint="--sonar")
+    profile = sonar_profile(sonar_profile_path, sonar)
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -105,7 +116,7 @@ def scan(
     if radius is not None and not CollisionChecker(m, radius).point_free(pose.xy):
         raise typer.BadParameter(f"a robot of radius {radius:g} cm at ({pose.x:g}, {pose.y:g}) touches a wall of "
                                  f"{m.name}", param_hint="--pose")
-    model = make_sonar(sonar, noise_sd=sensor_noise)
+    model = simulated_sonar(sonar if profile is None else profile, sensor_noise)
     # the default full turn keeps its exact angles (k * 2 pi / 360); any other sweep is built as a real one
     default = angles_text is None and direction == "ccw"
     angles = default_scan_angles() if default else sweep_angles(n, step_deg, direction, start_deg)
@@ -113,11 +124,12 @@ def scan(
     readings = model.measure(m.walls, pose.xy, pose.theta + angles, rng=seed)
     s = model.to_scan(angles, readings)
     echo = s.ranges[s.valid]
-    typer.echo(f"scan at ({pose.x:g}, {pose.y:g}, {pose.heading_deg:g} deg) on {m.name}, sonar {sonar}: "
+    named = sonar if sonar_profile_path is None else f"{sonar} (profile {sonar_profile_path})"
+    typer.echo(f"scan at ({pose.x:g}, {pose.y:g}, {pose.heading_deg:g} deg) on {m.name}, sonar {named}: "
                f"{int(s.valid.sum())}/{len(s)} readings with an echo"
                + (f", {echo.min():.1f} to {echo.max():.1f} cm" if echo.size else ""))
     if json_out is not None:
-        doc = {"map": m.name, "sonar": sonar, "seed": seed, "pose": pose.to_list_deg(),
+        doc = {"map": m.name, "sonar": sonar, "sonar_model": model.to_dict(), "seed": seed, "pose": pose.to_list_deg(),
                "radius_cm": geometry.radius_cm,
                "sweep": {"start_deg": start_deg, "step_deg": step_deg, "count": n, "direction": direction},
                **s.to_dict()}

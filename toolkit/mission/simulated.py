@@ -17,6 +17,7 @@ from ..seeds import derive_seeds
 from ..world import (
     Map,
     NxtnavError,
+    NxtSonar,
     Pose,
     RobotGeometry,
     load_map,
@@ -43,6 +44,7 @@ def run_sim_mission(
     motion_noise: float = 0.1,
     turn_noise: float = 0.005,
     sonar: str = "ideal",
+    sonar_model: NxtSonar | None = None,
     config: MissionConfig | None = None,
     recorder: Recorder | None = None,
     robot_radius_cm: float | None = None,
@@ -65,8 +67,13 @@ def run_sim_mission(
     planner, localiser : str or plug-in
     noise_model : {"botsim", "absolute"}
     sensor_noise, motion_noise, turn_noise : float
-        Sonar noise (cm), motion noise (fraction or cm) and turn noise (fraction or rad); the paper's by default.
+        Noise of the ``ideal`` sonar (cm), motion noise (fraction or cm) and turn noise (fraction or rad);
+        the paper's by default. The ``nxt`` sonar's noise is part of its model.
     sonar : {"ideal", "nxt"}
+    sonar_model : NxtSonar, optional
+        The ``nxt`` sonar's model (a fitted profile's, `toolkit.sonar_fit.load_sonar_profile`): the
+        simulator reads with it and the localiser is told it (`matched_localiser_options`). None: the
+        model's defaults. Only with ``sonar="nxt"``.
     config : MissionConfig or None
         None: `MissionConfig.for_sonar(sonar)`.
     recorder : toolkit.recording.Recorder, optional
@@ -76,8 +83,10 @@ def run_sim_mission(
         random start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm``
         get it.
     """
-    from ..robots.sim import MotionNoise, SimRobot
+    from ..robots.sim import MotionNoise, SimRobot, simulated_sonar
 
+    if sonar_model is not None and sonar != "nxt":
+        raise NxtnavError(f"a sonar model (profile) is for the nxt sonar, not {sonar!r}")
     geometry = RobotGeometry() if robot_radius_cm is None else RobotGeometry(radius_cm=float(robot_radius_cm))
 
     m = map if isinstance(map, Map) else load_map(map)
@@ -102,11 +111,12 @@ def run_sim_mission(
     cfg = config or MissionConfig.for_sonar(sonar)
     if isinstance(localiser, str):
         opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
-                                         turn_noise=turn_noise, sensor_noise=sensor_noise)
+                                         turn_noise=turn_noise, sensor_noise=sensor_noise, sonar_model=sonar_model)
         if robot_radius_cm is not None:
             opts.update(geometry_options(localiser, geometry.radius_cm))
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
-    robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=sonar, sensor_noise=sensor_noise, rng=s_sim)
+    reads = simulated_sonar(sonar if sonar_model is None else sonar_model, sensor_noise)
+    robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=reads, rng=s_sim)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,
                          recorder=recorder)
     return replace(report, seed=int(seed))

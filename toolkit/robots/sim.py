@@ -41,9 +41,24 @@ from ..world import (
     wrap_angle,
 )
 
-__all__ = ["MotionNoise", "RobotTiming", "SimRobot"]
+__all__ = ["MotionNoise", "RobotTiming", "SimRobot", "simulated_sonar"]
 
 NoiseModelName = Literal["botsim", "absolute"]
+
+
+def simulated_sonar(sonar: SonarModel | str, sensor_noise: float = 1.0) -> SonarModel:
+    """The sonar model a simulated robot reads with: `sonar` itself when it is a model, else the
+    registered model of that name. `sensor_noise` (cm) is the noise of the ``ideal`` sonar only; the
+    ``nxt`` sonar's noise is part of its model (its defaults, or a fitted profile passed as a model).
+
+    >>> simulated_sonar("ideal", 2.0).to_dict()
+    {'name': 'ideal', 'noise_sd': 2.0}
+    >>> simulated_sonar("nxt", 2.0).noise_sd == simulated_sonar("nxt").noise_sd  # not the option's 2 cm
+    True
+    """
+    if not isinstance(sonar, str):
+        return sonar
+    return make_sonar(sonar, noise_sd=sensor_noise) if sonar == "ideal" else make_sonar(sonar)
 
 
 @dataclass(frozen=True)
@@ -152,9 +167,10 @@ class SimRobot:
     noise : MotionNoise
         Motion and turn noise (the paper's values by default).
     sonar : SonarModel or str
-        The sonar model (``ideal`` with `sensor_noise` by default).
+        The sonar model, or its name (`simulated_sonar`; ``ideal`` with `sensor_noise` by default).
     sensor_noise : float
-        Noise (cm) for a sonar given by name (the paper: 1 cm).
+        Noise (cm) of the ``ideal`` sonar given by name (the paper: 1 cm); the ``nxt`` sonar's comes
+        from its model.
     watchdog_cm : float or None
         Forward reading (cm) under which a move stops; default radius + 4 cm.
     watchdog_step_cm : float
@@ -187,7 +203,7 @@ class SimRobot:
         self.map = map
         self.geometry = geometry or RobotGeometry()
         self.noise = noise or MotionNoise()
-        self.sonar = make_sonar(sonar, noise_sd=sensor_noise) if isinstance(sonar, str) else sonar
+        self.sonar = simulated_sonar(sonar, sensor_noise)
         self.watchdog_cm = self.geometry.radius_cm + 4.0 if watchdog_cm is None else float(watchdog_cm)
         if watchdog_step_cm <= 0:
             raise ConfigError(f"watchdog_step_cm must be > 0, got {watchdog_step_cm}")

@@ -44,9 +44,9 @@ from ..world import (
     RobotGeometry,
     SonarModel,
     as_rng,
-    make_sonar,
     wrap_angle,
 )
+from .sim import simulated_sonar
 
 __all__ = [
     "BrickConfig",
@@ -350,9 +350,10 @@ class BrickWorld:
     config : BrickConfig
         Wiring and physical constants.
     sonar : SonarModel or str
-        Sonar model answering distance reads (``ideal`` or ``nxt``, see `toolkit.world.sonar`).
+        Sonar model answering distance reads, or its name (``ideal`` or ``nxt``, see
+        `toolkit.robots.sim.simulated_sonar`); a fitted profile's `NxtSonar` is passed as a model.
     sensor_noise : float
-        Noise (cm) of a sonar given by name.
+        Noise (cm) of the ``ideal`` sonar given by name; the ``nxt`` sonar's comes from its model.
     rng : None, int or Generator
         Seed of the sonar noise.
     log : path, text file or None
@@ -382,7 +383,7 @@ class BrickWorld:
                 f"start pose ({pose.x:g}, {pose.y:g}) puts the robot (radius {self.geometry.radius_cm:g} cm) "
                 f"in collision or outside map {map.name!r}"
             )
-        self.sonar = make_sonar(sonar, noise_sd=sensor_noise) if isinstance(sonar, str) else sonar
+        self.sonar = simulated_sonar(sonar, sensor_noise)
         self.rng = as_rng(rng)
         self._slip_rng = self.rng.spawn(1)[0]
         self._slip = [0.0, 0.0, 0.0]

@@ -11,11 +11,13 @@ import numpy as np
 
 from localisation.base import PoseEstimate
 from localisation.sonar_options import lobe_options
-from toolkit.robots.sim import MotionNoise
+from toolkit.robots.sim import MotionNoise, simulated_sonar
 from toolkit.world import (
     NxtnavError,
+    NxtSonar,
     Pose,
     RobotGeometry,
+    SonarModel,
     angle_diff,
 )
 
@@ -71,7 +73,7 @@ class BenchConfig:
     sonar : str
         Simulated sonar model (``ideal`` or ``nxt``).
     sensor_noise : float
-        Sonar noise (cm); the paper's 1 cm.
+        Noise (cm) of the ``ideal`` sonar; the paper's 1 cm. The ``nxt`` sonar's comes from its model.
     noise_model, motion_noise, turn_noise
         The robot's `MotionNoise` (the paper's BotSim values by default).
     tracker_prior : {"noisy-truth", "pf"}
@@ -104,6 +106,9 @@ class BenchConfig:
         Per localiser name, keyword arguments for `make_localiser` (they override the lobe options).
     localise_options : mapping
         Extra keyword arguments for `localisation.procedure.localise`.
+    sonar_model : NxtSonar, optional
+        The ``nxt`` sonar's model (a fitted profile's, `toolkit.sonar_fit.load_sonar_profile`): the
+        simulator reads with it and the localisers get its lobe. None: `NxtSonar`'s defaults.
     """
 
     sonar: str = "ideal"
@@ -124,6 +129,7 @@ class BenchConfig:
     lobe: str = "auto"
     localiser_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     localise_options: Mapping[str, Any] = field(default_factory=dict)
+    sonar_model: NxtSonar | None = None
 
     def __post_init__(self) -> None:
         if self.tracker_prior not in TRACKER_PRIORS:
@@ -132,6 +138,8 @@ class BenchConfig:
             v = getattr(self, k)
             if not (math.isfinite(v) and v >= 0):
                 raise NxtnavError(f"{k} must be a non-negative number, got {v!r}")
+        if self.sonar_model is not None and self.sonar != "nxt":
+            raise NxtnavError(f"a sonar model (profile) is for the nxt sonar, not {self.sonar!r}")
         if self.lobe not in ("auto", "off"):
             raise NxtnavError(f"lobe must be 'auto' or 'off', got {self.lobe!r}")
         if self.scan_processing not in ("paper", "raw"):
@@ -160,15 +168,22 @@ class BenchConfig:
     def noise(self) -> MotionNoise:
         return MotionNoise(self.noise_model, self.motion_noise, self.turn_noise)  # type: ignore[arg-type]
 
+    @property
+    def simulated_sonar(self) -> SonarModel:
+        """The model the simulated robot reads with (`toolkit.robots.sim.simulated_sonar`)."""
+        return simulated_sonar(self.sonar_model if self.sonar_model is not None else self.sonar, self.sensor_noise)
+
     def lobe_for(self, localiser: str) -> dict[str, Any]:
         """The simulated sonar's lobe as options of `localiser` (`localisation.sonar_options.lobe_options`:
-        for ``nxt`` its 20-degree lobe, 40-degree critical incidence and 255 cm limit, to the localisers
-        that take them); nothing with ``lobe="off"``."""
-        return {} if self.lobe == "off" else lobe_options(localiser, self.sonar, self.sensor_noise)
+        for ``nxt`` its model's lobe, critical incidence and range limit, to the localisers that take
+        them); nothing with ``lobe="off"``."""
+        return {} if self.lobe == "off" else lobe_options(localiser, self.sonar, self.sensor_noise,
+                                                          sonar_model=self.sonar_model)
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "sonar": self.sonar, "sensor_noise": self.sensor_noise, "noise": self.noise.to_dict(),
+            "sonar": self.sonar, "sensor_noise": self.sensor_noise, "sonar_model": self.simulated_sonar.to_dict(),
+            "noise": self.noise.to_dict(),
             "tracker_prior": self.tracker_prior, "prior_sd_cm": self.prior_sd_cm,
             "prior_sd_deg": self.prior_sd_deg, "clearance_cm": self.pose_clearance_cm,
             "robot_radius_cm": self.geometry.radius_cm,

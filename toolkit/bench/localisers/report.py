@@ -171,6 +171,16 @@ def _map_tables(summary: Mapping[tuple[str, str], Row], maps: Sequence[str], loc
     return lines
 
 
+def _sonar_note(config: BenchConfig) -> str:
+    """What the summary says of the simulated sonar's parameters."""
+    if config.sonar == "ideal":
+        return f"{config.sensor_noise:g} cm noise"
+    model = config.simulated_sonar
+    source = "a sonar profile" if config.sonar_model is not None else "the model's defaults"
+    return (f"{source}: noise {getattr(model, 'noise_sd', math.nan):g} cm, lobe "
+            f"{getattr(model, 'beam_width_deg', math.nan):g} degrees; every parameter in config.json")
+
+
 def write_summary(
     results: Sequence[TrialResult],
     path: str | Path,
@@ -193,7 +203,7 @@ def write_summary(
     lines += [
         f"- maps: {', '.join(maps)}; localisers: {', '.join(localisers)}; {trials} trials per map and "
         f"localiser; seed {seed}",
-        f"- simulator: sonar `{config.sonar}` ({config.sensor_noise:g} cm noise), motion noise "
+        f"- simulator: sonar `{config.sonar}` ({_sonar_note(config)}), motion noise "
         f"`{noise.model}` (motion {noise.motion:g}, turn {noise.turn:g})",
         f"- true poses: uniform over the free space at least {config.pose_clearance_cm:g} cm from the walls, "
         "heading uniform; the same poses for every localiser",

@@ -99,8 +99,8 @@ def localise_once(
     ss = np.random.SeedSequence(_entropy(rng))
     robot_ss, loc_ss, prior_ss, proc_ss = ss.spawn(4)
     if robot is None:
-        robot = SimRobot(m, truth, geometry=cfg.geometry, noise=cfg.noise, sonar=cfg.sonar,
-                         sensor_noise=cfg.sensor_noise, rng=np.random.default_rng(robot_ss))
+        robot = SimRobot(m, truth, geometry=cfg.geometry, noise=cfg.noise, sonar=cfg.simulated_sonar,
+                         rng=np.random.default_rng(robot_ss))
     if localiser is None:
         localiser = make_localiser(localiser_name, m, rng=np.random.default_rng(loc_ss),
                                    **localiser_options(cfg, localiser_name))
@@ -267,8 +267,8 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     drive = scripted_drive(m, truth, cfg.tracking_steps, cfg.tracking_step_cm, pose_rng,
                            radius_cm=cfg.geometry.radius_cm)
     robot_ss, loc_ss, prior_ss = np.random.SeedSequence(_entropy(run_rng)).spawn(3)
-    robot = SimRobot(m, truth, geometry=cfg.geometry, noise=cfg.noise, sonar=cfg.sonar,
-                     sensor_noise=cfg.sensor_noise, rng=np.random.default_rng(robot_ss))
+    robot = SimRobot(m, truth, geometry=cfg.geometry, noise=cfg.noise, sonar=cfg.simulated_sonar,
+                     rng=np.random.default_rng(robot_ss))
     loc = make_localiser(task.localiser, m, rng=np.random.default_rng(loc_ss),
                          **localiser_options(cfg, task.localiser))
     prep = _scan_preparer(loc, cfg.scan_processing)

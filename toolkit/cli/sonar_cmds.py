@@ -1,0 +1,302 @@
+"""`nxtnav sonar fit|score|loo`: the `nxt` sonar model against real sweeps taken at known waypoints.
+
+``fit`` writes a sonar profile (`toolkit.sonar_fit.save_sonar_profile`) that ``--sonar-profile`` of
+``scan``, ``localise``, ``run``, ``paper``, ``bench localisers`` and ``brick serve`` reads; ``score`` says
+how well a model explains sweeps; ``loo`` fits without each source of sweeps in turn and scores the
+held-out source, the honest test of a fitted model.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from ..formats import cell, json_safe, percent
+from ..world import NxtnavError, NxtSonar
+from .app import Interrupted, sonar_app
+from .options import check_writable, parse_list
+from .options import workers as workers_ok
+from .progress import progress
+
+__all__: list[str] = []
+
+_DIRS = typer.Argument(..., metavar="DIR...",
+                       help="Sweep sets: folders with a sweeps.csv (maps/real-nxt is one; format: toolkit/sweeps.py).")
+_MAP = typer.Option(None, "--map", metavar="FILE", help="The map of every sweep set (default: each folder's "
+                                                        "arena.yaml).")
+_WIDTHS = typer.Option("10,15,20,25,30,40", "--widths", metavar="DEG[,DEG]",
+                       help="Lobe widths tried (degrees, > 0 and <= 120).")
+_CRITICALS = typer.Option("30,40,50,60,70,80,90", "--criticals", metavar="DEG[,DEG]",
+                          help="Specular incidence limits tried (degrees, > 0 and <= 90).")
+_JSON = typer.Option(None, "--json", metavar="FILE", help="Write the results as JSON.")
+
+_UNITS = {"noise_sd": "cm", "noise_per_m": "cm/m", "bias_cm": "cm", "beam_width_deg": "deg", "beam_rays": "",
+          "critical_incidence_deg": "deg", "min_range_cm": "cm", "max_range_cm": "cm", "reach_cm": "cm",
+          "reach_width_cm": "cm", "correlation_deg": "deg"}
+BASELINES: dict[str, Callable[[], NxtSonar]] = {"default": NxtSonar, "hardware": NxtSonar.hardware_facts}
+"""Models `nxtnav sonar score --baseline` knows: the toolkit's `nxt` default, and the model from the
+published hardware facts alone."""
+
+
+def _grid(text: str, option: str, hi: float) -> list[float]:
+    """Comma-separated angles (degrees) in (0, hi], each once, in the order given."""
+    out: list[float] = []
+    for part in parse_list(text, option):
+        try:
+            v = float(part)
+        except ValueError:
+            raise NxtnavError(f"{option}: expected comma-separated degrees, got {part!r}") from None
+        if not 0.0 < v <= hi:
+            raise NxtnavError(f"{option}: each value must be > 0 and <= {hi:g} degrees, got {part!r}")
+        if v not in out:
+            out.append(v)
+    return out
+
+
+def _load_sets(dirs: Sequence[Path], map_file: Path | None) -> list[Any]:
+    from ..sweeps import load_sweep_set
+
+    return [load_sweep_set(d, map=map_file) for d in dirs]
+
+
+@contextmanager
+def _stuck_noted(sets: Sequence[Any]) -> Iterator[None]:
+    """Say once which sweeps have stuck readings (the fit and the scores leave them out), and keep the
+    scan module's per-call warning about them quiet meanwhile (a fit prepares the sweeps many times)."""
+    from localisation.scan import stuck_mask
+
+    for s in sets:
+        for sw in s:
+            scan = sw.scan()
+            k = int(stuck_mask(scan).sum())
+            if k:
+                typer.echo(f"{sw.label}: {k} of {len(scan)} readings are a stuck sonar (one value repeated over "
+                           "a long arc); left out", err=True)
+    logger = logging.getLogger("localisation.scan")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _write_json(path: Path, doc: Any) -> None:
+    """`doc` as strict JSON (NaN and infinities as null), written whole or not at all."""
+    tmp = path.with_name(path.name + ".part")
+    try:
+        tmp.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False), encoding="utf-8")
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    typer.echo(f"wrote {path}")
+
+
+def _rounded(value: Any) -> Any:
+    """Floats to 6 significant decimals for a profile's provenance (dicts and lists inside too)."""
+    if isinstance(value, float):
+        return round(value, 6)
+    if isinstance(value, dict):
+        return {k: _rounded(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_rounded(v) for v in value]
+    return value
+
+
+def _params_table(model: NxtSonar, title: str) -> Table:
+    """The fitted parameters beside the hardware facts."""
+    from ..sonar_fit import FIT_PARAMETERS
+
+    hw = NxtSonar.hardware_facts()
+    table = Table("parameter", "fitted", "hardware facts", "unit", title=title)
+    shown = ("beam_width_deg", "beam_rays", "critical_incidence_deg", *FIT_PARAMETERS, "correlation_deg")
+    for k in shown:
+        a, b = getattr(model, k), getattr(hw, k)
+        fmt = (lambda v: f"{v:d}") if k == "beam_rays" else (lambda v: f"{v:.4g}")
+        table.add_row(k, fmt(a), fmt(b), _UNITS.get(k, ""))
+    return table
+
+
+@sonar_app.command("fit")
+def sonar_fit(
+    dirs: list[Path] = _DIRS,
+    map_file: Path | None = _MAP,
+    output: Path = typer.Option(..., "-o", "--output", metavar="PROFILE.yaml", help="The sonar profile to write."),
+    widths_text: str = _WIDTHS,
+    criticals_text: str = _CRITICALS,
+    json_out: Path | None = _JSON,
+) -> None:
+    """Fit the nxt sonar model by maximum likelihood to real sweeps; write it as a sonar profile.
+
+    Every lobe of the grid (--widths x --criticals) gets its mixture fitted (noise, bias, losses, wrong
+    readings) and each sweep its heading; the most likely lobe wins. The profile records where it came
+    from (folders, sweeps, readings, likelihood, headings) and nothing else, so a rerun writes the same
+    bytes.
+    """
+    from ..sonar_fit import fit_sonar, save_sonar_profile
+
+    widths = _grid(widths_text, "--widths", 120.0)
+    criticals = _grid(criticals_text, "--criticals", 90.0)
+    check_writable(output, "--output")
+    check_writable(json_out, "--json")
+    sets = _load_sets(dirs, map_file)
+    lobes = len(widths) * len(criticals)
+    with _stuck_noted(sets), progress("lobes", lobes) as advance:
+        fit = fit_sonar(sets, widths=widths, criticals=criticals, progress=lambda done, total: advance())
+    provenance = _rounded({
+        "folders": [str(d) for d in dirs], "maps": [s.map.name for s in sets], "sweeps": fit.sweeps,
+        "readings": fit.readings, "mean_log_likelihood": fit.mean_log_likelihood,
+        "widths_deg": widths, "criticals_deg": criticals, "headings_deg": fit.headings_deg})
+    save_sonar_profile(fit.model, output, fit=provenance)
+    Console().print(_params_table(fit.model, f"{fit.sweeps} sweeps, {fit.readings} readings: "
+                                             f"{fit.mean_log_likelihood:.3f} nats per reading"))
+    typer.echo(f"wrote {output}")
+    if json_out is not None:
+        _write_json(json_out, {"profile": str(output), "fit": provenance, **fit.to_dict()})
+
+
+def _score_models(profile: Path | None, baselines: list[str]) -> dict[str, tuple[NxtSonar, str]]:
+    """The models to score by label, with where each comes from: the profile (or the default), then the
+    baselines."""
+    from ..sonar_fit import load_sonar_profile
+
+    models: dict[str, tuple[NxtSonar, str]] = {}
+    if profile is not None:
+        models["profile"] = (load_sonar_profile(profile), str(profile))
+    else:
+        models["default"] = (NxtSonar(), "NxtSonar()")
+    for name in baselines:
+        if name not in models:
+            models[name] = (BASELINES[name](), "NxtSonar()" if name == "default" else "NxtSonar.hardware_facts()")
+    return models
+
+
+@sonar_app.command("score")
+def sonar_score(
+    dirs: list[Path] = _DIRS,
+    map_file: Path | None = _MAP,
+    sonar_profile: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE",
+                                              help="The model to score (default: the toolkit's nxt model)."),
+    baseline_text: str | None = typer.Option(None, "--baseline", metavar="NAME[,NAME]",
+                                             help="Also score these beside it: hardware (the model from the "
+                                                  "published hardware facts), default (the toolkit's nxt model)."),
+    json_out: Path | None = _JSON,
+) -> None:
+    """How well a sonar model explains real sweeps at their waypoints.
+
+    Per model: the mean log-likelihood per reading (higher is better), the no-echo share of the real
+    readings and the one the model expects, and the median |real - model| of the readings where both
+    answer; then the same per sweep. Each sweep is taken at the heading the model finds most likely.
+    """
+    from ..sonar_fit import score_sonar
+
+    baselines = [] if baseline_text is None else parse_list(baseline_text, "--baseline", list(BASELINES))
+    check_writable(json_out, "--json")
+    models = _score_models(sonar_profile, baselines)
+    sets = _load_sets(dirs, map_file)
+    with _stuck_noted(sets):
+        scores = {label: score_sonar(model, sets) for label, (model, _) in models.items()}
+    console = Console()
+    table = Table("model", "readings", "log-lik", "no echo real", "no echo model", "median |Δ|",
+                  title="sonar models against real sweeps (log-lik: nats per reading, higher is better; |Δ|: "
+                        "|real - model| where both answer)")
+    for label, sc in scores.items():
+        table.add_row(label, str(sc.readings), cell(sc.mean_log_likelihood, ".3f"), percent(sc.no_echo_real, 1),
+                      percent(sc.no_echo_model, 1), cell(sc.median_abs_diff_cm, ".1f", " cm"))
+    console.print(table)
+    per = Table(title="per sweep (at the heading each model finds most likely)")
+    per.add_column("sweep", overflow="fold")
+    for name in ("model", "heading", "log-lik", "no echo real / model", "median |Δ|"):
+        per.add_column(name)
+    for i, row in enumerate(next(iter(scores.values())).per_sweep):
+        for k, (label, sc) in enumerate(scores.items()):
+            r = sc.per_sweep[i]
+            per.add_row(row["sweep"] if k == 0 else "", label, cell(r["heading_deg"], ".1f", "°"),
+                        cell(r["mean_log_likelihood"], ".3f"),
+                        f"{percent(r['no_echo_real'], 1)} / {percent(r['no_echo_model'], 1)}",
+                        cell(r["median_abs_diff_cm"], ".1f", " cm"))
+    console.print(per)
+    if json_out is not None:
+        _write_json(json_out, {"folders": [str(d) for d in dirs], "models": [
+            {"label": label, "source": models[label][1], "params": models[label][0].to_dict(), **sc.to_dict()}
+            for label, sc in scores.items()]})
+
+
+@sonar_app.command("loo")
+def sonar_loo(
+    dirs: list[Path] = _DIRS,
+    map_file: Path | None = _MAP,
+    widths_text: str = _WIDTHS,
+    criticals_text: str = _CRITICALS,
+    workers: int = typer.Option(1, "--workers", help="Worker processes (one fold each; 1 = in this process).",
+                                callback=workers_ok),
+    json_out: Path | None = _JSON,
+) -> None:
+    """Leave one repository out: fit without each source of sweeps, score its sweeps.
+
+    For each source (the `repo` column) the model is fitted on the other sources' sweeps; the held-out
+    sweeps are scored with that fit and with the hardware-facts model. Reports each held-out source and
+    the means weighted by their readings, whether the fitted models explain held-out readings better than
+    the hardware facts, and whether they expect a no-echo share within 0.05 of the real one.
+    """
+    from ..bench.executors import TasksInterrupted, collect_tasks
+    from ..sonar_fit import LeaveOneOut, repo_folds, score_fold
+
+    widths = _grid(widths_text, "--widths", 120.0)
+    criticals = _grid(criticals_text, "--criticals", 90.0)
+    check_writable(json_out, "--json")
+    sets = _load_sets(dirs, map_file)
+    folds = repo_folds(sets)
+    lobes = len(widths) * len(criticals)
+    with _stuck_noted(sets):
+        if workers == 1:
+            with progress(f"lobes ({len(folds)} folds)", len(folds) * lobes) as advance:
+                held = [score_fold(f, widths=widths, criticals=criticals, progress=lambda d, t: advance())
+                        for f in folds]
+        else:
+            with progress("folds", len(folds)) as advance:
+                try:
+                    done = collect_tasks(partial(score_fold, widths=widths, criticals=criticals), folds,
+                                         workers=workers, on_done=advance)
+                except TasksInterrupted as exc:
+                    raise Interrupted(f"{len(exc.results)} of {len(folds)} folds done; nothing written") from None
+            order = {f.repo: i for i, f in enumerate(folds)}
+            held = sorted(done, key=lambda h: order[h.repo])
+    loo = LeaveOneOut.of(held)
+    table = Table(title="leave one repository out (log-lik: nats per reading, higher is better; |Δ|: "
+                        "|real - model| where both answer)")
+    table.add_column("held out", overflow="fold")
+    for name in ("sweeps", "readings", "log-lik fitted / hardware", "no echo real / fitted / hardware",
+                 "median |Δ| fitted / hardware"):
+        table.add_column(name)
+
+    def row(label: str, sweeps: int, readings: int, fit: dict[str, float], base: dict[str, float]) -> None:
+        table.add_row(label, str(sweeps), str(readings),
+                      f"{cell(fit['mean_log_likelihood'], '.3f')} / {cell(base['mean_log_likelihood'], '.3f')}",
+                      f"{percent(fit['no_echo_real'], 1)} / {percent(fit['no_echo_model'], 1)} / "
+                      f"{percent(base['no_echo_model'], 1)}",
+                      f"{cell(fit['median_abs_diff_cm'], '.1f')} / {cell(base['median_abs_diff_cm'], '.1f', ' cm')}")
+
+    for h in held:
+        row(h.repo, h.fitted.sweeps, h.readings, asdict(h.fitted), asdict(h.baseline))
+    f, b = loo.fitted, loo.baseline
+    row("weighted mean", sum(h.fitted.sweeps for h in held), loo.readings, f, b)
+    Console().print(table)
+    typer.echo(f"fitted beats the hardware facts on held-out readings: {'yes' if loo.beats_baseline else 'no'} "
+               f"({f['mean_log_likelihood']:.3f} against {b['mean_log_likelihood']:.3f} nats per reading)")
+    close = loo.no_echo_gap <= 0.05
+    typer.echo(f"fitted no-echo share within 0.05 of the real one: {'yes' if close else 'no'} "
+               f"({f['no_echo_model']:.3f} against {f['no_echo_real']:.3f}, gap {loo.no_echo_gap:.3f})")
+    if json_out is not None:
+        _write_json(json_out, {"folders": [str(d) for d in dirs], "widths_deg": widths, "criticals_deg": criticals,
+                               "baseline": NxtSonar.hardware_facts().to_dict(), **loo.to_dict()})
