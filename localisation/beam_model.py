@@ -45,8 +45,8 @@ STEP_CM = 0.25
 class MeasurementModel(Protocol):
     """What the particle filters need of a measurement model (`RangeLikelihood` or `BeamLikelihood`)."""
 
-    sigma_cm: float
-    uses_no_echo: bool
+    @property
+    def sigma_cm(self) -> float: ...
 
     def sq_residuals(self, expected: Any, measured: Any) -> FloatArray: ...
 
@@ -68,7 +68,6 @@ class BeamLikelihood:
     weight: float = 1.0
     table: NDArray[np.float32] = field(init=False, repr=False)
     table_by_reading: NDArray[np.float32] = field(init=False, repr=False)
-    uses_no_echo: bool = field(init=False, default=True)
 
     def __post_init__(self) -> None:
         levels = math.ceil(self.sonar.max_range_cm)
@@ -89,7 +88,7 @@ class BeamLikelihood:
         if w == self.weight:
             return self
         out = object.__new__(BeamLikelihood)
-        for k in ("sonar", "table", "table_by_reading", "uses_no_echo"):
+        for k in ("sonar", "table", "table_by_reading"):
             object.__setattr__(out, k, getattr(self, k))
         object.__setattr__(out, "weight", w)
         return out

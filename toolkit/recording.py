@@ -39,11 +39,7 @@ import numpy as np
 
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 
-<<<<<<< HEAD
-from .world import ConfigError, Map, Pose, Scan, SonarModel
-=======
 from .world import SONAR_MODELS, ConfigError, Map, NxtnavError, Pose, Scan, SonarModel
->>>>>>> s7-prof
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
            "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "versions"]
@@ -238,15 +234,8 @@ class Recorder:
                        rng: Any = None) -> _RecordingLocaliser:
         """`localiser` with its calls recorded; `options` and `rng` (the Generator it was built with)
         let a replay rebuild it exactly."""
-<<<<<<< HEAD
-        # a sonar model among the options is written as its name and parameters (`replay` rebuilds it)
-        opts = {k: (v.to_dict() if isinstance(v, SonarModel) else v) for k, v in (options or {}).items()}
-        self.event("localiser", name=getattr(localiser, "name", type(localiser).__name__), options=opts,
-                   rng=_rng_state(rng))
-=======
         self.event("localiser", name=getattr(localiser, "name", type(localiser).__name__),
                    options=encode_options(dict(options or {})), rng=_rng_state(rng))
->>>>>>> s7-prof
         return _RecordingLocaliser(localiser, self)
 
     def scan_event(self, scan: Scan, robot: Any, t0: float) -> None:

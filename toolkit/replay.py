@@ -29,10 +29,6 @@ import numpy as np
 
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 
-<<<<<<< HEAD
-from .recording import FORMAT_NAME, FORMAT_VERSION, _estimate, decode_floats, scan_from_fields
-from .world import Map, MapError, NxtnavError, Pose, Scan, angle_diff, make_sonar, map_from_dict
-=======
 from .recording import (
     FORMAT_NAME,
     FORMAT_VERSION,
@@ -43,7 +39,6 @@ from .recording import (
     sonar_from_dict,
 )
 from .world import Map, MapError, NxtnavError, NxtSonar, Pose, Scan, SonarModel, angle_diff, map_from_dict
->>>>>>> s7-prof
 
 __all__ = ["LocaliserSpec", "Recording", "RecordingError", "ReplayReport", "ReplayStep", "read_recording", "replay"]
 
@@ -291,12 +286,8 @@ def read_recording(path: str | Path) -> Recording:
         m = map_from_dict(header["map"], source=p)
     except MapError as exc:
         raise RecordingError(f"{p} line 1: field 'map': {exc}") from None
-<<<<<<< HEAD
-    specs = [LocaliserSpec(e["name"], _rebuilt(e["options"]), e["rng"]) for _, e in events if e["type"] == "localiser"]
-=======
     specs = [LocaliserSpec(e["name"], decode_options(e["options"]), e["rng"]) for _, e in events
              if e["type"] == "localiser"]
->>>>>>> s7-prof
     return Recording(p, header, m, specs[0] if specs else None, events, truncated)
 
 
@@ -487,18 +478,6 @@ def _spread(e: PoseEstimate | None) -> float:
 def _fin_median(a: np.ndarray) -> float:
     f = a[np.isfinite(a)]
     return float(np.median(f)) if f.size else math.nan
-
-
-def _rebuilt(options: dict[str, Any]) -> dict[str, Any]:
-    """Recorded localiser options with a sonar model (written as its name and parameters) rebuilt."""
-    model = options.get("sonar_model")
-    if not isinstance(model, dict):
-        return options
-    params = {k: v for k, v in model.items() if k != "name"}
-    try:
-        return {**options, "sonar_model": make_sonar(str(model.get("name", "nxt")), **params)}
-    except (TypeError, NxtnavError) as e:
-        raise RecordingError(f"the recorded sonar_model cannot be rebuilt: {e}") from None
 
 
 def _options_for(rec: Recording, name: str) -> dict[str, Any]:

@@ -44,7 +44,7 @@ class SweepTask:
     index: int
     localiser: str
     seed: int
-    sonar: dict[str, float]
+    sonar: dict[str, Any]
     options: dict[str, Any]
 
 
