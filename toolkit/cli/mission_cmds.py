@@ -149,7 +149,9 @@ def run(
                 recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
                                                  "profile": robot.profile.to_dict()},
                                      {"model": "nxt", "params": sonar_model.to_dict()}, seed, None)
-            opts = matched_localiser_options(localiser, sonar="nxt", sonar_model=fitted_sonar)
+            # the virtual brick draws every reading independently; a real sensor's readings share errors
+            opts = matched_localiser_options(localiser, sonar="nxt", sonar_model=fitted_sonar,
+                                             simulated=bool(robot.virtual))
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=recorder)
         finally:

@@ -111,7 +111,8 @@ def run_sim_mission(
     cfg = config or MissionConfig.for_sonar(sonar)
     if isinstance(localiser, str):
         opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
-                                         turn_noise=turn_noise, sensor_noise=sensor_noise, sonar_model=sonar_model)
+                                         turn_noise=turn_noise, sensor_noise=sensor_noise, sonar_model=sonar_model,
+                                         simulated=True)
         if robot_radius_cm is not None:
             opts.update(geometry_options(localiser, geometry.radius_cm))
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})

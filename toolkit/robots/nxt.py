@@ -291,7 +291,7 @@ class NxtRobot:
             reached = all(d * (q - t) >= 0 for d, q, t in zip(sense, pos, targets, strict=True))
             if reached or all(s[1] for s in states):  # at (or past) the limit, or the firmware is done
                 return "done", pos
-            if watchdog and self.read_sonar() < threshold:
+            if watchdog and self.read_sonar() < threshold and self.read_sonar() < threshold:  # read twice (sim.py)
                 return "watchdog", pos
             if pos != last:
                 last, still_since = pos, None
@@ -321,7 +321,7 @@ class NxtRobot:
         sgn = self._drive_sign
         start = [self._state(p)[0] for p in ports]
         wanted = [round(left_deg) * sgn, round(right_deg) * sgn]
-        if watchdog and self.read_sonar() < self.profile.watchdog_distance_cm:
+        if watchdog and all(self.read_sonar() < self.profile.watchdog_distance_cm for _ in range(2)):
             return 0.0, 0.0, "watchdog"
         why = "done"
         if any(wanted):

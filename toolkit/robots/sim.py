@@ -10,8 +10,9 @@ Noise models (``MotionNoise.model``):
     the robot drives d + N(0,1) * motion (cm per move).
 
 A forward move is carried out in steps of ``watchdog_step_cm`` commanded centimetres; after each step
-the forward sonar is read and the move stops when it reads closer than ``watchdog_cm`` (the paper's
-collision watchdog). Independently, the robot disc can never pass through a wall: a motion that would
+the forward sonar is read and the move stops when it reads closer than ``watchdog_cm`` twice in a row
+(the paper's collision watchdog; the second reading, at the same place, rejects the real sensor's
+occasional short reading). Independently, the robot disc can never pass through a wall: a motion that would
 touch one ends at the contact and counts as a true collision.
 """
 
@@ -290,7 +291,9 @@ class SimRobot:
         watchdog = False
         step = self.watchdog_step_cm
         while abs(d) - done > 1e-9:
-            if d > 0 and self.read_forward() < self.watchdog_cm:
+            # a low reading is read again before the robot stops: the NXT sensor gives short readings now
+            # and then (about one in eight), and a watchdog that trusts one would stop most long moves
+            if d > 0 and self.read_forward() < self.watchdog_cm and self.read_forward() < self.watchdog_cm:
                 watchdog = True
                 break
             cmd = min(step, abs(d) - done)

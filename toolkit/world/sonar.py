@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import asdict, dataclass, is_dataclass
+from dataclasses import asdict, dataclass, is_dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -236,6 +236,12 @@ class NxtSonar(SonarModel):
                 "far_dropout_prob": 0.02, "reach_cm": 200.0, "reach_width_cm": 20.0, "phantom_prob": 0.0,
                 "short_prob": 0.0, "outlier_prob": 0.0, "close_no_echo_prob": 0.5, "correlation_deg": 0.0}
         return cls(**{**base, **overrides})
+
+    def simulated(self) -> NxtSonar:
+        """The model of this sensor's *simulated* readings, as a localiser facing them should use it: the
+        simulator and the virtual brick draw every reading independently (`sample`), so no reading
+        shares another's error (`correlation_deg` 0). Real readings keep the fitted correlation."""
+        return replace(self, correlation_deg=0.0)
 
     def echo_distance(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike) -> Any:
         """Noise-free distance of the nearest echo in the lobe (inf when every ray is lost)."""
