@@ -57,8 +57,9 @@ nuisance a fit widens the lobe to forgive the position error."""
 LOG_FLOOR = -700.0
 """Least log-probability a reading counts for in a score (a reading the model calls impossible, such as
 a wrong reading under a model without outliers, would otherwise make the mean -inf)."""
-DEFAULT_WIDTHS = (10.0, 15.0, 20.0, 25.0, 30.0, 40.0)
-DEFAULT_CRITICALS = (30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0)
+DEFAULT_WIDTHS = (10.0, 20.0, 30.0, 40.0, 60.0)
+DEFAULT_CRITICALS = (20.0, 30.0, 40.0, 50.0, 60.0)
+"""The lobe grid of the shipped default model's fit (docs/real-sonar.md)."""
 
 
 class SonarProfileError(NxtnavError, ValueError):

@@ -34,9 +34,9 @@ _DIRS = typer.Argument(..., metavar="DIR...",
                        help="Sweep sets: folders with a sweeps.csv (maps/real-nxt is one; format: toolkit/sweeps.py).")
 _MAP = typer.Option(None, "--map", metavar="FILE", help="The map of every sweep set (default: each folder's "
                                                         "arena.yaml).")
-_WIDTHS = typer.Option("10,15,20,25,30,40", "--widths", metavar="DEG[,DEG]",
+_WIDTHS = typer.Option("10,20,30,40,60", "--widths", metavar="DEG[,DEG]",
                        help="Lobe widths tried (degrees, > 0 and <= 120).")
-_CRITICALS = typer.Option("30,40,50,60,70,80,90", "--criticals", metavar="DEG[,DEG]",
+_CRITICALS = typer.Option("20,30,40,50,60", "--criticals", metavar="DEG[,DEG]",
                           help="Specular incidence limits tried (degrees, > 0 and <= 90).")
 _JSON = typer.Option(None, "--json", metavar="FILE", help="Write the results as JSON.")
 
