@@ -171,5 +171,5 @@ def test_default_is_the_shipped_fitted_profile() -> None:
 
     from toolkit.sonar_fit import load_sonar_profile
 
-    assert load_sonar_profile(REAL_NXT / "nxt-sonar.yaml") == NxtSonar()
+    assert load_sonar_profile(REAL_NXT / "sonar-profiles" / "nxt-fitted.yaml") == NxtSonar()
     assert NxtSonar() != NxtSonar.hardware_facts()

@@ -94,6 +94,12 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         {"scan_map1.png": "scan_map1.png"},
         "one 360-degree scan with the LEGO sensor model, as the paper's Fig. 3"),
     FigureJob(
+        "real-sonar",
+        ("sonar", "plot", f"{REPO}/maps/real-nxt", "--out", f"{WORK}/real-sonar"),
+        {"real_sonar_radar.png": "real-sonar/real_sonar_radar.png",
+         "real_sonar_no_echo.png": "real-sonar/real_sonar_no_echo.png"},
+        "the three shipped real NXT sweeps against the fitted nxt sonar model: radar charts, no-echo curves"),
+    FigureJob(
         "planners",
         # defaults: maps map1,map2,map3; planners min-turn,rrtstar,prm,astar; 1 s budget; 100 drives per path
         ("bench", "planners", "--runs", "20", "--seed", "0", "--workers", "2", "--out", f"{WORK}/planners"),

@@ -300,3 +300,26 @@ def sonar_loo(
     if json_out is not None:
         _write_json(json_out, {"folders": [str(d) for d in dirs], "widths_deg": widths, "criticals_deg": criticals,
                                "baseline": NxtSonar.hardware_facts().to_dict(), **loo.to_dict()})
+
+
+@sonar_app.command("plot")
+def sonar_plot(
+    dirs: list[Path] = _DIRS,
+    map_file: Path | None = _MAP,
+    sonar_profile: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE",
+                                              help="The model to draw (default: the toolkit's nxt model)."),
+    out: Path = typer.Option(Path("out"), "--out", help="Folder of the two PNG figures."),
+    seed: int = typer.Option(0, help="Seed of the model's drawn sweeps."),
+) -> None:
+    """Real sweeps against the model: real_sonar_radar.png (three waypoints, real and model on one radar
+    chart each) and real_sonar_no_echo.png (no-echo share against incidence and range, real and model)."""
+    from ..sonar_fit import load_sonar_profile
+    from ..sonar_plots import real_sonar_figures
+
+    model = load_sonar_profile(sonar_profile) if sonar_profile is not None else NxtSonar()
+    if out.exists() and not out.is_dir():
+        raise NxtnavError(f"--out: {out} exists and is not a folder")
+    sets = _load_sets(dirs, map_file)
+    with _stuck_noted(sets):
+        written = real_sonar_figures(sets, model, out, rng=seed)
+    typer.echo(f"wrote {', '.join(str(p) for p in written)}")

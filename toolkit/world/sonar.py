@@ -182,7 +182,7 @@ class NxtSonar(SonarModel):
     name: ClassVar[str] = "nxt"
     no_echo: ClassVar[float] = NO_ECHO
     # fitted to the 19 real sweeps of docs/real-sonar.md (`nxtnav sonar fit`); the same values are in
-    # maps/real-nxt/nxt-sonar.yaml, and a test keeps the two equal
+    # maps/real-nxt/sonar-profiles/nxt-fitted.yaml, and a test keeps the two equal
     noise_sd: float = 1.188316
     noise_per_m: float = 0.925943
     bias_cm: float = -0.480274
