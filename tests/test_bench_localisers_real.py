@@ -16,7 +16,7 @@ from localisation.base import LOCALISERS
 from toolkit.bench import localisers as bench
 from toolkit.robots.sim import SimRobot
 from toolkit.seeds import derive_seed
-from toolkit.world import Pose, angle_diff, load_map
+from toolkit.world import NxtSonar, Pose, angle_diff, load_map
 
 
 def test_localise_cli_json_matches_truth(tmp_path: Path) -> None:
@@ -85,8 +85,10 @@ def test_lobe_options_follow_the_sonar() -> None:
     pf = [n for n in LOCALISERS.names() if n == "paper-pf" or n.startswith("pf-")]
     assert pf
     for name in pf:
-        assert nxt.lobe_for(name) == {"beam_width_deg": 20.0, "beam_rays": 9, "critical_incidence_deg": 40.0,
-                                      "max_range_cm": 255.0}
+        model = NxtSonar()
+        assert nxt.lobe_for(name) == {"beam_width_deg": model.beam_width_deg, "beam_rays": model.beam_rays,
+                                      "critical_incidence_deg": model.critical_incidence_deg,
+                                      "max_range_cm": model.max_range_cm}
         assert bench.BenchConfig(sonar="ideal").lobe_for(name) == {}
         assert bench.BenchConfig(sonar="nxt", lobe="off").lobe_for(name) == {}
     # explicit options win over the lobe

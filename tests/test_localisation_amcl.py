@@ -147,7 +147,7 @@ def test_lobe_readings_follow_the_nxt_sonar() -> None:
     rng = np.random.default_rng(3)
     poses = np.column_stack([m.sample_free(150, clearance=10.0, rng=rng), rng.uniform(-math.pi, math.pi, 150)])
     rel = np.radians(np.arange(0.0, 360.0, 3.0))
-    lobe = NxtSonar(beam_rays=161)  # a near-continuous 20-degree lobe, specular loss beyond 40 degrees
+    lobe = NxtSonar.hardware_facts(beam_rays=161)  # a near-continuous 20-degree lobe, specular loss beyond 40
     sensor = lobe.echo_distance(m.walls, poses[:, :2], poses[:, 2:3] + rel[None, :])
     off = {}
     for edges in (True, False):
@@ -166,7 +166,7 @@ def test_a_wall_entering_the_lobe_edge_steps_the_reading() -> None:
     m = load_map("map1")
     pose = np.array([[32.96, 46.21, -0.02475]])
     rel = np.radians([345.0, 346.0, 347.0, 348.0, 349.0, 350.0])
-    sensor = NxtSonar(beam_rays=161).echo_distance(m.walls, pose[:, :2], pose[:, 2:3] + rel[None, :])[0]
+    sensor = NxtSonar.hardware_facts(beam_rays=161).echo_distance(m.walls, pose[:, :2], pose[:, 2:3] + rel[None, :])[0]
     kw = {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0}
     edges = Amcl(m, rng=0, **kw)._expected_ranges(pose, rel)[0][0]  # type: ignore[arg-type]
     smeared = Amcl(m, rng=0, lobe_rays=0, **kw)._expected_ranges(pose, rel)[0][0]  # type: ignore[arg-type]

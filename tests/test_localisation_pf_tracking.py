@@ -13,7 +13,7 @@ from localisation.models import range_table
 from localisation.particle_filter import Mode, ParticleFilter
 from localisation.scan import process_scan
 from toolkit.robots.sim import SimRobot
-from toolkit.world import Pose, angle_diff, load_map
+from toolkit.world import NxtSonar, Pose, angle_diff, load_map
 
 MAP1 = load_map("map1")
 
@@ -53,7 +53,7 @@ def test_two_readings_do_not_spread_the_tracked_cloud(seed: int) -> None:
     assert spreads[False][0] > 1.5 * before[0] and spreads[False][1] > 2.0 * before[1], (before, spreads)
 
 
-def _drive(pf: ParticleFilter, sonar: str, seed: int) -> tuple[float, float]:
+def _drive(pf: ParticleFilter, sonar: str | NxtSonar, seed: int) -> tuple[float, float]:
     """Largest position and heading error (cm, degrees) of `pf` tracking a robot with `sonar` on map1."""
     robot = SimRobot(MAP1, Pose(20.0, 20.0, 0.0), sonar=sonar, rng=seed)
     pf.reset(Prior(Pose(21.0, 19.0, math.radians(2.0))))
@@ -101,7 +101,8 @@ def test_coarse_lobe_tables_track_by_the_exact_lobe() -> None:
     lobe = {"beam_width_deg": 20.0, "beam_rays": 9, "critical_incidence_deg": 40.0, "max_range_cm": 255.0}
     pf = ParticleFilter(MAP1, rng=5, range_memory_mb=4.0, **lobe)
     assert pf.tracking_exact and pf.tracking_prior_modes
-    worst, worst_h = _drive(pf, "nxt", 5)
+    # the sensor whose lobe the filter is told (the hardware-facts model's 20 degrees and 40)
+    worst, worst_h = _drive(pf, NxtSonar.hardware_facts(), 5)
     assert worst < 1.0 and worst_h < 1.5, (worst, worst_h)
 
 

@@ -15,7 +15,7 @@ import localisation
 from toolkit.mission import MissionConfig, Outcome, run_mission, run_sim_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.seeds import derive_seeds
-from toolkit.world import Pose, load_map
+from toolkit.world import NxtSonar, Pose, load_map
 
 
 def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "ideal",
@@ -102,7 +102,10 @@ def test_nxt_sonar_localisers_are_told_the_lobe() -> None:
     from toolkit.mission import NXT_SONAR_SIGMA_CM, matched_localiser_options
 
     nxt = matched_localiser_options("paper-pf", sonar="nxt")
-    assert nxt["beam_width_deg"] == 20.0 and nxt["critical_incidence_deg"] == 40.0
+    model = NxtSonar()
+    assert nxt["beam_width_deg"] == model.beam_width_deg
+    assert nxt["critical_incidence_deg"] == model.critical_incidence_deg
+    assert nxt["sonar_model"] == model  # the whole model, for the localisers that use its beam mixture
     assert nxt["sensor_sigma_cm"] == NXT_SONAR_SIGMA_CM
     ideal = matched_localiser_options("paper-pf", sonar="ideal", sensor_noise=1.5)
     assert "beam_width_deg" not in ideal and ideal["sensor_sigma_cm"] == 1.5

@@ -28,8 +28,9 @@ def test_map1_mission_on_the_virtual_brick(tmp_path: Path, heading_deg: float, s
     m = load_map("map1")
     assert m.start is not None and m.target is not None
     log = io.StringIO()
+    # the brick answers with the NXT sensor's model, the sensor the NXT client's localiser is told of
     world = BrickWorld(m, Pose.from_deg(float(m.start[0]), float(m.start[1]), heading_deg),
-                       BrickConfig(time_factor=1000.0, max_step_s=0.01), rng=seed, log=log)
+                       BrickConfig(time_factor=1000.0, max_step_s=0.01), sonar="nxt", rng=seed, log=log)
     report = tmp_path / "mission.json"
     recording = tmp_path / "mission.jsonl"
     with BrickServer(world, port=0) as server:

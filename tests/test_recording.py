@@ -174,7 +174,7 @@ def test_virtual_brick_recording_replays_bit_for_bit(tmp_path: Path) -> None:
         rec = Recorder(path, map=m, robot={"kind": "nxt", "link": robot.link}, sonar={"model": "nxt"}, seed=2,
                        truth=lambda: world.pose)
         try:
-            opts = matched_localiser_options("amcl", sonar="nxt")
+            opts = matched_localiser_options("amcl", sonar="nxt", simulated=True)  # the brick draws independently
             report = run_mission(robot, m, (30.0, 80.0), localiser="amcl", rng=2,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=rec)
         finally:

@@ -106,7 +106,8 @@ def test_brick_clock_agrees_with_the_time_model() -> None:
     with BrickServer(world, port=0) as server:
         robot = ModelClock(connect_robot("socket", host="127.0.0.1", port=server.port))
         try:
-            cfg = MissionConfig.for_sonar("nxt", localiser_options=matched_localiser_options("paper-pf", sonar="nxt"))
+            opts = matched_localiser_options("paper-pf", sonar="nxt", simulated=True)  # the brick's readings
+            cfg = MissionConfig.for_sonar("nxt", localiser_options=opts)
             report = run_mission(robot, m, m.target, rng=3, config=cfg)
         finally:
             robot.close()

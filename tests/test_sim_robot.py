@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from toolkit.robots import MotionNoise, RobotTiming, SimRobot
-from toolkit.world import CollisionChecker, Pose, Robot, RobotError, RobotGeometry, load_map
+from toolkit.world import CollisionChecker, NxtSonar, Pose, Robot, RobotError, RobotGeometry, load_map
 
 QUIET = MotionNoise("botsim", 0.0, 0.0)
 
@@ -126,5 +126,8 @@ def test_ideal_sonar_has_no_range_limit_and_the_nxt_stops_at_255() -> None:
     ideal = SimRobot(room, Pose(350.0, 350.0, 0.0), sonar="ideal", rng=0).ultrascan()
     assert ideal.valid.all()
     assert ideal.ranges.min() > 345.0
+    facts = SimRobot(room, Pose(350.0, 350.0, 0.0), sonar=NxtSonar.hardware_facts(), rng=0).ultrascan()
+    assert not facts.valid.any()  # no echo beyond 255 cm
     nxt = SimRobot(room, Pose(350.0, 350.0, 0.0), sonar="nxt", rng=0).ultrascan()
-    assert not nxt.valid.any()
+    heard = nxt.ranges[nxt.valid]  # the fitted sensor's phantom readings where nothing echoes: random
+    assert abs(heard.size / len(nxt) - NxtSonar().phantom_prob) < 0.1 and np.ptp(heard) > 100

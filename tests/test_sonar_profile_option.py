@@ -150,7 +150,8 @@ def test_run_with_a_profile_records_it_and_replays_bit_for_bit(tmp_path: Path,
     lines = [json.loads(line) for line in record.read_text().splitlines()]
     assert lines[0]["sonar"]["params"] == model.to_dict()
     (event,) = [e for e in lines if e["type"] == "localiser"]
-    assert event["options"]["sonar_model"] == model.to_dict()  # paper-pf is told the profile's model
+    # paper-pf is told the profile's model, as the simulator draws it (each reading independent)
+    assert event["options"]["sonar_model"] == model.simulated().to_dict()
     assert event["options"]["beam_width_deg"] == 25.0
     capsys.readouterr()
     assert run_cli(["replay", str(record), "--localisers", "paper-pf,pf-systematic"]) == 0
