@@ -3,8 +3,11 @@
 A sonar reads well only when it faces a wall nearly perpendicularly. The paper therefore turns the
 robot toward the minimum reading of a 360-degree scan (the nearest wall is then close to
 perpendicular), rescans, and keeps the readings within +-15 degrees of 0, 90, 180 and 270 degrees,
-dropping those without an echo (255 on the NXT, ``inf`` in the simulator) and those out of range
-(the sensor's own range: a scan's `valid` mask; optionally a limit of the processing).
+dropping those out of range (the sensor's own range: a scan's `valid` mask; optionally a limit of the
+processing). Readings without an echo (255 on the NXT, ``inf`` in the simulator) in the windows stay
+in the processed scan marked invalid: a localiser with a model of the sensor's silence
+(`localisation.beam_model`) uses them, the others skip invalid readings. `stuck_mask` finds a
+sensor that stopped refreshing.
 
 `process_scan` does the selection on a scan already aligned (the robot has turned), or aligns
 virtually (``reference="min"``: the windows are centred on the minimum reading's direction), which is
