@@ -44,7 +44,7 @@ def test_nxt_test_passes_against_brick_serve(tmp_path: Path) -> None:
     nxtnav = shutil.which("nxtnav", path=str(BIN)) or "nxtnav"
     serve = subprocess.Popen(
         [nxtnav, "brick", "serve", "--map", "map1", "--pose", "20,20,0", "--port", "0", "--time-factor", "50",
-         "--seed", "3", "--log", str(log)],
+         "--sonar", "ideal", "--seed", "3", "--log", str(log)],  # exact readings: the protocol is under test
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     try:
         assert serve.stdout is not None

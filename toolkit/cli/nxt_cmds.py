@@ -69,7 +69,8 @@ def brick_serve(
     max_step: float | None = typer.Option(
         None, "--max-step", help="Largest brick-time step per exchange (s); default 0.25 in real time, "
                                  "0.02 when faster.", callback=positive),
-    sonar: str = typer.Option("ideal", "--sonar", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
+    sonar: str = typer.Option("nxt", "--sonar", help=f"Sonar model: {', '.join(SONAR_MODELS.names())} (default: nxt, "
+                                                     "the sensor an NXT client's localisers are told of)."),
     sensor_noise: float = typer.Option(1.0, "--sensor-noise", help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(
         None, "--sonar-profile", metavar="FILE",
