@@ -22,17 +22,18 @@ compiled gather for the mixture, which no correlation can express).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, replace
+from functools import lru_cache
 from typing import Any, Protocol
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from toolkit.world import NO_ECHO, NxtSonar, Scan, angle_diff
+from toolkit.world import NO_ECHO, NxtSonar, Scan
 
-from .range_table import RangeLattice
-from .scan import drop_stuck
+from .range_table import RangeLattice, quantise_ranges
+from .scan import drop_stuck, sweep_step
 
 __all__ = ["BeamLikelihood", "MeasurementModel", "lattice_costs", "scan_readings"]
 
@@ -51,7 +52,18 @@ class MeasurementModel(Protocol):
     def sq_residuals(self, expected: Any, measured: Any) -> FloatArray: ...
 
 
-@dataclass(frozen=True, eq=False)
+@lru_cache(maxsize=8)
+def _cost_table(params: tuple[tuple[str, Any], ...]) -> NDArray[np.float32]:
+    """``-2 log P`` (relative to the most likely entry) of an `NxtSonar` given as its sorted parameters:
+    (echo distances every `STEP_CM` below the range limit, then inf) x (readings 0 .. limit - 1, then 255)."""
+    sonar = NxtSonar(**dict(params))
+    d = np.append(np.arange(0.0, sonar.max_range_cm, STEP_CM), np.inf)
+    readings = np.append(np.arange(math.ceil(sonar.max_range_cm), dtype=float), NO_ECHO)
+    lp = np.maximum(sonar.log_pmf(d[:, None], readings[None, :]), -50.0)
+    return np.ascontiguousarray(-2.0 * (lp - lp.max()), dtype=np.float32)
+
+
+@dataclass(frozen=True)
 class BeamLikelihood:
     """``-2 log P(readings | expected echo distances)`` of an `NxtSonar` beam mixture (module docstring).
 
@@ -66,16 +78,11 @@ class BeamLikelihood:
 
     sonar: NxtSonar
     weight: float = 1.0
-    table: NDArray[np.float32] = field(init=False, repr=False)
-    table_by_reading: NDArray[np.float32] = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
-        levels = math.ceil(self.sonar.max_range_cm)
-        d = np.append(np.arange(0.0, self.sonar.max_range_cm, STEP_CM), np.inf)
-        readings = np.append(np.arange(levels, dtype=float), NO_ECHO)
-        lp = np.maximum(self.sonar.log_pmf(d[:, None], readings[None, :]), -50.0)
-        object.__setattr__(self, "table", np.ascontiguousarray(-2.0 * (lp - lp.max()), dtype=np.float32))
-        object.__setattr__(self, "table_by_reading", np.ascontiguousarray(self.table.T))
+    @property
+    def table(self) -> NDArray[np.float32]:
+        """The costs, (echo distance rows, reading columns), built once per sonar model."""
+        return _cost_table(tuple(sorted(asdict(self.sonar).items())))
 
     @property
     def sigma_cm(self) -> float:
@@ -84,22 +91,11 @@ class BeamLikelihood:
 
     def with_step(self, step_rad: float) -> BeamLikelihood:
         """The same model weighing each reading for a sweep whose readings are `step_rad` apart."""
-        w = self.sonar.reading_weight(step_rad)
-        if w == self.weight:
-            return self
-        out = object.__new__(BeamLikelihood)
-        for k in ("sonar", "table", "table_by_reading"):
-            object.__setattr__(out, k, getattr(self, k))
-        object.__setattr__(out, "weight", w)
-        return out
+        return replace(self, weight=self.sonar.reading_weight(step_rad))
 
     def rows(self, expected: Any) -> NDArray[np.int64]:
         """Table rows of expected echo distances (cm; inf or beyond the range limit: the last row)."""
-        e = np.asarray(expected, dtype=np.float32)
-        last = self.table.shape[0] - 1
-        with np.errstate(invalid="ignore"):
-            i = np.rint(np.where(np.isfinite(e), e, np.float32(1e9)) * np.float32(1.0 / STEP_CM))
-        return np.minimum(i, last).astype(np.int64)
+        return quantise_ranges(expected, STEP_CM, self.table.shape[0] - 1)
 
     def columns(self, measured: Any) -> NDArray[np.int64]:
         """Table columns of readings (whole cm; at or beyond the range limit, or inf: no echo)."""
@@ -130,6 +126,7 @@ class BeamLikelihood:
 @njit("void(uint16[:, ::1], int64[::1], int64[::1], float32[:, ::1], float64[:, ::1])", cache=True)
 def _lattice_gather(rows: Any, dirs: Any, cols: Any, by_reading: Any, out: Any) -> None:  # pragma: no cover
     n_cells, n_ang = rows.shape
+    last = by_reading.shape[1] - 1  # echo distances beyond the table: nothing echoes
     for c in range(n_cells):
         row = rows[c]
         for h in range(n_ang):
@@ -141,10 +138,7 @@ def _lattice_gather(rows: Any, dirs: Any, cols: Any, by_reading: Any, out: Any) 
                 k = h + shift
                 if k >= n_ang:
                     k -= n_ang
-                out[c, h] += cost[row[k]]
-
-
-_ROWS: dict[int, NDArray[np.uint16]] = {}
+                out[c, h] += cost[min(row[k], last)]
 
 
 def lattice_costs(lattice: RangeLattice, rel: Any, measured: Any, model: Any, max_beams: int = 48) -> FloatArray:
@@ -157,25 +151,19 @@ def lattice_costs(lattice: RangeLattice, rel: Any, measured: Any, model: Any, ma
     """
     rel = np.asarray(rel, dtype=float).ravel()
     m = np.asarray(measured, dtype=float).ravel()
-    scale = 1.0
-    if isinstance(model, BeamLikelihood) and m.size > max_beams > 0:
-        pick = np.linspace(0, m.size - 1, max_beams).round().astype(np.int64)
-        scale = m.size / pick.size
-        rel, m = rel[pick], m[pick]
     if not isinstance(model, BeamLikelihood):
         ok = np.isfinite(m) & (m < NO_ECHO)
         return np.asarray(lattice.ssd(rel[ok], m[ok]) / model.sigma_cm**2)
-    key = id(lattice)
-    rows = _ROWS.get(key)
-    if rows is None or rows.shape[0] != len(lattice):
-        rows = model.rows(lattice.table.decode(lattice.rows)).astype(np.uint16)
-        _ROWS.clear()
-        _ROWS[key] = rows
+    scale = 1.0
+    if m.size > max_beams > 0:
+        pick = np.linspace(0, m.size - 1, max_beams).round().astype(np.int64)
+        scale = m.size / pick.size
+        rel, m = rel[pick], m[pick]
+    rows = lattice.quantised(STEP_CM)
     n_ang = lattice.table.n_angles
     dirs = np.mod(np.rint(rel * n_ang / (2.0 * math.pi)).astype(np.int64), n_ang)
     out = np.empty((len(lattice), n_ang))
-    _lattice_gather(np.ascontiguousarray(rows), np.ascontiguousarray(dirs), model.columns(m), model.table_by_reading,
-                    out)
+    _lattice_gather(rows, np.ascontiguousarray(dirs), model.columns(m), np.ascontiguousarray(model.table.T), out)
     return out * (model.weight * scale)
 
 
@@ -189,8 +177,7 @@ def scan_readings(scan: Scan, model: Any) -> tuple[FloatArray, FloatArray, Any]:
     if not isinstance(model, BeamLikelihood):
         ok = scan.valid & np.isfinite(scan.ranges)
         return np.asarray(scan.angles[ok], dtype=float), np.asarray(scan.ranges[ok], dtype=float), model
-    steps = np.abs(angle_diff(scan.angles[1:], scan.angles[:-1])) if len(scan) > 1 else np.zeros(0)
-    step = float(np.median(steps)) if steps.size else 2.0 * math.pi
+    step = sweep_step(scan)
     kept, _ = drop_stuck(scan)
     silent = ~kept.valid & ((kept.ranges >= NO_ECHO) | ~np.isfinite(kept.ranges))
     ok = (kept.valid & np.isfinite(kept.ranges)) | silent

@@ -315,6 +315,14 @@ class RangeTable:
         return np.where(blend, total, near).astype(np.float32), inside
 
 
+def quantise_ranges(ranges: ArrayLike, step_cm: float, top: int) -> NDArray[np.int64]:
+    """Ranges (cm) in whole steps of `step_cm`, rounded; inf and anything above `top` steps give `top`."""
+    e = np.asarray(ranges, dtype=np.float32)
+    with np.errstate(invalid="ignore"):
+        i = np.rint(np.where(np.isfinite(e), e, np.float32(1e9)) / np.float32(step_cm))
+    return np.minimum(i, top).astype(np.int64)
+
+
 class RangeLattice:
     """Exhaustive scoring of a lattice of poses (every `step` cells x every table direction) by FFT.
 
@@ -349,9 +357,19 @@ class RangeLattice:
         e = np.minimum(table.decode(self.rows).astype(np.float64), 1e4)
         self._fe = np.fft.rfft(e, axis=1)
         self._fe2 = np.fft.rfft(e * e, axis=1)
+        self._quantised: dict[float, NDArray[np.uint16]] = {}
 
     def __len__(self) -> int:
         return int(self.rows.size)
+
+    def quantised(self, step_cm: float) -> NDArray[np.uint16]:
+        """The lattice cells' expected ranges (P, n_angles) in steps of `step_cm`, rounded (inf and
+        anything beyond the uint16 range: 65535); computed once per step."""
+        q = self._quantised.get(step_cm)
+        if q is None:
+            q = np.ascontiguousarray(quantise_ranges(self.table.decode(self.rows), step_cm, 65535).astype(np.uint16))
+            self._quantised[step_cm] = q
+        return q
 
     def ssd(self, rel_angles: ArrayLike, measured: ArrayLike) -> FloatArray:
         """Sum of squared residuals (cm^2) of every lattice cell x every heading: (P, n_angles)."""

@@ -44,6 +44,7 @@ __all__ = [
     "process_scan",
     "raw_scan",
     "stuck_mask",
+    "sweep_step",
     "window_mask",
 ]
 
@@ -252,17 +253,21 @@ flat wall keeps a lobe's rounded reading constant over at most about 40 degrees 
 most), while a sensor that stops refreshing repeats its last value over 50-250 degrees."""
 
 
+def sweep_step(scan: Scan) -> float:
+    """The turret angle between consecutive readings of a sweep (rad; the median; 2 pi for one reading)."""
+    if len(scan) < 2:
+        return 2.0 * math.pi
+    return float(np.median(np.abs(angle_diff(scan.angles[1:], scan.angles[:-1]))))
+
+
 def stuck_mask(scan: Scan, min_arc_deg: float = STUCK_ARC_DEG) -> NDArray[np.bool_]:
     """Readings that belong to a stuck run: consecutive (in sweep order) identical echo readings whose
     run spans at least `min_arc_deg` of turret angle (run length x the sweep's step). No-echo readings
     are never stuck (a long silent arc is a real answer)."""
     n = len(scan)
     out = np.zeros(n, dtype=bool)
-    if n < 2 or not min_arc_deg > 0:
-        return out
-    steps = np.abs(angle_diff(scan.angles[1:], scan.angles[:-1]))
-    step_deg = float(np.degrees(np.median(steps))) if steps.size else 0.0
-    if step_deg <= 0:
+    step_deg = math.degrees(sweep_step(scan))
+    if n < 2 or not min_arc_deg > 0 or step_deg <= 0:
         return out
     r = np.where(scan.valid, scan.ranges, np.nan)
     start = 0

@@ -33,7 +33,7 @@ from scipy.optimize import minimize
 from localisation.scan import drop_stuck
 
 from .sweeps import Sweep, SweepSet
-from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar
+from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar, wrap_angle
 
 __all__ = ["FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
            "SonarProfileError", "SweepScore", "align_sweeps", "fit_sonar", "load_sonar_profile", "repo_folds",
@@ -68,7 +68,7 @@ class SonarProfileError(NxtnavError, ValueError):
 
 @dataclass(frozen=True)
 class _Sweep:
-    """One sweep prepared for fitting: its scan and a function of the lobe giving echo distances."""
+    """One sweep prepared for fitting: its usable readings (stuck runs left out; no echo as 255)."""
 
     sweep: Sweep
     angles: FloatArray
@@ -88,7 +88,7 @@ def _directions() -> FloatArray:
     return np.radians(np.arange(0.0, 360.0, HEADING_STEP_DEG))
 
 
-def _echo_by_heading(model: NxtSonar, m: Map, sw: _Sweep) -> FloatArray:
+def _echo_by_pose(model: NxtSonar, m: Map, sw: _Sweep) -> FloatArray:
     """Echo distances (K * H, n) of the sweep's readings for every position of `POSITION_OFFSETS_CM`
     around the waypoint (K) and every candidate heading (H, HEADING_STEP_DEG apart); row ``k * H + h``."""
     dirs = _directions()
@@ -103,7 +103,15 @@ def _echo_by_heading(model: NxtSonar, m: Map, sw: _Sweep) -> FloatArray:
     return np.concatenate(out)
 
 
-def _best_headings(model: NxtSonar, echoes: list[FloatArray], sweeps: list[_Sweep]) -> list[int]:
+def _pose(sw: _Sweep, index: int) -> tuple[float, float, float]:
+    """The position (cm) and heading (rad, wrapped) of row `index` of `_echo_by_pose`."""
+    n_dir = _directions().size
+    dx, dy = POSITION_OFFSETS_CM[index // n_dir]
+    return sw.sweep.x_cm + dx, sw.sweep.y_cm + dy, float(wrap_angle(_directions()[index % n_dir]))
+
+
+def _best_poses(model: NxtSonar, echoes: list[FloatArray], sweeps: list[_Sweep]) -> list[int]:
+    """The row of `_echo_by_pose` (position and heading) where each sweep is most likely."""
     return [int(np.argmax(model.log_pmf(e, sw.readings[None, :]).sum(axis=1))) for e, sw in zip(echoes, sweeps,
                                                                                                    strict=True)]
 
@@ -218,12 +226,12 @@ def fit_sonar(sets: Sequence[SweepSet], *, widths: Sequence[float] = DEFAULT_WID
     for i, (w, c) in enumerate(grid):
         model = NxtSonar(**{**asdict(base), "beam_width_deg": float(w), "critical_incidence_deg": float(c),
                             "beam_rays": max(round(w / 2.5) | 1, 1)})
-        echoes = [_echo_by_heading(model, m, sw) for m, sw in items]
-        headings = _best_headings(model, echoes, sweeps)
+        echoes = [_echo_by_pose(model, m, sw) for m, sw in items]
+        headings = _best_poses(model, echoes, sweeps)
         for _ in range(rounds):
             d, r = _gather(echoes, headings, sweeps)
             model = _fit_mixture(model, d, r)
-            new = _best_headings(model, echoes, sweeps)
+            new = _best_poses(model, echoes, sweeps)
             if new == headings:
                 break
             headings = new
@@ -239,10 +247,7 @@ def fit_sonar(sets: Sequence[SweepSet], *, widths: Sequence[float] = DEFAULT_WID
     ll, model, headings, echoes = best
     d_per = [e[h] for e, h in zip(echoes, headings, strict=True)]
     model = NxtSonar(**{**asdict(model), "correlation_deg": round(_correlation_deg(model, d_per, sweeps), 2)})
-    n_dir = _directions().size
-    heading_deg = {sw.sweep.label: float(np.degrees(_directions()[h % n_dir])) for sw, h in zip(sweeps, headings,
-                                                                                                   strict=True)}
-    heading_deg = {k: (v + 180.0) % 360.0 - 180.0 for k, v in heading_deg.items()}
+    heading_deg = {sw.sweep.label: math.degrees(_pose(sw, h)[2]) for sw, h in zip(sweeps, headings, strict=True)}
     return FitResult(model, heading_deg, ll, int(sum(sw.readings.size for sw in sweeps)), len(sweeps), lobes)
 
 
@@ -264,34 +269,28 @@ class SweepScore:
 
 def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
     """Mean log-probability per reading, no-echo share real against model, and the median |real - model|
-    of the readings where both answer (the model's noise-free reading ``d + bias``), each sweep at the
-    heading the model finds most likely."""
-    items = [(s.map, sw) for s in sets for sw in _prepare(list(s))]
-    if not items:
+    of the readings where both answer (the model's noise-free reading ``d + bias``), each sweep where
+    the model finds it most likely (`align_sweeps`)."""
+    aligned = [a for s in sets for a in align_sweeps(model, s)]
+    if not aligned:
         raise ConfigError("no sweeps to score")
-    sweeps = [sw for _, sw in items]
-    echoes = [_echo_by_heading(model, m, sw) for m, sw in items]
-    headings = _best_headings(model, echoes, sweeps)
-    d, r = _gather(echoes, headings, sweeps)
-    lp = np.maximum(model.log_pmf(d, r), LOG_FLOOR)
-    p_silent = np.exp(model.log_pmf(d, np.full(d.shape, NO_ECHO)))
-    both = (r < model.max_range_cm) & np.isfinite(d)
-    diff = np.where(both, np.abs(r - (d + model.bias_cm)), np.nan)
-    per = []
-    start = 0
-    for sw, h in zip(sweeps, headings, strict=True):
-        n = sw.readings.size
-        part = slice(start, start + n)
-        dx, dy = POSITION_OFFSETS_CM[h // _directions().size]
-        per.append({"sweep": sw.sweep.label, "offset_cm": [dx, dy],
-                    "heading_deg": (float((h % _directions().size) * HEADING_STEP_DEG) + 180.0) % 360.0 - 180.0,
-                    "readings": int(n), "mean_log_likelihood": float(np.mean(lp[part])),
-                    "no_echo_real": float(np.mean(r[part] >= model.max_range_cm)),
-                    "no_echo_model": float(np.mean(p_silent[part])),
-                    "median_abs_diff_cm": _median(diff[part])})
-        start += n
-    return SweepScore(float(np.mean(lp)), float(np.mean(r >= model.max_range_cm)),
-                      float(np.mean(p_silent)), _median(diff), int(r.size), len(sweeps), per)
+    per, lps, silents, diffs, reals = [], [], [], [], []
+    for a in aligned:
+        lp = np.maximum(model.log_pmf(a.echo, a.readings), LOG_FLOOR)
+        p_silent = np.exp(model.log_pmf(a.echo, np.full(a.echo.shape, NO_ECHO)))
+        real_silent = a.readings >= model.max_range_cm
+        diff = np.where(~real_silent & np.isfinite(a.echo), np.abs(a.readings - (a.echo + model.bias_cm)), np.nan)
+        per.append({"sweep": a.sweep.label, "offset_cm": [a.x_cm - a.sweep.x_cm, a.y_cm - a.sweep.y_cm],
+                    "heading_deg": math.degrees(a.heading_rad), "readings": int(a.readings.size),
+                    "mean_log_likelihood": float(np.mean(lp)), "no_echo_real": float(np.mean(real_silent)),
+                    "no_echo_model": float(np.mean(p_silent)), "median_abs_diff_cm": _median(diff)})
+        lps.append(lp)
+        silents.append(p_silent)
+        diffs.append(diff)
+        reals.append(real_silent)
+    return SweepScore(float(np.mean(np.concatenate(lps))), float(np.mean(np.concatenate(reals))),
+                      float(np.mean(np.concatenate(silents))), _median(np.concatenate(diffs)),
+                      int(sum(x.size for x in lps)), len(aligned), per)
 
 
 def _median(values: FloatArray) -> float:
@@ -417,16 +416,15 @@ class AlignedSweep:
 
 
 def align_sweeps(model: NxtSonar, sweeps: SweepSet) -> list[AlignedSweep]:
-    """Every sweep of `sweeps` (stuck runs dropped) aligned by `model` (heading and position offset)."""
+    """Every sweep of `sweeps` (stuck runs dropped) where `model` finds it most likely: a heading and a
+    position within `POSITION_OFFSETS_CM` of its waypoint."""
     prepared = _prepare(list(sweeps))
-    echoes = [_echo_by_heading(model, sweeps.map, sw) for sw in prepared]
-    best = _best_headings(model, echoes, prepared)
-    n_dir = _directions().size
+    echoes = [_echo_by_pose(model, sweeps.map, sw) for sw in prepared]
     out = []
-    for sw, e, i in zip(prepared, echoes, best, strict=True):
-        dx, dy = POSITION_OFFSETS_CM[i // n_dir]
-        out.append(AlignedSweep(sw.sweep, sw.sweep.x_cm + dx, sw.sweep.y_cm + dy, float(_directions()[i % n_dir]),
-                                sw.angles, sw.readings, np.asarray(e[i], dtype=float), sweeps.map.walls))
+    for sw, e, i in zip(prepared, echoes, _best_poses(model, echoes, prepared), strict=True):
+        x, y, heading = _pose(sw, i)
+        out.append(AlignedSweep(sw.sweep, x, y, heading, sw.angles, sw.readings, np.asarray(e[i], dtype=float),
+                                sweeps.map.walls))
     return out
 
 

@@ -10,6 +10,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -24,10 +25,9 @@ __all__ = ["draw_incidence_curves", "draw_sweep_radar", "real_sonar_figures"]
 FloatArray = NDArray[np.float64]
 
 
-def draw_sweep_radar(ax: object, a: AlignedSweep, model: NxtSonar, *, rng: int = 0) -> None:
+def draw_sweep_radar(ax: Any, a: AlignedSweep, model: NxtSonar, *, rng: int = 0) -> None:
     """One sweep on polar axes: the real readings, the model's noise-free echo and one draw of the
     model at the same angles (no-echo readings as crosses on the rim)."""
-    ax_ = ax  # matplotlib's PolarAxes (typed loosely: matplotlib's stubs do not know it)
     theta = a.heading_rad + a.angles  # map frame: the chart is oriented like the map
     real = a.readings
     echo = np.where(np.isfinite(a.echo), a.echo + model.bias_cm, np.nan)
@@ -36,15 +36,14 @@ def draw_sweep_radar(ax: object, a: AlignedSweep, model: NxtSonar, *, rng: int =
                      np.nanmax(np.where(draw < NO_ECHO, draw, np.nan), initial=50.0))
     order = np.argsort(theta % (2 * math.pi))
     t = theta[order] % (2 * math.pi)
-    ax_.plot(t, echo[order], color="0.55", lw=1.0, label="model, noise-free echo")  # type: ignore[attr-defined]
+    ax.plot(t, echo[order], color="0.55", lw=1.0, label="model, noise-free echo")
     for values, colour, label, marker in ((real, "tab:blue", "real", "o"), (draw, "tab:orange", "model draw", ".")):
         v = values[order]
         heard = v < NO_ECHO
-        ax_.scatter(t[heard], v[heard], s=6, color=colour, marker=marker, label=label)  # type: ignore[attr-defined]
-        ax_.scatter(t[~heard], np.full(int((~heard).sum()), rim), s=10, color=colour,  # type: ignore[attr-defined]
-                    marker="x")
-    ax_.set_ylim(0, rim * 1.04)  # type: ignore[attr-defined]
-    ax_.set_title(f"({a.sweep.x_cm:g}, {a.sweep.y_cm:g}) {a.sweep.file}", fontsize=9)  # type: ignore[attr-defined]
+        ax.scatter(t[heard], v[heard], s=6, color=colour, marker=marker, label=label)
+        ax.scatter(t[~heard], np.full(int((~heard).sum()), rim), s=10, color=colour, marker="x")
+    ax.set_ylim(0, rim * 1.04)
+    ax.set_title(f"({a.sweep.x_cm:g}, {a.sweep.y_cm:g}) {a.sweep.file}", fontsize=9)
 
 
 def incidence_deg(a: AlignedSweep) -> FloatArray:
@@ -58,7 +57,7 @@ def incidence_deg(a: AlignedSweep) -> FloatArray:
     return np.where((w >= 0) & np.isfinite(t), np.degrees(np.arccos(np.clip(cos_inc, 0.0, 1.0))), np.nan)
 
 
-def draw_incidence_curves(ax_inc: object, ax_range: object, aligned: Sequence[AlignedSweep],
+def draw_incidence_curves(ax_inc: Any, ax_range: Any, aligned: Sequence[AlignedSweep],
                           model: NxtSonar) -> None:
     """No-echo share against the axis's incidence on its wall and against the axis's range: real (points
     with binomial error bars) and the model's mean probability over the same readings (line)."""
@@ -81,13 +80,13 @@ def draw_incidence_curves(ax_inc: object, ax_range: object, aligned: Sequence[Al
             real.append(share)
             err.append(math.sqrt(max(share * (1 - share), 1e-4) / n))
             mod.append(float(p_model[sel].mean()))
-        ax_.errorbar(centres, real, yerr=err, fmt="o", color="tab:blue", label="real")  # type: ignore[attr-defined]
-        ax_.plot(centres, mod, "-", color="tab:orange", label="model")  # type: ignore[attr-defined]
-        ax_.set_xlabel(label)  # type: ignore[attr-defined]
-        ax_.set_ylabel("share of no-echo readings (255)")  # type: ignore[attr-defined]
-        ax_.set_ylim(0, 1)  # type: ignore[attr-defined]
-        ax_.grid(alpha=0.3)  # type: ignore[attr-defined]
-        ax_.legend(fontsize=8)  # type: ignore[attr-defined]
+        ax_.errorbar(centres, real, yerr=err, fmt="o", color="tab:blue", label="real")
+        ax_.plot(centres, mod, "-", color="tab:orange", label="model")
+        ax_.set_xlabel(label)
+        ax_.set_ylabel("share of no-echo readings (255)")
+        ax_.set_ylim(0, 1)
+        ax_.grid(alpha=0.3)
+        ax_.legend(fontsize=8)
 
 
 def real_sonar_figures(sets: Sequence[SweepSet], model: NxtSonar, out: Path, *, radar_sweeps: int = 3,

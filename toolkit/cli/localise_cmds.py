@@ -21,6 +21,7 @@ from .app import Interrupted, app, bench_app
 from .options import (
     SENSOR_NOISE_HELP,
     SONAR_PROFILE_HELP,
+    check_out_folder,
     check_writable,
     count,
     non_negative,
@@ -284,10 +285,7 @@ def bench_localisers(
         raise NxtnavError(f"--trials must be >= 1, got {trials}")
     if workers < 1:
         raise NxtnavError(f"--workers must be >= 1, got {workers}")
-    if out.exists() and not out.is_dir():
-        raise NxtnavError(f"--out: {out} exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()) and not force:
-        raise NxtnavError(f"--out: {out} is not empty (use --force to write into it)")
+    check_out_folder(out, force)
     if not math.isfinite(sensor_noise) or sensor_noise < 0:
         raise NxtnavError(f"--sensor-noise must be a non-negative number, got {sensor_noise}")
     options = _options_for(_parse_sets(sets, "--set"), locs)

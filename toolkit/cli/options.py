@@ -91,6 +91,14 @@ port_or_zero = in_range(0, 65535, what="a TCP port (0 = any free one)")
 """A TCP port to listen on: 0-65535 (0 picks a free one)."""
 
 
+def check_out_folder(out: Path, force: bool, option: str = "--out") -> None:
+    """Fail now when the output folder `out` is a file, or holds files and `force` is not given."""
+    if out.exists() and not out.is_dir():
+        raise NxtnavError(f"{option}: {out} exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not force:
+        raise NxtnavError(f"{option}: {out} is not empty (use --force to write into it)")
+
+
 def check_writable(path: Path | None, option: str) -> None:
     """Fail now, before any work, when the output file `path` could not be written later.
 

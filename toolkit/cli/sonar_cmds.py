@@ -25,6 +25,7 @@ from ..formats import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import Interrupted, sonar_app
 from .options import check_writable, parse_list
+from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
 
@@ -38,6 +39,8 @@ _WIDTHS = typer.Option("10,20,30,40,60", "--widths", metavar="DEG[,DEG]",
                        help="Lobe widths tried (degrees, > 0 and <= 120).")
 _CRITICALS = typer.Option("20,30,40,50,60", "--criticals", metavar="DEG[,DEG]",
                           help="Specular incidence limits tried (degrees, > 0 and <= 90).")
+_MODEL = typer.Option(None, "--sonar-profile", metavar="FILE",
+                      help="The model (default: the toolkit's nxt model, fitted to real sweeps).")
 _JSON = typer.Option(None, "--json", metavar="FILE", help="Write the results as JSON.")
 
 _UNITS = {"noise_sd": "cm", "noise_per_m": "cm/m", "bias_cm": "cm", "beam_width_deg": "deg", "beam_rays": "",
@@ -168,11 +171,10 @@ def sonar_fit(
 def _score_models(profile: Path | None, baselines: list[str]) -> dict[str, tuple[NxtSonar, str]]:
     """The models to score by label, with where each comes from: the profile (or the default), then the
     baselines."""
-    from ..sonar_fit import load_sonar_profile
-
     models: dict[str, tuple[NxtSonar, str]] = {}
-    if profile is not None:
-        models["profile"] = (load_sonar_profile(profile), str(profile))
+    fitted = load_profile(profile, "nxt")
+    if fitted is not None:
+        models["profile"] = (fitted, str(profile))
     else:
         models["default"] = (NxtSonar(), "NxtSonar()")
     for name in baselines:
@@ -185,8 +187,7 @@ def _score_models(profile: Path | None, baselines: list[str]) -> dict[str, tuple
 def sonar_score(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
-    sonar_profile: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE",
-                                              help="The model to score (default: the toolkit's nxt model)."),
+    sonar_profile: Path | None = _MODEL,
     baseline_text: str | None = typer.Option(None, "--baseline", metavar="NAME[,NAME]",
                                              help="Also score these beside it: hardware (the model from the "
                                                   "published hardware facts), default (the toolkit's nxt model)."),
@@ -306,17 +307,15 @@ def sonar_loo(
 def sonar_plot(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
-    sonar_profile: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE",
-                                              help="The model to draw (default: the toolkit's nxt model)."),
+    sonar_profile: Path | None = _MODEL,
     out: Path = typer.Option(Path("out"), "--out", help="Folder of the two PNG figures."),
     seed: int = typer.Option(0, help="Seed of the model's drawn sweeps."),
 ) -> None:
     """Real sweeps against the model: real_sonar_radar.png (three waypoints, real and model on one radar
     chart each) and real_sonar_no_echo.png (no-echo share against incidence and range, real and model)."""
-    from ..sonar_fit import load_sonar_profile
     from ..sonar_plots import real_sonar_figures
 
-    model = load_sonar_profile(sonar_profile) if sonar_profile is not None else NxtSonar()
+    model = load_profile(sonar_profile, "nxt") or NxtSonar()
     if out.exists() and not out.is_dir():
         raise NxtnavError(f"--out: {out} exists and is not a folder")
     sets = _load_sets(dirs, map_file)

@@ -12,7 +12,8 @@ import typer
 from toolkit.world import NxtnavError
 
 from .app import Interrupted, bench_app
-from .options import parse_list
+from .options import check_out_folder, parse_list
+from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
 
@@ -46,23 +47,19 @@ def bench_sweeps(
     from localisation.base import LOCALISERS
     from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.bench.sweeps import make_sweep_tasks, run_sweep, write_sweeps_csv, write_sweeps_summary
-    from toolkit.sonar_fit import load_sonar_profile
     from toolkit.sweeps import load_sweep_set
     from toolkit.world import NxtSonar
 
     names = LOCALISERS.names()
     locs = parse_list(localisers_text, "--localisers", list(names))
-    trackers = [n for n in locs if n in ("ekf", "ukf")]
+    trackers = [n for n in locs if LOCALISERS.get(n).needs_prior]
     if trackers:
         raise NxtnavError(f"--localisers: {', '.join(trackers)} track a known pose and cannot localise from one "
                           "sweep alone; use particle filters (paper-pf, amcl, pf-*)")
     seeds = _seeds(seeds_text)
     sweeps = load_sweep_set(folder, map_file)
-    sonar = load_sonar_profile(sonar_profile) if sonar_profile is not None else NxtSonar()
-    if out.exists() and not out.is_dir():
-        raise NxtnavError(f"--out: {out} exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()) and not force:
-        raise NxtnavError(f"--out: {out} is not empty (use --force to write into it)")
+    sonar = load_profile(sonar_profile, "nxt") or NxtSonar()
+    check_out_folder(out, force)
     tasks = make_sweep_tasks(sweeps, map_file, locs, seeds, sonar)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
