@@ -32,6 +32,7 @@ from scipy.optimize import minimize
 
 from localisation.scan import drop_stuck
 
+from .sweep_margins import sweep_margins
 from .sweeps import Sweep, SweepSet
 from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar, wrap_angle
 
@@ -261,6 +262,9 @@ class SweepScore:
     median_abs_diff_cm: float
     readings: int
     sweeps: int
+    waypoint_most_likely: float = math.nan
+    """Share of sweeps the model explains best at their waypoint (`toolkit.sweep_margins`): an upper
+    bound on the share of sweeps any localiser using the model places within 20 cm from that sweep alone."""
     per_sweep: list[dict[str, Any]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -270,11 +274,14 @@ class SweepScore:
 def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
     """Mean log-probability per reading, no-echo share real against model, and the median |real - model|
     of the readings where both answer (the model's noise-free reading ``d + bias``), each sweep where
-    the model finds it most likely (`align_sweeps`)."""
+    the model finds it most likely (`align_sweeps`); and per sweep the margin (nats) by which the model
+    prefers the waypoint to any place further than 20 cm (`toolkit.sweep_margins`)."""
     aligned = [a for s in sets for a in align_sweeps(model, s)]
     if not aligned:
         raise ConfigError("no sweeps to score")
-    per, lps, silents, diffs, reals = [], [], [], [], []
+    margins = [m for s in sets for m in sweep_margins(model, s)]
+    per: list[dict[str, Any]] = []
+    lps, silents, diffs, reals = [], [], [], []
     for a in aligned:
         lp = np.maximum(model.log_pmf(a.echo, a.readings), LOG_FLOOR)
         p_silent = np.exp(model.log_pmf(a.echo, np.full(a.echo.shape, NO_ECHO)))
@@ -283,14 +290,15 @@ def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
         per.append({"sweep": a.sweep.label, "offset_cm": [a.x_cm - a.sweep.x_cm, a.y_cm - a.sweep.y_cm],
                     "heading_deg": math.degrees(a.heading_rad), "readings": int(a.readings.size),
                     "mean_log_likelihood": float(np.mean(lp)), "no_echo_real": float(np.mean(real_silent)),
-                    "no_echo_model": float(np.mean(p_silent)), "median_abs_diff_cm": _median(diff)})
+                    "no_echo_model": float(np.mean(p_silent)), "median_abs_diff_cm": _median(diff),
+                    "margin_nats": margins[len(per)]})
         lps.append(lp)
         silents.append(p_silent)
         diffs.append(diff)
         reals.append(real_silent)
     return SweepScore(float(np.mean(np.concatenate(lps))), float(np.mean(np.concatenate(reals))),
                       float(np.mean(np.concatenate(silents))), _median(np.concatenate(diffs)),
-                      int(sum(x.size for x in lps)), len(aligned), per)
+                      int(sum(x.size for x in lps)), len(aligned), float(np.mean(np.asarray(margins) > 0.0)), per)
 
 
 def _median(values: FloatArray) -> float:

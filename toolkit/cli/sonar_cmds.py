@@ -197,7 +197,10 @@ def sonar_score(
 
     Per model: the mean log-likelihood per reading (higher is better), the no-echo share of the real
     readings and the one the model expects, and the median |real - model| of the readings where both
-    answer; then the same per sweep. Each sweep is taken at the heading the model finds most likely.
+    answer; the share of sweeps the model explains best at their waypoint (no pose further than 20 cm
+    explains them better: an upper bound on what any localiser using the model gets right from one sweep);
+    then the same per sweep, with that margin in nats. Each sweep is taken at the heading the model finds
+    most likely.
     """
     from ..sonar_fit import score_sonar
 
@@ -208,16 +211,18 @@ def sonar_score(
     with _stuck_noted(sets):
         scores = {label: score_sonar(model, sets) for label, (model, _) in models.items()}
     console = Console()
-    table = Table("model", "readings", "log-lik", "no echo real", "no echo model", "median |Δ|",
+    table = Table("model", "readings", "log-lik", "no echo real", "no echo model", "median |Δ|", "waypoint best",
                   title="sonar models against real sweeps (log-lik: nats per reading, higher is better; |Δ|: "
-                        "|real - model| where both answer)")
+                        "|real - model| where both answer; waypoint best: sweeps the model explains best at "
+                        "their waypoint, an upper bound for one-sweep localisation)")
     for label, sc in scores.items():
         table.add_row(label, str(sc.readings), cell(sc.mean_log_likelihood, ".3f"), percent(sc.no_echo_real, 1),
-                      percent(sc.no_echo_model, 1), cell(sc.median_abs_diff_cm, ".1f", " cm"))
+                      percent(sc.no_echo_model, 1), cell(sc.median_abs_diff_cm, ".1f", " cm"),
+                      percent(sc.waypoint_most_likely, 0))
     console.print(table)
     per = Table(title="per sweep (at the heading each model finds most likely)")
     per.add_column("sweep", overflow="fold")
-    for name in ("model", "heading", "log-lik", "no echo real / model", "median |Δ|"):
+    for name in ("model", "heading", "log-lik", "no echo real / model", "median |Δ|", "margin"):
         per.add_column(name)
     for i, row in enumerate(next(iter(scores.values())).per_sweep):
         for k, (label, sc) in enumerate(scores.items()):
@@ -225,7 +230,7 @@ def sonar_score(
             per.add_row(row["sweep"] if k == 0 else "", label, cell(r["heading_deg"], ".1f", "°"),
                         cell(r["mean_log_likelihood"], ".3f"),
                         f"{percent(r['no_echo_real'], 1)} / {percent(r['no_echo_model'], 1)}",
-                        cell(r["median_abs_diff_cm"], ".1f", " cm"))
+                        cell(r["median_abs_diff_cm"], ".1f", " cm"), cell(r["margin_nats"], "+.1f", " nats"))
     console.print(per)
     if json_out is not None:
         _write_json(json_out, {"folders": [str(d) for d in dirs], "models": [

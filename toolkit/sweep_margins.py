@@ -1,0 +1,48 @@
+"""How well one real sweep can tell its waypoint from every other place, under a sonar model.
+
+A localiser that reads one sweep can only find the right place if the model explains the sweep better
+there than anywhere else. `sweep_margins` measures that without any localiser: it scores every pose of
+the map's lattice (2 cm cells x 1 degree headings, the lattice the particle filters start from) with the
+model's beam likelihood, and compares the best pose near the waypoint (within `near_cm`, any heading)
+with the best pose further than `far_cm` from it. A positive margin (nats) means the waypoint is the most
+likely place; a negative one means some other place explains the sweep better, and no estimator using
+this model can pick the waypoint from this sweep alone: the share of positive margins bounds the share
+of sweeps any such localiser gets right.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from localisation.beam_model import BeamLikelihood, lattice_costs, scan_readings
+from localisation.range_table import range_lattice, range_table
+
+from .sweeps import SweepSet
+from .world import NxtSonar
+
+__all__ = ["LATTICE_STEP_CM", "sweep_margins"]
+
+LATTICE_STEP_CM = 2
+"""Cell step of the scored lattice (cm); headings every degree."""
+
+
+def sweep_margins(model: NxtSonar, sweeps: SweepSet, *, near_cm: float = 6.0, far_cm: float = 20.0) -> list[float]:
+    """Per sweep, ``log L(best pose within near_cm of the waypoint) - log L(best pose beyond far_cm)`` (nats),
+    with every usable reading (stuck runs left out) weighed as the localisers weigh it."""
+    if not 0.0 < near_cm < far_cm:
+        raise ValueError(f"need 0 < near_cm < far_cm, got {near_cm} and {far_cm}")
+    table = range_table(sweeps.map, 1.0, 360, None, model.beam_width_deg, model.critical_incidence_deg,
+                        max_range_cm=model.max_range_cm)
+    lattice = range_lattice(table, LATTICE_STEP_CM, 0.0)
+    likelihood = BeamLikelihood(model)
+    out = []
+    for s in sweeps:
+        rel, meas, weighed = scan_readings(s.scan(), likelihood)
+        costs = lattice_costs(lattice, rel, meas, weighed, max_beams=0)  # -2 log L, every reading
+        dist = np.hypot(lattice.xy[:, 0] - s.x_cm, lattice.xy[:, 1] - s.y_cm)
+        near, far = dist <= near_cm, dist > far_cm
+        if not near.any() or not far.any():
+            out.append(float("nan"))
+            continue
+        out.append(0.5 * float(costs[far].min() - costs[near].min()))
+    return out
