@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any, ClassVar
 
@@ -73,6 +74,7 @@ from toolkit.world import (
     LocalisationError,
     Map,
     NxtSonar,
+    Params,
     Pose,
     RngLike,
     Scan,
@@ -83,8 +85,9 @@ from toolkit.world import (
 
 from .adaptive import kld_bound, log_blend, log_mean_exp
 from .ambiguity import lattice_candidates
-from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior
+from .base import Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import BeamLikelihood, lattice_costs, scan_readings
+from .declarations import AMCL_PARAMS, AMCL_ROBOT
 from .likelihood_field import DistanceField
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import log_normalise, systematic_resample
@@ -175,8 +178,8 @@ class Amcl(Localiser):
     """
 
     name: ClassVar[str] = "amcl"
-    model_options: ClassVar[frozenset[str]] = MODEL_OPTIONS - {"sensor_sigma_cm", "max_range_cm", "beam_rays"}
-    # with a sonar_model, its range limit and lobe rays come with it
+    params: ClassVar[Params | None] = AMCL_PARAMS
+    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = AMCL_ROBOT
 
     def __init__(
         self,

@@ -10,18 +10,17 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import Map, Pose, Registry, RngLike, Scan, as_rng
+from toolkit.world import Map, Params, Pose, Registry, RngLike, Scan, as_rng
 
 __all__ = [
     "LOCALISERS",
-    "MODEL_OPTIONS",
     "Localiser",
     "Mode",
     "Motion",
@@ -34,13 +33,6 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 LOCALISERS: Registry[Localiser] = Registry("localiser")
-
-MODEL_OPTIONS = frozenset({"noise_model", "motion_noise", "turn_noise", "sensor_sigma_cm", "beam_width_deg",
-                           "beam_rays", "critical_incidence_deg", "max_range_cm", "clearance_cm", "sonar_model"})
-"""Constructor options that describe the robot rather than the algorithm: motion noise (model, cm or
-fraction, rad or fraction), sonar noise (cm), sonar lobe (deg, rays that sample it), range limit (cm),
-robot radius (cm), and the sonar's whole model (`toolkit.world.NxtSonar`)."""
-
 
 @dataclass(frozen=True)
 class Motion:
@@ -160,9 +152,13 @@ class Localiser(ABC):
 
     name: ClassVar[str]
     needs_prior: ClassVar[bool] = False
-    model_options: ClassVar[frozenset[str]] = frozenset()
-    """Which of `MODEL_OPTIONS` (the robot's motion and sonar model) the constructor takes: the options
-    `localisation.sonar_options.matched_localiser_options` hands it."""
+    params: ClassVar[Params | None] = None
+    """The declared options (`toolkit.world.Params`); None for a plug-in that declares none (its
+    constructor then checks what it is given)."""
+    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = None
+    """For every facet of `toolkit.world.RobotModel`, the options it becomes (in the facet's order) or
+    why the localiser does not use it (`localisation.robot_options.localiser_options`); None: the
+    localiser cannot be told a robot model."""
     snapshots: Sequence[Snapshot] = ()
     """The cloud after each iteration, for localisers that keep it (the particle filters); empty otherwise."""
 

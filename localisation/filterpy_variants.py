@@ -40,7 +40,7 @@ import logging
 import math
 import threading
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import Any, ClassVar
 
@@ -50,9 +50,10 @@ from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, Unscen
 from filterpy.monte_carlo import resampling as fp_resampling
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import ConfigError, LocalisationError, Map, Pose, RngLike, Scan, angle_diff, wrap_angle
+from toolkit.world import ConfigError, LocalisationError, Map, Params, Pose, RngLike, Scan, angle_diff, wrap_angle
 
 from .base import Localiser, Motion, PoseEstimate, Prior
+from .declarations import EKF_PARAMS, KALMAN_ROBOT, UKF_PARAMS
 from .models import MotionModel, exact_ranges
 from .particle_filter import ParticleFilter
 from .resampling import normalise_weights
@@ -280,6 +281,7 @@ class KalmanLocaliser(Localiser):
     """
 
     needs_prior: ClassVar[bool] = True
+    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = KALMAN_ROBOT
 
     def __init__(
         self,
@@ -366,6 +368,7 @@ class EkfLocaliser(KalmanLocaliser):
     """
 
     name: ClassVar[str] = "ekf"
+    params: ClassVar[Params | None] = EKF_PARAMS
 
     def __init__(self, map: Map, *, rng: RngLike = None, jacobian_step: tuple[float, float, float] = (0.05, 0.05, 1e-3),
                  **options: Any) -> None:
@@ -435,6 +438,7 @@ class UkfLocaliser(KalmanLocaliser):
     """
 
     name: ClassVar[str] = "ukf"
+    params: ClassVar[Params | None] = UKF_PARAMS
 
     def __init__(self, map: Map, *, rng: RngLike = None, alpha: float = 0.3, beta: float = 2.0, kappa: float = 0.0,
                  **options: Any) -> None:

@@ -27,18 +27,31 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import NO_ECHO, ConfigError, LocalisationError, Map, NxtSonar, Pose, RngLike, Scan, wrap_angle
+from toolkit.world import (
+    NO_ECHO,
+    ConfigError,
+    LocalisationError,
+    Map,
+    NxtSonar,
+    Params,
+    Pose,
+    RngLike,
+    Scan,
+    wrap_angle,
+)
 
 from .annealing import GaussianPrior, best_lattice_poses, log_prior, next_beta, predicted_prior
-from .base import MODEL_OPTIONS, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
+from .base import Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .beam_model import BeamLikelihood, MeasurementModel, lattice_costs, scan_readings
 from .clusters import cloud_stats, cluster, describe_modes, mode_stds
+from .declarations import PF_PARAMS, PF_ROBOT
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
 from .resampling import log_normalise, systematic_resample
 
@@ -165,7 +178,8 @@ class ParticleFilter(Localiser):
     """
 
     name: ClassVar[str] = "paper-pf"
-    model_options: ClassVar[frozenset[str]] = MODEL_OPTIONS
+    params: ClassVar[Params | None] = PF_PARAMS
+    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = PF_ROBOT
 
     def __init__(
         self,

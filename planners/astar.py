@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from toolkit.world import ConfigError
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
+from .declarations import ASTAR_PARAMS
 
 __all__ = ["AStarPlanner"]
 
@@ -69,6 +70,7 @@ class AStarPlanner(Planner):
     """
 
     name = "astar"
+    params = ASTAR_PARAMS
 
     def __init__(self, resolution: float | None = 2.0, connect_radius: float | None = None,
                  corner_cutting: bool | None = None) -> None:

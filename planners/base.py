@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import CollisionChecker, Map, PlanningError, Registry, RngLike, as_rng, make_checker
+from toolkit.world import CollisionChecker, Map, Params, PlanningError, Registry, RngLike, as_rng, make_checker
 
 __all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "make_planner",
            "status_message"]
@@ -200,6 +200,8 @@ class Planner(ABC):
     """
 
     name: ClassVar[str]
+    params: ClassVar[Params | None] = None
+    """The declared options (`planners.declarations.planner_params` answers for every name, OMPL's too)."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

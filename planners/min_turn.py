@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from toolkit.world import CollisionChecker, ConfigError
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
+from .declarations import MIN_TURN_PARAMS
 
 __all__ = ["MinTurnPlanner", "fewest_points_path", "hop_shortest_path"]
 
@@ -115,6 +116,7 @@ class MinTurnPlanner(Planner):
     """
 
     name = "min-turn"
+    params = MIN_TURN_PARAMS
 
     def __init__(self, n_samples: int = 30, max_intermediate: int | None = None,
                  max_rounds: int | None = None) -> None:

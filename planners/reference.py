@@ -65,6 +65,7 @@ from shapely.geometry.base import BaseGeometry
 from toolkit.world import CollisionChecker, ConfigError, Map, PointCollisionChecker
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
+from .declarations import MIN_LINK_PARAMS, SHORTEST_PARAMS
 from .metrics import turn_angle
 from .min_turn import hop_shortest_path
 
@@ -348,6 +349,7 @@ class ShortestPathPlanner(_ReferencePlanner):
     """
 
     name = "shortest"
+    params = SHORTEST_PARAMS
 
     def _build(self, problem: PlanningProblem) -> _Graph:
         from .visibility_search import VisibilityGraph  # compiled: loaded when first needed
@@ -440,6 +442,7 @@ class MinLinkPlanner(_ReferencePlanner):
     """
 
     name = "min-link"
+    params = MIN_LINK_PARAMS
 
     def __init__(self, boundary_spacing: float = 3.0, grid_spacing: float | None = 10.0, refine: bool = True,
                  n_sides: int = 64, eps: float = 1e-4) -> None:

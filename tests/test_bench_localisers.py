@@ -23,14 +23,18 @@ import toolkit.robots.sim as sim
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior
 from toolkit.bench import localisers as bench
 from toolkit.seeds import derive_seed
-from toolkit.world import Map, Pose, Scan, angle_diff, load_map, wrap_angle
+from toolkit.world import FACETS, Map, Pose, Scan, angle_diff, load_map, wrap_angle
 
 _ROBOTS: list[sim.SimRobot] = []
+
+
+_IGNORES_THE_ROBOT = {facet: "a test double reads the simulator, not the robot model" for facet in FACETS}
 
 
 class _Oracle(Localiser):
     """The simulator's true pose moved `offset_cm` along +x and turned by `offset_deg`."""
 
+    robot_options = _IGNORES_THE_ROBOT
     offset_cm: ClassVar[float] = 1.5
     offset_deg: ClassVar[float] = 2.5
 
@@ -66,6 +70,8 @@ class _TurnedOracle(_Oracle):
 
 class _DeadReckoning(Localiser):
     """Starts at the true pose and integrates the commanded motions; never looks at a scan."""
+
+    robot_options = _IGNORES_THE_ROBOT
 
     def __init__(self, map: Map, *, rng: Any = None) -> None:
         super().__init__(map, rng=rng)
@@ -470,7 +476,7 @@ def test_radius_scales_the_robot_of_every_scenario(tmp_path: Path, capsys: pytes
     cfg = bench.BenchConfig(robot_radius_cm=5.0)
     assert cfg.geometry.radius_cm == 5.0 and cfg.pose_clearance_cm == 7.0
     assert bench.localiser_options(cfg, "paper-pf")["clearance_cm"] == 5.0
-    assert "clearance_cm" not in bench.localiser_options(bench.BenchConfig(), "paper-pf")
+    assert bench.localiser_options(bench.BenchConfig(), "paper-pf")["clearance_cm"] == 8.0  # the default robot
     out = tmp_path / "r"
     assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "2",
                 "--scenario", "tracking", "--tracking-steps", "3", "--radius", "5", "--out", str(out)]) == 0

@@ -12,7 +12,6 @@ import pytest
 from conftest import run_cli
 
 import localisation  # noqa: F401  (registers every localiser)
-from localisation.base import LOCALISERS
 from toolkit.bench import localisers as bench
 from toolkit.robots.sim import SimRobot
 from toolkit.seeds import derive_seed
@@ -80,22 +79,23 @@ def test_dask_local_tiny_run(tmp_path: Path) -> None:
     assert all(int(r["seed"]) == derive_seed(4, "map2", int(r["trial"])) for r in rows)
 
 
-def test_lobe_options_follow_the_sonar() -> None:
-    nxt = bench.BenchConfig(sonar="nxt")
-    pf = [n for n in LOCALISERS.names() if n == "paper-pf" or n.startswith("pf-")]
-    assert pf
-    for name in pf:
-        model = NxtSonar()
-        assert nxt.lobe_for(name) == {"beam_width_deg": model.beam_width_deg, "beam_rays": model.beam_rays,
-                                      "critical_incidence_deg": model.critical_incidence_deg,
-                                      "max_range_cm": model.max_range_cm}
-        assert bench.BenchConfig(sonar="ideal").lobe_for(name) == {}
-        assert bench.BenchConfig(sonar="nxt", lobe="off").lobe_for(name) == {}
-    # explicit options win over the lobe
+def test_the_bench_tells_every_localiser_its_robot_model() -> None:
+    nxt = bench.BenchConfig(sonar="nxt", noise_model="absolute", motion_noise=0.4)
+    model = NxtSonar()
+    for name in ("paper-pf", "pf-systematic"):
+        opts = bench.localiser_options(nxt, name)
+        assert (opts["beam_width_deg"], opts["beam_rays"], opts["critical_incidence_deg"], opts["max_range_cm"]) == (
+            model.beam_width_deg, model.beam_rays, model.critical_incidence_deg, model.max_range_cm)
+        assert opts["sonar_model"] == model.simulated() and opts["noise_model"] == "absolute"
+        assert "beam_width_deg" not in bench.localiser_options(bench.BenchConfig(sonar="ideal"), name)
+        off = bench.localiser_options(bench.BenchConfig(sonar="nxt", lobe="off"), name)
+        assert "beam_width_deg" not in off and "sonar_model" not in off and off["sensor_sigma_cm"] == 3.0
+    # explicit options win over the model
     cfg = bench.BenchConfig(sonar="nxt", localiser_options={"paper-pf": {"beam_width_deg": 10.0}})
     assert bench.localiser_options(cfg, "paper-pf")["beam_width_deg"] == 10.0
     for name in ("ekf", "ukf"):
-        assert nxt.lobe_for(name) == {}
+        opts = bench.localiser_options(nxt, name)
+        assert "beam_width_deg" not in opts and opts["sensor_sigma_cm"] == 3.0 and opts["motion_noise"] == 0.4
 
 
 def test_kidnapped_recovery_does_not_raise() -> None:

@@ -109,9 +109,9 @@ def test_scan_direction_is_cw_or_ccw(capsys: pytest.CaptureFixture[str]) -> None
     ("n_particles=100.5", "expected an integer, got 100.5"),
     ("sensor_sigma_cm=wide", "expected a finite number"),
     ("use_table=maybe", "expected true or false"),
-    ("n_particles=5", "refuses"),
+    ("n_particles=5", "out of its range [10, inf)"),
 ])
-def test_set_values_are_checked_against_the_constructor(value: str, needle: str, tmp_path: Path,
+def test_set_values_are_checked_against_the_declarations(value: str, needle: str, tmp_path: Path,
                                                         capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "b"
     _fails_cleanly(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "1",

@@ -17,11 +17,11 @@ from conftest import REAL_NXT, real_nxt_arena, run_cli
 import localisation  # noqa: F401  (registers every localiser)
 from localisation.base import make_localiser
 from toolkit.imports import import_sweep_set
-from toolkit.mission import matched_localiser_options
+from toolkit.mission import localiser_options
 from toolkit.recording import Recorder
 from toolkit.replay import RecordingError, read_recording, replay
 from toolkit.sweeps import load_sweep_set
-from toolkit.world import NO_ECHO, Map, load_map, make_sonar
+from toolkit.world import NO_ECHO, Map, RobotModel, load_map, make_sonar
 
 
 def _map_args(tmp_path: Path) -> list[str]:
@@ -88,7 +88,8 @@ def test_replay_is_a_global_reset_and_one_update_per_sweep(tmp_path: Path) -> No
     sonar, reset globally and given each sweep's scan (guards the episodes' shape and the options)."""
     rec = read_recording(_import(tmp_path))
     report = replay(rec, ["paper-pf"], seed=5)
-    loc = make_localiser("paper-pf", rec.map, rng=5, **matched_localiser_options("paper-pf", sonar="nxt"))
+    real = RobotModel.build("nxt", readings="real")
+    loc = make_localiser("paper-pf", rec.map, rng=5, **localiser_options("paper-pf", real))
     ups = [s for s in report.steps if s.call == "update"]
     for sweep, step in zip(load_sweep_set(REAL_NXT, map=rec.map), ups, strict=True):
         loc.reset(None)

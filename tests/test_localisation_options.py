@@ -1,45 +1,126 @@
-"""The robot-model options each localiser declares (`Localiser.model_options`) are options its constructor
-really takes, and `matched_localiser_options` hands a localiser exactly those."""
+"""One robot model, told to every localiser alike (`localisation.robot_options`), and the declared options
+of every localiser (`toolkit.world.Params`) against what its constructor does."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
 import pytest
 
-from localisation import LOCALISERS, make_localiser
-from localisation.base import MODEL_OPTIONS
-from localisation.sonar_options import NXT_SONAR_SIGMA_CM, matched_localiser_options
-from toolkit.world import NxtSonar, load_map
+from localisation import LOCALISERS, Motion, Prior, make_localiser
+from localisation.robot_options import THIN_RAY, localiser_options
+from toolkit.world import FACETS, ConfigError, NxtSonar, Pose, RobotModel, Scan, load_map
+from toolkit.world.geometry import ray_cast
 
-# a value of each model option that every localiser taking it accepts
-_VALUES = {"noise_model": "absolute", "motion_noise": 0.2, "turn_noise": 0.01, "sensor_sigma_cm": 2.0,
-           "beam_width_deg": 20.0, "beam_rays": 9, "critical_incidence_deg": 40.0, "max_range_cm": 255.0,
-           "clearance_cm": 6.0, "sonar_model": NxtSonar()}
+MAP1 = load_map("map1")
+MODELS = [RobotModel.build("ideal"), RobotModel.build("ideal", sensor_noise=2.5, noise_model="absolute",
+                                                      motion_noise=0.7, turn_noise=0.02, radius_cm=6.0),
+          RobotModel.build("nxt"), RobotModel.build(NxtSonar(noise_sd=4.0, beam_width_deg=20.0), readings="real"),
+          RobotModel.build("nxt", radius_cm=10.0, noise_model="absolute")]
 
 
-def test_the_values_cover_every_model_option() -> None:
-    assert set(_VALUES) == MODEL_OPTIONS
+def _told(name: str, robot: RobotModel) -> dict[str, dict[str, Any]]:
+    """Per facet, the canonical values the localiser's options carry (mapped back through its mapping)."""
+    opts = localiser_options(name, robot)
+    mapping = LOCALISERS.get(name).robot_options
+    assert mapping is not None
+    out = {}
+    for facet, values in robot.facets().items():
+        how = mapping[facet]
+        if not isinstance(how, str):
+            out[facet] = {canon: opts[own] for canon, own in zip(values, how, strict=True)}
+    return out
+
+
+@pytest.mark.parametrize("robot", MODELS, ids=lambda r: r.describe())
+def test_every_localiser_is_told_the_same_robot(robot: RobotModel) -> None:
+    facets = robot.facets()
+    for name in LOCALISERS.names():
+        told = _told(name, robot)
+        assert told["motion"] == facets["motion"]  # every localiser models motion
+        assert told["sensor_sigma"] == facets["sensor_sigma"]  # ... and a range sigma
+        for facet in ("lobe", "max_range", "beam_mixture", "clearance"):
+            if facet in told:
+                assert told[facet] == facets[facet], (name, facet)
+    # the particle filters and amcl model everything, so their sigma, lobe and range limit agree value for value
+    full = [n for n in LOCALISERS.names() if n != "ekf" and n != "ukf"]
+    assert len({repr(_told(n, robot)) for n in full}) == 1
+
+
+def test_the_nxt_model_carries_its_own_numbers() -> None:
+    robot = RobotModel.build(NxtSonar(beam_width_deg=20.0, critical_incidence_deg=50.0, beam_rays=9),
+                             radius_cm=7.0)
+    amcl, pf = localiser_options("amcl", robot), localiser_options("paper-pf", robot)
+    assert amcl["sigma_hit"] == pf["sensor_sigma_cm"] == 3.0
+    assert amcl["lobe_rays"] == pf["beam_rays"] == 9
+    assert amcl["beam_width_deg"] == pf["beam_width_deg"] == 20.0
+    assert amcl["laser_max_range"] == pf["max_range_cm"] == 255.0
+    assert amcl["clearance_cm"] == pf["clearance_cm"] == 7.0
+    assert amcl["sonar_model"] == pf["sonar_model"] == robot.sonar.simulated()
+    assert localiser_options("paper-pf", robot.with_readings("real"))["sonar_model"] is robot.sonar
+    thin = localiser_options("paper-pf", robot, leave_out=THIN_RAY)
+    assert "beam_width_deg" not in thin and "sonar_model" not in thin
 
 
 @pytest.mark.parametrize("name", LOCALISERS.names())
-def test_declared_model_options_are_constructor_options(name: str) -> None:
-    cls = LOCALISERS.get(name)
-    assert cls.model_options <= MODEL_OPTIONS
-    options = {k: _VALUES[k] for k in cls.model_options}
-    loc = make_localiser(name, load_map("map1"), rng=0, **options)
-    assert loc.name == name
+def test_every_facet_is_mapped_or_refused_with_a_reason(name: str) -> None:
+    mapping = LOCALISERS.get(name).robot_options
+    assert mapping is not None and set(mapping) == set(FACETS)
+    params = LOCALISERS.get(name).params
+    assert params is not None
+    for how in mapping.values():
+        if isinstance(how, str):
+            assert len(how) > 20  # a sentence, not a placeholder
+        else:
+            assert all(own in params and params.get(own).robot for own in how)
+
+
+def test_an_unmapped_facet_is_a_config_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    cls = LOCALISERS.get("ekf")
+    monkeypatch.setattr(cls, "robot_options", {k: v for k, v in (cls.robot_options or {}).items() if k != "lobe"})
+    with pytest.raises(ConfigError, match="ekf does not say how it takes the robot model's lobe"):
+        localiser_options("ekf", RobotModel.build("nxt"))
+    assert localiser_options("ekf", RobotModel.build("ideal"))  # the ideal sonar has no lobe to map
+
+
+def _run(name: str, options: dict[str, Any]) -> np.ndarray:
+    """A short tracking run on map1 from a known prior: the final estimate's mean and covariance."""
+    loc = make_localiser(name, MAP1, rng=3, **options)
+    truth = Pose(60.0, 50.0, 0.4)
+    loc.reset(Prior(truth, np.diag([4.0, 4.0, 0.01])))
+    angles = np.radians(np.arange(0.0, 360.0, 5.0))
+    for turn, move in ((0.0, 0.0), (0.3, 8.0)):
+        if move:
+            loc.predict(Motion(turn_rad=turn, distance_cm=move))
+            truth = Pose(truth.x + move * np.cos(truth.theta + turn), truth.y + move * np.sin(truth.theta + turn),
+                         truth.theta + turn)
+        ranges = ray_cast(MAP1.walls, truth.xy, truth.theta + angles)
+        loc.update(Scan.from_readings(angles, ranges))
+    est = loc.estimate()
+    return np.concatenate([[est.pose.x, est.pose.y, est.pose.theta], np.ravel(est.cov)])
 
 
 @pytest.mark.parametrize("name", LOCALISERS.names())
-def test_matched_options_are_the_declared_ones(name: str) -> None:
-    nxt = matched_localiser_options(name, sonar="nxt", noise_model="absolute")
-    assert set(nxt) <= LOCALISERS.get(name).model_options
-    if "sensor_sigma_cm" in LOCALISERS.get(name).model_options:
-        assert nxt["sensor_sigma_cm"] == NXT_SONAR_SIGMA_CM
-    if "beam_width_deg" in LOCALISERS.get(name).model_options:
-        assert nxt["beam_width_deg"] == NxtSonar().beam_width_deg
-        assert "beam_width_deg" not in matched_localiser_options(name, sonar="ideal")
-    if "sonar_model" in LOCALISERS.get(name).model_options:
-        assert nxt["sonar_model"] == NxtSonar()  # the nxt sonar's whole model (the fitted default)
-        profile = NxtSonar(noise_sd=4.0)
-        assert matched_localiser_options(name, sonar="nxt", sonar_model=profile)["sonar_model"] is profile
-        assert "sonar_model" not in matched_localiser_options(name, sonar="ideal")
+def test_declared_defaults_are_the_constructor_defaults(name: str) -> None:
+    params = LOCALISERS.get(name).params
+    assert params is not None
+    declared = {k: v for k, v in params.defaults().items() if k != "cache_dir"}
+    np.testing.assert_array_equal(_run(name, {}), _run(name, declared))
+
+
+@pytest.mark.parametrize("name", LOCALISERS.names())
+def test_a_changed_declared_option_reaches_the_constructor(name: str) -> None:
+    params = LOCALISERS.get(name).params
+    assert params is not None
+    with pytest.raises(ConfigError, match="converged_xy_cm"):
+        params.check({"converged_xy_cm": -1.0})
+    assert not np.array_equal(_run(name, {}), _run(name, {"motion_inflation": 4.0}))
+
+
+def test_replace_keeps_a_model_frozen() -> None:
+    robot = RobotModel.build("nxt")
+    with pytest.raises(AttributeError):
+        robot.readings = "real"  # type: ignore[misc]
+    assert replace(robot, readings="real").readings == "real"

@@ -99,18 +99,19 @@ def test_unreachable_target_with_the_real_stack() -> None:
 
 
 def test_nxt_sonar_localisers_are_told_the_lobe() -> None:
-    from toolkit.mission import NXT_SONAR_SIGMA_CM, matched_localiser_options
+    from toolkit.mission import localiser_options
+    from toolkit.world import NXT_SONAR_SIGMA_CM, RobotModel
 
-    nxt = matched_localiser_options("paper-pf", sonar="nxt")
+    nxt = localiser_options("paper-pf", RobotModel.build("nxt"))
     model = NxtSonar()
     assert nxt["beam_width_deg"] == model.beam_width_deg
     assert nxt["critical_incidence_deg"] == model.critical_incidence_deg
-    assert nxt["sonar_model"] == model  # the whole model, for the localisers that use its beam mixture
+    assert nxt["sonar_model"] == model.simulated()  # the whole model, for the localisers that use its beam mixture
     assert nxt["sensor_sigma_cm"] == NXT_SONAR_SIGMA_CM
-    ideal = matched_localiser_options("paper-pf", sonar="ideal", sensor_noise=1.5)
+    ideal = localiser_options("paper-pf", RobotModel.build("ideal", sensor_noise=1.5))
     assert "beam_width_deg" not in ideal and ideal["sensor_sigma_cm"] == 1.5
     assert "ekf" in localisation.LOCALISERS
-    assert "beam_width_deg" not in matched_localiser_options("ekf", sonar="nxt")
+    assert "beam_width_deg" not in localiser_options("ekf", RobotModel.build("nxt"))
 
 
 def test_nxt_sonar_mission_among_the_slanted_walls_of_map2() -> None:

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from toolkit.cli import main
-from toolkit.mission import MissionConfig, matched_localiser_options, run_mission, run_sim_mission
+from toolkit.mission import MissionConfig, localiser_options, run_mission, run_sim_mission
 from toolkit.recording import Recorder, scan_fields, scan_from_fields
 from toolkit.replay import RecordingError, read_recording, replay
-from toolkit.world import Pose, Scan, load_map
+from toolkit.world import Pose, RobotModel, Scan, load_map
 
 DATA = Path(__file__).parent / "data"
 EXAMPLE = DATA / "recording_map1_nxt.jsonl"
@@ -174,7 +174,7 @@ def test_virtual_brick_recording_replays_bit_for_bit(tmp_path: Path) -> None:
         rec = Recorder(path, map=m, robot={"kind": "nxt", "link": robot.link}, sonar={"model": "nxt"}, seed=2,
                        truth=lambda: world.pose)
         try:
-            opts = matched_localiser_options("amcl", sonar="nxt", simulated=True)  # the brick draws independently
+            opts = localiser_options("amcl", RobotModel.build("nxt"))  # the brick draws every reading independently
             report = run_mission(robot, m, (30.0, 80.0), localiser="amcl", rng=2,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=rec)
         finally:

@@ -94,10 +94,11 @@ def test_bad_sweep_options_are_refused(bad: dict[str, object]) -> None:
 
 @pytest.mark.slow
 def test_brick_clock_agrees_with_the_time_model() -> None:
-    from toolkit.mission import matched_localiser_options
+    from toolkit.mission import localiser_options
     from toolkit.robots.nxt import connect_robot
     from toolkit.robots.virtual_brick import BrickServer
     from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
+    from toolkit.world import RobotModel
 
     m = load_map("map1")
     assert m.start is not None and m.target is not None
@@ -106,7 +107,7 @@ def test_brick_clock_agrees_with_the_time_model() -> None:
     with BrickServer(world, port=0) as server:
         robot = ModelClock(connect_robot("socket", host="127.0.0.1", port=server.port))
         try:
-            opts = matched_localiser_options("paper-pf", sonar="nxt", simulated=True)  # the brick's readings
+            opts = localiser_options("paper-pf", RobotModel.build("nxt"))  # the brick's readings: simulated
             cfg = MissionConfig.for_sonar("nxt", localiser_options=opts)
             report = run_mission(robot, m, m.target, rng=3, config=cfg)
         finally:

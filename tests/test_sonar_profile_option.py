@@ -118,10 +118,11 @@ def test_bench_config_hands_the_model_to_simulator_and_localisers(tmp_path: Path
     fitted = NxtSonar(noise_sd=2.5, beam_width_deg=30.0, beam_rays=13, critical_incidence_deg=55.0)
     cfg = BenchConfig(sonar="nxt", sonar_model=fitted)
     assert cfg.simulated_sonar is fitted
-    lobe = cfg.lobe_for("paper-pf")
+    lobe = cfg.robot_options("paper-pf")
     assert (lobe["beam_width_deg"], lobe["beam_rays"], lobe["critical_incidence_deg"]) == (30.0, 13, 55.0)
+    assert lobe["sonar_model"] == fitted.simulated()
     assert cfg.to_dict()["sonar_model"] == fitted.to_dict()
-    assert BenchConfig(sonar="nxt").lobe_for("paper-pf")["beam_width_deg"] == NxtSonar().beam_width_deg
+    assert BenchConfig(sonar="nxt").robot_options("paper-pf")["beam_width_deg"] == NxtSonar().beam_width_deg
     with pytest.raises(NxtnavError, match="nxt"):
         BenchConfig(sonar="ideal", sonar_model=fitted)
 

@@ -12,7 +12,7 @@ the first one's estimate). A truth without a heading (a real sweep at a known wa
 version 2) scores the position only: the heading error is NaN (null in JSON), never a number. The
 localiser used live is rebuilt with its recorded options and random stream, so its replayed
 estimates equal the recorded ones bit for bit (`ReplayReport.reproduced`);
-the others get the options `toolkit.mission.matched_localiser_options` gives them for the recorded
+the others get the options `localisation.robot_options.localiser_options` gives them for the recorded
 sonar and motion noise, and the replay's seed.
 """
 
@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from localisation.robot_options import localiser_options
 
 from .recording import (
     FORMAT_NAME,
@@ -38,7 +39,18 @@ from .recording import (
     scan_from_fields,
     sonar_from_dict,
 )
-from .world import Map, MapError, NxtnavError, NxtSonar, Pose, Scan, SonarModel, angle_diff, map_from_dict
+from .world import (
+    Map,
+    MapError,
+    NxtnavError,
+    NxtSonar,
+    Pose,
+    RobotModel,
+    Scan,
+    SonarModel,
+    angle_diff,
+    map_from_dict,
+)
 
 __all__ = ["LocaliserSpec", "Recording", "RecordingError", "ReplayReport", "ReplayStep", "read_recording", "replay"]
 
@@ -480,22 +492,32 @@ def _fin_median(a: np.ndarray) -> float:
     return float(np.median(f)) if f.size else math.nan
 
 
-def _options_for(rec: Recording, name: str) -> dict[str, Any]:
-    from .mission import matched_localiser_options
-
+def robot_model_of(rec: Recording) -> RobotModel:
+    """The robot model a recording describes: its sonar (the recorded model, a profile's say), motion
+    noise and radius; readings are real for a real NXT or imported real sweeps, else simulated."""
     sonar = str(rec.header["sonar"].get("model", "ideal"))
     noise = rec.header.get("noise") or {}
-    kw: dict[str, Any] = {"sonar": "nxt" if sonar in ("nxt", "real") else "ideal"}
+    robot = rec.header.get("robot") or {}
+    kw: dict[str, Any] = {}
     for key, src in (("noise_model", "model"), ("motion_noise", "motion"), ("turn_noise", "turn")):
         if src in noise:
             kw[key] = noise[src]
     if isinstance(rec.header["sonar"].get("sensor_noise"), int | float):
         kw["sensor_noise"] = float(rec.header["sonar"]["sensor_noise"])
-    if kw["sonar"] == "nxt" and "params" in rec.header["sonar"]:  # the recorded model, a profile's say
+    radius = (robot.get("geometry") or {}).get("radius_cm")
+    if isinstance(radius, int | float) and not isinstance(radius, bool):
+        kw["radius_cm"] = float(radius)
+    named: str | SonarModel = "nxt" if sonar in ("nxt", "real") else "ideal"
+    if named == "nxt" and "params" in rec.header["sonar"]:
         model = sonar_from_dict(rec.header["sonar"]["params"])
         if isinstance(model, NxtSonar):
-            kw["sonar_model"] = model
-    return matched_localiser_options(name, **kw)
+            named = model
+    real = sonar == "real" or (robot.get("kind") == "nxt" and not robot.get("virtual"))
+    return RobotModel.build(named, readings="real" if real else "simulated", **kw)
+
+
+def _options_for(rec: Recording, name: str) -> dict[str, Any]:
+    return localiser_options(name, robot_model_of(rec))
 
 
 def _build(rec: Recording, name: str, seed: int) -> tuple[Localiser, bool]:

@@ -23,10 +23,10 @@ import numpy as np
 
 from localisation.ambiguity import candidate_poses
 from localisation.base import make_localiser
-from localisation.sonar_options import geometry_options, matched_localiser_options
+from localisation.robot_options import localiser_options
 from toolkit.seeds import derive_seed
 from toolkit.sweeps import SweepSet, load_sweep_set
-from toolkit.world import NxtSonar, RobotGeometry
+from toolkit.world import NxtSonar, RobotModel
 
 __all__ = ["CANDIDATE_RADIUS_CM", "COLUMNS", "SweepRun", "SweepTask", "make_sweep_tasks", "run_sweep",
            "summarise", "write_sweeps_csv", "write_sweeps_summary"]
@@ -101,10 +101,8 @@ def run_sweep(task: SweepTask) -> SweepRun:
     """Localise globally from one sweep (`SweepTask`) and score the estimate against the waypoint."""
     sweeps = _sweep_set(task.folder, task.map)
     sw = sweeps.sweeps[task.index]
-    model = NxtSonar(**task.sonar)
-    radius = RobotGeometry().radius_cm
-    opts = {**matched_localiser_options(task.localiser, sonar="nxt", sonar_model=model),
-            **geometry_options(task.localiser, radius), **task.options}
+    robot = RobotModel(NxtSonar(**task.sonar), readings="real")
+    opts = {**localiser_options(task.localiser, robot), **task.options}
     t0 = time.perf_counter()
     loc = make_localiser(task.localiser, sweeps.map, rng=derive_seed(task.seed, "sweeps", sw.label), **opts)
     loc.reset(None)
@@ -164,6 +162,7 @@ def write_sweeps_summary(runs: Sequence[SweepRun], path: Path, *, localisers: Se
     lines += ["", "*Confidently wrong*: converged, not ambiguous, more than 20 cm off. *Honest*: within 20 cm, "
               "or ambiguous with a candidate within 20 cm of the waypoint. Positions only: the heading of a "
               "real sweep was not measured.", "",
+              f"Robot model given to every localiser: {RobotModel(sonar, readings='real').describe()}.", "",
               "Sonar model (`nxt`): " + ", ".join(f"{k} {v:g}" for k, v in asdict(sonar).items()), "",
               f"Command: `{command}`  ", f"Wall time: {wall_time_s:.1f} s", ""]
     path.write_text("\n".join(lines))

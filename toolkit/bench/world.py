@@ -17,8 +17,7 @@ import numpy as np
 import shapely
 
 from localisation.models import range_table
-from localisation.sonar_options import lobe_options
-from toolkit.world import CollisionChecker, Map, RngLike, as_rng, default_scan_angles, ray_cast
+from toolkit.world import CollisionChecker, Map, RngLike, RobotModel, as_rng, default_scan_angles, ray_cast
 
 __all__ = ["bench_world_figures", "peer_raycast2d"]
 
@@ -152,8 +151,12 @@ def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repea
     }
     if range_model:
         t0, c0 = time.perf_counter(), time.process_time()
-        lobe = {k: v for k, v in lobe_options("paper-pf", sonar).items() if k != "beam_rays"}  # the table's own lobe
-        table = range_table(m, memory_mb=range_memory_mb, lattice_step=2, **lobe)
+        facets = RobotModel.build(sonar).facets()  # the table's own lobe and range limit, as the localisers' are
+        lobe = facets.get("lobe", {})
+        table = range_table(m, memory_mb=range_memory_mb, lattice_step=2,
+                            beam_width_deg=lobe.get("beam_width_deg", 0.0),
+                            critical_incidence_deg=lobe.get("critical_incidence_deg"),
+                            max_range_cm=facets.get("max_range", {}).get("max_range_cm"))
         fig.update(range_model_sonar=sonar, range_model_build_s=time.perf_counter() - t0,
                    range_model_build_cpu_s=time.process_time() - c0,
                    range_model_bytes=table.nbytes,

@@ -45,7 +45,13 @@ import_app = typer.Typer(help="Turn data taken elsewhere into recordings that nx
                          no_args_is_help=True, context_settings=_SETTINGS)
 sonar_app = typer.Typer(help="The nxt sonar model against real sweeps: fit a profile, score a model, leave one "
                              "source out.", no_args_is_help=True, context_settings=_SETTINGS)
+planners_app = typer.Typer(help="The planners and their declared options.", no_args_is_help=True,
+                           context_settings=_SETTINGS)
+localisers_app = typer.Typer(help="The localisers, their declared options and how each takes the robot model.",
+                             no_args_is_help=True, context_settings=_SETTINGS)
 app.add_typer(maps_app, name="maps")
+app.add_typer(planners_app, name="planners")
+app.add_typer(localisers_app, name="localisers")
 app.add_typer(bench_app, name="bench")
 app.add_typer(nxt_app, name="nxt")
 app.add_typer(brick_app, name="brick")

@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-import inspect
 import json
 import math
 import shlex
 import time
-import types
-import typing
 from pathlib import Path
 from typing import Any
 
 import typer
-import yaml
 
 from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
 
@@ -32,6 +28,7 @@ from .options import (
 from .options import seed as seed_ok
 from .options import workers as workers_ok
 from .progress import progress
+from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
 
@@ -54,92 +51,15 @@ def _check_sonar(sonar: str) -> str:
     return sonar
 
 
-def _parse_sets(values: list[str], option: str) -> dict[str, dict[str, Any]]:
-    """``NAME.KEY=VALUE`` (or ``KEY=VALUE`` for every localiser, under ``*``) with YAML-typed values."""
-    out: dict[str, dict[str, Any]] = {}
-    for text in values:
-        key, sep, raw = text.partition("=")
-        if not sep or not key.strip():
-            raise NxtnavError(f"{option}: expected KEY=VALUE or LOCALISER.KEY=VALUE, got {text!r}")
-        name, dot, k = key.strip().rpartition(".")
-        try:
-            value = yaml.safe_load(raw)
-        except yaml.YAMLError:
-            value = raw
-        out.setdefault(name if dot else "*", {})[k] = value
-    return out
+def _declared(name: str) -> Any:
+    from localisation.base import LOCALISERS
+
+    return LOCALISERS.get(name).params
 
 
-def _options_for(sets: dict[str, dict[str, Any]], names: list[str]) -> dict[str, dict[str, Any]]:
-    """Per localiser, the options that apply to it; unknown localisers or option names are errors."""
-    unknown = [n for n in sets if n != "*" and n not in names]
-    if unknown:
-        raise NxtnavError(f"--set: options for {', '.join(unknown)}, which is not among {', '.join(names)}")
-    out: dict[str, dict[str, Any]] = {}
-    for n in names:
-        accepted = _accepted_options(n)
-        common = {k: v for k, v in sets.get("*", {}).items() if accepted is None or k in accepted}
-        opts = {**common, **sets.get(n, {})}
-        bad = [k for k in sets.get(n, {}) if accepted is not None and k not in accepted]
-        if bad:
-            raise NxtnavError(f"--set: {n} has no option {', '.join(bad)}; its options: "
-                              f"{', '.join(sorted(accepted or ())) or 'none'}")
-        hints = _option_types(n)
-        opts = {k: _coerce(v, hints.get(k), f"{n}.{k}") for k, v in opts.items()}
-        if opts:
-            out[n] = opts
-    stray = [k for k in sets.get("*", {}) if not any(k in out.get(n, {}) for n in names)]
-    if stray:
-        raise NxtnavError(f"--set: no chosen localiser has an option {', '.join(stray)}")
-    return out
-
-
-def _option_types(name: str) -> dict[str, Any]:
-    """The annotations of a localiser constructor's options (empty when they cannot be resolved)."""
-    try:
-        from localisation.base import LOCALISERS
-
-        return typing.get_type_hints(LOCALISERS.get(name).__init__)
-    except Exception:  # an annotation that does not resolve: no checks beyond the constructor's own
-        return {}
-
-
-def _coerce(value: Any, hint: Any, where: str) -> Any:
-    """`value` (as YAML typed it) checked against the annotation `hint`; ints widen to floats."""
-    if hint is None or hint is Any:
-        return value
-    args = typing.get_args(hint)
-    if typing.get_origin(hint) in (typing.Union, types.UnionType):
-        if value is None and type(None) in args:
-            return None
-        errors = []
-        for a in (a for a in args if a is not type(None)):
-            try:
-                return _coerce(value, a, where)
-            except NxtnavError as exc:
-                errors.append(str(exc))
-        raise NxtnavError(errors[0] if len(errors) == 1 else f"--set {where}: {value!r} does not fit {hint}")
-    if typing.get_origin(hint) is typing.Literal:
-        if value in args:
-            return value
-        raise NxtnavError(f"--set {where}: expected one of {', '.join(map(repr, args))}, got {value!r}")
-    if hint is bool:
-        if isinstance(value, bool):
-            return value
-        raise NxtnavError(f"--set {where}: expected true or false, got {value!r}")
-    if hint is int:
-        if isinstance(value, int) and not isinstance(value, bool):
-            return value
-        raise NxtnavError(f"--set {where}: expected an integer, got {value!r}")
-    if hint is float:
-        if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
-            return float(value)
-        raise NxtnavError(f"--set {where}: expected a finite number, got {value!r}")
-    if hint is str:
-        if isinstance(value, str):
-            return value
-        raise NxtnavError(f"--set {where}: expected a text, got {value!r}")
-    return value  # containers and other types: the constructor checks them
+def _options_for(sets: list[str], names: list[str]) -> dict[str, dict[str, Any]]:
+    """Per localiser, its `--set` options checked against its declared parameters."""
+    return checked_sets(parse_sets(sets), names, _declared, "localiser")
 
 
 def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
@@ -153,20 +73,6 @@ def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
         except (ValueError, TypeError) as exc:
             raise NxtnavError(f"--set: {name} refuses {', '.join(f'{k}={v!r}' for k, v in opts.items())}: "
                               f"{exc}") from None
-
-
-def _accepted_options(name: str) -> set[str] | None:
-    """Keyword options of a localiser's constructor, for ``--set`` (None when it forwards ``**options``).
-
-    The constructor is the one definition of a plug-in's options (its parameters, their defaults and
-    annotations), so the command line reads them from its code object rather than a second list.
-    """
-    from localisation.base import LOCALISERS
-
-    code = LOCALISERS.get(name).__init__.__code__
-    if code.co_flags & inspect.CO_VARKEYWORDS:
-        return None
-    return set(code.co_varnames[1:code.co_argcount + code.co_kwonlyargcount]) - {"map", "rng"}
 
 
 @app.command("localise")
@@ -210,7 +116,7 @@ def localise_cmd(
         raise NxtnavError(f"--pose: ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
-                      localiser_options=_options_for(_parse_sets(sets, "--set"), [localiser]), sonar_model=profile)
+                      localiser_options=_options_for(sets, [localiser]), sonar_model=profile)
     out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
     candidates = candidate_poses(loc)
     if candidates:  # the mean of several modes means nothing: name the candidates instead
@@ -288,7 +194,7 @@ def bench_localisers(
     check_out_folder(out, force)
     if not math.isfinite(sensor_noise) or sensor_noise < 0:
         raise NxtnavError(f"--sensor-noise must be a non-negative number, got {sensor_noise}")
-    options = _options_for(_parse_sets(sets, "--set"), locs)
+    options = _options_for(sets, locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
                       lobe=lobe, robot_radius_cm=radius, localiser_options=options, sonar_model=profile)

@@ -11,7 +11,7 @@ import numpy as np
 import typer
 
 from ..formats import json_safe
-from ..world import SONAR_MODELS, CollisionChecker, NxtnavError, NxtSonar, Pose, RobotGeometry, load_map
+from ..world import SONAR_MODELS, CollisionChecker, NxtnavError, NxtSonar, Pose, RobotGeometry, RobotModel, load_map
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
 from .options import (
     SONAR_PROFILE_HELP,
@@ -105,7 +105,7 @@ def run(
                                        help="Record every command, scan and localiser call (docs/recording.md)."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
-    from ..mission import MissionConfig, matched_localiser_options, run_mission, run_sim_mission
+    from ..mission import MissionConfig, localiser_options, run_mission, run_sim_mission
     from ..robots.sim import simulated_sonar
 
     m = load_map(map_name)
@@ -150,8 +150,9 @@ def run(
                                                  "profile": robot.profile.to_dict()},
                                      {"model": "nxt", "params": sonar_model.to_dict()}, seed, None)
             # the virtual brick draws every reading independently; a real sensor's readings share errors
-            opts = matched_localiser_options(localiser, sonar="nxt", sonar_model=fitted_sonar,
-                                             simulated=bool(robot.virtual))
+            robot_model = RobotModel(sonar_model, geometry=robot.geometry,
+                                     readings="simulated" if robot.virtual else "real")
+            opts = localiser_options(localiser, robot_model)
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=recorder)
         finally:

@@ -19,6 +19,7 @@ from .options import seed as seed_ok
 from .options import time_limit as time_limit_ok
 from .options import workers as workers_ok
 from .progress import progress
+from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
 
@@ -60,9 +61,12 @@ def plan(
                                      callback=non_negative),
     output: Path = typer.Option(..., "-o", "--output", metavar="FILE.png", help="Figure to write."),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write path, metrics and status."),
+    sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
+                                   help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
 ) -> None:
     """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
+    from planners.declarations import planner_kwargs, planner_params
     from planners.metrics import path_metrics
 
     from ..bench.execution import execution_error
@@ -73,6 +77,7 @@ def plan(
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
     nz = _noise(noise_model, motion_noise, turn_noise)
     check_planner_names([planner])
+    options = checked_sets(parse_sets(sets), [planner], planner_params, "planner").get(planner, {})
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -95,7 +100,8 @@ def plan(
     start = point(start_text, "--start", m.start)
     goal = point(goal_text, "--goal", m.target)
     problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed))
-    result = (planner_for(planner, m) or make_planner(planner)).plan(problem)
+    built = planner_for(planner, m, options) or make_planner(planner, **planner_kwargs(planner, options))
+    result = built.plan(problem)
     refs: dict[str, Any] = {}
     for name in REFERENCE_PLANNERS:
         ref_planner = planner_for(name, m)

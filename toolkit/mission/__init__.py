@@ -48,7 +48,7 @@ Examples
 
 from __future__ import annotations
 
-from localisation.sonar_options import NXT_SONAR_SIGMA_CM, lobe_options, matched_localiser_options
+from localisation.robot_options import localiser_options
 
 from .config import MissionConfig, sweep_angles
 from .explore import explore_direction
@@ -57,15 +57,13 @@ from .runner import run_mission
 from .simulated import run_sim_mission
 
 __all__ = [
-    "NXT_SONAR_SIGMA_CM",
     "MissionConfig",
     "MissionReport",
     "Outcome",
     "RobotTimeSplit",
     "TraceStep",
     "explore_direction",
-    "lobe_options",
-    "matched_localiser_options",
+    "localiser_options",
     "run_mission",
     "run_sim_mission",
     "sweep_angles",

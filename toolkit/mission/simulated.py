@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from localisation.base import Localiser
-from localisation.sonar_options import geometry_options, matched_localiser_options
+from localisation.robot_options import localiser_options
 from planners.base import Planner
 
 from ..seeds import derive_seeds
@@ -19,7 +19,7 @@ from ..world import (
     NxtnavError,
     NxtSonar,
     Pose,
-    RobotGeometry,
+    RobotModel,
     load_map,
 )
 from .config import MissionConfig
@@ -72,7 +72,7 @@ def run_sim_mission(
     sonar : {"ideal", "nxt"}
     sonar_model : NxtSonar, optional
         The ``nxt`` sonar's model (a fitted profile's, `toolkit.sonar_fit.load_sonar_profile`): the
-        simulator reads with it and the localiser is told it (`matched_localiser_options`). None: the
+        simulator reads with it and the localiser is told it (`localisation.robot_options`). None: the
         model's defaults. Only with ``sonar="nxt"``.
     config : MissionConfig or None
         None: `MissionConfig.for_sonar(sonar)`.
@@ -83,11 +83,14 @@ def run_sim_mission(
         random start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm``
         get it.
     """
-    from ..robots.sim import MotionNoise, SimRobot, simulated_sonar
+    from ..robots.sim import SimRobot
 
     if sonar_model is not None and sonar != "nxt":
         raise NxtnavError(f"a sonar model (profile) is for the nxt sonar, not {sonar!r}")
-    geometry = RobotGeometry() if robot_radius_cm is None else RobotGeometry(radius_cm=float(robot_radius_cm))
+    robot_model = RobotModel.build(sonar if sonar_model is None else sonar_model, sensor_noise=sensor_noise,
+                                   noise_model=noise_model, motion_noise=motion_noise, turn_noise=turn_noise,
+                                   radius_cm=robot_radius_cm)
+    geometry = robot_model.geometry
 
     m = map if isinstance(map, Map) else load_map(map)
     s_start, s_sim, s_stack = derive_seeds(seed, n=3)
@@ -107,17 +110,11 @@ def run_sim_mission(
         if m.target is None:
             raise NxtnavError(f"map {m.name} has no preset target: give one")
         target = m.target
-    noise = MotionNoise(noise_model, motion_noise, turn_noise)  # type: ignore[arg-type]
     cfg = config or MissionConfig.for_sonar(sonar)
     if isinstance(localiser, str):
-        opts = matched_localiser_options(localiser, sonar=sonar, noise_model=noise_model, motion_noise=motion_noise,
-                                         turn_noise=turn_noise, sensor_noise=sensor_noise, sonar_model=sonar_model,
-                                         simulated=True)
-        if robot_radius_cm is not None:
-            opts.update(geometry_options(localiser, geometry.radius_cm))
+        opts = localiser_options(localiser, robot_model)
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
-    reads = simulated_sonar(sonar if sonar_model is None else sonar_model, sensor_noise)
-    robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=reads, rng=s_sim)
+    robot = SimRobot(m, pose, geometry=geometry, noise=robot_model.motion, sonar=robot_model.sonar, rng=s_sim)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,
                          recorder=recorder)
     return replace(report, seed=int(seed))

@@ -29,6 +29,7 @@ from ..world import (
     CollisionChecker,
     ConfigError,
     Map,
+    MotionNoise,
     MoveOutcome,
     Pose,
     RngLike,
@@ -60,36 +61,6 @@ def simulated_sonar(sonar: SonarModel | str, sensor_noise: float = 1.0) -> Sonar
     if not isinstance(sonar, str):
         return sonar
     return make_sonar(sonar, noise_sd=sensor_noise) if sonar == "ideal" else make_sonar(sonar)
-
-
-@dataclass(frozen=True)
-class MotionNoise:
-    """Motion noise: `model` is ``botsim`` (proportional) or ``absolute``; defaults are the paper's.
-
-    Parameters
-    ----------
-    model : {"botsim", "absolute"}
-        How `motion` and `turn` apply (see the module docstring).
-    motion : float
-        botsim: fraction of each move (0.1); absolute: cm per move.
-    turn : float
-        botsim: fraction of each turn and rad of heading noise per move (0.005); absolute: rad.
-    """
-
-    model: NoiseModelName = "botsim"
-    motion: float = 0.1
-    turn: float = 0.005
-
-    def __post_init__(self) -> None:
-        if self.model not in ("botsim", "absolute"):
-            raise ConfigError(f"noise model must be 'botsim' or 'absolute', got {self.model!r}")
-        for k in ("motion", "turn"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v >= 0):
-                raise ConfigError(f"{k} noise must be a non-negative number, got {v!r}")
-
-    def to_dict(self) -> dict[str, object]:
-        return {"model": self.model, "motion": self.motion, "turn": self.turn}
 
 
 @dataclass(frozen=True)

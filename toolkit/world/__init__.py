@@ -18,14 +18,18 @@ from .geometry import (
 from .grids import OccupancyGrid, grid_to_map, polygonise
 from .importers import import_map
 from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_map, map_from_dict
+from .params import Param, Params
 from .point_collision import PointCollisionChecker, make_checker
 from .registry import Registry
 from .robot import NO_ECHO, MoveOutcome, Robot, RobotGeometry, Scan, default_scan_angles
+from .robot_model import FACETS, NXT_SONAR_SIGMA_CM, MotionNoise, RobotModel
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
 
 __all__ = [
     "COORDINATE_LIMIT_CM",
+    "FACETS",
     "NO_ECHO",
+    "NXT_SONAR_SIGMA_CM",
     "SONAR_MODELS",
     "CollisionChecker",
     "ConfigError",
@@ -34,10 +38,13 @@ __all__ = [
     "LocalisationError",
     "Map",
     "MapError",
+    "MotionNoise",
     "MoveOutcome",
     "NxtSonar",
     "NxtnavError",
     "OccupancyGrid",
+    "Param",
+    "Params",
     "PlanningError",
     "PointCollisionChecker",
     "Pose",
@@ -48,6 +55,7 @@ __all__ = [
     "Robot",
     "RobotError",
     "RobotGeometry",
+    "RobotModel",
     "Scan",
     "SonarModel",
     "angle_diff",

@@ -10,13 +10,14 @@ from typing import Any
 import numpy as np
 
 from localisation.base import PoseEstimate
-from localisation.sonar_options import lobe_options
-from toolkit.robots.sim import MotionNoise, simulated_sonar
+from localisation.robot_options import THIN_RAY, localiser_options
 from toolkit.world import (
+    MotionNoise,
     NxtnavError,
     NxtSonar,
     Pose,
     RobotGeometry,
+    RobotModel,
     SonarModel,
     angle_diff,
 )
@@ -100,10 +101,10 @@ class BenchConfig:
         Scans given to the localiser in the tracking and kidnapped loops: the paper's processing
         (windows around 0/90/180/270 degrees from the minimum reading) or every usable reading.
     lobe : {"auto", "off"}
-        ``auto`` tells localisers that can model it the simulated sonar's lobe (see `lobe_options`);
-        ``off`` leaves them with their defaults (a thin ray).
+        ``auto`` tells every localiser the whole robot model (`robot`); ``off`` leaves out the sonar's
+        lobe and beam mixture (the localisers model a thin ray).
     localiser_options : mapping
-        Per localiser name, keyword arguments for `make_localiser` (they override the lobe options).
+        Per localiser name, keyword arguments for `make_localiser` (they override the robot model's).
     localise_options : mapping
         Extra keyword arguments for `localisation.procedure.localise`.
     sonar_model : NxtSonar, optional
@@ -157,7 +158,7 @@ class BenchConfig:
     @property
     def geometry(self) -> RobotGeometry:
         """The simulated robot's constants (`robot_radius_cm`, or the default 8 cm robot)."""
-        return RobotGeometry() if self.robot_radius_cm is None else RobotGeometry(radius_cm=self.robot_radius_cm)
+        return self.robot.geometry
 
     @property
     def pose_clearance_cm(self) -> float:
@@ -165,20 +166,26 @@ class BenchConfig:
         return self.clearance_cm if self.robot_radius_cm is None else self.robot_radius_cm + 2.0
 
     @property
+    def robot(self) -> RobotModel:
+        """The one robot model of the run: the simulator reads and moves with it, every localiser is told it."""
+        return RobotModel.build(self.sonar if self.sonar_model is None else self.sonar_model,
+                                sensor_noise=self.sensor_noise, noise_model=self.noise_model,
+                                motion_noise=self.motion_noise, turn_noise=self.turn_noise,
+                                radius_cm=self.robot_radius_cm)
+
+    @property
     def noise(self) -> MotionNoise:
-        return MotionNoise(self.noise_model, self.motion_noise, self.turn_noise)  # type: ignore[arg-type]
+        return self.robot.motion
 
     @property
     def simulated_sonar(self) -> SonarModel:
-        """The model the simulated robot reads with (`toolkit.robots.sim.simulated_sonar`)."""
-        return simulated_sonar(self.sonar_model if self.sonar_model is not None else self.sonar, self.sensor_noise)
+        """The model the simulated robot reads with."""
+        return self.robot.sonar
 
-    def lobe_for(self, localiser: str) -> dict[str, Any]:
-        """The simulated sonar's lobe as options of `localiser` (`localisation.sonar_options.lobe_options`:
-        for ``nxt`` its model's lobe, critical incidence and range limit, to the localisers that take
-        them); nothing with ``lobe="off"``."""
-        return {} if self.lobe == "off" else lobe_options(localiser, self.sonar, self.sensor_noise,
-                                                          sonar_model=self.sonar_model)
+    def robot_options(self, localiser: str) -> dict[str, Any]:
+        """The robot model as options of `localiser` (`localisation.robot_options.localiser_options`);
+        with ``lobe="off"`` without the lobe and the NXT's beam mixture (a thin ray)."""
+        return localiser_options(localiser, self.robot, leave_out=THIN_RAY if self.lobe == "off" else ())
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -216,13 +216,9 @@ def write_summary(
         + ("the paper's processing (align to the minimum reading, rescan, keep +-15 degrees around "
            "0/90/180/270)" if config.scan_processing == "paper" else "raw (every usable reading)"),
     ]
-    lobed = [n for n in localisers if config.lobe_for(n)]
-    if lobed:
-        ex = config.lobe_for(lobed[0])
-        lines.append(f"- sonar lobe given to the localisers that model it ({', '.join(lobed)}): "
-                     + ", ".join(f"`{k}={v:g}`" for k, v in ex.items()) + " (`--lobe auto`); the others use a thin ray")
-    elif config.lobe == "off" and config.sonar != "ideal":
-        lines.append("- localisers keep their default thin-ray range model (`--lobe off`)")
+    lines.append(f"- robot model given to every localiser: {config.robot.describe()}"
+                 + (" less the lobe and beam mixture (`--lobe off`: a thin ray)"
+                    if config.lobe == "off" and config.sonar != "ideal" else ""))
     if trackers:
         if config.tracker_prior == "noisy-truth":
             how = (f"the true pose plus Gaussian noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} "

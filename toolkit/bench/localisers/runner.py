@@ -14,7 +14,6 @@ from localisation.ambiguity import candidate_poses
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from localisation.models import MotionModel
 from localisation.procedure import LocalisationResult, LocaliseProcedure, localise
-from localisation.sonar_options import geometry_options
 from toolkit.robots.sim import SimRobot
 from toolkit.seeds import derive_seed
 from toolkit.world import (
@@ -142,10 +141,9 @@ def localise_once(
 
 
 def localiser_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
-    """Constructor options of localiser `name`: the sonar's lobe (`BenchConfig.lobe_for`), the robot's
-    radius when given (``clearance_cm``), then `--set` options."""
-    size = {} if cfg.robot_radius_cm is None else geometry_options(name, cfg.robot_radius_cm)
-    return {**cfg.lobe_for(name), **size, **dict(cfg.localiser_options.get(name, {}))}
+    """Constructor options of localiser `name`: the run's robot model (`BenchConfig.robot_options`), then
+    `--set` options."""
+    return {**cfg.robot_options(name), **dict(cfg.localiser_options.get(name, {}))}
 
 
 def _procedure_options(cfg: BenchConfig) -> dict[str, Any]:

@@ -14,6 +14,7 @@ import numpy as np
 import shapely
 
 from planners import PLANNERS, PlanningProblem, PlanStatus, make_planner
+from planners.declarations import planner_kwargs
 from planners.metrics import count_turns, path_length, path_metrics
 
 from ...seeds import derive_seed
@@ -110,20 +111,22 @@ def _checker(map_name: str, radius: float) -> CollisionChecker:
     return make_checker(cached_map(map_name), radius)
 
 
-def planner_for(name: str, m: Map) -> Any:
-    """The planner `name` as the benchmarks configure it for map `m` (None: skipped on this map).
+def planner_for(name: str, m: Map, options: dict[str, Any] | None = None) -> Any:
+    """The planner `name` as the benchmarks configure it for map `m` (None: skipped on this map), with
+    `options` (checked against its declarations, `planners.declarations`) over the benchmark's own.
 
     On a map imported from a grid, `astar` plans on the map's own cells; on a map of more than
     `LARGE_MAP_WALLS` walls the references adapt (see there).
     """
     large = len(m.walls) > LARGE_MAP_WALLS
+    own = planner_kwargs(name, options or {})
     if name == "astar" and m.grid is not None:
-        return make_planner(name, resolution=None)
+        return make_planner(name, **{"resolution": None, **own})
     if name == "shortest" and large:
-        return make_planner(name, n_sides=16)
+        return make_planner(name, **{"n_sides": 16, **own})
     if name == "min-link" and large:
         return None
-    return make_planner(name)
+    return make_planner(name, **own)
 
 
 @lru_cache(maxsize=64)

@@ -1,0 +1,44 @@
+"""The robot model as a localiser's options: one mapping per localiser class, checked, nothing dropped.
+
+`localiser_options` turns a `toolkit.world.RobotModel` into constructor options of a registered localiser
+through the class's ``robot_options`` (`localisation.declarations`): every facet of the model the
+localiser maps becomes its options, every facet it does not use has a stated reason, and a facet it
+does not mention is a `ConfigError`. Every localiser given the same model is therefore told the same
+sigma, lobe, range limit, motion noise and size, whatever its own options are called.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from toolkit.world import ConfigError, RobotModel
+
+from .base import LOCALISERS
+
+__all__ = ["THIN_RAY", "localiser_options"]
+
+THIN_RAY = ("lobe", "beam_mixture")
+"""Facets left out for ``--lobe off`` (localisers model the sonar as a thin ray with a Gaussian)."""
+
+
+def localiser_options(name: str, robot: RobotModel, *, leave_out: tuple[str, ...] = ()) -> dict[str, Any]:
+    """The constructor options that tell localiser `name` the robot `robot` (less the facets `leave_out`)."""
+    cls = LOCALISERS.get(name)
+    mapping = cls.robot_options
+    if mapping is None:
+        raise ConfigError(f"localiser {name} cannot be told a robot model (it declares no robot_options)")
+    out: dict[str, Any] = {}
+    for facet, values in robot.facets().items():
+        if facet in leave_out:
+            continue
+        how = mapping.get(facet)
+        if how is None:
+            raise ConfigError(f"localiser {name} does not say how it takes the robot model's {facet} "
+                              f"({', '.join(values)})")
+        if isinstance(how, str):
+            continue  # not used, for the stated reason
+        if len(how) != len(values):
+            raise ConfigError(f"localiser {name} maps the robot model's {facet} to {len(how)} options, "
+                              f"not {len(values)}")
+        out.update(zip(how, values.values(), strict=True))
+    return out
