@@ -103,6 +103,9 @@ def run(
     profile: Path | None = typer.Option(None, "--profile", metavar="FILE", help="NXT calibration profile."),
     record: Path | None = typer.Option(None, "--record", metavar="FILE.jsonl",
                                        help="Record every command, scan and localiser call (docs/recording.md)."),
+    record_particles: int = typer.Option(
+        100, "--record-particles", min=0, metavar="N",
+        help="With --record: keep at most N particles of the cloud with each estimate (0: none)."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
     from ..mission import MissionConfig, matched_localiser_options, run_mission, run_sim_mission
@@ -148,7 +151,8 @@ def run(
             if record is not None:
                 recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
                                                  "profile": robot.profile.to_dict()},
-                                     {"model": "nxt", "params": sonar_model.to_dict()}, seed, None)
+                                     {"model": "nxt", "params": sonar_model.to_dict()}, seed, None,
+                                     record_particles)
             # the virtual brick draws every reading independently; a real sensor's readings share errors
             opts = matched_localiser_options(localiser, sonar="nxt", sonar_model=fitted_sonar,
                                              simulated=bool(robot.virtual))
@@ -172,7 +176,7 @@ def run(
         recorder = None if record is None else _recorder(
             record, m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
             {"model": sonar, "sensor_noise": sensor_noise, "params": sonar_model.to_dict()}, seed,
-            {"model": noise_model, "motion": motion_noise, "turn": turn_noise})
+            {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles)
         report = None
         try:
             report = run_sim_mission(
@@ -217,13 +221,13 @@ def run(
 
 
 def _recorder(path: Path, m: Any, robot: dict[str, Any], sonar: dict[str, Any], seed: int,
-              noise: dict[str, Any] | None) -> Any:
+              noise: dict[str, Any] | None, particles: int) -> Any:
     from ..recording import Recorder
 
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         return Recorder(path, map=m, robot=robot, sonar=sonar, seed=seed,
-                        extra=None if noise is None else {"noise": noise})
+                        extra=None if noise is None else {"noise": noise}, particles=particles)
     except OSError as exc:
         raise NxtnavError(f"--record: cannot write {path} ({exc.strerror or exc})") from None
 
