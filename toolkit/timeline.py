@@ -36,7 +36,7 @@ from .recording import decode_floats, scan_from_fields
 from .world import Map, Pose, RobotGeometry, Scan, map_from_dict, wrap_angle
 
 __all__ = ["CLOCKLESS_STEP_S", "EstimateItem", "Item", "OdometryItem", "PlanItem", "RunInfo", "SweepItem",
-           "Timeline", "TruthItem", "timeline_of"]
+           "Timeline", "TruthItem", "run_info", "timeline_of"]
 
 FloatArray = NDArray[np.float64]
 

@@ -27,3 +27,19 @@ def export_cmd(
     for topic, (kind, n) in summary.topics.items():
         typer.echo(f"{topic:16s} {kind:45s} {n:6d}")
     typer.echo(f"wrote {summary.path} ({summary.messages} messages)")
+
+
+@app.command("view")
+def view_cmd(
+    source: Path = typer.Argument(..., metavar="REC.jsonl|DIR",
+                                  help="A recording, or a bag written by nxtnav export --mcap."),
+    save: Path | None = typer.Option(None, "--save", metavar="FILE.rrd",
+                                     help="Write a Rerun recording instead of opening a viewer."),
+) -> None:
+    """Show a run in Rerun (extra 'viz'): map, c-space, truth, estimate and covariance, particles, sweeps, plan."""
+    from ..view.live import view_file
+    from .options import check_writable
+
+    check_writable(save, "--save")
+    n = view_file(source, save)
+    typer.echo(f"{source}: {n} items drawn" + (f"; wrote {save}" if save is not None else ""))

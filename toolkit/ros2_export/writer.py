@@ -6,6 +6,7 @@ so a failure leaves nothing half-written; an existing non-empty `out` is refused
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import shutil
@@ -22,7 +23,10 @@ from . import messages as msg
 from .grid import rasterise
 from .typestore import PARTICLE_CLOUD, typestore
 
-__all__ = ["ROSBAG2_VERSION", "TOPICS", "ExportSummary", "export_mcap"]
+__all__ = ["HEADER_KEY", "ROSBAG2_VERSION", "TOPICS", "ExportSummary", "export_mcap"]
+
+HEADER_KEY = "nxtnav.header"
+"""Key of the metadata's ``custom_data`` entry holding the recording's created time, map, robot and sonar (JSON)."""
 
 ROSBAG2_VERSION: Literal[8] = 8
 """The rosbag2 metadata version written."""
@@ -157,6 +161,9 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
     try:
         tmp.mkdir(parents=True)
         writer = Writer(tmp / dest.name, version=ROSBAG2_VERSION, storage_plugin=StoragePlugin.MCAP)
+        # the recording's map, robot and sonar, so that `nxtnav view DIR` can draw the walls again
+        writer.set_custom_data(HEADER_KEY, json.dumps({k: rec.header.get(k) for k in ("created", "map", "robot",
+                                                                                      "sonar")}))
         writer.open()
         try:
             used = [t for t in TOPICS if any(m[0] == t for m in messages)]
