@@ -617,13 +617,22 @@ class Amcl(Localiser):
         theta = wrap_angle(head * (2.0 * math.pi / self.table.n_angles) + self.rng.uniform(-dth, dth, size=n))
         return np.column_stack([xy, theta])
 
-    def _make_estimate(self) -> PoseEstimate:
+    def cloud(self) -> tuple[FloatArray, FloatArray] | None:
+        """The particles and the weights the estimate uses (particles not yet weighed by a scan weigh 0)."""
         if self.particles.shape[0] == 0:
-            raise LocalisationError("amcl has no particles")
+            return None
+        return self.particles, self._estimate_weights()
+
+    def _estimate_weights(self) -> FloatArray:
         lw = np.where(self._weighed, self.log_weights, -np.inf)
         if not np.isfinite(lw).any():
             lw = np.zeros(self.particles.shape[0])
-        w = log_normalise(lw)
+        return log_normalise(lw)
+
+    def _make_estimate(self) -> PoseEstimate:
+        if self.particles.shape[0] == 0:
+            raise LocalisationError("amcl has no particles")
+        w = self._estimate_weights()
         p = self.particles
         mean = np.array([float(w @ p[:, 0]), float(w @ p[:, 1]), float(circular_mean(p[:, 2], w))])
         d = np.column_stack([p[:, 0] - mean[0], p[:, 1] - mean[1], angle_diff(p[:, 2], mean[2])])

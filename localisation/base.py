@@ -193,6 +193,11 @@ class Localiser(ABC):
         that do not track modes."""
         return []
 
+    def cloud(self) -> tuple[FloatArray, FloatArray] | None:
+        """The particle cloud behind the belief: poses (n, 3: x cm, y cm, theta rad) and their
+        normalised weights (n,); None for localisers without particles (the Kalman filters)."""
+        return None
+
 
 def make_localiser(name: str, map: Map, *, rng: RngLike = None, **options: Any) -> Localiser:
     """A localiser by registry name for `map`, with its options."""

@@ -426,6 +426,9 @@ class ParticleFilter(Localiser):
     def weights(self) -> FloatArray:
         return log_normalise(self.log_weights)
 
+    def cloud(self) -> tuple[FloatArray, FloatArray] | None:
+        return self.particles, self.weights
+
     # -- internals ----------------------------------------------------------------------------------
     def _sq_residuals(self, poses: FloatArray, rel: FloatArray, meas: FloatArray, exact: bool = False) -> FloatArray:
         """Summed capped squared normalised residuals per pose; inf for poses outside the free space."""

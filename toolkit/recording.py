@@ -13,7 +13,12 @@ call through unchanged and write what went in and what came out:
 * localiser calls (``localiser``, ``reset``, ``predict``, ``update``) with the exact inputs, each
   followed by the ``estimate`` it produced;
 * the true pose after each robot event where one is known (the simulator, or a `truth` callable such
-  as the virtual brick's world).
+  as the virtual brick's world);
+* (version 3) each path the mission plans (``plan``), and with ``particles=N`` a thinned copy of the
+  localiser's particle cloud with each estimate (`thin_cloud`).
+
+Every line also goes, as the dict it was written from, to the recorder's `listeners` (a live view of
+the run); a recorder made with ``out=None`` writes no file and only feeds them.
 
 Data taken elsewhere is written with the same `Recorder`: `Recorder.known_scan` writes a scan taken
 without a robot clock at a known position, perhaps without a known heading (format version 2), as
@@ -30,25 +35,26 @@ import datetime
 import json
 import math
 import platform
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 
-from localisation.base import Localiser, Motion, PoseEstimate, Prior
+from localisation.base import Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 
 from .world import SONAR_MODELS, ConfigError, Map, NxtnavError, Pose, Scan, SonarModel
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
-           "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "versions"]
+           "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "thin_cloud", "versions"]
 
 FORMAT_NAME = "nxtnav-recording"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 """Version 2 adds to version 1: a ``true_pose`` whose heading is null (the position is known, the
 heading is not), scans whose ``t_start`` and ``t`` are null (no robot clock) and a scan's ``label``.
-Readers read both versions; a version-1 reader refuses version-2 files by their version."""
+Version 3 adds the ``plan`` event and an estimate's optional ``particles``. Readers read every
+version up to theirs; an older reader refuses a newer file by its version."""
 
 
 def encode_floats(values: Any) -> list[float | str]:
@@ -135,6 +141,23 @@ def scan_from_fields(e: dict[str, Any]) -> Scan:
     return Scan(angles, ranges, valid)
 
 
+def thin_cloud(poses: Any, weights: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """At most `n` particles of a cloud, chosen without drawing a random number: evenly spaced
+    indices (a cloud's order carries no meaning), with their weights renormalised to sum to 1.
+
+    >>> p, w = thin_cloud(np.zeros((10, 3)), np.full(10, 0.1), 4)
+    >>> p.shape, w.round(3).tolist()
+    ((4, 3), [0.25, 0.25, 0.25, 0.25])
+    """
+    p = np.asarray(poses, dtype=float).reshape(-1, 3)
+    w = np.asarray(weights, dtype=float).ravel()
+    if n < p.shape[0]:
+        keep = np.unique(np.linspace(0, p.shape[0] - 1, max(int(n), 1)).round().astype(np.int64))
+        p, w = p[keep], w[keep]
+    total = float(w.sum())
+    return p, (w / total if total > 0 and np.isfinite(total) else np.full(w.size, 1.0 / max(w.size, 1)))
+
+
 def versions() -> dict[str, str]:
     """Versions of nxtnav, numpy and Python (the header's ``versions``)."""
     try:
@@ -183,14 +206,25 @@ class Recorder:
         ``true_pose`` themselves (the virtual brick's world).
     extra : mapping, optional
         More header fields (noise model, ...).
+    particles : int
+        With each estimate of a localiser that keeps a particle cloud, write at most this many of its
+        particles (`thin_cloud`); 0 writes none.
+    listeners : sequence of callables
+        Each is called with every line's dict (the header first) after it is written.
     """
 
-    def __init__(self, out: str | Path | IO[str], *, map: Map, robot: dict[str, Any], sonar: dict[str, Any],
-                 seed: int | None, truth: Callable[[], Pose | None] | None = None,
-                 extra: dict[str, Any] | None = None) -> None:
-        self._fh: IO[str] = out if not isinstance(out, str | Path) else Path(out).open("w", encoding="utf-8")
+    def __init__(self, out: str | Path | IO[str] | None, *, map: Map, robot: dict[str, Any],
+                 sonar: dict[str, Any], seed: int | None, truth: Callable[[], Pose | None] | None = None,
+                 extra: dict[str, Any] | None = None, particles: int = 0,
+                 listeners: Sequence[Callable[[dict[str, Any]], None]] = ()) -> None:
+        if particles < 0:
+            raise ConfigError(f"particles to record must be >= 0, got {particles}")
+        self._fh: IO[str] | None = out if not isinstance(out, str | Path) else Path(out).open("w", encoding="utf-8")
         self._own = isinstance(out, str | Path)
+        self._closed = False
         self._truth = truth
+        self.particles = int(particles)
+        self.listeners = list(listeners)
         self._scans = 0
         self._last_scan: Scan | None = None
         self.lines = 0
@@ -202,9 +236,12 @@ class Recorder:
 
     # -- writing --------------------------------------------------------------------------------
     def _write(self, obj: dict[str, Any]) -> None:
-        self._fh.write(json.dumps(obj, allow_nan=False, separators=(",", ":")) + "\n")
-        self._fh.flush()
+        if self._fh is not None:
+            self._fh.write(json.dumps(obj, allow_nan=False, separators=(",", ":")) + "\n")
+            self._fh.flush()
         self.lines += 1
+        for listen in self.listeners:
+            listen(obj)
 
     def event(self, kind: str, **fields: Any) -> None:
         """Write one event line ``{"type": kind, ...}``."""
@@ -212,11 +249,12 @@ class Recorder:
 
     def close(self, status: str | None = None, success: bool | None = None, *, end: bool = True) -> None:
         """Write the ``end`` line (unless `end` is False: the run broke off) and close the file."""
-        if self._fh.closed:
+        if self._closed or (self._fh is not None and self._fh.closed):
             return
         if end:
             self._write({"type": "end", "status": status, "success": success})
-        if self._own:
+        self._closed = True
+        if self._own and self._fh is not None:
             self._fh.close()
 
     def true_pose(self, robot: Any) -> list[float] | None:
@@ -259,6 +297,20 @@ class Recorder:
         self._last_scan = scan
         self._scans += 1
         return sid
+
+    def plan_event(self, path: Any) -> None:
+        """A path the mission planned (cm), from the robot's estimate to the target (version 3)."""
+        self.event("plan", path=[encode_floats(p) for p in np.asarray(path, dtype=float).reshape(-1, 2)])
+
+    def estimate_event(self, estimate: PoseEstimate, localiser: Localiser) -> None:
+        """An estimate, with the localiser's thinned particle cloud when `particles` asks for one."""
+        fields = _estimate(estimate)
+        cloud = localiser.cloud() if self.particles else None
+        if cloud is not None:
+            poses, weights = thin_cloud(cloud[0], cloud[1], self.particles)
+            fields["particles"] = {"n": int(np.asarray(cloud[1]).size), "poses": [encode_floats(p) for p in poses],
+                                   "weights": encode_floats(weights)}
+        self.event("estimate", **fields)
 
     def reset_event(self, prior: Prior | None) -> None:
         """A reset of the localiser: global (`prior` None) or around a prior."""
@@ -338,7 +390,7 @@ class _RecordingLocaliser(Localiser):
         return getattr(self._inner, name)
 
     def _after(self) -> None:
-        self._rec.event("estimate", **_estimate(self._inner.estimate()))
+        self._rec.estimate_event(self._inner.estimate(), self._inner)
 
     def reset(self, prior: Prior | None = None) -> None:
         self._rec.reset_event(prior)
@@ -357,3 +409,19 @@ class _RecordingLocaliser(Localiser):
 
     def estimate(self) -> PoseEstimate:
         return self._inner.estimate()
+
+    # what the base class defines would hide the inner localiser's own: pass them through
+    @property
+    def modes(self) -> list[Mode]:
+        return self._inner.modes
+
+    @property
+    def snapshots(self) -> Sequence[Snapshot]:  # type: ignore[override]
+        return self._inner.snapshots
+
+    @property
+    def needs_prior(self) -> bool:  # type: ignore[override]
+        return self._inner.needs_prior
+
+    def cloud(self) -> tuple[np.ndarray, np.ndarray] | None:
+        return self._inner.cloud()

@@ -244,10 +244,38 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
         _cov(e, "cov", where)
         _need(e, "converged", bool, where)
         _need(e, "iterations", int, where)
+        if "particles" in e:
+            _since(3, "field 'particles'", where, version)
+            _particles(_need(e, "particles", dict, where), where)
+    elif kind == "plan":
+        _since(3, "a 'plan' event", where, version)
+        path = _need(e, "path", list, where)
+        if len(path) < 2 or not all(isinstance(p, list) for p in path):
+            raise RecordingError(f"{where}: field 'path' must list at least two [x, y] points")
+        for p in path:
+            _floats({"path": p}, "path", where, 2)
     elif kind == "end":
         pass
     else:
         raise RecordingError(f"{where}: unknown event type {kind!r}")
+
+
+def _since(version: int, what: str, where: str, got: int) -> None:
+    if got < version:
+        raise RecordingError(f"{where}: {what} needs format version {version} (the header says {got})")
+
+
+def _particles(cloud: dict[str, Any], where: str) -> None:
+    """Check an estimate's ``particles``: ``n`` (the whole cloud's size), ``poses`` and ``weights``."""
+    n = _need(cloud, "n", int, where + ": particles")
+    poses = _need(cloud, "poses", list, where + ": particles")
+    if not all(isinstance(p, list) for p in poses):
+        raise RecordingError(f"{where}: particles: field 'poses' must list [x, y, theta] triples")
+    for p in poses:
+        _floats({"poses": p}, "poses", where + ": particles", 3)
+    _floats(cloud, "weights", where + ": particles", len(poses))
+    if n < len(poses):
+        raise RecordingError(f"{where}: particles: field 'n' ({n}) is smaller than the {len(poses)} poses")
 
 
 def read_recording(path: str | Path) -> Recording:

@@ -103,6 +103,12 @@ def run(
     profile: Path | None = typer.Option(None, "--profile", metavar="FILE", help="NXT calibration profile."),
     record: Path | None = typer.Option(None, "--record", metavar="FILE.jsonl",
                                        help="Record every command, scan and localiser call (docs/recording.md)."),
+    record_particles: int = typer.Option(
+        100, "--record-particles", min=0, metavar="N",
+        help="With --record or a view: keep at most N particles of the cloud with each estimate (0: none)."),
+    view: bool = typer.Option(False, "--view", help="Watch the mission live in a Rerun viewer (extra 'viz')."),
+    view_save: Path | None = typer.Option(None, "--view-save", metavar="FILE.rrd",
+                                          help="Stream the live view into a Rerun file instead of a viewer."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
     from ..mission import MissionConfig, localiser_options, run_mission, run_sim_mission
@@ -126,6 +132,8 @@ def run(
     check_writable(json_out, "--json")
     check_writable(plot, "--plot")
     check_writable(animate, "--animate")
+    check_writable(view_save, "--view-save")
+    stream = _view_stream(view, view_save)
     if start_text is not None and random_start:
         raise typer.BadParameter("give either --start or --random-start", param_hint="--start")
     target = np.array(parse_xy(target_text, "--target")) if target_text is not None else m.target
@@ -145,10 +153,11 @@ def run(
         report: Any = None
         robot_radius = float(robot.geometry.radius_cm)
         try:
-            if record is not None:
+            if record is not None or stream is not None:
                 recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
                                                  "profile": robot.profile.to_dict()},
-                                     {"model": "nxt", "params": sonar_model.to_dict()}, seed, None)
+                                     {"model": "nxt", "params": sonar_model.to_dict()}, seed, None,
+                                     record_particles, stream)
             # the virtual brick draws every reading independently; a real sensor's readings share errors
             robot_model = RobotModel(sonar_model, geometry=robot.geometry,
                                      readings="simulated" if robot.virtual else "real")
@@ -157,7 +166,7 @@ def run(
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=recorder)
         finally:
             robot.close()
-            _finish(recorder, report)
+            _finish(recorder, report, stream)
         model_time = robot.model_time_s
     else:
         model_time = math.nan
@@ -170,10 +179,10 @@ def run(
                 raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
                                          param_hint="--start")
 
-        recorder = None if record is None else _recorder(
+        recorder = None if record is None and stream is None else _recorder(
             record, m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
             {"model": sonar, "sensor_noise": sensor_noise, "params": sonar_model.to_dict()}, seed,
-            {"model": noise_model, "motion": motion_noise, "turn": turn_noise})
+            {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles, stream)
         report = None
         try:
             report = run_sim_mission(
@@ -182,10 +191,12 @@ def run(
                 turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar, recorder=recorder, robot_radius_cm=radius,
             )
         finally:
-            _finish(recorder, report)
+            _finish(recorder, report, stream)
     typer.echo(report.summary())
     if record is not None:
         typer.echo(f"wrote {record}")
+    if view_save is not None:
+        typer.echo(f"wrote {view_save}")
     if robot_kind == "nxt":
         typer.echo(f"robot time by the simulator's time model for the same commands: {model_time:.1f} s")
     if json_out is not None:
@@ -217,23 +228,46 @@ def run(
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED if reachable else EXIT_BAD_INPUT)
 
 
-def _recorder(path: Path, m: Any, robot: dict[str, Any], sonar: dict[str, Any], seed: int,
-              noise: dict[str, Any] | None) -> Any:
+def _view_stream(view: bool, save: Path | None) -> Any:
+    """The live view's Rerun stream (a viewer, or the file `save`), or None without a view."""
+    if not view and save is None:
+        return None
+    from ..view.live import open_stream
+
+    return open_stream(save)
+
+
+def _recorder(path: Path | None, m: Any, robot: dict[str, Any], sonar: dict[str, Any], seed: int,
+              noise: dict[str, Any] | None, particles: int, stream: Any = None) -> Any:
+    """The run's `Recorder`: writing `path` (None: no file) and feeding the live view on `stream`."""
     from ..recording import Recorder
 
+    listeners = []
+    if stream is not None:
+        from ..view.live import LiveView
+
+        listeners.append(LiveView(stream))
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        return Recorder(path, map=m, robot=robot, sonar=sonar, seed=seed,
-                        extra=None if noise is None else {"noise": noise})
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        recorder = Recorder(path, map=m, robot=robot, sonar=sonar, seed=seed,
+                            extra=None if noise is None else {"noise": noise}, particles=particles,
+                            listeners=listeners)
     except OSError as exc:
         raise NxtnavError(f"--record: cannot write {path} ({exc.strerror or exc})") from None
+    return recorder
 
 
-def _finish(recorder: Any, report: Any) -> None:
-    """Close a recording: with its ``end`` line after a mission that ran, without one (cut short) after an error."""
+def _finish(recorder: Any, report: Any, stream: Any) -> None:
+    """Close a recording: with its ``end`` line after a mission that ran, without one (cut short) after an error;
+    then the live view's stream."""
     if recorder is not None:
         recorder.close(None if report is None else report.status, None if report is None else report.success,
                        end=report is not None)
+    if stream is not None:
+        from ..view.live import close_stream
+
+        close_stream(stream)
 
 
 def _names(text: str, option: str, known: list[str]) -> list[str]:

@@ -112,7 +112,8 @@ def run_mission(
     start = start_pose if isinstance(start_pose, Pose) else None
     time0 = float(robot.robot_time_s)
     counters0 = _robot_counters(robot)
-    mission = _Mission(robot, m, tgt, plan_obj, build_localiser, plan_rng, cfg, procedure)
+    mission = _Mission(robot, m, tgt, plan_obj, build_localiser, plan_rng, cfg, procedure,
+                       on_plan=None if recorder is None else recorder.plan_event)
     try:
         outcome, status = mission.run()
     except _MissionEnded as end:

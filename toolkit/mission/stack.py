@@ -52,8 +52,10 @@ class _Mission:
 
     def __init__(self, robot: Robot, m: Map, target: FloatArray, planner: Planner,
                  localiser: Callable[[], Localiser], rng: np.random.Generator, config: MissionConfig,
-                 procedure: LocaliseProcedure = localise) -> None:
+                 procedure: LocaliseProcedure = localise,
+                 on_plan: Callable[[FloatArray], None] | None = None) -> None:
         self.robot = robot
+        self._on_plan = on_plan  # told every path the mission will drive (a recorder, a live view)
         self.map = m
         self.target = target
         self.planner = planner
@@ -498,6 +500,8 @@ class _Mission:
         keep[1:] = np.hypot(*np.diff(path, axis=0).T) > 1e-6
         path = path[keep]
         self.plans.append(path)
+        if self._on_plan is not None:
+            self._on_plan(path)
         length = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
         if len(self.plans) == 1:
             self.planned_length = length

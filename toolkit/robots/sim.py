@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..world import (
     CollisionChecker,
@@ -44,6 +44,8 @@ from ..world import (
 )
 
 __all__ = ["MotionNoise", "RobotTiming", "SimRobot", "simulated_sonar"]
+
+FloatArray = NDArray[np.float64]
 
 NoiseModelName = Literal["botsim", "absolute"]
 
@@ -120,6 +122,12 @@ class RobotTiming:
     def scan(self, angles_rad: ArrayLike) -> float:
         """Whole time (s) of an Ultrascan over `angles_rad`, turret return included."""
         return sum(self.sweep(angles_rad))
+
+    def reading_times(self, angles_rad: ArrayLike) -> FloatArray:
+        """When each reading of an Ultrascan over `angles_rad` is done (s after the sweep starts): the
+        turret's travel to each angle plus one reading time per reading; the last is the sweep time."""
+        deg = np.degrees(np.asarray(angles_rad, dtype=float).ravel())
+        return np.cumsum(np.abs(np.diff(deg, prepend=0.0)) / self.turret_rate_deg_s + self.reading_s)
 
     def to_dict(self) -> dict[str, float]:
         return {k: float(getattr(self, k)) for k in self.__dataclass_fields__}
@@ -201,6 +209,7 @@ class SimRobot:
         self.drive_s = 0.0
         self.turn_s = 0.0
         self.readings = 0
+        self.last_scan_times_s: FloatArray | None = None  # robot time of each reading of the last sweep
         self.closed = False
 
     # -- truth (evaluation only) ------------------------------------------------------------------
@@ -302,6 +311,7 @@ class SimRobot:
         origins = p.xy[None, :] + off * np.column_stack([np.cos(absolute), np.sin(absolute)])
         ranges = self.sonar.measure(self.map.walls, origins, absolute[:, None], self.rng)[:, 0]
         sweep, back = self.timing.sweep(rel)
+        self.last_scan_times_s = self._time + self.timing.reading_times(rel)
         self.sweep_s += sweep
         self.turret_return_s += back
         self.readings += int(rel.size)

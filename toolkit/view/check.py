@@ -1,0 +1,89 @@
+"""`make view-check`: render a saved run (.rrd) in Rerun's web viewer in headless Chromium, save a screenshot.
+
+The rerun-sdk wheel ships the ``rerun`` program with its web viewer built in: ``rerun --web-viewer``
+serves the viewer over HTTP and the recording over gRPC, both on this machine only. Chromium (the
+Debian package) opens the page headless, drawing with its software rasteriser (SwiftShader), driven
+by Playwright; the screenshot is taken once two frames two seconds apart are the same and the page
+shows the viewer (not its loading screen).
+
+Usage: ``python -m toolkit.view.check RUN.rrd OUT.png``
+"""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.parse
+import urllib.request
+from pathlib import Path
+
+__all__ = ["screenshot"]
+
+CHROMIUM_ARGS = ["--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader", "--ignore-gpu-blocklist"]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _wait_http(url: str, timeout_s: float) -> None:
+    end = time.monotonic() + timeout_s
+    while True:
+        try:
+            with urllib.request.urlopen(url, timeout=2.0):
+                return
+        except OSError:
+            if time.monotonic() > end:
+                raise RuntimeError(f"the Rerun web viewer did not answer at {url} in {timeout_s:g} s") from None
+            time.sleep(0.2)
+
+
+def screenshot(rrd: Path, png: Path, *, size: tuple[int, int] = (1280, 800), timeout_s: float = 120.0) -> None:
+    """Serve `rrd` with ``rerun --web-viewer``, open it in headless Chromium and save `png`."""
+    from playwright.sync_api import sync_playwright
+
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        raise RuntimeError("no chromium on PATH (Debian: apt-get install chromium)")
+    rerun = Path(sys.executable).with_name("rerun")
+    web, grpc = _free_port(), _free_port()
+    server = subprocess.Popen([str(rerun), "--web-viewer", "--bind", "127.0.0.1", "--web-viewer-port", str(web),
+                               "--port", str(grpc), "--hide-welcome-screen", str(rrd)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        page_url = f"http://127.0.0.1:{web}/"
+        _wait_http(page_url, 30.0)
+        data = urllib.parse.quote(f"rerun+http://127.0.0.1:{grpc}/proxy", safe="")
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=chromium, headless=True, args=CHROMIUM_ARGS)
+            page = browser.new_page(viewport={"width": size[0], "height": size[1]})
+            page.goto(f"{page_url}?url={data}")
+            end = time.monotonic() + timeout_s
+            last = b""
+            while True:
+                page.wait_for_timeout(2000)
+                shot = page.screenshot()
+                loading = page.get_by_text("Loading").count() > 0
+                if shot == last and not loading:
+                    break
+                if time.monotonic() > end:
+                    raise RuntimeError(f"the viewer did not settle in {timeout_s:g} s")
+                last = shot
+            browser.close()
+        png.parent.mkdir(parents=True, exist_ok=True)
+        png.write_bytes(last)
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
+
+
+if __name__ == "__main__":  # pragma: no cover - the make target
+    if len(sys.argv) != 3:
+        sys.exit("usage: python -m toolkit.view.check RUN.rrd OUT.png")
+    screenshot(Path(sys.argv[1]), Path(sys.argv[2]))
+    print(f"wrote {sys.argv[2]}")
