@@ -17,6 +17,7 @@ from .geometry import (
 )
 from .grids import OccupancyGrid, grid_to_map, polygonise
 from .importers import import_map
+from .laser import LaserScanner
 from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_map, map_from_dict
 from .point_collision import PointCollisionChecker, make_checker
 from .registry import Registry
@@ -31,6 +32,7 @@ __all__ = [
     "ConfigError",
     "GridSpec",
     "IdealSonar",
+    "LaserScanner",
     "LocalisationError",
     "Map",
     "MapError",
