@@ -167,6 +167,10 @@ class Amcl(Localiser):
         readings are evidence, wrong readings are bounded) instead of the nav2 mixture of `sigma_hit`
         and the `z` weights; its lobe, specular loss and range limit replace `beam_width_deg` and
         `critical_incidence_deg`.
+    cast_exact : bool
+        Beam model: every beam is ray cast exactly (`exact_ranges`, a thin ray up to `laser_max_range`)
+        instead of read from the range table, which is then never built: for a laser's precise readings
+        on a building-size map, whose table would take minutes to cast and more memory than it is worth.
     lobe_rays : int
         Beam model with a lobe (and `beam_interpolation`): where the table nodes around a pose differ
         by more than a smooth reading can (a wall entering the lobe, a corner), the lobe is cast
@@ -222,6 +226,7 @@ class Amcl(Localiser):
         beam_interpolation: bool = True,
         ambiguity_injection: float = 0.1,
         lobe_rays: int = 21,
+        cast_exact: bool = False,
         sonar_model: NxtSonar | None = None,
     ) -> None:
         super().__init__(map, rng=rng)
@@ -279,6 +284,7 @@ class Amcl(Localiser):
         # the range table (and its lattice) is built on first use: the likelihood field needs neither
         # while tracking, and a building-size map's table takes minutes to cast
         self._table_args = (float(beam_width_deg), critical_incidence_deg, max_range_cm)
+        self.cast_exact = bool(cast_exact)
         self._table: RangeTable | None = None
         self._lattice: RangeLattice | None = None
         self._lattice_step = int(lattice_step)
@@ -464,7 +470,7 @@ class Amcl(Localiser):
     def _free(self, xy: FloatArray, clearance: float) -> NDArray[np.bool_]:
         """Positions inside the free area at least `clearance` cm from the walls: from the map itself for
         the likelihood field (no range table), from the table's cells for the beam model."""
-        if self.field is None:
+        if self.field is None and not self.cast_exact:
             return self.table.free(xy, clearance)
         ok = np.asarray(self.map.contains(xy), dtype=bool)
         if clearance > 0 and ok.any():
@@ -474,7 +480,11 @@ class Amcl(Localiser):
     def _expected_ranges(self, p: FloatArray, rel: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
         """Expected ranges (N, B) of the beam model and the poses inside the table: with
         `beam_interpolation`, trilinear between the 8 surrounding table nodes (cell centres x table
-        directions) where all 8 are free and see a wall, the nearest node elsewhere."""
+        directions) where all 8 are free and see a wall, the nearest node elsewhere; with `cast_exact`,
+        exact ray casting."""
+        if self.cast_exact:
+            cast = exact_ranges(self.map, p, rel, max_range_cm=self.laser_max_range)
+            return cast, self._free(p[:, :2], 0.0)
         near, inside = self.table.lookup(p, rel)
         if not self.beam_interpolation:
             return near.astype(float), inside
