@@ -11,6 +11,8 @@
     path (``delta`` 1 m, all pairs, pairs chosen on the truth): the error one metre of driving adds,
     whatever the frames. RMSE over the pairs; NaN when the truth never covers a metre.
 
+All three are NaN for fewer than three poses, or true positions all on one line (no unique alignment).
+
 Positions are in cm and headings in rad on the way in; evo works in metres.
 """
 
@@ -63,6 +65,7 @@ def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | 
         Times of the poses (s); default 0, 1, 2, ...
     """
     from evo.core import metrics
+    from evo.core.geometry import GeometryException
     from evo.core.units import Unit
 
     t = np.asarray(truth, dtype=float).reshape(-1, 3)
@@ -75,7 +78,10 @@ def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | 
     s = np.arange(n, dtype=float) if stamps is None else np.asarray(stamps, dtype=float).ravel()
     ref, est = _trajectory(t, s), _trajectory(e, s)
     aligned = copy.deepcopy(est)
-    aligned.align(ref, correct_scale=False)
+    try:
+        aligned.align(ref, correct_scale=False)
+    except GeometryException:  # every position on one line: no unique alignment
+        return TrajectoryScores(math.nan, math.nan, math.nan, n)
     ape_t = metrics.APE(metrics.PoseRelation.translation_part)
     ape_t.process_data((ref, aligned))
     ape_r = metrics.APE(metrics.PoseRelation.rotation_angle_deg)
