@@ -69,7 +69,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from toolkit.world import (
-    NO_ECHO,
     ConfigError,
     LocalisationError,
     Map,
@@ -86,7 +85,7 @@ from toolkit.world import (
 from .adaptive import kld_bound, log_blend, log_mean_exp
 from .ambiguity import lattice_candidates
 from .base import Localiser, Mode, Motion, PoseEstimate, Prior
-from .beam_model import BeamLikelihood, lattice_costs, scan_readings
+from .beam_model import BeamLikelihood, echo_mask, lattice_costs, scan_readings
 from .declarations import AMCL_PARAMS, AMCL_ROBOT
 from .likelihood_field import DistanceField
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
@@ -171,6 +170,10 @@ class Amcl(Localiser):
         readings are evidence, wrong readings are bounded) instead of the nav2 mixture of `sigma_hit`
         and the `z` weights; its lobe, specular loss and range limit replace `beam_width_deg` and
         `critical_incidence_deg`.
+    cast_exact : bool
+        Beam model: every beam is ray cast exactly (`exact_ranges`, a thin ray up to `laser_max_range`)
+        instead of read from the range table, which is then never built: for a laser's precise readings
+        on a building-size map, whose table would take minutes to cast and more memory than it is worth.
     lobe_rays : int
         Beam model with a lobe (and `beam_interpolation`): where the table nodes around a pose differ
         by more than a smooth reading can (a wall entering the lobe, a corner), the lobe is cast
@@ -226,6 +229,7 @@ class Amcl(Localiser):
         beam_interpolation: bool = True,
         ambiguity_injection: float = 0.1,
         lobe_rays: int = 21,
+        cast_exact: bool = False,
         sonar_model: NxtSonar | None = None,
     ) -> None:
         super().__init__(map, rng=rng)
@@ -280,13 +284,18 @@ class Amcl(Localiser):
         self.ambiguity_nats = float(ambiguity_nats)
         self.mode_radius_cm = float(mode_radius_cm)
         self.mode_heading_rad = math.radians(mode_heading_deg)
-        self.table: RangeTable = range_table(map, 1.0, 360, None, beam_width_deg, critical_incidence_deg,
-                                             max_range_cm=max_range_cm)
+        # the range table (and its lattice) is built on first use: the likelihood field needs neither
+        # while tracking, and a building-size map's table takes minutes to cast
+        self._table_args = (float(beam_width_deg), critical_incidence_deg, max_range_cm)
+        self.cast_exact = bool(cast_exact)
+        self._table: RangeTable | None = None
+        self._lattice: RangeLattice | None = None
+        self._lattice_step = int(lattice_step)
         self._gaussian = RangeLikelihood(self.sigma_hit)
         self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
         self.beam_interpolation = bool(beam_interpolation)
         self._lobe: dict[str, Any] | None = None
-        half = round(self.table.beam_width_deg / 2.0 / (360.0 / self.table.n_angles))
+        half = round(max(float(beam_width_deg), 0.0) / 2.0)  # lobe half-width in the table's whole degrees
         if lobe_rays > 0 and half >= 1:
             crit = self.table.critical_incidence_deg
             self._lobe = {"beam_width_deg": 2.0 * half * 360.0 / self.table.n_angles, "beam_rays": int(lobe_rays),
@@ -297,7 +306,6 @@ class Amcl(Localiser):
             self._step_per_cm = math.sqrt(1.0 / cos_crit**2 - 1.0) * 2.0 * math.pi / self.table.n_angles
         self.ambiguity_injection = float(ambiguity_injection)
         self._ambiguous_fix = False
-        self.lattice: RangeLattice = range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
         self.field: DistanceField | None = (
             DistanceField(map, field_resolution_cm, laser_likelihood_max_dist) if self.model == "field" else None)
         self.particles: FloatArray = np.zeros((0, 3))
@@ -349,7 +357,7 @@ class Amcl(Localiser):
             ok = scan.valid & np.isfinite(scan.ranges) & (scan.ranges < self.laser_max_range)
             rel = np.asarray(scan.angles[ok], dtype=float)
             meas = np.asarray(scan.ranges[ok], dtype=float)
-        if not np.any(meas < NO_ECHO):
+        if not np.any(echo_mask(meas, self._lik)):
             log.warning("scan without usable readings: belief unchanged")
             return
         self._ssd = None
@@ -438,7 +446,7 @@ class Amcl(Localiser):
                     eta = 1.0 / np.maximum(1.0 - np.exp(-lam * np.minimum(e, 1e6)), 1e-12)
                     dens += np.where(short, self.z_short * eta * lam * np.exp(-lam * meas[None, :]), 0.0)
         else:
-            inside = self.table.free(p[:, :2], 0.0)
+            inside = self._free(p[:, :2], 0.0)
             ang = p[:, 2:3] + rel[None, :]
             ends = np.stack([p[:, 0:1] + meas * np.cos(ang), p[:, 1:2] + meas * np.sin(ang)], axis=-1)
             d = self.field(ends) / self.sigma_hit
@@ -447,10 +455,39 @@ class Amcl(Localiser):
         return np.where(inside, ll, -np.inf)
 
     # -- internals ----------------------------------------------------------------------------------
+    @property
+    def table(self) -> RangeTable:
+        """The beam model's range table (built on first use)."""
+        if self._table is None:
+            width, crit, reach = self._table_args
+            self._table = range_table(self.map, 1.0, 360, None, width, crit, max_range_cm=reach)
+        return self._table
+
+    @property
+    def lattice(self) -> RangeLattice:
+        """The lattice of poses that scan draws and ambiguity checks score (built on first use)."""
+        if self._lattice is None:
+            self._lattice = range_lattice(self.table, self._lattice_step, max(self.clearance_cm - 1.0, 0.0))
+        return self._lattice
+
+    def _free(self, xy: FloatArray, clearance: float) -> NDArray[np.bool_]:
+        """Positions inside the free area at least `clearance` cm from the walls: from the map itself for
+        the likelihood field (no range table), from the table's cells for the beam model."""
+        if self.field is None and not self.cast_exact:
+            return self.table.free(xy, clearance)
+        ok = np.asarray(self.map.contains(xy), dtype=bool)
+        if clearance > 0 and ok.any():
+            ok[ok] = np.asarray(self.map.wall_distance(xy[ok]), dtype=float) >= clearance
+        return ok
+
     def _expected_ranges(self, p: FloatArray, rel: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
         """Expected ranges (N, B) of the beam model and the poses inside the table: with
         `beam_interpolation`, trilinear between the 8 surrounding table nodes (cell centres x table
-        directions) where all 8 are free and see a wall, the nearest node elsewhere."""
+        directions) where all 8 are free and see a wall, the nearest node elsewhere; with `cast_exact`,
+        exact ray casting."""
+        if self.cast_exact:
+            cast = exact_ranges(self.map, p, rel, max_range_cm=self.laser_max_range)
+            return cast, self._free(p[:, :2], 0.0)
         near, inside = self.table.lookup(p, rel)
         if not self.beam_interpolation:
             return near.astype(float), inside
@@ -588,7 +625,7 @@ class Amcl(Localiser):
         have = 0
         while have < n:
             cand = self.rng.uniform([xmin, ymin], [xmax, ymax], size=(2 * (n - have) + 64, 2))
-            keep = cand[self.table.free(cand, self.clearance_cm)]
+            keep = cand[self._free(cand, self.clearance_cm)]
             out.append(keep)
             have += len(keep)
         xy = np.vstack(out)[:n]

@@ -35,7 +35,7 @@ from toolkit.world import NO_ECHO, NxtSonar, Scan
 from .range_table import RangeLattice, quantise_ranges
 from .scan import drop_stuck, sweep_step
 
-__all__ = ["BeamLikelihood", "MeasurementModel", "lattice_costs", "scan_readings"]
+__all__ = ["BeamLikelihood", "MeasurementModel", "echo_mask", "lattice_costs", "scan_readings"]
 
 FloatArray = NDArray[np.float64]
 
@@ -183,3 +183,11 @@ def scan_readings(scan: Scan, model: Any) -> tuple[FloatArray, FloatArray, Any]:
     ok = (kept.valid & np.isfinite(kept.ranges)) | silent
     meas = np.where(silent, NO_ECHO, kept.ranges)[ok]
     return np.asarray(kept.angles[ok], dtype=float), np.asarray(meas, dtype=float), model.with_step(step)
+
+
+def echo_mask(meas: Any, model: Any) -> NDArray[np.bool_]:
+    """Which readings `scan_readings` returned for `model` are echoes: below 255 for a `BeamLikelihood`
+    (whose readings include the no-echo 255s), every one for other models (they get echoes only, and a
+    laser's echoes lie far beyond 255 cm)."""
+    m = np.asarray(meas, dtype=float)
+    return m < NO_ECHO if isinstance(model, BeamLikelihood) else np.isfinite(m)

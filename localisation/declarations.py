@@ -141,6 +141,7 @@ AMCL_PARAMS = Params(
           "the scan", low=0.0, high=1.0),
     Param("lobe_rays", int, 21, "Rays of an exactly cast lobe where the table cannot be trusted (0: table only)",
           low=0, robot=True),
+    Param("cast_exact", bool, False, "Beam model: cast every beam exactly instead of reading the range table"),
     _SONAR_MODEL,
 )
 AMCL_ROBOT: dict[str, tuple[str, ...] | str] = {

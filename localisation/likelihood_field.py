@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import shapely
 from numpy.typing import NDArray
 
 from toolkit.world import ConfigError, Map
@@ -19,7 +18,7 @@ FloatArray = NDArray[np.float64]
 class DistanceField:
     """Distance (cm) from any point to the nearest wall: exact at the nodes of a square grid, bilinear between.
 
-    Built once per map with an STR-tree of the wall segments (one nearest-segment query per node);
+    Built once per map from the exact wall distance of every node (`Map.wall_distance`, indexed);
     a lookup is four array reads per point, independent of the number of walls. Distances are capped
     at `max_dist_cm`.
 
@@ -43,9 +42,7 @@ class DistanceField:
         ny = math.ceil((ymax - ymin) / resolution_cm) + 1
         gx, gy = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
         nodes = self.origin + np.column_stack([gx.ravel(), gy.ravel()]) * resolution_cm
-        segs = shapely.linestrings(np.asarray(map.walls, dtype=float).reshape(-1, 2, 2))
-        tree = shapely.STRtree(segs)
-        _, dist = tree.query_nearest(shapely.points(nodes), return_distance=True, all_matches=False)
+        dist = np.asarray(map.wall_distance(nodes), dtype=float)  # exact, over the walls' grid index
         self.grid = np.minimum(dist, self.max_dist_cm).reshape(nx, ny)
 
     def __call__(self, xy: FloatArray) -> FloatArray:

@@ -49,7 +49,7 @@ from toolkit.world import (
 
 from .annealing import GaussianPrior, best_lattice_poses, log_prior, next_beta, predicted_prior
 from .base import Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
-from .beam_model import BeamLikelihood, MeasurementModel, lattice_costs, scan_readings
+from .beam_model import BeamLikelihood, MeasurementModel, echo_mask, lattice_costs, scan_readings
 from .clusters import cloud_stats, cluster, describe_modes, mode_stds
 from .declarations import PF_PARAMS, PF_ROBOT
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
@@ -363,7 +363,7 @@ class ParticleFilter(Localiser):
 
     def update(self, scan: Scan) -> None:
         rel, meas, self.likelihood = scan_readings(scan, self._likelihood)
-        if not np.any(meas < NO_ECHO):
+        if not np.any(echo_mask(meas, self.likelihood)):
             log.warning("scan without usable readings: belief unchanged")
             return
         tracking = not self._global
@@ -456,7 +456,8 @@ class ParticleFilter(Localiser):
         p = self.particles
         log_w = self.log_weights
         n_beams = meas.size
-        typical_range = float(np.median(meas[meas < NO_ECHO]))
+        near = meas[meas < NO_ECHO]  # a laser's readings may all lie beyond the sonar's 255 cm
+        typical_range = float(np.median(near if near.size else meas[echo_mask(meas, self.likelihood)]))
         clear = max(self.clearance_cm - 1.0, 0.0)
         if self._global and n_beams > self.global_beams:
             sub = np.linspace(0, n_beams - 1, self.global_beams).round().astype(np.int64)

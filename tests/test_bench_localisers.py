@@ -380,7 +380,7 @@ def test_a_raising_localiser_is_a_failed_trial_not_a_crash(tmp_path: Path, oracl
         (["--localisers", "nope"], "unknown nope"),
         (["--trials", "0"], "trials"),
         (["--workers", "0"], "workers"),
-        (["--sonar", "laser"], "laser"),
+        (["--sonar", "radar"], "radar"),
         (["--scenario", "lost"], "unknown lost"),
         (["--tracker-prior", "oracle"], "tracker prior"),
         (["--set", "novalue"], "KEY=VALUE"),
@@ -416,7 +416,7 @@ def test_bench_bad_input_exits_2(tmp_path: Path, oracles: list[str], capsys: pyt
         (["--pose", "3,3,0"], "collision"),  # inside, but the robot disc overlaps the walls
         (["--map", "nomap"], "nomap"),
         (["--localiser", "nope"], "unknown nope"),
-        (["--sonar", "laser"], "laser"),
+        (["--sonar", "radar"], "radar"),
     ],
 )
 def test_localise_bad_input_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str],

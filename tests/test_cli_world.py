@@ -111,7 +111,7 @@ def test_scan_nxt_has_nulls_for_no_echo(tmp_path: Path) -> None:
         (["scan", "--map", "map1", "--pose", "20,85", "-o", "x.png"], "--pose: expected 3"),
         (["scan", "--map", "nomap", "--pose", "1,1,0", "-o", "x.png"], "unknown map 'nomap'"),
         (["scan", "--map", "map1", "--pose", "500,1,0", "-o", "x.png"], "outside the free area"),
-        (["scan", "--map", "map1", "--pose", "20,20,0", "--sonar", "laser", "-o", "x.png"], "unknown sonar model"),
+        (["scan", "--map", "map1", "--pose", "20,20,0", "--sonar", "radar", "-o", "x.png"], "unknown sonar model"),
         (["maps", "show", "missing.yaml", "-o", "x.png"], "not found"),
     ],
 )

@@ -69,7 +69,7 @@ def test_nxt_test_passes_against_brick_serve(tmp_path: Path) -> None:
 def test_brick_serve_option_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert run_cli(["brick", "serve", "--pose", "2,2,0", "--port", "0"]) == 2
     assert "collision or outside map" in capsys.readouterr().err
-    assert run_cli(["brick", "serve", "--sonar", "laser", "--port", "0"]) == 2
+    assert run_cli(["brick", "serve", "--sonar", "radar", "--port", "0"]) == 2
     assert run_cli(["brick", "serve", "--time-factor", "0", "--port", "0"]) == 2
     assert run_cli(["brick", "serve", "--pose", "20,20", "--port", "0"]) == 2
 

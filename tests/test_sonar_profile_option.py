@@ -175,7 +175,7 @@ def test_sonar_models_in_recorded_options() -> None:
     assert json.loads(json.dumps(encoded)) == {"sonar_model": fitted.to_dict(), "motion_noise": 0.1}
     assert decode_options(encoded) == {"sonar_model": fitted, "motion_noise": 0.1}
     for bad in ({"noise_sd": 1.0}, {"name": "nxt", "colour": 1}, {"name": "nxt", "noise_sd": -1.0},
-                {"name": "laser"}):
+                {"name": "radar"}):
         with pytest.raises(ConfigError):
             sonar_from_dict(bad)
 

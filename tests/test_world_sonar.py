@@ -138,8 +138,8 @@ def test_nxt_max_range() -> None:
 
 def test_registry_and_validation() -> None:
     assert {"ideal", "nxt"} <= set(SONAR_MODELS.names())
-    with pytest.raises(RegistryError, match="unknown sonar model 'laser'; known: ideal, nxt"):
-        make_sonar("laser")
+    with pytest.raises(RegistryError, match="unknown sonar model 'radar'; known: ideal, laser, nxt"):
+        make_sonar("radar")
     with pytest.raises(ValueError, match="dropout_prob"):
         NxtSonar(dropout_prob=1.5)
     assert make_sonar("nxt", beam_width_deg=30).to_dict()["beam_width_deg"] == 30

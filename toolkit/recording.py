@@ -291,6 +291,17 @@ class Recorder:
         truth = [x, y, None if heading is None else float(heading)]
         return self._scan_line(scan, None, None, true_pose=truth, **({} if label is None else {"label": str(label)}))
 
+    def stamped_scan(self, scan: Scan, t_start: float, t: float, true_pose: Pose | None,
+                     times_s: Any = None, label: str | None = None) -> int:
+        """A scan taken elsewhere with its own clock (a ROS bag's stamps): readings between `t_start` and
+        `t` (s), each at `times_s` when given, the true pose when known. Returns the scan's id."""
+        fields: dict[str, Any] = {"true_pose": _pose(true_pose)}
+        if times_s is not None:
+            fields["times_s"] = encode_floats(times_s)
+        if label is not None:
+            fields["label"] = str(label)
+        return self._scan_line(scan, float(t_start), float(t), **fields)
+
     def _scan_line(self, scan: Scan, t_start: float | None, t: float | None, **fields: Any) -> int:
         sid = self._scans
         self.event("scan", id=sid, t_start=t_start, t=t, **scan_fields(scan), **fields)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,7 +40,9 @@ from .recording import (
     scan_from_fields,
     sonar_from_dict,
 )
+from .trajectory_scores import TrajectoryScores, score_trajectory
 from .world import (
+    LaserScanner,
     Map,
     MapError,
     NxtnavError,
@@ -456,6 +459,8 @@ class ReplayReport:
         Per localiser that raised: the line and the message.
     compared : int
         Live estimates the recording holds (each compared with the replay of the live localiser).
+    cpu_s : dict
+        Per localiser, the process time (s) of its construction and of all its calls.
     """
 
     recording: Recording
@@ -465,6 +470,7 @@ class ReplayReport:
     diverged: dict[str, int] = field(default_factory=dict)
     failures: dict[str, str] = field(default_factory=dict)
     compared: int = 0
+    cpu_s: dict[str, float] = field(default_factory=dict)
 
     @property
     def has_truth(self) -> bool:
@@ -492,12 +498,31 @@ class ReplayReport:
                             "median_error_cm": _fin_median(err),
                             "final_error_cm": float(err[-1]) if err.size else math.nan,
                             "final_heading_error_deg": ups[-1].heading_error_deg(name) if ups else math.nan})
+                scores = self.trajectory_scores(name)
+                row.update({"ape_rmse_cm": scores.ape_rmse_cm, "ape_heading_rmse_deg": scores.ape_heading_rmse_deg,
+                            "rpe_per_m_cm": scores.rpe_per_m_cm, "scored_updates": float(scores.poses)})
             else:
                 agr = np.array([s.agreement_cm(name, ref) for s in ups])
                 row.update({"median_agreement_cm": _fin_median(agr),
                             "max_agreement_cm": float(np.nanmax(agr)) if np.isfinite(agr).any() else math.nan})
+            row["cpu_s"] = self.cpu_s.get(name, math.nan)
             out[name] = row
         return out
+
+    def trajectory_scores(self, name: str) -> TrajectoryScores:
+        """evo's APE (after rigid alignment) and RPE per metre of `name`'s estimates after the updates,
+        against the true poses (`toolkit.trajectory_scores`); NaN without true headings."""
+        cache: dict[str, TrajectoryScores] = self.__dict__.setdefault("_scores", {})
+        if name not in cache:
+            pairs = [(s.truth.as_array(), s.estimates[name].pose.as_array())  # type: ignore[union-attr]
+                     for s in self.steps if s.call == "update" and s.truth is not None and s.truth_heading
+                     and s.estimates.get(name) is not None]
+            if not pairs:
+                cache[name] = TrajectoryScores(math.nan, math.nan, math.nan, 0)
+            else:
+                truth, est = (np.array(x) for x in zip(*pairs, strict=True))
+                cache[name] = score_trajectory(truth, est)
+        return cache[name]
 
     def to_dict(self) -> dict[str, Any]:
         ref = self.localisers[0]
@@ -536,16 +561,27 @@ def robot_model_of(rec: Recording) -> RobotModel:
     if isinstance(radius, int | float) and not isinstance(radius, bool):
         kw["radius_cm"] = float(radius)
     named: str | SonarModel = "nxt" if sonar in ("nxt", "real") else "ideal"
-    if named == "nxt" and "params" in rec.header["sonar"]:
+    if sonar == "laser":  # a bag's laser: its recorded model, real readings
+        model = sonar_from_dict(rec.header["sonar"].get("params", {"name": "laser"}))
+        named = model if isinstance(model, LaserScanner) else LaserScanner()
+    elif named == "nxt" and "params" in rec.header["sonar"]:
         model = sonar_from_dict(rec.header["sonar"]["params"])
         if isinstance(model, NxtSonar):
             named = model
-    real = sonar == "real" or (robot.get("kind") == "nxt" and not robot.get("virtual"))
+    real = sonar in ("real", "laser") or (robot.get("kind") == "nxt" and not robot.get("virtual"))
     return RobotModel.build(named, readings="real" if real else "simulated", **kw)
 
 
 def _options_for(rec: Recording, name: str) -> dict[str, Any]:
-    return localiser_options(name, robot_model_of(rec))
+    """The recording's robot model as options of localiser `name`; for a laser, with the localiser fitted
+    to a laser on top (`localisation.laser_options`)."""
+    from localisation.laser_options import laser_localiser_options
+
+    robot = robot_model_of(rec)
+    opts = localiser_options(name, robot)
+    if isinstance(robot.sonar, LaserScanner):
+        opts.update(laser_localiser_options(name, robot.sonar))
+    return opts
 
 
 def _build(rec: Recording, name: str, seed: int) -> tuple[Localiser, bool]:
@@ -557,8 +593,13 @@ def _build(rec: Recording, name: str, seed: int) -> tuple[Localiser, bool]:
     return make_localiser(name, rec.map, rng=seed, **_options_for(rec, name)), False
 
 
-def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayReport:
-    """Run `localisers` (registry names) over the recorded localiser calls; see the module docstring."""
+def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Prior | None = None) -> ReplayReport:
+    """Run `localisers` (registry names) over the recorded localiser calls; see the module docstring.
+
+    `initial` replaces the prior of the recording's first ``reset`` (a pose to start tracking from, for
+    data recorded without one, such as an imported bag). Each localiser's CPU time (process time of
+    its construction and its calls) is in `ReplayReport.cpu_s`.
+    """
     if not localisers:
         raise NxtnavError("replay: no localiser given")
     for name in localisers:
@@ -566,12 +607,16 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
     locs: dict[str, Localiser | None] = {}
     exact: dict[str, bool] = {}
     failures: dict[str, str] = {}
+    cpu: dict[str, float] = {}
+    first_reset = True
     for name in dict.fromkeys(localisers):
+        started = time.process_time()
         try:
             locs[name], exact[name] = _build(rec, name, seed)
         except (NxtnavError, ValueError, TypeError) as exc:
             locs[name], exact[name] = None, False
             failures[name] = f"not built: {' '.join(str(exc).split())}"
+        cpu[name] = time.process_time() - started
     scans: dict[int, Scan] = {}
     truth: tuple[Pose, bool] | None = None
     label: str | None = None
@@ -601,6 +646,9 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
                 pr = e["prior"]
                 arg = None if pr is None else Prior(Pose(*[float(v) for v in pr["mean"]]),
                                                     np.vstack([decode_floats(r) for r in pr["cov"]]))
+                if first_reset and initial is not None:
+                    arg = initial
+                first_reset = False
             elif kind == "predict":
                 arg = Motion(float(e["turn_rad"]), float(e["distance_cm"]))
             elif "scan" in e:
@@ -614,6 +662,7 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
                 if loc is None:
                     ests[name] = None
                     continue
+                started = time.process_time()
                 try:
                     getattr(loc, kind)(arg)
                     ests[name] = loc.estimate()
@@ -621,6 +670,7 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
                     failures[name] = f"line {line}: {' '.join(str(exc).split())}"
                     locs[name] = None
                     ests[name] = None
+                cpu[name] += time.process_time() - started
             steps.append(ReplayStep(len(steps), line, kind, None if truth is None else truth[0], ests, None,
                                     truth_heading=truth is None or truth[1], label=label))
             pending = (len(steps) - 1, kind)
@@ -628,7 +678,8 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0) -> ReplayRep
     out_reproduced: dict[str, bool | None] = {
         n: reproduced[n] if n in reproduced and compared else None
         for n in locs if rec.localiser is not None and n == rec.localiser.name}
-    return ReplayReport(rec, list(dict.fromkeys(localisers)), steps, out_reproduced, diverged, failures, compared)
+    return ReplayReport(rec, list(dict.fromkeys(localisers)), steps, out_reproduced, diverged, failures, compared,
+                        cpu)
 
 
 def _strip(e: dict[str, Any]) -> dict[str, Any]:

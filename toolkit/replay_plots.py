@@ -26,7 +26,7 @@ def draw_replay(report: ReplayReport) -> Figure:
     truth = np.array([s.truth.as_array()[:2] for s in ups if s.truth is not None]).reshape(-1, 2)
     if truth.size:
         # a robot that never moved while recorded (an imported sweep set): separate places, not a path
-        moved = any(e["type"] in ("turn", "move", "turnback") for _, e in report.recording.events)
+        moved = any(e["type"] in ("turn", "move", "turnback", "predict") for _, e in report.recording.events)
         ax_map.plot(truth[:, 0], truth[:, 1], "k-" if moved else "k+", lw=1.5, ms=10, mew=2,
                     label="truth" if moved else "true positions")
     ref = report.localisers[0]

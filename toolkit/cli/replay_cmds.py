@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from ..formats import cell
 from .app import app
-from .options import parse_list
+from .options import parse_floats, parse_list
+
+if TYPE_CHECKING:
+    from localisation.base import Prior
 
 __all__: list[str] = []
 
@@ -30,10 +34,20 @@ def replay_cmd(
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write every step as JSON."),
     output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
                                        help="Draw the estimates and their error (or agreement)."),
+    initial_pose: str | None = typer.Option(
+        None, "--initial-pose", metavar="X,Y,H[,SD_CM,SD_DEG]",
+        help="Start every localiser here (cm, cm, degrees; spread default 10 cm, 5 degrees) instead of the "
+             "recording's first reset."),
 ) -> None:
-    """Replay the recorded motions and scans through localisers: estimate, spread and error per step."""
+    """Replay the recorded motions and scans through localisers: estimate, spread and error per step.
+
+    With true poses, the summary also gives evo's absolute pose error after the best rigid alignment
+    (ape_rmse_cm, ape_heading_rmse_deg) and relative pose error per metre driven (rpe_per_m_cm), and
+    every localiser's CPU time (cpu_s).
+    """
     from ..replay import read_recording, replay
 
+    prior = _initial_prior(initial_pose) if initial_pose is not None else None
     rec = read_recording(recording)
     if rec.truncated:
         typer.echo(f"nxtnav: warning: {rec.truncated}", err=True)
@@ -42,7 +56,7 @@ def replay_cmd(
         if rec.localiser is None:
             raise typer.BadParameter(f"{recording} names no localiser; give --localisers", param_hint="--localisers")
         names = [rec.localiser.name]
-    report = replay(rec, names, seed=seed)
+    report = replay(rec, names, seed=seed, initial=prior)
     live = rec.localiser.name if rec.localiser else "none"
     typer.echo(f"{recording}: map {rec.map.name}, robot {rec.header['robot'].get('kind')}, sonar "
                f"{rec.header['sonar'].get('model')}, live localiser {live}, {rec.calls} localiser calls, "
@@ -52,18 +66,20 @@ def replay_cmd(
         typer.echo("the true poses have no heading (real sweeps at known waypoints): errors are of position only")
     if report.has_truth:
         typer.echo("| localiser | updates | RMSE (cm) | median error (cm) | final error (cm) | final heading error "
-                   "(deg) | median spread (cm) |")
-        typer.echo("|---|---:|---:|---:|---:|---:|---:|")
+                   "(deg) | median spread (cm) | APE aligned (cm) | APE heading (deg) | RPE (cm/m) | CPU (s) |")
+        typer.echo("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
         for n, r in summary.items():
             typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['rmse_cm'])} | {cell(r['median_error_cm'])} | "
                        f"{cell(r['final_error_cm'])} | {cell(r['final_heading_error_deg'])} | "
-                       f"{cell(r['median_spread_cm'])} |")
+                       f"{cell(r['median_spread_cm'])} | {cell(r['ape_rmse_cm'])} | "
+                       f"{cell(r['ape_heading_rmse_deg'])} | {cell(r['rpe_per_m_cm'])} | {cell(r['cpu_s'])} |")
     else:
-        typer.echo(f"| localiser | updates | median distance to {names[0]} (cm) | largest (cm) | median spread (cm) |")
-        typer.echo("|---|---:|---:|---:|---:|")
+        typer.echo(f"| localiser | updates | median distance to {names[0]} (cm) | largest (cm) | median spread (cm) "
+                   "| CPU (s) |")
+        typer.echo("|---|---:|---:|---:|---:|---:|")
         for n, r in summary.items():
             typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['median_agreement_cm'])} | "
-                       f"{cell(r['max_agreement_cm'])} | {cell(r['median_spread_cm'])} |")
+                       f"{cell(r['max_agreement_cm'])} | {cell(r['median_spread_cm'])} | {cell(r['cpu_s'])} |")
     for n, ok in report.reproduced.items():
         if ok is None:
             why = "holds no live estimate" if not report.compared else "lacks the localiser's random stream"
@@ -84,3 +100,20 @@ def replay_cmd(
 
         save_figure(draw_replay(report), output)
         typer.echo(f"wrote {output}")
+
+
+def _initial_prior(text: str) -> Prior:
+    """``X,Y,H[,SD_CM,SD_DEG]`` (cm, cm, degrees) as a Gaussian prior; the spread defaults to 10 cm, 5 degrees."""
+    import math
+
+    import numpy as np
+
+    from localisation.base import Prior
+
+    from ..world import NxtnavError, Pose
+
+    values = parse_floats(text, "--initial-pose", (3, 5))
+    sd_cm, sd_deg = (values[3], values[4]) if len(values) == 5 else (10.0, 5.0)
+    if not (sd_cm > 0 and sd_deg > 0):
+        raise NxtnavError(f"--initial-pose: the spreads SD_CM and SD_DEG must be > 0, got {text!r}")
+    return Prior(Pose.from_deg(*values[:3]), np.diag([sd_cm**2, sd_cm**2, math.radians(sd_deg) ** 2]))

@@ -17,6 +17,7 @@ from .geometry import (
 )
 from .grids import OccupancyGrid, grid_to_map, polygonise
 from .importers import import_map
+from .laser import LaserScanner
 from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_map, map_from_dict
 from .params import Param, Params
 from .point_collision import PointCollisionChecker, make_checker
@@ -35,6 +36,7 @@ __all__ = [
     "ConfigError",
     "GridSpec",
     "IdealSonar",
+    "LaserScanner",
     "LocalisationError",
     "Map",
     "MapError",

@@ -1,0 +1,99 @@
+"""Trajectory errors with `evo` (Grupp, *evo: Python package for the evaluation of odometry and SLAM*).
+
+`score_trajectory` compares an estimated planar trajectory with the true one, pose for pose:
+
+``ape_rmse_cm``, ``ape_heading_rmse_deg``
+    evo's absolute pose error (translation part, and rotation angle) after the best rigid alignment of
+    the estimate onto the truth (Umeyama, without scale): a fixed offset between the truth's frame and
+    the map's does not count. The poses lie in the plane z = 0, so the SE(3) alignment is an SE(2) one.
+``rpe_per_m_cm``
+    evo's relative pose error (translation part) over every pair of poses 1 m apart along the true
+    path (``delta`` 1 m, all pairs, pairs chosen on the truth): the error one metre of driving adds,
+    whatever the frames. RMSE over the pairs; NaN when the truth never covers a metre.
+
+All three are NaN for fewer than three poses, or true positions all on one line (no unique alignment).
+
+Positions are in cm and headings in rad on the way in; evo works in metres.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = ["TrajectoryScores", "score_trajectory"]
+
+CM_PER_M = 100.0
+RPE_DELTA_M = 1.0
+
+
+@dataclass(frozen=True)
+class TrajectoryScores:
+    """evo's errors of one trajectory (module docstring); NaN where they cannot be computed."""
+
+    ape_rmse_cm: float
+    ape_heading_rmse_deg: float
+    rpe_per_m_cm: float
+    poses: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: (v if not isinstance(v, float) or math.isfinite(v) else None) for k, v in self.__dict__.items()}
+
+
+def _trajectory(poses: np.ndarray, stamps: np.ndarray) -> Any:
+    from evo.core.trajectory import PoseTrajectory3D
+
+    half = poses[:, 2] / 2.0
+    quat = np.column_stack([np.cos(half), np.zeros_like(half), np.zeros_like(half), np.sin(half)])  # w x y z
+    xyz = np.column_stack([poses[:, 0] / CM_PER_M, poses[:, 1] / CM_PER_M, np.zeros(len(poses))])
+    return PoseTrajectory3D(positions_xyz=xyz, orientations_quat_wxyz=quat, timestamps=stamps)
+
+
+def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | None = None) -> TrajectoryScores:
+    """evo's APE (after rigid alignment) and RPE per metre of `estimate` against `truth`.
+
+    Parameters
+    ----------
+    truth, estimate : (n, 3) array_like
+        Poses x cm, y cm, heading rad, matched one to one.
+    stamps : (n,) array_like, optional
+        Times of the poses (s); default 0, 1, 2, ...
+    """
+    from evo.core import metrics
+    from evo.core.geometry import GeometryException
+    from evo.core.units import Unit
+
+    t = np.asarray(truth, dtype=float).reshape(-1, 3)
+    e = np.asarray(estimate, dtype=float).reshape(-1, 3)
+    if t.shape != e.shape:
+        raise ValueError(f"truth has {len(t)} poses, the estimate {len(e)}")
+    n = len(t)
+    if n < 3:
+        return TrajectoryScores(math.nan, math.nan, math.nan, n)
+    s = np.arange(n, dtype=float) if stamps is None else np.asarray(stamps, dtype=float).ravel()
+    ref, est = _trajectory(t, s), _trajectory(e, s)
+    aligned = copy.deepcopy(est)
+    try:
+        aligned.align(ref, correct_scale=False)
+    except GeometryException:  # every position on one line: no unique alignment
+        return TrajectoryScores(math.nan, math.nan, math.nan, n)
+    ape_t = metrics.APE(metrics.PoseRelation.translation_part)
+    ape_t.process_data((ref, aligned))
+    ape_r = metrics.APE(metrics.PoseRelation.rotation_angle_deg)
+    ape_r.process_data((ref, aligned))
+    rpe = math.nan
+    if ref.path_length >= RPE_DELTA_M:
+        metric = metrics.RPE(metrics.PoseRelation.translation_part, delta=RPE_DELTA_M, delta_unit=Unit.meters,
+                             all_pairs=True, pairs_from_reference=True)
+        try:
+            metric.process_data((ref, est))
+            rpe = float(metric.get_statistic(metrics.StatisticsType.rmse)) * CM_PER_M
+        except metrics.MetricsException:  # no pair of poses a metre apart within evo's tolerance
+            rpe = math.nan
+    return TrajectoryScores(float(ape_t.get_statistic(metrics.StatisticsType.rmse)) * CM_PER_M,
+                            float(ape_r.get_statistic(metrics.StatisticsType.rmse)), rpe, n)
