@@ -269,7 +269,8 @@ class ScenResult:
 def run_scen(config: ScenConfig, queries: Sequence[Scenario], *, workers: int = 1, dask_address: str | None = None,
              on_done: Callable[[ScenRecord], None] | None = None) -> ScenResult:
     """Run every planner of `config` on every query; an interrupt returns what finished (``complete=False``)."""
-    tasks = [_Task(config, p, q) for p in config.planners for q in queries]
+    # query by query, every planner in turn: a machine whose load changes during the run weighs on all alike
+    tasks = [_Task(config, p, q) for q in queries for p in config.planners]
     records: list[ScenRecord] = []
     t0 = time.perf_counter()
     started = time.time()
