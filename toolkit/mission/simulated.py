@@ -21,6 +21,7 @@ from ..world import (
     Pose,
     RobotGeometry,
     load_map,
+    make_checker,
 )
 from .config import MissionConfig
 from .report import MissionReport
@@ -117,7 +118,8 @@ def run_sim_mission(
             opts.update(geometry_options(localiser, geometry.radius_cm))
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
     reads = simulated_sonar(sonar if sonar_model is None else sonar_model, sensor_noise)
-    robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=reads, rng=s_sim)
+    checker = make_checker(m, geometry.radius_cm, cfg.collision)  # the simulator's contacts too: one backend
+    robot = SimRobot(m, pose, geometry=geometry, noise=noise, sonar=reads, rng=s_sim, checker=checker)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,
                          recorder=recorder)
     return replace(report, seed=int(seed))

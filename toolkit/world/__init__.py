@@ -18,12 +18,13 @@ from .geometry import (
 from .grids import OccupancyGrid, grid_to_map, polygonise
 from .importers import import_map
 from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_map, map_from_dict
-from .point_collision import PointCollisionChecker, make_checker
+from .point_collision import CHECKER_BACKENDS, PointCollisionChecker, make_checker
 from .registry import Registry
 from .robot import NO_ECHO, MoveOutcome, Robot, RobotGeometry, Scan, default_scan_angles
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
 
 __all__ = [
+    "CHECKER_BACKENDS",
     "COORDINATE_LIMIT_CM",
     "NO_ECHO",
     "SONAR_MODELS",
