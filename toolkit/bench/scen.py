@@ -26,7 +26,7 @@ from planners import make_planner
 from planners.base import Planner, PlanningProblem, PlanStatus, status_message
 
 from ..formats import MISSING, cell, csv_cell
-from ..world import Map, MapError, NxtnavError, import_map, make_checker
+from ..world import CollisionChecker, Map, MapError, NxtnavError, import_map, make_checker
 from .executors import run_tasks
 from .ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
 from .peers import PEER_KIND, peer_path
@@ -231,16 +231,25 @@ def _planner(c: ScenConfig, name: str) -> Planner:
     return make_planner(name, **options)
 
 
+def _prepared(checker: CollisionChecker, m: Map, at: np.ndarray) -> CollisionChecker:
+    """`checker` with the structures it and the map build at their first use (cell raster, pinch
+    points, region index) made now, like the map's import, outside every query's time."""
+    checker.point_free(at)
+    checker.segment_free(at, at)
+    m.region_of(at)
+    return checker
+
+
 def _run_one(task: _Task) -> ScenRecord:
     """Plan one query (the map, checker and planner are kept per process, so graphs are built once)."""
     c = task.config
     m = _cached(("map", c.map_path, c.cell_cm), lambda: import_map(c.map_path, cell_cm=c.cell_cm))
+    start, goal = task.query.world(m, c.kind)
     checker = _cached(("checker", c.map_path, c.cell_cm, c.radius, c.collision),
-                      lambda: make_checker(m, c.radius, c.collision))
+                      lambda: _prepared(make_checker(m, c.radius, c.collision), m, start))
     if task.planner in PEER_KIND:
         return _run_peer(task, m)
     planner = _cached(("planner", c.map_path, c.cell_cm, c.radius, task.planner), lambda: _planner(c, task.planner))
-    start, goal = task.query.world(m, c.kind)
     rng = np.random.default_rng([c.seed, task.query.index])
     res = planner.plan(PlanningProblem(m, checker, start, goal, c.time_limit, rng))
     pre = float(res.info.get("graph_build_s", 0.0) or res.info.get("grid_build_s", 0.0) or 0.0)
@@ -251,8 +260,8 @@ def _run_one(task: _Task) -> ScenRecord:
 
 def _run_peer(task: _Task, m: Map) -> ScenRecord:
     c = task.config
-    checker = _cached(("point-checker", c.map_path, c.cell_cm), lambda: make_checker(m, 0.0))
     start, goal = task.query.world(m, c.kind)
+    checker = _cached(("point-checker", c.map_path, c.cell_cm), lambda: _prepared(make_checker(m, 0.0), m, start))
     first = ("peer-ready", c.map_path, task.planner) not in _PROCESS_CACHE
     t0 = time.perf_counter()
     path, status, detail = peer_path(task.planner, m, checker, start, goal)
