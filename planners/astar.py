@@ -5,46 +5,70 @@ or, with ``resolution=None`` on a map imported from a grid, at the centres of th
 A node is usable when the shared checker finds the robot there free, and a move between
 neighbouring nodes when the checker finds the swept disc free; both are asked once per (map,
 radius, grid) in one batch and kept, so later queries on the same map only search. Start and goal
-join the grid through straight segments to the free nodes within ``connect_radius`` of them
-(without corner cutting, a start or goal exactly on a node uses that node alone). The returned
-path is the gridded one, unsmoothed, as in the paper's comparison: A* paths turn at many grid
-nodes, which is exactly what the paper's min-turn planner avoids.
+join the grid through straight segments to the free nodes within ``connect_radius`` of them. The
+returned path is the gridded one, unsmoothed, as in the paper's comparison: A* paths turn at many
+grid nodes, which is exactly what the paper's min-turn planner avoids.
 
 Without corner cutting (the default on a map's own cells, as the Moving AI benchmarks define it) a
-diagonal move is allowed only when both straight moves beside it are; with a point robot on the
-map's cells this reproduces the published octile optimal lengths exactly.
+diagonal move is allowed only when both straight moves beside it are, and a start or goal exactly
+on a node joins the grid at that node alone; when both are on nodes, no direct start-goal join
+bypasses the lattice either (two diagonal neighbours across a blocked corner are two moves apart,
+not one diagonal). With a point robot on the map's cells this is the Moving AI rule set, and the
+search reproduces the published octile optimal lengths exactly.
+
+The search itself is compiled (`planners.astar_search`): flat arrays and an indexed binary heap,
+the octile heuristic when the goal is a node joined through the lattice alone.
 """
 
 from __future__ import annotations
 
-import heapq
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError
+from toolkit.world import CollisionChecker, ConfigError
 
+from .astar_search import MAX_STEPS, MOVES, Workspace, search, warm_up
 from .base import Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import ASTAR_PARAMS
 
 __all__ = ["AStarPlanner"]
 
-_MOVES = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
+_ON_NODE = 1e-9  # cm: a start or goal this close to a node is on it
 _SQRT2 = math.sqrt(2.0)
 
 
-@dataclass
+@dataclass(eq=False)
 class _Lattice:
+    checker: CollisionChecker
     xs: NDArray[np.float64]
     ys: NDArray[np.float64]
     free: NDArray[np.bool_]
-    neighbours: list[list[tuple[int, float]]]
+    free_nodes: int
+    moves: NDArray[np.uint8]
+    step: float
     cutting: bool
     build_s: float
+    workspace: Workspace
+
+    def serves(self, problem: PlanningProblem) -> bool:
+        """Whether this lattice was built for `problem`'s map, radius and kind of checker."""
+        c = problem.checker
+        return self.checker is c or (self.checker.map is problem.map and type(self.checker) is type(c)
+                                     and self.checker.robot_radius == c.robot_radius)
+
+
+@dataclass(frozen=True)
+class _Join:
+    """Where a start or goal meets the lattice: the nodes, the cost of each join (cm), and the node it
+    lies on (-1 when it lies between nodes)."""
+
+    nodes: NDArray[np.int64]
+    costs: NDArray[np.float64]
+    on_node: int
 
 
 class AStarPlanner(Planner):
@@ -64,9 +88,9 @@ class AStarPlanner(Planner):
 
     Notes
     -----
-    The heuristic is the Euclidean distance to the goal (admissible and consistent), so the result is
-    the shortest path over the grid graph plus the start and goal connections. ``info`` reports
-    ``expanded`` nodes, ``grid_nodes``, ``free_nodes`` and ``grid_build_s`` (0 when cached).
+    The result is the shortest path over the grid graph plus the start and goal connections (the
+    heuristics are admissible and consistent). ``info`` reports ``expanded`` nodes, ``grid_nodes``,
+    ``free_nodes`` and ``grid_build_s`` (0 when cached; it includes compiling the search).
     """
 
     name = "astar"
@@ -81,7 +105,7 @@ class AStarPlanner(Planner):
         self.resolution = None if resolution is None else float(resolution)
         self._connect = None if connect_radius is None else float(connect_radius)
         self.corner_cutting = corner_cutting
-        self._cache: dict[tuple[int, float], _Lattice] = {}
+        self._lat: _Lattice | None = None  # one map at a time: a lattice can be large
 
     def spacing(self, problem: PlanningProblem) -> float:
         """Node spacing (cm) for `problem`'s map."""
@@ -112,21 +136,23 @@ class AStarPlanner(Planner):
         return xs, ys
 
     def _lattice(self, problem: PlanningProblem) -> tuple[_Lattice, bool]:
-        key = (id(problem.map), problem.robot_radius)
-        hit = self._cache.get(key)
-        if hit is not None:
-            return hit, True
+        if self._lat is not None and self._lat.serves(problem):
+            return self._lat, True
+        self._lat = None
         t0 = time.perf_counter()
         checker = problem.checker
         xs, ys = self.grid(problem)
         nx, ny = len(xs), len(ys)
+        if _SQRT2 * nx * ny + nx + ny + 16 > MAX_STEPS:  # the longest path the search's keys hold
+            raise ConfigError(f"astar: a grid of {nx} x {ny} nodes on map {problem.map.name!r} is beyond the "
+                              f"search's reach ({MAX_STEPS:.3g} steps); choose a coarser resolution")
         gx, gy = np.meshgrid(xs, ys, indexing="ij")
         pts = np.column_stack([gx.ravel(), gy.ravel()])  # node index = i * ny + j
         free = np.asarray(checker.point_free(pts), dtype=bool).reshape(nx, ny)
         # every move between free neighbours, checked once in a batch per direction
         ok: dict[tuple[int, int], NDArray[np.bool_]] = {}
         ii, jj = np.nonzero(free)
-        for di, dj in _MOVES:
+        for di, dj in MOVES:
             a = np.zeros((nx, ny), dtype=bool)
             ti, tj = ii + di, jj + dj
             inside = (ti >= 0) & (ti < nx) & (tj >= 0) & (tj < ny)
@@ -137,109 +163,72 @@ class AStarPlanner(Planner):
             ok[(di, dj)] = a
         cutting = self.corner_cutting if self.corner_cutting is not None else self.resolution is not None
         if not cutting:
-            for di, dj in _MOVES[4:]:
-                side_i, side_j = ok[(di, 0)], ok[(0, dj)]
-                a = ok[(di, dj)]
-                a &= side_i & side_j  # both straight moves beside the diagonal from the same node
-        step = float(xs[1] - xs[0]) if nx > 1 else 1.0
-        neighbours: list[list[tuple[int, float]]] = [[] for _ in range(nx * ny)]
-        for di, dj in _MOVES:
-            cost = step * (_SQRT2 if di and dj else 1.0)
-            for u in np.flatnonzero(ok[(di, dj)].ravel()).tolist():
-                neighbours[u].append((u + di * ny + dj, cost))
-        lat = _Lattice(xs, ys, free.ravel(), neighbours, cutting, time.perf_counter() - t0)
-        self._cache = {key: lat}  # one map at a time: a lattice can be large
-        return lat, False
+            for di, dj in MOVES[4:]:
+                ok[(di, dj)] &= ok[(di, 0)] & ok[(0, dj)]  # both straight moves beside the diagonal, same node
+        moves = np.zeros(nx * ny, dtype=np.uint8)
+        for d, move in enumerate(MOVES):
+            moves |= ok[move].ravel().astype(np.uint8) << np.uint8(d)
+        step = float(xs[1] - xs[0]) if nx > 1 else float(ys[1] - ys[0]) if ny > 1 else 1.0
+        ws = Workspace(nx * ny)
+        warm_up(moves, xs, ys, step, ws)  # compiling belongs to the preparation, not to a query
+        self._lat = _Lattice(checker, xs, ys, free.ravel(), int(free.sum()), moves, step, cutting,
+                             time.perf_counter() - t0, ws)
+        return self._lat, False
+
+    def _join(self, lat: _Lattice, p: NDArray[np.float64], radius: float, checker: CollisionChecker,
+              to_goal: bool) -> _Join:
+        """The free nodes `p` joins by a free straight segment within `radius` (its own node alone when it
+        lies on one and corners may not be cut)."""
+        xs, ys, ny = lat.xs, lat.ys, len(lat.ys)
+        i, j = round((p[0] - xs[0]) / lat.step), round((p[1] - ys[0]) / lat.step)
+        on_node = -1
+        if 0 <= i < len(xs) and 0 <= j < ny and math.hypot(xs[i] - p[0], ys[j] - p[1]) <= _ON_NODE:
+            on_node = i * ny + j
+            if not lat.cutting:  # that node alone: no shortcut off the grid
+                keep = np.array([on_node] if lat.free[on_node] else [], dtype=np.int64)
+                return _Join(keep, np.zeros(len(keep)), on_node)
+        i0, i1 = np.searchsorted(xs, [p[0] - radius, p[0] + radius])
+        j0, j1 = np.searchsorted(ys, [p[1] - radius, p[1] + radius])
+        grid_i, grid_j = np.meshgrid(np.arange(i0, i1), np.arange(j0, j1), indexing="ij")
+        ii, jj = grid_i.ravel(), grid_j.ravel()
+        k = ii * ny + jj
+        d = np.hypot(xs[ii] - p[0], ys[jj] - p[1])
+        near = lat.free[k] & (d <= radius)
+        k, d, ii, jj = k[near], d[near], ii[near], jj[near]
+        ends = np.column_stack([xs[ii], ys[jj]])
+        here = np.repeat(p[None], len(k), axis=0)
+        ok = checker.segments_free(ends, here) if to_goal else checker.segments_free(here, ends)
+        return _Join(k[ok].astype(np.int64), d[ok], on_node)
 
     def _solve(self, problem: PlanningProblem) -> Solution:
         checker = problem.checker
         lat, cached = self._lattice(problem)
         deadline = time.perf_counter() + problem.time_limit
-        xs, ys = lat.xs, lat.ys
-        nx, ny = len(xs), len(ys)
-        free = lat.free
-        info: dict[str, Any] = {"grid_nodes": nx * ny, "free_nodes": int(free.sum()), "expanded": 0,
-                                "grid_build_s": 0.0 if cached else lat.build_s}
+        info = {"grid_nodes": len(lat.free), "free_nodes": lat.free_nodes, "expanded": 0,
+                "grid_build_s": 0.0 if cached else lat.build_s}
         radius = self._connect if self._connect is not None else 2.0 * self.spacing(problem)
-        n = nx * ny
-        start_id, goal_id = n, n + 1
-
-        def node_xy(k: int) -> tuple[float, float]:
-            if k == start_id:
-                return float(problem.start[0]), float(problem.start[1])
-            if k == goal_id:
-                return float(problem.goal[0]), float(problem.goal[1])
-            i, j = divmod(k, ny)
-            return float(xs[i]), float(ys[j])
-
-        def near(p: NDArray[np.float64]) -> NDArray[np.intp]:
-            i0, i1 = np.searchsorted(xs, [p[0] - radius, p[0] + radius])
-            j0, j1 = np.searchsorted(ys, [p[1] - radius, p[1] + radius])
-            ii, jj = np.meshgrid(np.arange(i0, i1), np.arange(j0, j1), indexing="ij")
-            k = (ii * ny + jj).ravel()
-            d = np.hypot(xs[ii.ravel()] - p[0], ys[jj.ravel()] - p[1])
-            on_node = d <= 1e-9
-            if on_node.any() and not lat.cutting:  # that node alone: no shortcut off the grid
-                return k[on_node & free[k]]
-            return k[free[k] & (d <= radius)]
-
-        # start -> nearby nodes, nearby nodes -> goal (and start -> goal when they are that close)
-        s_near, g_near = near(problem.start), near(problem.goal)
-        node_pts = lambda ks: np.column_stack([xs[ks // ny], ys[ks % ny]])  # noqa: E731
-        s_ok = checker.segments_free(np.repeat(problem.start[None], len(s_near), axis=0), node_pts(s_near))
-        g_ok = checker.segments_free(node_pts(g_near), np.repeat(problem.goal[None], len(g_near), axis=0))
-        start_edges = s_near[s_ok].tolist()
-        goal_edges = set(g_near[g_ok].tolist())
-        if not start_edges or not goal_edges:
-            which = "start" if not start_edges else "goal"
+        start, goal = problem.start, problem.goal
+        s, g = self._join(lat, start, radius, checker, False), self._join(lat, goal, radius, checker, True)
+        if not len(s.nodes) or not len(g.nodes):
+            which = "start" if not len(s.nodes) else "goal"
             return Solution(None, PlanStatus.NO_PATH, info, f"{which} cannot reach the grid")
-
-        gxy = (float(problem.goal[0]), float(problem.goal[1]))
-
-        def h(k: int) -> float:
-            x, y = node_xy(k)
-            return math.hypot(x - gxy[0], y - gxy[1])
-
-        g_cost: dict[int, float] = {start_id: 0.0}
-        parent: dict[int, int] = {start_id: -1}
-        closed: set[int] = set()
-        heap: list[tuple[float, float, int]] = [(h(start_id), 0.0, start_id)]
-        direct = float(np.hypot(*(problem.goal - problem.start)))
-        if direct <= radius and checker.segment_free(problem.start, problem.goal):
-            g_cost[goal_id] = direct
-            parent[goal_id] = start_id
-            heapq.heappush(heap, (direct, -direct, goal_id))
-        sxy = node_xy(start_id)
-        start_nbrs = [(v, math.hypot(node_xy(v)[0] - sxy[0], node_xy(v)[1] - sxy[1])) for v in start_edges]
-        neighbours = lat.neighbours
-        expanded = 0
-        while heap:
-            _, _neg_g, u = heapq.heappop(heap)
-            if u in closed:
-                continue
-            if u == goal_id:
-                seq = [u]
-                while parent[seq[-1]] >= 0:
-                    seq.append(parent[seq[-1]])
-                info["expanded"] = expanded
-                return Solution(np.array([node_xy(k) for k in seq[::-1]]), PlanStatus.EXACT, info)
-            closed.add(u)
-            expanded += 1
-            if expanded % 4096 == 0 and time.perf_counter() >= deadline:
-                info["expanded"] = expanded
+        through_lattice = not lat.cutting and s.on_node >= 0 and g.on_node >= 0
+        direct = math.inf
+        dist = float(np.hypot(*(goal - start)))
+        if not through_lattice and dist <= radius and checker.segment_free(start, goal):
+            direct = dist
+        octile = not lat.cutting and g.on_node >= 0
+        out = search(lat.moves, lat.xs, lat.ys, lat.step, lat.workspace, (float(goal[0]), float(goal[1])),
+                     s.nodes, s.costs, g.nodes, g.costs, direct, octile=octile, deadline=deadline)
+        info["expanded"] = out.expanded
+        if out.nodes is None:
+            if out.timed_out:
                 return Solution(None, PlanStatus.TIMEOUT, info)
-            gu = g_cost[u]
-            nbrs = start_nbrs if u == start_id else neighbours[u]
-            if u in goal_edges:
-                ux, uy = node_xy(u)
-                nbrs = [*nbrs, (goal_id, math.hypot(ux - gxy[0], uy - gxy[1]))]
-            for v, cost in nbrs:
-                if v in closed:
-                    continue
-                gv = gu + cost
-                if gv < g_cost.get(v, math.inf) - 1e-12:
-                    g_cost[v] = gv
-                    parent[v] = u
-                    heapq.heappush(heap, (gv + h(v), -gv, v))
-        info["expanded"] = expanded
-        return Solution(None, PlanStatus.NO_PATH, info, "no path on the grid")
+            return Solution(None, PlanStatus.NO_PATH, info, "no path on the grid")
+        ny = len(lat.ys)
+        pts = np.column_stack([lat.xs[out.nodes // ny], lat.ys[out.nodes % ny]])
+        if len(pts) and np.array_equal(pts[0], start):
+            pts = pts[1:]  # the start's own node
+        if len(pts) and np.array_equal(pts[-1], goal):
+            pts = pts[:-1]
+        return Solution(np.vstack([start[None], pts, goal[None]]), PlanStatus.EXACT, info)

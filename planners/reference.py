@@ -43,7 +43,7 @@ minimum-link length.
 
 Both ignore the time limit: they are yardsticks, not timed competitors.
 
-Graphs over the map's nodes are cached per (map, radius) in the planner instance, so only the
+Graphs over the map's nodes are cached per (map, radius, checker backend) in the planner instance, so only the
 start and goal edges are checked for later queries on the same map (the reported collision checks
 are then the query's share only).
 """
@@ -215,7 +215,7 @@ def shorten_bends(checker: CollisionChecker, path: FloatArray, step: float = 5.0
 
 
 class _ReferencePlanner(Planner):
-    """Shared machinery: the polygonal configuration space and a per-(map, radius) graph cache."""
+    """Shared machinery: the polygonal configuration space and a per-(map, radius, backend) graph cache."""
 
     def __init__(self, n_sides: int = 64, eps: float = 1e-4) -> None:
         if int(n_sides) < 8:
@@ -224,10 +224,15 @@ class _ReferencePlanner(Planner):
             raise ConfigError(f"eps must be a non-negative number of cm, got {eps!r}")
         self.n_sides = int(n_sides)
         self.eps = float(eps)
-        self._cache: dict[tuple[int, float], _Graph] = {}
+        self._cache: dict[tuple[int, float, str], _Graph] = {}
+
+    @staticmethod
+    def _key(problem: PlanningProblem) -> tuple[int, float, str]:
+        """A graph's edges were checked by one kind of checker: it serves that map, radius and backend."""
+        return id(problem.map), problem.robot_radius, problem.checker.backend
 
     def _graph(self, problem: PlanningProblem) -> _Graph:
-        key = (id(problem.map), problem.robot_radius)
+        key = self._key(problem)
         g = self._cache.get(key)
         if g is None or g.map is not problem.map:
             g = self._build(problem)
@@ -384,7 +389,7 @@ class ShortestPathPlanner(_ReferencePlanner):
 
     def _solve(self, problem: PlanningProblem) -> Solution:
         checker = problem.checker
-        cached = (id(problem.map), problem.robot_radius) in self._cache
+        cached = self._key(problem) in self._cache
         g = self._graph(problem)
         start, goal = problem.start, problem.goal
         prv, nxt, part = g.extra["prev"], g.extra["next"], g.extra["part"]

@@ -78,6 +78,8 @@ class PaperTrial:
     options: tuple[tuple[str, Any], ...] = ()
     sonar_params: tuple[tuple[str, Any], ...] = ()
     """The ``nxt`` sonar's parameters (a fitted profile's; empty: the model's defaults)."""
+    collision: str = "index"
+    """Backend of the mission's and the simulator's collision checks (`MissionConfig.collision`)."""
 
     @property
     def stack(self) -> str:
@@ -94,8 +96,8 @@ class PaperTrial:
                                self.sensor_noise).to_dict()
 
     def config(self) -> MissionConfig:
-        """The mission configuration: the sonar's defaults with this trial's `options` applied."""
-        return MissionConfig.for_sonar(self.sonar, **dict(self.options))
+        """The mission configuration: the sonar's defaults with this trial's `options` and backend applied."""
+        return MissionConfig.for_sonar(self.sonar, **{**dict(self.options), "collision": self.collision})
 
 
 @dataclass(frozen=True)
@@ -166,20 +168,24 @@ def paper_tasks(
     random_start: bool = False,
     options: Mapping[str, Any] | None = None,
     sonar_model: NxtSonar | None = None,
+    collision: str = "index",
 ) -> list[PaperTrial]:
     """Every trial of the table, in a fixed order (`random_start`: a seeded random free start pose
     at least 10 cm from the walls instead of the preset start; `options`: `MissionConfig` fields
-    replacing the sonar's defaults; `sonar_model`: the ``nxt`` sonar's model, a fitted profile's)."""
+    replacing the sonar's defaults; `sonar_model`: the ``nxt`` sonar's model, a fitted profile's;
+    `collision`: the collision backend)."""
     if trials < 1:
         raise ConfigError(f"trials must be >= 1, got {trials}")
     if sonar_model is not None and sonar != "nxt":
         raise ConfigError(f"a sonar model (profile) is for the nxt sonar, not {sonar!r}")
     opts = tuple(sorted((options or {}).items()))
-    MissionConfig.for_sonar(sonar, **dict(opts))  # a bad option fails here, not in every trial
+    if "collision" in dict(opts):
+        raise ConfigError("the collision backend is set for the trials (--collision), not as a mission option")
+    MissionConfig.for_sonar(sonar, **dict(opts), collision=collision)  # a bad option fails here, not in every trial
     params = () if sonar_model is None else tuple(asdict(sonar_model).items())
     return [
         PaperTrial(m, i, derive_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise,
-                   random_start, opts, params)
+                   random_start, opts, params, collision)
         for nm in noise_models
         for p, lo in stacks
         for k, m in enumerate(maps)
@@ -241,10 +247,12 @@ class PaperTable:
     options: tuple[tuple[str, Any], ...] = ()
     sonar_model: dict[str, Any] = field(default_factory=dict)
     """The simulated sonar's name and parameters (`PaperTrial.sonar_dict`)."""
+    collision: str = "index"
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "noise_model": self.noise_model,
+            "collision": self.collision,
             "planner": self.planner,
             "localiser": self.localiser,
             "sonar": self.sonar,
@@ -275,15 +283,15 @@ def _mean_split(results: Sequence[PaperResult]) -> RobotTimeSplit | None:
 
 def summarise(results: Iterable[PaperResult]) -> list[PaperTable]:
     """Group trial results into tables (noise model x stack x options), one row per map in the paper's order."""
-    Key = tuple[str, str, str, str, bool, tuple[tuple[str, Any], ...], tuple[tuple[str, Any], ...], float]
+    Key = tuple[str, str, str, str, bool, tuple[tuple[str, Any], ...], tuple[tuple[str, Any], ...], float, str]
     groups: dict[Key, dict[str, list[PaperResult]]] = {}
     for r in results:
         t = r.task
         key = (t.noise_model, t.planner, t.localiser, t.sonar, t.random_start, t.options, t.sonar_params,
-               t.sensor_noise)
+               t.sensor_noise, t.collision)
         groups.setdefault(key, {}).setdefault(t.map, []).append(r)
     tables = []
-    for (nm, p, lo, so, rs_, opts, _, _), by_map in groups.items():
+    for (nm, p, lo, so, rs_, opts, _, _, coll), by_map in groups.items():
         order = sorted(by_map, key=lambda m: (PAPER_MAPS.index(m) if m in PAPER_MAPS else len(PAPER_MAPS), m))
         rows = []
         for m in order:
@@ -306,7 +314,7 @@ def summarise(results: Iterable[PaperResult]) -> list[PaperTable]:
                 cpu_median_s=_stat(np.median, [r.cpu_s for r in rs]),
             ))
         first = next(iter(by_map.values()))[0].task
-        tables.append(PaperTable(nm, p, lo, so, rows, "random" if rs_ else "preset", opts, first.sonar_dict()))
+        tables.append(PaperTable(nm, p, lo, so, rows, "random" if rs_ else "preset", opts, first.sonar_dict(), coll))
     model_order = {"botsim": 0, "absolute": 1}
     tables.sort(key=lambda t: (model_order.get(t.noise_model, 2), t.noise_model))
     return tables
@@ -344,7 +352,7 @@ def tables_to_markdown(tables: Sequence[PaperTable]) -> str:
         starts = ", random starts" if t.starts == "random" else ""
         opts = "".join(f", `{k}={v}`" for k, v in t.options)
         out.append(f"### Noise model `{t.noise_model}`, stack `{t.planner}/{t.localiser}`, sonar `{t.sonar}`"
-                   f"{starts}{opts}\n")
+                   f"{starts}{opts}, collision checks `{t.collision}`\n")
         out.append("| Map | Trials | Success | Completion (s) | Median completion (s) | Median CPU (s) "
                    "| Distance from target (cm) | Path length (cm) | Collisions | Robot time (s) "
                    "| Median robot time (s) | Sweeping / turret back / driving / turning (s) | Readings |")

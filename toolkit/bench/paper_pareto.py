@@ -41,16 +41,16 @@ paper's habit to the leanest; ``default`` is `MissionConfig`'s own."""
 def pareto_tasks(trials: int, seed: int = 0, *, settings: Sequence[str] = tuple(MISSION_SETTINGS),
                  sonars: Sequence[str] = ("ideal", "nxt"), maps: Sequence[str] = PAPER_MAPS,
                  noise_models: Sequence[str] = ("botsim",), random_start: bool = False,
-                 sonar_model: NxtSonar | None = None) -> list[PaperTrial]:
+                 sonar_model: NxtSonar | None = None, collision: str = "index") -> list[PaperTrial]:
     """The trials of every setting (by name) and sonar model, with the same mission seeds (`sonar_model`:
-    the ``nxt`` sonar's model, a fitted profile's, for the ``nxt`` trials)."""
+    the ``nxt`` sonar's model, a fitted profile's, for the ``nxt`` trials; `collision`: the backend)."""
     unknown = [s for s in settings if s not in MISSION_SETTINGS]
     if unknown:
         raise ConfigError(f"unknown mission setting(s) {', '.join(unknown)}; known: {', '.join(MISSION_SETTINGS)}")
     return [t for so in sonars for name in settings
             for t in paper_tasks(trials, seed, maps=maps, noise_models=noise_models, sonar=so,
                                  random_start=random_start, options=MISSION_SETTINGS[name],
-                                 sonar_model=sonar_model if so == "nxt" else None)]
+                                 sonar_model=sonar_model if so == "nxt" else None, collision=collision)]
 
 
 def _setting_name(options: tuple[tuple[str, Any], ...]) -> str:

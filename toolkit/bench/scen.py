@@ -26,7 +26,7 @@ from planners import make_planner
 from planners.base import Planner, PlanningProblem, PlanStatus, status_message
 
 from ..formats import MISSING, cell, csv_cell
-from ..world import Map, MapError, NxtnavError, import_map, make_checker
+from ..world import CollisionChecker, Map, MapError, NxtnavError, import_map, make_checker
 from .executors import run_tasks
 from .ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
 from .peers import PEER_KIND, peer_path
@@ -48,7 +48,7 @@ __all__ = [
 Kind = Literal["octile", "any-angle"]
 EXACT_PLANNER: dict[str, str] = {"octile": "astar", "any-angle": "shortest"}
 SCEN_COLUMNS = ("query", "start_x", "start_y", "goal_x", "goal_y", "planner", "success", "length", "optimal",
-                "error", "rel_error", "time_s", "preprocess_s", "status")
+                "error", "rel_error", "time_s", "preprocess_s", "status", "collision")
 MATCH_TOL = 1e-6  # relative error below which a length equals the published optimum
 
 
@@ -160,6 +160,13 @@ class ScenConfig:
     time_limit: float = 10.0
     seed: int = 0
     planner_options: dict[str, dict[str, Any]] = field(default_factory=dict)
+    collision: str = "index"
+    """Collision backend for a disc robot (`toolkit.world.make_checker`); a point robot has its own checker."""
+
+    @property
+    def checker_backend(self) -> str:
+        """The checker that answers: ``point`` for a point robot (radius 0), else `collision`."""
+        return "point" if self.radius == 0 else self.collision
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -179,6 +186,8 @@ class ScenRecord:
     preprocess_s: float
     status: PlanStatus
     detail: str = ""
+    collision: str = "index"
+    """The checker that validated the path (``point`` for a point robot and for the peers)."""
 
     @property
     def error(self) -> float:
@@ -196,7 +205,7 @@ class ScenRecord:
                 "goal_y": q.goal[1], "planner": self.planner, "success": self.success,
                 "length": self.length, "optimal": q.optimal, "error": self.error,
                 "rel_error": self.rel_error, "time_s": self.time_s, "preprocess_s": self.preprocess_s,
-                "status": status_message(self.status, self.detail)}
+                "status": status_message(self.status, self.detail), "collision": self.collision}
 
 
 @dataclass(frozen=True)
@@ -222,27 +231,37 @@ def _planner(c: ScenConfig, name: str) -> Planner:
     return make_planner(name, **options)
 
 
+def _prepared(checker: CollisionChecker, m: Map, at: np.ndarray) -> CollisionChecker:
+    """`checker` with the structures it and the map build at their first use (cell raster, pinch
+    points, region index) made now, like the map's import, outside every query's time."""
+    checker.point_free(at)
+    checker.segment_free(at, at)
+    m.region_of(at)
+    return checker
+
+
 def _run_one(task: _Task) -> ScenRecord:
     """Plan one query (the map, checker and planner are kept per process, so graphs are built once)."""
     c = task.config
     m = _cached(("map", c.map_path, c.cell_cm), lambda: import_map(c.map_path, cell_cm=c.cell_cm))
-    checker = _cached(("checker", c.map_path, c.cell_cm, c.radius), lambda: make_checker(m, c.radius))
+    start, goal = task.query.world(m, c.kind)
+    checker = _cached(("checker", c.map_path, c.cell_cm, c.radius, c.collision),
+                      lambda: _prepared(make_checker(m, c.radius, c.collision), m, start))
     if task.planner in PEER_KIND:
         return _run_peer(task, m)
     planner = _cached(("planner", c.map_path, c.cell_cm, c.radius, task.planner), lambda: _planner(c, task.planner))
-    start, goal = task.query.world(m, c.kind)
     rng = np.random.default_rng([c.seed, task.query.index])
     res = planner.plan(PlanningProblem(m, checker, start, goal, c.time_limit, rng))
     pre = float(res.info.get("graph_build_s", 0.0) or res.info.get("grid_build_s", 0.0) or 0.0)
     scale = 1.0 / m.grid.cell_cm if m.grid is not None else 1.0
     return ScenRecord(task.query, task.planner, res.success, res.length * scale if res.success else math.nan,
-                      max(res.time_s - pre, 0.0), pre, res.status, res.detail)
+                      max(res.time_s - pre, 0.0), pre, res.status, res.detail, checker.backend)
 
 
 def _run_peer(task: _Task, m: Map) -> ScenRecord:
     c = task.config
-    checker = _cached(("point-checker", c.map_path, c.cell_cm), lambda: make_checker(m, 0.0))
     start, goal = task.query.world(m, c.kind)
+    checker = _cached(("point-checker", c.map_path, c.cell_cm), lambda: _prepared(make_checker(m, 0.0), m, start))
     first = ("peer-ready", c.map_path, task.planner) not in _PROCESS_CACHE
     t0 = time.perf_counter()
     path, status, detail = peer_path(task.planner, m, checker, start, goal)
@@ -252,7 +271,7 @@ def _run_peer(task: _Task, m: Map) -> ScenRecord:
     length = float(np.sum(np.hypot(*np.diff(path, axis=0).T))) / m.grid.cell_cm if path is not None else math.nan
     # a peer's preparation happens inside its first query: reported as that query's preprocessing
     return ScenRecord(task.query, task.planner, path is not None, length, 0.0 if first else elapsed,
-                      elapsed if first else 0.0, status, detail)
+                      elapsed if first else 0.0, status, detail, checker.backend)
 
 
 @dataclass
@@ -269,7 +288,8 @@ class ScenResult:
 def run_scen(config: ScenConfig, queries: Sequence[Scenario], *, workers: int = 1, dask_address: str | None = None,
              on_done: Callable[[ScenRecord], None] | None = None) -> ScenResult:
     """Run every planner of `config` on every query; an interrupt returns what finished (``complete=False``)."""
-    tasks = [_Task(config, p, q) for p in config.planners for q in queries]
+    # query by query, every planner in turn: a machine whose load changes during the run weighs on all alike
+    tasks = [_Task(config, p, q) for q in queries for p in config.planners]
     records: list[ScenRecord] = []
     t0 = time.perf_counter()
     started = time.time()
@@ -320,8 +340,9 @@ def summarise(result: ScenResult) -> list[PlannerSummary]:
 def summary_markdown(result: ScenResult, total_queries: int) -> str:
     c = result.config
     lines = [f"# Scenario benchmark: {Path(c.scen).name} ({c.kind})", "",
-             f"Map {Path(c.map_path).name}, robot radius {c.radius:g} cm, {len(result.records)} runs "
-             f"of {len(c.planners) * total_queries} planned, {result.total_time_s:.1f} s wall clock, seed {c.seed}."]
+             f"Map {Path(c.map_path).name}, robot radius {c.radius:g} cm, collision checks: {_checks(c)}, "
+             f"{len(result.records)} runs of {len(c.planners) * total_queries} planned, {result.total_time_s:.1f} s "
+             f"wall clock, seed {c.seed}."]
     if not result.complete:
         lines += ["", "**Incomplete: the run was interrupted; the rows below are the queries that finished.**"]
     lines += ["", "| planner | success | exact | mismatches | below optimum | median rel. error | max rel. error "
@@ -340,6 +361,13 @@ def summary_markdown(result: ScenResult, total_queries: int) -> str:
               "Preprocessing (graph or grid building, once per worker process) is excluded from the per-query "
               "times."]
     return "\n".join(lines) + "\n"
+
+
+def _checks(c: ScenConfig) -> str:
+    """The checker in words (a point robot's is the exact point checker, whatever --collision asked)."""
+    if c.radius == 0 and c.collision != "index":
+        return f"point (exact; --collision {c.collision} applies to a robot of radius > 0)"
+    return c.checker_backend
 
 
 def _peer_ratios(result: ScenResult) -> list[str]:
@@ -389,7 +417,7 @@ def write_scen_outputs(result: ScenResult, out_dir: Path, total_queries: int) ->
         name=f"scen_{Path(c.scen).stem.replace('.', '_')}", planners=blocks, time_limit_s=c.time_limit,
         total_time_s=result.total_time_s, seed=c.seed, run_count=total_queries,
         setup=f"nxtnav scenario benchmark: {Path(c.scen).name} on {Path(c.map_path).name} ({c.kind}), "
-              f"robot radius {c.radius:g} cm",
+              f"robot radius {c.radius:g} cm, collision checks {c.checker_backend}",
         properties={"robot_radius_cm": ("REAL", c.radius)}, cpuinfo=platform.processor() or platform.machine())
     write_ompl_log(files["ompl"], exp)
     return files

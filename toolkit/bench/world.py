@@ -17,7 +17,7 @@ import numpy as np
 import shapely
 
 from localisation.models import range_table
-from toolkit.world import CollisionChecker, Map, RngLike, RobotModel, as_rng, default_scan_angles, ray_cast
+from toolkit.world import Map, RngLike, RobotModel, as_rng, default_scan_angles, make_checker, ray_cast
 
 __all__ = ["bench_world_figures", "peer_raycast2d"]
 
@@ -94,7 +94,8 @@ LONG_STEP_RADII = 10.0
 
 def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repeats: int = 5,
                         segments: int = 20000, range_model: bool = True, range_memory_mb: float | None = None,
-                        sonar: str = "ideal", peer: bool = True, rng: RngLike = 0) -> dict[str, Any]:
+                        sonar: str = "ideal", peer: bool = True, collision: str = "index",
+                        rng: RngLike = 0) -> dict[str, Any]:
     """The figures of `nxtnav bench world` as a JSON-ready dict (rates per second, times in s, bytes).
 
     Rates come twice: per wall-clock second and per CPU second of this process (``*_per_cpu_s``),
@@ -102,13 +103,16 @@ def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repea
     from those points with normal x and y steps of `STEP_RADII` robot radii (and, for the
     ``long_segment`` figures, `LONG_STEP_RADII`): the same distribution relative to the robot on
     every map. The range model is the particle filters' table for `sonar` (``nxt``: its lobe,
-    specular loss and 255 cm range limit).
+    specular loss and 255 cm range limit). `collision` picks the checker (`toolkit.world.make_checker`):
+    ``index`` (its wall index and clearance raster count in the c-space build and memory) or ``fcl``
+    (its BVH; no index figures).
     """
     gen = as_rng(rng)
     t0, c0 = time.perf_counter(), time.process_time()
-    cc = CollisionChecker(m, radius)
+    cc = make_checker(m, radius, collision)
     m.free_space(radius)
-    raster_bytes = cc.clearance_raster.nbytes  # built here, so that it counts in the c-space build
+    indexed = cc.backend == "index"
+    raster_bytes = cc.clearance_raster.nbytes if indexed else None  # built here: it counts in the c-space build
     cspace_s, cspace_c = time.perf_counter() - t0, time.process_time() - c0
     origins = m.sample_free(poses, rng=gen)
     angles = default_scan_angles()
@@ -126,6 +130,7 @@ def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repea
         "map": m.name,
         "edges": len(m.walls),
         "radius_cm": radius,
+        "collision": cc.backend,
         "repeats": repeats,
         "rays": int(poses * angles.size),
         "rays_per_s": poses * angles.size / ray_s,
@@ -144,7 +149,7 @@ def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repea
         "free_fraction_long_segments": float(np.mean(cc.segments_free(a, far))),
         "cspace_build_s": cspace_s,
         "cspace_build_cpu_s": cspace_c,
-        "index_bytes": cc.index.nbytes,
+        "index_bytes": cc.index.nbytes if indexed else None,
         "clearance_raster_bytes": raster_bytes,
         "range_model_build_s": None,
         "range_model_bytes": None,

@@ -11,9 +11,10 @@ import numpy as np
 import typer
 
 from ..formats import json_safe
-from ..world import SONAR_MODELS, CollisionChecker, NxtnavError, NxtSonar, Pose, RobotGeometry, RobotModel, load_map
+from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, RobotModel, load_map, make_checker
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
 from .options import (
+    COLLISION_HELP,
     SONAR_PROFILE_HELP,
     check_writable,
     count,
@@ -24,6 +25,7 @@ from .options import (
     port,
     sonar_profile,
 )
+from .options import collision as collision_ok
 from .options import seed as seed_ok
 from .options import workers as workers_ok
 from .progress import progress
@@ -93,6 +95,8 @@ def run(
     seed: int = typer.Option(0, help="Random seed (start heading, simulator noise, stack).", callback=seed_ok),
     radius: float | None = typer.Option(None, "--radius", min=0.1,
                                         help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
+    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
+                                  callback=collision_ok),
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the report as JSON."),
     plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png", help="Draw the mission."),
     animate: Path | None = typer.Option(None, "--animate", metavar="FILE.gif", help="Animate the mission (GIF)."),
@@ -157,13 +161,14 @@ def run(
                 recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
                                                  "profile": robot.profile.to_dict()},
                                      {"model": "nxt", "params": sonar_model.to_dict()}, seed, None,
-                                     record_particles, stream)
+                                     record_particles, collision, stream)
             # the virtual brick draws every reading independently; a real sensor's readings share errors
             robot_model = RobotModel(sonar_model, geometry=robot.geometry,
                                      readings="simulated" if robot.virtual else "real")
             opts = localiser_options(localiser, robot_model)
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
-                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=recorder)
+                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts, collision=collision),
+                                 recorder=recorder)
         finally:
             robot.close()
             _finish(recorder, report, stream)
@@ -182,13 +187,14 @@ def run(
         recorder = None if record is None and stream is None else _recorder(
             record, m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
             {"model": sonar, "sensor_noise": sensor_noise, "params": sonar_model.to_dict()}, seed,
-            {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles, stream)
+            {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles, collision, stream)
         report = None
         try:
             report = run_sim_mission(
                 m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
                 localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
                 turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar, recorder=recorder, robot_radius_cm=radius,
+                config=MissionConfig.for_sonar(sonar, collision=collision),
             )
         finally:
             _finish(recorder, report, stream)
@@ -224,7 +230,7 @@ def run(
             animate_mission(report, m, animate)
             typer.echo(f"wrote {animate}")
     if not report.success:  # a target no robot disc fits on is bad input (2); any other failure is 1
-        reachable = bool(m.contains(target)) and bool(CollisionChecker(m, robot_radius).point_free(target))
+        reachable = bool(m.contains(target)) and bool(make_checker(m, robot_radius, collision).point_free(target))
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED if reachable else EXIT_BAD_INPUT)
 
 
@@ -238,7 +244,7 @@ def _view_stream(view: bool, save: Path | None) -> Any:
 
 
 def _recorder(path: Path | None, m: Any, robot: dict[str, Any], sonar: dict[str, Any], seed: int,
-              noise: dict[str, Any] | None, particles: int, stream: Any = None) -> Any:
+              noise: dict[str, Any] | None, particles: int, collision: str, stream: Any = None) -> Any:
     """The run's `Recorder`: writing `path` (None: no file) and feeding the live view on `stream`."""
     from ..recording import Recorder
 
@@ -250,8 +256,10 @@ def _recorder(path: Path | None, m: Any, robot: dict[str, Any], sonar: dict[str,
     try:
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
-        recorder = Recorder(path, map=m, robot=robot, sonar=sonar, seed=seed,
-                            extra=None if noise is None else {"noise": noise}, particles=particles,
+        extra: dict[str, Any] = {"collision": collision}
+        if noise is not None:
+            extra["noise"] = noise
+        recorder = Recorder(path, map=m, robot=robot, sonar=sonar, seed=seed, extra=extra, particles=particles,
                             listeners=listeners)
     except OSError as exc:
         raise NxtnavError(f"--record: cannot write {path} ({exc.strerror or exc})") from None
@@ -307,7 +315,7 @@ def _parse_options(items: list[str] | None) -> dict[str, Any]:
 
 def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list[str], models: list[str],
                 settings: str | None, workers: int, random_start: bool, json_out: Path | None,
-                profile: NxtSonar | None = None) -> None:
+                profile: NxtSonar | None = None, collision: str = "index") -> None:
     """`nxtnav paper --pareto`: every mission setting, both sonar models; a figure and a table."""
     from ..bench.paper import run_paper
     from ..bench.paper_pareto import MISSION_SETTINGS, pareto_points, pareto_tasks
@@ -316,10 +324,11 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
 
     names = _names(settings or ",".join(MISSION_SETTINGS), "--settings", list(MISSION_SETTINGS))
     tasks = pareto_tasks(trials, seed, settings=names, sonars=sonars, maps=maps, noise_models=models,
-                         random_start=random_start, sonar_model=profile)
+                         random_start=random_start, sonar_model=profile, collision=collision)
     with progress("missions", len(tasks), transient=True) as advance:
         _, results = run_paper(tasks, workers=workers, on_done=advance)
     points = pareto_points(results)
+    typer.echo(f"Collision checks: {collision}.\n")
     typer.echo("| Setting | Sonar | Map | Trials | Success | Collisions | Mean final error (cm) "
                "| Median robot time (s) | Median completion (s) | On the front |")
     typer.echo("|---|---|---|---:|---:|---:|---:|---:|---:|---|")
@@ -338,7 +347,7 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
         json_out.parent.mkdir(parents=True, exist_ok=True)
         models_used = {t.sonar: t.sonar_dict() for t in tasks}
         doc = {"settings": {k: MISSION_SETTINGS[k] for k in names}, "sonar_models": models_used,
-               "points": [p.to_dict() for p in points]}
+               "collision": collision, "points": [p.to_dict() for p in points]}
         json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
 
@@ -387,6 +396,8 @@ def paper(
                                             "against median robot time (the Pareto front)."),
     settings: str | None = typer.Option(None, "--settings", metavar="NAME[,NAME]",
                                         help="Mission settings for --pareto (default all)."),
+    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
+                                  callback=collision_ok),
 ) -> None:
     """The paper's Table I regenerated: completion time, final error, path length, collisions, robot time."""
     from ..bench.executors import TasksInterrupted
@@ -407,12 +418,12 @@ def paper(
     options = _parse_options(option)
     if pareto is not None:
         _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out,
-                    profile)
+                    profile, collision)
         return
     tasks = [t for so in sonars
              for t in paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=so,
                                   random_start=random_start, options=options,
-                                  sonar_model=profile if so == "nxt" else None)]
+                                  sonar_model=profile if so == "nxt" else None, collision=collision)]
     with progress("missions", len(tasks), transient=True) as advance:
         done = len(tasks)
         try:

@@ -14,14 +14,16 @@ from typing import Any
 
 import typer
 
-from ..world import COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
+from ..world import CHECKER_BACKENDS, COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
 
 __all__ = [
+    "COLLISION_HELP",
     "MAX_COUNT",
     "MAX_SWEEP_READINGS",
     "SENSOR_NOISE_HELP",
     "SONAR_PROFILE_HELP",
     "check_writable",
+    "collision",
     "count",
     "in_range",
     "non_negative",
@@ -89,6 +91,16 @@ port = in_range(1, 65535, what="a TCP port")
 """A TCP port to connect to: 1-65535."""
 port_or_zero = in_range(0, 65535, what="a TCP port (0 = any free one)")
 """A TCP port to listen on: 0-65535 (0 picks a free one)."""
+
+COLLISION_HELP = ("Collision checks of the robot disc: index (exact distances over a grid of the walls, compiled) "
+                  "or fcl (python-fcl's BVH); a point robot (radius 0) has its own exact checker.")
+
+
+def collision(value: str) -> str:
+    """A typer callback accepting a collision backend (`toolkit.world.CHECKER_BACKENDS`: index or fcl)."""
+    if value not in CHECKER_BACKENDS:
+        raise typer.BadParameter(f"must be one of {', '.join(CHECKER_BACKENDS)}, got {value!r}")
+    return value
 
 
 def check_out_folder(out: Path, force: bool, option: str = "--out") -> None:

@@ -13,7 +13,8 @@ import typer
 from ..formats import json_safe
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import Interrupted, app, bench_app, fail
-from .options import check_writable, count, non_negative, parse_list, parse_xy
+from .options import COLLISION_HELP, check_writable, count, non_negative, parse_list, parse_xy
+from .options import collision as collision_ok
 from .options import repeats as repeats_ok
 from .options import seed as seed_ok
 from .options import time_limit as time_limit_ok
@@ -52,6 +53,8 @@ def plan(
                                      callback=time_limit_ok),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0: a point robot).",
                                  callback=non_negative),
+    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
+                                  callback=collision_ok),
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives for the execution error (0 skips it)."),
     noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
@@ -81,7 +84,7 @@ def plan(
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
-    checker = make_checker(m, radius)
+    checker = make_checker(m, radius, collision)
 
     def point(text: str | None, option: str, preset: Any) -> np.ndarray:
         if text is None:
@@ -115,7 +118,8 @@ def plan(
         if ref.success:
             refs[name] = ref.path
     doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
-                           "robot_radius_cm": radius, "start": start.tolist(), "goal": goal.tolist(),
+                           "robot_radius_cm": radius, "collision": checker.backend, "start": start.tolist(),
+                           "goal": goal.tolist(),
                            **{k: v for k, v in result.to_dict().items() if k != "planner"}}
     fig, ax = new_axes(size=6.0)
     draw_map(m, ax, presets=False, title=False)
@@ -143,7 +147,7 @@ def plan(
             lines.append(f"execution error {ex.mean_cm:.2f} cm mean, {ex.median_cm:.2f} cm median "
                          f"({ex.repeats} drives, {nz.model} noise), touched a wall in "
                          f"{100 * ex.collision_fraction:.0f}%")
-        lines.append(f"{result.collision_checks} collision checks")
+        lines.append(f"{result.collision_checks} collision checks ({checker.backend})")
     doc["references"] = {k: {"path": v.tolist(), "length_cm": float(np.sum(np.hypot(*np.diff(v, axis=0).T)))}
                          for k, v in refs.items()}
     ax.set_title("\n".join(lines), fontsize=9)
@@ -178,6 +182,8 @@ def bench_planners(
                                      help="Open-loop drives per run for the execution error (0 skips it)."),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0 = a point).",
                                  callback=non_negative),
+    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
+                                  callback=collision_ok),
     noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
@@ -197,7 +203,7 @@ def bench_planners(
         load_map(name)  # a bad map name fails before any work
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs, time_limit=time_limit,
                              seed=seed, queries=queries,  # type: ignore[arg-type]
-                             exec_repeats=exec_repeats, robot_radius=radius,
+                             exec_repeats=exec_repeats, robot_radius=radius, collision=collision,
                              noise=_noise(noise_model, motion_noise, turn_noise))
     out_dir = check_out_dir(out, force)
     with progress("references and runs", config.n_tasks()) as advance:

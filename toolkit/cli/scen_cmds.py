@@ -10,7 +10,8 @@ import yaml
 
 from ..world import NxtnavError, import_map
 from .app import bench_app, maps_app
-from .options import parse_list
+from .options import COLLISION_HELP, parse_list
+from .options import collision as collision_ok
 from .progress import progress
 
 __all__: list[str] = []
@@ -88,6 +89,8 @@ def bench_scen(
                                       help="Comma-separated planner names; peers (benchmark extra 'peers'): "
                                            "peer:pyastar2d, peer:extremitypathfinder."),
     radius: float = typer.Option(0.0, "--radius", help="Robot radius in cm (0: a point, as the benchmarks assume)."),
+    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
+                                  callback=collision_ok),
     cell_cm: float = typer.Option(1.0, "--cell-cm", help="Cell size in cm (lengths are compared in cells)."),
     limit: int | None = typer.Option(None, "--limit", help="Run N queries spread evenly over the file."),
     time_limit: float = typer.Option(10.0, "--time-limit", help="Planning budget per query (s)."),
@@ -135,7 +138,8 @@ def bench_scen(
     queries = read_scen(scen, m, kind)  # type: ignore[arg-type]
     chosen = select_queries(queries, limit)
     out.mkdir(parents=True, exist_ok=True)
-    config = ScenConfig(str(scen), str(map_path), kind, tuple(names), radius, cell_cm, time_limit, seed)  # type: ignore[arg-type]
+    config = ScenConfig(str(scen), str(map_path), kind, tuple(names), radius, cell_cm, time_limit, seed,  # type: ignore[arg-type]
+                        collision=collision)
     with progress(f"{scen.name}: {', '.join(names)}", len(chosen) * len(names)) as advance:
         result = run_scen(config, chosen, workers=workers, dask_address=dask, on_done=advance)
     files = write_outputs(result, out, len(chosen))

@@ -21,6 +21,7 @@ from ..world import (
 )
 from .app import app, bench_app, maps_app
 from .options import (
+    COLLISION_HELP,
     SENSOR_NOISE_HELP,
     SONAR_PROFILE_HELP,
     check_writable,
@@ -30,6 +31,7 @@ from .options import (
     parse_sweep,
     sonar_profile,
 )
+from .options import collision as collision_ok
 from .options import seed as seed_ok
 
 __all__: list[str] = []
@@ -161,6 +163,8 @@ def bench_world(
     cell_cm: float | None = typer.Option(None, help="Cell size (cm) of a Moving AI map (default 1) or of "
                                                     "--random-grid (default 5)."),
     radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the checks and the c-space (cm)."),
+    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
+                                  callback=collision_ok),
     poses: int = typer.Option(1000, help="Poses per ray-casting call (x 360 directions).", callback=count),
     repeats: int = typer.Option(5, help="Repetitions; the median is reported.", callback=count),
     segments: int = typer.Option(20000, help="Random segments / points for the collision-check timing.",
@@ -177,10 +181,10 @@ def bench_world(
 ) -> None:
     """Throughput of ray casting and collision checks, c-space and range-model build; medians of repeats.
 
-    Rays: `poses` random free positions x 360 directions. Checks: `CollisionChecker` on random points
-    over the map's bounds and random segments from them (normal x and y steps of 2.5 robot radii,
-    20 cm for 8 cm; long segments: 10 radii). The c-space is the free area shrunk by the radius plus
-    the checker's index and clearance raster. The peer (``pip install nxtnav[peers]``)
+    Rays: `poses` random free positions x 360 directions. Checks: the --collision checker on random
+    points over the map's bounds and random segments from them (normal x and y steps of 2.5 robot
+    radii, 20 cm for 8 cm; long segments: 10 radii). The c-space is the free area shrunk by the radius
+    plus the checker's structures (index and clearance raster, or FCL's BVH). The peer (``pip install nxtnav[peers]``)
     casts the same rays on the map rasterised at 1 cm (or coarser, at most 4096 pixels a side).
     """
     from ..bench.world import bench_world_figures
@@ -200,8 +204,9 @@ def bench_world(
         m = load_map(map_name)
     fig = bench_world_figures(m, radius=radius, poses=poses, repeats=repeats, segments=segments,
                               range_model=range_model, range_memory_mb=range_memory_mb, sonar=sonar, peer=peer,
-                              rng=seed)
-    table = Table("measure", "value", title=f"{m.name}: {fig['edges']} walls, medians of {repeats}")
+                              collision=collision, rng=seed)
+    table = Table("measure", "value", title=f"{m.name}: {fig['edges']} walls, {fig['collision']} collision checks, "
+                                            f"medians of {repeats}")
     table.add_row("ray casting", f"{fig['rays_per_s'] / 1e6:.2f} M rays/s "
                   f"({fig['rays_per_cpu_s'] / 1e6:.2f} M per CPU second)")
     table.add_row(f"segment checks ({fig['mean_segment_cm']:.0f} cm mean)",

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError
+from toolkit.world import CHECKER_BACKENDS, ConfigError
 
 FloatArray = NDArray[np.float64]
 
@@ -144,6 +144,9 @@ class MissionConfig:
     spread_drift : float
         Nor the position spread as smaller than this fraction of the distance driven since the
         last fix (a localiser whose belief does not grow with the motion is not trusted blindly).
+    collision : {"index", "fcl"}
+        Backend of the mission's collision checks (planning, legs, exploration; the simulator's
+        watchdog and contacts too when the mission runs on it): `toolkit.world.make_checker`.
     """
 
     planning_time_s: float = 1.0
@@ -189,6 +192,7 @@ class MissionConfig:
     spread_sigmas: float = 3.0
     spread_min_heading_deg: float = 1.0
     spread_drift: float = 0.05
+    collision: str = "index"
 
     def __post_init__(self) -> None:
         positive = ("planning_time_s", "move_step_cm", "waypoint_tolerance_cm", "goal_tolerance_cm",
@@ -216,6 +220,9 @@ class MissionConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise ConfigError(f"MissionConfig.{name} must be >= 0, got {v!r}")
+        if self.collision not in CHECKER_BACKENDS:
+            raise ConfigError(f"MissionConfig.collision must be one of {', '.join(CHECKER_BACKENDS)}, "
+                              f"got {self.collision!r}")
         if self.tracking not in ("continue", "prior"):
             raise ConfigError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
         if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:

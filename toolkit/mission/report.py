@@ -194,6 +194,8 @@ class MissionReport:
     plans : list of (k, 2) ndarray
         Every planned path, in order.
     trace : list of TraceStep
+    collision : str
+        Backend of the mission's collision checks (``index`` or ``fcl``).
     """
 
     success: bool
@@ -223,6 +225,7 @@ class MissionReport:
     time_split: RobotTimeSplit | None = None
     outcome: Outcome = Outcome.REACHED
     cpu_s: float = math.nan
+    collision: str = "index"
 
     def to_dict(self, trace: bool = True) -> dict[str, Any]:
         """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
@@ -247,6 +250,7 @@ class MissionReport:
             "planner": self.planner,
             "localiser": self.localiser,
             "seed": self.seed,
+            "collision": self.collision,
             "start": None if self.start is None else self.start.to_list_deg(),
             "target": [float(v) for v in self.target],
             "final_pose": None if self.final_pose is None else self.final_pose.to_list_deg(),
@@ -286,7 +290,8 @@ class MissionReport:
         coll = "unknown" if self.collisions is None else str(self.collisions)
         lines = [
             f"{'SUCCESS' if self.success else 'FAILED'}: {self.status}",
-            f"map {self.map}, planner {self.planner}, localiser {self.localiser}, seed {self.seed}",
+            f"map {self.map}, planner {self.planner}, localiser {self.localiser}, seed {self.seed}, "
+            f"collision checks {self.collision}",
             f"final error {err} (estimate {_fmt(self.estimate_error_cm)} cm from target), "
             f"collisions {coll}",
             f"completion {self.completion_s:.3f} s wall-clock ({self.cpu_s:.3f} s CPU), "

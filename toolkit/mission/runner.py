@@ -159,6 +159,7 @@ def run_mission(
         candidates=mission.candidates,
         time_split=_time_split(delta, robot_time),
         outcome=outcome,
+        collision=cfg.collision,
     )
 
 

@@ -21,6 +21,7 @@ from ..world import (
     Pose,
     RobotModel,
     load_map,
+    make_checker,
 )
 from .config import MissionConfig
 from .report import MissionReport
@@ -114,7 +115,9 @@ def run_sim_mission(
     if isinstance(localiser, str):
         opts = localiser_options(localiser, robot_model)
         cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
-    robot = SimRobot(m, pose, geometry=geometry, noise=robot_model.motion, sonar=robot_model.sonar, rng=s_sim)
+    checker = make_checker(m, geometry.radius_cm, cfg.collision)  # the simulator's contacts too: one backend
+    robot = SimRobot(m, pose, geometry=geometry, noise=robot_model.motion, sonar=robot_model.sonar, rng=s_sim,
+                     checker=checker)
     report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,
                          recorder=recorder)
     return replace(report, seed=int(seed))

@@ -25,6 +25,7 @@ from ..world import (
     Robot,
     Scan,
     angle_diff,
+    make_checker,
     ray_cast,
 )
 from .config import _WINDOW_CENTRES, MissionConfig, sweep_angles
@@ -67,15 +68,17 @@ class _Mission:
         self.radius = radius
         self.candidates: list[Pose] = []  # the belief's candidate poses when it stayed ambiguous
         shared = getattr(robot, "checker", None)
-        if isinstance(shared, CollisionChecker) and shared.map is m and shared.robot_radius == radius:
+        if (isinstance(shared, CollisionChecker) and shared.map is m and shared.robot_radius == radius
+                and shared.backend == config.collision):
             self.checker = shared
         else:
-            self.checker = CollisionChecker(m, radius)
+            self.checker = make_checker(m, radius, config.collision)
         margin = config.safety_margin_cm
         # planning checkers with the full margin, then half of it; the bare radius is the last resort
-        self.safe_checkers = [CollisionChecker(m, radius + f * margin) for f in (1.0, 0.5) if margin > 0]
+        self.safe_checkers = [make_checker(m, radius + f * margin, config.collision) for f in (1.0, 0.5)
+                              if margin > 0]
         lm = config.leg_margin_cm
-        self.leg_checker = CollisionChecker(m, radius + lm) if lm > 0 else self.checker
+        self.leg_checker = make_checker(m, radius + lm, config.collision) if lm > 0 else self.checker
         self._margin_checkers: dict[float, CollisionChecker] = {}
         self.trace: list[TraceStep] = []
         self.plans: list[FloatArray] = []
@@ -372,7 +375,7 @@ class _Mission:
         if key == 0.0:
             return self.checker
         if key not in self._margin_checkers:
-            self._margin_checkers[key] = CollisionChecker(self.map, self.radius + key)
+            self._margin_checkers[key] = make_checker(self.map, self.radius + key, self.cfg.collision)
         return self._margin_checkers[key]
 
     def spread_clear(self, goal: FloatArray) -> bool:

@@ -20,13 +20,14 @@ from .importers import import_map
 from .laser import LaserScanner
 from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_map, map_from_dict
 from .params import Param, Params
-from .point_collision import PointCollisionChecker, make_checker
+from .point_collision import CHECKER_BACKENDS, PointCollisionChecker, make_checker
 from .registry import Registry
 from .robot import NO_ECHO, MoveOutcome, Robot, RobotGeometry, Scan, default_scan_angles
 from .robot_model import FACETS, NXT_SONAR_SIGMA_CM, MotionNoise, RobotModel
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
 
 __all__ = [
+    "CHECKER_BACKENDS",
     "COORDINATE_LIMIT_CM",
     "FACETS",
     "NO_ECHO",

@@ -66,6 +66,9 @@ class CollisionChecker:
     ----------
     point_checks, segment_checks : int
         Number of single point / segment checks made (batch calls count each element).
+    backend : str
+        How the checks are made: ``"index"`` here (``"fcl"``, ``"point"`` for the other checkers);
+        result files record it.
 
     Examples
     --------
@@ -74,6 +77,8 @@ class CollisionChecker:
     >>> cc.point_free([20, 20]), cc.point_free([3, 3])
     (True, False)
     """
+
+    backend = "index"
 
     def __init__(self, map: Map, robot_radius: float) -> None:
         r = float(robot_radius)

@@ -43,7 +43,9 @@ def make_checker(map: Map, robot_radius: float, backend: str = "index") -> Colli
     """The checker for a disc of `robot_radius` cm, or the exact point checker for radius 0.
 
     `backend` picks the disc checker: ``"index"`` (default: exact distances over a uniform grid of
-    the walls, compiled) or ``"fcl"`` (python-fcl's BVH, the reference it is tested against).
+    the walls, compiled) or ``"fcl"`` (python-fcl's BVH, the reference it is tested against). A
+    point robot has one checker whatever the backend (FCL cannot express touching a wall); every
+    checker's ``backend`` attribute says which one answers.
     """
     if backend not in CHECKER_BACKENDS:
         raise MapError(f"unknown collision backend {backend!r}; known: {', '.join(CHECKER_BACKENDS)}")
@@ -68,6 +70,8 @@ class PointCollisionChecker(CollisionChecker):
     >>> cc.point_free([0, 0]), cc.segment_free([0, 0], [60, 0]), cc.segment_free([50, 40], [50, 50])
     (True, True, False)
     """
+
+    backend = "point"
 
     def __init__(self, map: Map, use_grid: bool = True) -> None:
         self.map = map

@@ -79,7 +79,7 @@ def save_boxplots(result: BenchmarkResult, out: str | Path) -> dict[str, Path]:
         for ax, m in zip(axes[0], maps, strict=True):
             draw_metric_boxplot(result, metric, m, ax)
         fig.suptitle(f"{label}: {result.config.runs} runs, {result.config.time_limit:g} s budget, "
-                     f"{result.config.queries} queries")
+                     f"{result.config.queries} queries, {result.config.collision} collision checks")
         fig.tight_layout()
         files[f"boxplot_{stem}"] = save_figure(fig, Path(out) / f"boxplot_{stem}.png")
     return files

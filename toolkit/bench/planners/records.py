@@ -10,11 +10,11 @@ from typing import Any, Literal
 from planners import PlanStatus
 
 from ...robots.sim import MotionNoise
-from ...world import PlanningError, RobotGeometry
+from ...world import CHECKER_BACKENDS, PlanningError, RobotGeometry
 
 #: Columns of ``runs.csv``, in order.
 RUN_COLUMNS = ("map", "planner", "run", "seed", "success", "time_s", "length_cm", "turns", "turn_angle_rad",
-               "min_clearance_cm", "collision_checks", "length_ratio", "exec_error_cm")
+               "min_clearance_cm", "collision_checks", "length_ratio", "exec_error_cm", "collision")
 
 
 QueryMode = Literal["presets", "random"]
@@ -53,6 +53,7 @@ class ReferenceTask:
     query: Query
     robot_radius: float
     time_limit: float = REFERENCE_TIME_LIMIT_S
+    collision: str = "index"
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,7 @@ class RunTask:
     noise: MotionNoise
     reference_length: float | None = None
     reference_turns: int | None = None
+    collision: str = "index"
 
 
 @dataclass(frozen=True)
@@ -126,6 +128,8 @@ class RunRecord:
     first_solution_s: float = math.nan
     path: tuple[tuple[float, float], ...] = field(default=(), repr=False)
     detail: str = ""
+    collision: str = "index"
+    """The checker that answered (``index``, ``fcl``, or ``point`` for a point robot)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -158,6 +162,8 @@ class BenchmarkConfig:
         Robot disc radius (cm).
     noise : MotionNoise
         Motion noise of the execution error (the paper's BotSim noise by default).
+    collision : {"index", "fcl"}
+        Collision backend of the shared checker (`toolkit.world.make_checker`).
     """
 
     maps: tuple[str, ...]
@@ -169,6 +175,7 @@ class BenchmarkConfig:
     exec_repeats: int = 100
     robot_radius: float = RobotGeometry().radius_cm
     noise: MotionNoise = field(default_factory=MotionNoise)
+    collision: str = "index"
 
     def __post_init__(self) -> None:
         if not self.maps:
@@ -189,6 +196,9 @@ class BenchmarkConfig:
             raise PlanningError(f"queries must be 'presets' or 'random', got {self.queries!r}")
         if not (math.isfinite(self.robot_radius) and self.robot_radius >= 0):
             raise PlanningError(f"robot radius must be a number of cm >= 0 (0: a point), got {self.robot_radius}")
+        if self.collision not in CHECKER_BACKENDS:
+            raise PlanningError(f"collision backend must be one of {', '.join(CHECKER_BACKENDS)}, "
+                                f"got {self.collision!r}")
 
     def n_queries(self) -> int:
         return len(self.maps) * (1 if self.queries == "presets" else self.runs)

@@ -56,7 +56,8 @@ def format_summary(result: BenchmarkResult) -> str:
         "",
         f"- maps: {', '.join(c.maps)}; planners: {', '.join(c.planners)}",
         f"- {c.runs} runs per planner and map, {c.time_limit:g} s budget, seed {c.seed}, queries: {c.queries}",
-        f"- robot radius {c.robot_radius:g} cm; execution error: mean final distance to the goal over "
+        f"- robot radius {c.robot_radius:g} cm, collision checks: {_backend(result)}; execution error: mean final "
+        f"distance to the goal over "
         f"{c.exec_repeats} open-loop drives, noise {nz.model} (motion {nz.motion:g}, turn {nz.turn:g})",
         f"- started {result.started.isoformat(timespec='seconds')}, total {result.total_time_s:.1f} s",
         "",
@@ -97,6 +98,12 @@ def format_summary(result: BenchmarkResult) -> str:
             lines += ["", f"Execution error vs turns over all successful runs: Spearman rank correlation "
                           f"{rho:+.2f} (n = {n})."]
     return "\n".join(lines) + "\n"
+
+
+def _backend(result: BenchmarkResult) -> str:
+    """The checker that answered the runs (``index``, ``fcl``; ``point`` for a point robot, whatever was asked)."""
+    used = sorted({r.collision for r in result.records}) or [result.config.collision]
+    return ", ".join(used) + ("" if used == [result.config.collision] else f" (asked: {result.config.collision})")
 
 
 def turns_error_correlation(result: BenchmarkResult, map_name: str) -> tuple[float, int]:
@@ -147,14 +154,14 @@ def write_paths_jsonl(result: BenchmarkResult, path: Path) -> None:
         for r in result.records:
             doc = {"map": r.map, "planner": r.planner, "run": r.run, "seed": r.seed, "success": r.success,
                    "path": [list(p) for p in r.path], "status": str(r.status), "detail": r.detail, "query": r.query,
-                   "start": list(r.start), "goal": list(r.goal), "time_s": r.time_s,
+                   "start": list(r.start), "goal": list(r.goal), "time_s": r.time_s, "collision": r.collision,
                    "first_solution_s": r.first_solution_s if math.isfinite(r.first_solution_s) else None}
             fh.write(json.dumps(doc) + "\n")
 
 
 def write_references_csv(result: BenchmarkResult, path: Path) -> None:
     cols = ("map", "query", "start_x", "start_y", "goal_x", "goal_y", "shortest_length_cm", "min_link_turns",
-            "min_link_length_cm", "status")
+            "min_link_length_cm", "status", "collision")
     with path.open("w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(cols)
@@ -162,7 +169,7 @@ def write_references_csv(result: BenchmarkResult, path: Path) -> None:
             q = r.query
             w.writerow([csv_cell(v) for v in (q.map, q.index, q.start[0], q.start[1], q.goal[0], q.goal[1],
                                                 r.shortest_length_cm, r.min_link_turns, r.min_link_length_cm,
-                                                r.status)])
+                                                r.status, _backend(result))])
 
 
 _OMPL_PROPERTIES = (
@@ -213,7 +220,8 @@ def _ompl_experiment(result: BenchmarkResult, maps: Sequence[str], name: str) ->
                 rows.append(row)
         planners.append(OmplPlannerData(p, props, rows, {"planner": p, "time_limit": c.time_limit}))
     setup = [f"nxtnav planner benchmark: maps {', '.join(maps)}; queries {c.queries}",
-             f"robot radius {c.robot_radius:g} cm; planners validated by the shared collision checker",
+             f"robot radius {c.robot_radius:g} cm; planners validated by the shared collision checker "
+             f"({_backend(result)})",
              f"execution error: {c.exec_repeats} open-loop drives, noise {json.dumps(c.noise.to_dict())}"]
     for ref in result.references:
         if ref.query.map in maps:

@@ -79,12 +79,12 @@ def _random_query(m: Map, checker: CollisionChecker, rng: np.random.Generator, m
 
 
 def make_queries(m: Map, mode: QueryMode, runs: int, seed: int, robot_radius: float,
-                 label: str | None = None) -> list[Query]:
+                 label: str | None = None, collision: str = "index") -> list[Query]:
     """The queries of a map: one (the presets) or one random pair per run.
 
-    Random pairs are free for the robot disc (checked by FCL), in the same connected part of the
-    c-space and at least a quarter of the map's bounding-box diagonal apart. `label` (default the
-    map's name) names the map in the queries and in the run seeds.
+    Random pairs are free for the robot disc (checked by the `collision` backend), in the same
+    connected part of the c-space and at least a quarter of the map's bounding-box diagonal apart.
+    `label` (default the map's name) names the map in the queries and in the run seeds.
     """
     name = m.name if label is None else label
     if mode == "presets":
@@ -94,7 +94,7 @@ def make_queries(m: Map, mode: QueryMode, runs: int, seed: int, robot_radius: fl
                       (float(m.target[0]), float(m.target[1])))]
     if mode != "random":
         raise PlanningError(f"queries must be 'presets' or 'random', got {mode!r}")
-    checker = make_checker(m, robot_radius)
+    checker = make_checker(m, robot_radius, collision)
     xmin, ymin, xmax, ymax = m.bounds
     sep = 0.25 * math.hypot(xmax - xmin, ymax - ymin)
     out = []
@@ -107,8 +107,8 @@ def make_queries(m: Map, mode: QueryMode, runs: int, seed: int, robot_radius: fl
 
 # -- per-process caches --------------------------------------------------------------------------
 @lru_cache(maxsize=32)
-def _checker(map_name: str, radius: float) -> CollisionChecker:
-    return make_checker(cached_map(map_name), radius)
+def _checker(map_name: str, radius: float, collision: str = "index") -> CollisionChecker:
+    return make_checker(cached_map(map_name), radius, collision)
 
 
 def planner_for(name: str, m: Map, options: dict[str, Any] | None = None) -> Any:
@@ -141,7 +141,7 @@ def _path_tuple(path: np.ndarray) -> tuple[tuple[float, float], ...]:
 def run_reference(task: ReferenceTask) -> ReferenceResult:
     """Solve one query with `shortest` and `min-link` (the yardsticks of the ratios)."""
     q = task.query
-    checker = _checker(q.map, task.robot_radius)
+    checker = _checker(q.map, task.robot_radius, task.collision)
     t0 = time.perf_counter()
     results: dict[str, Any] = {}
     statuses = []
@@ -177,10 +177,10 @@ def run_task(task: RunTask) -> RunRecord:
     """
     q = task.query
     m = cached_map(task.map)
-    checker = _checker(task.map, task.robot_radius)
+    checker = _checker(task.map, task.robot_radius, task.collision)
     plan_ss, exec_ss, _ = _streams(task.seed)
     base: dict[str, Any] = {"map": task.map, "planner": task.planner, "run": task.run, "seed": task.seed,
-                            "query": q.index, "start": q.start, "goal": q.goal}
+                            "query": q.index, "start": q.start, "goal": q.goal, "collision": checker.backend}
     problem = PlanningProblem(m, checker, np.array(q.start), np.array(q.goal), task.time_limit,
                               np.random.default_rng(plan_ss))
     checks0 = checker.checks
@@ -266,8 +266,9 @@ def run_benchmark(
     maps = {name: load_map(name) for name in config.maps}
     queries: list[Query] = []
     for name, m in maps.items():
-        queries.extend(make_queries(m, config.queries, config.runs, config.seed, config.robot_radius, label=name))
-    ref_tasks = [ReferenceTask(q, config.robot_radius) for q in queries]
+        queries.extend(make_queries(m, config.queries, config.runs, config.seed, config.robot_radius, label=name,
+                                    collision=config.collision))
+    ref_tasks = [ReferenceTask(q, config.robot_radius, collision=config.collision) for q in queries]
     try:
         refs = collect_tasks(run_reference, ref_tasks, workers=workers, dask_address=dask_address, on_done=on_done)
     except TasksInterrupted:  # no planner has run yet: nothing to keep
@@ -284,7 +285,7 @@ def run_benchmark(
                     query=ref.query, time_limit=config.time_limit, robot_radius=config.robot_radius,
                     exec_repeats=config.exec_repeats, noise=config.noise,
                     reference_length=None if math.isnan(ref.shortest_length_cm) else ref.shortest_length_cm,
-                    reference_turns=ref.min_link_turns,
+                    reference_turns=ref.min_link_turns, collision=config.collision,
                 ))
     complete = True
     try:
