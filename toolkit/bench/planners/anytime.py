@@ -74,9 +74,9 @@ class CurveBand:
 
     def __init__(self, grid: FloatArray, curves: FloatArray) -> None:
         self.grid = grid
-        big = 1e300  # stands for inf (no solution yet) so that quantiles of a mixed column stay defined
+        big = 1e300  # stands for inf (no solution yet) so that quantiles of a mixed column stay defined;
         q = np.quantile(np.where(np.isfinite(curves), curves, big), [0.25, 0.5, 0.75], axis=0)
-        q[q >= big / 2] = np.inf
+        q[q >= 1e200] = np.inf  # a quantile between a solved run and an unsolved one is unbounded too
         self.q25, self.median, self.q75 = q
         self.runs = len(curves)
 

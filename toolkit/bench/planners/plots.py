@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 
 from planners.base import status_message
 
-from ...plotting import draw_cspace, draw_map, draw_path, save_figure
+from ...plotting import draw_cspace, draw_map, draw_path, plain_log_axis, save_figure
 from ...world import ConfigError, load_map
 from .anytime import WITHIN, cost_band, has_curve, reference_lengths
 from .records import BenchmarkResult, RunRecord
@@ -188,6 +188,7 @@ def draw_cost_over_time(result: BenchmarkResult, map_name: str, ax: Axes, within
             top = max(top, float(yq75))
     artists.append(ax.axhline(1.0 + within, ls="--", lw=0.8, color="0.4"))
     ax.set_xscale("log")
+    plain_log_axis(ax.xaxis)
     ax.set_ylim(0.995, min(top * 1.02, 2.0))
     ax.set_xlabel("time (s)")
     ax.set_ylabel("best length / shortest")
@@ -226,6 +227,7 @@ def save_plots(result: BenchmarkResult, out: str | Path) -> dict[str, Path]:
             draw_exec_vs_turns(result, ax, simplified)
         fig.tight_layout()
         files["exec_vs_turns"] = save_figure(fig, Path(out) / "exec_vs_turns.png")
-    files["paths"] = save_figure(draw_paths_grid(result, size=2.9), Path(out) / "paths.png")
+    size = min(2.9, 19.0 / max(len(result.config.planners), 1))  # many planners: narrower panels, one page wide
+    files["paths"] = save_figure(draw_paths_grid(result, size=size), Path(out) / "paths.png")
     files["cost_over_time"] = save_cost_over_time(result, out)
     return files
