@@ -58,6 +58,8 @@ OMPL_PARAMS = Params(
     Param("deterministic", bool, True, "Count the budget in iterations (reproducible) rather than seconds"),
     Param("iterations_per_s", float, None, "Iterations per second of budget when deterministic (null: the "
           "planner's calibrated rate)", low=1e-6, optional=True),
+    Param("progress_interval", float, 0.01, "Seconds of budget between two best-cost samples (besides one at "
+          "every improvement)", unit="s", low=1e-6),
 )
 _OMPL_CLASSES = {"rrtstar": "RRTstar", "prm": "PRM"}
 """Registered planners that are one OMPL planner each (the others are ``ompl:NAME``)."""

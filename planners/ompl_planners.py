@@ -15,6 +15,23 @@ run them with ``stop_at_first=True`` to measure it (their planning time is then 
 solution). ``stop_at_first=True`` sets the objective's cost threshold to infinity, so any planner
 stops at its first exact solution.
 
+Progress. Every call records the best cost found so far (the path length in cm, inf before the
+first solution) as ``info["progress"]``, a list of ``[time_s, iterations, best_cost]`` samples: one at
+every improvement and one every `progress_interval` of the budget, like the progress properties
+(``best cost``, ``iterations``) of OMPL's own benchmark. The samples are taken where the termination
+condition is polled (once per iteration), so in deterministic mode the interval is counted in
+iterations (``iterations_per_s * progress_interval`` polls) and the sampled costs repeat exactly with
+the seed; ``time_s`` is the wall-clock time since the call began. The cost comes from the planner's
+``bestCost()`` where it has one (RRT*, Informed RRT*, BIT*, AORRTC, ...), else from the problem's
+exact solution (RRTConnect and other feasibility planners: one sample, when they stop). PRM and PRM*
+in deterministic mode are queried after every 10 ms of their budget (a fixed number of iterations,
+whatever the interval, so the interval never changes their roadmap), which is their progress
+resolution; in wall-clock mode they poll from a thread of their own and report only the final cost.
+
+Declared parameters. OMPL 2.0.1's Python bindings cannot convert ``Planner.params()``, so the
+planner's parameters are read from its getter/setter pairs after setup (``getRange``/``setRange`` ->
+``Range``; the names the ``settings`` option takes) and reported in ``info["params"]``.
+
 Seeding and reproducibility. OMPL gives every RNG it creates (one per planner, one per state
 sampler) a seed drawn from a process-wide seed generator, and `ompl.util.RNG.setSeed` re-seeds that
 generator (after the first RNG exists it also logs an error, which is silenced here). The adapter
@@ -50,12 +67,13 @@ import numpy as np
 import ompl.base as ob
 import ompl.geometric as og
 import ompl.util as ou
+from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, ConfigError, RegistryError
 
 from .base import PLANNERS, Planner, PlanningProblem, PlanStatus, Solution
 
-__all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "ompl_planner_names"]
+__all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "declared_params", "ompl_planner_names", "ompl_simplify"]
 
 _LOG_LEVELS = {
     "none": ou.LOG_NONE,
@@ -69,10 +87,12 @@ _LOG_LEVELS = {
 _THREADED = frozenset({"PRM", "PRMstar"})
 _TIME_CAP = 10.0  # deterministic mode: wall-clock cap, in multiples of the time limit ...
 _TIME_CAP_MIN_S = 30.0  # ... and at least this long, so that a busy machine still gets reproducible paths
-_ROADMAP_ROUNDS = 10  # deterministic PRM: roadmap growth rounds (a query after each)
+_ROADMAP_ROUND_S = 0.01  # deterministic PRM: budget (s) of one roadmap growth round (a query after each)
 # deterministic mode: iterations per second of budget, about what one laptop core does on the bundled maps
 _ITERATIONS_PER_S = {"PRMstar": 1000.0, "BITstar": 50000.0, "ABITstar": 50000.0, "AITstar": 50000.0}
 _DEFAULT_ITERATIONS_PER_S = 5000.0
+_PARAM_TYPES = (bool, int, float, str)
+_NOT_PARAMS = frozenset({"Name", "ProblemDefinition"})
 
 _STATUS = {  # OMPL's PlannerStatus names -> ours (OMPL's own words stay in info["ompl_status"] and the detail)
     "EXACT_SOLUTION": PlanStatus.EXACT,
@@ -92,6 +112,24 @@ def ompl_planner_names() -> list[str]:
     )
 
 
+def declared_params(planner: Any) -> dict[str, bool | int | float | str]:
+    """An OMPL planner's parameters: every getter with a setter beside it (``getRange``/``setRange`` ->
+    ``Range``) whose value is a plain number, flag or string. Read after ``setup()`` (some defaults,
+    such as the range, are set there)."""
+    out: dict[str, bool | int | float | str] = {}
+    for attr in sorted(dir(planner)):
+        key = attr[3:]
+        if not attr.startswith("get") or key in _NOT_PARAMS or not hasattr(planner, f"set{key}"):
+            continue
+        try:
+            value = getattr(planner, attr)()
+        except (TypeError, RuntimeError):  # a getter that takes arguments or cannot answer
+            continue
+        if isinstance(value, _PARAM_TYPES):
+            out[key] = value
+    return out
+
+
 class _SegmentValidator(ob.MotionValidator):
     """OMPL motion validation by the shared checker's exact swept-disc segment check."""
 
@@ -101,6 +139,99 @@ class _SegmentValidator(ob.MotionValidator):
 
     def checkMotion(self, s1: Any, s2: Any, *rest: Any) -> bool:
         return self._checker.segment_free((s1[0], s1[1]), (s2[0], s2[1]))
+
+
+def _space(bounds: tuple[float, float, float, float], checker: CollisionChecker) -> tuple[Any, Any]:
+    """OMPL's 2-D space on the box `bounds` and its space information, whose states and motions the
+    shared checker validates (the validator is kept alive by the space information)."""
+    space = ob.RealVectorStateSpace(2)
+    box = ob.RealVectorBounds(2)
+    xmin, ymin, xmax, ymax = bounds
+    box.setLow(0, xmin)
+    box.setLow(1, ymin)
+    box.setHigh(0, xmax)
+    box.setHigh(1, ymax)
+    space.setBounds(box)
+    si = ob.SpaceInformation(space)
+    si.setStateValidityChecker(lambda s: bool(checker.point_free((s[0], s[1]))))
+    si.setMotionValidator(_SegmentValidator(si, checker))
+    return space, si
+
+
+def ompl_simplify(path: ArrayLike, checker: CollisionChecker, bounds: tuple[float, float, float, float],
+                  seed: int) -> NDArray[np.float64]:
+    """OMPL's `PathSimplifier` (``simplifyMax``: vertex reduction, shortcuts, close-vertex collapse,
+    until nothing improves) on any polyline, validated by the shared checker.
+
+    Parameters
+    ----------
+    path : (k, 2) array_like
+        Waypoints in cm (a collision-free path of the checker's robot).
+    checker : CollisionChecker
+    bounds : (xmin, ymin, xmax, ymax)
+        The state space box (cm): the map's bounds.
+    seed : int
+        Seed of OMPL's random shortcuts (the process-wide seed generator is reset to it first).
+
+    Returns
+    -------
+    (m, 2) ndarray
+        The simplified path, same end points; the input when it has fewer than 3 waypoints.
+    """
+    arr = np.asarray(path, dtype=float).reshape(-1, 2)
+    if len(arr) < 3:
+        return arr.copy()
+    previous = ou.getLogLevel()
+    ou.setLogLevel(ou.LOG_NONE)  # re-seeding after the first RNG exists logs an error: expected here
+    try:
+        ou.RNG.setSeed(int(seed))
+        space, si = _space(bounds, checker)
+        si.setup()
+        geo = og.PathGeometric(si)
+        for x, y in arr:
+            s = space.allocState()
+            s[0], s[1] = float(x), float(y)
+            geo.append(s)
+        og.PathSimplifier(si).simplifyMax(geo)
+    finally:
+        ou.setLogLevel(previous)
+    out = np.array([[geo.getState(i)[0], geo.getState(i)[1]] for i in range(geo.getStateCount())], dtype=float)
+    out[0], out[-1] = arr[0], arr[-1]
+    return out
+
+
+class _Progress:
+    """Best-cost samples of one planning call: at every improvement and on a fixed grid.
+
+    The grid counts polls (`every` polls) in deterministic mode, else wall-clock seconds
+    (`interval_s`). Samples are ``[time_s, iterations, best_cost]`` with inf before a solution.
+    """
+
+    def __init__(self, t0: float, interval_s: float, every: int | None) -> None:
+        self.t0 = t0
+        self.interval_s = interval_s
+        self.every = every
+        self.samples: list[list[float]] = []
+        self.best = math.inf
+        self._next = float(every) if every is not None else interval_s
+
+    def poll(self, polls: int, now: float, cost: float) -> None:
+        """Record a sample when `cost` improves on the best or the grid's next point is reached."""
+        clock = float(polls) if self.every is not None else now - self.t0
+        on_grid = clock >= self._next
+        if on_grid:
+            step = float(self.every) if self.every is not None else self.interval_s
+            self._next = (math.floor(clock / step) + 1) * step
+        if cost < self.best or on_grid:
+            self.best = min(self.best, cost)
+            self.samples.append([now - self.t0, float(polls), self.best])
+
+    def finish(self, polls: int, now: float, cost: float) -> list[list[float]]:
+        """Add the final sample (unless the last one was taken at the same poll) and return them all."""
+        self.best = min(self.best, cost)
+        if not self.samples or self.samples[-1][1] != polls or self.samples[-1][2] != self.best:
+            self.samples.append([now - self.t0, float(polls), self.best])
+        return self.samples
 
 
 class OmplPlanner(Planner):
@@ -128,12 +259,16 @@ class OmplPlanner(Planner):
         Iterations (termination-condition polls) per second of the problem's time limit when
         `deterministic`; None: about what a laptop core does (5000 for the tree planners, 1000 for
         PRM*, 50000 for the BIT* family).
+    progress_interval : float
+        Seconds of budget between two progress samples (besides one at every improvement); in
+        deterministic mode counted as ``iterations_per_s * progress_interval`` iterations.
 
     Notes
     -----
     ``info`` holds ``ompl_status`` (OMPL's own words), ``first_solution_s``,
-    ``first_solution_length_cm``, ``length_before_simplify_cm`` / ``length_after_simplify_cm`` and
-    ``simplify_time_s`` (when simplifying), and the OMPL ``seed`` used.
+    ``first_solution_length_cm``, ``progress`` (``[time_s, iterations, best_cost]`` samples),
+    ``params`` (the planner's declared parameters), ``length_before_simplify_cm`` /
+    ``length_after_simplify_cm`` and ``simplify_time_s`` (when simplifying), and the OMPL ``seed`` used.
     """
 
     def __init__(
@@ -146,6 +281,7 @@ class OmplPlanner(Planner):
         log_level: str = "none",
         deterministic: bool = True,
         iterations_per_s: float | None = None,
+        progress_interval: float = 0.01,
     ) -> None:
         known = ompl_planner_names()
         if planner not in known:
@@ -158,6 +294,9 @@ class OmplPlanner(Planner):
             iterations_per_s = _ITERATIONS_PER_S.get(planner, _DEFAULT_ITERATIONS_PER_S)
         if not (math.isfinite(iterations_per_s) and iterations_per_s > 0):
             raise ConfigError(f"iterations_per_s must be a positive number, got {iterations_per_s!r}")
+        if not (isinstance(progress_interval, int | float) and math.isfinite(progress_interval)
+                and progress_interval > 0):
+            raise ConfigError(f"progress_interval must be a positive number of seconds, got {progress_interval!r}")
         cls = getattr(og, planner)
         for key in settings or {}:
             if not hasattr(cls, f"set{key}"):
@@ -170,6 +309,7 @@ class OmplPlanner(Planner):
         self.log_level = log_level
         self.deterministic = bool(deterministic)
         self.iterations_per_s = float(iterations_per_s)
+        self.progress_interval = float(progress_interval)
         if type(self) is OmplPlanner:
             setattr(self, "name", f"ompl:{planner}")  # noqa: B010 (an instance name, not the registry's)
 
@@ -181,25 +321,18 @@ class OmplPlanner(Planner):
         finally:
             ou.setLogLevel(previous)
 
+    def _polls(self, seconds: float) -> int:
+        """Termination-condition polls that stand for `seconds` of budget (at least 1)."""
+        return max(1, round(self.iterations_per_s * seconds))
+
     def _solve_quiet(self, problem: PlanningProblem) -> Solution:
         t0 = time.perf_counter()
         checker = problem.checker
         seed = int(problem.rng.integers(1, 2**31 - 1))
         ou.RNG.setSeed(seed)
 
-        space = ob.RealVectorStateSpace(2)
-        bounds = ob.RealVectorBounds(2)
-        xmin, ymin, xmax, ymax = problem.map.bounds
-        bounds.setLow(0, xmin)
-        bounds.setLow(1, ymin)
-        bounds.setHigh(0, xmax)
-        bounds.setHigh(1, ymax)
-        space.setBounds(bounds)
-        setup = og.SimpleSetup(space)
-        si = setup.getSpaceInformation()
-        setup.setStateValidityChecker(lambda s: bool(checker.point_free((s[0], s[1]))))
-        validator = _SegmentValidator(si, checker)
-        si.setMotionValidator(validator)
+        space, si = _space(problem.map.bounds, checker)
+        setup = og.SimpleSetup(si)
         start, goal = space.allocState(), space.allocState()
         start[0], start[1] = float(problem.start[0]), float(problem.start[1])
         goal[0], goal[1] = float(problem.goal[0]), float(problem.goal[1])
@@ -215,36 +348,32 @@ class OmplPlanner(Planner):
             getattr(planner, f"set{key}")(value)
         setup.setPlanner(planner)
         setup.setup()
+        params = declared_params(planner)
 
         pdef = setup.getProblemDefinition()
         cap = max(problem.time_limit * _TIME_CAP, _TIME_CAP_MIN_S) if self.deterministic else problem.time_limit
         deadline = t0 + cap
-        budget = max(1, round(self.iterations_per_s * problem.time_limit)) if self.deterministic else None
+        budget = self._polls(problem.time_limit) if self.deterministic else None
+        progress = _Progress(t0, self.progress_interval,
+                             self._polls(self.progress_interval) if self.deterministic else None)
+        if self.planner in _THREADED and budget is not None:
+            return self._grow_roadmap(setup, planner, problem, t0, budget, deadline, seed, progress, params)
         first: dict[str, float] = {}
         ended: dict[str, Any] = {"by": "time", "polls": 0}
-        if self.planner in _THREADED and budget is not None:
-            return self._grow_roadmap(setup, planner, problem, t0, budget, deadline, seed)
         if self.planner in _THREADED:
             # the roadmap planners poll the condition from a second thread: a Python condition would
             # deadlock on the interpreter lock, so use OMPL's own timed condition
             ptc = ob.timedPlannerTerminationCondition(max(deadline - time.perf_counter(), 0.0))
         else:
-            best_cost = getattr(planner, "bestCost", None)
-
-            def solved() -> bool:
-                if best_cost is not None:  # optimising tree planners publish their solution only at the end
-                    return math.isfinite(best_cost().value())
-                return bool(pdef.hasExactSolution())
+            cost_now = self._cost_reader(planner, pdef)
 
             def stop() -> bool:
                 now = time.perf_counter()
                 ended["polls"] += 1
-                if not first and solved():
-                    first["time"] = now - t0
-                    if best_cost is not None:
-                        first["length"] = float(best_cost().value())
-                    else:
-                        first["length"] = float(pdef.getSolutionPath().length())
+                cost = cost_now()
+                progress.poll(ended["polls"], now, cost)
+                if not first and math.isfinite(cost):
+                    first["time"], first["length"] = now - t0, cost
                 if first and self.stop_at_first:
                     ended["by"] = "solution"
                     return True
@@ -258,25 +387,46 @@ class OmplPlanner(Planner):
         status = setup.solve(ptc)
         key = status.getStatus().name
         info: dict[str, Any] = {"ompl_planner": self.planner, "ompl_status": status.asString(), "seed": seed,
-                                "stopped_by": ended["by"], "iterations": ended["polls"]}
+                                "stopped_by": ended["by"], "iterations": ended["polls"], "params": params}
         exact = key == "EXACT_SOLUTION" and setup.haveExactSolutionPath()
         if exact and ended["by"] == "time" and self.deterministic:
             ended["by"] = "solution"  # a feasibility planner returned its solution before the condition said stop
             info["stopped_by"] = "solution"
+        final = float(pdef.getSolutionPath().length()) if exact else math.inf
         if exact and not first and (self.planner not in _THREADED or self.stop_at_first):
             # solved in the last iteration after the condition was last polled, or stopped by the objective
-            first["time"] = time.perf_counter() - t0
-            first["length"] = float(pdef.getSolutionPath().length())
+            first["time"], first["length"] = time.perf_counter() - t0, final
         info["first_solution_s"] = first.get("time", math.nan)
         info["first_solution_length_cm"] = first.get("length", math.nan)
+        info["progress"] = progress.finish(ended["polls"], time.perf_counter(), final)
         if not exact:
             return Solution(None, _STATUS.get(key, PlanStatus.ERROR), info, info["ompl_status"])
         return self._finish(setup, problem, info)
 
+    @staticmethod
+    def _cost_reader(planner: Any, pdef: Any) -> Callable[[], float]:
+        """The best cost so far (inf before a solution): the planner's ``bestCost()`` where it has one
+        (optimising tree planners publish their solution only at the end), else the problem's exact
+        solution (read again only when the number of solutions changes)."""
+        best_cost = getattr(planner, "bestCost", None)
+        if best_cost is not None:
+            return lambda: float(best_cost().value())
+        seen = {"count": 0, "cost": math.inf}
+
+        def from_problem() -> float:
+            count = pdef.getSolutionCount()
+            if count != seen["count"]:
+                seen["count"] = count
+                seen["cost"] = float(pdef.getSolutionPath().length()) if pdef.hasExactSolution() else math.inf
+            return seen["cost"]
+
+        return from_problem
+
     def _grow_roadmap(self, setup: Any, planner: Any, problem: PlanningProblem, t0: float, budget: int,
-                      deadline: float, seed: int) -> Solution:
-        """PRM and PRM* reproducibly: grow the roadmap in this thread in rounds of the iteration budget;
-        after each round OMPL's query (a solve with no time left) gives the roadmap's shortest path."""
+                      deadline: float, seed: int, progress: _Progress, params: dict[str, Any]) -> Solution:
+        """PRM and PRM* reproducibly: grow the roadmap in this thread in rounds of a fixed number of
+        iterations (10 ms of budget); after each round OMPL's query (a solve with no time left) gives
+        the roadmap's shortest path."""
         pdef = setup.getProblemDefinition()
         polls = {"n": 0, "round_end": 0}
         ended = "iterations"
@@ -288,9 +438,9 @@ class OmplPlanner(Planner):
         goal = np.asarray(problem.goal, dtype=float)
         first: dict[str, float] = {}
         found = None
-        rounds = _ROADMAP_ROUNDS
-        for r in range(1, rounds + 1):
-            polls["round_end"] = budget * r // rounds
+        step = self._polls(_ROADMAP_ROUND_S)
+        while polls["round_end"] < budget:
+            polls["round_end"] = min(polls["round_end"] + step, budget)
             planner.growRoadmapPtc(ob.PlannerTerminationCondition(stop))
             pdef.clearSolutionPaths()
             setup.solve(ob.timedPlannerTerminationCondition(0.0))
@@ -301,16 +451,22 @@ class OmplPlanner(Planner):
                     found = path                                            # it approximate all the same)
                     if not first:
                         first = {"time": time.perf_counter() - t0, "length": float(path.length())}
+            cost = float(found.length()) if found is not None else math.inf
+            progress.poll(min(polls["n"], polls["round_end"]), time.perf_counter(), cost)
             if time.perf_counter() >= deadline:
                 ended = "time"
                 break
             if found is not None and self.stop_at_first:
                 ended = "solution"
                 break
+        iterations = min(polls["n"], budget)
         info: dict[str, Any] = {"ompl_planner": self.planner, "seed": seed, "stopped_by": ended,
-                                "iterations": min(polls["n"], budget), "milestones": int(planner.milestoneCount()),
+                                "iterations": iterations, "milestones": int(planner.milestoneCount()),
+                                "params": params,
                                 "first_solution_s": first.get("time", math.nan),
-                                "first_solution_length_cm": first.get("length", math.nan)}
+                                "first_solution_length_cm": first.get("length", math.nan),
+                                "progress": progress.finish(iterations, time.perf_counter(),
+                                                            float(found.length()) if found is not None else math.inf)}
         if found is None:
             info["ompl_status"] = "no solution in the roadmap"
             if ended == "time":

@@ -108,11 +108,12 @@ def test_summary_has_one_table_per_map(bench_dir: Path) -> None:
     for m in MAPS:
         assert f"## {m}" in text
     assert text.count("| planner | success |") == len(MAPS)
+    assert text.count("| planner | simplification (ms) |") == len(MAPS)  # the paths simplified (default: ompl)
     for p in planners_under_test():
-        assert text.count(f"| {p} |") == len(MAPS)
+        assert text.count(f"| {p} |") == 2 * len(MAPS)
     for stem in ("time", "length_ratio", "turns", "exec_error"):
         assert (bench_dir / f"boxplot_{stem}.png").read_bytes()[:4] == b"\x89PNG"
-    for name in ("exec_vs_turns", "paths"):
+    for name in ("exec_vs_turns", "paths", "cost_over_time"):
         assert (bench_dir / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -175,6 +176,18 @@ def test_refuses_a_non_empty_out_folder(bench_dir: Path, capsys: pytest.CaptureF
         (["--queries", "sometimes"], "--queries"),
         (["--time-limit", "0"], "time limit"),
         (["--noise-model", "gaussian"], "noise"),
+        (["--simplify", "smooth"], "--simplify"),
+        (["--simplify", ""], "--simplify"),
+        (["--progress-interval", "0"], "--progress-interval"),
+        (["--progress-interval", "-0.01"], "--progress-interval"),
+        (["--budgets", ""], "--budgets"),
+        (["--budgets", ",,"], "--budgets"),
+        (["--budgets", "0.1,-1"], "--budgets"),
+        (["--budgets", "0.1,0"], "--budgets"),
+        (["--budgets", "0.1,nan"], "--budgets"),
+        (["--budgets", "0.1,fast"], "--budgets"),
+        (["--budgets", "0.1,0.1"], "--budgets"),
+        (["--budgets", "0.1", "--time-limit", "1"], "--budgets"),
     ],
 )
 def test_bench_bad_inputs_exit_2_with_one_line(args: list[str], needle: str, tmp_path: Path,

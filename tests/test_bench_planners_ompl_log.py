@@ -78,6 +78,52 @@ def test_ompl_parser_reads_it(tmp_path: Path) -> None:
         con.close()
 
 
+PROGRESS = [("time", "REAL"), ("iterations", "INTEGER"), ("best cost", "REAL")]
+
+
+def test_progress_properties_reach_the_progress_table(tmp_path: Path) -> None:
+    samples = [[[0.01, 50, math.inf], [0.02, 80, 130.5], [0.03, 100, 121.25]], [], [[0.005, 9, 140.0]]]
+    anytime = OmplPlannerData("rrtstar", PROPS, [[0.03, True, 6, 121.25, 4], [0.03, False, 4, math.nan, None],
+                                                 [0.01, True, 6, 140.0, 2]], {}, PROGRESS, samples)
+    text = format_ompl_log(experiment(planners=[anytime], run_count=3))
+    lines = text.splitlines()
+    at = lines.index("3 progress properties for each run")
+    assert lines[at + 1:at + 5] == ["time REAL", "iterations INTEGER", "best cost REAL", "3 runs"]
+    assert lines[at + 5] == "0.01,50,,;0.02,80,130.5,;0.03,100,121.25,;"  # inf (no solution yet): empty
+    assert lines[at + 6] == "" and lines[at + 7] == "0.005,9,140.0,;" and lines[at + 8] == "."
+    log = write_ompl_log(tmp_path / "p.log", experiment(planners=[anytime], run_count=3))
+    db = tmp_path / "p.db"
+    exe = Path(sys.executable).with_name("ompl_benchmark_statistics")
+    proc = subprocess.run([str(exe), str(log), "-d", str(db)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    con = sqlite3.connect(db)
+    try:
+        rows = con.execute("SELECT r.solution_length, p.time, p.iterations, p.best_cost FROM progress p "
+                           "JOIN runs r ON r.id = p.runid ORDER BY r.id, p.time").fetchall()
+    finally:
+        con.close()
+    assert rows == [(121.25, 0.01, 50, None), (121.25, 0.02, 80, 130.5), (121.25, 0.03, 100, 121.25),
+                    (140.0, 0.005, 9, 140.0)]
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        lambda: OmplPlannerData("p", PROPS, [], {}, [("iterations", "INTEGER")], []),  # no time
+        lambda: OmplPlannerData("p", PROPS, [[1.0, True, 6, 1.0, 0]], {}, PROGRESS, []),  # runs without samples
+        lambda: OmplPlannerData("p", PROPS, [[1.0, True, 6, 1.0, 0]], {}, PROGRESS, [[[0.1, 2]]]),  # short sample
+        lambda: OmplPlannerData("p", PROPS, [[1.0, True, 6, 1.0, 0]], {}, [("time", "ENUM")], [[[0.1]]]),
+        lambda: OmplPlannerData("p", PROPS, [[1.0, True, 6, 1.0, 0]], {}, (), [[[0.1]]]),  # samples, no properties
+        lambda: format_ompl_log(experiment(planners=[
+            OmplPlannerData("p", PROPS, [[1.0, True, 6, 1.0, 0]], {}, [("time", "REAL"), ("note", "REAL")],
+                            [[[0.1, "a,b"]]])])),
+    ],
+)
+def test_rejects_progress_the_parser_would_misread(bad: object) -> None:
+    with pytest.raises(ValueError):
+        bad()  # type: ignore[operator]
+
+
 def test_status_mapping() -> None:
     assert OMPL_STATUS[ompl_status(True, PlanStatus.EXACT)] == "Exact solution"
     assert OMPL_STATUS[ompl_status(False, PlanStatus.TIMEOUT)] == "Timeout"

@@ -4,7 +4,9 @@ The format is the one of OMPL's ``doc/markdown/benchmark.md`` ("The benchmark lo
 preamble (version, experiment name, optional experiment properties, host, date, setup, random seed,
 limits, run count, total time, enum types, planner count) followed, per planner, by its common
 properties, the names and types of its per-run properties, one line per run (values each followed by
-``"; "``) and a closing ``"."``. One log file holds one experiment; ``ompl_benchmark_statistics``
+``"; "``), optionally its progress properties (values sampled during each run: ``time`` and, e.g.,
+``best cost``; one line per run, each sample's values followed by ``","`` and each sample by
+``";"``) and a closing ``"."``. One log file holds one experiment; ``ompl_benchmark_statistics``
 reads several files into one database.
 
 The log is written from our own results (not with ``ompl.tools.Benchmark``, which drops properties
@@ -86,12 +88,19 @@ class OmplPlannerData:
         One row of values per run, in `properties` order; None or NaN are written empty.
     common : dict
         Planner settings written as its common properties (``name = value``).
+    progress_properties : sequence of (name, type)
+        Properties sampled during a run (``time`` among them: the database keys samples by run and
+        time); empty when the planner reports none.
+    progress : sequence of sequences of sequences
+        Per run (in `runs` order), its samples, each a row of values in `progress_properties` order.
     """
 
     name: str
     properties: Sequence[tuple[str, str]]
     runs: Sequence[Sequence[Any]]
     common: dict[str, Any] = field(default_factory=dict)
+    progress_properties: Sequence[tuple[str, str]] = ()
+    progress: Sequence[Sequence[Sequence[Any]]] = ()
 
     def __post_init__(self) -> None:
         if not self.name or "\n" in self.name:
@@ -105,6 +114,27 @@ class OmplPlannerData:
             if len(row) != len(self.properties):
                 raise ConfigError(f"planner {self.name!r} run {i}: {len(row)} values for "
                                  f"{len(self.properties)} properties")
+        self._check_progress()
+
+    def _check_progress(self) -> None:
+        if not self.progress_properties:
+            if self.progress:
+                raise ConfigError(f"planner {self.name!r}: progress samples without progress properties")
+            return
+        names = [pname for pname, _ in self.progress_properties]
+        if "time" not in names:
+            raise ConfigError(f"planner {self.name!r}: the progress properties need a 'time', got {names}")
+        for pname, ptype in self.progress_properties:
+            if not _NAME_RE.match(pname) or ptype not in _TYPES[:3]:
+                raise ConfigError(f"progress property {pname!r} {ptype!r}: use letters, digits, spaces and "
+                                  f"underscores and a type of {', '.join(_TYPES[:3])}")
+        if len(self.progress) != len(self.runs):
+            raise ConfigError(f"planner {self.name!r}: progress for {len(self.progress)} runs, {len(self.runs)} runs")
+        for i, samples in enumerate(self.progress):
+            for sample in samples:
+                if len(sample) != len(self.progress_properties):
+                    raise ConfigError(f"planner {self.name!r} run {i}: a progress sample of {len(sample)} values "
+                                      f"for {len(self.progress_properties)} progress properties")
 
 
 @dataclass(frozen=True)
@@ -178,6 +208,13 @@ def _value(v: Any) -> str:
     return text
 
 
+def _sample_value(v: Any) -> str:
+    text = _value(v)
+    if "," in text:
+        raise ConfigError(f"progress value {text!r} may not contain ','")
+    return text
+
+
 def _one_token(text: str, what: str) -> str:
     token = re.sub(r"\s+", "_", text.strip()) or "unknown"
     if not re.match(r"^[A-Za-z0-9_.:\-]+$", token):
@@ -230,6 +267,12 @@ def format_ompl_log(exp: OmplExperiment) -> str:
         lines.extend(f"{pname} {ptype}" for pname, ptype in p.properties)
         lines.append(f"{len(p.runs)} runs")
         lines.extend("".join(f"{_value(v)}; " for v in row) for row in p.runs)
+        if p.progress_properties:
+            lines.append(f"{len(p.progress_properties)} progress properties for each run")
+            lines.extend(f"{pname} {ptype}" for pname, ptype in p.progress_properties)
+            lines.append(f"{len(p.progress)} runs")
+            lines.extend("".join("".join(f"{_sample_value(v)}," for v in sample) + ";" for sample in samples)
+                         for samples in p.progress)
         lines.append(".")
     return "\n".join(lines) + "\n"
 

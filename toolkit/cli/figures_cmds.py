@@ -101,15 +101,26 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         "the three shipped real NXT sweeps against the fitted nxt sonar model: radar charts, no-echo curves"),
     FigureJob(
         "planners",
-        # defaults: maps map1,map2,map3; planners min-turn,rrtstar,prm,astar; 1 s budget; 100 drives per path
+        # defaults: maps map1,map2,map3; planners min-turn, astar, rrtstar, prm, ompl:RRTConnect,
+        # ompl:InformedRRTstar, ompl:BITstar, ompl:AORRTC; 1 s budget; 100 drives per path; --simplify ompl
         ("bench", "planners", "--runs", "20", "--seed", "0", "--workers", "2", "--out", f"{WORK}/planners"),
         {"planners_paths.png": "planners/paths.png",
          "planners_exec_vs_turns.png": "planners/exec_vs_turns.png",
          "planners_exec_error.png": "planners/boxplot_exec_error.png",
          "planners_time.png": "planners/boxplot_time.png",
-         "planners_length_ratio.png": "planners/boxplot_length_ratio.png"},
-        "the four planners on the preset queries: paths, execution error against turns, box plots",
+         "planners_length_ratio.png": "planners/boxplot_length_ratio.png",
+         "planners_cost_over_time.png": "planners/cost_over_time.png"},
+        "the default planners on the preset queries: paths, execution error against turns (raw and "
+        "simplified), box plots, best length over time",
         {"--runs": "2", "--time-limit": "0.05", "--exec-repeats": "5", "--workers": "1"}),
+    FigureJob(
+        "budgets",
+        ("bench", "planners", "--budgets", "0.02,0.05,0.1,0.2,0.5,1", "--runs", "10", "--seed", "0",
+         "--exec-repeats", "50", "--workers", "2", "--out", f"{WORK}/budgets"),
+        {"planners_budget_sweep.png": "budgets/budget_sweep.png"},
+        "what a planning budget buys: length over the shortest, turns and execution error, raw and simplified",
+        {"--runs": "1", "--budgets": "0.02,0.05", "--exec-repeats": "2", "--workers": "1", "--maps": "map1",
+         "--planners": "min-turn,rrtstar,ompl:RRTConnect"}),
     FigureJob(
         "localisers",
         ("bench", "localisers", "--localisers", "paper-pf,amcl,pf-systematic,ekf,ukf", "--trials", "20",

@@ -13,7 +13,7 @@ import typer
 from ..formats import json_safe
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import Interrupted, app, bench_app, fail
-from .options import COLLISION_HELP, check_writable, count, non_negative, parse_list, parse_xy
+from .options import COLLISION_HELP, check_writable, count, non_negative, parse_list, parse_xy, positive
 from .options import collision as collision_ok
 from .options import repeats as repeats_ok
 from .options import seed as seed_ok
@@ -23,6 +23,12 @@ from .progress import progress
 from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
+
+DEFAULT_PLANNERS = ("min-turn", "astar", "rrtstar", "prm", "ompl:RRTConnect", "ompl:InformedRRTstar", "ompl:BITstar",
+                    "ompl:AORRTC")
+"""`bench planners`' default set: the paper's planner, grid A*, and OMPL's optimising planners (RRT*, PRM,
+Informed RRT*, BIT*, AORRTC) with RRTConnect as the fast feasible one (OMPL 2.0.1's Python wheel has no
+AIT*, ABIT* or LazyPRM*)."""
 
 
 def _noise(model: str, motion: float, turn: float) -> Any:
@@ -163,14 +169,38 @@ def plan(
         raise fail(f"{planner} found no path on {m.name}: {result.message}", code=1)
 
 
+def _parse_budgets(text: str) -> tuple[float, ...]:
+    """``--budgets``: comma-separated positive numbers of seconds, none repeated."""
+    from ..bench.planners import check_budgets
+
+    values = []
+    for part in parse_list(text, "--budgets"):
+        try:
+            values.append(float(part))
+        except ValueError:
+            raise NxtnavError(f"--budgets: {part!r} is not a number of seconds") from None
+    try:
+        return check_budgets(values)
+    except PlanningError as exc:
+        raise NxtnavError(f"--budgets: {exc}") from None
+
+
 @bench_app.command("planners")
 def bench_planners(
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
-    planners: str = typer.Option("min-turn,rrtstar,prm,astar", "--planners",
+    planners: str = typer.Option(",".join(DEFAULT_PLANNERS), "--planners",
                                  help="Comma-separated planners (registry names or ompl:NAME)."),
     runs: int = typer.Option(50, "--runs", help="Runs per planner and map.", callback=count),
-    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", help="Planning budget per run (s).",
-                                     callback=time_limit_ok),
+    time_limit: float | None = typer.Option(None, "--time-limit", metavar="SECONDS",
+                                            help="Planning budget per run (s; default 1).", callback=time_limit_ok),
+    budgets: str | None = typer.Option(None, "--budgets", metavar="S1,S2,...",
+                                       help="Budget sweep: run the benchmark at each budget (s) instead of "
+                                            "--time-limit; budgets.md, budgets.csv, budget_sweep.png."),
+    simplify: str = typer.Option("ompl", "--simplify", help="Simplify each path before measuring it again: "
+                                 "none, shortcut (greedy waypoint shortcuts) or ompl (OMPL's PathSimplifier)."),
+    progress_interval: float = typer.Option(0.01, "--progress-interval", metavar="SECONDS", callback=positive,
+                                            help="Budget (s) between two best-cost samples of the anytime "
+                                                 "planners (also sampled at every improvement)."),
     seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it).", callback=seed_ok),
     out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder (must be new or empty)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),
@@ -191,21 +221,38 @@ def bench_planners(
                                      callback=non_negative),
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
 ) -> None:
-    """Benchmark planners on maps: runs.csv, paths.jsonl, summary.md, box plots and an OMPL benchmark.log."""
-    from ..bench.planners import BenchmarkConfig, check_out_dir, check_planner_names, run_benchmark, write_results
+    """Benchmark planners on maps: runs.csv, progress.csv, paths.jsonl, summary.md, plots and an OMPL benchmark.log."""
+    from ..bench.planners import (
+        SIMPLIFY_METHODS,
+        BenchmarkConfig,
+        check_out_dir,
+        check_planner_names,
+        run_benchmark,
+        write_results,
+    )
 
     if queries not in ("presets", "random"):
         raise NxtnavError(f"--queries must be presets or random, got {queries!r}")
+    if simplify not in SIMPLIFY_METHODS:
+        raise NxtnavError(f"--simplify must be one of {', '.join(SIMPLIFY_METHODS)}, got {simplify!r}")
+    if budgets is not None and time_limit is not None:
+        raise NxtnavError("--budgets replaces --time-limit: give one of them")
+    budget_list = _parse_budgets(budgets) if budgets is not None else None
     map_list = parse_list(maps, "--maps")
     planner_list = parse_list(planners, "--planners")
     check_planner_names(planner_list)
     for name in map_list:
         load_map(name)  # a bad map name fails before any work
-    config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs, time_limit=time_limit,
+    config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs,
+                             time_limit=1.0 if time_limit is None else time_limit,
                              seed=seed, queries=queries,  # type: ignore[arg-type]
                              exec_repeats=exec_repeats, robot_radius=radius, collision=collision,
-                             noise=_noise(noise_model, motion_noise, turn_noise))
+                             noise=_noise(noise_model, motion_noise, turn_noise),
+                             simplify=simplify, progress_interval=progress_interval)
     out_dir = check_out_dir(out, force)
+    if budget_list is not None:
+        _sweep_budgets(config, budget_list, out_dir, workers, dask, plots)
+        return
     with progress("references and runs", config.n_tasks()) as advance:
         result = run_benchmark(config, workers=workers, dask_address=dask, on_done=advance)
     if not result.records:
@@ -215,3 +262,20 @@ def bench_planners(
     typer.echo(f"wrote {len(files)} files to {out_dir} in {result.total_time_s:.1f} s")
     if not result.complete:
         raise Interrupted(f"{len(result.records)} planner runs done; partial results (marked incomplete) in {out_dir}")
+
+
+def _sweep_budgets(config: Any, budgets: tuple[float, ...], out_dir: Path, workers: int, dask: str | None,
+                   plots: bool) -> None:
+    """``bench planners --budgets``: the benchmark at every budget, then the sweep's files."""
+    from ..bench.planners import run_budget_sweep, write_budget_sweep
+
+    with progress("budgets: references and runs", config.n_tasks() * len(budgets)) as advance:
+        try:
+            sweep = run_budget_sweep(config, budgets, workers=workers, dask_address=dask, on_done=advance)
+        except KeyboardInterrupt:
+            raise Interrupted("no budget had finished; nothing written") from None
+    files = write_budget_sweep(sweep, out_dir, plots=plots)
+    typer.echo(files["summary"].read_text(encoding="utf-8"))
+    typer.echo(f"wrote {len(files)} files to {out_dir}")
+    if not sweep.complete:
+        raise Interrupted(f"{len(sweep.results)} of {len(budgets)} budgets done; partial results in {out_dir}")

@@ -1,4 +1,5 @@
-"""Figures of the planner benchmark: box plots per metric and map, paths side by side, error vs turns.
+"""Figures of the planner benchmark: box plots per metric and map, paths side by side, error vs turns,
+and the best cost over time of the anytime planners.
 
 Drawing functions take an ``ax`` (or a figure) and return the artists; nothing here opens a
 window. `save_plots` writes the PNGs of ``nxtnav bench planners``.
@@ -18,12 +19,13 @@ from matplotlib.figure import Figure
 
 from planners.base import status_message
 
-from ...plotting import draw_cspace, draw_map, draw_path, save_figure
+from ...plotting import draw_cspace, draw_map, draw_path, plain_log_axis, save_figure
 from ...world import ConfigError, load_map
+from .anytime import WITHIN, cost_band, has_curve, reference_lengths
 from .records import BenchmarkResult, RunRecord
 
-__all__ = ["BOXPLOT_METRICS", "draw_exec_vs_turns", "draw_metric_boxplot", "draw_paths_grid", "save_boxplots",
-           "save_plots"]
+__all__ = ["BOXPLOT_METRICS", "draw_cost_over_time", "draw_exec_vs_turns", "draw_metric_boxplot", "draw_paths_grid",
+           "planner_color", "save_boxplots", "save_cost_over_time", "save_plots"]
 
 #: Box-plot metrics: record attribute -> (axis label, file stem, log scale).
 BOXPLOT_METRICS: dict[str, tuple[str, str, bool]] = {
@@ -34,6 +36,11 @@ BOXPLOT_METRICS: dict[str, tuple[str, str, bool]] = {
 }
 
 _COLORS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+
+
+def planner_color(result: BenchmarkResult, planner: str) -> Any:
+    """The colour of `planner` in every figure of a benchmark (its place in the planner list)."""
+    return _COLORS[list(result.config.planners).index(planner) % len(_COLORS)]
 
 
 def _values(records: Sequence[RunRecord], map_name: str, planner: str, metric: str) -> np.ndarray:
@@ -116,35 +123,111 @@ def draw_paths_grid(result: BenchmarkResult, run: int = 0, size: float = 3.6) ->
     return fig
 
 
-def draw_exec_vs_turns(result: BenchmarkResult, ax: Axes) -> list[Any]:
-    """Execution error against the number of turns of every successful run, coloured by planner."""
+def draw_exec_vs_turns(result: BenchmarkResult, ax: Axes, simplified: bool = False) -> list[Any]:
+    """Execution error against the number of turns of every successful run, coloured by planner
+    (of the simplified paths with `simplified`)."""
+    turns, error = ("simplified_turns", "simplified_exec_error_cm") if simplified else ("turns", "exec_error_cm")
     artists: list[Any] = []
     for j, p in enumerate(result.config.planners):
-        rs = [r for r in result.records if r.planner == p and r.success and math.isfinite(r.exec_error_cm)]
+        rs = [r for r in result.records if r.planner == p and r.success and math.isfinite(getattr(r, error))]
         if not rs:
             continue
-        x = np.array([r.turns for r in rs]) + np.random.default_rng(j).uniform(-0.15, 0.15, len(rs))
-        artists.append(ax.scatter(x, [r.exec_error_cm for r in rs], s=10, alpha=0.6,
+        x = np.array([getattr(r, turns) for r in rs]) + np.random.default_rng(j).uniform(-0.15, 0.15, len(rs))
+        artists.append(ax.scatter(x, [getattr(r, error) for r in rs], s=10, alpha=0.6,
                                   color=_COLORS[j % len(_COLORS)], label=p))
     nz = result.config.noise
     ax.set_xlabel("turns in the path")
     ax.set_ylabel("mean execution error (cm)")
-    ax.set_title(f"open-loop execution error vs turns ({nz.model} noise: motion {nz.motion:g}, turn {nz.turn:g})")
+    what = f"simplified ({result.config.simplify}) paths" if simplified else "raw paths"
+    ax.set_title(f"{what}: open-loop execution error vs turns\n({nz.model} noise: motion {nz.motion:g}, "
+                 f"turn {nz.turn:g})", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     return artists
 
 
+def _time_grid(records: Sequence[RunRecord]) -> np.ndarray:
+    times = [t for r in records for t, _, _ in r.progress if t > 0]
+    times += [r.time_s for r in records if r.success and r.time_s > 0]
+    if not times:
+        return np.geomspace(1e-4, 1.0, 200)
+    return np.geomspace(max(min(times), 1e-5), max(times), 300)
+
+
+def draw_cost_over_time(result: BenchmarkResult, map_name: str, ax: Axes, within: float = WITHIN) -> list[Any]:
+    """Best path length over `shortest` against time on one map: per anytime planner the median over
+    its runs (line) and the interquartile range (band); planners with one solution per run (min-turn,
+    A*, RRTConnect) as a point at their median time and length ratio with interquartile bars."""
+    refs = reference_lengths(result)
+    records = [r for r in result.records if r.map == map_name]
+    grid = _time_grid(records)
+    artists: list[Any] = []
+    top = 1.0 + 2 * within
+    for p in result.config.planners:
+        rs = [r for r in records if r.planner == p]
+        color = planner_color(result, p)
+        if any(has_curve(r) for r in rs):
+            band = cost_band(rs, refs, grid)
+            if band is None:
+                continue
+            med = np.isfinite(band.median)
+            artists += ax.plot(grid[med], band.median[med], color=color, lw=1.6, label=p)
+            both = np.isfinite(band.q75)  # where three quarters of the runs have a solution
+            artists.append(ax.fill_between(grid[both], band.q25[both], band.q75[both], color=color, alpha=0.18,
+                                           lw=0))
+            top = max(top, float(np.max(band.median[med], initial=top)))
+        else:
+            ok = [r for r in rs if r.success and math.isfinite(refs.get((r.map, r.query), math.nan))]
+            if not ok:
+                continue
+            t = np.array([r.first_solution_s for r in ok], dtype=float)
+            y = np.array([r.length_cm / refs[(r.map, r.query)] for r in ok])
+            (tq25, tm, tq75), (yq25, ym, yq75) = np.quantile(t, [0.25, 0.5, 0.75]), np.quantile(y, [0.25, 0.5, 0.75])
+            artists.append(ax.errorbar([tm], [ym], xerr=[[tm - tq25], [tq75 - tm]], yerr=[[ym - yq25], [yq75 - ym]],
+                                       fmt="o", ms=6, color=color, capsize=2, label=p))
+            top = max(top, float(yq75))
+    artists.append(ax.axhline(1.0 + within, ls="--", lw=0.8, color="0.4"))
+    ax.set_xscale("log")
+    plain_log_axis(ax.xaxis)
+    ax.set_ylim(0.995, min(top * 1.02, 2.0))
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("best length / shortest")
+    ax.set_title(f"{map_name}: dashed {100 * within:g} % above the shortest", fontsize=10)
+    ax.grid(alpha=0.3, which="both")
+    return artists
+
+
+def save_cost_over_time(result: BenchmarkResult, out: str | Path) -> Path:
+    """Write ``cost_over_time.png`` (one panel per map, a shared legend) into `out`."""
+    maps = list(result.config.maps)
+    fig, axes = plt.subplots(1, len(maps), figsize=(4.6 * len(maps), 4.2), squeeze=False)
+    for ax, m in zip(axes[0], maps, strict=True):
+        draw_cost_over_time(result, m, ax)
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=8, frameon=False)
+    c = result.config
+    fig.suptitle(f"best path length over time: median and interquartile range of {c.runs} runs, "
+                 f"{c.time_limit:g} s budget", fontsize=11)
+    fig.tight_layout(rect=(0, 0.1 if len(labels) > 5 else 0.06, 1, 1))
+    return save_figure(fig, Path(out) / "cost_over_time.png")
+
+
 def save_plots(result: BenchmarkResult, out: str | Path) -> dict[str, Path]:
     """Write every figure of ``nxtnav bench planners`` into `out` and return the files.
 
-    The box plots (`save_boxplots`), ``exec_vs_turns.png`` (`draw_exec_vs_turns`, when the
-    execution error was measured) and ``paths.png`` (`draw_paths_grid` of run 0).
+    The box plots (`save_boxplots`), ``exec_vs_turns.png`` (`draw_exec_vs_turns` of the raw and the
+    simplified paths, when the execution error was measured), ``paths.png`` (`draw_paths_grid` of
+    run 0) and ``cost_over_time.png`` (`draw_cost_over_time` per map).
     """
     files = save_boxplots(result, out)
     if result.config.exec_repeats > 0:
-        fig, ax = plt.subplots(figsize=(7.0, 4.2))
-        draw_exec_vs_turns(result, ax)
+        panels = [False, True] if result.config.simplify != "none" else [False]
+        fig, axes = plt.subplots(1, len(panels), figsize=(7.0 * len(panels), 4.4), squeeze=False, sharey=True)
+        for ax, simplified in zip(axes[0], panels, strict=True):
+            draw_exec_vs_turns(result, ax, simplified)
+        fig.tight_layout()
         files["exec_vs_turns"] = save_figure(fig, Path(out) / "exec_vs_turns.png")
-    files["paths"] = save_figure(draw_paths_grid(result, size=2.9), Path(out) / "paths.png")
+    size = min(2.9, 19.0 / max(len(result.config.planners), 1))  # many planners: narrower panels, one page wide
+    files["paths"] = save_figure(draw_paths_grid(result, size=size), Path(out) / "paths.png")
+    files["cost_over_time"] = save_cost_over_time(result, out)
     return files

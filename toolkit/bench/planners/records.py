@@ -11,16 +11,27 @@ from planners import PlanStatus
 
 from ...robots.sim import MotionNoise
 from ...world import CHECKER_BACKENDS, PlanningError, RobotGeometry
+from .simplify import SIMPLIFY_METHODS, SimplifyMethod
 
-#: Columns of ``runs.csv``, in order.
+#: Columns of ``runs.csv``, in order: the raw path's metrics, its first solution, then the simplified path's.
 RUN_COLUMNS = ("map", "planner", "run", "seed", "success", "time_s", "length_cm", "turns", "turn_angle_rad",
-               "min_clearance_cm", "collision_checks", "length_ratio", "exec_error_cm", "collision")
+               "min_clearance_cm", "collision_checks", "length_ratio", "exec_error_cm", "first_solution_s",
+               "first_solution_length_cm", "simplify", "simplify_time_s", "simplified_length_cm", "simplified_turns",
+               "simplified_min_clearance_cm", "simplified_length_ratio", "simplified_exec_error_cm", "collision")
+
+#: Columns of ``progress.csv``: one best-cost sample of an anytime planner's run per row.
+PROGRESS_COLUMNS = ("map", "planner", "run", "seed", "time_s", "iterations", "best_cost_cm")
+
+ProgressSample = tuple[float, int, float]
+"""``(time_s, iterations, best_cost_cm)``: wall-clock time since the planning call began, termination
+condition polls (about one per iteration) and the best path length so far (inf before a solution)."""
 
 
 QueryMode = Literal["presets", "random"]
 
 
 REFERENCE_PLANNERS = ("shortest", "min-link")
+
 
 
 REFERENCE_TIME_LIMIT_S = 30.0
@@ -94,6 +105,8 @@ class RunTask:
     reference_length: float | None = None
     reference_turns: int | None = None
     collision: str = "index"
+    simplify: SimplifyMethod = "ompl"
+    progress_interval: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -101,7 +114,11 @@ class RunRecord:
     """The outcome of one `RunTask` (metrics are NaN when the plan failed).
 
     ``time_s`` is the planning time (anytime planners use the whole budget); ``first_solution_s``
-    the time to their first solution (the planning time for planners that stop there).
+    and ``first_solution_length_cm`` the time to their first solution and its length (the planning
+    time and the path for planners that stop there). ``progress`` holds the best-cost samples of
+    planners that report them (OMPL's), ``params`` their declared parameters. The ``simplified_*``
+    fields measure the path after `RunTask.simplify` (NaN when it is ``none`` or the plan failed);
+    ``simplify_time_s`` is the simplification time, not part of ``time_s``.
     """
 
     map: str
@@ -130,11 +147,28 @@ class RunRecord:
     detail: str = ""
     collision: str = "index"
     """The checker that answered (``index``, ``fcl``, or ``point`` for a point robot)."""
+    first_solution_length_cm: float = math.nan
+    simplify: str = "none"
+    simplify_time_s: float = math.nan
+    simplified_length_cm: float = math.nan
+    simplified_turns: float = math.nan
+    simplified_turn_angle_rad: float = math.nan
+    simplified_min_clearance_cm: float = math.nan
+    simplified_length_ratio: float = math.nan
+    simplified_turn_ratio: float = math.nan
+    simplified_exec_error_cm: float = math.nan
+    simplified_exec_collision_fraction: float = math.nan
+    simplified_path: tuple[tuple[float, float], ...] = field(default=(), repr=False)
+    progress: tuple[ProgressSample, ...] = field(default=(), repr=False)
+    params: tuple[tuple[str, bool | int | float | str], ...] = field(default=(), repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["status"] = str(self.status)
         d["path"] = [list(p) for p in self.path]
+        d["simplified_path"] = [list(p) for p in self.simplified_path]
+        d["progress"] = [list(s) for s in self.progress]
+        d["params"] = dict(self.params)
         d["start"], d["goal"] = list(self.start), list(self.goal)
         return d
 
@@ -164,6 +198,11 @@ class BenchmarkConfig:
         Motion noise of the execution error (the paper's BotSim noise by default).
     collision : {"index", "fcl"}
         Collision backend of the shared checker (`toolkit.world.make_checker`).
+    simplify : {"none", "shortcut", "ompl"}
+        How each path is simplified before its simplified metrics are measured (`.simplify`).
+    progress_interval : float
+        Seconds of budget between two best-cost samples of the anytime planners (besides one at
+        every improvement).
     """
 
     maps: tuple[str, ...]
@@ -176,6 +215,8 @@ class BenchmarkConfig:
     robot_radius: float = RobotGeometry().radius_cm
     noise: MotionNoise = field(default_factory=MotionNoise)
     collision: str = "index"
+    simplify: SimplifyMethod = "ompl"
+    progress_interval: float = 0.01
 
     def __post_init__(self) -> None:
         if not self.maps:
@@ -199,6 +240,10 @@ class BenchmarkConfig:
         if self.collision not in CHECKER_BACKENDS:
             raise PlanningError(f"collision backend must be one of {', '.join(CHECKER_BACKENDS)}, "
                                 f"got {self.collision!r}")
+        if self.simplify not in SIMPLIFY_METHODS:
+            raise PlanningError(f"simplify must be one of {', '.join(SIMPLIFY_METHODS)}, got {self.simplify!r}")
+        if not (math.isfinite(self.progress_interval) and self.progress_interval > 0):
+            raise PlanningError(f"progress interval must be a positive number of seconds, got {self.progress_interval}")
 
     def n_queries(self) -> int:
         return len(self.maps) * (1 if self.queries == "presets" else self.runs)

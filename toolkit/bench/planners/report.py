@@ -16,24 +16,35 @@ from ...formats import cell, csv_cell, percent
 from ...world import NxtnavError
 from ..common import finite_median
 from ..ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
-from .records import RUN_COLUMNS, BenchmarkResult, RunRecord
+from .anytime import WITHIN, reference_lengths, time_within_median
+from .records import PROGRESS_COLUMNS, RUN_COLUMNS, BenchmarkResult, RunRecord
 
 
 # -- summaries -----------------------------------------------------------------------------------
 def summarise(result: BenchmarkResult) -> dict[str, list[dict[str, Any]]]:
-    """Per map, one row per planner: runs, success rate and medians over the successful runs."""
+    """Per map, one row per planner: runs, success rate and medians over the successful runs.
+
+    ``median_within_s`` is the median time to a path at most 5 % longer than `shortest` over the runs
+    that got there (``within_runs`` of them; from the best-cost samples of the anytime planners).
+    """
+    refs = reference_lengths(result)
     out: dict[str, list[dict[str, Any]]] = {}
     for m in result.config.maps:
         rows = []
         for p in result.config.planners:
             rs = [r for r in result.records if r.map == m and r.planner == p]
             ok = [r for r in rs if r.success]
+            within_s, within_runs = time_within_median(ok, refs)
             rows.append({
                 "planner": p,
                 "runs": len(rs),
                 "success_rate": len(ok) / len(rs) if rs else math.nan,
                 "median_time_s": finite_median(r.time_s for r in ok),
                 "median_first_solution_s": finite_median(r.first_solution_s for r in ok),
+                "median_first_solution_ratio": finite_median(
+                    r.first_solution_length_cm / refs.get((r.map, r.query), math.nan) for r in ok),
+                "median_within_s": within_s,
+                "within_runs": within_runs,
                 "median_length_cm": finite_median(r.length_cm for r in ok),
                 "median_length_ratio": finite_median(r.length_ratio for r in ok),
                 "median_turns": finite_median(r.turns for r in ok),
@@ -42,13 +53,70 @@ def summarise(result: BenchmarkResult) -> dict[str, list[dict[str, Any]]]:
                 "median_exec_error_cm": finite_median(r.exec_error_cm for r in ok),
                 "median_exec_collision_fraction": finite_median(r.exec_collision_fraction for r in ok),
                 "median_collision_checks": finite_median(float(r.collision_checks) for r in ok),
+                "median_simplify_time_s": finite_median(r.simplify_time_s for r in ok),
+                "median_simplified_length_ratio": finite_median(r.simplified_length_ratio for r in ok),
+                "median_simplified_turns": finite_median(r.simplified_turns for r in ok),
+                "median_simplified_min_clearance_cm": finite_median(r.simplified_min_clearance_cm for r in ok),
+                "median_simplified_exec_error_cm": finite_median(r.simplified_exec_error_cm for r in ok),
+                "median_simplified_exec_collision_fraction": finite_median(
+                    r.simplified_exec_collision_fraction for r in ok),
             })
         out[m] = rows
     return out
 
 
+def _query_line(result: BenchmarkResult, m: str) -> list[str]:
+    refs = [r for r in result.references if r.query.map == m]
+    if result.config.queries == "presets" and refs:
+        r = refs[0]
+        return [f"Query: start ({r.query.start[0]:g}, {r.query.start[1]:g}), goal ({r.query.goal[0]:g}, "
+                f"{r.query.goal[1]:g}); shortest {cell(r.shortest_length_cm, '.1f')} cm, min-link "
+                f"{'–' if r.min_link_turns is None else r.min_link_turns} turns."]
+    if refs:
+        ml_turns = finite_median(float(r.min_link_turns) for r in refs if r.min_link_turns is not None)
+        return [f"{len(refs)} random queries; median shortest path "
+                f"{cell(finite_median(r.shortest_length_cm for r in refs), '.1f')} cm, median min-link turns "
+                f"{cell(ml_turns, 'g')}."]
+    return []
+
+
+def _raw_table(rows: list[dict[str, Any]]) -> list[str]:
+    lines = ["| planner | success | median time (ms) | first solution (ms) | first / shortest | "
+             f"within {100 * WITHIN:g} % (ms) | length ratio | turns | exec error (cm) | exec collisions | "
+             "collision checks |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for row in rows:
+        within = cell(1e3 * row["median_within_s"], ".2f")
+        if row["within_runs"] and row["within_runs"] < row["runs"]:
+            within += f" ({row['within_runs']}/{row['runs']})"
+        lines.append(
+            f"| {row['planner']} | {percent(row['success_rate'])} | "
+            f"{cell(1e3 * row['median_time_s'], '.2f')} | {cell(1e3 * row['median_first_solution_s'], '.2f')} | "
+            f"{cell(row['median_first_solution_ratio'], '.3f')} | {within} | "
+            f"{cell(row['median_length_ratio'], '.3f')} | "
+            f"{cell(row['median_turns'], 'g')} | {cell(row['median_exec_error_cm'], '.2f')} | "
+            f"{percent(row['median_exec_collision_fraction'])} | "
+            f"{cell(row['median_collision_checks'], '.0f')} |")
+    return lines
+
+
+def _simplified_table(rows: list[dict[str, Any]], method: str) -> list[str]:
+    lines = [f"Simplified (`{method}`):", "",
+             "| planner | simplification (ms) | length ratio | turns | min clearance (cm) | exec error (cm) | "
+             "exec collisions |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for row in rows:
+        lines.append(
+            f"| {row['planner']} | {cell(1e3 * row['median_simplify_time_s'], '.2f')} | "
+            f"{cell(row['median_simplified_length_ratio'], '.3f')} | {cell(row['median_simplified_turns'], 'g')} | "
+            f"{cell(row['median_simplified_min_clearance_cm'], '.2f')} | "
+            f"{cell(row['median_simplified_exec_error_cm'], '.2f')} | "
+            f"{percent(row['median_simplified_exec_collision_fraction'])} |")
+    return lines
+
+
 def format_summary(result: BenchmarkResult) -> str:
-    """``summary.md``: the settings, then one Markdown table per map."""
+    """``summary.md``: the settings, then per map a table of the raw paths and one of the simplified."""
     c = result.config
     nz = c.noise
     lines = [
@@ -59,40 +127,24 @@ def format_summary(result: BenchmarkResult) -> str:
         f"- robot radius {c.robot_radius:g} cm, collision checks: {_backend(result)}; execution error: mean final "
         f"distance to the goal over "
         f"{c.exec_repeats} open-loop drives, noise {nz.model} (motion {nz.motion:g}, turn {nz.turn:g})",
+        f"- paths simplified with `{c.simplify}`; anytime progress sampled every {1e3 * c.progress_interval:g} ms "
+        "of budget and at every improvement",
         f"- started {result.started.isoformat(timespec='seconds')}, total {result.total_time_s:.1f} s",
         "",
-        "Medians over the successful runs. Time is the planning time (anytime planners such as RRT* and PRM "
-        "use the whole budget); first solution is the time to their first path (– when the planner cannot "
-        "observe it). Length ratio = length / shortest path; turns are heading changes above 1 degree; exec "
-        "error = mean distance (cm) from the goal after driving the path open-loop; exec collisions = share "
-        "of those drives that touched a wall.",
+        "Medians over the successful runs. Time is the planning time (anytime planners use the whole budget); "
+        "first solution is the time to their first path and first / shortest its length over the shortest "
+        f"path's; within {100 * WITHIN:g} % is the time to a path at most {100 * WITHIN:g} % longer than the "
+        "shortest (median over the runs that got there, their count in brackets when not all did). Length "
+        "ratio = length / shortest path; turns are heading changes above 1 degree; exec error = mean distance "
+        "(cm) from the goal after driving the path open-loop; exec collisions = share of those drives that "
+        "touched a wall. The simplified table measures the same paths after simplification (its time is not "
+        "part of the planning time).",
     ]
     summary = summarise(result)
     for m in c.maps:
-        refs = [r for r in result.references if r.query.map == m]
-        lines += ["", f"## {m}", ""]
-        if c.queries == "presets" and refs:
-            r = refs[0]
-            lines.append(f"Query: start ({r.query.start[0]:g}, {r.query.start[1]:g}), goal ({r.query.goal[0]:g}, "
-                         f"{r.query.goal[1]:g}); shortest {cell(r.shortest_length_cm, '.1f')} cm, min-link "
-                         f"{'–' if r.min_link_turns is None else r.min_link_turns} turns.")
-        elif refs:
-            ml_turns = finite_median(float(r.min_link_turns) for r in refs if r.min_link_turns is not None)
-            lines.append(f"{len(refs)} random queries; median shortest path "
-                         f"{cell(finite_median(r.shortest_length_cm for r in refs), '.1f')} cm, median min-link turns "
-                         f"{cell(ml_turns, 'g')}.")
-        lines += ["",
-                  "| planner | success | median time (ms) | first solution (ms) | length ratio | turns | "
-                  "exec error (cm) | exec collisions | collision checks |",
-                  "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-        for row in summary[m]:
-            lines.append(
-                f"| {row['planner']} | {percent(row['success_rate'])} | "
-                f"{cell(1e3 * row['median_time_s'], '.2f')} | {cell(1e3 * row['median_first_solution_s'], '.2f')} | "
-                f"{cell(row['median_length_ratio'], '.3f')} | "
-                f"{cell(row['median_turns'], 'g')} | {cell(row['median_exec_error_cm'], '.2f')} | "
-                f"{percent(row['median_exec_collision_fraction'])} | "
-                f"{cell(row['median_collision_checks'], '.0f')} |")
+        lines += ["", f"## {m}", "", *_query_line(result, m), "", *_raw_table(summary[m])]
+        if c.simplify != "none":
+            lines += ["", *_simplified_table(summary[m], c.simplify)]
         rho, n = turns_error_correlation(result, m)
         if math.isfinite(rho):
             lines += ["", f"Execution error vs turns over all successful runs: Spearman rank correlation "
@@ -143,10 +195,20 @@ def write_runs_csv(result: BenchmarkResult, path: Path) -> None:
             row = []
             for col in RUN_COLUMNS:
                 v = getattr(r, col)
-                if col == "turns" and isinstance(v, float) and math.isfinite(v):
+                if col in ("turns", "simplified_turns") and isinstance(v, float) and math.isfinite(v):
                     v = int(v)
                 row.append(csv_cell(v))
             w.writerow(row)
+
+
+def write_progress_csv(result: BenchmarkResult, path: Path) -> None:
+    """``progress.csv``: every best-cost sample of every run that reported them (inf cost: empty)."""
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(PROGRESS_COLUMNS)
+        for r in result.records:
+            for t, it, cost in r.progress:
+                w.writerow([csv_cell(v) for v in (r.map, r.planner, r.run, r.seed, t, int(it), cost)])
 
 
 def write_paths_jsonl(result: BenchmarkResult, path: Path) -> None:
@@ -155,7 +217,10 @@ def write_paths_jsonl(result: BenchmarkResult, path: Path) -> None:
             doc = {"map": r.map, "planner": r.planner, "run": r.run, "seed": r.seed, "success": r.success,
                    "path": [list(p) for p in r.path], "status": str(r.status), "detail": r.detail, "query": r.query,
                    "start": list(r.start), "goal": list(r.goal), "time_s": r.time_s, "collision": r.collision,
-                   "first_solution_s": r.first_solution_s if math.isfinite(r.first_solution_s) else None}
+                   "first_solution_s": r.first_solution_s if math.isfinite(r.first_solution_s) else None,
+                   "first_solution_length_cm": (r.first_solution_length_cm
+                                                if math.isfinite(r.first_solution_length_cm) else None),
+                   "simplify": r.simplify, "simplified_path": [list(p) for p in r.simplified_path]}
             fh.write(json.dumps(doc) + "\n")
 
 
@@ -175,6 +240,7 @@ def write_references_csv(result: BenchmarkResult, path: Path) -> None:
 _OMPL_PROPERTIES = (
     ("time", "REAL"),
     ("first solution time", "REAL"),
+    ("first solution length", "REAL"),
     ("solved", "BOOLEAN"),
     ("status", "ENUM"),
     ("approximate solution", "BOOLEAN"),
@@ -189,20 +255,57 @@ _OMPL_PROPERTIES = (
     ("execution error", "REAL"),
     ("execution error median", "REAL"),
     ("execution collision fraction", "REAL"),
+    ("simplification time", "REAL"),
+    ("simplified solution length", "REAL"),
+    ("simplified solution clearance", "REAL"),
+    ("simplified solution segments", "INTEGER"),
+    ("simplified correct solution", "BOOLEAN"),
+    ("simplified solution turns", "INTEGER"),
+    ("simplified length ratio", "REAL"),
+    ("simplified execution error", "REAL"),
     ("collision checks", "INTEGER"),
     ("run", "INTEGER"),
     ("seed", "INTEGER"),
     ("query", "INTEGER"),
 )
 
+#: Progress properties of the anytime planners (OMPL's names: ``best cost`` as RRT* reports it).
+_OMPL_PROGRESS = (("time", "REAL"), ("iterations", "INTEGER"), ("best cost", "REAL"))
+
 
 def _ompl_row(r: RunRecord) -> list[Any]:
     ok = r.success
+    simplified = ok and bool(r.simplified_path)
     segments = max(len(r.path) - 1, 0) if ok else None
-    return [r.time_s, r.first_solution_s, ok, ompl_status(ok, r.status), False if ok else None, True if ok else None,
-            r.length_cm, r.min_clearance_cm, segments, int(r.turns) if ok else None, r.turn_angle_rad,
-            r.length_ratio, r.turn_ratio, r.exec_error_cm, r.exec_median_cm, r.exec_collision_fraction,
+    s_segments = max(len(r.simplified_path) - 1, 0) if simplified else None
+    return [r.time_s, r.first_solution_s, r.first_solution_length_cm, ok, ompl_status(ok, r.status),
+            False if ok else None, True if ok else None, r.length_cm, r.min_clearance_cm, segments,
+            int(r.turns) if ok else None, r.turn_angle_rad, r.length_ratio, r.turn_ratio, r.exec_error_cm,
+            r.exec_median_cm, r.exec_collision_fraction,
+            r.simplify_time_s, r.simplified_length_cm, r.simplified_min_clearance_cm, s_segments,
+            True if simplified else None, int(r.simplified_turns) if simplified else None,
+            r.simplified_length_ratio, r.simplified_exec_error_cm,
             r.collision_checks, r.run, r.seed, r.query]
+
+
+def _common(result: BenchmarkResult, planner: str, records: Sequence[RunRecord]) -> dict[str, Any]:
+    """A planner block's common properties: the benchmark's settings and the planner's declared
+    parameters (a parameter whose value differs between maps, such as OMPL's default range, lists
+    the value of each)."""
+    c = result.config
+    common: dict[str, Any] = {"planner": planner, "time_limit": c.time_limit, "simplify": c.simplify,
+                              "progress_interval": c.progress_interval}
+    per_map: dict[str, dict[str, Any]] = {}
+    for r in records:
+        if r.params and r.map not in per_map:
+            per_map[r.map] = dict(r.params)
+    for key in sorted({k for d in per_map.values() for k in d}):
+        values = {m: d.get(key) for m, d in per_map.items()}
+        if len({repr(v) for v in values.values()}) == 1:
+            common[key] = next(iter(values.values()))
+        else:
+            common[key] = ", ".join(f"{Path(m).stem}: {v}" for m, v in values.items())
+    return common
 
 
 def _ompl_experiment(result: BenchmarkResult, maps: Sequence[str], name: str) -> OmplExperiment:
@@ -211,18 +314,22 @@ def _ompl_experiment(result: BenchmarkResult, maps: Sequence[str], name: str) ->
     props = list(_OMPL_PROPERTIES) + ([("map", "ENUM")] if multi else [])
     planners = []
     for p in c.planners:
-        rows = []
-        for r in result.records:
-            if r.planner == p and r.map in maps:
-                row = _ompl_row(r)
-                if multi:
-                    row.append(list(maps).index(r.map))
-                rows.append(row)
-        planners.append(OmplPlannerData(p, props, rows, {"planner": p, "time_limit": c.time_limit}))
+        rows, progress = [], []
+        records = [r for r in result.records if r.planner == p and r.map in maps]
+        for r in records:
+            row = _ompl_row(r)
+            if multi:
+                row.append(list(maps).index(r.map))
+            rows.append(row)
+            progress.append([[t, int(it), cost] for t, it, cost in r.progress])
+        anytime = any(progress)
+        planners.append(OmplPlannerData(p, props, rows, _common(result, p, records),
+                                        _OMPL_PROGRESS if anytime else (), progress if anytime else ()))
     setup = [f"nxtnav planner benchmark: maps {', '.join(maps)}; queries {c.queries}",
              f"robot radius {c.robot_radius:g} cm; planners validated by the shared collision checker "
              f"({_backend(result)})",
-             f"execution error: {c.exec_repeats} open-loop drives, noise {json.dumps(c.noise.to_dict())}"]
+             f"execution error: {c.exec_repeats} open-loop drives, noise {json.dumps(c.noise.to_dict())}",
+             f"paths simplified with {c.simplify}; progress every {c.progress_interval:g} s of budget"]
     for ref in result.references:
         if ref.query.map in maps:
             q = ref.query
@@ -249,8 +356,10 @@ def write_results(result: BenchmarkResult, out: str | Path, *, plots: bool = Tru
     d = Path(out)
     d.mkdir(parents=True, exist_ok=True)
     files = {"runs": d / "runs.csv", "paths": d / "paths.jsonl", "references": d / "references.csv",
-             "summary": d / "summary.md", "ompl_log": d / "benchmark.log", "config": d / "config.json"}
+             "summary": d / "summary.md", "ompl_log": d / "benchmark.log", "config": d / "config.json",
+             "progress": d / "progress.csv"}
     write_runs_csv(result, files["runs"])
+    write_progress_csv(result, files["progress"])
     write_paths_jsonl(result, files["paths"])
     write_references_csv(result, files["references"])
     c = result.config

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from planners import PLANNERS, PlanningProblem, PlanStatus, make_planner
+from planners import PLANNERS, OmplPlanner, PlanningProblem, PlanStatus, make_planner
 from planners.declarations import planner_kwargs
 from planners.metrics import count_turns, path_length, path_metrics
 
@@ -27,6 +27,7 @@ from .records import (
     REFERENCE_PLANNERS,
     BenchmarkConfig,
     BenchmarkResult,
+    ProgressSample,
     Query,
     QueryMode,
     ReferenceResult,
@@ -34,6 +35,7 @@ from .records import (
     RunRecord,
     RunTask,
 )
+from .simplify import simplify_path
 
 log = logging.getLogger(__name__)
 
@@ -56,6 +58,12 @@ def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence,
     """Independent (planning, execution, query) seed sequences of a run seed."""
     plan, execute, query = np.random.SeedSequence(seed).spawn(3)
     return plan, execute, query
+
+
+def _simplify_seed(seed: int) -> int:
+    """The seed of a run's path simplification: a fourth stream of the run seed (the first three,
+    `_streams`, are the same whether it is drawn or not)."""
+    return int(np.random.SeedSequence(seed).spawn(4)[3].generate_state(1)[0] & 0x7FFFFFFF)
 
 
 def _random_query(m: Map, checker: CollisionChecker, rng: np.random.Generator, min_separation: float,
@@ -111,12 +119,15 @@ def _checker(map_name: str, radius: float, collision: str = "index") -> Collisio
     return make_checker(cached_map(map_name), radius, collision)
 
 
-def planner_for(name: str, m: Map, options: dict[str, Any] | None = None) -> Any:
+def planner_for(name: str, m: Map, options: dict[str, Any] | None = None,
+                progress_interval: float | None = None) -> Any:
     """The planner `name` as the benchmarks configure it for map `m` (None: skipped on this map), with
-    `options` (checked against its declarations, `planners.declarations`) over the benchmark's own.
+    `options` (checked against its declarations, `planners.declarations`) over the benchmark's own and,
+    for an OMPL planner, best-cost samples every `progress_interval` seconds of budget.
 
     On a map imported from a grid, `astar` plans on the map's own cells; on a map of more than
-    `LARGE_MAP_WALLS` walls the references adapt (see there).
+    `LARGE_MAP_WALLS` walls the references adapt (see there). OMPL's planners sample their best
+    cost every `progress_interval` seconds of budget (None: their default).
     """
     large = len(m.walls) > LARGE_MAP_WALLS
     own = planner_kwargs(name, options or {})
@@ -126,12 +137,15 @@ def planner_for(name: str, m: Map, options: dict[str, Any] | None = None) -> Any
         return make_planner(name, **{"n_sides": 16, **own})
     if name == "min-link" and large:
         return None
-    return make_planner(name, **own)
+    planner = make_planner(name, **own)
+    if progress_interval is not None and isinstance(planner, OmplPlanner) and "progress_interval" not in own:
+        return make_planner(name, **{"progress_interval": progress_interval, **own})
+    return planner
 
 
 @lru_cache(maxsize=64)
-def _planner(name: str, map_name: str) -> Any:
-    return planner_for(name, cached_map(map_name))
+def _planner(name: str, map_name: str, progress_interval: float | None = None) -> Any:
+    return planner_for(name, cached_map(map_name), progress_interval=progress_interval)
 
 
 def _path_tuple(path: np.ndarray) -> tuple[tuple[float, float], ...]:
@@ -173,68 +187,88 @@ def run_reference(task: ReferenceTask) -> ReferenceResult:
 def run_task(task: RunTask) -> RunRecord:
     """Run one planner on one query (a picklable top-level function for the executors).
 
-    A planner that raises is recorded as a failed run with status `PlanStatus.ERROR` (never lost).
+    The raw path is measured and driven; then it is simplified (`RunTask.simplify`) and the
+    simplified path is measured and driven with the same noise draws (common random numbers). A
+    planner that raises is recorded as a failed run with status `PlanStatus.ERROR` (never lost).
     """
     q = task.query
     m = cached_map(task.map)
     checker = _checker(task.map, task.robot_radius, task.collision)
     plan_ss, exec_ss, _ = _streams(task.seed)
     base: dict[str, Any] = {"map": task.map, "planner": task.planner, "run": task.run, "seed": task.seed,
-                            "query": q.index, "start": q.start, "goal": q.goal, "collision": checker.backend}
+                            "query": q.index, "start": q.start, "goal": q.goal, "collision": checker.backend,
+                            "simplify": task.simplify}
     problem = PlanningProblem(m, checker, np.array(q.start), np.array(q.goal), task.time_limit,
                               np.random.default_rng(plan_ss))
     checks0 = checker.checks
     t0 = time.perf_counter()
     try:
-        res = _planner(task.planner, task.map).plan(problem)
+        res = _planner(task.planner, task.map, task.progress_interval).plan(problem)
     except NxtnavError:
         raise
     except Exception as exc:  # a crashing planner is a result, not the end of the benchmark
         log.warning("planner %s crashed on %s run %d: %s", task.planner, task.map, task.run, exc)
         return RunRecord(**base, success=False, status=PlanStatus.ERROR, detail=f"{type(exc).__name__}: {exc}",
                          time_s=time.perf_counter() - t0, collision_checks=checker.checks - checks0)
+    base["progress"] = _progress(res.info)
+    base["params"] = tuple(sorted(res.info.get("params", {}).items()))
     if not res.success or len(res.path) < 1:
         return RunRecord(**base, success=False, status=res.status, detail=res.detail, time_s=res.time_s,
                          collision_checks=res.collision_checks)
     path = np.asarray(res.path, dtype=float).reshape(-1, 2)
-    met = path_metrics(path, checker, reference_length=task.reference_length,
-                       reference_turns=task.reference_turns)
+    raw = _measure(path, checker, task, q.goal, exec_ss)
+    simplified: dict[str, Any] = {}
+    if task.simplify != "none":
+        short, t_simplify = simplify_path(task.simplify, path, checker, m.bounds, _simplify_seed(task.seed))
+        if not checker.path_free(short):  # never expected: every method validates with this checker
+            raise PlanningError(f"{task.simplify} simplification of {task.planner}'s path on {task.map} run "
+                                f"{task.run} is not collision-free")
+        met = _measure(short, checker, task, q.goal, exec_ss)
+        simplified = {"simplify_time_s": t_simplify, "simplified_path": _path_tuple(short),
+                      **{f"simplified_{k}": met[k] for k in _SIMPLIFIED_METRICS}}
+    first_len = res.info.get("first_solution_length_cm", raw["length_cm"])
+    return RunRecord(**base, success=True, status=res.status, detail=res.detail, time_s=res.time_s,
+                     collision_checks=res.collision_checks, first_solution_s=_first_solution(res.info, res.time_s),
+                     first_solution_length_cm=float(first_len) if first_len is not None else math.nan,
+                     path=_path_tuple(path), **raw, **simplified)
+
+
+#: What `_measure` returns and the `RunRecord` fields of the simplified path take (prefixed).
+_SIMPLIFIED_METRICS = ("length_cm", "turns", "turn_angle_rad", "min_clearance_cm", "length_ratio", "turn_ratio",
+                       "exec_error_cm", "exec_collision_fraction")
+
+
+def _measure(path: np.ndarray, checker: CollisionChecker, task: RunTask, goal: tuple[float, float],
+             exec_ss: np.random.SeedSequence) -> dict[str, Any]:
+    """Path metrics and the open-loop execution error of one path (NaN when not driven)."""
+    met = path_metrics(path, checker, reference_length=task.reference_length, reference_turns=task.reference_turns)
+    out = {"length_cm": met.length_cm, "turns": float(met.turns), "turn_angle_rad": met.turn_angle_rad,
+           "min_clearance_cm": met.min_clearance_cm, "mean_clearance_cm": met.mean_clearance_cm,
+           "length_ratio": met.length_ratio, "turn_ratio": met.turn_ratio,
+           "exec_error_cm": math.nan, "exec_median_cm": math.nan, "exec_collision_fraction": math.nan}
     if len(path) >= 2 and task.exec_repeats > 0:
-        ex = execution_error(path, checker, goal=q.goal, repeats=task.exec_repeats, noise=task.noise, rng=exec_ss)
-        exec_mean, exec_median, exec_coll = ex.mean_cm, ex.median_cm, ex.collision_fraction
-    else:
-        exec_mean = exec_median = exec_coll = math.nan
-    return RunRecord(
-        **base,
-        success=True,
-        status=res.status,
-        detail=res.detail,
-        time_s=res.time_s,
-        collision_checks=res.collision_checks,
-        length_cm=met.length_cm,
-        turns=float(met.turns),
-        turn_angle_rad=met.turn_angle_rad,
-        min_clearance_cm=met.min_clearance_cm,
-        mean_clearance_cm=met.mean_clearance_cm,
-        length_ratio=met.length_ratio,
-        turn_ratio=met.turn_ratio,
-        exec_error_cm=exec_mean,
-        exec_median_cm=exec_median,
-        exec_collision_fraction=exec_coll,
-        first_solution_s=_first_solution(res.info, res.time_s),
-        path=_path_tuple(path),
-    )
+        fresh = np.random.SeedSequence(exec_ss.entropy, spawn_key=exec_ss.spawn_key)  # spawn() counts its
+        ex = execution_error(path, checker, goal=goal, repeats=task.exec_repeats,  # children: the same draws
+                             noise=task.noise, rng=fresh)                           # for every path of a run
+        out.update(exec_error_cm=ex.mean_cm, exec_median_cm=ex.median_cm, exec_collision_fraction=ex.collision_fraction)
+    return out
 
 
 def _first_solution(info: dict[str, Any], time_s: float) -> float:
     """Time to the first solution (s): reported by anytime planners, else the planning time.
 
-    NaN when an anytime planner could not observe it (OMPL's PRM grows its roadmap in a thread).
+    NaN when an anytime planner could not observe it (OMPL's PRM in wall-clock mode grows its
+    roadmap in a thread).
     """
     if "first_solution_s" not in info:
         return time_s
     v = info["first_solution_s"]
     return float(v) if v is not None and math.isfinite(float(v)) else math.nan
+
+
+def _progress(info: dict[str, Any]) -> tuple[ProgressSample, ...]:
+    """The best-cost samples a planner reported (empty for planners that report none)."""
+    return tuple((float(t), int(i), float(c)) for t, i, c in info.get("progress", ()))
 
 
 def run_benchmark(
@@ -285,7 +319,8 @@ def run_benchmark(
                     query=ref.query, time_limit=config.time_limit, robot_radius=config.robot_radius,
                     exec_repeats=config.exec_repeats, noise=config.noise,
                     reference_length=None if math.isnan(ref.shortest_length_cm) else ref.shortest_length_cm,
-                    reference_turns=ref.min_link_turns, collision=config.collision,
+                    reference_turns=ref.min_link_turns, collision=config.collision, simplify=config.simplify,
+                    progress_interval=config.progress_interval,
                 ))
     complete = True
     try:
