@@ -3,6 +3,7 @@ constructors, `--set` on `plan`, `nxtnav planners|localisers show`, and docs/par
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -104,3 +105,15 @@ def test_plan_set_is_checked(sets: list[str], message: str, tmp_path: Path,
     assert run_cli(argv) == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_bench_planners_set_reaches_the_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "b"
+    base = ["bench", "planners", "--maps", "map1", "--planners", "min-turn", "--runs", "2", "--time-limit", "0.05",
+            "--exec-repeats", "0", "--no-plots", "--simplify", "none"]
+    assert run_cli([*base, "--set", "min-turn.n_samples=0", "--out", str(out)]) == 2
+    assert "min-turn.n_samples: 0 is out of its range [1, inf)" in capsys.readouterr().err
+    assert not out.exists()
+    assert run_cli([*base, "--set", "min-turn.n_samples=5", "--out", str(out)]) == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["config"]["planner_options"] == {"min-turn": {"n_samples": 5}}

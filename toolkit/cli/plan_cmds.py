@@ -220,6 +220,8 @@ def bench_planners(
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
                                      callback=non_negative),
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
+    sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
+                                   help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
 ) -> None:
     """Benchmark planners on maps: runs.csv, progress.csv, paths.jsonl, summary.md, plots and an OMPL benchmark.log."""
     from ..bench.planners import (
@@ -241,6 +243,9 @@ def bench_planners(
     map_list = parse_list(maps, "--maps")
     planner_list = parse_list(planners, "--planners")
     check_planner_names(planner_list)
+    from planners.declarations import planner_params
+
+    options = checked_sets(parse_sets(sets), planner_list, planner_params, "planner")
     for name in map_list:
         load_map(name)  # a bad map name fails before any work
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs,
@@ -248,7 +253,7 @@ def bench_planners(
                              seed=seed, queries=queries,  # type: ignore[arg-type]
                              exec_repeats=exec_repeats, robot_radius=radius, collision=collision,
                              noise=_noise(noise_model, motion_noise, turn_noise),
-                             simplify=simplify, progress_interval=progress_interval)
+                             simplify=simplify, progress_interval=progress_interval, planner_options=options)
     out_dir = check_out_dir(out, force)
     if budget_list is not None:
         _sweep_budgets(config, budget_list, out_dir, workers, dask, plots)

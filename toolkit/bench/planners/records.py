@@ -107,6 +107,8 @@ class RunTask:
     collision: str = "index"
     simplify: SimplifyMethod = "ompl"
     progress_interval: float = 0.01
+    options: tuple[tuple[str, Any], ...] = ()
+    """The planner's `--set` options (checked against its declarations), as sorted pairs."""
 
 
 @dataclass(frozen=True)
@@ -203,6 +205,9 @@ class BenchmarkConfig:
     progress_interval : float
         Seconds of budget between two best-cost samples of the anytime planners (besides one at
         every improvement).
+    planner_options : mapping
+        Per planner name, options checked against its declarations (`planners.declarations`; the
+        command line's ``--set NAME.KEY=VALUE``).
     """
 
     maps: tuple[str, ...]
@@ -217,6 +222,7 @@ class BenchmarkConfig:
     collision: str = "index"
     simplify: SimplifyMethod = "ompl"
     progress_interval: float = 0.01
+    planner_options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not self.maps:

@@ -144,8 +144,9 @@ def planner_for(name: str, m: Map, options: dict[str, Any] | None = None,
 
 
 @lru_cache(maxsize=64)
-def _planner(name: str, map_name: str, progress_interval: float | None = None) -> Any:
-    return planner_for(name, cached_map(map_name), progress_interval=progress_interval)
+def _planner(name: str, map_name: str, progress_interval: float | None = None,
+             options: tuple[tuple[str, Any], ...] = ()) -> Any:
+    return planner_for(name, cached_map(map_name), dict(options), progress_interval=progress_interval)
 
 
 def _path_tuple(path: np.ndarray) -> tuple[tuple[float, float], ...]:
@@ -203,7 +204,7 @@ def run_task(task: RunTask) -> RunRecord:
     checks0 = checker.checks
     t0 = time.perf_counter()
     try:
-        res = _planner(task.planner, task.map, task.progress_interval).plan(problem)
+        res = _planner(task.planner, task.map, task.progress_interval, task.options).plan(problem)
     except NxtnavError:
         raise
     except Exception as exc:  # a crashing planner is a result, not the end of the benchmark
@@ -321,6 +322,7 @@ def run_benchmark(
                     reference_length=None if math.isnan(ref.shortest_length_cm) else ref.shortest_length_cm,
                     reference_turns=ref.min_link_turns, collision=config.collision, simplify=config.simplify,
                     progress_interval=config.progress_interval,
+                    options=tuple(sorted(dict(config.planner_options.get(planner, {})).items())),
                 ))
     complete = True
     try:
