@@ -45,7 +45,7 @@ def test_the_recording_holds_one_episode_per_sweep(tmp_path: Path, capsys: pytes
     assert "3 sweeps on map" in capsys.readouterr().out
     rec = read_recording(path)
     assert rec.truncated is None and rec.localiser is None
-    assert rec.header["version"] == 2 and rec.header["sonar"]["model"] == "nxt" and rec.header["seed"] is None
+    assert rec.header["version"] == 3 and rec.header["sonar"]["model"] == "nxt" and rec.header["seed"] is None
     assert [s["label"] for s in rec.header["source"]["sweeps"]] == [
         f"andrei-alpha/robotics/loc_0{k}.dat" for k in (1, 3, 4)]
     assert all("heading_deg" not in s for s in rec.header["source"]["sweeps"])  # the aligned heading is no truth
@@ -155,7 +155,7 @@ def _write(tmp_path: Path, version: int, scan_fields: str) -> Path:
     (1, '"t_start":null,"t":null,"true_pose":[20,20,0]', "field 't' must be a number, got null"),
     (2, '"t_start":null,"t":null,"true_pose":[20,null,null]', "field 'true_pose': item 1"),
     (2, '"t_start":null,"t":null,"true_pose":[20,20,null],"label":7', "field 'label' must be a string"),
-    (3, '"t_start":0,"t":1,"true_pose":null', "format version 3 is not supported"),
+    (4, '"t_start":0,"t":1,"true_pose":null', "format version 4 is not supported"),
 ])
 def test_version_2_fields_are_checked(tmp_path: Path, version: int, fields: str, message: str) -> None:
     with pytest.raises(RecordingError, match=message):

@@ -13,7 +13,10 @@ call through unchanged and write what went in and what came out:
 * localiser calls (``localiser``, ``reset``, ``predict``, ``update``) with the exact inputs, each
   followed by the ``estimate`` it produced;
 * the true pose after each robot event where one is known (the simulator, or a `truth` callable such
-  as the virtual brick's world).
+  as the virtual brick's world);
+* faults and recoveries (``fault``, ``recovery``): a lost link and what the tachometers said of the
+  interrupted motion once it was back, a sweep taken again for a stuck or garbage sonar
+  (`toolkit.mission.recovery`).
 
 Data taken elsewhere is written with the same `Recorder`: `Recorder.known_scan` writes a scan taken
 without a robot clock at a known position, perhaps without a known heading (format version 2), as
@@ -39,16 +42,18 @@ import numpy as np
 
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 
-from .world import SONAR_MODELS, ConfigError, Map, NxtnavError, Pose, Scan, SonarModel
+from .world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
            "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "versions"]
 
 FORMAT_NAME = "nxtnav-recording"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 """Version 2 adds to version 1: a ``true_pose`` whose heading is null (the position is known, the
 heading is not), scans whose ``t_start`` and ``t`` are null (no robot clock) and a scan's ``label``.
-Readers read both versions; a version-1 reader refuses version-2 files by their version."""
+Version 3 adds the ``fault`` and ``recovery`` events (a lost link, a sonar swept again) and an
+``odometry`` whose ``tacho_after`` is null (the link broke right after the command). Readers read
+every version up to theirs and refuse later ones by their version."""
 
 
 def encode_floats(values: Any) -> list[float | str]:
@@ -206,7 +211,7 @@ class Recorder:
         self._fh.flush()
         self.lines += 1
 
-    def event(self, kind: str, **fields: Any) -> None:
+    def event(self, kind: str, /, **fields: Any) -> None:
         """Write one event line ``{"type": kind, ...}``."""
         self._write({"type": kind, **fields})
 
@@ -291,13 +296,20 @@ class _RecordingRobot:
     def __getattr__(self, name: str) -> Any:
         return getattr(self._robot, name)
 
-    def _tacho(self) -> dict[str, int] | None:
+    def _tacho(self, after: bool = False) -> dict[str, int] | None:
         fn = getattr(self._robot, "tacho_counts", None)
-        return fn() if callable(fn) else None
+        if not callable(fn):
+            return None
+        try:
+            return dict(fn())
+        except LinkLostError:
+            if not after:
+                raise  # nothing was commanded yet
+            return None  # the command was carried out; the next one finds the link lost
 
     def _command(self, kind: str, before: dict[str, int] | None, **fields: Any) -> None:
-        after = self._tacho()
-        odo = None if after is None else {"tacho_before": before, "tacho_after": after}
+        after = self._tacho(after=True)
+        odo = None if after is None and before is None else {"tacho_before": before, "tacho_after": after}
         self._rec.event(kind, t=float(self._robot.robot_time_s), **fields, odometry=odo,
                         true_pose=self._rec.true_pose(self._robot))
 

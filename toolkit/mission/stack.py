@@ -89,6 +89,7 @@ class _Mission:
         self.fresh_fix = False  # the estimate comes from a global fix not yet checked by a drive
         self.since_fix_cm = 0.0  # driven since the last converged fix
         self._localise = procedure
+        self.on_sweep_fault: Callable[[str], None] | None = None  # told of sweeps taken again (a faulty sonar)
 
     @property
     def localiser(self) -> Localiser:
@@ -135,6 +136,8 @@ class _Mission:
     def _call_localise(self, prior: Prior | None, kind: str = "global", **extra: Any) -> PoseEstimate:
         kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
                                   **dict(self.cfg.localise_options), **extra}
+        if self.on_sweep_fault is not None:
+            kwargs["on_sweep_fault"] = self.on_sweep_fault
         result = self._localise(self.robot, self.localiser, **kwargs)
         self._last_raw_scan = result.trace[-1].scan.raw if result.trace else None
         return result.estimate

@@ -4,7 +4,16 @@ Planners and localisers import from here and nowhere else in `toolkit`.
 """
 
 from .collision import CollisionChecker
-from .errors import ConfigError, LocalisationError, MapError, NxtnavError, PlanningError, RegistryError, RobotError
+from .errors import (
+    ConfigError,
+    LinkLostError,
+    LocalisationError,
+    MapError,
+    NxtnavError,
+    PlanningError,
+    RegistryError,
+    RobotError,
+)
 from .geometry import (
     Pose,
     RngLike,
@@ -20,7 +29,7 @@ from .importers import import_map
 from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_map, map_from_dict
 from .point_collision import PointCollisionChecker, make_checker
 from .registry import Registry
-from .robot import NO_ECHO, MoveOutcome, Robot, RobotGeometry, Scan, default_scan_angles
+from .robot import NO_ECHO, MoveOutcome, Resumption, Robot, RobotGeometry, Scan, default_scan_angles
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
 
 __all__ = [
@@ -31,6 +40,7 @@ __all__ = [
     "ConfigError",
     "GridSpec",
     "IdealSonar",
+    "LinkLostError",
     "LocalisationError",
     "Map",
     "MapError",
@@ -44,6 +54,7 @@ __all__ = [
     "Region",
     "Registry",
     "RegistryError",
+    "Resumption",
     "RngLike",
     "Robot",
     "RobotError",
