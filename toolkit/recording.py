@@ -33,14 +33,14 @@ import datetime
 import json
 import math
 import platform
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 
-from localisation.base import Localiser, Motion, PoseEstimate, Prior
+from localisation.base import Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 
 from .world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
 
@@ -348,6 +348,19 @@ class _RecordingLocaliser(Localiser):
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._inner, name)
+
+    # what the base class defines would hide the inner localiser's own from `__getattr__`
+    @property
+    def modes(self) -> list[Mode]:
+        return self._inner.modes
+
+    @property
+    def snapshots(self) -> Sequence[Snapshot]:  # type: ignore[override]
+        return self._inner.snapshots
+
+    @property
+    def needs_prior(self) -> bool:  # type: ignore[override]
+        return self._inner.needs_prior
 
     def _after(self) -> None:
         self._rec.event("estimate", **_estimate(self._inner.estimate()))

@@ -67,7 +67,7 @@ class TraceStep:
     action : str
         ``localise``, ``relocalise``, ``plan``, ``turn``, ``move``, ``turnback``, ``explore-turn``,
         ``explore-move``, ``align-turn``, ``correct-turn``, ``correct-move``, or a fault and its
-        recovery: ``link-lost``, ``link-restored``, ``sonar-fault``.
+        recovery: ``link-lost``, ``link-restored``, ``sonar-fault``, ``off-course``.
     estimate : Pose or None
         The localiser's mean pose after the action.
     true_pose : Pose or None
@@ -311,9 +311,11 @@ class MissionReport:
             lost = [f for f in self.faults if f.kind == "link-lost"]
             back = sum(f.recovered for f in lost)
             offline = sum(f.outage_s for f in lost)
+            sonar = sum(f.kind == "sonar" for f in self.faults)
             lines.append(f"faults: {len(lost)} lost link(s), {back} back (offline {offline:.1f} s, "
                          f"recovery {sum(f.recovery_robot_s for f in lost):.1f} s robot time), "
-                         f"{len(self.faults) - len(lost)} sweep(s) taken again for a faulty sonar")
+                         f"{sonar} sweep(s) taken again for a faulty sonar, "
+                         f"{len(self.faults) - len(lost) - sonar} fix(es) off course")
         return "\n".join(lines)
 
 

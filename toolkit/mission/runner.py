@@ -121,6 +121,7 @@ def run_mission(
     mission = _Mission(robot, m, tgt, plan_obj, build_localiser, plan_rng, cfg, procedure)
     recovery = Recovery(reconnect_timeout_s, FaultLog(recorder))
     mission.on_sweep_fault = partial(recovery.sonar_fault, mission)
+    mission.on_motion_fault = partial(recovery.motion_fault, mission)
     try:
         outcome, status = recovery.run(mission)
     except _MissionEnded as end:
