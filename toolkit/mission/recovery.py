@@ -256,8 +256,8 @@ class Recovery:
         mission.estimate = mission.localiser.estimate()
 
     def _relocalise(self, mission: _Mission, back: Resumption) -> None:
-        """Localise again around the estimate widened by the interrupted motion; globally when the
-        mission had no fix yet or this does not converge."""
+        """Localise again from the estimate widened by the interrupted motion, the mission's way (tracking,
+        then a wider prior, then global); globally at once when the mission had no fix yet."""
         est = mission.estimate
         if not mission.plans or est is None or not np.all(np.isfinite(est.cov)):
             mission.localise_global()  # the link dropped before the first fix: start it again
@@ -270,15 +270,8 @@ class Recovery:
         cov[0, 0] = max(cov[0, 0], floor[0])
         cov[1, 1] = max(cov[1, 1], floor[0])
         cov[2, 2] = max(cov[2, 2], floor[1])
-        mission.relocalisations += 1
-        new = mission._call_localise(Prior(est.pose, cov), "global", reset=True, max_iterations=1)
-        mission.estimate = new
-        ok = mission._ok(new)
-        mission.record("relocalise", note=f"after the lost link, from the last estimate widened by the interrupted "
-                                          f"{back.action or 'action'}: {'converged' if ok else 'not converged'}, "
-                                          f"spread {new.std_xy_cm:.2f} cm")
-        if not ok:
-            mission.localise_global()
-            return
-        mission.fresh_fix = True
-        mission.since_fix_cm = 0.0
+        mission.localiser.reset(Prior(est.pose, cov))
+        mission.estimate = mission.localiser.estimate()
+        mission.relocalise(f"after the lost link, from the last estimate widened by the interrupted "
+                           f"{back.action or 'action'}")
+        mission.fresh_fix = True  # a short first leg, as after a global fix

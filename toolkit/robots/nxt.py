@@ -353,6 +353,11 @@ class NxtRobot:
         return LinkLostError(f"{what} failed: {_describe(exc)}; could not stop the motors: the link is lost "
                              "(the brick stops each motor at its tacho limit)", action, requested)
 
+    def _note_start(self, counts: dict[str, int]) -> None:
+        """Remember the counts of the motors the action under way drives, as it starts."""
+        if self._pending is not None:
+            self._pending = replace(self._pending, tacho_before=counts)
+
     def _drop_link(self) -> None:
         """Close the connection without a goodbye (the other end is gone or not answering)."""
         self.link_down = True
@@ -465,9 +470,7 @@ class NxtRobot:
         ports = [self._left, self._right]
         sgn = self._drive_sign
         start = [self._state(p)[0] for p in ports]
-        if self._pending is not None:
-            self._pending = replace(self._pending, tacho_before={"left": start[0], "right": start[1],
-                                                                 "turret": self._state(self._turret)[0]})
+        self._note_start({"left": start[0], "right": start[1]})
         wanted = [round(left_deg) * sgn, round(right_deg) * sgn]
         if watchdog and all(self.read_sonar() < self.profile.watchdog_distance_cm for _ in range(2)):
             return 0.0, 0.0, "watchdog"
@@ -539,6 +542,7 @@ class NxtRobot:
         back = 0.0
         with self._action("ultrascan", "sweep_s", motion=("ultrascan", 0.0)):
             pos, _ = self._state(self._turret)
+            self._note_start({"turret": pos})
             try:
                 for i, a in enumerate(rel):
                     pos = self._turret_to(round(math.degrees(a) * gear) * sgn, pos)

@@ -456,6 +456,8 @@ class BrickServer:
         self._down_until = 0.0
         self._stalled_until = 0.0
         self._stopped = threading.Event()
+        self._up = threading.Event()
+        self._up.set()
         self._thread: threading.Thread | None = None
         self._ticker: threading.Thread | None = None
 
@@ -494,6 +496,10 @@ class BrickServer:
         with self._changed:
             return self._changed.wait_for(lambda: self._clients >= n, timeout)
 
+    def wait_link_up(self, timeout: float | None = None) -> bool:
+        """Block until the port accepts connections again after a dropped link (or `timeout` seconds)."""
+        return self._up.wait(timeout)
+
     def wait_departures(self, n: int, timeout: float | None = None) -> bool:
         """Block until `n` connections have ended in all (or `timeout` seconds); True when they have."""
         with self._changed:
@@ -514,7 +520,7 @@ class BrickServer:
             cause = "cut" if sock in self._cut else "stopped" if self.stopping else "closed"
             self._cut.discard(sock)
         with self.world.lock:
-            owned = self.brick.owned(client)
+            owned = sorted(self.brick.owned(client))
             driven = tuple(p for p in owned if self.world.motors[p].driven)
             unbounded = tuple(p for p in driven if self.world.motors[p].tacho_limit == 0)
             stopped = self.brick.release(client)
@@ -554,6 +560,9 @@ class BrickServer:
 
     def _close_listener(self) -> None:
         if self._server is not None:
+            self._up.clear()
+            with contextlib.suppress(OSError):  # stop listening now, even while the serving loop polls it
+                self._server.socket.shutdown(socket.SHUT_RDWR)
             self._server.server_close()
             self._server = None
 
@@ -575,6 +584,7 @@ class BrickServer:
             if self._server is None:
                 try:
                     self._server = self._bind(*self._address)
+                    self._up.set()
                     _log.info("link up again on %s:%d", *self._address)
                 except OSError as exc:
                     _log.warning("cannot listen on %s:%d again: %s", *self._address, exc)

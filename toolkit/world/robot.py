@@ -153,8 +153,9 @@ class Resumption:
     done : float
         What the wheels' tachometers say it did, in the same unit (0 for other actions).
     tacho_before, tacho_after : dict or None
-        Rotation counts (degrees) of the ``left``, ``right`` and ``turret`` motors when the action
-        started (None when the link broke before they were read) and after the link came back.
+        Rotation counts (degrees): of the motors the action drives (``left`` and ``right``, or
+        ``turret``) when it started (None when the link broke before they were read), and of all three
+        after the link came back (before the turret was turned back to the front).
     """
 
     action: str
