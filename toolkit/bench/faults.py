@@ -86,9 +86,11 @@ def fault_tasks(missions: int, seed: int, kinds: Sequence[str] = FAULT_KINDS, ma
 def draw_faults(rng: np.random.Generator, kinds: Sequence[str], duration_s: float) -> list[Fault]:
     """One or two faults of `kinds`, each at a brick time inside a run of `duration_s` (s).
 
-    Arguments: a link down for 0.5-5 s; a stall of 0.5-6 s (shorter or longer than the robot's 3 s
-    reply timeout); a sensor stuck for 2-15 brick s; garbage with probability 0.02-0.3 from the
-    start; a motion slipping to 50-90 % of its tacho travel.
+    Arguments: a link down for 0.5-10 s (Bluetooth coming back, a cable plugged in again); a stall of
+    0.5-6 s (shorter or longer than the robot's 3 s reply timeout); a sensor stuck for 1-7 brick s
+    (the stuck arcs of real sweeps span 50 to 250 degrees: 1.4 to 6.9 s at the robot-time model's
+    27 ms a degree); garbage with probability 0.02-0.3 from the start; a motion slipping to 50-90 %
+    of its tacho travel.
     """
     n = 1 + int(rng.random() < 0.3)
     out = []
@@ -96,11 +98,11 @@ def draw_faults(rng: np.random.Generator, kinds: Sequence[str], duration_s: floa
         kind = str(rng.choice(list(kinds)))
         at = float(np.round(rng.uniform(0.1, 0.85) * duration_s, 2))
         if kind == "drop-link":
-            arg = rng.uniform(0.5, 5.0)
+            arg = rng.uniform(0.5, 10.0)
         elif kind == "stall":
             arg = rng.uniform(0.5, 6.0)
         elif kind == "sonar-stuck":
-            arg = rng.uniform(2.0, 15.0)
+            arg = rng.uniform(1.0, 7.0)
         elif kind == "sonar-garbage":
             at, arg = 0.0, rng.uniform(0.02, 0.3)
         else:
@@ -284,6 +286,7 @@ def summarise(results: Sequence[FaultMission]) -> dict[str, Any]:
     n = len(results)
     acting = [f for r in results for f in r.faults if f["acted"] > 0]
     lost = [x for r in results for x in r.noticed if x["kind"] == "link-lost"]
+    back = [x for x in lost if x["recovered"]]
     per_fault = [r.extra_robot_s / len(r.faults) for r in results if r.faults]
     return {
         "missions": n,
@@ -297,7 +300,10 @@ def summarise(results: Sequence[FaultMission]) -> dict[str, Any]:
         "faults_acting_recovered": sum(f["acted"] > 0 and r.success for r in results for f in r.faults),
         "links_lost": len(lost),
         "links_back": sum(bool(x["recovered"]) for x in lost),
+        "median_outage_s": statistics.median(x["outage_s"] for x in lost) if lost else None,
+        "median_recovery_robot_s": statistics.median(x["recovery_robot_s"] for x in back) if back else None,
         "sonar_sweeps_repeated": sum(x["kind"] == "sonar" for r in results for x in r.noticed),
+        "fixes_off_course": sum(x["kind"] == "motion" for r in results for x in r.noticed),
         "median_extra_robot_s_per_fault": statistics.median(per_fault) if per_fault else None,
         "recordings_readable": sum(r.readable for r in results),
         "recordings_reproduced": sum(r.reproduced is True for r in results),

@@ -69,17 +69,22 @@ def bench_faults(
         typer.echo(f"wrote {json_out}")
 
 
+def _s(v: float | None) -> str:
+    return "-" if v is None else f"{v:.1f} s"
+
+
 def _print(s: dict[str, Any]) -> None:
     n = s["missions"]
     typer.echo(f"missions {n}: {s['success']} reached the target ({100 * float(s['success_rate']):.1f} %; without "
                f"faults {s['baseline_success']}), {s['collisions']} collision(s), {s['motors_left_running']} motor(s) "
                "left running")
     typer.echo(f"faults: {s['faults_scheduled']} scheduled, {s['faults_acting']} acting, "
-               f"{s['faults_acting_recovered']} of those in missions that reached the target; links lost "
-               f"{s['links_lost']}, back {s['links_back']}; sweeps taken again for a faulty sonar "
-               f"{s['sonar_sweeps_repeated']}; median extra robot time per fault "
-               + ("-" if s["median_extra_robot_s_per_fault"] is None
-                  else f"{float(s['median_extra_robot_s_per_fault']):.1f} s"))
+               f"{s['faults_acting_recovered']} of those in missions that reached the target; median extra robot "
+               f"time per fault {_s(s['median_extra_robot_s_per_fault'])} against the same mission without faults")
+    typer.echo(f"noticed by the missions: {s['links_lost']} lost link(s), {s['links_back']} back (median "
+               f"{_s(s['median_outage_s'])} offline, {_s(s['median_recovery_robot_s'])} of robot time to resume); "
+               f"{s['sonar_sweeps_repeated']} sweep(s) taken again for a faulty sonar; "
+               f"{s['fixes_off_course']} fix(es) off course")
     typer.echo(f"recordings: {s['recordings_readable']} readable, {s['recordings_reproduced']} replayed bit for bit, "
                f"{s['recordings_truncated']} cut short")
     typer.echo("| fault | scheduled | fired | acting | acting, target reached | alone in a mission | "
