@@ -10,7 +10,7 @@ from types import FrameType
 
 import typer
 
-from ..robots.brick_faults import FaultSchedule, parse_fault
+from ..robots.brick_faults import Fault, FaultSchedule, Fired, parse_fault
 from ..robots.nxt import BACKENDS, NxtProfile, NxtRobot, connect_robot
 from ..robots.nxt_profile import calibrated_track_width, calibrated_wheel_diameter
 from ..robots.virtual_brick import BrickServer
@@ -56,6 +56,10 @@ _NAME_OPT = typer.Option(None, "--brick-name", help="Only use the brick with thi
 def _connect(backend: str, host: str, port: int, address: str | None, name: str | None,
              profile: NxtProfile | Path | None) -> NxtRobot:
     return connect_robot(backend, host=host, port=port, profile=profile, name=name, address=address)
+
+
+def _say_fired(fault: Fault, fired: Fired) -> None:
+    _echo(f"fault {fault.text} fired at brick time {fired.time_s:.2f} s")
 
 
 @brick_app.command("serve")
@@ -127,7 +131,8 @@ def brick_serve(
         max_step = 0.25 if time_factor <= 1.0 else 0.02
     try:
         faults = FaultSchedule([parse_fault(t) for t in fault_texts or []],
-                               rng=None if seed is None else derive_seed(seed, "faults"))
+                               rng=None if seed is None else derive_seed(seed, "faults"),
+                               on_fire=_say_fired)
     except ConfigError as exc:
         raise typer.BadParameter(str(exc), param_hint="--fault") from None
     try:
@@ -165,8 +170,9 @@ def brick_serve(
     p = world.pose
     _echo(f"stopped: {server.clients} connection(s), brick time {world.time_s:.1f} s, pose ({p.x:.1f}, {p.y:.1f}, "
           f"{p.heading_deg:.1f} deg), {world.collisions} collision(s)")
-    for f, fired in zip(faults.faults, faults.fired, strict=True):
-        _echo(f"fault {f.text}: " + ("did not fire" if fired is None else f"fired at brick time {fired.time_s:.2f} s"))
+    for f, fired, n in zip(faults.faults, faults.fired, faults.acted, strict=True):
+        _echo(f"fault {f.text}: " + ("did not fire" if fired is None else
+                                     f"fired at brick time {fired.time_s:.2f} s, acted {n} time(s)"))
 
 
 @nxt_app.command("check")

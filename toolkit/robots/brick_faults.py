@@ -38,13 +38,13 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from ..world import ConfigError, RngLike, as_rng
 
-__all__ = ["FAULT_KINDS", "LINK_FAULTS", "SONAR_FAULTS", "Fault", "FaultSchedule", "parse_fault"]
+__all__ = ["FAULT_KINDS", "LINK_FAULTS", "SONAR_FAULTS", "Fault", "FaultSchedule", "Fired", "parse_fault"]
 
 FAULT_KINDS = ("drop-link", "stall", "sonar-stuck", "sonar-garbage", "motor-slip")
 """Every fault the virtual brick can make."""
@@ -146,10 +146,14 @@ class FaultSchedule:
         The faults (parsed when given as text).
     rng : None, int or Generator
         Seed of the garbage readings.
+    on_fire : callable, optional
+        Told ``(fault, fired)`` the moment each fault fires (from the brick's threads).
     """
 
-    def __init__(self, faults: Sequence[Fault | str] = (), rng: RngLike = None) -> None:
+    def __init__(self, faults: Sequence[Fault | str] = (), rng: RngLike = None,
+                 on_fire: Callable[[Fault, Fired], None] | None = None) -> None:
         self.faults = tuple(f if isinstance(f, Fault) else parse_fault(f) for f in faults)
+        self.on_fire = on_fire
         self._rng = as_rng(rng)
         self._lock = threading.Lock()
         self._events = [threading.Event() for _ in self.faults]
@@ -164,7 +168,9 @@ class FaultSchedule:
 
     def _fire(self, i: int, time_s: float) -> None:
         if self.fired[i] is None:
-            self.fired[i] = Fired(float(time_s), time.monotonic())
+            fired = self.fired[i] = Fired(float(time_s), time.monotonic())
+            if self.on_fire is not None:
+                self.on_fire(self.faults[i], fired)
             self._events[i].set()
 
     def due(self, time_s: float, kinds: Sequence[str] = LINK_FAULTS) -> list[int]:

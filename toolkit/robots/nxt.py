@@ -156,6 +156,7 @@ class NxtRobot:
         self.reply_timeout_s = reply_timeout_s
         self._connector = connector
         self.link_down = False
+        self._depth = 0  # actions under way (one calls another's public method)
         self._pending: _Pending | None = None
         self._interrupted: _Pending | None = None
         _set_reply_timeout(brick, reply_timeout_s)
@@ -265,6 +266,12 @@ class NxtRobot:
 
     def read_sonar(self) -> float:
         """One ultrasonic reading (cm; 255 = no echo) in the turret's current direction."""
+        if self._depth:  # inside an action (the watchdog of a move, a sweep)
+            return self._read_sonar()
+        with self._action("read the sonar"):
+            return self._read_sonar()
+
+    def _read_sonar(self) -> float:
         err = self._nxt.error
         if not self.virtual and self.profile.sonar_interval_s > 0:
             wait = self._last_sonar + self.profile.sonar_interval_s - time.monotonic()
@@ -315,6 +322,7 @@ class NxtRobot:
         start: tuple[str, float] | None = None
         if motion is not None:
             self._pending = _Pending(motion[0], motion[1], split)
+        self._depth += 1
         try:
             start = self._clock()
             if self._pending is not None and motion is not None:
@@ -338,6 +346,7 @@ class NxtRobot:
             stopped = self._safe_stop()
             raise RobotError(f"{what} failed: {_describe(exc)}; {stopped}") from exc
         finally:
+            self._depth -= 1
             if motion is not None:
                 self._pending = None
 
