@@ -286,9 +286,10 @@ def localise(
             fault = sweep_fault(scan) or ""
             if not fault:
                 return scan
-            log.warning("sweep %d: %s; sweeping again", attempt, fault)
             if on_sweep_fault is not None:
-                on_sweep_fault(fault)
+                on_sweep_fault(fault)  # the caller says it (once)
+            else:
+                log.warning("sweep %d: %s; sweeping again", attempt, fault)
         raise LocalisationError(f"the sonar stayed faulty for {STUCK_SWEEPS} sweeps in a row ({fault}); "
                                 "check the sensor and its cable")
 

@@ -24,10 +24,11 @@ from __future__ import annotations
 
 import contextlib
 import io
+import logging
 import math
 import statistics
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -169,6 +170,19 @@ def _world(task: FaultTask, faults: list[Fault], log: io.StringIO) -> Any:
                       faults=FaultSchedule(faults, rng=s_faults))
 
 
+@contextlib.contextmanager
+def _quiet(name: str) -> Iterator[None]:
+    """The warnings of logger `name` (a mission saying its faults) left out while a campaign runs: the
+    report counts them."""
+    logger = logging.getLogger(name)
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
 def _mission(task: FaultTask, faults: list[Fault], record: Path | None) -> _Run:
     """One run on its own virtual brick; with `record`, its recording is written there and checked."""
     from localisation.sonar_options import matched_localiser_options
@@ -194,8 +208,9 @@ def _mission(task: FaultTask, faults: list[Fault], record: Path | None) -> _Run:
                                                           "profile": robot.profile.to_dict()},
                                     sonar={"model": "nxt", "params": NxtSonar().to_dict()}, seed=task.seed,
                                     truth=lambda: world.pose, extra={"faults": [f.to_dict() for f in faults]})
-            report = run_mission(robot, m, m.target, planner="min-turn", localiser="paper-pf", rng=task.seed,
-                                 config=config, recorder=recorder, reconnect_timeout_s=task.reconnect_timeout_s)
+            with _quiet("toolkit.mission.recovery"):
+                report = run_mission(robot, m, m.target, planner="min-turn", localiser="paper-pf", rng=task.seed,
+                                     config=config, recorder=recorder, reconnect_timeout_s=task.reconnect_timeout_s)
         finally:
             robot.close()
             if recorder is not None:
