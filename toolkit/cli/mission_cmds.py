@@ -18,11 +18,13 @@ from .options import (
     SONAR_PROFILE_HELP,
     check_writable,
     count,
+    non_negative,
     parse_floats,
     parse_list,
     parse_pose,
     parse_xy,
     port,
+    positive,
     sonar_profile,
 )
 from .options import collision as collision_ok
@@ -64,12 +66,12 @@ def _noise(text: str) -> tuple[float, float, float]:
     return sensor, motion, turn
 
 
-def _connect_nxt(backend: str, host: str, port: int, profile: Path | None) -> Any:
+def _connect_nxt(backend: str, host: str, port: int, profile: Path | None, reply_timeout_s: float) -> Any:
     try:
         from ..robots.nxt import connect_robot
     except ImportError as exc:
         raise NxtnavError(f"the NXT backend is not available ({exc}); install the 'nxt' extra") from None
-    return connect_robot(backend, host=host, port=port, profile=profile)
+    return connect_robot(backend, host=host, port=port, profile=profile, reply_timeout_s=reply_timeout_s)
 
 
 @app.command("run")
@@ -105,6 +107,12 @@ def run(
     server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket).",
                                      callback=port),
     profile: Path | None = typer.Option(None, "--profile", metavar="FILE", help="NXT calibration profile."),
+    reconnect_timeout: float = typer.Option(
+        30.0, "--reconnect-timeout", metavar="S", callback=non_negative,
+        help="NXT: after a lost link, try this many seconds to reach the brick again before the mission ends."),
+    reply_timeout: float = typer.Option(
+        3.0, "--reply-timeout", metavar="S", callback=positive,
+        help="NXT (socket, Bluetooth): a reply that takes longer than this counts as a lost link."),
     record: Path | None = typer.Option(None, "--record", metavar="FILE.jsonl",
                                        help="Record every command, scan and localiser call (docs/recording.md)."),
     record_particles: int = typer.Option(
@@ -152,7 +160,7 @@ def run(
                                      "simulator", param_hint="--start")
         from ..robots.model_clock import ModelClock
 
-        robot = ModelClock(_connect_nxt(nxt_backend, server_host, server_port, profile))
+        robot = ModelClock(_connect_nxt(nxt_backend, server_host, server_port, profile, reply_timeout))
         recorder: Any = None
         report: Any = None
         robot_radius = float(robot.geometry.radius_cm)
@@ -168,7 +176,7 @@ def run(
             opts = localiser_options(localiser, robot_model)
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts, collision=collision),
-                                 recorder=recorder)
+                                 recorder=recorder, reconnect_timeout_s=reconnect_timeout)
         finally:
             robot.close()
             _finish(recorder, report, stream)

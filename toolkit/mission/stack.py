@@ -30,6 +30,7 @@ from ..world import (
 )
 from .config import _WINDOW_CENTRES, MissionConfig, sweep_angles
 from .explore import explore_direction
+from .recovery import off_course
 from .report import Leg, Outcome, TraceStep
 
 FloatArray = NDArray[np.float64]
@@ -94,6 +95,8 @@ class _Mission:
         self.fresh_fix = False  # the estimate comes from a global fix not yet checked by a drive
         self.since_fix_cm = 0.0  # driven since the last converged fix
         self._localise = procedure
+        self.on_sweep_fault: Callable[[str], None] | None = None  # told of sweeps taken again (a faulty sonar)
+        self.on_motion_fault: Callable[[str], None] | None = None  # told of fixes far off the prediction
 
     @property
     def localiser(self) -> Localiser:
@@ -140,6 +143,8 @@ class _Mission:
     def _call_localise(self, prior: Prior | None, kind: str = "global", **extra: Any) -> PoseEstimate:
         kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
                                   **dict(self.cfg.localise_options), **extra}
+        if self.on_sweep_fault is not None:
+            kwargs["on_sweep_fault"] = self.on_sweep_fault
         result = self._localise(self.robot, self.localiser, **kwargs)
         self._last_raw_scan = result.trace[-1].scan.raw if result.trace else None
         return result.estimate
@@ -453,8 +458,23 @@ class _Mission:
                 if leg >= dist:
                     return Leg.ARRIVED
                 continue
+            predicted = self.estimate
             self.relocalise("at waypoint" if leg >= dist else "along segment")
+            if self.off_course(predicted):
+                return Leg.DEVIATED  # the robot did not go where its motions should have taken it: plan again
         return Leg.DEVIATED
+
+    def off_course(self, predicted: PoseEstimate | None) -> bool:
+        """Whether the fix just taken lies further from the `predicted` belief than motion noise explains
+        (`toolkit.mission.recovery.off_course`: a wheel that slipped, a robot pushed); said in the trace
+        and to `on_motion_fault`."""
+        why = off_course(predicted, self.estimate) if self.estimate is not None and self._ok(self.estimate) else None
+        if why is None:
+            return False
+        self.record("off-course", note=why)
+        if self.on_motion_fault is not None:
+            self.on_motion_fault(why)
+        return True
 
     # -- planning -------------------------------------------------------------------------------
     def plan(self) -> FloatArray:
