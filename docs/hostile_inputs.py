@@ -164,7 +164,10 @@ def _cases() -> list[Case]:
         "bench planners --out full", "bench planners --workers 0 --out bp",
         "bench planners --exec-repeats -1 --out bp", "bench planners --radius -1 --out bp",
         "bench planners --noise-model x --out bp", "bench planners --seed -1 --out bp",
-        "bench planners --motion-noise -1 --out bp", "bench planners", f"{bp} --turn-noise inf")
+        "bench planners --motion-noise -1 --out bp", "bench planners", f"{bp} --turn-noise inf",
+        f"{bp} --simplify smooth", f"{bp} --simplify ''", f"{bp} --budgets ''", f"{bp} --budgets 0.1,-1",
+        f"{bp} --budgets 0.1,0", f"{bp} --budgets 0.1,0.1", f"{bp} --budgets fast", f"{bp} --budgets 0.1,inf",
+        f"{bp} --budgets 0.1 --time-limit 1", f"{bp} --progress-interval 0", f"{bp} --progress-interval -1")
     # bench localisers
     bl = "bench localisers --maps map1 --localisers paper-pf --trials 1 --out bl"
     add("bench localisers", 2, f"{bl} --trials 0", f"{bl} --localisers nope", "bench localisers --maps nomap --out bl",

@@ -37,7 +37,7 @@ from toolkit.world import load_map, make_checker
 
 RADIUS = 8.0
 BUDGET_S = 0.06
-ANYTIME = ("rrtstar", "prm", "ompl:BITstar", "ompl:InformedRRTstar", "ompl:AORRTC")
+ANYTIME = ("rrtstar", "prm", "ompl:BITstar", "ompl:InformedRRTstar")
 
 
 def _plan(name: str, seed: int, budget: float = BUDGET_S, map_name: str = "map2", **options: object) -> PlanResult:
