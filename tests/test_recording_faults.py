@@ -1,5 +1,4 @@
-"""Recordings of faulty runs (format version 3: ``fault`` and ``recovery`` lines), older versions still
-read, and a recorded mission deciding as an unrecorded one does."""
+"""Recordings of faulty runs (format version 3: ``fault`` and ``recovery`` lines); older versions still read."""
 
 from __future__ import annotations
 
@@ -8,10 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from toolkit.mission import run_sim_mission
-from toolkit.recording import FORMAT_VERSION, Recorder
+from toolkit.recording import FORMAT_VERSION
 from toolkit.replay import RecordingError, read_recording, replay
-from toolkit.world import load_map
 
 EXAMPLE = Path(__file__).parent / "data" / "recording_map1_nxt.jsonl"  # a version-1 recording
 
@@ -60,17 +57,3 @@ def test_bad_fault_lines_name_the_line_and_field(tmp_path: Path, version: int, l
                                                  message: str) -> None:
     with pytest.raises(RecordingError, match=message):
         read_recording(_with(tmp_path, version, line))
-
-
-@pytest.mark.slow
-def test_a_recorded_mission_decides_as_an_unrecorded_one(tmp_path: Path) -> None:
-    # map3's twin rooms: the mission explores by the localiser's modes, which the recorder must pass on
-    m = load_map("map3")
-    plain = run_sim_mission(m, seed=2, sonar="nxt")
-    rec = Recorder(tmp_path / "r.jsonl", map=m, robot={"kind": "sim"}, sonar={"model": "nxt"}, seed=2)
-    recorded = run_sim_mission(m, seed=2, sonar="nxt", recorder=rec)
-    rec.close(recorded.status, recorded.success)
-    assert any(s.action == "explore-move" for s in plain.trace)
-    # the same actions, beliefs and true poses (the notes hold planning times in ms, which vary)
-    assert [(s.action, s.estimate, s.true_pose) for s in recorded.trace] == [(s.action, s.estimate, s.true_pose)
-                                                                             for s in plain.trace]

@@ -281,6 +281,8 @@ def _particles(cloud: dict[str, Any], where: str) -> None:
     _floats(cloud, "weights", where + ": particles", len(poses))
     if n < len(poses):
         raise RecordingError(f"{where}: particles: field 'n' ({n}) is smaller than the {len(poses)} poses")
+
+
 def _fault_event(e: dict[str, Any], where: str, version: int) -> None:
     """Check a ``fault`` or ``recovery`` line (format version 3)."""
     if version < 3:

@@ -185,23 +185,24 @@ def _quiet(name: str) -> Iterator[None]:
 
 def _mission(task: FaultTask, faults: list[Fault], record: Path | None) -> _Run:
     """One run on its own virtual brick; with `record`, its recording is written there and checked."""
-    from localisation.sonar_options import matched_localiser_options
+    from localisation.robot_options import localiser_options
 
     from ..mission import MissionConfig, run_mission
     from ..recording import Recorder
     from ..robots.nxt import connect_robot
     from ..robots.virtual_brick import BrickServer
-    from ..world import NxtSonar
+    from ..world import NxtSonar, RobotModel
 
     m = load_map(task.map)
     assert m.target is not None
     world = _world(task, faults, io.StringIO())
-    opts = matched_localiser_options("paper-pf", sonar="nxt", simulated=True)
-    config = MissionConfig.for_sonar("nxt", localiser_options=opts)
     report = None
     recorder = None
     with BrickServer(world, port=0) as server:
         robot = connect_robot("socket", host=server.host, port=server.port, reply_timeout_s=task.reply_timeout_s)
+        # as nxtnav run --robot nxt tells the localiser of the virtual brick's sensor
+        model = RobotModel(NxtSonar(), geometry=robot.geometry, readings="simulated")
+        config = MissionConfig.for_sonar("nxt", localiser_options=localiser_options("paper-pf", model))
         try:
             if record is not None:
                 recorder = Recorder(record, map=m, robot={"kind": "nxt", "link": robot.link, "virtual": True,
