@@ -4,14 +4,14 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-fast lint typecheck bench figures clean
+.PHONY: run test test-fast lint typecheck bench figures dist-check docs clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-$(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[dev,nxt,cluster]"
+$(STAMP): pyproject.toml setup.py | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[dev,nxt,cluster,docs]"
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -24,13 +24,13 @@ run: $(STAMP)
 PYTEST := $(BIN)/python -m pytest -q -n auto
 
 test: $(STAMP)
-	$(BIN)/ruff check toolkit planners localisation tests notebooks
+	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
 	$(PYTEST)
 
 # the same without the slow end-to-end checks (pytest -m "not slow"), for a quick loop while editing
 test-fast: $(STAMP)
-	$(BIN)/ruff check toolkit planners localisation tests notebooks
+	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
 	$(PYTEST) -m "not slow"
 
@@ -40,5 +40,14 @@ bench: $(STAMP)
 figures: $(STAMP)
 	$(BIN)/nxtnav figures --out docs/img
 
+# the wheel and sdist (python -m build, into dist/), the wheel installed in a fresh venv outside the
+# repository, and nxtnav --version, maps list, import sweeps and run from there (tools/dist_check.py)
+dist-check: $(STAMP)
+	$(BIN)/python tools/dist_check.py
+
+# the documentation site (MkDocs Material) into site/; --strict: a broken link or a missing page fails
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
 clean:
-	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache dist site

@@ -15,6 +15,7 @@ from typing import Any
 import typer
 
 from ..world import COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
+from ..world.bundled import data_path
 
 __all__ = [
     "MAX_COUNT",
@@ -35,6 +36,7 @@ __all__ = [
     "positive",
     "repeats",
     "seed",
+    "shipped",
     "sonar_profile",
     "time_limit",
     "workers",
@@ -89,6 +91,17 @@ port = in_range(1, 65535, what="a TCP port")
 """A TCP port to connect to: 1-65535."""
 port_or_zero = in_range(0, 65535, what="a TCP port (0 = any free one)")
 """A TCP port to listen on: 0-65535 (0 picks a free one)."""
+
+
+def shipped(value: Any) -> Any:
+    """A typer callback for data paths (a path or a list of them): each as the documentation writes it
+    (``maps/real-nxt``) also names the data shipped with nxtnav from any folder
+    (`toolkit.world.bundled.data_path`); None passes."""
+    if value is None:
+        return None
+    if isinstance(value, list | tuple):
+        return [data_path(v) for v in value]
+    return data_path(value)
 
 
 def check_out_folder(out: Path, force: bool, option: str = "--out") -> None:
@@ -188,7 +201,8 @@ def parse_sweep(text: str, option: str) -> tuple[float, float, int]:
 
 
 def sonar_profile(path: Path | None, sonars: str | Sequence[str], option: str = "--sonar-profile") -> NxtSonar | None:
-    """The ``nxt`` sonar's model from the profile file `path` (None without one).
+    """The ``nxt`` sonar's model from the profile file `path` (None without one; ``maps/...`` also
+    names the shipped profiles from any folder, as `shipped`).
 
     A profile describes the ``nxt`` sonar only: with `sonars` (the chosen sonar, or several) that do not
     include it, it is an error naming `option`; a file that cannot be used is a `SonarProfileError`
@@ -202,4 +216,4 @@ def sonar_profile(path: Path | None, sonars: str | Sequence[str], option: str = 
                           f"{','.join(chosen)}")
     from ..sonar_fit import load_sonar_profile
 
-    return load_sonar_profile(path)
+    return load_sonar_profile(data_path(path))
