@@ -20,8 +20,8 @@ run: $(STAMP)
 	mkdir -p out
 	$(BIN)/nxtnav run --plot out/mission.png --json out/mission.json
 
-# pytest runs on every core (pytest-xdist)
-PYTEST := $(BIN)/python -m pytest -q -n auto
+# pytest runs on every core (pytest-xdist); tests marked with one xdist_group share a worker (one Dask cluster)
+PYTEST := $(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools

@@ -16,7 +16,7 @@ import os
 import platform
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -268,8 +268,11 @@ class ScenResult:
 
 def run_scen(config: ScenConfig, queries: Sequence[Scenario], *, workers: int = 1, dask_address: str | None = None,
              on_done: Callable[[ScenRecord], None] | None = None) -> ScenResult:
-    """Run every planner of `config` on every query; an interrupt returns what finished (``complete=False``)."""
-    tasks = [_Task(config, p, q) for p in config.planners for q in queries]
+    """Run every planner of `config` on every query; an interrupt returns what finished (``complete=False``).
+
+    The tasks name the map by its absolute path: a worker process may run in another folder."""
+    task_config = replace(config, map_path=os.path.abspath(config.map_path))
+    tasks = [_Task(task_config, p, q) for p in config.planners for q in queries]
     records: list[ScenRecord] = []
     t0 = time.perf_counter()
     started = time.time()
