@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-fast lint typecheck bench figures dist-check docs clean
+.PHONY: install run test test-fast lint typecheck bench figures dist-check docs clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)

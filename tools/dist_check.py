@@ -169,7 +169,7 @@ def main() -> int:
         venv = tmp / "venv"
         with step(f"fresh venv in {tmp}, pip install the wheel"):
             run([sys.executable, "-m", "venv", str(venv)], tmp)
-            run([str(venv / "bin" / "python"), "-m", "pip", "install", "--quiet", str(wheel)], tmp)
+            run([str(venv / "bin" / "python"), "-m", "pip", "install", "--quiet", "--no-compile", str(wheel)], tmp)
         work = tmp / "work"
         work.mkdir()
         check_installed(venv, work, version())
