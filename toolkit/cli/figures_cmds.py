@@ -95,7 +95,7 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         "one 360-degree scan with the LEGO sensor model, as the paper's Fig. 3"),
     FigureJob(
         "real-sonar",
-        ("sonar", "plot", f"{REPO}/maps/real-nxt", "--out", f"{WORK}/real-sonar"),
+        ("sonar", "plot", "maps/real-nxt", "--out", f"{WORK}/real-sonar"),
         {"real_sonar_radar.png": "real-sonar/real_sonar_radar.png",
          "real_sonar_no_echo.png": "real-sonar/real_sonar_no_echo.png"},
         "the three shipped real NXT sweeps against the fitted nxt sonar model: radar charts, no-echo curves"),
