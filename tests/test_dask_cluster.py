@@ -23,13 +23,14 @@ from typing import Any
 import pytest
 from conftest import REAL_NXT, nxtnav_exe, run_cli
 from distributed import Client
+from toolkit.bench.planners.records import TIMING_COLUMNS
 
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("dask-cluster")]  # one cluster per test run
 
 REPO = Path(__file__).resolve().parents[1]
 DASK = Path(sys.executable).parent / "dask"
 WORKERS = 2
-TIMINGS = {"time_s", "first_solution_s", "preprocess_s", "update_ms"}
+TIMINGS = TIMING_COLUMNS | {"preprocess_s", "update_ms"}
 """Columns that hold wall-clock measures: they differ from run to run whatever the executor."""
 
 

@@ -175,6 +175,8 @@ SCREENSHOTS: dict[str, str] = {
     "showing the progress view of `ompl_benchmark_statistics out/planners/ompl/map2-presets.log -d benchmark.db` "
     "(best cost against time of the anytime planners); a screenshot of a local server, not made by "
     "`nxtnav figures`",
+    "rerun-view.png": "Rerun's web viewer (the `rerun` program of rerun-sdk) showing a mission saved with "
+    "`nxtnav run --view-save out/view-check.rrd`; taken in headless Chromium by `make view-check`",
 }
 """Images in the figure folder that no `FigureJob` makes (screenshots of other programs), with how
 each was taken; `nxtnav figures` leaves them alone."""
