@@ -132,3 +132,26 @@ def test_a_robot_built_without_a_connector_cannot_reconnect(make: type[Rig]) -> 
     bare = NxtRobot(rig.robot.brick, owns_brick=False)
     with pytest.raises(RobotError, match="cannot reconnect"):
         bare.reconnect()
+
+
+def test_a_sweep_cut_by_a_short_stall_sends_nothing_more_on_the_broken_link() -> None:
+    """After a reply timed out, a request on the same connection would get the late reply of the one before:
+    the robot lets the connection go at once, even in the middle of a sweep."""
+    config = BrickConfig(time_factor=1000.0, max_step_s=0.01)
+    at_fault: list[int] = []
+    world = BrickWorld(load_map("map1"), START, config, sensor_noise=0.0, rng=1,
+                       faults=FaultSchedule(["stall:1.0:0.8"], rng=1))
+    with BrickServer(world, port=0) as server:
+        world.faults.on_fire = lambda fault, fired: at_fault.append(server.brick.telegrams)
+        robot = connect_robot("socket", host="127.0.0.1", port=server.port, reply_timeout_s=0.4)
+        try:
+            with pytest.raises(LinkLostError, match="timed out") as err:
+                robot.ultrascan()
+            assert err.value.action == "ultrascan"
+            assert server.wait_departures(1, timeout=30)  # the brick saw the connection go
+            assert at_fault and server.brick.telegrams == at_fault[0]  # nothing sent after the stalled request
+            back = robot.reconnect()
+            assert back.action == "ultrascan"
+            assert robot.ultrascan().ranges.size == 360  # and the new link answers in step
+        finally:
+            robot.close()

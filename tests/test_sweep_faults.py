@@ -1,9 +1,10 @@
-"""A faulty sonar seen in the sweeps (stuck, garbage), the procedure sweeping again, and a fix that says
-the robot did not move as commanded."""
+"""A faulty sonar seen in the sweeps (stuck, garbage), the procedure sweeping again, and fixes and watchdog
+stops that say the robot did not move as commanded."""
 
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -14,7 +15,15 @@ from localisation.base import PoseEstimate, make_localiser
 from localisation.procedure import STUCK_SWEEPS, localise
 from localisation.scan import GARBAGE_SHARE, garbage_share, sweep_fault
 from toolkit.mission.config import sweep_angles
-from toolkit.mission.recovery import OFF_COURSE_CM, OFF_COURSE_DEG, off_course
+from toolkit.mission.recovery import (
+    OFF_COURSE_CM,
+    OFF_COURSE_DEG,
+    UNEXPLAINED_STOP_CM,
+    StopCheck,
+    off_course,
+    watchdog_cm,
+    widened_prior,
+)
 from toolkit.robots.sim import SimRobot
 from toolkit.sweeps import load_sweep_set
 from toolkit.world import LocalisationError, Pose, Scan, load_map
@@ -117,3 +126,29 @@ def test_a_fix_far_from_the_prediction_is_off_course() -> None:
     assert turned is not None and f"{OFF_COURSE_DEG + 1:.0f} degrees" in turned
     assert off_course(pred, _est(50.0, 50.0, 90.0 + 359.0)) is None  # headings wrap
     assert math.isclose(OFF_COURSE_CM, 5.0) and math.isclose(OFF_COURSE_DEG, 10.0)
+
+
+def test_two_stops_the_map_does_not_explain_say_the_belief_is_wrong() -> None:
+    m = load_map("map1")
+    robot = SimRobot(m, Pose.from_deg(20.0, 50.0, 90.0), rng=0)
+    assert watchdog_cm(robot) == robot.watchdog_cm == 12.0
+    mission = SimpleNamespace(map=m, robot=robot, estimate=_est(20.0, 50.0, 90.0))  # 55 cm free ahead
+    check = StopCheck()
+    assert check(mission) is None  # one stop may be a short reading
+    mission.estimate = _est(22.0, 53.0, 92.0)
+    why = check(mission)
+    assert why is not None and "the belief is wrong" in why
+    assert check(mission) is None  # said once, then counted afresh
+    mission.estimate = _est(20.0, 95.0, 90.0)  # 10 cm from the wall ahead: the stop is explained
+    assert check(mission) is None and check(mission) is None
+    mission.estimate = _est(20.0, 50.0, 90.0)
+    assert check(mission) is None
+    mission.estimate = _est(20.0, 50.0 + UNEXPLAINED_STOP_CM + 1.0, 90.0)  # not the same place
+    assert check(mission) is None
+
+
+def test_a_widened_prior_keeps_the_mean_and_the_larger_spreads() -> None:
+    est = PoseEstimate(Pose(10.0, 20.0, 0.5), np.diag([1.0, 400.0, 0.01]), True, 1)
+    prior = widened_prior(est, 10.0, math.radians(45.0))
+    assert prior.mean == est.pose
+    assert np.allclose(np.diag(prior.cov), [100.0, 400.0, math.radians(45.0) ** 2])

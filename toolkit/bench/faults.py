@@ -282,12 +282,13 @@ def _kind_rows(results: Sequence[FaultMission]) -> dict[str, dict[str, Any]]:
         single = len(r.faults) == 1
         for f in r.faults:
             row = rows.setdefault(f["kind"], {"scheduled": 0, "fired": 0, "acting": 0, "recovered": 0,
-                                              "extra_robot_s": []})
+                                              "missions_with_collisions": 0, "extra_robot_s": []})
             row["scheduled"] += 1
             row["fired"] += f["fired_at_s"] is not None
             acting = f["acted"] > 0
             row["acting"] += acting
             row["recovered"] += acting and r.success
+            row["missions_with_collisions"] += acting and r.collisions > 0
             if single and acting:
                 row["extra_robot_s"].append(r.extra_robot_s)
     for row in rows.values():

@@ -87,12 +87,12 @@ def _print(s: dict[str, Any]) -> None:
                f"{s['fixes_off_course']} fix(es) off course")
     typer.echo(f"recordings: {s['recordings_readable']} readable, {s['recordings_reproduced']} replayed bit for bit, "
                f"{s['recordings_truncated']} cut short")
-    typer.echo("| fault | scheduled | fired | acting | acting, target reached | alone in a mission | "
-               "median extra robot time (s) |")
-    typer.echo("|---|---:|---:|---:|---:|---:|---:|")
+    typer.echo("| fault | scheduled | fired | acting | acting, target reached | acting, with a collision | "
+               "alone in a mission | median extra robot time (s) |")
+    typer.echo("|---|---:|---:|---:|---:|---:|---:|---:|")
     for kind, r in sorted(s["by_kind"].items()):
         extra = "-" if r["median_extra_robot_s"] is None else f"{r['median_extra_robot_s']:.1f}"
         typer.echo(f"| {kind} | {r['scheduled']} | {r['fired']} | {r['acting']} | {r['recovered']} | "
-                   f"{r['missions_with_it_alone']} | {extra} |")
+                   f"{r['missions_with_collisions']} | {r['missions_with_it_alone']} | {extra} |")
     for line in s["failures"]:
         typer.echo(f"failed: {line}", err=True)

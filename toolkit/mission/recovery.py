@@ -34,15 +34,16 @@ import numpy as np
 
 from localisation.base import Motion, PoseEstimate, Prior
 
-from ..world import LinkLostError, Resumption, RobotError, angle_diff
+from ..world import LinkLostError, Resumption, RobotError, angle_diff, ray_cast
 from .report import Outcome
 
 if TYPE_CHECKING:
     from ..recording import Recorder
     from .stack import _Mission
 
-__all__ = ["DEFAULT_RECONNECT_TIMEOUT_S", "OFF_COURSE_CM", "OFF_COURSE_DEG", "FaultLog", "FaultNote", "Recovery",
-           "off_course"]
+__all__ = ["DEFAULT_RECONNECT_TIMEOUT_S", "OFF_COURSE_CM", "OFF_COURSE_DEG", "UNEXPLAINED_STOP_CM", "WIDE_STD_CM",
+           "WIDE_STD_DEG", "FaultLog", "FaultNote", "Recovery", "StopCheck", "off_course", "watchdog_cm",
+           "widened_prior"]
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +58,60 @@ OFF_COURSE_DEG = 10.0
 motions since the last one means the robot did not move as commanded. Normal fixes stay well inside:
 in 206 re-localisations of 18 simulated missions with the ``nxt`` sonar and the paper's motion noise
 (maps 1-3), the largest differences were 3.4 cm and 2.6 degrees."""
+
+
+UNEXPLAINED_STOP_CM = 10.0
+"""A watchdog stop is unexplained when the map, seen from the belief, has no wall within the watchdog
+distance plus this much (cm) straight ahead; two such stops within this distance of each other mean the
+belief is wrong (a slipping turn can leave the heading further off than a tracking sweep looks)."""
+WIDE_STD_CM = 10.0
+WIDE_STD_DEG = 45.0
+"""Position and heading spreads of the prior a re-localisation starts from after two unexplained stops."""
+
+
+def widened_prior(est: PoseEstimate, floor_cm: float, floor_rad: float) -> Prior:
+    """`est` as a prior whose position and heading spreads are at least `floor_cm` and `floor_rad`."""
+    cov = np.array(est.cov, dtype=float)
+    if not np.all(np.isfinite(cov)):
+        cov = np.zeros((3, 3))
+    cov[0, 0] = max(cov[0, 0], floor_cm ** 2)
+    cov[1, 1] = max(cov[1, 1], floor_cm ** 2)
+    cov[2, 2] = max(cov[2, 2], floor_rad ** 2)
+    return Prior(est.pose, cov)
+
+
+def watchdog_cm(robot: Any) -> float:
+    """The distance (cm) at which `robot`'s watchdog stops a move: its own (the simulator's
+    ``watchdog_cm``, an NXT profile's ``watchdog_distance_cm``), else the radius plus 4 cm."""
+    own = getattr(robot, "watchdog_cm", None)
+    if not isinstance(own, int | float):
+        own = getattr(getattr(robot, "profile", None), "watchdog_distance_cm", None)
+    if isinstance(own, int | float) and not isinstance(own, bool):
+        return float(own)
+    return float(robot.geometry.radius_cm) + 4.0
+
+
+class StopCheck:
+    """Watches the watchdog stops of one mission for the second unexplained one in the same place."""
+
+    def __init__(self) -> None:
+        self._last: np.ndarray | None = None
+
+    def __call__(self, mission: _Mission) -> str | None:
+        """Why the stop just made says the belief is wrong (see `UNEXPLAINED_STOP_CM`), or None."""
+        est = mission.estimate
+        if est is None:
+            return None
+        ahead = float(np.asarray(ray_cast(mission.map.walls, est.pose.xy, np.array([est.pose.theta])))[0])
+        if ahead <= watchdog_cm(mission.robot) + UNEXPLAINED_STOP_CM:
+            self._last = None
+            return None
+        last, self._last = self._last, est.pose.xy.copy()
+        if last is None or float(np.hypot(*(last - est.pose.xy))) > UNEXPLAINED_STOP_CM:
+            return None
+        self._last = None
+        return (f"two watchdog stops where the map shows {ahead:.0f} cm free ahead of the belief: the belief is "
+                "wrong (did a wheel slip?); re-localising from a wider belief")
 
 
 def off_course(predicted: PoseEstimate | None, fix: PoseEstimate) -> str | None:
@@ -263,15 +318,8 @@ class Recovery:
             mission.localise_global()  # the link dropped before the first fix: start it again
             return
         cfg = mission.cfg
-        cov = np.array(est.cov, dtype=float)
         move = 0.5 * abs(back.requested) if back.action == "move" else 0.0
         turn = 0.5 * abs(back.requested) if back.action == "turn" else 0.0
-        floor = (cfg.tracking_std_cm + move) ** 2, (math.radians(cfg.tracking_std_deg) + turn) ** 2
-        cov[0, 0] = max(cov[0, 0], floor[0])
-        cov[1, 1] = max(cov[1, 1], floor[0])
-        cov[2, 2] = max(cov[2, 2], floor[1])
-        mission.localiser.reset(Prior(est.pose, cov))
-        mission.estimate = mission.localiser.estimate()
-        mission.relocalise(f"after the lost link, from the last estimate widened by the interrupted "
-                           f"{back.action or 'action'}")
-        mission.fresh_fix = True  # a short first leg, as after a global fix
+        prior = widened_prior(est, cfg.tracking_std_cm + move, math.radians(cfg.tracking_std_deg) + turn)
+        mission.relocalise_from(prior, f"after the lost link, from the last estimate widened by the interrupted "
+                                       f"{back.action or 'action'}")

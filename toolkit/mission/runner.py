@@ -26,7 +26,7 @@ from ..world import (
     load_map,
 )
 from .config import MissionConfig
-from .recovery import DEFAULT_RECONNECT_TIMEOUT_S, FaultLog, Recovery
+from .recovery import DEFAULT_RECONNECT_TIMEOUT_S, FaultLog, Recovery, StopCheck
 from .report import _SPLIT_COUNTERS, MissionReport, Outcome, _time_split
 from .stack import _Mission, _MissionEnded
 
@@ -123,6 +123,7 @@ def run_mission(
     recovery = Recovery(reconnect_timeout_s, FaultLog(recorder))
     mission.on_sweep_fault = partial(recovery.sonar_fault, mission)
     mission.on_motion_fault = partial(recovery.motion_fault, mission)
+    mission.on_watchdog_stop = StopCheck()
     try:
         outcome, status = recovery.run(mission)
     except _MissionEnded as end:

@@ -30,7 +30,7 @@ from ..world import (
 )
 from .config import _WINDOW_CENTRES, MissionConfig, sweep_angles
 from .explore import explore_direction
-from .recovery import off_course
+from .recovery import WIDE_STD_CM, WIDE_STD_DEG, off_course, widened_prior
 from .report import Leg, Outcome, TraceStep
 
 FloatArray = NDArray[np.float64]
@@ -97,6 +97,7 @@ class _Mission:
         self._localise = procedure
         self.on_sweep_fault: Callable[[str], None] | None = None  # told of sweeps taken again (a faulty sonar)
         self.on_motion_fault: Callable[[str], None] | None = None  # told of fixes far off the prediction
+        self.on_watchdog_stop: Callable[[_Mission], str | None] | None = None  # why a stop says the belief is wrong
 
     @property
     def localiser(self) -> Localiser:
@@ -311,6 +312,15 @@ class _Mission:
                 return est
         return self.localise_global()
 
+    def relocalise_from(self, prior: Prior, reason: str) -> PoseEstimate:
+        """Re-localise the usual way (`relocalise`) with the belief reset to `prior` first; a short first leg
+        follows, as after a global fix."""
+        self.localiser.reset(prior)
+        self.estimate = self.localiser.estimate()
+        est = self.relocalise(reason)
+        self.fresh_fix = True
+        return est
+
     def _prior(self, est: PoseEstimate) -> Prior:
         cov = np.array(est.cov, dtype=float, copy=True)
         floor = np.array([self.cfg.tracking_std_cm ** 2, self.cfg.tracking_std_cm ** 2,
@@ -355,8 +365,16 @@ class _Mission:
         self.record("turnback", distance_cm=out.distance_cm)
 
     def after_watchdog(self) -> None:
+        wrong = self.on_watchdog_stop(self) if self.on_watchdog_stop is not None else None
         self.turnback()
-        self.relocalise("after watchdog stop")
+        if wrong:  # the sonar saw a wall where the belief sees none, twice: start from a wider belief
+            self.record("off-course", note=wrong)
+            if self.on_motion_fault is not None:
+                self.on_motion_fault(wrong)
+            assert self.estimate is not None
+            self.relocalise_from(widened_prior(self.estimate, WIDE_STD_CM, math.radians(WIDE_STD_DEG)), wrong)
+        else:
+            self.relocalise("after watchdog stop")
         self.replans += 1
         if self.replans > self.cfg.max_replans:
             raise _MissionEnded(Outcome.GAVE_UP, f"gave up after {self.cfg.max_replans} re-plans")

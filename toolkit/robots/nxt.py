@@ -557,15 +557,24 @@ class NxtRobot:
                     pos = self._turret_to(round(math.degrees(a) * gear) * sgn, pos)
                     got[i] = math.radians(pos * sgn / gear)
                     ranges[i] = self.read_sonar()
-            finally:
-                t_back = self._clock()
-                self._turret_to(0, self._state(self._turret)[0])
-                self._brake(self._turret)
-                back = self._elapsed(t_back, self._clock())
+            except BaseException as exc:
+                # whatever went wrong, the turret goes back (its cable); over a broken link nothing is sent
+                # (a late reply would answer the next request), and reconnecting turns it back
+                if not _link_broken(exc):
+                    self._turret_home()
+                raise
+            back = self._turret_home()
         self.sweep_s -= back
         self.turret_return_s += back
         self.readings += int(rel.size)
         return Scan.from_readings(got, ranges)
+
+    def _turret_home(self) -> float:
+        """Turn the turret back to the front and brake it; the time it took (s)."""
+        t_back = self._clock()
+        self._turret_to(0, self._state(self._turret)[0])
+        self._brake(self._turret)
+        return self._elapsed(t_back, self._clock())
 
     def stop(self) -> None:
         """Brake all three motors now."""
