@@ -1,6 +1,8 @@
 """The layers of docs/conventions.md, read from the source: `toolkit.world` imports nothing else of the
-project; `planners` and `localisation` import only `toolkit.world` (and themselves). Every import counts,
-also those inside functions."""
+project; `planners` and `localisation` import only `toolkit.world` (and themselves); above them every
+module of the project has a rank (`RANKS`) and imports nothing of a higher one, so the mission never
+imports the benchmarks or the CLI, the robots never import the mission, the benchmarks never import
+the CLI. Every import counts, also those inside functions."""
 
 from __future__ import annotations
 
@@ -69,3 +71,57 @@ def test_the_reader_sees_relative_and_nested_imports(tmp_path: Path) -> None:
     mission = ROOT / "toolkit" / "mission" / "runner.py"
     imports = project_imports(mission)
     assert "toolkit.world" in imports and "toolkit.recording" in imports  # `..world`, and one under TYPE_CHECKING
+
+
+#: The rank of each part of the project, lowest first: a module may import its own rank and those below.
+RANKS: dict[str, int] = {
+    "toolkit.world": 0,
+    "planners": 1, "localisation": 1, "toolkit.robots": 1,
+    # shared services: files, formats, data sets and the plots of them
+    "toolkit.seeds": 2, "toolkit.formats": 2, "toolkit.plotting": 2, "toolkit.sweeps": 2,
+    "toolkit.recording": 2, "toolkit.replay": 2, "toolkit.replay_plots": 2, "toolkit.trajectory_scores": 2,
+    "toolkit.timeline": 2, "toolkit.ros2_export": 2, "toolkit.bag_reader": 2, "toolkit.bag_import": 2,
+    "toolkit.imports": 2, "toolkit.sweep_margins": 2, "toolkit.sonar_fit": 2, "toolkit.sonar_plots": 2,
+    "toolkit.parameter_docs": 2,
+    "toolkit.mission": 3, "toolkit.view": 3,
+    "toolkit.bench": 4,
+    "toolkit.cli": 5, "toolkit": 5,  # the package's own __init__ (its version) and the CLI on top
+}
+
+
+def _part(module: str) -> str:
+    """The entry of `RANKS` a module belongs to: its longest matching prefix (`toolkit` itself only
+    for the package's ``__init__``)."""
+    for prefix in sorted(RANKS, key=len, reverse=True):
+        if module == prefix or (prefix != "toolkit" and module.startswith(prefix + ".")):
+            return prefix
+    raise KeyError(f"{module} has no rank in RANKS")
+
+
+def test_every_module_has_a_rank() -> None:
+    unranked = []
+    for module in (_module_name(p) for pkg in PROJECT for p in _files(pkg)):
+        try:
+            _part(module)
+        except KeyError:
+            unranked.append(module)
+    assert not unranked, f"modules without a rank in RANKS: {unranked}"
+
+
+def test_no_module_imports_a_higher_rank() -> None:
+    bad = []
+    for pkg in PROJECT:
+        for path in _files(pkg):
+            own = _part(_module_name(path))
+            for imported in project_imports(path):
+                other = _part(imported)
+                if RANKS[other] > RANKS[own] or (RANKS[other] == RANKS[own] == 1 and other != own):
+                    bad.append(f"{path.relative_to(ROOT)} ({own}, rank {RANKS[own]}) imports {imported} "
+                               f"(rank {RANKS[other]})")
+    assert not bad, "\n".join(sorted(bad))
+
+
+@pytest.mark.parametrize(("low", "high"), [("toolkit.mission", "toolkit.bench"), ("toolkit.mission", "toolkit.cli"),
+                                           ("toolkit.robots", "toolkit.mission"), ("toolkit.bench", "toolkit.cli")])
+def test_the_named_rules_follow_from_the_ranks(low: str, high: str) -> None:
+    assert RANKS[low] < RANKS[high]

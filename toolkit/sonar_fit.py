@@ -271,15 +271,17 @@ class SweepScore:
         return asdict(self)
 
 
-def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
+def score_sonar(model: NxtSonar, sets: Sequence[SweepSet], margins: bool = True) -> SweepScore:
     """Mean log-probability per reading, no-echo share real against model, and the median |real - model|
     of the readings where both answer (the model's noise-free reading ``d + bias``), each sweep where
-    the model finds it most likely (`align_sweeps`); and per sweep the margin (nats) by which the model
-    prefers the waypoint to any place further than 20 cm (`toolkit.sweep_margins`)."""
+    the model finds it most likely (`align_sweeps`); and, with `margins` (a search of the whole map's
+    lattice per sweep, the costly part), per sweep the margin (nats) by which the model prefers the
+    waypoint to any place further than 20 cm (`toolkit.sweep_margins`); NaN without."""
     aligned = [a for s in sets for a in align_sweeps(model, s)]
     if not aligned:
         raise ConfigError("no sweeps to score")
-    margins = [m for s in sets for m in sweep_margins(model, s)]
+    margin = ([m for s in sets for m in sweep_margins(model, s)] if margins
+              else [math.nan] * len(aligned))
     per: list[dict[str, Any]] = []
     lps, silents, diffs, reals = [], [], [], []
     for a in aligned:
@@ -291,14 +293,15 @@ def score_sonar(model: NxtSonar, sets: Sequence[SweepSet]) -> SweepScore:
                     "heading_deg": math.degrees(a.heading_rad), "readings": int(a.readings.size),
                     "mean_log_likelihood": float(np.mean(lp)), "no_echo_real": float(np.mean(real_silent)),
                     "no_echo_model": float(np.mean(p_silent)), "median_abs_diff_cm": _median(diff),
-                    "margin_nats": margins[len(per)]})
+                    "margin_nats": margin[len(per)]})
         lps.append(lp)
         silents.append(p_silent)
         diffs.append(diff)
         reals.append(real_silent)
     return SweepScore(float(np.mean(np.concatenate(lps))), float(np.mean(np.concatenate(reals))),
                       float(np.mean(np.concatenate(silents))), _median(np.concatenate(diffs)),
-                      int(sum(x.size for x in lps)), len(aligned), float(np.mean(np.asarray(margins) > 0.0)), per)
+                      int(sum(x.size for x in lps)), len(aligned),
+                      float(np.mean(np.asarray(margin) > 0.0)) if margins else math.nan, per)
 
 
 def _median(values: FloatArray) -> float:
