@@ -6,6 +6,7 @@ import fcntl
 import os
 import shutil
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -38,6 +39,18 @@ def any_map(request: pytest.FixtureRequest) -> Map:
 @pytest.fixture(params=BOTSIM_MAPS)
 def botsim_map(request: pytest.FixtureRequest) -> Map:
     return load_map(request.param)
+
+
+def wait_until(condition: Callable[[], object], timeout: float, what: str) -> None:
+    """Return as soon as `condition()` is true; fail naming `what` when it is still false after `timeout` s.
+
+    For a state another process or thread changes without telling (a file it writes, a process
+    that ends): the condition is looked at every 20 ms, and the wait ends on it, not on the clock."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() >= deadline:
+            raise AssertionError(f"{what}: still not so after {timeout:g} s")
+        time.sleep(0.02)  # the pause between two looks at the condition (the one poll of the suite)
 
 
 def run_cli(argv: list[str]) -> int:

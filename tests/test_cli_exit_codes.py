@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import nxtnav_exe
+from conftest import nxtnav_exe, wait_until
 
 EXE = nxtnav_exe()
 
@@ -51,10 +51,9 @@ def _interrupt(args: list[str], cwd: Path, when: object, timeout: float = 300) -
                                 start_new_session=True,  # its own group, as a terminal's foreground job
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     _last_session[0] = proc.pid
-    deadline = time.monotonic() + timeout
     try:
-        while not when(err_f.read_text()) and proc.poll() is None and time.monotonic() < deadline:  # type: ignore[operator]
-            time.sleep(0.05)
+        wait_until(lambda: when(err_f.read_text()) or proc.poll() is not None, timeout,  # type: ignore[operator]
+                   "the moment to interrupt the command")
         assert proc.poll() is None, "the command ended before it could be interrupted"
         os.killpg(proc.pid, signal.SIGINT)
         proc.wait(timeout=120)
@@ -130,6 +129,7 @@ def test_ctrl_c_during_paper_with_workers_keeps_the_finished_missions(tmp_path: 
     assert 0 < done < tables[0]["missions_planned"] == 200
     assert tables[0]["rows"][0]["trials"] == done
     assert "INCOMPLETE" in proc.stdout
-    time.sleep(0.5)  # the workers were ended with the parent: nothing of its session is left
-    left = subprocess.run(["pgrep", "-s", str(proc.args and _last_session[0])], capture_output=True, text=True)
-    assert left.stdout.strip() == "", f"worker processes left running: {left.stdout}"
+    # the workers were ended with the parent: nothing of its session is left
+    def session_left() -> str:
+        return subprocess.run(["pgrep", "-s", str(_last_session[0])], capture_output=True, text=True).stdout.strip()
+    wait_until(lambda: not session_left(), 10.0, "worker processes of the interrupted command ending")

@@ -15,13 +15,12 @@ import re
 import signal
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import REAL_NXT, nxtnav_exe, run_cli
+from conftest import REAL_NXT, nxtnav_exe, run_cli, wait_until
 from distributed import Client
 
 from toolkit.bench.planners.records import TIMING_COLUMNS
@@ -195,9 +194,8 @@ def test_ctrl_c_on_the_cluster_keeps_the_finished_missions_and_drops_the_rest(tm
                                 start_new_session=True,  # its own group, as a terminal's foreground job
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
-        deadline = time.monotonic() + 300
-        while "missions: 1/200 " not in err_file.read_text() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)
+        wait_until(lambda: "missions: 1/200 " in err_file.read_text() or proc.poll() is not None, 300.0,
+                   "the first mission's progress line")
         assert proc.poll() is None, "the command ended before it could be interrupted"
         os.killpg(proc.pid, signal.SIGINT)
         stdout, _ = proc.communicate(timeout=120)
@@ -218,8 +216,5 @@ def test_ctrl_c_on_the_cluster_keeps_the_finished_missions_and_drops_the_rest(tm
     assert tables[0]["rows"][0]["trials"] == done
     assert "INCOMPLETE" in stdout
     # the client's unfinished missions are dropped from the cluster, whose workers stay up
-    deadline = time.monotonic() + 60
-    while cluster.tasks_held() and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert cluster.tasks_held() == 0
+    wait_until(lambda: cluster.tasks_held() == 0, 60.0, "the cluster dropping the interrupted client's tasks")
     assert len(cluster.client.scheduler_info()["workers"]) == WORKERS

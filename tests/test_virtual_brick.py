@@ -18,6 +18,7 @@ import nxt.motor
 import nxt.sensor
 import nxt.sensor.generic
 import pytest
+from conftest import wait_until
 
 from toolkit.robots.virtual_brick import BrickServer, VirtualBrick
 from toolkit.robots.virtual_brick_protocol import Frame, Status, split_telegrams
@@ -203,7 +204,7 @@ def test_random_garbage_never_stops_the_server(server: BrickServer) -> None:
             chunk = bytes([int(rng.choice([0x00, 0x01, 0x80, 0x81])), int(rng.integers(0, 0xA5))]) + chunk
         try:
             s.sendall(chunk)
-            time.sleep(0.002)
+            time.sleep(0.002)  # fault injection: the garbage reaches the brick apart from the probe after it
             got = b""
             for _ in range(5):  # the probe's reply may follow error replies to the garbage
                 s.sendall(BATTERY)
@@ -274,10 +275,7 @@ def test_client_dropping_mid_move_leaves_the_motors_stopped(server: BrickServer)
     assert w.moving and w.pose.x > 20.0
     b._sock._sock.close()  # vanish without the goodbye byte
     b._sock._sock = None  # (so that nxt-python's own close does not try to say it later)
-    deadline = time.monotonic() + 5
-    while w.moving and time.monotonic() < deadline:
-        time.sleep(0.01)
-    assert not w.moving
+    wait_until(lambda: not w.moving, 5.0, "the brick stopping the robot of a vanished client")
     stopped_at = w.pose
     with _brick(server.port) as b2:  # a new client finds the motors stopped and the robot still
         for _ in range(20):
@@ -344,10 +342,8 @@ def test_real_time_brick_runs_its_motors_while_the_client_is_silent() -> None:
     assert world.free_running and not _world().free_running  # real time ticks; fast bricks wait for clients
     with BrickServer(world, port=0) as srv, _raw(srv.port) as s:
         s.sendall(bytes([0x80, 0x04, 2, 30, HOLD, 1, 0, 0x20]) + struct.pack("<I", 0))  # turret, no reply
-        deadline = time.monotonic() + 5.0
-        while world.motors[2].position <= 10.0 and time.monotonic() < deadline:
-            time.sleep(0.01)  # no telegram: only the brick's own clock can move the motor
-        assert world.motors[2].position > 10.0
+        # no telegram: only the brick's own clock can move the motor
+        wait_until(lambda: world.motors[2].position > 10.0, 5.0, "the turret turning on the brick's own clock")
 
 
 def test_nxt_python_waits_out_a_pending_bus() -> None:

@@ -11,6 +11,7 @@ import sys
 import time
 
 import pytest
+from conftest import wait_until
 
 from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld, MotorMode, RunState
@@ -35,15 +36,6 @@ def _run_motor(s: socket.socket, port: int, power: int, limit: int = 0) -> None:
     assert s.recv(64) == BATTERY_REPLY
 
 
-def _wait_for(cond: object, timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if cond():  # type: ignore[operator]
-            return True
-        time.sleep(0.01)
-    return False
-
-
 def _world(config: BrickConfig = FAST, pose: Pose | None = None) -> BrickWorld:
     return BrickWorld(load_map("map1"), pose or Pose.from_deg(20.0, 20.0, 90.0), config, sensor_noise=0.0, rng=0)
 
@@ -57,11 +49,10 @@ def test_a_second_client_leaving_does_not_brake_the_first_clients_motors() -> No
         with _raw(srv.port) as b:  # client B comes, asks something and leaves
             b.sendall(BATTERY)
             assert b.recv(64) == BATTERY_REPLY
-        assert _wait_for(lambda: srv.clients == 2 and srv.live_connections == 1)
-        time.sleep(0.05)
+        assert srv.wait_departures(1, timeout=5.0)  # B's departure handled (its motors released)
         assert world.motors[2].driven, "another client's departure braked client A's motor"
         a.close()  # the owner leaves: its motor is braked
-        assert _wait_for(lambda: not world.motors[2].driven)
+        wait_until(lambda: not world.motors[2].driven, 5.0, "the owner's motor braked when it left")
 
 
 def test_a_client_may_stop_only_what_it_started_by_leaving() -> None:
@@ -72,10 +63,12 @@ def test_a_client_may_stop_only_what_it_started_by_leaving() -> None:
         _run_motor(b, 0, 30)
         _run_motor(b, 1, 30)
         b.close()
-        assert _wait_for(lambda: not world.motors[0].driven and not world.motors[1].driven)
+        assert srv.wait_departures(1, timeout=5.0)
+        assert not world.motors[0].driven and not world.motors[1].driven
         assert world.motors[2].driven
         a.close()
-        assert _wait_for(lambda: not world.motors[2].driven)
+        assert srv.wait_departures(2, timeout=5.0)
+        assert not world.motors[2].driven
 
 
 @pytest.mark.parametrize("cut", [1, 3, 8, 12])
@@ -84,13 +77,13 @@ def test_a_telegram_split_across_tcp_segments_is_reassembled(cut: int) -> None:
     set_out = bytes([0x00, 0x04, 2, 25, HOLD, 1, 0, RunState.RUNNING]) + struct.pack("<I", 90)
     with BrickServer(world, port=0) as srv, _raw(srv.port) as s:
         s.sendall(set_out[:cut])
-        time.sleep(0.05)  # the first piece arrives alone
+        time.sleep(0.05)  # fault injection, a slow link: the first piece arrives alone
         s.sendall(set_out[cut:])
         assert s.recv(64) == b"\x02\x04\x00", "the reassembled telegram was not executed"
         assert world.motors[2].driven and world.motors[2].tacho_limit == 90
         for piece in (BATTERY[:1], BATTERY[1:]):  # a two-byte query cut in the middle
             s.sendall(piece)
-            time.sleep(0.05)
+            time.sleep(0.05)  # fault injection, a slow link: each piece arrives alone
         assert s.recv(64) == BATTERY_REPLY
     assert srv.brick.errors == 0
 
@@ -100,7 +93,7 @@ def test_a_second_telegram_glued_and_cut_waits_for_its_rest() -> None:
     with BrickServer(world, port=0) as srv, _raw(srv.port) as s:
         s.sendall(BATTERY + BATTERY[:1])
         assert s.recv(64) == BATTERY_REPLY
-        time.sleep(0.05)
+        time.sleep(0.05)  # fault injection, a slow link: the rest comes later
         s.sendall(BATTERY[1:])
         assert s.recv(64) == BATTERY_REPLY
     assert srv.brick.errors == 0
@@ -122,7 +115,7 @@ def test_a_real_nxt_runs_unlimited_motors_on_after_the_link_drops() -> None:
         s = _raw(srv.port)
         _run_motor(s, 2, 40)
         s.close()
-        time.sleep(0.2)
+        assert srv.wait_departures(1, timeout=5.0)
         world.run_for(2.0)
         assert world.motors[2].driven and world.motors[2].position > 500
 
@@ -146,7 +139,7 @@ def test_killing_the_client_mid_move_stops_the_robot_within_the_commanded_distan
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
             left = world.motors[world.config.left_port]
-            assert _wait_for(lambda: left.position > 120.0, timeout=60.0), "the move never started"
+            wait_until(lambda: left.position > 120.0, 60.0, "the client's move starting")
             child.send_signal(signal.SIGKILL)
         finally:
             if child.poll() is None:
@@ -155,7 +148,7 @@ def test_killing_the_client_mid_move_stops_the_robot_within_the_commanded_distan
         assert "done" not in out, "the client finished before it was killed: the test proves nothing"
         at_kill = world.pose.y - 20.0
         assert at_kill < commanded - 1.0
-        time.sleep(0.3)  # the server notices the dead link
+        assert srv.wait_departures(1, timeout=10.0)  # the server has noticed the dead link
         world.run_for(10.0)  # ten brick seconds with nobody in control
         driven = world.pose.y - 20.0
         assert not any(m.driven for m in world.motors), "a motor still runs with nobody in control"
