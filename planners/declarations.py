@@ -90,7 +90,9 @@ def ompl_class_params(planner: str) -> Params:
     previous = ou.getLogLevel()
     ou.setLogLevel(ou.LogLevel.LOG_NONE)  # some getters warn that their option no longer has any effect
     try:
-        instance = getattr(og, planner)(ob.SpaceInformation(space))
+        info = ob.SpaceInformation(space)
+        info.setup()
+        instance = getattr(og, planner)(info)
         found = []
         for attr in sorted(dir(instance)):
             key = attr[3:]
@@ -106,6 +108,9 @@ def ompl_class_params(planner: str) -> Params:
                 shown = str(value).lower() if isinstance(value, bool) else f"{value:g}"
                 found.append(Param(key, kind, None, f"OMPL's set{key} (null: OMPL's default; a fresh planner "
                                    f"reports {shown})", optional=True))
+        # OMPL 2.0.1's AORRTC crashes (SIGSEGV) when destroyed before its setup: set every probe up
+        instance.setProblemDefinition(ob.ProblemDefinition(info))
+        instance.setup()
     finally:
         ou.setLogLevel(previous)
     return Params(*found)

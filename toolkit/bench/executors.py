@@ -22,11 +22,13 @@ import multiprocessing
 import os
 import signal
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Generic, TypeVar
 
-from toolkit.world import ConfigError
+from toolkit.world import ConfigError, NxtnavError
 
-__all__ = ["TasksInterrupted", "collect_tasks", "default_workers", "run_tasks"]
+__all__ = ["TasksInterrupted", "WorkerDied", "collect_tasks", "default_workers", "run_tasks"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -39,6 +41,11 @@ class TasksInterrupted(KeyboardInterrupt, Generic[R]):
         super().__init__(f"interrupted after {len(results)} of {total} tasks")
         self.results = results
         self.total = total
+
+
+class WorkerDied(NxtnavError):
+    """A worker process of the pool ended without a result (a crash in a compiled library, the
+    kernel's out-of-memory killer): the run stops with this instead of waiting for it forever."""
 
 
 def _ignore_sigint() -> None:
@@ -110,20 +117,42 @@ def run_tasks(
                 on_done(r)
             yield r
         return
-    pool = multiprocessing.get_context().Pool(min(workers, len(tasks)), initializer=_ignore_sigint)
+    yield from _run_pool(func, tasks, min(workers, len(tasks)), on_done)
+
+
+def _run_pool(func: Callable[[T], R], tasks: Sequence[T], workers: int,
+              on_done: Callable[[R], None] | None) -> Iterator[R]:
+    """The tasks over a pool of `workers` processes, one task at a time each; a worker that dies
+    raises `WorkerDied`, Ctrl-C or a task's exception ends every worker at once."""
+    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(), initializer=_ignore_sigint)
     finished = False
     try:
-        for r in pool.imap_unordered(func, tasks, chunksize=1):
-            if on_done:
-                on_done(r)
-            yield r
+        pending: set[Future[R]] = {pool.submit(func, t) for t in tasks}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                r = future.result()
+                if on_done:
+                    on_done(r)
+                yield r
         finished = True
+    except BrokenProcessPool:
+        # the pool ends its other workers with SIGTERM once one has died: those codes say nothing
+        codes = sorted({p.exitcode for p in _processes(pool) if p.exitcode not in (None, 0, -signal.SIGTERM)})
+        seen = ", ".join(f"killed by signal {-c}" if c < 0 else f"exit {c}" for c in codes)
+        how = f" ({seen})" if seen else ""
+        raise WorkerDied(f"a worker process died while running a task{how}; rerun with --workers 1 "
+                         "to see which task and why") from None
     finally:
-        if finished:
-            pool.close()
-        else:  # Ctrl-C, a task that raised, or the caller stopped early: end the workers now
-            pool.terminate()
-        pool.join()
+        if not finished:  # Ctrl-C, a task that raised, a dead worker, or the caller stopped early
+            for process in _processes(pool):
+                process.terminate()
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _processes(pool: ProcessPoolExecutor) -> list[Any]:
+    """The pool's worker processes (the executor keeps them in a private mapping; empty once shut down)."""
+    return list((getattr(pool, "_processes", None) or {}).values())
 
 
 def _run_dask(
