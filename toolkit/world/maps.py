@@ -30,8 +30,8 @@ crosses or touches one. Both forms (``boundary`` and ``regions``) may have ``wal
 Points where the free space's boundary touches itself (``Map.pinch_points``) close the passage:
 no motion may pass through one.
 
-Names such as ``map1`` resolve to the files in the shipped data's ``maps/``, ``maps/external/`` and
-``maps/real-nxt/`` folders (`toolkit.world.bundled`: the repository's ``maps/``, installed as the
+Names such as ``map1`` resolve to the files in the shipped data's ``maps/``, ``maps/external/``,
+``maps/real-nxt/`` and ``maps/jarvis/`` folders (`toolkit.world.bundled`: the repository's ``maps/``, installed as the
 package ``toolkit.data``), and to files in the folders listed in the environment variable
 ``NXTNAV_MAPS`` (separated like ``PATH``). A file's name is its stem, except that the map of a sweep
 set (`toolkit.sweeps`), which is always called ``arena.yaml``, goes by its ``name`` field
@@ -63,7 +63,7 @@ __all__ = ["COORDINATE_LIMIT_CM", "MAP_FIELDS", "THIN_WALL_SLIT_CM", "GridSpec",
            "load_map", "map_from_dict", "map_search_path"]
 
 MAP_FIELDS = ("name", "description", "boundary", "obstacles", "walls", "regions", "grid", "start", "target")
-_BUNDLED_FOLDERS = (".", "external", "real-nxt")
+_BUNDLED_FOLDERS = (".", "external", "real-nxt", "jarvis")
 """The folders of the shipped data that hold maps, relative to `toolkit.world.bundled.data_root`."""
 _MAP_GLOBS = ("*.yaml", "*.yml", "*.map")
 _SWEEP_SET_MAP = "arena.yaml"
@@ -74,7 +74,7 @@ FloatArray = NDArray[np.float64]
 
 def map_search_path() -> list[Path]:
     """Folders searched for map names: ``$NXTNAV_MAPS`` entries first, then the shipped ``maps/``,
-    ``maps/external/`` and ``maps/real-nxt/`` (wherever nxtnav is installed)."""
+    ``maps/external/``, ``maps/real-nxt/`` and ``maps/jarvis/`` (wherever nxtnav is installed)."""
     extra = [Path(p) for p in os.environ.get("NXTNAV_MAPS", "").split(os.pathsep) if p]
     root = data_root()
     return [*extra, *(root / f for f in _BUNDLED_FOLDERS)]
