@@ -30,7 +30,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("dask-cluster")]  # one 
 REPO = Path(__file__).resolve().parents[1]
 DASK = Path(sys.executable).parent / "dask"
 WORKERS = 2
-TIMINGS = TIMING_COLUMNS | {"preprocess_s", "update_ms"}
+TIMINGS = TIMING_COLUMNS | {"preprocess_s", "update_ms", "wall_s"}
 """Columns that hold wall-clock measures: they differ from run to run whatever the executor."""
 
 
@@ -182,6 +182,19 @@ def test_bench_sweeps_on_the_cluster_equals_the_local_pool(tmp_path: Path, clust
     rows = _csv(dask / "sweeps.csv")
     assert len(rows) == ran == 6
     assert _untimed(rows) == _untimed(_csv(pool / "sweeps.csv"))
+
+
+def test_bench_faults_on_the_cluster_equals_the_local_pool(tmp_path: Path, cluster: Cluster) -> None:
+    # faults on the brick's clock only (a dropped link or a stall lasts wall-clock seconds, which a
+    # loaded machine stretches differently from run to run)
+    args = ["bench", "faults", "--missions", "1", "--seed", "0", "--faults", "sonar-stuck,sonar-garbage,motor-slip"]
+    before = sum(cluster.executed().values())
+    assert run_cli([*args, "--json", str(tmp_path / "dask.json"), "--dask", cluster.address]) == 0
+    assert sum(cluster.executed().values()) - before == 1
+    assert run_cli([*args, "--json", str(tmp_path / "pool.json"), "--workers", str(WORKERS)]) == 0
+    dask, pool = (json.loads((tmp_path / f"{name}.json").read_text()) for name in ("dask", "pool"))
+    assert dask["missions"][0]["faults"] and dask["missions"][0]["reproduced"]
+    assert _untimed(dask["missions"]) == _untimed(pool["missions"])
 
 
 def test_ctrl_c_on_the_cluster_keeps_the_finished_missions_and_drops_the_rest(tmp_path: Path,

@@ -29,6 +29,9 @@ def bench_faults(
         help="Fault kinds to draw from (default all: drop-link, stall, sonar-stuck, sonar-garbage, motor-slip)."),
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Maps, taken in turn."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
+    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
+                                    help="Dask scheduler address, or local (each mission and its brick run on a "
+                                         "worker; --recordings then names a folder on the workers)."),
     reconnect_timeout: float = typer.Option(30.0, "--reconnect-timeout", metavar="S", callback=non_negative,
                                             help="How long a mission tries to reach its brick again (s)."),
     reply_timeout: float = typer.Option(3.0, "--reply-timeout", metavar="S", callback=positive,
@@ -54,7 +57,7 @@ def bench_faults(
     tasks = fault_tasks(missions, seed, kinds, maps, reconnect_timeout, reply_timeout, recordings)
     with progress("missions", len(tasks)) as advance:
         try:
-            results = collect_tasks(run_fault_task, tasks, workers=workers, on_done=advance)
+            results = collect_tasks(run_fault_task, tasks, workers=workers, dask_address=dask, on_done=advance)
         except TasksInterrupted as exc:
             raise Interrupted(f"after {len(exc.results)} of {len(tasks)} missions; nothing written") from None
     results.sort(key=lambda r: r.index)
