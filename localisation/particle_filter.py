@@ -294,7 +294,7 @@ class ParticleFilter(Localiser):
         self.restarts = 0
         self._global = True
         self._converged = False
-        self._best_fit = 0.0
+        self._outliers_at_best = 0.0  # share of the beams the best particle cannot explain
         self._modes: list[Mode] = []
         self._estimate: PoseEstimate | None = None
         self.reset()
@@ -385,10 +385,10 @@ class ParticleFilter(Localiser):
             self._iterate(rel, meas, self._predicted_prior(not unimodal) if use_prior else None)
         finally:
             self._exact = False
-        if tracking and self.recovery_threshold is not None and self._best_fit > self.recovery_threshold:
+        if tracking and self.recovery_threshold is not None and self._outliers_at_best > self.recovery_threshold:
             # no pose near the belief explains the scan: the robot was kidnapped (or the belief was wrong)
             log.info("%.0f %% of the beams are outliers at the best particle: restarting global localisation",
-                     100 * self._best_fit)
+                     100 * self._outliers_at_best)
             self.restarts += 1
             self._reset_global()
             if self.lattice is not None:
@@ -552,7 +552,7 @@ class ParticleFilter(Localiser):
         if not keep_p.all():
             self.particles, self.log_weights = self.particles[keep_p], self.log_weights[keep_p]
             s_kept = s_kept[keep_p]
-        self._best_fit = self._outlier_fraction(self.particles[int(np.argmin(s_kept))], rel, meas) \
+        self._outliers_at_best = self._outlier_fraction(self.particles[int(np.argmin(s_kept))], rel, meas) \
             if np.isfinite(s_kept).any() else 1.0
         self._global = False
         self._move_cap = (math.inf, math.inf)

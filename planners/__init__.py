@@ -1,4 +1,4 @@
-"""Path planners for a disc robot in a polygonal map, all validated by the shared FCL checker.
+"""Path planners for a disc robot in a polygonal map, all validated by one shared collision checker.
 
 Importing the package registers every bundled planner in `PLANNERS`: ``min-turn`` (the paper's
 Algorithm 1), ``rrtstar`` and ``prm`` (OMPL; any OMPL planner as ``ompl:NAME`` through

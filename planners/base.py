@@ -1,9 +1,10 @@
 """The planner interface: `Planner` (a registry of plug-ins), `PlanningProblem` and `PlanResult`.
 
 A planner is configured once (constructor keyword arguments) and queried many times with
-`plan(problem)`. It validates states and motions only through ``problem.checker`` (the shared FCL
-`CollisionChecker`), never raises for an unreachable goal (it returns a failed `PlanResult` with a
-status) and draws its randomness only from ``problem.rng``.
+`plan(problem)`. It validates states and motions only through ``problem.checker`` (the shared
+`CollisionChecker`: the indexed checker, or FCL with ``--collision fcl``), never raises for an
+unreachable goal (it returns a failed `PlanResult` with a status) and draws its randomness only
+from ``problem.rng``.
 
 Writing a planner is one file with one class::
 

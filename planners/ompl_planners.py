@@ -1,4 +1,4 @@
-"""OMPL's geometric planners on the shared FCL checker: ``rrtstar``, ``prm`` and any ``ompl:NAME``.
+"""OMPL's geometric planners on the shared collision checker: ``rrtstar``, ``prm`` and any ``ompl:NAME``.
 
 The state space is OMPL's 2-D `RealVectorStateSpace` bounded by the map's bounding box (cm). State
 validity is the shared checker's point check and motion validity is its swept-disc segment check,

@@ -11,7 +11,7 @@ The repetitions are computed in numpy with exactly `SimRobot`'s noise semantics 
 (per repetition: turn noise, then the heading and distance noise of the move), so repetition ``i``
 ends where a `SimRobot` seeded with the ``i``-th child of the same `SeedSequence` ends (see
 `simulate_with_robot`, which drives the real simulator and is what the tests compare against).
-Contacts with walls are found with the shared FCL `CollisionChecker`: a motion that would touch
+Contacts with walls are found with the shared `CollisionChecker`: a motion that would touch
 a wall stops at the contact, as in the simulator.
 """
 
