@@ -130,7 +130,8 @@ def test_a_fix_far_from_the_prediction_is_off_course() -> None:
 
 def test_two_stops_the_map_does_not_explain_say_the_belief_is_wrong() -> None:
     m = load_map("map1")
-    robot = SimRobot(m, Pose.from_deg(20.0, 50.0, 90.0), rng=0)
+    # the robot is truly 17 cm from the top wall; its belief puts it 55 cm from it
+    robot = SimRobot(m, Pose.from_deg(20.0, 88.0, 90.0), rng=0)
     assert watchdog_cm(robot) == robot.watchdog_cm == 12.0
     mission = SimpleNamespace(map=m, robot=robot, estimate=_est(20.0, 50.0, 90.0))  # 55 cm free ahead
     check = StopCheck()
@@ -145,6 +146,16 @@ def test_two_stops_the_map_does_not_explain_say_the_belief_is_wrong() -> None:
     assert check(mission) is None
     mission.estimate = _est(20.0, 50.0 + UNEXPLAINED_STOP_CM + 1.0, 90.0)  # not the same place
     assert check(mission) is None
+
+
+def test_stops_on_a_wrong_reading_where_the_robot_has_room_say_nothing() -> None:
+    # belief and robot agree (55 cm free ahead): a second reading hears no wall, so the stops were
+    # short readings of the sensor, not a wrong belief
+    m = load_map("map1")
+    robot = SimRobot(m, Pose.from_deg(20.0, 50.0, 90.0), rng=0)
+    mission = SimpleNamespace(map=m, robot=robot, estimate=_est(20.0, 50.0, 90.0))
+    check = StopCheck()
+    assert check(mission) is None and check(mission) is None and check(mission) is None
 
 
 def test_a_widened_prior_keeps_the_mean_and_the_larger_spreads() -> None:
