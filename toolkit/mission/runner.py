@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from localisation.base import LOCALISERS, Localiser, make_localiser
-from localisation.procedure import LocaliseProcedure, localise
+from localisation.procedure import LocaliseProcedure, look
 from planners.base import Planner, make_planner
 
 from ..world import (
@@ -55,7 +55,7 @@ def run_mission(
     rng: RngLike = None,
     config: MissionConfig | None = None,
     recorder: Recorder | None = None,
-    procedure: LocaliseProcedure = localise,
+    procedure: LocaliseProcedure = look,
 ) -> MissionReport:
     """Run the stack on `robot` from its unknown pose to `target`.
 
@@ -80,9 +80,9 @@ def run_mission(
     recorder : toolkit.recording.Recorder, optional
         Records every robot command, scan and localiser call (`toolkit.recording`); the caller closes it.
     procedure : callable
-        The localisation procedure (`localisation.procedure.localise`, the paper's; tests pass
-        stand-ins): called as ``procedure(robot, localiser, prior=..., rng=..., **options)``, it
-        returns a `LocalisationResult`.
+        One look (`localisation.procedure.look`, the paper's; tests pass stand-ins), for the global
+        strategy and the re-localisations: called as ``procedure(robot, localiser, prior=..., rng=...,
+        reset=..., **options)``, it returns a `LocalisationResult`.
 
     Returns
     -------
