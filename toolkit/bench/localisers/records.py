@@ -96,8 +96,8 @@ class BenchConfig:
     kidnap_min_cm : float
         Least distance of the teleport (cm).
     recovery_rounds : int
-        Runs of the localisation procedure, without resetting the localiser, allowed to recover
-        from a kidnapping.
+        Runs of the global strategy allowed to recover from a kidnapping, without resetting the
+        localiser (one attempt, no confirmation: either would start afresh).
     scan_processing : {"paper", "raw"}
         Scans given to the localiser, in the global strategy's looks and in the tracking loop: the
         paper's processing (windows around 0/90/180/270 degrees from the minimum reading) or every
