@@ -193,3 +193,15 @@ def test_the_robot_driver_predicts_what_the_robot_did() -> None:
     assert not driver.move(10.0, "explore-move")
     assert loc.motions[0] == Motion(turn_rad=0.5)
     assert loc.motions[1].distance_cm == pytest.approx(robot.odometry_cm)
+
+
+def test_an_unknown_exploration_rule_is_one_line_and_exit_2(tmp_path: Any, capsys: pytest.CaptureFixture[str]) -> None:
+    from conftest import run_cli
+
+    out = tmp_path / "bl"
+    argv = ["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "1",
+            "--exploration", "wander", "--out", str(out)]
+    assert run_cli(argv) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "--exploration" in lines[0] and "modes, scan" in lines[0]
+    assert not out.exists()
