@@ -4,14 +4,14 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-fast lint typecheck bench figures view-check clean
+.PHONY: install run test test-fast lint typecheck bench figures view-check dist-check docs clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-$(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[dev,nxt,cluster,viz]"
+$(STAMP): pyproject.toml setup.py | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[dev,nxt,cluster,viz,docs]"
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -20,17 +20,17 @@ run: $(STAMP)
 	mkdir -p out
 	$(BIN)/nxtnav run --plot out/mission.png --json out/mission.json
 
-# pytest runs on every core (pytest-xdist)
-PYTEST := $(BIN)/python -m pytest -q -n auto
+# pytest runs on every core (pytest-xdist); tests marked with one xdist_group share a worker (one Dask cluster)
+PYTEST := $(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 test: $(STAMP)
-	$(BIN)/ruff check toolkit planners localisation tests notebooks
+	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
 	$(PYTEST)
 
 # the same without the slow end-to-end checks (pytest -m "not slow"), for a quick loop while editing
 test-fast: $(STAMP)
-	$(BIN)/ruff check toolkit planners localisation tests notebooks
+	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
 	$(PYTEST) -m "not slow"
 
@@ -49,5 +49,14 @@ view-check: $(STAMP)
 	$(BIN)/nxtnav run --map map1 --view-save out/view-check.rrd
 	$(BIN)/python -m toolkit.view.check out/view-check.rrd docs/img/rerun-view.png
 
+# the wheel and sdist (python -m build, into dist/), the wheel installed in a fresh venv outside the
+# repository, and nxtnav --version, maps list, import sweeps and run from there (tools/dist_check.py)
+dist-check: $(STAMP)
+	$(BIN)/python tools/dist_check.py
+
+# the documentation site (MkDocs Material) into site/; --strict: a broken link or a missing page fails
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
 clean:
-	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache dist site

@@ -164,7 +164,10 @@ def _cases() -> list[Case]:
         "bench planners --out full", "bench planners --workers 0 --out bp",
         "bench planners --exec-repeats -1 --out bp", "bench planners --radius -1 --out bp",
         "bench planners --noise-model x --out bp", "bench planners --seed -1 --out bp",
-        "bench planners --motion-noise -1 --out bp", "bench planners", f"{bp} --turn-noise inf")
+        "bench planners --motion-noise -1 --out bp", "bench planners", f"{bp} --turn-noise inf",
+        f"{bp} --simplify smooth", f"{bp} --simplify ''", f"{bp} --budgets ''", f"{bp} --budgets 0.1,-1",
+        f"{bp} --budgets 0.1,0", f"{bp} --budgets 0.1,0.1", f"{bp} --budgets fast", f"{bp} --budgets 0.1,inf",
+        f"{bp} --budgets 0.1 --time-limit 1", f"{bp} --progress-interval 0", f"{bp} --progress-interval -1")
     # bench localisers
     bl = "bench localisers --maps map1 --localisers paper-pf --trials 1 --out bl"
     add("bench localisers", 2, f"{bl} --trials 0", f"{bl} --localisers nope", "bench localisers --maps nomap --out bl",
@@ -181,7 +184,15 @@ def _cases() -> list[Case]:
         "brick serve --wheel-diameter 0", "brick serve --track-width -1", "brick serve --radius 0",
         "brick serve --wheel-slip -0.1", "brick serve --wheel-slip 0.9", "brick serve --brake-decel 0",
         "brick serve --pose 500,500,0", "brick serve --pose a,b,c", "brick serve --map nomap",
-        "brick serve --map nopreset.yaml", "brick serve --log blocker/t.jsonl", "brick serve --host 999.1.1.1 --port 0")
+        "brick serve --map nopreset.yaml", "brick serve --log blocker/t.jsonl", "brick serve --host 999.1.1.1 --port 0",
+        "brick serve --fault meteor:1:2", "brick serve --fault drop-link:x:3", "brick serve --fault stall:5",
+        "brick serve --fault drop-link:1:0", "brick serve --fault sonar-garbage:2",
+        "brick serve --fault motor-slip:1:-1", "brick serve --fault sonar-stuck:1:2:3",
+        "brick serve --reassembly-window 0", "brick serve --reassembly-window nan")
+    add("bench faults", 2, "bench faults --missions 0", "bench faults --faults meteor", "bench faults --maps nomap",
+        "bench faults --maps nopreset.yaml", "bench faults --workers 0", "bench faults --json blocker/f.json",
+        "bench faults --reconnect-timeout -1", "bench faults --reply-timeout 0", "bench faults --seed -1")
+    add("run (nxt link)", 2, "run --reconnect-timeout -1", "run --reconnect-timeout nan", "run --reply-timeout 0")
     # a real NXT, with nothing at the other end
     add("nxt", 2, "nxt check --nxt-backend pigeon", "nxt check --nxt-backend socket --server-port 0",
         "nxt check --nxt-backend socket --server-port 70000", "nxt check --nxt-backend socket --server-port 1",

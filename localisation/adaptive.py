@@ -19,6 +19,8 @@ FloatArray = NDArray[np.float64]
 def kld_bound(k: Any, pf_err: float, pf_z: float) -> NDArray[np.int64]:
     """Particles needed for `k` occupied bins (Fox 2003, with nav2's use of `pf_z`; 0 for k <= 1).
 
+    Examples
+    --------
     >>> [int(n) for n in kld_bound([1, 2, 10, 100], 0.05, 0.99)]
     [0, 20, 131, 1129]
     """

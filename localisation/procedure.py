@@ -25,14 +25,15 @@ import numpy as np
 from toolkit.world import LocalisationError, RngLike, Robot, Scan
 
 from .base import Localiser, Motion, PoseEstimate, Prior, Snapshot
-from .scan import STUCK_ARC_DEG, ProcessedScan, ScanProcessing, min_reading, process_scan, stuck_mask
+from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan, sweep_fault
 
 __all__ = ["LocalisationResult", "LocaliseProcedure", "TraceStep", "look"]
 
 log = logging.getLogger(__name__)
 
 STUCK_SWEEPS = 3
-"""Sweeps taken in a row before a stuck sonar (`localisation.scan.stuck_mask`) ends the localisation."""
+"""Sweeps taken in a row before a stuck or garbage sonar (`localisation.scan.sweep_fault`) ends the
+localisation."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,6 +147,7 @@ def look(
     process: bool = True,
     scan_angles: Any = None,
     min_valid_readings: int = 8,
+    on_sweep_fault: Callable[[str], None] | None = None,
 ) -> LocalisationResult:
     """One look the paper's way: sweep, turn toward the minimum reading, sweep again, update.
 
@@ -174,6 +176,10 @@ def look(
         Turret angles (rad, relative) for `Robot.ultrascan` (default: its 360 one-degree readings).
     min_valid_readings : int
         When the processed scan keeps fewer readings, all usable readings are used instead.
+    on_sweep_fault : callable, optional
+        Told (in words) of every sweep the look takes again because the sensor looked stuck or gave
+        garbage (`localisation.scan.sweep_fault`); `STUCK_SWEEPS` such sweeps in a row raise
+        `LocalisationError`.
 
     Returns
     -------
@@ -196,18 +202,21 @@ def look(
     scans = 0
 
     def sweep() -> Scan:
-        # a stuck sensor (one value repeated over a long arc) is swept again; one that stays stuck ends here
+        # a stuck or garbage sensor is swept again; one that stays so ends here
         nonlocal scans
+        fault = ""
         for attempt in range(1, STUCK_SWEEPS + 1):
             scan = robot.ultrascan(scan_angles)
             scans += 1
-            stuck = int(stuck_mask(scan).sum())
-            if not stuck:
+            fault = sweep_fault(scan) or ""
+            if not fault:
                 return scan
-            log.warning("sweep %d: the sonar repeated one reading over %d readings (stuck); sweeping again",
-                        attempt, stuck)
-        raise LocalisationError(f"the sonar stayed stuck: {STUCK_SWEEPS} sweeps in a row repeated one reading "
-                                f"over {STUCK_ARC_DEG:.0f} degrees or more; check the sensor and its cable")
+            if on_sweep_fault is not None:
+                on_sweep_fault(fault)  # the caller says it (once)
+            else:
+                log.warning("sweep %d: %s; sweeping again", attempt, fault)
+        raise LocalisationError(f"the sonar stayed faulty for {STUCK_SWEEPS} sweeps in a row ({fault}); "
+                                "check the sensor and its cable")
 
     scan = sweep()
     turn = 0.0

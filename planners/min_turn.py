@@ -25,7 +25,16 @@ This implementation gives exactly that answer for the sampled points without enu
   that start and goal are more hops apart; a round ends when they are disconnected.
 
 When no path with up to `max_intermediate` points exists among the samples, the planner draws new
-samples and tries again until the time budget ends, then returns a failed result.
+samples and tries again until the budget ends, then returns a failed result.
+
+Budget. By default (``deterministic=True``) the budget is counted in rounds of samples, not seconds:
+``ceil(rounds_per_s * time_limit)`` rounds (50 per second of budget, about what one core manages on
+the bundled pillars map while others share the machine), each finished whole. The same seed then
+gives the same result on any machine, under any load and with either collision backend, as OMPL's
+planners do here (`planners.ompl_planners`). A wall-clock cap of ten times the budget (at least 30 s)
+still ends a round on a machine far slower than that; ``info["stopped_by"]`` says what ended the
+call (``solution``, ``rounds`` or ``time``: only the last is not reproducible).
+``deterministic=False`` gives the wall-clock budget back (rounds are then cut at the deadline).
 """
 
 from __future__ import annotations
@@ -50,6 +59,8 @@ _UNKNOWN, _FREE, _BLOCKED = 0, 1, -1
 _WINDOW = 512  # candidates examined at a time
 _BATCH = 8  # candidates whose unknown segments are checked in one batch
 _MAX_ENUMERATED = 200_000  # largest three-point candidate set sorted in full
+_TIME_CAP = 10.0  # deterministic budget: wall-clock cap, in multiples of the time limit ...
+_TIME_CAP_MIN_S = 30.0  # ... and at least this long
 
 
 def hop_shortest_path(cost: FloatArray, source: int, target: int, hops: int) -> tuple[float, list[int]]:
@@ -104,7 +115,12 @@ class MinTurnPlanner(Planner):
         Most intermediate points tried per round before drawing new samples (None: up to all the
         samples, as in the paper's loop ``i = 1 .. N``).
     max_rounds : int or None
-        Stop after this many rounds of samples even if time remains (None: until the time budget).
+        Stop after this many rounds of samples even if budget remains (None: until the budget ends).
+    deterministic : bool
+        Count the budget in rounds (`rounds_per_s` per second of the time limit) rather than in
+        wall-clock seconds, so that the result does not depend on the machine's speed.
+    rounds_per_s : float
+        Rounds per second of budget in deterministic mode.
 
     Notes
     -----
@@ -119,16 +135,29 @@ class MinTurnPlanner(Planner):
     params = MIN_TURN_PARAMS
 
     def __init__(self, n_samples: int = 30, max_intermediate: int | None = None,
-                 max_rounds: int | None = None) -> None:
+                 max_rounds: int | None = None, deterministic: bool = True, rounds_per_s: float = 50.0) -> None:
         if int(n_samples) < 1:
             raise ConfigError(f"n_samples must be >= 1, got {n_samples!r}")
         if max_intermediate is not None and int(max_intermediate) < 1:
             raise ConfigError(f"max_intermediate must be >= 1, got {max_intermediate!r}")
         if max_rounds is not None and int(max_rounds) < 1:
             raise ConfigError(f"max_rounds must be >= 1 or None, got {max_rounds!r}")
+        if not (math.isfinite(rounds_per_s) and rounds_per_s > 0):
+            raise ConfigError(f"rounds_per_s must be a positive number, got {rounds_per_s!r}")
         self.n_samples = int(n_samples)
         self.max_intermediate = None if max_intermediate is None else int(max_intermediate)
         self.max_rounds = None if max_rounds is None else int(max_rounds)
+        self.deterministic = bool(deterministic)
+        self.rounds_per_s = float(rounds_per_s)
+
+    def _limits(self, time_limit: float) -> tuple[int | None, float]:
+        """Most rounds (None: no count) and the wall-clock seconds the call may take."""
+        if not self.deterministic:
+            return self.max_rounds, time_limit
+        rounds = max(1, math.ceil(self.rounds_per_s * time_limit))
+        if self.max_rounds is not None:
+            rounds = min(rounds, self.max_rounds)
+        return rounds, max(_TIME_CAP * time_limit, _TIME_CAP_MIN_S)
 
     def _sample(self, problem: PlanningProblem, deadline: float) -> FloatArray:
         """`n_samples` points uniform over the free area, one radius from the walls, confirmed by the checker.
@@ -152,14 +181,15 @@ class MinTurnPlanner(Planner):
 
     def _solve(self, problem: PlanningProblem) -> Solution:
         checker = problem.checker
-        deadline = time.perf_counter() + problem.time_limit
+        limit, seconds = self._limits(problem.time_limit)
+        deadline = time.perf_counter() + seconds
         start, goal = problem.start, problem.goal
-        info: dict[str, Any] = {"rounds": 0, "lazy_iterations": 0, "segments_checked": 1}
+        info: dict[str, Any] = {"rounds": 0, "lazy_iterations": 0, "segments_checked": 1, "stopped_by": "solution"}
         if checker.segment_free(start, goal):
             info.update(intermediate=0, rounds=1)
             return Solution(np.array([start, goal]), PlanStatus.EXACT, info)
-        rounds = 0
-        while time.perf_counter() < deadline and (self.max_rounds is None or rounds < self.max_rounds):
+        rounds, late = 0, False
+        while not late and (limit is None or rounds < limit):
             rounds += 1
             info["rounds"] = rounds
             samples = self._sample(problem, deadline)
@@ -167,7 +197,9 @@ class MinTurnPlanner(Planner):
                                        info, direct_known_blocked=True)
             if found is not None:
                 return Solution(found, PlanStatus.EXACT, info)
-        if self.max_rounds is not None and rounds >= self.max_rounds:
+            late = time.perf_counter() >= deadline  # the clock ended (or cut) this round
+        info["stopped_by"] = "time" if late else "rounds"
+        if not late and self.max_rounds is not None and rounds >= self.max_rounds:
             return Solution(None, PlanStatus.NO_PATH, info, "no path in max_rounds")
         return Solution(None, PlanStatus.TIMEOUT, info)
 

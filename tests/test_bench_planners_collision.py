@@ -2,7 +2,7 @@
 
 FCL and the indexed checker answer every check alike (FCL's tolerance band decided exactly), so
 with the same seed every planner takes the same decisions: `runs.csv` must be equal cell for cell
-except the planning time and the column that names the backend. The budget is one every planner
+except the wall-clock columns (planning, first-solution and simplification times) and the column that names the backend. The budget is one every planner
 here meets on either backend (min-turn ends on the clock; the OMPL planners count iterations).
 """
 
@@ -16,9 +16,9 @@ import pytest
 from conftest import run_cli
 
 from toolkit.bench.planners import runner
+from toolkit.bench.planners.records import TIMING_COLUMNS
 
 PLANNERS = "min-turn,rrtstar,prm,astar,shortest,min-link"
-TIMES = {"time_s"}
 
 
 def _bench(out: Path, backend: str, map_name: str) -> list[dict[str, str]]:
@@ -41,7 +41,7 @@ def test_index_and_fcl_give_the_same_runs(map_name: str, tmp_path: Path) -> None
     assert len(index) == len(PLANNERS.split(",")) and all(r["success"] == "true" for r in index)
     for a, b in zip(index, fcl, strict=True):
         for column in a:
-            if column not in TIMES | {"collision"}:
+            if column not in TIMING_COLUMNS | {"collision"}:
                 assert a[column] == b[column], (a["planner"], column, a[column], b[column])
     config = json.loads((tmp_path / "fcl" / "config.json").read_text())
     assert config["config"]["collision"] == "fcl"

@@ -66,6 +66,12 @@ def test_ports_outside_their_range_are_refused(argv: list[str], option: str,
     (["bench", "planners", "--runs", "-3", "--out", "o"], "--runs"),
     (["bench", "planners", "--exec-repeats", "-1", "--out", "o"], "--exec-repeats"),
     (["localise", "--pose", "20,20,0", "--seed", "-5"], "--seed"),
+    (["brick", "serve", "--reassembly-window", "0"], "--reassembly-window"),
+    (["run", "--reconnect-timeout", "-1"], "--reconnect-timeout"),
+    (["run", "--reply-timeout", "0"], "--reply-timeout"),
+    (["bench", "faults", "--missions", "0"], "--missions"),
+    (["bench", "faults", "--workers", "0"], "--workers"),
+    (["bench", "faults", "--reconnect-timeout", "nan"], "--reconnect-timeout"),
 ])
 def test_numbers_out_of_range_name_their_option(argv: list[str], option: str, tmp_path: Path,
                                                 monkeypatch: pytest.MonkeyPatch,
@@ -97,6 +103,22 @@ def test_scan_angles_are_checked(value: str, needle: str, tmp_path: Path, monkey
     _fails_cleanly(["scan", "--pose", "20,20,0", "--angles", value, "--json", "s.json", "-o", "s.png"], capsys,
                    "--angles", needle)
     assert not any(tmp_path.iterdir())  # refused before any work
+
+
+@pytest.mark.parametrize(("argv", "needles"), [
+    (["brick", "serve", "--port", "0", "--fault", "meteor:1:2"], ("--fault", "unknown kind 'meteor'")),
+    (["brick", "serve", "--port", "0", "--fault", "drop-link:x:3"], ("--fault", "AT_S must be a number, got 'x'")),
+    (["brick", "serve", "--port", "0", "--fault", "stall:5"], ("--fault", "expected stall:AT_S:DUR_S")),
+    (["brick", "serve", "--port", "0", "--fault", "sonar-garbage:2"], ("--fault", "P must be a probability")),
+    (["bench", "faults", "--faults", "drop-link,meteor"], ("--faults", "unknown meteor")),
+    (["bench", "faults", "--maps", "nomap"], ("nomap",)),
+])
+def test_fault_options_are_checked_before_any_work(argv: list[str], needles: tuple[str, ...], tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.chdir(tmp_path)
+    _fails_cleanly(argv, capsys, *needles)
+    assert not any(tmp_path.iterdir())
 
 
 def test_scan_direction_is_cw_or_ccw(capsys: pytest.CaptureFixture[str]) -> None:

@@ -18,6 +18,7 @@ import pytest
 from conftest import run_cli
 from typer.testing import CliRunner
 
+from toolkit.cli import nxt_cmds  # noqa: F401  (registers the nxt commands on the app, whatever ran before)
 from toolkit.cli.app import app
 from toolkit.robots.nxt import NxtProfile
 from toolkit.robots.virtual_brick import BrickServer
@@ -148,3 +149,31 @@ def test_nxt_check_names_a_silent_sensor_port(served: tuple[BrickServer, io.Stri
     assert code == 2
     assert "the ultrasonic sensor on port 1 does not answer" in err and "sonar_port" in err
     assert server.clients == 1 and not server.world.moving
+
+
+def test_brick_serve_says_when_each_scheduled_fault_fires() -> None:
+    from toolkit.robots.nxt import connect_robot
+    from toolkit.world import LinkLostError
+
+    nxtnav = shutil.which("nxtnav", path=str(BIN)) or "nxtnav"
+    serve = subprocess.Popen(
+        [nxtnav, "brick", "serve", "--port", "0", "--time-factor", "1000", "--max-step", "0.01", "--seed", "1",
+         "--fault", "drop-link:0.3:60", "--fault", "stall:500:1"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    try:
+        assert serve.stdout is not None
+        port = re.search(r"on 127\.0\.0\.1:(\d+)", serve.stdout.readline())
+        assert port
+        assert serve.stdout.readline().strip() == "scheduled faults: drop-link:0.3:60, stall:500:1"
+        robot = connect_robot("socket", host="127.0.0.1", port=int(port.group(1)))
+        with pytest.raises(LinkLostError):
+            for _ in range(1000):
+                robot.read_sonar()
+        robot.close()
+        assert serve.stdout.readline().strip() == "fault drop-link:0.3:60 fired at brick time 0.30 s"
+    finally:
+        serve.send_signal(signal.SIGTERM)
+        out, err = serve.communicate(timeout=30)
+    assert serve.returncode == 0, err
+    assert "fault drop-link:0.3:60: fired at brick time 0.30 s, acted 1 time(s)" in out
+    assert "fault stall:500:1: did not fire" in out

@@ -123,3 +123,22 @@ def test_max_rounds_limits_retries() -> None:
     assert res.message == "no path (no path in max_rounds)"
     doc = res.to_dict()
     assert doc["status"] == "no path" and doc["detail"] == "no path in max_rounds"
+
+
+def test_the_budget_is_counted_in_rounds() -> None:
+    """Deterministic by default: 50 rounds per second of budget, however fast the machine is."""
+    from planners import PlanningProblem
+
+    m = load_map("pillars")
+    checker = CollisionChecker(m, 8.0)
+    problem = PlanningProblem(m, checker, m.start, m.target, 0.1, 0)
+    res = MinTurnPlanner(n_samples=3, max_intermediate=1).plan(problem)
+    assert res.status is PlanStatus.TIMEOUT and res.info["rounds"] == 5 and res.info["stopped_by"] == "rounds"
+    again = MinTurnPlanner(n_samples=3, max_intermediate=1, rounds_per_s=20.0).plan(
+        PlanningProblem(m, checker, m.start, m.target, 0.1, 0))
+    assert again.info["rounds"] == 2
+    clock = MinTurnPlanner(n_samples=3, max_intermediate=1, deterministic=False).plan(
+        PlanningProblem(m, checker, m.start, m.target, 0.05, 0))
+    assert clock.status is PlanStatus.TIMEOUT and clock.info["stopped_by"] == "time"
+    with pytest.raises(ValueError, match="rounds_per_s"):
+        MinTurnPlanner(rounds_per_s=0.0)

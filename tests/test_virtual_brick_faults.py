@@ -57,7 +57,7 @@ def test_a_second_client_leaving_does_not_brake_the_first_clients_motors() -> No
         with _raw(srv.port) as b:  # client B comes, asks something and leaves
             b.sendall(BATTERY)
             assert b.recv(64) == BATTERY_REPLY
-        assert _wait_for(lambda: srv.clients == 2 and len(srv._server.live) == 1)
+        assert _wait_for(lambda: srv.clients == 2 and srv.live_connections == 1)
         time.sleep(0.05)
         assert world.motors[2].driven, "another client's departure braked client A's motor"
         a.close()  # the owner leaves: its motor is braked

@@ -19,6 +19,9 @@ call through unchanged and write what went in and what came out:
 
 Every line also goes, as the dict it was written from, to the recorder's `listeners` (a live view of
 the run); a recorder made with ``out=None`` writes no file and only feeds them.
+* faults and recoveries (``fault``, ``recovery``): a lost link and what the tachometers said of the
+  interrupted motion once it was back, a sweep taken again for a stuck or garbage sonar
+  (`toolkit.mission.recovery`).
 
 Data taken elsewhere is written with the same `Recorder`: `Recorder.known_scan` writes a scan taken
 without a robot clock at a known position, perhaps without a known heading (format version 2), as
@@ -44,7 +47,7 @@ import numpy as np
 
 from localisation.base import Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 
-from .world import SONAR_MODELS, ConfigError, Map, NxtnavError, Pose, Scan, SonarModel
+from .world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
            "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "thin_cloud", "versions"]
@@ -53,8 +56,10 @@ FORMAT_NAME = "nxtnav-recording"
 FORMAT_VERSION = 3
 """Version 2 adds to version 1: a ``true_pose`` whose heading is null (the position is known, the
 heading is not), scans whose ``t_start`` and ``t`` are null (no robot clock) and a scan's ``label``.
-Version 3 adds the ``plan`` event and an estimate's optional ``particles``. Readers read every
-version up to theirs; an older reader refuses a newer file by its version."""
+Version 3 adds the ``plan`` event, an estimate's optional ``particles``, the ``fault`` and ``recovery``
+events (a lost link, a sonar swept again) and an ``odometry`` whose ``tacho_after`` is null (the link
+broke right after the command). Readers read every version up to theirs and refuse later ones by
+their version."""
 
 
 def encode_floats(values: Any) -> list[float | str]:
@@ -243,7 +248,7 @@ class Recorder:
         for listen in self.listeners:
             listen(obj)
 
-    def event(self, kind: str, **fields: Any) -> None:
+    def event(self, kind: str, /, **fields: Any) -> None:
         """Write one event line ``{"type": kind, ...}``."""
         self._write({"type": kind, **fields})
 
@@ -354,13 +359,20 @@ class _RecordingRobot:
     def __getattr__(self, name: str) -> Any:
         return getattr(self._robot, name)
 
-    def _tacho(self) -> dict[str, int] | None:
+    def _tacho(self, after: bool = False) -> dict[str, int] | None:
         fn = getattr(self._robot, "tacho_counts", None)
-        return fn() if callable(fn) else None
+        if not callable(fn):
+            return None
+        try:
+            return dict(fn())
+        except LinkLostError:
+            if not after:
+                raise  # nothing was commanded yet
+            return None  # the command was carried out; the next one finds the link lost
 
     def _command(self, kind: str, before: dict[str, int] | None, **fields: Any) -> None:
-        after = self._tacho()
-        odo = None if after is None else {"tacho_before": before, "tacho_after": after}
+        after = self._tacho(after=True)
+        odo = None if after is None and before is None else {"tacho_before": before, "tacho_after": after}
         self._rec.event(kind, t=float(self._robot.robot_time_s), **fields, odometry=odo,
                         true_pose=self._rec.true_pose(self._robot))
 
@@ -400,6 +412,19 @@ class _RecordingLocaliser(Localiser):
     def __getattr__(self, name: str) -> Any:
         return getattr(self._inner, name)
 
+    # what the base class defines would hide the inner localiser's own from `__getattr__`
+    @property
+    def modes(self) -> list[Mode]:
+        return self._inner.modes
+
+    @property
+    def snapshots(self) -> Sequence[Snapshot]:  # type: ignore[override]
+        return self._inner.snapshots
+
+    @property
+    def needs_prior(self) -> bool:  # type: ignore[override]
+        return self._inner.needs_prior
+
     def _after(self) -> None:
         self._rec.estimate_event(self._inner.estimate(), self._inner)
 
@@ -420,19 +445,6 @@ class _RecordingLocaliser(Localiser):
 
     def estimate(self) -> PoseEstimate:
         return self._inner.estimate()
-
-    # what the base class defines would hide the inner localiser's own: pass them through
-    @property
-    def modes(self) -> list[Mode]:
-        return self._inner.modes
-
-    @property
-    def snapshots(self) -> Sequence[Snapshot]:  # type: ignore[override]
-        return self._inner.snapshots
-
-    @property
-    def needs_prior(self) -> bool:  # type: ignore[override]
-        return self._inner.needs_prior
 
     def cloud(self) -> tuple[np.ndarray, np.ndarray] | None:
         return self._inner.cloud()

@@ -58,7 +58,7 @@ from .world import (
 __all__ = ["LocaliserSpec", "Recording", "RecordingError", "ReplayReport", "ReplayStep", "read_recording", "replay"]
 
 CALLS = ("reset", "predict", "update")
-_ROBOT_EVENTS = ("turn", "move", "turnback", "scan")
+_ROBOT_EVENTS = ("turn", "move", "turnback", "scan", "recovery")
 
 
 class RecordingError(NxtnavError):
@@ -257,6 +257,8 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
             raise RecordingError(f"{where}: field 'path' must list at least two [x, y] points")
         for p in path:
             _floats({"path": p}, "path", where, 2)
+    elif kind in ("fault", "recovery"):
+        _fault_event(e, where, version)
     elif kind == "end":
         pass
     else:
@@ -279,6 +281,27 @@ def _particles(cloud: dict[str, Any], where: str) -> None:
     _floats(cloud, "weights", where + ": particles", len(poses))
     if n < len(poses):
         raise RecordingError(f"{where}: particles: field 'n' ({n}) is smaller than the {len(poses)} poses")
+
+
+def _fault_event(e: dict[str, Any], where: str, version: int) -> None:
+    """Check a ``fault`` or ``recovery`` line (format version 3)."""
+    if version < 3:
+        raise RecordingError(f"{where}: a '{e['type']}' line needs format version 3 (the header says {version})")
+    _need(e, "kind", str, where)
+    _need(e, "detail", str, where)
+    if e["type"] == "fault":
+        _need(e, "t", _NUM, where)
+        return
+    _need(e, "robot_time_s", _NUM, where)
+    _need(e, "recovered", bool, where)
+    _need(e, "outage_s", _NUM, where)
+    _need(e, "recovery_robot_s", _NUM, where)
+    back = _need(e, "resumption", dict, where, nullable=True)
+    if back is not None:
+        _need(back, "action", str, where + ": resumption")
+        _need(back, "requested", _NUM, where + ": resumption")
+        _need(back, "done", _NUM, where + ": resumption")
+    _truth_field(e, where, version)
 
 
 def read_recording(path: str | Path) -> Recording:

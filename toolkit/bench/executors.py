@@ -5,7 +5,15 @@ Progress is reported through a callback so that the CLI owns the progress bar.
 
 Ctrl-C: worker processes ignore SIGINT (the terminal sends it to the whole process group), so only
 this process sees it; it then terminates the workers at once (no task is waited for) and
-`collect_tasks` raises `TasksInterrupted` carrying the results that had finished.
+`collect_tasks` raises `TasksInterrupted` carrying the results that had finished. On a Dask cluster
+the tasks not yet finished are cancelled instead (the cluster's workers stay up for the next client;
+a task already running on one finishes there and its result is dropped).
+
+What travels to a Dask cluster: each task description and a reference to `func` (its module and
+name), pickled; the workers import the function from their own installed nxtnav, so they need the
+same version of nxtnav (and of dask) as this process, and every file a task names (a map by path,
+a sonar profile) at the same path. Maps named by name (``map1``) resolve on the worker from its
+installed data and ``$NXTNAV_MAPS``.
 """
 
 from __future__ import annotations
@@ -132,7 +140,15 @@ def _run_dask(
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)
     else:
-        client = Client(address)
+        try:
+            client = Client(address)
+        except (OSError, ValueError, TypeError) as exc:  # unreachable, or not an address
+            from ..world import NxtnavError
+
+            raise NxtnavError(f"--dask {address}: cannot reach a Dask scheduler there: "
+                              f"{' '.join(str(exc).split()) or type(exc).__name__}") from None
+    futures: list[Any] = []
+    finished = False
     try:
         futures = client.map(func, list(tasks), pure=False)
         for f in as_completed(futures):
@@ -140,7 +156,10 @@ def _run_dask(
             if on_done:
                 on_done(r)
             yield r
+        finished = True
     finally:
+        if not finished and futures:  # Ctrl-C, a task that raised, or the caller stopped early
+            client.cancel(futures)
         client.close()
         if cluster is not None:
             cluster.close()

@@ -40,6 +40,7 @@ __all__ = [
     "PaperRow",
     "PaperTable",
     "PaperTrial",
+    "in_task_order",
     "paper_tasks",
     "run_paper",
     "run_trial",
@@ -320,17 +321,28 @@ def summarise(results: Iterable[PaperResult]) -> list[PaperTable]:
     return tables
 
 
+def in_task_order(results: Iterable[PaperResult], tasks: Sequence[PaperTrial]) -> list[PaperResult]:
+    """`results` (as they finished, on any backend) in the order of their `tasks`, so that the tables,
+    their order and the plots depend on the seed alone."""
+    index = {repr(t): i for i, t in enumerate(tasks)}
+    return sorted(results, key=lambda r: index[repr(r.task)])
+
+
 def run_paper(
     tasks: Sequence[PaperTrial],
     *,
     workers: int = 1,
+    dask_address: str | None = None,
     on_done: Callable[[PaperResult], None] | None = None,
 ) -> tuple[list[PaperTable], list[PaperResult]]:
-    """Run the trials (over a process pool when `workers` > 1) and summarise them.
+    """Run the trials (over a process pool when `workers` > 1, or on the Dask cluster at
+    `dask_address`: see `toolkit.bench.executors.run_tasks`) and summarise them; the results come
+    back in the order of `tasks`.
 
     Ctrl-C raises `toolkit.bench.executors.TasksInterrupted` carrying the finished trials
-    (summarise them with `summarise`)."""
-    results = collect_tasks(run_trial, list(tasks), workers=workers, on_done=on_done)
+    (order them with `in_task_order` and summarise them with `summarise`)."""
+    results = collect_tasks(run_trial, list(tasks), workers=workers, dask_address=dask_address, on_done=on_done)
+    results = in_task_order(results, tasks)
     return summarise(results), results
 
 

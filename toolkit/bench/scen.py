@@ -16,7 +16,7 @@ import os
 import platform
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -287,9 +287,12 @@ class ScenResult:
 
 def run_scen(config: ScenConfig, queries: Sequence[Scenario], *, workers: int = 1, dask_address: str | None = None,
              on_done: Callable[[ScenRecord], None] | None = None) -> ScenResult:
-    """Run every planner of `config` on every query; an interrupt returns what finished (``complete=False``)."""
+    """Run every planner of `config` on every query; an interrupt returns what finished (``complete=False``).
+
+    The tasks name the map by its absolute path: a worker process may run in another folder."""
+    task_config = replace(config, map_path=os.path.abspath(config.map_path))
     # query by query, every planner in turn: a machine whose load changes during the run weighs on all alike
-    tasks = [_Task(config, p, q) for q in queries for p in config.planners]
+    tasks = [_Task(task_config, p, q) for q in queries for p in config.planners]
     records: list[ScenRecord] = []
     t0 = time.perf_counter()
     started = time.time()

@@ -90,10 +90,13 @@ def _sweep_set(folder: str, map: str | None) -> SweepSet:
 
 def make_sweep_tasks(sweeps: SweepSet, map: str | None, localisers: Sequence[str], seeds: Sequence[int],
                      sonar: NxtSonar, options: dict[str, dict[str, Any]] | None = None) -> list[SweepTask]:
-    """Every localiser x seed x sweep of `sweeps` (the slowest loop innermost, so progress is even)."""
+    """Every localiser x seed x sweep of `sweeps` (the slowest loop innermost, so progress is even).
+
+    The tasks name the folder by its absolute path: a worker process may run in another folder."""
     params = asdict(sonar)
     opts = options or {}
-    return [SweepTask(str(sweeps.folder), map, i, name, int(s), params, dict(opts.get(name, {})))
+    folder = str(Path(sweeps.folder).absolute())
+    return [SweepTask(folder, map, i, name, int(s), params, dict(opts.get(name, {})))
             for name in localisers for s in seeds for i in range(len(sweeps))]
 
 

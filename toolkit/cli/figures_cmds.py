@@ -24,7 +24,7 @@ from ..world import NxtnavError
 from .app import app, main
 from .options import parse_list
 
-__all__ = ["FIGURE_JOBS", "FigureJob", "figure_names", "run_job", "shrink_png"]
+__all__ = ["FIGURE_JOBS", "SCREENSHOTS", "FigureJob", "figure_names", "run_job", "shrink_png"]
 
 WORK = "{work}"
 """Placeholder in a job's arguments for the folder its outputs go to."""
@@ -95,14 +95,14 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         "one 360-degree scan with the LEGO sensor model, as the paper's Fig. 3"),
     FigureJob(
         "real-sonar",
-        ("sonar", "plot", f"{REPO}/maps/real-nxt", "--out", f"{WORK}/real-sonar"),
+        ("sonar", "plot", "maps/real-nxt", "--out", f"{WORK}/real-sonar"),
         {"real_sonar_radar.png": "real-sonar/real_sonar_radar.png",
          "real_sonar_no_echo.png": "real-sonar/real_sonar_no_echo.png"},
         "the three shipped real NXT sweeps against the fitted nxt sonar model: radar charts, no-echo curves"),
     FigureJob(
         "planners",
         # defaults: maps map1,map2,map3; planners min-turn, astar, rrtstar, prm, ompl:RRTConnect,
-        # ompl:InformedRRTstar, ompl:BITstar, ompl:AORRTC; 1 s budget; 100 drives per path; --simplify ompl
+        # ompl:InformedRRTstar, ompl:BITstar; 1 s budget; 100 drives per path; --simplify ompl
         ("bench", "planners", "--runs", "20", "--seed", "0", "--workers", "2", "--out", f"{WORK}/planners"),
         {"planners_paths.png": "planners/paths.png",
          "planners_exec_vs_turns.png": "planners/exec_vs_turns.png",
@@ -170,6 +170,18 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
 )
 
 
+SCREENSHOTS: dict[str, str] = {
+    "plannerarena_progress.png": "Planner Arena (OMPL's viewer, a separate web app: `pip install plannerarena`) "
+    "showing the progress view of `ompl_benchmark_statistics out/planners/ompl/map2-presets.log -d benchmark.db` "
+    "(best cost against time of the anytime planners); a screenshot of a local server, not made by "
+    "`nxtnav figures`",
+    "rerun-view.png": "Rerun's web viewer (the `rerun` program of rerun-sdk) showing a mission saved with "
+    "`nxtnav run --view-save out/view-check.rrd`; taken in headless Chromium by `make view-check`",
+}
+"""Images in the figure folder that no `FigureJob` makes (screenshots of other programs), with how
+each was taken; `nxtnav figures` leaves them alone."""
+
+
 def figure_names() -> list[str]:
     """Every figure file `FIGURE_JOBS` writes."""
     return [f for job in FIGURE_JOBS for f in job.figures]
@@ -211,6 +223,8 @@ def _index(jobs: Sequence[FigureJob], quick: bool) -> str:
         lines += ["**Reduced setting (`--quick`): not the figures of the documentation.**", ""]
     for job in jobs:
         lines += [f"- {', '.join(f'`{f}`' for f in job.figures)}: {job.caption}.", f"  `{job.command()}`"]
+    lines += ["", "Not made by `make figures`:", ""]
+    lines += [f"- `{name}`: {how}." for name, how in SCREENSHOTS.items()]
     return "\n".join(lines) + "\n"
 
 

@@ -7,14 +7,14 @@ from pathlib import Path
 import typer
 
 from .app import import_app
-from .options import check_writable, count, in_range, positive, repeats
+from .options import check_writable, count, in_range, positive, repeats, shipped
 
 __all__: list[str] = []
 
 
 @import_app.command("sweeps")
 def import_sweeps(
-    folder: Path = typer.Argument(..., metavar="DIR",
+    folder: Path = typer.Argument(..., metavar="DIR", callback=shipped,
                                   help="A sweep set: a folder with sweeps.csv and the sweep files."),
     map_file: str | None = typer.Option(None, "--map", metavar="FILE",
                                         help="The map the sweeps were taken in (default: DIR/arena.yaml)."),

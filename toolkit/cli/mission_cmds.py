@@ -18,11 +18,13 @@ from .options import (
     SONAR_PROFILE_HELP,
     check_writable,
     count,
+    non_negative,
     parse_floats,
     parse_list,
     parse_pose,
     parse_xy,
     port,
+    positive,
     sonar_profile,
 )
 from .options import collision as collision_ok
@@ -64,12 +66,12 @@ def _noise(text: str) -> tuple[float, float, float]:
     return sensor, motion, turn
 
 
-def _connect_nxt(backend: str, host: str, port: int, profile: Path | None) -> Any:
+def _connect_nxt(backend: str, host: str, port: int, profile: Path | None, reply_timeout_s: float) -> Any:
     try:
         from ..robots.nxt import connect_robot
     except ImportError as exc:
         raise NxtnavError(f"the NXT backend is not available ({exc}); install the 'nxt' extra") from None
-    return connect_robot(backend, host=host, port=port, profile=profile)
+    return connect_robot(backend, host=host, port=port, profile=profile, reply_timeout_s=reply_timeout_s)
 
 
 @app.command("run")
@@ -105,6 +107,12 @@ def run(
     server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket).",
                                      callback=port),
     profile: Path | None = typer.Option(None, "--profile", metavar="FILE", help="NXT calibration profile."),
+    reconnect_timeout: float = typer.Option(
+        30.0, "--reconnect-timeout", metavar="S", callback=non_negative,
+        help="NXT: after a lost link, try this many seconds to reach the brick again before the mission ends."),
+    reply_timeout: float = typer.Option(
+        3.0, "--reply-timeout", metavar="S", callback=positive,
+        help="NXT (socket, Bluetooth): a reply that takes longer than this counts as a lost link."),
     record: Path | None = typer.Option(None, "--record", metavar="FILE.jsonl",
                                        help="Record every command, scan and localiser call (docs/recording.md)."),
     record_particles: int = typer.Option(
@@ -152,7 +160,7 @@ def run(
                                      "simulator", param_hint="--start")
         from ..robots.model_clock import ModelClock
 
-        robot = ModelClock(_connect_nxt(nxt_backend, server_host, server_port, profile))
+        robot = ModelClock(_connect_nxt(nxt_backend, server_host, server_port, profile, reply_timeout))
         recorder: Any = None
         report: Any = None
         robot_radius = float(robot.geometry.radius_cm)
@@ -168,7 +176,7 @@ def run(
             opts = localiser_options(localiser, robot_model)
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts, collision=collision),
-                                 recorder=recorder)
+                                 recorder=recorder, reconnect_timeout_s=reconnect_timeout)
         finally:
             robot.close()
             _finish(recorder, report, stream)
@@ -315,7 +323,7 @@ def _parse_options(items: list[str] | None) -> dict[str, Any]:
 
 def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list[str], models: list[str],
                 settings: str | None, workers: int, random_start: bool, json_out: Path | None,
-                profile: NxtSonar | None = None, collision: str = "index") -> None:
+                profile: NxtSonar | None = None, collision: str = "index", dask: str | None = None) -> None:
     """`nxtnav paper --pareto`: every mission setting, both sonar models; a figure and a table."""
     from ..bench.paper import run_paper
     from ..bench.paper_pareto import MISSION_SETTINGS, pareto_points, pareto_tasks
@@ -326,7 +334,7 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
     tasks = pareto_tasks(trials, seed, settings=names, sonars=sonars, maps=maps, noise_models=models,
                          random_start=random_start, sonar_model=profile, collision=collision)
     with progress("missions", len(tasks), transient=True) as advance:
-        _, results = run_paper(tasks, workers=workers, on_done=advance)
+        _, results = run_paper(tasks, workers=workers, dask_address=dask, on_done=advance)
     points = pareto_points(results)
     typer.echo(f"Collision checks: {collision}.\n")
     typer.echo("| Setting | Sonar | Map | Trials | Success | Collisions | Mean final error (cm) "
@@ -386,6 +394,9 @@ def paper(
         None, "--noise-model", help="Noise model(s) (default both: botsim and absolute; with --pareto botsim)."),
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
+    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
+                                    help="Dask scheduler address (tcp://host:8786), or local: run the missions "
+                                         "there (docs/cluster.md)."),
     random_start: bool = typer.Option(False, "--random-start",
                                       help="Start each trial from a seeded random free pose (>= 10 cm from walls)."),
     option: list[str] | None = typer.Option(None, "--option", metavar="KEY=VALUE",
@@ -401,7 +412,7 @@ def paper(
 ) -> None:
     """The paper's Table I regenerated: completion time, final error, path length, collisions, robot time."""
     from ..bench.executors import TasksInterrupted
-    from ..bench.paper import paper_tasks, run_paper, summarise, tables_to_markdown
+    from ..bench.paper import in_task_order, paper_tasks, run_paper, summarise, tables_to_markdown
 
     sonars = _names(sonar or ("ideal,nxt" if pareto is not None else "ideal"), "--sonar", SONAR_MODELS.names())
     profile = sonar_profile(sonar_profile_path, sonars)
@@ -418,7 +429,7 @@ def paper(
     options = _parse_options(option)
     if pareto is not None:
         _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out,
-                    profile, collision)
+                    profile, collision, dask)
         return
     tasks = [t for so in sonars
              for t in paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=so,
@@ -427,9 +438,9 @@ def paper(
     with progress("missions", len(tasks), transient=True) as advance:
         done = len(tasks)
         try:
-            tables, results = run_paper(tasks, workers=workers, on_done=advance)
+            tables, results = run_paper(tasks, workers=workers, dask_address=dask, on_done=advance)
         except TasksInterrupted as exc:  # keep the finished missions; every output says it is incomplete
-            results = list(exc.results)
+            results = in_task_order(exc.results, tasks)
             done, tables = len(results), summarise(results)
     complete = done == len(tasks)
     if not complete and not tables:

@@ -10,11 +10,13 @@ from types import FrameType
 
 import typer
 
+from ..robots.brick_faults import Fault, FaultSchedule, Fired, parse_fault
 from ..robots.nxt import BACKENDS, NxtProfile, NxtRobot, connect_robot
 from ..robots.nxt_profile import calibrated_track_width, calibrated_wheel_diameter
 from ..robots.virtual_brick import BrickServer
 from ..robots.virtual_brick_world import BrickConfig, BrickWorld
-from ..world import SONAR_MODELS, Pose, RobotGeometry, load_map
+from ..seeds import derive_seed
+from ..world import SONAR_MODELS, ConfigError, Pose, RobotGeometry, load_map
 from .app import brick_app, nxt_app
 from .options import (
     SENSOR_NOISE_HELP,
@@ -56,6 +58,10 @@ def _connect(backend: str, host: str, port: int, address: str | None, name: str 
     return connect_robot(backend, host=host, port=port, profile=profile, name=name, address=address)
 
 
+def _say_fired(fault: Fault, fired: Fired) -> None:
+    _echo(f"fault {fault.text} fired at brick time {fired.time_s:.2f} s")
+
+
 @brick_app.command("serve")
 def brick_serve(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
@@ -94,6 +100,14 @@ def brick_serve(
     run_on: bool = typer.Option(False, "--motors-run-on-disconnect",
                                 help="Like a real NXT, keep the motors running when a client's link drops "
                                      "(default: brake the motors that client started)."),
+    fault_texts: list[str] | None = typer.Option(
+        None, "--fault", metavar="KIND:AT_S[:ARG]",
+        help="A scheduled fault (repeatable): drop-link:AT_S:DOWN_S, stall:AT_S:DUR_S, sonar-stuck:AT_S:DUR_S, "
+             "sonar-garbage:[AT_S:]P, motor-slip:AT_S:FRACTION. AT_S in brick time; link down and stall times "
+             "in wall-clock seconds (docs/hardware.md)."),
+    reassembly: float = typer.Option(
+        0.25, "--reassembly-window", metavar="S", callback=positive,
+        help="Seconds to wait for the rest of a telegram TCP delivered in pieces before refusing the piece."),
 ) -> None:
     """Serve a simulated NXT robot to nxt-python clients (socket backend) until Ctrl-C."""
     if sonar not in SONAR_MODELS.names():
@@ -116,13 +130,20 @@ def brick_serve(
     if max_step is None:
         max_step = 0.25 if time_factor <= 1.0 else 0.02
     try:
+        faults = FaultSchedule([parse_fault(t) for t in fault_texts or []],
+                               rng=None if seed is None else derive_seed(seed, "faults"),
+                               on_fire=_say_fired)
+    except ConfigError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--fault") from None
+    try:
         geometry = RobotGeometry(radius_cm=radius, wheel_diameter_cm=wheel_diameter, track_width_cm=track_width)
         config = BrickConfig(geometry=geometry, time_factor=time_factor, max_step_s=max_step, wheel_slip=wheel_slip,
-                             brake_decel_deg_s2=brake_decel, brake_on_disconnect=not run_on)
+                             brake_decel_deg_s2=brake_decel, brake_on_disconnect=not run_on,
+                             reassembly_s=reassembly)
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from None
     world = BrickWorld(m, pose, config, sonar=sonar if profile is None else profile, sensor_noise=sensor_noise,
-                       rng=seed, log=log)
+                       rng=seed, log=log, faults=faults)
     try:
         server = BrickServer(world, host=host, port=port)
     except OSError as exc:
@@ -137,6 +158,8 @@ def brick_serve(
     _echo(f"virtual NXT brick on {server.host}:{server.port}: map {m.name}, pose ({pose.x:g}, {pose.y:g}, "
           f"{pose.heading_deg:g} deg), time factor {time_factor:g}, sonar {sonar}"
           f"{'' if sonar_profile_path is None else f' (profile {sonar_profile_path})'}; Ctrl-C stops")
+    if faults:
+        _echo(f"scheduled faults: {', '.join(f.text for f in faults.faults)}")
     try:
         server.serve_forever()
     except KeyboardInterrupt:
@@ -147,6 +170,9 @@ def brick_serve(
     p = world.pose
     _echo(f"stopped: {server.clients} connection(s), brick time {world.time_s:.1f} s, pose ({p.x:.1f}, {p.y:.1f}, "
           f"{p.heading_deg:.1f} deg), {world.collisions} collision(s)")
+    for f, fired, n in zip(faults.faults, faults.fired, faults.acted, strict=True):
+        _echo(f"fault {f.text}: " + ("did not fire" if fired is None else
+                                     f"fired at brick time {fired.time_s:.2f} s, acted {n} time(s)"))
 
 
 @nxt_app.command("check")

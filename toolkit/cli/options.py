@@ -15,6 +15,7 @@ from typing import Any
 import typer
 
 from ..world import CHECKER_BACKENDS, COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
+from ..world.bundled import data_path
 
 __all__ = [
     "COLLISION_HELP",
@@ -37,6 +38,7 @@ __all__ = [
     "positive",
     "repeats",
     "seed",
+    "shipped",
     "sonar_profile",
     "time_limit",
     "workers",
@@ -101,6 +103,17 @@ def collision(value: str) -> str:
     if value not in CHECKER_BACKENDS:
         raise typer.BadParameter(f"must be one of {', '.join(CHECKER_BACKENDS)}, got {value!r}")
     return value
+
+
+def shipped(value: Any) -> Any:
+    """A typer callback for data paths (a path or a list of them): each as the documentation writes it
+    (``maps/real-nxt``) also names the data shipped with nxtnav from any folder
+    (`toolkit.world.bundled.data_path`); None passes."""
+    if value is None:
+        return None
+    if isinstance(value, list | tuple):
+        return [data_path(v) for v in value]
+    return data_path(value)
 
 
 def check_out_folder(out: Path, force: bool, option: str = "--out") -> None:
@@ -200,7 +213,8 @@ def parse_sweep(text: str, option: str) -> tuple[float, float, int]:
 
 
 def sonar_profile(path: Path | None, sonars: str | Sequence[str], option: str = "--sonar-profile") -> NxtSonar | None:
-    """The ``nxt`` sonar's model from the profile file `path` (None without one).
+    """The ``nxt`` sonar's model from the profile file `path` (None without one; ``maps/...`` also
+    names the shipped profiles from any folder, as `shipped`).
 
     A profile describes the ``nxt`` sonar only: with `sonars` (the chosen sonar, or several) that do not
     include it, it is an error naming `option`; a file that cannot be used is a `SonarProfileError`
@@ -214,4 +228,4 @@ def sonar_profile(path: Path | None, sonars: str | Sequence[str], option: str = 
                           f"{','.join(chosen)}")
     from ..sonar_fit import load_sonar_profile
 
-    return load_sonar_profile(path)
+    return load_sonar_profile(data_path(path))

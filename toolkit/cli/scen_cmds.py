@@ -10,7 +10,7 @@ import yaml
 
 from ..world import NxtnavError, import_map
 from .app import bench_app, maps_app
-from .options import COLLISION_HELP, parse_list
+from .options import COLLISION_HELP, parse_list, shipped
 from .options import collision as collision_ok
 from .progress import progress
 
@@ -19,7 +19,8 @@ __all__: list[str] = []
 
 @maps_app.command("import")
 def maps_import(
-    src: Path = typer.Argument(..., metavar="SRC", help="A Moving AI .map file or a ROS map_server .yaml."),
+    src: Path = typer.Argument(..., metavar="SRC", callback=shipped,
+                               help="A Moving AI .map file or a ROS map_server .yaml."),
     output: Path = typer.Option(..., "-o", "--output", metavar="OUT.yaml", help="Map YAML to write."),
     cell_cm: float | None = typer.Option(None, "--cell-cm", help="Moving AI cell size in cm (default 1)."),
     unknown: str = typer.Option("occupied", "--unknown", help="ROS cells of unknown occupancy: occupied or free."),
@@ -81,8 +82,8 @@ def maps_random(
 
 @bench_app.command("scen")
 def bench_scen(
-    scen: Path = typer.Argument(..., metavar="FILE.scen", help="Moving AI / GPPC scenario file."),
-    map_path: Path | None = typer.Option(None, "--map", metavar="FILE.map",
+    scen: Path = typer.Argument(..., metavar="FILE.scen", callback=shipped, help="Moving AI / GPPC scenario file."),
+    map_path: Path | None = typer.Option(None, "--map", metavar="FILE.map", callback=shipped,
                                          help="The map (default: the file the scenarios name, next to FILE.scen)."),
     kind: str = typer.Option(..., "--kind", help="octile (cells, 8-connected) or any-angle (cell corners)."),
     planners_text: str = typer.Option("astar,shortest", "--planners",

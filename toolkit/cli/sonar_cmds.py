@@ -24,14 +24,14 @@ from rich.table import Table
 from ..formats import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import Interrupted, sonar_app
-from .options import check_writable, parse_list
+from .options import check_writable, parse_list, shipped
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
 
 __all__: list[str] = []
 
-_DIRS = typer.Argument(..., metavar="DIR...",
+_DIRS = typer.Argument(..., metavar="DIR...", callback=shipped,
                        help="Sweep sets: folders with a sweeps.csv (maps/real-nxt is one; format: toolkit/sweeps.py).")
 _MAP = typer.Option(None, "--map", metavar="FILE", help="The map of every sweep set (default: each folder's "
                                                         "arena.yaml).")

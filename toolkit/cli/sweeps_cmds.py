@@ -12,7 +12,7 @@ import typer
 from toolkit.world import NxtnavError
 
 from .app import Interrupted, bench_app
-from .options import check_out_folder, parse_list
+from .options import check_out_folder, parse_list, shipped
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
@@ -33,7 +33,8 @@ def _seeds(text: str) -> list[int]:
 
 @bench_app.command("sweeps")
 def bench_sweeps(
-    folder: Path = typer.Argument(..., help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
+    folder: Path = typer.Argument(..., callback=shipped,
+                                  help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
     map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
     localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated global localisers."),
     seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
@@ -42,6 +43,7 @@ def bench_sweeps(
     out: Path = typer.Option(Path("out/sweeps"), "--out", help="Output folder (must be empty or new, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
     workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
 ) -> None:
     """Global localisation from each real sweep alone: sweeps.csv and summary.md in --out."""
     from localisation.base import LOCALISERS
@@ -66,7 +68,7 @@ def bench_sweeps(
     complete = True
     with progress(f"{len(sweeps)} sweeps x {len(locs)} localisers x {len(seeds)} seeds", len(tasks)) as advance:
         try:
-            runs = collect_tasks(run_sweep, tasks, workers=workers, on_done=advance)
+            runs = collect_tasks(run_sweep, tasks, workers=workers, dask_address=dask, on_done=advance)
         except TasksInterrupted as exc:
             runs, complete = list(exc.results), False
             if not runs:
@@ -79,7 +81,7 @@ def bench_sweeps(
         "nxtnav", "bench", "sweeps", str(folder), *(["--map", map_file] if map_file else []),
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)),
         *(["--sonar-profile", str(sonar_profile)] if sonar_profile else []), "--out", str(out),
-        "--workers", str(workers)])
+        "--workers", str(workers), *(["--dask", dask] if dask else [])])
     csv_path = write_sweeps_csv(runs, out / "sweeps.csv")
     md = write_sweeps_summary(runs, out / "summary.md", localisers=locs, sweeps=sweeps, seeds=seeds, sonar=sonar,
                               command=command, wall_time_s=wall, complete=complete)

@@ -6,7 +6,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,6 +14,9 @@ from numpy.typing import NDArray
 from ..world import (
     Pose,
 )
+
+if TYPE_CHECKING:
+    from .recovery import FaultNote
 
 FloatArray = NDArray[np.float64]
 
@@ -39,6 +42,8 @@ class Outcome(Enum):
     """The action or re-plan limit was hit."""
     ABORTED = "aborted"
     """The robot or a plug-in raised an error (the status carries its message)."""
+    LINK_LOST = "link-lost"
+    """The link to the robot was lost and did not come back within the reconnect timeout."""
 
 
 class Leg(Enum):
@@ -61,7 +66,8 @@ class TraceStep:
     ----------
     action : str
         ``localise``, ``relocalise``, ``plan``, ``turn``, ``move``, ``turnback``, ``explore-turn``,
-        ``explore-move``, ``align-turn``, ``correct-turn`` or ``correct-move``.
+        ``explore-move``, ``align-turn``, ``correct-turn``, ``correct-move``, or a fault and its
+        recovery: ``link-lost``, ``link-restored``, ``sonar-fault``, ``off-course``.
     estimate : Pose or None
         The localiser's mean pose after the action.
     true_pose : Pose or None
@@ -196,6 +202,9 @@ class MissionReport:
     trace : list of TraceStep
     collision : str
         Backend of the mission's collision checks (``index`` or ``fcl``).
+    faults : list of FaultNote
+        Every fault the mission met (a lost link, a sonar swept again) and what came of it
+        (`toolkit.mission.recovery`).
     """
 
     success: bool
@@ -226,6 +235,7 @@ class MissionReport:
     outcome: Outcome = Outcome.REACHED
     cpu_s: float = math.nan
     collision: str = "index"
+    faults: list[FaultNote] = field(default_factory=list)
 
     def to_dict(self, trace: bool = True) -> dict[str, Any]:
         """JSON-ready dict (poses as [x, y, heading_deg]); `trace=False` leaves out the trace and plans."""
@@ -257,6 +267,7 @@ class MissionReport:
             "final_estimate": None if self.final_estimate is None else self.final_estimate.to_list_deg(),
             "ambiguous": len(self.candidates) > 1,
             "candidates": [p.to_list_deg() for p in self.candidates],
+            "faults": [f.to_dict() for f in self.faults],
         }
         if trace:
             d["plans"] = [p.tolist() for p in self.plans]
@@ -301,6 +312,15 @@ class MissionReport:
             f"watchdog stops {self.watchdog_stops}, re-localisations {self.relocalisations}, "
             f"re-plans {self.replans}",
         ]
+        if self.faults:
+            lost = [f for f in self.faults if f.kind == "link-lost"]
+            back = sum(f.recovered for f in lost)
+            offline = sum(f.outage_s for f in lost)
+            sonar = sum(f.kind == "sonar" for f in self.faults)
+            lines.append(f"faults: {len(lost)} lost link(s), {back} back (offline {offline:.1f} s, "
+                         f"recovery {sum(f.recovery_robot_s for f in lost):.1f} s robot time), "
+                         f"{sonar} sweep(s) taken again for a faulty sonar, "
+                         f"{len(self.faults) - len(lost) - sonar} fix(es) off course")
         return "\n".join(lines)
 
 

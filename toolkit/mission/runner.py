@@ -26,6 +26,7 @@ from ..world import (
     load_map,
 )
 from .config import MissionConfig
+from .recovery import DEFAULT_RECONNECT_TIMEOUT_S, FaultLog, Recovery, StopCheck
 from .report import _SPLIT_COUNTERS, MissionReport, Outcome, _time_split
 from .stack import _Mission, _MissionEnded
 
@@ -56,6 +57,7 @@ def run_mission(
     config: MissionConfig | None = None,
     recorder: Recorder | None = None,
     procedure: LocaliseProcedure = look,
+    reconnect_timeout_s: float = DEFAULT_RECONNECT_TIMEOUT_S,
 ) -> MissionReport:
     """Run the stack on `robot` from its unknown pose to `target`.
 
@@ -83,12 +85,16 @@ def run_mission(
         One look (`localisation.procedure.look`, the paper's; tests pass stand-ins), for the global
         strategy and the re-localisations: called as ``procedure(robot, localiser, prior=..., rng=...,
         reset=..., **options)``, it returns a `LocalisationResult`.
+    reconnect_timeout_s : float
+        After a lost link (`toolkit.world.LinkLostError`), how long (wall-clock s) to try to reach the
+        robot again before the mission ends (`toolkit.mission.recovery`).
 
     Returns
     -------
     MissionReport
         Never raises for an unreachable target, a target in a wall or a lost robot: ``status`` says
-        what happened and ``success`` is False. Malformed arguments (unknown planner name, a target
+        what happened and ``success`` is False; nor for a lost link that does not come back
+        (``Outcome.LINK_LOST``). Malformed arguments (unknown planner name, a target
         that is not two finite numbers) raise `NxtnavError`/`ValueError`.
     """
     t0, cpu0 = time.perf_counter(), time.process_time()
@@ -114,8 +120,12 @@ def run_mission(
     counters0 = _robot_counters(robot)
     mission = _Mission(robot, m, tgt, plan_obj, build_localiser, plan_rng, cfg, procedure,
                        on_plan=None if recorder is None else recorder.plan_event)
+    recovery = Recovery(reconnect_timeout_s, FaultLog(recorder))
+    mission.on_sweep_fault = partial(recovery.sonar_fault, mission)
+    mission.on_motion_fault = partial(recovery.motion_fault, mission)
+    mission.on_watchdog_stop = StopCheck()
     try:
-        outcome, status = mission.run()
+        outcome, status = recovery.run(mission)
     except _MissionEnded as end:
         outcome, status = end.outcome, end.status
     except ConfigError:
@@ -160,6 +170,7 @@ def run_mission(
         time_split=_time_split(delta, robot_time),
         outcome=outcome,
         collision=cfg.collision,
+        faults=list(recovery.log.notes),
     )
 
 

@@ -27,6 +27,7 @@ from ..world import (
     make_checker,
 )
 from .config import _WINDOW_CENTRES, MissionConfig
+from .recovery import WIDE_STD_CM, WIDE_STD_DEG, off_course, widened_prior
 from .report import Leg, Outcome, TraceStep
 
 FloatArray = NDArray[np.float64]
@@ -90,6 +91,9 @@ class _Mission:
         self.fresh_fix = False  # the estimate comes from a global fix not yet checked by a drive
         self.since_fix_cm = 0.0  # driven since the last converged fix
         self._localise = procedure
+        self.on_sweep_fault: Callable[[str], None] | None = None  # told of sweeps taken again (a faulty sonar)
+        self.on_motion_fault: Callable[[str], None] | None = None  # told of fixes far off the prediction
+        self.on_watchdog_stop: Callable[[_Mission], str | None] | None = None  # why a stop says the belief is wrong
 
     @property
     def localiser(self) -> Localiser:
@@ -128,9 +132,16 @@ class _Mission:
                 "scan_angles": sweep_angles(cfg.track_scan_step_deg, cfg.track_window_deg,
                                             _WINDOW_CENTRES[cfg.track_windows])}
 
+    def _look_options(self) -> dict[str, Any]:
+        """Keyword arguments of every look, global or tracking: the config's, and `on_sweep_fault`."""
+        options = dict(self.cfg.localise_options)
+        if self.on_sweep_fault is not None:
+            options["on_sweep_fault"] = self.on_sweep_fault
+        return options
+
     def _call_localise(self, prior: Prior | None, kind: str = "track", **extra: Any) -> PoseEstimate:
         kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
-                                  **dict(self.cfg.localise_options), **extra}
+                                  **self._look_options(), **extra}
         return self._localise(self.robot, self.localiser, **kwargs).estimate
 
     def _ok(self, est: PoseEstimate) -> bool:
@@ -144,7 +155,7 @@ class _Mission:
         """
         cfg = self.cfg
         result = cfg.global_strategy().run(self.robot, self.localiser, rng=self.rng, driver=self,
-                                           procedure=self._localise, look_options=cfg.localise_options,
+                                           procedure=self._localise, look_options=self._look_options(),
                                            map=self.map, checker=self.checker,
                                            margin_checker=self.safe_checkers[-1] if self.safe_checkers else None)
         self.estimate = result.estimate
@@ -191,6 +202,15 @@ class _Mission:
                 return est
         return self.localise_global()
 
+    def relocalise_from(self, prior: Prior, reason: str) -> PoseEstimate:
+        """Re-localise the usual way (`relocalise`) with the belief reset to `prior` first; a short first leg
+        follows, as after a global fix."""
+        self.localiser.reset(prior)
+        self.estimate = self.localiser.estimate()
+        est = self.relocalise(reason)
+        self.fresh_fix = True
+        return est
+
     def _prior(self, est: PoseEstimate) -> Prior:
         cov = np.array(est.cov, dtype=float, copy=True)
         floor = np.array([self.cfg.tracking_std_cm ** 2, self.cfg.tracking_std_cm ** 2,
@@ -235,8 +255,16 @@ class _Mission:
         self.record("turnback", distance_cm=out.distance_cm)
 
     def after_watchdog(self) -> None:
+        wrong = self.on_watchdog_stop(self) if self.on_watchdog_stop is not None else None
         self.turnback()
-        self.relocalise("after watchdog stop")
+        if wrong:  # the sonar saw a wall where the belief sees none, twice: start from a wider belief
+            self.record("off-course", note=wrong)
+            if self.on_motion_fault is not None:
+                self.on_motion_fault(wrong)
+            assert self.estimate is not None
+            self.relocalise_from(widened_prior(self.estimate, WIDE_STD_CM, math.radians(WIDE_STD_DEG)), wrong)
+        else:
+            self.relocalise("after watchdog stop")
         self.replans += 1
         if self.replans > self.cfg.max_replans:
             raise _MissionEnded(Outcome.GAVE_UP, f"gave up after {self.cfg.max_replans} re-plans")
@@ -338,8 +366,23 @@ class _Mission:
                 if leg >= dist:
                     return Leg.ARRIVED
                 continue
+            predicted = self.estimate
             self.relocalise("at waypoint" if leg >= dist else "along segment")
+            if self.off_course(predicted):
+                return Leg.DEVIATED  # the robot did not go where its motions should have taken it: plan again
         return Leg.DEVIATED
+
+    def off_course(self, predicted: PoseEstimate | None) -> bool:
+        """Whether the fix just taken lies further from the `predicted` belief than motion noise explains
+        (`toolkit.mission.recovery.off_course`: a wheel that slipped, a robot pushed); said in the trace
+        and to `on_motion_fault`."""
+        why = off_course(predicted, self.estimate) if self.estimate is not None and self._ok(self.estimate) else None
+        if why is None:
+            return False
+        self.record("off-course", note=why)
+        if self.on_motion_fault is not None:
+            self.on_motion_fault(why)
+        return True
 
     # -- planning -------------------------------------------------------------------------------
     def plan(self) -> FloatArray:

@@ -18,8 +18,11 @@ Turnback
 
 Every motion is tacho-limited on the brick (the firmware stops the motor at its limit even when the
 computer has crashed or the link is lost), and ends with the motors braked. Any failure during an
-action (an exception, Ctrl-C, a lost link) brakes the motors where the link still works and raises
-`RobotError` saying what happened.
+action (an exception, Ctrl-C) brakes the motors and raises `RobotError` saying what happened. A lost
+link (the connection closed, a reply that does not come within ``reply_timeout_s``) raises
+`toolkit.world.LinkLostError`, which says what was under way; `NxtRobot.reconnect` reaches the brick
+again, brakes every motor, turns the turret back to the front and reads the tachometers to tell how
+much of the interrupted motion happened (a `toolkit.world.Resumption`).
 ``robot_time_s`` is measured: the brick's own millisecond tick (read from the firmware's command
 module) when the brick offers it, otherwise the wall clock around each action.
 
@@ -33,14 +36,17 @@ one entry point the command line uses::
 from __future__ import annotations
 
 import contextlib
+import functools
 import importlib
 import importlib.util
 import logging
 import math
+import socket
 import struct
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -48,10 +54,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..world import MoveOutcome, RobotError, Scan
+from ..world import LinkLostError, MoveOutcome, Resumption, RobotError, Scan
 from .nxt_profile import NxtProfile, ProfileError
 
-__all__ = ["BACKENDS", "NxtProfile", "NxtRobot", "ProfileError", "connect_robot", "find_brick"]
+__all__ = ["BACKENDS", "DEFAULT_REPLY_TIMEOUT_S", "NxtProfile", "NxtRobot", "ProfileError", "connect_robot",
+           "find_brick"]
 
 _log = logging.getLogger(__name__)
 
@@ -67,6 +74,30 @@ _US_CONTINUOUS = 0x02
 _VIRTUAL_LINK = "ipvirtual"
 _ARRIVAL_TOLERANCE_DEG = 3
 _SETTLE_POLLS = 50
+_MAX_OUTAGE_S = 86_400.0  # a brick tick further on than this after a reconnect: the brick restarted
+
+DEFAULT_REPLY_TIMEOUT_S = 3.0
+"""Seconds the robot waits for one reply of the brick before it takes the link as lost (socket and
+Bluetooth links; a working link answers in milliseconds, Bluetooth in tens of them)."""
+
+_Connector = Callable[[float | None], Any]
+"""Finds the brick again: called with the reply timeout (s), returns a connected nxt-python brick."""
+
+
+@dataclass(frozen=True)
+class _Pending:
+    """The action under way: its kind, what it was asked, the tachos at its start and its start clock."""
+
+    action: str
+    requested: float
+    split: str | None
+    start: tuple[str, float] | None = None
+    tacho_before: dict[str, int] | None = None
+
+
+def _link_broken(exc: BaseException) -> bool:
+    """Whether `exc` means the link itself failed (closed, reset, timed out, the USB device gone)."""
+    return isinstance(exc, OSError | EOFError | struct.error)
 
 
 def _import_nxt() -> ModuleType:
@@ -102,10 +133,17 @@ class NxtRobot:
         Wiring and calibration; a path is read as a YAML profile; None uses the defaults.
     owns_brick : bool
         Whether `close` also closes the brick connection.
+    reply_timeout_s : float or None
+        Seconds to wait for one reply before the link counts as lost (socket and Bluetooth links;
+        None waits for ever, as nxt-python does).
+    connector : callable or None
+        Finds the brick again for `reconnect` (called with `reply_timeout_s`; `connect_robot` gives
+        one); None: this robot cannot reconnect.
     """
 
     def __init__(self, brick: Any, profile: NxtProfile | str | Path | None = None, *,
-                 owns_brick: bool = True) -> None:
+                 owns_brick: bool = True, reply_timeout_s: float | None = DEFAULT_REPLY_TIMEOUT_S,
+                 connector: _Connector | None = None) -> None:
         self._nxt = _import_nxt()
         if profile is None:
             profile = NxtProfile()
@@ -115,6 +153,13 @@ class NxtRobot:
         self.geometry = profile.geometry
         self.brick = brick
         self.owns_brick = owns_brick
+        self.reply_timeout_s = reply_timeout_s
+        self._connector = connector
+        self.link_down = False
+        self._depth = 0  # actions under way (one calls another's public method)
+        self._pending: _Pending | None = None
+        self._interrupted: _Pending | None = None
+        _set_reply_timeout(brick, reply_timeout_s)
         self.link = str(getattr(getattr(brick, "_sock", None), "type", None) or "unknown")
         self.virtual = self.link == _VIRTUAL_LINK
         motor = self._nxt.motor
@@ -139,14 +184,18 @@ class NxtRobot:
         self.turn_s = 0.0
         self.readings = 0
         with self._action("connect"):
-            self.brick.set_input_mode(self._sonar, self._nxt.sensor.Type.LOW_SPEED_9V, self._nxt.sensor.Mode.RAW)
-            if not self.virtual:
-                time.sleep(0.1)  # the sensor's I2C bus needs a moment after power-up
-            self._i2c_write(_US_COMMAND, bytes((_US_CONTINUOUS,)))
+            self._start_sensor()
             for port in (self._left, self._right, self._turret):
                 self.brick.reset_motor_position(port, False)
                 self._brake(port)
             self._tick_ok = self._tick() is not None
+
+    def _start_sensor(self) -> None:
+        """Power the ultrasonic sensor's port and set it measuring continuously."""
+        self.brick.set_input_mode(self._sonar, self._nxt.sensor.Type.LOW_SPEED_9V, self._nxt.sensor.Mode.RAW)
+        if not self.virtual:
+            time.sleep(0.1)  # the sensor's I2C bus needs a moment after power-up
+        self._i2c_write(_US_COMMAND, bytes((_US_CONTINUOUS,)))
 
     def set_profile(self, profile: NxtProfile) -> None:
         """Use new calibration values (the wiring must stay the same)."""
@@ -205,6 +254,10 @@ class NxtRobot:
 
     def tacho_counts(self) -> dict[str, int]:
         """The rotation counts (degrees, as the brick reports them) of the left, right and turret motors."""
+        with self._action("read the tachometers"):
+            return self._counts()
+
+    def _counts(self) -> dict[str, int]:
         return {"left": self._state(self._left)[0], "right": self._state(self._right)[0],
                 "turret": self._state(self._turret)[0]}
 
@@ -213,6 +266,12 @@ class NxtRobot:
 
     def read_sonar(self) -> float:
         """One ultrasonic reading (cm; 255 = no echo) in the turret's current direction."""
+        if self._depth:  # inside an action (the watchdog of a move, a sweep)
+            return self._read_sonar()
+        with self._action("read the sonar"):
+            return self._read_sonar()
+
+    def _read_sonar(self) -> float:
         err = self._nxt.error
         if not self.virtual and self.profile.sonar_interval_s > 0:
             wait = self._last_sonar + self.profile.sonar_interval_s - time.monotonic()
@@ -253,18 +312,28 @@ class NxtRobot:
         return "motors stopped"
 
     @contextlib.contextmanager
-    def _action(self, what: str, split: str | None = None) -> Iterator[None]:
+    def _action(self, what: str, split: str | None = None, motion: tuple[str, float] | None = None) -> Iterator[None]:
         """Run one action: time it (adding the time to `split`, a counter such as ``drive_s``) and
-        turn any failure into a `RobotError` with the motors stopped."""
+        turn any failure into a `RobotError` with the motors stopped; a broken link into a
+        `LinkLostError` that remembers the `motion` (kind, requested amount) under way."""
         self._check_open()
+        if self.link_down:
+            raise LinkLostError(f"{what}: the link to the brick is lost; reconnect first")
         start: tuple[str, float] | None = None
+        if motion is not None:
+            self._pending = _Pending(motion[0], motion[1], split)
+        self._depth += 1
         try:
             start = self._clock()
+            if self._pending is not None and motion is not None:
+                self._pending = replace(self._pending, start=start)
             yield
             dt = self._elapsed(start, self._clock())
             self._time += dt
             if split is not None:
                 setattr(self, split, getattr(self, split) + dt)
+        except LinkLostError:
+            raise
         except RobotError as exc:
             stopped = self._safe_stop()
             raise RobotError(f"{what}: {exc}; {stopped}") from exc
@@ -272,8 +341,98 @@ class NxtRobot:
             stopped = self._safe_stop()
             raise RobotError(f"{what} interrupted by Ctrl-C; {stopped}") from None
         except Exception as exc:
+            if _link_broken(exc):
+                raise self._lost(what, exc) from exc
             stopped = self._safe_stop()
             raise RobotError(f"{what} failed: {_describe(exc)}; {stopped}") from exc
+        finally:
+            self._depth -= 1
+            if motion is not None:
+                self._pending = None
+
+    def _lost(self, what: str, exc: BaseException) -> LinkLostError:
+        """The link broke during `what`: remember the motion under way, let the link go, say so."""
+        pending = self._pending
+        if self._interrupted is None:  # a failed reconnect keeps the first interruption
+            self._interrupted = pending or _Pending("", 0.0, None)
+        self._drop_link()
+        action = pending.action if pending is not None else ""
+        requested = pending.requested if pending is not None else 0.0
+        _log.info("%s: the link to the brick is lost (%s)", what, _describe(exc))
+        return LinkLostError(f"{what} failed: {_describe(exc)}; could not stop the motors: the link is lost "
+                             "(the brick stops each motor at its tacho limit)", action, requested)
+
+    def _note_start(self, counts: dict[str, int]) -> None:
+        """Remember the counts of the motors the action under way drives, as it starts."""
+        if self._pending is not None:
+            self._pending = replace(self._pending, tacho_before=counts)
+
+    def _drop_link(self) -> None:
+        """Close the connection without a goodbye (the other end is gone or not answering)."""
+        self.link_down = True
+        link: Any = getattr(self.brick, "_sock", None)
+        raw = getattr(link, "_sock", None)
+        if raw is not None:
+            with contextlib.suppress(OSError):
+                raw.close()
+            link._sock = None
+
+    def reconnect(self) -> Resumption:
+        """Try once to reach the brick again after a lost link.
+
+        On success: the sensor is set up again, every motor braked, the turret turned back to the
+        front, and the tachometers read (the brick keeps its counts while the link is down), so the
+        returned `Resumption` tells how much of the interrupted motion happened. The interrupted
+        action's time up to now counts as robot time (the brick's tick went on). Raises
+        `LinkLostError` when the brick cannot be reached (try again later), `RobotError` when this
+        robot cannot reconnect at all.
+        """
+        self._check_open()
+        if self._connector is None:
+            raise RobotError("this NXT robot cannot reconnect (it was not connected by connect_robot)")
+        self._drop_link()
+        try:
+            brick = self._connector(self.reply_timeout_s)
+        except RobotError as exc:
+            raise LinkLostError(f"the brick is not back: {exc}") from None
+        self.brick = brick
+        self.link_down = False
+        pending = self._interrupted or _Pending("", 0.0, None)
+        with self._action("reconnect"):
+            now = self._clock()
+            self._start_sensor()
+            for port in (self._left, self._right, self._turret):
+                self._brake(port)
+            counts = self._counts()
+            self._turret_to(0, counts["turret"])
+            self._brake(self._turret)
+        self._add_interrupted_time(pending, now)
+        self._interrupted = None
+        done = self._done(pending, counts)
+        _log.info("link back; the interrupted %s did %.2f of %.2f", pending.action or "action", done, pending.requested)
+        return Resumption(pending.action, pending.requested, done, pending.tacho_before, counts)
+
+    def _add_interrupted_time(self, pending: _Pending, now: tuple[str, float]) -> None:
+        """Count the interrupted action's time, from its start to `now` on the brick's clock, as robot time."""
+        if pending.start is None:
+            return
+        dt = self._elapsed(pending.start, now)
+        if 0 <= dt <= _MAX_OUTAGE_S:
+            self._time += dt
+            if pending.split is not None:
+                setattr(self, pending.split, getattr(self, pending.split) + dt)
+
+    def _done(self, pending: _Pending, counts: dict[str, int]) -> float:
+        """What the tachos say the interrupted motion did (cm or rad; 0 when it had not started)."""
+        before = pending.tacho_before
+        if before is None or pending.action not in ("move", "turn"):
+            return 0.0
+        sgn = self._drive_sign
+        left = (counts["left"] - before["left"]) * sgn
+        right = (counts["right"] - before["right"]) * sgn
+        if pending.action == "turn":
+            return self.profile.spin_rad(0.5 * (right - left))
+        return self.profile.distance_cm(0.5 * (left + right))
 
     def _wait(self, ports: list[Any], start: list[int], targets: list[int], watchdog: bool) -> tuple[str, list[int]]:
         """Poll until the motors reach their targets.
@@ -320,6 +479,7 @@ class NxtRobot:
         ports = [self._left, self._right]
         sgn = self._drive_sign
         start = [self._state(p)[0] for p in ports]
+        self._note_start({"left": start[0], "right": start[1]})
         wanted = [round(left_deg) * sgn, round(right_deg) * sgn]
         if watchdog and all(self.read_sonar() < self.profile.watchdog_distance_cm for _ in range(2)):
             return 0.0, 0.0, "watchdog"
@@ -341,7 +501,7 @@ class NxtRobot:
         d = float(distance_cm)
         if not math.isfinite(d):
             raise RobotError(f"move distance must be finite, got {distance_cm!r}")
-        with self._action(f"move {d:.1f} cm", "drive_s"):
+        with self._action(f"move {d:.1f} cm", "drive_s", motion=("move", d)):
             deg = self.profile.wheel_degrees(d)
             left, right, why = self._wheels(deg, deg, self.profile.drive_power, watchdog=d > 0)
         done = self.profile.distance_cm(0.5 * (left + right))
@@ -357,7 +517,7 @@ class NxtRobot:
         a = float(angle_rad)
         if not math.isfinite(a):
             raise RobotError(f"turn angle must be finite, got {angle_rad!r}")
-        with self._action(f"turn {math.degrees(a):.1f} deg", "turn_s"):
+        with self._action(f"turn {math.degrees(a):.1f} deg", "turn_s", motion=("turn", a)):
             w = self.profile.spin_degrees(a)
             self._wheels(-w, w, self.profile.turn_power, watchdog=False)
 
@@ -389,26 +549,38 @@ class NxtRobot:
         got = np.empty(rel.size)
         ranges = np.empty(rel.size)
         back = 0.0
-        with self._action("ultrascan", "sweep_s"):
+        with self._action("ultrascan", "sweep_s", motion=("ultrascan", 0.0)):
             pos, _ = self._state(self._turret)
+            self._note_start({"turret": pos})
             try:
                 for i, a in enumerate(rel):
                     pos = self._turret_to(round(math.degrees(a) * gear) * sgn, pos)
                     got[i] = math.radians(pos * sgn / gear)
                     ranges[i] = self.read_sonar()
-            finally:
-                t_back = self._clock()
-                self._turret_to(0, self._state(self._turret)[0])
-                self._brake(self._turret)
-                back = self._elapsed(t_back, self._clock())
+            except BaseException as exc:
+                # whatever went wrong, the turret goes back (its cable); over a broken link nothing is sent
+                # (a late reply would answer the next request), and reconnecting turns it back
+                if not _link_broken(exc):
+                    self._turret_home()
+                raise
+            back = self._turret_home()
         self.sweep_s -= back
         self.turret_return_s += back
         self.readings += int(rel.size)
         return Scan.from_readings(got, ranges)
 
+    def _turret_home(self) -> float:
+        """Turn the turret back to the front and brake it; the time it took (s)."""
+        t_back = self._clock()
+        self._turret_to(0, self._state(self._turret)[0])
+        self._brake(self._turret)
+        return self._elapsed(t_back, self._clock())
+
     def stop(self) -> None:
         """Brake all three motors now."""
         self._check_open()
+        if self.link_down:
+            raise LinkLostError("could not stop the motors: the link to the brick is lost")
         try:
             for port in (self._left, self._right, self._turret):
                 self._brake(port)
@@ -420,18 +592,14 @@ class NxtRobot:
         """Brake the motors and release the brick (idempotent)."""
         if self.closed:
             return
-        self._safe_stop()
+        if not self.link_down:
+            self._safe_stop()
         self.closed = True
-        if self.owns_brick:
+        if self.owns_brick and not self.link_down:
             try:
                 self.brick.close()
             except Exception:  # the link is already gone: release it without a goodbye
-                link: Any = getattr(self.brick, "_sock", None)
-                raw = getattr(link, "_sock", None)
-                if raw is not None:
-                    with contextlib.suppress(OSError):
-                        raw.close()
-                    link._sock = None
+                self._drop_link()
                 self.brick._sock = None
 
     def __enter__(self) -> NxtRobot:
@@ -489,8 +657,34 @@ def _no_brick_message(backend: str, host: str | None, port: int | None, detail: 
             "host and port")
 
 
+def _set_reply_timeout(brick: Any, timeout_s: float | None) -> None:
+    """Make the link's socket (socket and Bluetooth backends) give up on a reply after `timeout_s`."""
+    raw = getattr(getattr(brick, "_sock", None), "_sock", None)
+    if raw is not None and hasattr(raw, "settimeout"):
+        raw.settimeout(timeout_s)
+
+
+def _socket_brick(nxt: ModuleType, host: str, port: int, timeout_s: float) -> Any:
+    """A brick behind a brick server, reached within `timeout_s` seconds (nxt-python's own socket
+    connection waits for ever on a server that accepts but does not answer)."""
+    backend = importlib.import_module("nxt.backend.socket")
+    link = backend.SocketSock(host, port)
+    raw = socket.create_connection((host, port), timeout=timeout_s)
+    link._sock = raw
+    try:
+        link.send(bytes((0x98,)))  # the socket link's connection-type query
+        kind = link.recv()
+        if not kind:
+            raise ConnectionResetError("the server closed the connection")
+    except BaseException:
+        raw.close()
+        raise
+    link.type = "ip" + kind.decode("ascii", "replace")
+    return nxt.brick.Brick(link)
+
+
 def find_brick(backend: str, *, host: str | None = None, port: int | None = None, name: str | None = None,
-               address: str | None = None) -> Any:
+               address: str | None = None, timeout_s: float | None = None) -> Any:
     """Connect to one brick with nxt-python's locator; failures become a `RobotError` with the fixes.
 
     Parameters
@@ -503,6 +697,9 @@ def find_brick(backend: str, *, host: str | None = None, port: int | None = None
         Only accept a brick with this name.
     address : str or None
         Bluetooth address of the brick (``00:16:53:xx:xx:xx``).
+    timeout_s : float or None
+        Socket backend without a `name`: give up after this many seconds on a server that does not
+        answer (None: nxt-python's locator, which waits for ever).
     """
     if backend not in BACKENDS:
         raise RobotError(f"unknown NXT backend {backend!r}; known: {', '.join(BACKENDS)}")
@@ -520,6 +717,9 @@ def find_brick(backend: str, *, host: str | None = None, port: int | None = None
     sock_log = logging.getLogger("nxt.backend.socket")
     sock_log.addFilter(mute)
     try:
+        if backend == "socket" and timeout_s is not None and not name:
+            assert host is not None and port is not None
+            return _socket_brick(nxt, host, port, timeout_s)
         with warnings.catch_warnings():
             # nxt-python's socket backend leaves the socket of a refused connection to the collector
             warnings.simplefilter("ignore", ResourceWarning)
@@ -534,8 +734,10 @@ def find_brick(backend: str, *, host: str | None = None, port: int | None = None
             detail = "pyusb finds no libusb backend: install libusb-1.0"
         elif getattr(exc, "errno", None) == 13 or isinstance(exc, PermissionError):
             detail = "permission denied on the USB device"
+        elif isinstance(exc, ConnectionRefusedError):
+            raise RobotError(_no_brick_message(backend, host, port)) from None
         elif isinstance(exc, OSError | ValueError):
-            detail = f"{kind}: {exc}"
+            detail = f"{kind}: {exc or 'no answer'}"
         else:
             raise
         raise RobotError(_no_brick_message(backend, host, port, detail)) from None
@@ -545,7 +747,7 @@ def find_brick(backend: str, *, host: str | None = None, port: int | None = None
 
 def connect_robot(backend: str, *, host: str | None = None, port: int | None = None,
                   profile: NxtProfile | str | Path | None = None, name: str | None = None,
-                  address: str | None = None) -> NxtRobot:
+                  address: str | None = None, reply_timeout_s: float | None = DEFAULT_REPLY_TIMEOUT_S) -> NxtRobot:
     """Find a brick and return an `NxtRobot` on it (the mission's and the CLI's entry point).
 
     Parameters
@@ -558,6 +760,9 @@ def connect_robot(backend: str, *, host: str | None = None, port: int | None = N
         Robot profile (YAML path or object); None uses the defaults.
     name, address : str or None
         Restrict the search to a brick name / Bluetooth address.
+    reply_timeout_s : float or None
+        Seconds to wait for one reply before the link counts as lost (`DEFAULT_REPLY_TIMEOUT_S`); the
+        robot can `NxtRobot.reconnect` to the same brick.
 
     Raises
     ------
@@ -566,10 +771,17 @@ def connect_robot(backend: str, *, host: str | None = None, port: int | None = N
         not answer as an NXT robot should.
     """
     prof = profile if isinstance(profile, NxtProfile) or profile is None else NxtProfile.load(profile)
+    again = functools.partial(_find_again, backend, host, port, name, address)
     brick = find_brick(backend, host=host, port=port, name=name, address=address)
     try:
-        return NxtRobot(brick, prof, owns_brick=True)
+        return NxtRobot(brick, prof, owns_brick=True, reply_timeout_s=reply_timeout_s, connector=again)
     except Exception:
         with contextlib.suppress(Exception):
             brick.close()
         raise
+
+
+def _find_again(backend: str, host: str | None, port: int | None, name: str | None, address: str | None,
+                timeout_s: float | None) -> Any:
+    """`find_brick` for `NxtRobot.reconnect`: the same brick, bounded by the reply timeout where it can be."""
+    return find_brick(backend, host=host, port=port, name=name, address=address, timeout_s=timeout_s)

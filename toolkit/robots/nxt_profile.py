@@ -149,6 +149,11 @@ class NxtProfile:
         """Rotation (deg) of each wheel, in opposite senses, that spins the robot by `angle_rad`."""
         return math.degrees(angle_rad) * self.track_width_cm / self.wheel_diameter_cm
 
+    def spin_rad(self, wheel_deg: float) -> float:
+        """The spin (rad) of the robot when each wheel turns `wheel_deg` in opposite senses (the inverse
+        of `spin_degrees`)."""
+        return math.radians(wheel_deg * self.wheel_diameter_cm / self.track_width_cm)
+
     # -- files ------------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -46,6 +46,7 @@ from ..world import (
     as_rng,
     wrap_angle,
 )
+from .brick_faults import FaultSchedule
 from .sim import simulated_sonar
 
 __all__ = [
@@ -140,6 +141,11 @@ class BrickConfig:
         safety net of the simulator). False: the motors run on after a lost link, as a real NXT's
         firmware keeps them running when the USB or Bluetooth link drops; only their tacho limits
         stop them (what `toolkit.robots.nxt.NxtRobot` relies on).
+    reassembly_s : float
+        Wall-clock seconds the server waits for the rest of a telegram that TCP delivered in pieces
+        before it answers the piece as a malformed telegram (0.25 s: far longer than any gap inside
+        one write on a working link, short enough that a client which really sent half a telegram
+        hears back quickly).
     """
 
     geometry: RobotGeometry = field(default_factory=RobotGeometry)
@@ -161,6 +167,7 @@ class BrickConfig:
     battery_mv: int = 8000
     name: str = "nxtnav-virtual"
     brake_on_disconnect: bool = True
+    reassembly_s: float = 0.25
 
     def __post_init__(self) -> None:
         ports = (self.left_port, self.right_port, self.turret_port)
@@ -169,7 +176,7 @@ class BrickConfig:
         if self.sonar_port not in (0, 1, 2, 3):
             raise ConfigError(f"sonar_port must be 0..3, got {self.sonar_port}")
         for k in ("deg_per_s_per_power", "accel_deg_s2", "coast_decel_deg_s2", "substep_s", "time_factor",
-                  "max_step_s", "brake_decel_deg_s2"):
+                  "max_step_s", "brake_decel_deg_s2", "reassembly_s"):
             v = getattr(self, k)
             if v is None and k == "brake_decel_deg_s2":
                 continue
@@ -360,6 +367,9 @@ class BrickWorld:
         Truth log: one JSON object per line after every robot motion (see `log_record`).
     clock : callable or None
         Wall clock in seconds (default `time.monotonic`); tests may pass their own.
+    faults : FaultSchedule, optional
+        Scheduled faults (`toolkit.robots.brick_faults`); the world carries out those of the sensor
+        and the wheels, the server those of the link.
     """
 
     def __init__(
@@ -373,8 +383,10 @@ class BrickWorld:
         rng: RngLike = None,
         log: str | Path | IO[str] | None = None,
         clock: Callable[[], float] | None = None,
+        faults: FaultSchedule | None = None,
     ) -> None:
         self.map = map
+        self.faults = faults if faults is not None else FaultSchedule()
         self.config = config or BrickConfig()
         self.geometry = self.config.geometry
         self.checker = CollisionChecker(map, self.geometry.radius_cm)
@@ -521,9 +533,14 @@ class BrickWorld:
         with self.lock:
             m = self.motors[port]
             m.command(power, mode, regulation, turn_ratio, run_state, tacho_limit)
-            if port in (self.config.left_port, self.config.right_port) and m.driven:
+            wheels = (self.config.left_port, self.config.right_port)
+            if port in wheels and m.driven:
+                fraction = self.faults.slip(port, wheels, self.time_s)
                 slip = self.config.wheel_slip
-                self._slip[port] = float(self._slip_rng.normal(0.0, slip)) if slip > 0 else 0.0
+                if fraction is not None:  # a motor-slip fault: the ground travel is this fraction of the tachos'
+                    self._slip[port] = fraction - 1.0
+                else:
+                    self._slip[port] = float(self._slip_rng.normal(0.0, slip)) if slip > 0 else 0.0
 
     def stop_all(self) -> None:
         """Brake every motor now."""
@@ -544,7 +561,13 @@ class BrickWorld:
             direction = np.array([math.cos(heading), math.sin(heading)])
             origin = p.xy + self.geometry.sensor_offset_cm * direction
             r = float(np.asarray(self.sonar.measure(self.map.walls, origin, np.array([heading]), self.rng))[0])
-            return 255 if not math.isfinite(r) or r >= 255 else max(0, round(r))
+            value = 255 if not math.isfinite(r) or r >= 255 else max(0, round(r))
+            return self.faults.sonar(value, self.time_s) if self.faults else value
+
+    def driven_ports(self) -> list[int]:
+        """Output ports whose motor the firmware is powering now."""
+        with self.lock:
+            return [p for p, m in enumerate(self.motors) if m.driven]
 
     def sonar_transaction(self, port: int, tx: bytes, rx_len: int) -> None:
         """Start an I2C transaction on input `port` (LS_WRITE); the result waits for LS_READ."""

@@ -4,7 +4,16 @@ Planners and localisers import from here and nowhere else in `toolkit`.
 """
 
 from .collision import CollisionChecker
-from .errors import ConfigError, LocalisationError, MapError, NxtnavError, PlanningError, RegistryError, RobotError
+from .errors import (
+    ConfigError,
+    LinkLostError,
+    LocalisationError,
+    MapError,
+    NxtnavError,
+    PlanningError,
+    RegistryError,
+    RobotError,
+)
 from .geometry import (
     Pose,
     RngLike,
@@ -22,7 +31,7 @@ from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_ma
 from .params import Param, Params
 from .point_collision import CHECKER_BACKENDS, PointCollisionChecker, make_checker
 from .registry import Registry
-from .robot import NO_ECHO, MoveOutcome, Robot, RobotGeometry, Scan, default_scan_angles
+from .robot import NO_ECHO, MoveOutcome, Resumption, Robot, RobotGeometry, Scan, default_scan_angles
 from .robot_model import FACETS, NXT_SONAR_SIGMA_CM, MotionNoise, RobotModel
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
 
@@ -38,6 +47,7 @@ __all__ = [
     "GridSpec",
     "IdealSonar",
     "LaserScanner",
+    "LinkLostError",
     "LocalisationError",
     "Map",
     "MapError",
@@ -54,6 +64,7 @@ __all__ = [
     "Region",
     "Registry",
     "RegistryError",
+    "Resumption",
     "RngLike",
     "Robot",
     "RobotError",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 __all__ = [
     "ConfigError",
+    "LinkLostError",
     "LocalisationError",
     "MapError",
     "NxtnavError",
@@ -35,6 +36,24 @@ class LocalisationError(NxtnavError):
 
 class RobotError(NxtnavError):
     """The robot (simulated or real) cannot carry out a command or lost its connection."""
+
+
+class LinkLostError(RobotError):
+    """The link to the robot broke during an action (a pulled cable, Bluetooth out of range, a brick that
+    stopped answering); the robot may be reached again (see `toolkit.world.Resumption`).
+
+    Attributes
+    ----------
+    action : str
+        The action that was cut short (``move``, ``turn``, ``turnback``, ``ultrascan``, ...).
+    requested : float
+        What it was asked to do: cm for moves, rad for turns, 0 otherwise.
+    """
+
+    def __init__(self, message: str, action: str = "", requested: float = 0.0) -> None:
+        super().__init__(message)
+        self.action = action
+        self.requested = requested
 
 
 class RegistryError(NxtnavError, KeyError):

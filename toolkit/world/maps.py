@@ -30,8 +30,9 @@ crosses or touches one. Both forms (``boundary`` and ``regions``) may have ``wal
 Points where the free space's boundary touches itself (``Map.pinch_points``) close the passage:
 no motion may pass through one.
 
-Names such as ``map1`` resolve to the files in the repository's ``maps/``, ``maps/external/`` and
-``maps/real-nxt/`` folders, and to files in the folders listed in the environment variable
+Names such as ``map1`` resolve to the files in the shipped data's ``maps/``, ``maps/external/`` and
+``maps/real-nxt/`` folders (`toolkit.world.bundled`: the repository's ``maps/``, installed as the
+package ``toolkit.data``), and to files in the folders listed in the environment variable
 ``NXTNAV_MAPS`` (separated like ``PATH``). A file's name is its stem, except that the map of a sweep
 set (`toolkit.sweeps`), which is always called ``arena.yaml``, goes by its ``name`` field
 (``co333-arena`` for ``maps/real-nxt/arena.yaml``). Besides the YAML files above, a name may be a
@@ -53,6 +54,7 @@ import yaml
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry.base import BaseGeometry
 
+from .bundled import data_path, data_root
 from .edge_index import edge_index
 from .errors import MapError
 from .geometry import Pose, RngLike, as_rng
@@ -61,7 +63,8 @@ __all__ = ["COORDINATE_LIMIT_CM", "MAP_FIELDS", "THIN_WALL_SLIT_CM", "GridSpec",
            "load_map", "map_from_dict", "map_search_path"]
 
 MAP_FIELDS = ("name", "description", "boundary", "obstacles", "walls", "regions", "grid", "start", "target")
-_BUNDLED = Path(__file__).resolve().parents[2] / "maps"
+_BUNDLED_FOLDERS = (".", "external", "real-nxt")
+"""The folders of the shipped data that hold maps, relative to `toolkit.world.bundled.data_root`."""
 _MAP_GLOBS = ("*.yaml", "*.yml", "*.map")
 _SWEEP_SET_MAP = "arena.yaml"
 """File name of a sweep set's map: such a file is listed under its ``name`` field, not its stem."""
@@ -70,10 +73,11 @@ FloatArray = NDArray[np.float64]
 
 
 def map_search_path() -> list[Path]:
-    """Folders searched for map names: ``$NXTNAV_MAPS`` entries first, then the bundled ``maps/``,
-    ``maps/external/`` and ``maps/real-nxt/``."""
+    """Folders searched for map names: ``$NXTNAV_MAPS`` entries first, then the shipped ``maps/``,
+    ``maps/external/`` and ``maps/real-nxt/`` (wherever nxtnav is installed)."""
     extra = [Path(p) for p in os.environ.get("NXTNAV_MAPS", "").split(os.pathsep) if p]
-    return [*extra, _BUNDLED, _BUNDLED / "external", _BUNDLED / "real-nxt"]
+    root = data_root()
+    return [*extra, *(root / f for f in _BUNDLED_FOLDERS)]
 
 
 def list_maps() -> dict[str, Path]:
@@ -100,7 +104,7 @@ def _listed_name(path: Path) -> str:
 
 
 def _resolve(name_or_path: str | os.PathLike[str]) -> Path:
-    p = Path(name_or_path)
+    p = data_path(name_or_path)
     if p.suffix in (".yaml", ".yml", ".map") or p.is_file() or os.sep in str(name_or_path):
         if not p.is_file():
             raise MapError(f"map file {str(p)!r} not found")

@@ -18,6 +18,7 @@ from .errors import ConfigError
 __all__ = [
     "NO_ECHO",
     "MoveOutcome",
+    "Resumption",
     "Robot",
     "RobotGeometry",
     "Scan",
@@ -136,6 +137,36 @@ class MoveOutcome:
 
     def to_dict(self) -> dict[str, Any]:
         return {"requested_cm": self.requested_cm, "distance_cm": self.distance_cm, "watchdog": self.watchdog}
+
+
+@dataclass(frozen=True)
+class Resumption:
+    """What an action cut short by a lost link did, as the robot measured it once its link was back.
+
+    Attributes
+    ----------
+    action : str
+        The action that was cut short (``move``, ``turn``, ``turnback``, ``ultrascan``, ...; empty when
+        none was under way).
+    requested : float
+        What it was asked to do: cm for moves, rad for turns, 0 otherwise.
+    done : float
+        What the wheels' tachometers say it did, in the same unit (0 for other actions).
+    tacho_before, tacho_after : dict or None
+        Rotation counts (degrees): of the motors the action drives (``left`` and ``right``, or
+        ``turret``) when it started (None when the link broke before they were read), and of all three
+        after the link came back (before the turret was turned back to the front).
+    """
+
+    action: str
+    requested: float
+    done: float
+    tacho_before: dict[str, int] | None = None
+    tacho_after: dict[str, int] | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"action": self.action, "requested": self.requested, "done": self.done,
+                "tacho_before": self.tacho_before, "tacho_after": self.tacho_after}
 
 
 @runtime_checkable

@@ -260,7 +260,7 @@ class LocalisationOutcome:
     prior : str
         How the localiser was initialised (``global``, ``noisy-truth`` or ``pf``).
     result : object
-        What `localisation.procedure.localise` returned (its per-iteration trace for plots).
+        What the global strategy (`localisation.global_localisation`) returned (its per-look trace for plots).
     """
 
     estimate: Pose

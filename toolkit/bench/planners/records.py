@@ -19,6 +19,9 @@ RUN_COLUMNS = ("map", "planner", "run", "seed", "success", "time_s", "length_cm"
                "first_solution_length_cm", "simplify", "simplify_time_s", "simplified_length_cm", "simplified_turns",
                "simplified_min_clearance_cm", "simplified_length_ratio", "simplified_exec_error_cm", "collision")
 
+#: Columns of ``runs.csv`` that hold wall-clock measures: they differ between two runs of the same seed.
+TIMING_COLUMNS = frozenset({"time_s", "first_solution_s", "simplify_time_s"})
+
 #: Columns of ``progress.csv``: one best-cost sample of an anytime planner's run per row.
 PROGRESS_COLUMNS = ("map", "planner", "run", "seed", "time_s", "iterations", "best_cost_cm")
 

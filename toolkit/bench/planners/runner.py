@@ -281,6 +281,9 @@ def run_benchmark(
 ) -> BenchmarkResult:
     """Run the benchmark: the references of every query, then every planner run.
 
+    Ctrl-C ends the run early: the result then holds the finished runs and ``complete`` is False
+    (the written files say so).
+
     Parameters
     ----------
     config : BenchmarkConfig
@@ -291,9 +294,6 @@ def run_benchmark(
     on_done : callable or None
         Called with each `ReferenceResult` and `RunRecord` as it finishes (progress bars);
         `config.n_tasks()` is the total.
-
-    Ctrl-C ends the run early: the result then holds the finished runs and ``complete`` is False
-    (the written files say so).
     """
     check_planner_names(config.planners)
     started = datetime.now()

@@ -46,8 +46,8 @@ def shortcut_path(path: ArrayLike, checker: CollisionChecker) -> FloatArray:
 
     >>> from toolkit.world import load_map, make_checker
     >>> m = load_map("map1")
-    >>> shortcut_path([[20, 20], [30, 30], [40, 40], [50, 50]], make_checker(m, 8.0)).tolist()
-    [[20.0, 20.0], [50.0, 50.0]]
+    >>> shortcut_path([[10, 50], [20, 50], [30, 50], [40, 50]], make_checker(m, 8.0)).tolist()
+    [[10.0, 50.0], [30.0, 50.0], [40.0, 50.0]]
     """
     p = np.asarray(path, dtype=float).reshape(-1, 2)
     if len(p) < 3:
