@@ -2,8 +2,9 @@
 
 FCL and the indexed checker answer every check alike (FCL's tolerance band decided exactly), so
 with the same seed every planner takes the same decisions: `runs.csv` must be equal cell for cell
-except the wall-clock columns (planning, first-solution and simplification times) and the column that names the backend. The budget is one every planner
-here meets on either backend (min-turn ends on the clock; the OMPL planners count iterations).
+except the wall-clock columns (planning, first-solution and simplification times) and the column
+that names the backend. The budget is one every planner here meets on either backend (min-turn
+counts rounds; the OMPL planners count iterations).
 """
 
 from __future__ import annotations

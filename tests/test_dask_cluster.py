@@ -23,6 +23,7 @@ from typing import Any
 import pytest
 from conftest import REAL_NXT, nxtnav_exe, run_cli
 from distributed import Client
+
 from toolkit.bench.planners.records import TIMING_COLUMNS
 
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("dask-cluster")]  # one cluster per test run
