@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from localisation.scan import GARBAGE_SHARE, garbage_share
-from toolkit.mission.config import sweep_angles
+from localisation.scan import GARBAGE_SHARE, garbage_share, sweep_angles
 from toolkit.robots.sim import SimRobot
 from toolkit.world import Scan, load_map
 

@@ -172,7 +172,8 @@ def _cases() -> list[Case]:
     bl = "bench localisers --maps map1 --localisers paper-pf --trials 1 --out bl"
     add("bench localisers", 2, f"{bl} --trials 0", f"{bl} --localisers nope", "bench localisers --maps nomap --out bl",
         f"{bl} --scenario nope", f"{bl} --sonar laser", f"{bl} --sensor-noise -1", f"{bl} --tracker-prior x",
-        f"{bl} --tracking-steps 0", f"{bl} --recovery-rounds 0", f"{bl} --scan-processing x", f"{bl} --lobe x",
+        f"{bl} --tracking-steps 0", f"{bl} --recovery-rounds 0", f"{bl} --scan-processing x",
+        f"{bl} --exploration wander", f"{bl} --lobe x",
         f"{bl} --seed -1", f"{bl} --set paper-pf.n_particles=abc", f"{bl} --set paper-pf.n_particles=5",
         f"{bl} --set nope.x=1", f"{bl} --set bogus=1", "bench localisers --maps map1 --out blocker",
         "bench localisers --maps map1 --out full", f"{bl} --workers 0", "bench localisers")

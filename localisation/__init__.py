@@ -1,16 +1,18 @@
 """Localisation from ultrasonic scans: the paper's particle filter and filterpy variants.
 
 Importing the package registers every localiser (``paper-pf``, ``amcl`` and the filterpy variants) in
-`LOCALISERS`; `localise` is the paper's procedure that drives a robot.
+`LOCALISERS`; `localise` runs the global-localisation strategy (`GlobalLocalisation`) that missions and
+the benchmark share, driving a robot; `look` is one look the paper's way (sweep, align, sweep, update).
 """
 
 from .ambiguity import candidate_poses, describe_candidates
 from .amcl import Amcl, DistanceField
 from .base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from .filterpy_variants import EkfLocaliser, UkfLocaliser, filterpy_resample
+from .global_localisation import GlobalLocalisation, localise
 from .models import MotionModel, RangeLikelihood, RangeTable, exact_ranges, range_table
 from .particle_filter import Mode, ParticleFilter, Snapshot
-from .procedure import LocalisationResult, TraceStep, localise
+from .procedure import LocalisationResult, TraceStep, look
 from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan, raw_scan
 
 __all__ = [
@@ -18,6 +20,7 @@ __all__ = [
     "Amcl",
     "DistanceField",
     "EkfLocaliser",
+    "GlobalLocalisation",
     "LocalisationResult",
     "Localiser",
     "Mode",
@@ -38,6 +41,7 @@ __all__ = [
     "exact_ranges",
     "filterpy_resample",
     "localise",
+    "look",
     "make_localiser",
     "min_reading",
     "process_scan",

@@ -47,6 +47,7 @@ __all__ = [
     "process_scan",
     "raw_scan",
     "stuck_mask",
+    "sweep_angles",
     "sweep_fault",
     "sweep_step",
     "window_mask",
@@ -292,6 +293,27 @@ def drop_stuck(scan: Scan, min_arc_deg: float = STUCK_ARC_DEG) -> tuple[Scan, in
                     "/".join(f"{v:g}" for v in np.unique(scan.ranges[stuck])), min_arc_deg)
         return scan.subset(~stuck), k
     return scan, 0
+
+
+def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0,
+                 centres_deg: Sequence[float] = PAPER_CENTRES_DEG) -> NDArray[np.float64]:
+    """Turret angles (rad, relative to the heading) of one sweep, in the order the turret visits them.
+
+    ``window_deg >= 180`` is the full turn from straight ahead at `step_deg` steps (360 readings at
+    1 degree); smaller windows read only the windows of +-`window_deg` around `centres_deg`
+    (degrees from the heading, visited in the order given). Around the four axes that is what the
+    paper's scan processing keeps: 124 readings for 15-degree windows at 1 degree, and 600 degrees
+    of turret travel (out and back) instead of 720; the three windows ahead and to the sides
+    (-90, 0, 90) take 420.
+
+    >>> sweep_angles(1.0, 15.0).size, sweep_angles(2.0).size, sweep_angles(2.0, 15.0, (-90, 0, 90)).size
+    (124, 180, 45)
+    """
+    if window_deg >= 180.0:
+        return np.radians(np.arange(0.0, 360.0 - 1e-9, step_deg))
+    half = np.arange(0.0, window_deg + 1e-9, step_deg)
+    off = np.concatenate([-half[:0:-1], half])
+    return np.radians(np.concatenate([c + off for c in centres_deg]))
 
 
 GARBAGE_JUMP_CM = 20.0

@@ -84,7 +84,7 @@ def test_processing_reduces_nxt_reading_errors() -> None:
 
 
 def test_free_travel_of_the_robot_disc() -> None:
-    from localisation.procedure import free_travel
+    from localisation.exploration import free_travel
 
     # a wall 20 cm ahead (x = 20) seen by every forward reading, nothing else
     a = default_scan_angles()

@@ -65,7 +65,7 @@ OracleLocaliser.name = "oracle"  # set after class creation: stays out of the re
 
 def oracle_localise(robot: Any, localiser: Localiser, prior: Prior | None = None, rng: Any = None,
                     **options: Any) -> LocalisationResult:
-    """Stand-in for localisation.procedure.localise: one scan, one update (the sweep options are ignored)."""
+    """Stand-in for localisation.procedure.look: one scan, one update (the sweep options are ignored)."""
     localiser.reset(prior)
     localiser.update(robot.ultrascan())
     est = localiser.estimate()

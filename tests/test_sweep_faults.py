@@ -12,9 +12,8 @@ import pytest
 from conftest import REAL_NXT
 
 from localisation.base import PoseEstimate, make_localiser
-from localisation.procedure import STUCK_SWEEPS, localise
-from localisation.scan import GARBAGE_SHARE, garbage_share, sweep_fault
-from toolkit.mission.config import sweep_angles
+from localisation.procedure import STUCK_SWEEPS, look
+from localisation.scan import GARBAGE_SHARE, garbage_share, sweep_angles, sweep_fault
 from toolkit.mission.recovery import (
     OFF_COURSE_CM,
     OFF_COURSE_DEG,
@@ -95,8 +94,8 @@ def test_the_procedure_sweeps_again_on_a_stuck_sensor_and_says_so() -> None:
     m = load_map("map1")
     robot = _SpoiledSweeps(SimRobot(m, Pose.from_deg(30, 30, 10), rng=1), bad=1)
     told: list[str] = []
-    out = localise(robot, make_localiser("paper-pf", m, rng=1), max_iterations=1, align=False,  # type: ignore[arg-type]
-                   rng=1, on_sweep_fault=told.append)
+    out = look(robot, make_localiser("paper-pf", m, rng=1), align=False, rng=1,  # type: ignore[arg-type]
+               on_sweep_fault=told.append)
     assert robot.sweeps == 2 and out.scans == 2
     assert len(told) == 1 and told[0].startswith("stuck: the sonar repeated 42 cm")
     assert out.converged and out.estimate.pose.distance_to(Pose.from_deg(30, 30, 10)) < 3.0
@@ -107,8 +106,8 @@ def test_a_sensor_that_stays_stuck_ends_the_localisation() -> None:
     robot = _SpoiledSweeps(SimRobot(m, Pose.from_deg(30, 30, 10), rng=1), bad=10)
     told: list[str] = []
     with pytest.raises(LocalisationError, match=rf"stayed faulty for {STUCK_SWEEPS} sweeps in a row \(stuck"):
-        localise(robot, make_localiser("paper-pf", m, rng=1), max_iterations=1, align=False,  # type: ignore[arg-type]
-                 on_sweep_fault=told.append)
+        look(robot, make_localiser("paper-pf", m, rng=1), align=False,  # type: ignore[arg-type]
+             on_sweep_fault=told.append)
     assert robot.sweeps == STUCK_SWEEPS and len(told) == STUCK_SWEEPS
 
 

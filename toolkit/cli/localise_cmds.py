@@ -163,6 +163,9 @@ def bench_localisers(
     recovery_rounds: int = typer.Option(3, help="Runs of the procedure (localiser not reset) allowed to recover "
                                                 "from a kidnapping.", callback=count),
     scan_processing: str = typer.Option("paper", help="Scans for the localisers: paper (processed) or raw."),
+    exploration: str = typer.Option("modes", help="Exploration rule of the global strategy while the belief is "
+                                                  "ambiguous: modes (a mission's: safe from every candidate pose) "
+                                                  "or scan (toward the longest free run of the last sweep)."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
     radius: float | None = typer.Option(None, "--radius", min=0.1,
                                         help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
@@ -175,6 +178,8 @@ def bench_localisers(
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
 ) -> None:
     """Benchmark localisers on random true poses: runs.csv, summary.md and plots in --out."""
+    from localisation.global_localisation import EXPLORATIONS
+
     from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.localisers import FILES, BenchConfig, TrialResult, make_tasks, run_trial, write_csv, write_summary
     from ..bench.localisers.plots import write_plots
@@ -187,6 +192,8 @@ def bench_localisers(
     _check_sonar(sonar)
     profile = sonar_profile(sonar_profile_path, sonar)
     scenarios = _scenarios(scenario)
+    if exploration not in EXPLORATIONS:
+        raise NxtnavError(f"--exploration: unknown rule {exploration!r}; known: {', '.join(EXPLORATIONS)}")
     if trials < 1:
         raise NxtnavError(f"--trials must be >= 1, got {trials}")
     if workers < 1:
@@ -197,7 +204,8 @@ def bench_localisers(
     options = _options_for(sets, locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
-                      lobe=lobe, robot_radius_cm=radius, localiser_options=options, sonar_model=profile)
+                      exploration=exploration, lobe=lobe, robot_radius_cm=radius, localiser_options=options,
+                      sonar_model=profile)
     _check_construction(load_map(maps[0]), options)
     tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
     out.mkdir(parents=True, exist_ok=True)
@@ -218,7 +226,8 @@ def bench_localisers(
         "--trials", str(trials), "--sonar", sonar,
         *(["--sonar-profile", str(sonar_profile_path)] if sonar_profile_path is not None else []),
         "--scenario", ",".join(scenarios), "--seed", str(seed),
-        "--tracker-prior", tracker_prior, "--scan-processing", scan_processing, "--lobe", lobe,
+        "--tracker-prior", tracker_prior, "--scan-processing", scan_processing,
+        *(["--exploration", exploration] if exploration != "modes" else []), "--lobe", lobe,
         *(["--radius", f"{radius:g}"] if radius is not None else []), "--out", str(out),
         "--workers", str(workers),
         *(["--dask", dask] if dask else []), *[a for s in sets for a in ("--set", s)]])

@@ -3,13 +3,15 @@
 `run_mission` runs any registered localiser and planner on any `toolkit.world.Robot` (the simulator
 or a real NXT) from an unknown start pose to a target, the way the paper's system does:
 
-1. **Localise** globally with `localisation.procedure.localise`, one iteration at a time: by default
-   one full sweep at 2-degree steps whose readings near the minimum reading's direction and its
-   perpendiculars go to the localiser (the paper's processing without the turn and the second
+1. **Localise** globally by the strategy the localiser benchmark measures too
+   (`localisation.global_localisation.GlobalLocalisation`, built by `MissionConfig.global_strategy`):
+   by default one full sweep at 2-degree steps whose readings near the minimum reading's direction
+   and its perpendiculars go to the localiser (the paper's processing without the turn and the second
    sweep; `MissionConfig.global_align` restores them). While the belief is ambiguous (the identical
-   rooms of map3) the mission drives toward open space along a move that is collision-free from
-   every candidate pose the localiser reports, and localises again. A fix is confirmed by a second,
-   independent global localisation.
+   rooms of map3) the robot drives toward open space along a move that is collision-free from
+   every candidate pose the localiser reports, and sweeps again. A fix is confirmed by a second,
+   independent look. The mission drives those moves itself (it is the strategy's `Driver`), so they
+   are counted, checked and recorded like its own.
 2. **Plan** in the configuration space from the estimate with the chosen planner and the shared FCL
    `CollisionChecker` (with a safety margin on the robot radius when the map allows it).
 3. **Drive** the path segment by segment: Turn to the segment heading (from the estimate), then Move in
@@ -48,10 +50,11 @@ Examples
 
 from __future__ import annotations
 
+from localisation.exploration import explore_direction
 from localisation.robot_options import localiser_options
+from localisation.scan import sweep_angles
 
-from .config import MissionConfig, sweep_angles
-from .explore import explore_direction
+from .config import MissionConfig
 from .report import MissionReport, Outcome, RobotTimeSplit, TraceStep
 from .runner import run_mission
 from .simulated import run_sim_mission

@@ -1,4 +1,4 @@
-"""How a mission is run: `MissionConfig` and the turret angles of its sweeps."""
+"""How a mission is run: `MissionConfig` (the turret angles of its sweeps: `localisation.scan.sweep_angles`)."""
 
 from __future__ import annotations
 
@@ -7,13 +7,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
+from localisation.global_localisation import GlobalLocalisation
 from toolkit.world import CHECKER_BACKENDS, ConfigError
 
-FloatArray = NDArray[np.float64]
-
+_GLOBAL = GlobalLocalisation()
+"""The global strategy's defaults: a mission's global-localisation settings default to them."""
 
 _WINDOW_CENTRES: dict[str, tuple[float, ...]] = {"axes": (0.0, 90.0, 180.0, 270.0), "sides": (-90.0, 0.0, 90.0)}
 
@@ -29,8 +27,7 @@ class MissionConfig:
     planner_options, localiser_options : mapping
         Keyword arguments for `make_planner` / `make_localiser` when the stack is given by name.
     localise_options : mapping
-        Extra keyword arguments for `localisation.procedure.localise` (those it does not accept are
-        dropped with a debug log line).
+        Extra keyword arguments of every look (`localisation.procedure.look`), global or tracking.
     safety_margin_cm : float
         Extra clearance added to the robot radius when planning; the mission tries half the margin and
         then the bare radius when no path exists with it (narrow passages). Starts and targets closer
@@ -75,6 +72,10 @@ class MissionConfig:
     max_explore_moves, explore_step_cm : int, float
         While a global belief stays ambiguous, up to this many moves of at most this length toward
         open space (chosen from the scan with room for the robot disc and the margin).
+    exploration : {"modes", "scan"}
+        How those moves are chosen (`localisation.exploration`): ``modes``, collision-free with half
+        the margin from every candidate pose the localiser reports (from the scan when it reports
+        none); ``scan``, the paper procedure's rule, toward the longest free run of the last sweep.
     explore_heading_tolerance_deg : float
         An exploration move planned from the localiser's modes must stay free when the modes'
         headings are off by this much either way. From a belief that knows the place (position
@@ -168,20 +169,21 @@ class MissionConfig:
     final_scans: int = 1
     reverse_cm: float = 10.0
     max_replans: int = 12
-    max_localisation_attempts: int = 3
-    max_explore_moves: int = 6
-    explore_step_cm: float = 30.0
-    explore_heading_tolerance_deg: float = 12.0
-    align_sweeps: int = 2
+    max_localisation_attempts: int = _GLOBAL.attempts
+    max_explore_moves: int = _GLOBAL.max_explore_moves
+    explore_step_cm: float = _GLOBAL.explore_step_cm
+    exploration: str = _GLOBAL.exploration
+    explore_heading_tolerance_deg: float = _GLOBAL.explore_heading_tolerance_deg
+    align_sweeps: int = _GLOBAL.align_sweeps
     tracking: str = "continue"
-    confirm_global: bool = True
-    confirm_tolerance_cm: float = 5.0
-    confirm_all: bool = True
+    confirm_global: bool = _GLOBAL.confirm
+    confirm_tolerance_cm: float = _GLOBAL.confirm_tolerance_cm
+    confirm_all: bool = _GLOBAL.confirm_all
     tracking_std_cm: float = 4.0
     tracking_std_deg: float = 8.0
     max_actions: int = 400
-    global_scan_step_deg: float = 2.0
-    global_align: bool = False
+    global_scan_step_deg: float = _GLOBAL.scan_step_deg
+    global_align: bool = _GLOBAL.align
     track_window_deg: float = 15.0
     track_scan_step_deg: float = 2.0
     track_windows: str = "sides"
@@ -234,6 +236,18 @@ class MissionConfig:
             lowest = 0 if name in ("max_corrections", "max_replans", "max_explore_moves", "align_sweeps") else 1
             if not (isinstance(v, int) and v >= lowest):
                 raise ConfigError(f"MissionConfig.{name} must be a non-negative integer, got {v!r}")
+        self.global_strategy()  # its own checks (exploration rule, ...)
+
+    def global_strategy(self) -> GlobalLocalisation:
+        """The global-localisation strategy of this mission, from its settings (the localiser benchmark
+        runs `GlobalLocalisation`'s defaults, which are the default mission's)."""
+        return GlobalLocalisation(
+            scan_step_deg=self.global_scan_step_deg, align=self.global_align,
+            attempts=self.max_localisation_attempts, confirm=self.confirm_global, confirm_all=self.confirm_all,
+            confirm_tolerance_cm=self.confirm_tolerance_cm, max_explore_moves=self.max_explore_moves,
+            explore_step_cm=self.explore_step_cm, explore_heading_tolerance_deg=self.explore_heading_tolerance_deg,
+            align_sweeps=self.align_sweeps, place_cm=self.tracking_std_cm, margin_cm=self.safety_margin_cm,
+            exploration=self.exploration)
 
     def to_dict(self) -> dict[str, Any]:
         return {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in self.__dict__.items()}
@@ -251,23 +265,3 @@ class MissionConfig:
                     "track_windows": "axes"}
         return cls(**{**base, **overrides})
 
-
-def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0,
-                 centres_deg: tuple[float, ...] = (0.0, 90.0, 180.0, 270.0)) -> FloatArray:
-    """Turret angles (rad, relative to the heading) of one sweep, in the order the turret visits them.
-
-    ``window_deg >= 180`` is the full turn from straight ahead at `step_deg` steps (360 readings at
-    1 degree); smaller windows read only the windows of +-`window_deg` around `centres_deg`
-    (degrees from the heading, visited in the order given). Around the four axes that is what the
-    paper's scan processing keeps: 124 readings for 15-degree windows at 1 degree, and 600 degrees
-    of turret travel (out and back) instead of 720; the three windows ahead and to the sides
-    (-90, 0, 90) take 420.
-
-    >>> sweep_angles(1.0, 15.0).size, sweep_angles(2.0).size, sweep_angles(2.0, 15.0, (-90, 0, 90)).size
-    (124, 180, 45)
-    """
-    if window_deg >= 180.0:
-        return np.radians(np.arange(0.0, 360.0 - 1e-9, step_deg))
-    half = np.arange(0.0, window_deg + 1e-9, step_deg)
-    off = np.concatenate([-half[:0:-1], half])
-    return np.radians(np.concatenate([c + off for c in centres_deg]))

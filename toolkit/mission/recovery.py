@@ -10,10 +10,12 @@ tacho limits did), and `Recovery.resume`:
    happened, and tells the localiser of that part;
 3. re-localises around the last estimate, its spread widened by half the interrupted motion (the
    motion could have gone anywhere between not at all and all of it, should the tachos mislead), with
-   a full sweep; a re-localisation that does not converge falls back to a global one;
+   the mission's tracking sweep; a re-localisation that does not converge falls back to the global
+   strategy the mission starts with (`localisation.global_localisation.GlobalLocalisation`), and so
+   does a link lost before the first fix;
 4. goes on: the mission plans again from the new estimate.
 
-A sweep the localisation procedure takes again because the sensor looked stuck or gave garbage
+A sweep a look (`localisation.procedure.look`) takes again because the sensor looked stuck or gave garbage
 (`localisation.scan.sweep_fault`) is noted too, and so is a fix that lies further from the belief
 predicted through the motions than motion noise explains (`off_course`: a wheel that slipped); the
 mission then plans again from the fix instead of steering back to the old path. Every fault and
@@ -235,7 +237,7 @@ class Recovery:
 
     # -- the sonar ----------------------------------------------------------------------------------
     def sonar_fault(self, mission: _Mission, detail: str) -> None:
-        """The localisation procedure sweeps again because of `detail` (its `on_sweep_fault`)."""
+        """A look sweeps again because of `detail` (its `on_sweep_fault`, global or tracking)."""
         t = float(mission.robot.robot_time_s)
         self.log.say_once(detail.split(":", 1)[0], f"the sonar looks faulty ({detail}); sweeping again")
         self.log.fault("sonar", t, detail)

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from localisation.base import LOCALISERS, Localiser, make_localiser
-from localisation.procedure import LocaliseProcedure, localise
+from localisation.procedure import LocaliseProcedure, look
 from planners.base import Planner, make_planner
 
 from ..world import (
@@ -56,7 +56,7 @@ def run_mission(
     rng: RngLike = None,
     config: MissionConfig | None = None,
     recorder: Recorder | None = None,
-    procedure: LocaliseProcedure = localise,
+    procedure: LocaliseProcedure = look,
     reconnect_timeout_s: float = DEFAULT_RECONNECT_TIMEOUT_S,
 ) -> MissionReport:
     """Run the stack on `robot` from its unknown pose to `target`.
@@ -82,9 +82,9 @@ def run_mission(
     recorder : toolkit.recording.Recorder, optional
         Records every robot command, scan and localiser call (`toolkit.recording`); the caller closes it.
     procedure : callable
-        The localisation procedure (`localisation.procedure.localise`, the paper's; tests pass
-        stand-ins): called as ``procedure(robot, localiser, prior=..., rng=..., **options)``, it
-        returns a `LocalisationResult`.
+        One look (`localisation.procedure.look`, the paper's; tests pass stand-ins), for the global
+        strategy and the re-localisations: called as ``procedure(robot, localiser, prior=..., rng=...,
+        reset=..., **options)``, it returns a `LocalisationResult`.
     reconnect_timeout_s : float
         After a lost link (`toolkit.world.LinkLostError`), how long (wall-clock s) to try to reach the
         robot again before the mission ends (`toolkit.mission.recovery`).

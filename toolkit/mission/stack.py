@@ -14,8 +14,8 @@ from shapely.ops import nearest_points
 
 from localisation.ambiguity import candidate_poses, describe_candidates
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
-from localisation.procedure import LocaliseProcedure, localise
-from localisation.scan import ScanProcessing, min_reading
+from localisation.procedure import LocaliseProcedure, look
+from localisation.scan import sweep_angles
 from planners.base import Planner, PlanningProblem, PlanResult
 
 from ..world import (
@@ -23,13 +23,10 @@ from ..world import (
     Map,
     Pose,
     Robot,
-    Scan,
     angle_diff,
     make_checker,
-    ray_cast,
 )
-from .config import _WINDOW_CENTRES, MissionConfig, sweep_angles
-from .explore import explore_direction
+from .config import _WINDOW_CENTRES, MissionConfig
 from .recovery import WIDE_STD_CM, WIDE_STD_DEG, off_course, widened_prior
 from .report import Leg, Outcome, TraceStep
 
@@ -54,7 +51,7 @@ class _Mission:
 
     def __init__(self, robot: Robot, m: Map, target: FloatArray, planner: Planner,
                  localiser: Callable[[], Localiser], rng: np.random.Generator, config: MissionConfig,
-                 procedure: LocaliseProcedure = localise,
+                 procedure: LocaliseProcedure = look,
                  on_plan: Callable[[FloatArray], None] | None = None) -> None:
         self.robot = robot
         self._on_plan = on_plan  # told every path the mission will drive (a recorder, a live view)
@@ -91,7 +88,6 @@ class _Mission:
         self.path_length = 0.0
         self.actions = 0
         self.estimate: PoseEstimate | None = None
-        self._last_raw_scan: Scan | None = None
         self.fresh_fix = False  # the estimate comes from a global fix not yet checked by a drive
         self.since_fix_cm = 0.0  # driven since the last converged fix
         self._localise = procedure
@@ -125,13 +121,8 @@ class _Mission:
 
     # -- localisation ---------------------------------------------------------------------------
     def _sweep_options(self, kind: str) -> dict[str, Any]:
-        """How the localisation procedure sweeps for a ``global``, ``track`` or ``final`` localisation."""
+        """How a ``track`` or ``final`` re-localisation sweeps (a global one: `MissionConfig.global_strategy`)."""
         cfg = self.cfg
-        if kind == "global":
-            # without the turn, the windows are taken around the minimum reading's direction: the
-            # near-perpendicular readings a sonar model gets right, from one sweep
-            return {"align": cfg.global_align, "scan_angles": sweep_angles(cfg.global_scan_step_deg),
-                    "processing": None if cfg.global_align else ScanProcessing(reference="min")}
         if cfg.track_align:
             return {"align": True, "process": True, "scan_angles": None}
         if kind == "final":
@@ -141,82 +132,37 @@ class _Mission:
                 "scan_angles": sweep_angles(cfg.track_scan_step_deg, cfg.track_window_deg,
                                             _WINDOW_CENTRES[cfg.track_windows])}
 
-    def _call_localise(self, prior: Prior | None, kind: str = "global", **extra: Any) -> PoseEstimate:
-        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
-                                  **dict(self.cfg.localise_options), **extra}
+    def _look_options(self) -> dict[str, Any]:
+        """Keyword arguments of every look, global or tracking: the config's, and `on_sweep_fault`."""
+        options = dict(self.cfg.localise_options)
         if self.on_sweep_fault is not None:
-            kwargs["on_sweep_fault"] = self.on_sweep_fault
-        result = self._localise(self.robot, self.localiser, **kwargs)
-        self._last_raw_scan = result.trace[-1].scan.raw if result.trace else None
-        return result.estimate
+            options["on_sweep_fault"] = self.on_sweep_fault
+        return options
+
+    def _call_localise(self, prior: Prior | None, kind: str = "track", **extra: Any) -> PoseEstimate:
+        kwargs: dict[str, Any] = {"prior": prior, "rng": self.rng, **self._sweep_options(kind),
+                                  **self._look_options(), **extra}
+        return self._localise(self.robot, self.localiser, **kwargs).estimate
 
     def _ok(self, est: PoseEstimate) -> bool:
         return bool(est.converged) and bool(self.map.contains(est.pose.xy))
 
     def localise_global(self) -> PoseEstimate:
-        """Global localisation with retries; ends the mission when the robot stays lost.
-
-        Each attempt runs one iteration of the localisation procedure at a time. A converged fix is
-        confirmed by a second, independent global localisation on a fresh scan (`confirm_global`):
-        two fixes that disagree reveal a symmetric place the localiser collapsed on too early (a
-        second belief at the same place whose heading is still loose confirms the place). While
-        the belief is ambiguous the mission drives toward open space along a direction where the scan
-        shows room for the whole robot disc, and localises again from there.
+        """Global localisation by the strategy missions and the localiser benchmark share
+        (`localisation.global_localisation.GlobalLocalisation`, from `MissionConfig.global_strategy`);
+        the mission is its `Driver`, so every move of it is counted, checked and recorded here. Ends the
+        mission when the robot stays lost, naming the candidate places when several fit.
         """
         cfg = self.cfg
-        for attempt in range(1, cfg.max_localisation_attempts + 1):
-            est = self._call_localise(None, reset=True, max_iterations=1)
-            self.estimate = est
-            explores = aligns = 0
-            fresh = False
-            from_one_place = True  # the fix rests on scans from one place only
-            while True:
-                if self._ok(est):
-                    if not (cfg.confirm_global and (from_one_place or cfg.confirm_all)):
-                        break
-                    est2 = self._call_localise(None, reset=True, max_iterations=1)
-                    self.estimate = est2
-                    if est2.pose.distance_to(est.pose) <= cfg.confirm_tolerance_cm:
-                        if self._ok(est2):
-                            est = est2
-                            break
-                        if self._place_known(est2):
-                            # the same place again, only its heading still loose (no twin place):
-                            # the first fix stands, and the belief is the first fix's again
-                            self.localiser.reset(Prior(est.pose, est.cov))
-                            self.estimate = est
-                            break
-                    self.record("localise", note=f"global attempt {attempt}: two fixes disagree "
-                                                 f"({est.pose.x:.0f}, {est.pose.y:.0f}) vs "
-                                                 f"({est2.pose.x:.0f}, {est2.pose.y:.0f})")
-                    est = est2
-                    fresh = True
-                if explores >= cfg.max_explore_moves:
-                    break
-                direction, distance = self.explore_move(math.pi if explores else None)
-                if distance < 1.0:  # no move is safe from this belief: settle its heading on the spot
-                    if aligns < cfg.align_sweeps and self._place_known(est):
-                        est = self._align_sweep()
-                        aligns += 1
-                        continue
-                    break
-                self.record("localise", note=f"global attempt {attempt}: ambiguous (spread "
-                                             f"{est.std_xy_cm:.1f} cm), exploring")
-                self.turn(direction, action="explore-turn")
-                if self.move(distance, action="explore-move"):
-                    self.turnback()
-                explores += 1
-                est = self._call_localise(None, reset=fresh, max_iterations=1)
-                self.estimate = est
-                from_one_place = fresh
-                fresh = False
-            ok = self._ok(est)
-            self.record("localise", note=f"global attempt {attempt}: {'converged' if ok else 'not converged'}, "
-                                         f"spread {est.std_xy_cm:.2f} cm")
-            if ok:
-                self.fresh_fix = True
-                self.since_fix_cm = 0.0
-                return est
+        result = cfg.global_strategy().run(self.robot, self.localiser, rng=self.rng, driver=self,
+                                           procedure=self._localise, look_options=self._look_options(),
+                                           map=self.map, checker=self.checker,
+                                           margin_checker=self.safe_checkers[-1] if self.safe_checkers else None)
+        self.estimate = result.estimate
+        if result.converged:
+            self.fresh_fix = True
+            self.since_fix_cm = 0.0
+            return result.estimate
         self.candidates = candidate_poses(self._localiser)
         if self.candidates:  # several places fit the scans equally: say which, not just "lost"
             raise _MissionEnded(Outcome.AMBIGUOUS, f"{describe_candidates(self.candidates)}; global localisation "
@@ -224,65 +170,9 @@ class _Mission:
         raise _MissionEnded(Outcome.LOST, f"robot lost: global localisation did not converge in "
                             f"{cfg.max_localisation_attempts} attempts")
 
-    def _place_known(self, est: PoseEstimate) -> bool:
-        """Whether a global belief knows the place whatever its heading: position spread and every
-        mode within `tracking_std_cm` of the mean, the mean inside the map."""
-        near = self.cfg.tracking_std_cm
-        return (bool(np.all(np.isfinite(est.cov))) and est.std_xy_cm <= near
-                and all(md.pose.distance_to(est.pose) <= near for md in self.localiser.modes)
-                and bool(self.map.contains(est.pose.xy)))
-
-    def _align_sweep(self) -> PoseEstimate:
-        """The paper's turn-and-sweep-again, on the spot: turn toward the minimum reading of the last
-        sweep, sweep the windows around the axes and update the same belief."""
-        scan = self._last_raw_scan if self._last_raw_scan is not None else self.robot.ultrascan()
-        turn, _ = min_reading(scan)
-        self.turn(turn, action="align-turn")
-        est = self._call_localise(None, reset=False, max_iterations=1, align=False, processing=None,
-                                  scan_angles=sweep_angles(self.cfg.global_scan_step_deg, 15.0))
-        self.estimate = est
-        self.record("localise", note=f"no safe exploration move: turned toward the nearest wall, swept again: "
-                                     f"{'converged' if self._ok(est) else 'not converged'}, heading spread "
-                                     f"{math.degrees(math.sqrt(max(float(est.cov[2][2]), 0.0))):.1f} deg")
-        return est
-
-    def explore_move(self, avoid_rad: float | None) -> tuple[float, float]:
-        """A turn (rad) and distance (cm) toward open space while the belief is ambiguous.
-
-        With a localiser that reports its modes (candidate poses, as paper-pf does), the move must be
-        collision-free with the safety margin from every mode and heads where the nearest wall
-        (over the modes) is farthest: safe whichever candidate is the truth. Otherwise the move comes
-        from the last scan alone (`explore_direction`), which trusts the sonar's free space.
-        """
-        cfg = self.cfg
-        checker = self.safe_checkers[-1] if self.safe_checkers else self.checker
-        tol = math.radians(cfg.explore_heading_tolerance_deg)
-        poses = [md.pose for md in self.localiser.modes if self.checker.point_free(md.pose.xy)]
-        est = self.estimate
-        if est is not None and self._place_known(est):
-            # one place, loose heading (the modes differ in heading only): allow for the belief's spread
-            poses = poses or [est.pose]
-            tol = max(tol, 3.0 * math.sqrt(max(float(est.cov[2][2]), 0.0)))
-        if poses:
-            rel = np.radians(np.arange(0.0, 360.0, 5.0))
-            if avoid_rad is not None:
-                rel = rel[np.abs(angle_diff(rel, avoid_rad)) >= math.radians(45.0)]
-            for length in (cfg.explore_step_cm, 0.5 * cfg.explore_step_cm, 0.25 * cfg.explore_step_cm):
-                ok = np.ones(rel.size, dtype=bool)
-                room = np.full(rel.size, np.inf)
-                for p in poses:
-                    for dev in (-tol, 0.0, tol):  # the modes' headings may be off by the tolerance
-                        ang = p.theta + rel + dev
-                        ends = p.xy[None, :] + length * np.column_stack([np.cos(ang), np.sin(ang)])
-                        ok &= checker.segments_free(np.repeat(p.xy[None, :], rel.size, axis=0), ends)
-                        room = np.minimum(room, ray_cast(self.map.walls, p.xy, ang))
-                if ok.any():
-                    k = int(np.argmax(np.where(ok, room, -np.inf)))
-                    return float(angle_diff(rel[k], 0.0)), float(length)
-            return 0.0, 0.0
-        scan = self._last_raw_scan if self._last_raw_scan is not None else self.robot.ultrascan()
-        return explore_direction(scan, self.radius + 0.5 * cfg.safety_margin_cm + 0.5, self.rng, avoid_rad,
-                                 cfg.explore_step_cm)
+    def note(self, text: str) -> None:
+        """A decision of the global strategy, recorded in the trace."""
+        self.record("localise", note=text)
 
     def relocalise(self, reason: str, kind: str = "track") -> PoseEstimate:
         """Tracking re-localisation from the current belief (`kind` ``track`` or, at the target,
@@ -291,9 +181,9 @@ class _Mission:
         if self.estimate is None:
             return self.localise_global()
         if self.cfg.tracking == "prior":
-            est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
+            est = self._call_localise(self._prior(self.estimate), kind, reset=True)
         else:
-            est = self._call_localise(None, kind, reset=False, max_iterations=1)
+            est = self._call_localise(None, kind, reset=False)
         self.estimate = est
         ok = self._ok(est)
         self.record("relocalise", note=f"{reason}: {'converged' if ok else 'not converged'}, "
@@ -303,7 +193,7 @@ class _Mission:
             self.since_fix_cm = 0.0
             return est
         if self.cfg.tracking != "prior":
-            est = self._call_localise(self._prior(self.estimate), kind, reset=True, max_iterations=1)
+            est = self._call_localise(self._prior(self.estimate), kind, reset=True)
             self.estimate = est
             ok = self._ok(est)
             self.record("relocalise", note=f"{reason}, from a wider prior: {'converged' if ok else 'not converged'}")

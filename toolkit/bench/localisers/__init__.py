@@ -5,9 +5,10 @@ this process, over a process pool or on a Dask cluster:
 
 ``global``
     A `SimRobot` is put at a random free pose (seeded; at least `BenchConfig.pose_clearance_cm` from every
-    wall, heading uniform) and `localisation.procedure.localise` runs the paper's procedure (scan,
-    turn toward the minimum reading, rescan, iterate). The final estimate is compared with the
-    simulator's true pose at the end of the procedure. Success = within `SUCCESS_CM` (2 cm) and
+    wall, heading uniform) and localises by the global strategy a mission runs
+    (`localisation.global_localisation.GlobalLocalisation`: sweep, decide, explore, sweep again;
+    `BenchConfig.strategy`). The final estimate is compared with the simulator's true pose at the
+    end of the localisation. Success = within `SUCCESS_CM` (2 cm) and
     `SUCCESS_DEG` (3 degrees). One row of `RUNS_COLUMNS` per trial.
 ``tracking``
     The localiser starts from a prior at the true pose (see `BenchConfig.tracker_prior`), then the
@@ -18,10 +19,10 @@ this process, over a process pool or on a Dask cluster:
 ``kidnapped``
     A global localisation as above; once it has converged the robot is teleported
     (`SimRobot.teleport`) to another random free pose at least `BenchConfig.kidnap_min_cm` away and
-    the procedure runs again *without resetting the localiser* (``reset=False``), up to
-    `BenchConfig.recovery_rounds` times. It has recovered when a run ends converged within the
-    success tolerance of the truth; the iterations and scans it took are counted. One row of
-    `KIDNAPPED_COLUMNS` per trial.
+    the strategy runs again *without resetting the localiser* (``reset=False``; one attempt and no
+    confirmation, which would start afresh), up to `BenchConfig.recovery_rounds` times. It has
+    recovered when a run ends converged within the success tolerance of the truth; the iterations
+    and scans it took are counted. One row of `KIDNAPPED_COLUMNS` per trial.
 
 Pose trackers (`Localiser.needs_prior`, the EKF and UKF) cannot localise globally; in the global and
 kidnapped scenarios they get a prior, either the true pose plus Gaussian noise (``noisy-truth``,

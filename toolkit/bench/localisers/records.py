@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
 from localisation.base import PoseEstimate
+from localisation.global_localisation import EXPLORATIONS, GlobalLocalisation
 from localisation.robot_options import THIN_RAY, localiser_options
 from toolkit.world import (
     MotionNoise,
@@ -95,18 +96,22 @@ class BenchConfig:
     kidnap_min_cm : float
         Least distance of the teleport (cm).
     recovery_rounds : int
-        Runs of the localisation procedure, without resetting the localiser, allowed to recover
-        from a kidnapping.
+        Runs of the global strategy allowed to recover from a kidnapping, without resetting the
+        localiser (one attempt, no confirmation: either would start afresh).
     scan_processing : {"paper", "raw"}
-        Scans given to the localiser in the tracking and kidnapped loops: the paper's processing
-        (windows around 0/90/180/270 degrees from the minimum reading) or every usable reading.
+        Scans given to the localiser, in the global strategy's looks and in the tracking loop: the
+        paper's processing (windows around 0/90/180/270 degrees from the minimum reading) or every
+        usable reading.
+    exploration : {"modes", "scan"}
+        The global strategy's exploration rule (`localisation.global_localisation.EXPLORATIONS`;
+        a mission's is ``modes``).
     lobe : {"auto", "off"}
         ``auto`` tells every localiser the whole robot model (`robot`); ``off`` leaves out the sonar's
         lobe and beam mixture (the localisers model a thin ray).
     localiser_options : mapping
         Per localiser name, keyword arguments for `make_localiser` (they override the robot model's).
     localise_options : mapping
-        Extra keyword arguments for `localisation.procedure.localise`.
+        Extra keyword arguments of every look (`localisation.procedure.look`).
     sonar_model : NxtSonar, optional
         The ``nxt`` sonar's model (a fitted profile's, `toolkit.sonar_fit.load_sonar_profile`): the
         simulator reads with it and the localisers get its lobe. None: `NxtSonar`'s defaults.
@@ -127,6 +132,7 @@ class BenchConfig:
     kidnap_min_cm: float = 30.0
     recovery_rounds: int = 3
     scan_processing: str = "paper"
+    exploration: str = "modes"
     lobe: str = "auto"
     localiser_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     localise_options: Mapping[str, Any] = field(default_factory=dict)
@@ -145,6 +151,8 @@ class BenchConfig:
             raise NxtnavError(f"lobe must be 'auto' or 'off', got {self.lobe!r}")
         if self.scan_processing not in ("paper", "raw"):
             raise NxtnavError(f"scan processing must be 'paper' or 'raw', got {self.scan_processing!r}")
+        if self.exploration not in EXPLORATIONS:
+            raise NxtnavError(f"exploration must be one of {', '.join(EXPLORATIONS)}, got {self.exploration!r}")
         if self.tracking_steps < 1 or self.recovery_rounds < 1:
             raise NxtnavError("tracking_steps and recovery_rounds must be >= 1")
         lo, hi = self.tracking_step_cm
@@ -154,6 +162,12 @@ class BenchConfig:
         r = self.robot_radius_cm
         if r is not None and not (math.isfinite(r) and r > 0):
             raise NxtnavError(f"robot radius must be a positive number of cm, got {r!r}")
+
+    @property
+    def strategy(self) -> GlobalLocalisation:
+        """The global-localisation strategy of the global and kidnapped scenarios: a mission's
+        (`GlobalLocalisation`'s defaults), with this run's scan processing and exploration rule."""
+        return GlobalLocalisation(process=self.scan_processing == "paper", exploration=self.exploration)
 
     @property
     def geometry(self) -> RobotGeometry:
@@ -197,6 +211,7 @@ class BenchConfig:
             "tracking_steps": self.tracking_steps, "tracking_step_cm": list(self.tracking_step_cm),
             "kidnap_min_cm": self.kidnap_min_cm, "recovery_rounds": self.recovery_rounds,
             "scan_processing": self.scan_processing, "lobe": self.lobe,
+            "global_localisation": asdict(self.strategy),
             "localiser_options": {k: dict(v) for k, v in self.localiser_options.items()},
             "localise_options": dict(self.localise_options),
         }
@@ -245,7 +260,7 @@ class LocalisationOutcome:
     prior : str
         How the localiser was initialised (``global``, ``noisy-truth`` or ``pf``).
     result : object
-        What `localisation.procedure.localise` returned (its per-iteration trace for plots).
+        What the global strategy (`localisation.global_localisation`) returned (its per-look trace for plots).
     """
 
     estimate: Pose

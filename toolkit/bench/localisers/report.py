@@ -181,6 +181,16 @@ def _sonar_note(config: BenchConfig) -> str:
             f"{getattr(model, 'beam_width_deg', math.nan):g} degrees; every parameter in config.json")
 
 
+def _strategy_note(config: BenchConfig) -> str:
+    """The global strategy's settings in words."""
+    g = config.strategy
+    sweep = (f"sweep at {g.scan_step_deg:g}-degree steps" + (", turn toward the minimum reading, sweep again"
+                                                              if g.align else ""))
+    confirm = "each fix confirmed by a second look" if g.confirm else "fixes not confirmed"
+    return (f"{sweep}; {confirm}; while ambiguous up to {g.max_explore_moves} exploration moves of at most "
+            f"{g.explore_step_cm:g} cm (`{g.exploration}` rule) with a sweep after each; {g.attempts} attempts")
+
+
 def write_summary(
     results: Sequence[TrialResult],
     path: str | Path,
@@ -208,13 +218,14 @@ def write_summary(
         f"- true poses: uniform over the free space at least {config.pose_clearance_cm:g} cm from the walls, "
         "heading uniform; the same poses for every localiser",
         f"- success: final estimate within {SUCCESS_CM:g} cm and {SUCCESS_DEG:g} degrees of the simulator's "
-        "true pose at the end of the procedure; time = the localiser's computation time (its reset, predict "
-        "and update calls) over the whole procedure, the simulator excluded (wall clock: it grows when other "
-        "processes compete for the cores); CPU time = the worker's CPU time over the whole procedure, "
+        "true pose at the end of the localisation; time = the localiser's computation time (its reset, predict "
+        "and update calls) over the whole localisation, the simulator excluded (wall clock: it grows when other "
+        "processes compete for the cores); CPU time = the worker's CPU time over the whole localisation, "
         "simulator included (not inflated by competing processes)",
+        f"- global localisation: a mission's strategy ({_strategy_note(config)})",
         "- scans given to the localisers: "
-        + ("the paper's processing (align to the minimum reading, rescan, keep +-15 degrees around "
-           "0/90/180/270)" if config.scan_processing == "paper" else "raw (every usable reading)"),
+        + ("the paper's windows (+-15 degrees around 0/90/180/270 from the minimum reading's direction)"
+           if config.scan_processing == "paper" else "raw (every usable reading)"),
     ]
     lines.append(f"- robot model given to every localiser: {config.robot.describe()}"
                  + (" less the lobe and beam mixture (`--lobe off`: a thin ray)"
@@ -248,10 +259,10 @@ def write_summary(
     if "kidnapped" in s:
         lines += ["## Kidnapped robot", "",
                   f"After the global localisation the robot is teleported at least {config.kidnap_min_cm:g} cm "
-                  f"away; the localisation procedure then runs again without resetting the localiser, at most "
-                  f"{config.recovery_rounds} times. Recovered = a run ends converged within the success "
-                  "tolerance. The rate counts the trials whose first localisation succeeded; scans to "
-                  "recover count from the teleport.", ""]
+                  f"away; the global strategy then runs again without resetting the localiser (one attempt, no "
+                  f"confirmation: either would start afresh), at most {config.recovery_rounds} times. "
+                  "Recovered = a run ends converged within the success tolerance. The rate counts the trials "
+                  "whose first localisation succeeded; scans to recover count from the teleport.", ""]
         lines += _map_tables(s["kidnapped"], maps, localisers, _KIDNAPPED_COLUMNS)
     failed = [r for r in results if r.failure]
     if failed:

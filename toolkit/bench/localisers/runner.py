@@ -6,14 +6,16 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from localisation.ambiguity import candidate_poses
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from localisation.global_localisation import GlobalLocalisation
 from localisation.models import MotionModel
-from localisation.procedure import LocalisationResult, LocaliseProcedure, localise
+from localisation.procedure import LocalisationResult, LocaliseProcedure, look
 from toolkit.robots.sim import SimRobot
 from toolkit.seeds import derive_seed
 from toolkit.world import (
@@ -43,10 +45,12 @@ log = logging.getLogger(__name__)
 
 
 def call_localise(robot: SimRobot, localiser: Localiser, prior: Prior | None, rng: Any,
-                  options: Mapping[str, Any] | None = None, *,
-                  procedure: LocaliseProcedure = localise) -> LocalisationResult:
-    """`procedure(robot, localiser, prior=..., rng=..., **options)`: the paper's procedure by default."""
-    return procedure(robot, localiser, prior=prior, rng=rng, **dict(options or {}))
+                  options: Mapping[str, Any] | None = None, *, strategy: GlobalLocalisation | None = None,
+                  reset: bool = True, procedure: LocaliseProcedure = look) -> LocalisationResult:
+    """Localise by the global strategy missions run (`strategy`, default `GlobalLocalisation()`), each
+    look ``procedure(robot, localiser, prior=..., rng=..., reset=..., **options)``."""
+    return (strategy or GlobalLocalisation()).run(robot, localiser, prior=prior, rng=rng, reset=reset,
+                                                  procedure=procedure, look_options=options)
 
 
 def _noisy_truth(truth: Pose, cfg: BenchConfig, rng: np.random.Generator) -> Prior:
@@ -113,10 +117,11 @@ def localise_once(
             pf = make_localiser("paper-pf", m, rng=np.random.default_rng(prior_ss),
                                 **localiser_options(cfg, "paper-pf"))
             first = call_localise(robot, pf, None, np.random.default_rng(prior_ss.spawn(1)[0]),
-                                  _procedure_options(cfg))
+                                  cfg.localise_options, strategy=cfg.strategy)
             prior = _prior_from_estimate(first.estimate, cfg)
     t0, c0 = time.perf_counter(), time.thread_time()
-    result = call_localise(robot, localiser, prior, np.random.default_rng(proc_ss), _procedure_options(cfg))
+    result = call_localise(robot, localiser, prior, np.random.default_rng(proc_ss), cfg.localise_options,
+                           strategy=cfg.strategy)
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
     est = result.estimate
     final_truth = robot.true_pose
@@ -144,10 +149,6 @@ def localiser_options(cfg: BenchConfig, name: str) -> dict[str, Any]:
     """Constructor options of localiser `name`: the run's robot model (`BenchConfig.robot_options`), then
     `--set` options."""
     return {**cfg.robot_options(name), **dict(cfg.localiser_options.get(name, {}))}
-
-
-def _procedure_options(cfg: BenchConfig) -> dict[str, Any]:
-    return {"process": cfg.scan_processing == "paper", **dict(cfg.localise_options)}
 
 
 def _entropy(rng: Any) -> Any:
@@ -348,9 +349,10 @@ def _run_kidnapped(task: TrialTask) -> KidnappedRun:
     recovered = False
     iterations = scans = 0
     err, herr = pose_error(loc.estimate().pose, robot.true_pose)
-    opts = {**_procedure_options(cfg), "reset": False}
+    # the localiser's own recovery: no reset, neither a confirmation nor a new attempt (each starts afresh)
+    recover = replace(cfg.strategy, attempts=1, confirm=False)
     for _ in range(cfg.recovery_rounds):
-        res = call_localise(robot, loc, None, run_rng, opts)
+        res = call_localise(robot, loc, None, run_rng, cfg.localise_options, strategy=recover, reset=False)
         est = res.estimate
         iterations += res.iterations
         scans += res.scans
