@@ -29,6 +29,7 @@ import math
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from enum import StrEnum
 from typing import Any, Protocol
 
 import numpy as np
@@ -40,13 +41,21 @@ from .exploration import explore_direction, explore_from_modes, scan_explore_mov
 from .procedure import LocalisationResult, LocaliseProcedure, TraceStep, look
 from .scan import ScanProcessing, min_reading, sweep_angles
 
-__all__ = ["EXPLORATIONS", "Driver", "GlobalLocalisation", "RobotDriver", "localise"]
+__all__ = ["EXPLORATIONS", "DriveAction", "Driver", "GlobalLocalisation", "RobotDriver", "localise"]
 
 log = logging.getLogger(__name__)
 
 EXPLORATIONS = ("modes", "scan")
 """The exploration rules (`localisation.exploration`): ``modes`` (safe from every candidate pose),
 ``scan`` (the paper procedure's, from the last sweep alone)."""
+
+
+class DriveAction(StrEnum):
+    """Why the strategy turns or moves the robot (a mission's trace names its steps by these values)."""
+
+    EXPLORE_TURN = "explore-turn"
+    EXPLORE_MOVE = "explore-move"
+    ALIGN_TURN = "align-turn"
 
 
 class Driver(Protocol):
@@ -58,11 +67,11 @@ class Driver(Protocol):
 
     estimate: PoseEstimate | None
 
-    def turn(self, angle_rad: float, action: str) -> None:
+    def turn(self, angle_rad: float, action: DriveAction) -> None:
         """Turn in place and predict."""
         ...
 
-    def move(self, distance_cm: float, action: str) -> bool:
+    def move(self, distance_cm: float, action: DriveAction) -> bool:
         """Drive straight and predict; True when the watchdog stopped the move."""
         ...
 
@@ -98,11 +107,11 @@ class RobotDriver:
         self.localiser.predict(motion)
         self.compute_time_s += time.perf_counter() - t0
 
-    def turn(self, angle_rad: float, action: str = "turn") -> None:
+    def turn(self, angle_rad: float, action: DriveAction | None = None) -> None:
         self.robot.turn(angle_rad)
         self._predict(Motion(turn_rad=angle_rad))
 
-    def move(self, distance_cm: float, action: str = "move") -> bool:
+    def move(self, distance_cm: float, action: DriveAction | None = None) -> bool:
         out = self.robot.move(distance_cm)
         self._predict(Motion(distance_cm=out.distance_cm))
         return bool(out.watchdog)
@@ -371,8 +380,8 @@ class _Run:
                     continue
                 return est
             self.driver.note(f"global attempt {attempt}: ambiguous (spread {est.std_xy_cm:.1f} cm), exploring")
-            self.driver.turn(direction, "explore-turn")
-            if self.driver.move(distance, "explore-move"):
+            self.driver.turn(direction, DriveAction.EXPLORE_TURN)
+            if self.driver.move(distance, DriveAction.EXPLORE_MOVE):
                 self.driver.turnback()
             explores += 1
             self.moves += 1
@@ -406,7 +415,7 @@ class _Run:
         sweep, sweep the windows around the axes and update the same belief."""
         scan = self.last_scan if self.last_scan is not None else self.robot.ultrascan()
         turn, _ = min_reading(scan)
-        self.driver.turn(turn, "align-turn")
+        self.driver.turn(turn, DriveAction.ALIGN_TURN)
         self.turned(turn)
         est = self.look(False, align=False, processing=None, scan_angles=sweep_angles(self.s.scan_step_deg, 15.0))
         heading_sd = math.degrees(math.sqrt(max(float(est.cov[2][2]), 0.0)))

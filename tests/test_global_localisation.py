@@ -18,7 +18,7 @@ from localisation import GlobalLocalisation, Motion, PoseEstimate, Prior, make_l
 from localisation.base import Localiser
 from localisation.exploration import explore_from_modes, scan_explore_move
 from toolkit.bench.localisers import BenchConfig, call_localise
-from toolkit.mission import MissionConfig, run_mission
+from toolkit.mission import Action, MissionConfig, run_mission
 from toolkit.robots.sim import SimRobot
 from toolkit.world import CollisionChecker, ConfigError, MoveOutcome, Pose, Scan, load_map
 
@@ -70,9 +70,9 @@ def test_a_mission_and_the_benchmark_localise_globally_alike() -> None:
     assert len(mission_robot.log) > n  # and then the mission drove on
     fixes = [s for s in report.trace if s.note.startswith("global attempt") and "converged" in s.note]
     assert fixes and fixes[0].estimate == result.estimate.pose  # the same fix, bit for bit
-    explored = [s for s in report.trace if s.action == "explore-move"]
+    explored = [s for s in report.trace if s.action == Action.EXPLORE_MOVE]
     assert len(explored) == result.moves
-    assert [s.action for s in report.trace].index("plan") > report.trace.index(fixes[0])
+    assert [s.action for s in report.trace].index(Action.PLAN) > report.trace.index(fixes[0])
 
 
 @pytest.mark.parametrize("sonar", ["ideal", "nxt"])

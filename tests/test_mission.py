@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import localisation
-from toolkit.mission import MissionConfig, Outcome, run_mission, run_sim_mission
+from toolkit.mission import Action, MissionConfig, Outcome, run_mission, run_sim_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.seeds import derive_seeds
 from toolkit.world import NxtSonar, Pose, load_map
@@ -46,7 +46,7 @@ def _check_against_truth(report: object, robot: SimRobot) -> None:
     assert report.final_estimate.distance_to(robot.true_pose) < 2.0
     # the first plan starts where the first estimate was and ends at the target
     assert report.plans and np.allclose(report.plans[0][-1], report.target)
-    assert report.trace[0].action == "localise"
+    assert report.trace[0].action == Action.LOCALISE
     assert report.trace[-1].true_pose == robot.true_pose
 
 
@@ -131,7 +131,7 @@ def test_exploring_from_a_loose_heading_touches_no_wall() -> None:
     assert report.success, report.status
     assert report.collisions == 0
     assert report.final_error_cm is not None and report.final_error_cm <= 1.0
-    assert any(s.action == "explore-move" for s in report.trace)  # it did explore, and safely
+    assert any(s.action == Action.EXPLORE_MOVE for s in report.trace)  # it did explore, and safely
 
 
 def test_without_a_safe_exploration_move_the_robot_turns_and_sweeps_again() -> None:
@@ -142,12 +142,12 @@ def test_without_a_safe_exploration_move_the_robot_turns_and_sweeps_again() -> N
     assert report.success, report.status
     assert report.collisions == 0
     actions = [s.action for s in report.trace]
-    first_drive = actions.index("move")
-    assert "align-turn" in actions[:first_drive] and "explore-move" not in actions
+    first_drive = actions.index(Action.MOVE)
+    assert Action.ALIGN_TURN in actions[:first_drive] and Action.EXPLORE_MOVE not in actions
     assert all(s.distance_cm == 0.0 for s in report.trace[:first_drive])  # turned on the spot only
     off = MissionConfig.for_sonar("nxt", explore_step_cm=0.5, align_sweeps=0)
     lost = run_sim_mission("map2", seed=2, sonar="nxt", config=off)
-    assert "align-turn" not in [s.action for s in lost.trace]
+    assert Action.ALIGN_TURN not in [s.action for s in lost.trace]
 
 
 def test_report_counts_the_cpu_time_of_the_mission() -> None:

@@ -19,7 +19,7 @@ import pytest
 from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior
 from localisation.procedure import LocalisationResult
 from planners.base import Planner, PlanningProblem, PlanStatus, Solution
-from toolkit.mission import MissionConfig, Outcome, run_mission
+from toolkit.mission import Action, MissionConfig, Outcome, run_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.world import Map, Pose, Scan, load_map, map_from_dict, wrap_angle
 
@@ -175,11 +175,11 @@ def test_lost_robot() -> None:
     assert report.outcome is Outcome.LOST, report.status
     assert report.relocalisations == 0
     cfg = MissionConfig()
-    finals = [s for s in report.trace if s.action == "localise" and "not converged" in s.note]
+    finals = [s for s in report.trace if s.action == Action.LOCALISE and "not converged" in s.note]
     assert len(finals) == cfg.max_localisation_attempts
-    assert "plan" not in [s.action for s in report.trace]
+    assert Action.PLAN not in [s.action for s in report.trace]
     # between attempts the mission explored, within the limit of moves per attempt
-    moves = [s for s in report.trace if s.action == "explore-move"]
+    moves = [s for s in report.trace if s.action == Action.EXPLORE_MOVE]
     assert 0 < len(moves) <= cfg.max_localisation_attempts * cfg.max_explore_moves
 
 
@@ -206,8 +206,8 @@ def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
     assert robot.collisions == 0
     assert report.watchdog_stops == robot.watchdog_stops >= 1
     actions = [s.action for s in report.trace]
-    k = actions.index("turnback")
-    assert actions[k + 1] == "relocalise" and "plan" in actions[k + 2:]
+    k = actions.index(Action.TURNBACK)
+    assert actions[k + 1] == Action.RELOCALISE and Action.PLAN in actions[k + 2:]
     assert report.replans >= 1
 
 
@@ -223,7 +223,7 @@ def test_report_to_dict_is_json() -> None:
                 "seed", "start", "target", "final_pose", "final_estimate", "status", "outcome", "trace", "plans"):
         assert key in d
     assert d["start"] == [20.0, 20.0, pytest.approx(math.degrees(0.3))]
-    assert d["turns"] == sum(1 for s in report.trace if s.action in ("turn", "correct-turn")
+    assert d["turns"] == sum(1 for s in report.trace if s.action in (Action.TURN, Action.CORRECT_TURN)
                              and abs(s.turn_rad) > math.radians(0.5))
 
 
@@ -270,3 +270,12 @@ def test_target_in_a_wall_is_reported_before_the_localiser_is_built() -> None:
     assert report.localiser == "test-unbuildable" and robot.robot_time_s == 0.0
     with pytest.raises(KeyError):  # an unknown localiser name still fails at once
         run_mission(robot, m, (80.0, 80.0), localiser="no-such-filter", rng=0)
+
+
+def test_trace_actions_are_the_enum_and_unknown_ones_are_refused() -> None:
+    m = load_map("map1")
+    report, _ = _mission(m, Pose(20, 20, 0.3), m.target)
+    assert report.trace and all(isinstance(s.action, Action) for s in report.trace)
+    assert [s["action"] for s in report.to_dict()["trace"]] == [s.action.value for s in report.trace]
+    with pytest.raises(ValueError, match="'wander' is not a valid Action"):
+        Action("wander")

@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from ..mission import MissionReport
+from ..mission import Action, MissionReport
 from ..plotting import draw_cspace, draw_map, draw_path, draw_pose, plain_log_axis
 from ..world import Map, RobotGeometry
 from .paper import PAPER_TABLE, PaperResult
@@ -175,7 +175,7 @@ def animate_mission(report: MissionReport, m: Map, path: str | Path, radius: flo
     robot_circle = plt.Circle((np.nan, np.nan), r, fill=False, ec="tab:blue", lw=1.5, zorder=7)
     ax.add_patch(robot_circle)
     title = ax.set_title("", fontsize=9)
-    plan_steps = [k for k, s in enumerate(steps) if s.action == "plan" and not s.note.startswith("failed")]
+    plan_steps = [k for k, s in enumerate(steps) if s.action == Action.PLAN and not s.note.startswith("failed")]
     truth = [s.true_pose for s in steps]
     start = report.start
 

@@ -55,11 +55,12 @@ from localisation.robot_options import localiser_options
 from localisation.scan import sweep_angles
 
 from .config import MissionConfig
-from .report import MissionReport, Outcome, RobotTimeSplit, TraceStep
+from .report import Action, MissionReport, Outcome, RobotTimeSplit, TraceStep
 from .runner import run_mission
 from .simulated import run_sim_mission
 
 __all__ = [
+    "Action",
     "MissionConfig",
     "MissionReport",
     "Outcome",

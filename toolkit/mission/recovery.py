@@ -37,7 +37,7 @@ import numpy as np
 from localisation.base import Motion, PoseEstimate, Prior
 
 from ..world import LinkLostError, Resumption, RobotError, angle_diff, ray_cast
-from .report import Outcome
+from .report import Action, Outcome
 
 if TYPE_CHECKING:
     from ..recording import Recorder
@@ -242,7 +242,7 @@ class Recovery:
         self.log.say_once(detail.split(":", 1)[0], f"the sonar looks faulty ({detail}); sweeping again")
         self.log.fault("sonar", t, detail)
         self.log.add(FaultNote("sonar", t, detail), mission.robot)
-        mission.record("sonar-fault", note=f"{detail}; sweeping again")
+        mission.record(Action.SONAR_FAULT, note=f"{detail}; sweeping again")
 
     def motion_fault(self, mission: _Mission, detail: str) -> None:
         """A fix far off the prediction (the mission's `on_motion_fault`)."""
@@ -275,18 +275,18 @@ class Recovery:
         t_lost = float(robot.robot_time_s)
         detail = str(lost)
         self.log.fault("link-lost", t_lost, detail)
-        mission.record("link-lost", note=detail)
+        mission.record(Action.LINK_LOST, note=detail)
         wall0 = time.monotonic()
         try:
             back = self._reconnect(robot, detail, wall0)
         except _Ended as end:
             self.log.add(FaultNote("link-lost", t_lost, str(end), False, time.monotonic() - wall0))
-            mission.record("link-lost", note=str(end))
+            mission.record(Action.LINK_LOST, note=str(end))
             raise
         outage = time.monotonic() - wall0
         t_back = float(robot.robot_time_s)
         self._account(mission, back)
-        mission.record("link-restored", note=f"after {outage:.1f} s; the interrupted {back.action or 'action'} "
+        mission.record(Action.LINK_RESTORED, note=f"after {outage:.1f} s; the interrupted {back.action or 'action'} "
                                              f"did {back.done:.2f} of {back.requested:.2f} by the tachometers")
         self._relocalise(mission, back)
         note = FaultNote("link-lost", t_lost, detail, True, outage, float(robot.robot_time_s) - t_back, back)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import Enum, StrEnum
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -46,6 +46,35 @@ class Outcome(Enum):
     """The link to the robot was lost and did not come back within the reconnect timeout."""
 
 
+class Action(StrEnum):
+    """What one trace step did; its value is the name the JSON and the plots use."""
+
+    LOCALISE = "localise"
+    """A global localisation's look (the note says what it decided)."""
+    RELOCALISE = "relocalise"
+    """A fix on the way (tracking, a wider prior, or global)."""
+    PLAN = "plan"
+    TURN = "turn"
+    MOVE = "move"
+    TURNBACK = "turnback"
+    """Backing off from the wall ahead after a watchdog stop."""
+    EXPLORE_TURN = "explore-turn"
+    EXPLORE_MOVE = "explore-move"
+    ALIGN_TURN = "align-turn"
+    """A turn on the spot to sweep again from another heading (no safe exploration move)."""
+    CORRECT_TURN = "correct-turn"
+    CORRECT_MOVE = "correct-move"
+    """The final correction toward the target."""
+    SKIP_FIX = "skip-fix"
+    """A fix left out: the belief is narrow enough for the way ahead."""
+    LINK_LOST = "link-lost"
+    LINK_RESTORED = "link-restored"
+    SONAR_FAULT = "sonar-fault"
+    """A sweep taken again: the sensor was stuck or gave garbage."""
+    OFF_COURSE = "off-course"
+    """A fix far from the prediction, or watchdog stops the map does not explain."""
+
+
 class Leg(Enum):
     """How driving toward one waypoint ended (`_Mission.drive_to`)."""
 
@@ -64,10 +93,8 @@ class TraceStep:
 
     Attributes
     ----------
-    action : str
-        ``localise``, ``relocalise``, ``plan``, ``turn``, ``move``, ``turnback``, ``explore-turn``,
-        ``explore-move``, ``align-turn``, ``correct-turn``, ``correct-move``, or a fault and its
-        recovery: ``link-lost``, ``link-restored``, ``sonar-fault``, ``off-course``.
+    action : Action
+        What the step did (a string enum: ``localise``, ``plan``, ``explore-move``, ...).
     estimate : Pose or None
         The localiser's mean pose after the action.
     true_pose : Pose or None
@@ -86,7 +113,7 @@ class TraceStep:
         The estimate's position spread (root of the summed x and y variances, cm).
     """
 
-    action: str
+    action: Action
     estimate: Pose | None = None
     true_pose: Pose | None = None
     turn_rad: float = 0.0
@@ -98,7 +125,7 @@ class TraceStep:
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "action": self.action,
+            "action": self.action.value,
             "spread_cm": self.spread_cm,
             "estimate": None if self.estimate is None else self.estimate.to_list_deg(),
             "true_pose": None if self.true_pose is None else self.true_pose.to_list_deg(),

@@ -28,7 +28,7 @@ from ..world import (
 )
 from .config import _WINDOW_CENTRES, MissionConfig
 from .recovery import WIDE_STD_CM, WIDE_STD_DEG, off_course, widened_prior
-from .report import Leg, Outcome, TraceStep
+from .report import Action, Leg, Outcome, TraceStep
 
 FloatArray = NDArray[np.float64]
 log = logging.getLogger(__name__)
@@ -108,10 +108,11 @@ class _Mission:
         p = getattr(self.robot, "true_pose", None)
         return p if isinstance(p, Pose) else None
 
-    def record(self, action: str, **kw: Any) -> None:
+    def record(self, action: Action | str, **kw: Any) -> None:
+        """A trace step: `action` (an `Action`, or its value; another string is a ValueError) and the belief."""
         est = self.estimate.pose if self.estimate is not None else None
         spread = self.estimate.std_xy_cm if self.estimate is not None else None
-        self.trace.append(TraceStep(action, est, self.true_pose(), robot_time_s=float(self.robot.robot_time_s),
+        self.trace.append(TraceStep(Action(action), est, self.true_pose(), robot_time_s=float(self.robot.robot_time_s),
                                     spread_cm=spread, **kw))
 
     def _count_action(self) -> None:
@@ -172,7 +173,7 @@ class _Mission:
 
     def note(self, text: str) -> None:
         """A decision of the global strategy, recorded in the trace."""
-        self.record("localise", note=text)
+        self.record(Action.LOCALISE, note=text)
 
     def relocalise(self, reason: str, kind: str = "track") -> PoseEstimate:
         """Tracking re-localisation from the current belief (`kind` ``track`` or, at the target,
@@ -186,7 +187,7 @@ class _Mission:
             est = self._call_localise(None, kind, reset=False)
         self.estimate = est
         ok = self._ok(est)
-        self.record("relocalise", note=f"{reason}: {'converged' if ok else 'not converged'}, "
+        self.record(Action.RELOCALISE, note=f"{reason}: {'converged' if ok else 'not converged'}, "
                                        f"spread {est.std_xy_cm:.2f} cm")
         if ok:
             self.fresh_fix = False
@@ -196,7 +197,8 @@ class _Mission:
             est = self._call_localise(self._prior(self.estimate), kind, reset=True)
             self.estimate = est
             ok = self._ok(est)
-            self.record("relocalise", note=f"{reason}, from a wider prior: {'converged' if ok else 'not converged'}")
+            self.record(Action.RELOCALISE,
+                        note=f"{reason}, from a wider prior: {'converged' if ok else 'not converged'}")
             if ok:
                 self.since_fix_cm = 0.0
                 return est
@@ -223,7 +225,7 @@ class _Mission:
         return Prior(est.pose, cov)
 
     # -- actions --------------------------------------------------------------------------------
-    def turn(self, angle: float, action: str = "turn") -> None:
+    def turn(self, angle: float, action: Action | str = Action.TURN) -> None:
         self._count_action()
         self.robot.turn(angle)
         self.localiser.predict(Motion(turn_rad=angle))
@@ -232,7 +234,7 @@ class _Mission:
             self.turns += 1
         self.record(action, turn_rad=angle)
 
-    def move(self, distance: float, action: str = "move") -> bool:
+    def move(self, distance: float, action: Action | str = Action.MOVE) -> bool:
         """Move `distance` cm; returns True when the watchdog stopped it."""
         self._count_action()
         out = self.robot.move(distance)
@@ -252,13 +254,13 @@ class _Mission:
         self.estimate = self.localiser.estimate()
         self.path_length += abs(out.distance_cm)
         self.since_fix_cm += abs(out.distance_cm)
-        self.record("turnback", distance_cm=out.distance_cm)
+        self.record(Action.TURNBACK, distance_cm=out.distance_cm)
 
     def after_watchdog(self) -> None:
         wrong = self.on_watchdog_stop(self) if self.on_watchdog_stop is not None else None
         self.turnback()
         if wrong:  # the sonar saw a wall where the belief sees none, twice: start from a wider belief
-            self.record("off-course", note=wrong)
+            self.record(Action.OFF_COURSE, note=wrong)
             if self.on_motion_fault is not None:
                 self.on_motion_fault(wrong)
             assert self.estimate is not None
@@ -361,7 +363,7 @@ class _Mission:
                 return Leg.ARRIVED
             ahead = goal if leg < dist else next_goal
             if spread and ahead is not None and self.spread_clear(ahead):
-                self.record("skip-fix", note=f"belief spread {self.estimate.std_xy_cm:.1f} cm leaves the way "
+                self.record(Action.SKIP_FIX, note=f"belief spread {self.estimate.std_xy_cm:.1f} cm leaves the way "
                                              "ahead clear")
                 if leg >= dist:
                     return Leg.ARRIVED
@@ -379,7 +381,7 @@ class _Mission:
         why = off_course(predicted, self.estimate) if self.estimate is not None and self._ok(self.estimate) else None
         if why is None:
             return False
-        self.record("off-course", note=why)
+        self.record(Action.OFF_COURSE, note=why)
         if self.on_motion_fault is not None:
             self.on_motion_fault(why)
         return True
@@ -421,7 +423,7 @@ class _Mission:
                 path = result.path
         assert result is not None
         if path is None:
-            self.record("plan", note=f"failed: {result.message}")
+            self.record(Action.PLAN, note=f"failed: {result.message}")
             raise _MissionEnded(Outcome.UNREACHABLE, f"target unreachable: planner {self.planner.name} found no "
                                 f"path from ({start[0]:.1f}, {start[1]:.1f}) to "
                                 f"({self.target[0]:.1f}, {self.target[1]:.1f}) ({result.message})")
@@ -436,7 +438,7 @@ class _Mission:
         length = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
         if len(self.plans) == 1:
             self.planned_length = length
-        self.record("plan", note=f"{len(path) - 2} intermediate point(s), {length:.1f} cm, "
+        self.record(Action.PLAN, note=f"{len(path) - 2} intermediate point(s), {length:.1f} cm, "
                                  f"{result.time_s * 1e3:.1f} ms")
         return path
 
@@ -509,8 +511,8 @@ class _Mission:
             sense = 1.0
             if dist <= cfg.reverse_cm and abs(turn) > 0.5 * math.pi:  # back up rather than turn around
                 turn, sense = float(angle_diff(turn, math.pi)), -1.0
-            self.turn(turn, action="correct-turn")
-            if self.move(sense * dist, action="correct-move"):
+            self.turn(turn, action=Action.CORRECT_TURN)
+            if self.move(sense * dist, action=Action.CORRECT_MOVE):
                 self.after_watchdog()
                 self.navigate()
         dist = float(np.hypot(*(self.target - self.estimate.pose.xy))) if self.estimate else math.inf
