@@ -64,13 +64,9 @@ in 206 re-localisations of 18 simulated missions with the ``nxt`` sonar and the 
 
 UNEXPLAINED_STOP_CM = 10.0
 """A watchdog stop is unexplained when the map, seen from the belief, has no wall within the watchdog
-distance plus this much (cm) anywhere in the sensor's cone ahead (`STOP_CONE_DEG`); two such stops
-within this distance of each other mean the belief is wrong (a slipping turn can leave the heading
-further off than a tracking sweep looks)."""
-
-STOP_CONE_DEG = 40.0
-"""Full width of the cone ahead in which a wall explains a watchdog stop: the NXT sonar's lobe (the
-fitted model's 40 degrees) hears a wall at an angle that the ray straight ahead misses."""
+distance plus this much (cm) straight ahead while a second reading hears one; two such stops within
+this distance of each other mean the belief is wrong (a slipping turn can leave the heading further
+off than a tracking sweep looks)."""
 WIDE_STD_CM = 10.0
 WIDE_STD_DEG = 45.0
 """Position and heading spreads of the prior a re-localisation starts from after two unexplained stops."""
@@ -100,8 +96,8 @@ def watchdog_cm(robot: Any) -> float:
 
 class StopCheck:
     """Watches the watchdog stops of one mission for the second unexplained one in the same place: a stop
-    where the map, seen from the belief, has no wall near in the sensor's cone, and where a second
-    reading straight ahead hears one."""
+    where the map, seen from the belief, has no wall near straight ahead, and where a second reading
+    straight ahead hears one."""
 
     def __init__(self) -> None:
         self._last: np.ndarray | None = None
@@ -111,8 +107,7 @@ class StopCheck:
         est = mission.estimate
         if est is None:
             return None
-        cone = est.pose.theta + np.radians(np.linspace(-STOP_CONE_DEG / 2, STOP_CONE_DEG / 2, 21))
-        ahead = float(np.min(ray_cast(mission.map.walls, est.pose.xy, cone)))
+        ahead = float(np.asarray(ray_cast(mission.map.walls, est.pose.xy, np.array([est.pose.theta])))[0])
         near = watchdog_cm(mission.robot) + UNEXPLAINED_STOP_CM
         if ahead <= near:
             self._last = None
@@ -126,8 +121,7 @@ class StopCheck:
         if last is None or float(np.hypot(*(last - est.pose.xy))) > UNEXPLAINED_STOP_CM:
             return None
         self._last = None
-        return (f"two watchdog stops where the map shows {ahead:.0f} cm free ahead of the belief (in a "
-                f"{STOP_CONE_DEG:.0f}-degree cone): the belief is "
+        return (f"two watchdog stops where the map shows {ahead:.0f} cm free ahead of the belief: the belief is "
                 "wrong (did a wheel slip?); re-localising from a wider belief")
 
 
