@@ -25,7 +25,7 @@ from toolkit.mission.recovery import (
 )
 from toolkit.robots.sim import SimRobot
 from toolkit.sweeps import load_sweep_set
-from toolkit.world import LocalisationError, Pose, Scan, load_map
+from toolkit.world import LocalisationError, MoveOutcome, Pose, Scan, load_map
 
 
 def _garbage(scan: Scan, p: float, rng: np.random.Generator) -> Scan:
@@ -132,7 +132,8 @@ def test_two_stops_the_map_does_not_explain_say_the_belief_is_wrong() -> None:
     # the robot is truly 17 cm from the top wall; its belief puts it 55 cm from it
     robot = SimRobot(m, Pose.from_deg(20.0, 88.0, 90.0), rng=0)
     assert watchdog_cm(robot) == robot.watchdog_cm == 12.0
-    mission = SimpleNamespace(map=m, robot=robot, estimate=_est(20.0, 50.0, 90.0))  # 55 cm free ahead
+    mission = SimpleNamespace(map=m, robot=robot, estimate=_est(20.0, 50.0, 90.0),  # 55 cm free ahead
+                              last_move=MoveOutcome(20.0, 5.0, True))
     check = StopCheck()
     assert check(mission) is None  # one stop may be a short reading
     mission.estimate = _est(22.0, 53.0, 92.0)
@@ -152,9 +153,13 @@ def test_stops_on_a_wrong_reading_where_the_robot_has_room_say_nothing() -> None
     # short readings of the sensor, not a wrong belief
     m = load_map("map1")
     robot = SimRobot(m, Pose.from_deg(20.0, 50.0, 90.0), rng=0)
-    mission = SimpleNamespace(map=m, robot=robot, estimate=_est(20.0, 50.0, 90.0))
+    mission = SimpleNamespace(map=m, robot=robot, estimate=_est(20.0, 50.0, 90.0),
+                              last_move=MoveOutcome(20.0, 5.0, True))
     check = StopCheck()
     assert check(mission) is None and check(mission) is None and check(mission) is None
+    # wheels that stalled met something, whatever the sonar ahead hears: two such stops count
+    mission.last_move = MoveOutcome(20.0, 5.0, True, stalled=True)
+    assert check(mission) is None and check(mission) is not None
 
 
 def test_a_widened_prior_keeps_the_mean_and_the_larger_spreads() -> None:

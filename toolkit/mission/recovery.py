@@ -114,9 +114,11 @@ class StopCheck:
             return None
         # one more reading straight ahead: the NXT sonar's short readings stop a move where nothing is;
         # a wall the belief does not see is heard again, a wrong reading is not
-        again = mission.robot.ultrascan(np.array([0.0]))
-        if not (bool(again.valid[0]) and float(again.ranges[0]) <= near):
-            return None
+        # (wheels that stalled met something: no second reading needed)
+        if not (mission.last_move is not None and mission.last_move.stalled):
+            again = mission.robot.ultrascan(np.array([0.0]))
+            if not (bool(again.valid[0]) and float(again.ranges[0]) <= near):
+                return None
         last, self._last = self._last, est.pose.xy.copy()
         if last is None or float(np.hypot(*(last - est.pose.xy))) > UNEXPLAINED_STOP_CM:
             return None

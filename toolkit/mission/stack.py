@@ -21,6 +21,7 @@ from planners.base import Planner, PlanningProblem, PlanResult
 from ..world import (
     CollisionChecker,
     Map,
+    MoveOutcome,
     Pose,
     Robot,
     angle_diff,
@@ -94,6 +95,7 @@ class _Mission:
         self.on_sweep_fault: Callable[[str], None] | None = None  # told of sweeps taken again (a faulty sonar)
         self.on_motion_fault: Callable[[str], None] | None = None  # told of fixes far off the prediction
         self.on_watchdog_stop: Callable[[_Mission], str | None] | None = None  # why a stop says the belief is wrong
+        self.last_move: MoveOutcome | None = None  # the outcome of the latest move
 
     @property
     def localiser(self) -> Localiser:
@@ -244,6 +246,7 @@ class _Mission:
         self.since_fix_cm += abs(out.distance_cm)
         if out.watchdog:
             self.watchdog_stops += 1
+        self.last_move = out
         self.record(action, distance_cm=out.distance_cm, watchdog=out.watchdog)
         return bool(out.watchdog)
 

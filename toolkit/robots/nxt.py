@@ -510,7 +510,7 @@ class NxtRobot:
             self.watchdog_stops += 1
             _log.info("move %.1f cm stopped after %.1f cm (%s)", d, done, why)
         self.odometry_cm += abs(done)
-        return MoveOutcome(d, done, stopped)
+        return MoveOutcome(d, done, stopped, stalled=why == "stalled")
 
     def turn(self, angle_rad: float) -> None:
         """Spin in place by `angle_rad` (counter-clockwise positive)."""

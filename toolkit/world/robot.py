@@ -128,12 +128,16 @@ class MoveOutcome:
     distance_cm : float
         Distance the robot believes it drove (wheel odometry, not the truth).
     watchdog : bool
-        True when the forward sonar stopped the motion early (a potential collision).
+        True when the motion stopped early: the forward sonar read a wall within the watchdog distance
+        (a potential collision), or the wheels stalled.
+    stalled : bool
+        True when it was the wheels that stalled (a contact the sonar need not hear; NXT).
     """
 
     requested_cm: float
     distance_cm: float
     watchdog: bool = False
+    stalled: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         return {"requested_cm": self.requested_cm, "distance_cm": self.distance_cm, "watchdog": self.watchdog}
