@@ -64,9 +64,9 @@ in 206 re-localisations of 18 simulated missions with the ``nxt`` sonar and the 
 
 UNEXPLAINED_STOP_CM = 10.0
 """A watchdog stop is unexplained when the map, seen from the belief, has no wall within the watchdog
-distance plus this much (cm) straight ahead while a second reading hears one; two such stops within
-this distance of each other mean the belief is wrong (a slipping turn can leave the heading further
-off than a tracking sweep looks)."""
+distance plus this much (cm) straight ahead while the wheels stalled or a second reading hears one;
+two such stops within this distance of each other mean the belief is wrong (a slipping turn can leave
+the heading further off than a tracking sweep looks)."""
 WIDE_STD_CM = 10.0
 WIDE_STD_DEG = 45.0
 """Position and heading spreads of the prior a re-localisation starts from after two unexplained stops."""
@@ -96,8 +96,8 @@ def watchdog_cm(robot: Any) -> float:
 
 class StopCheck:
     """Watches the watchdog stops of one mission for the second unexplained one in the same place: a stop
-    where the map, seen from the belief, has no wall near straight ahead, and where a second reading
-    straight ahead hears one."""
+    where the map, seen from the belief, has no wall near straight ahead, and where the wheels stalled
+    or a second reading straight ahead hears a wall."""
 
     def __init__(self) -> None:
         self._last: np.ndarray | None = None
