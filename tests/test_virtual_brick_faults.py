@@ -132,7 +132,9 @@ print("done", flush=True)
 
 def test_killing_the_client_mid_move_stops_the_robot_within_the_commanded_distance() -> None:
     """NxtRobot bounds every motion on the brick: killed mid-move, the robot still stops in time."""
-    world = _world(BrickConfig(time_factor=1000.0, max_step_s=0.01, brake_on_disconnect=False))
+    # each exchange takes 2 ms: the move lasts a good fraction of a second of wall time, so the kill
+    # lands in its middle however fast the machine is
+    world = _world(BrickConfig(time_factor=1000.0, max_step_s=0.01, brake_on_disconnect=False, latency_s=0.002))
     commanded = 30.0
     with BrickServer(world, port=0) as srv:
         child = subprocess.Popen([sys.executable, "-c", _CLIENT, str(srv.port), str(commanded)],
