@@ -47,7 +47,7 @@ view-check: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[viewcheck]"
 	mkdir -p out
 	$(BIN)/nxtnav run --map map1 --view-save out/view-check.rrd
-	$(BIN)/python -m toolkit.view.check out/view-check.rrd docs/img/rerun-view.png
+	$(BIN)/python tools/view_check.py out/view-check.rrd docs/img/rerun-view.png
 
 # the wheel and sdist (python -m build, into dist/), the wheel installed in a fresh venv outside the
 # repository, and nxtnav --version, maps list, import sweeps and run from there (tools/dist_check.py)

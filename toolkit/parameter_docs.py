@@ -1,6 +1,6 @@
 """docs/parameters.md made from the plug-ins' declarations (`toolkit.world.Params`), so the docs cannot drift.
 
-Regenerate with ``python -m toolkit.parameter_docs > docs/parameters.md``; a test checks the file equals
+Regenerate with ``python tools/parameter_docs.py > docs/parameters.md``; a test checks the file equals
 what this module writes.
 """
 
@@ -13,7 +13,7 @@ _HEAD = """# Parameters of the planners and localisers
 Every option a planner or a localiser takes, as it declares it: type, default, range, unit and a
 one-line description. `nxtnav planners show NAME` and `nxtnav localisers show NAME` print the same;
 `--set NAME.KEY=VALUE` (`plan`, `localise`, `bench localisers`) is checked against it, and a value out of
-its range is refused with the range named. This page is generated (`python -m toolkit.parameter_docs >
+its range is refused with the range named. This page is generated (`python tools/parameter_docs.py >
 docs/parameters.md`); a test keeps it equal to the declarations.
 
 Options marked *from the robot model* are set for each run from the one `RobotModel` every localiser is
@@ -46,7 +46,3 @@ def parameters_markdown() -> str:
                       for facet, how in cls.robot_options.items()]
             parts.append("")
     return "\n".join(parts)
-
-
-if __name__ == "__main__":
-    print(parameters_markdown(), end="")

@@ -6,7 +6,7 @@ Debian package) opens the page headless, drawing with its software rasteriser (S
 by Playwright; the screenshot is taken once two frames two seconds apart are the same and the page
 shows the viewer (not its loading screen).
 
-Usage: ``python -m toolkit.view.check RUN.rrd OUT.png``
+Usage: ``python tools/view_check.py RUN.rrd OUT.png`` (``make view-check``)
 """
 
 from __future__ import annotations
@@ -80,10 +80,3 @@ def screenshot(rrd: Path, png: Path, *, size: tuple[int, int] = (1280, 800), tim
     finally:
         server.terminate()
         server.wait(timeout=10)
-
-
-if __name__ == "__main__":  # pragma: no cover - the make target
-    if len(sys.argv) != 3:
-        sys.exit("usage: python -m toolkit.view.check RUN.rrd OUT.png")
-    screenshot(Path(sys.argv[1]), Path(sys.argv[2]))
-    print(f"wrote {sys.argv[2]}")
