@@ -345,6 +345,6 @@ def test_a_bad_option_value_is_a_config_error_with_exit_2(capsys: pytest.Capture
     from toolkit.world import ConfigError, NxtnavError
 
     with pytest.raises(ConfigError) as err:
-        MissionConfig(planning_time_s=-1.0)
+        MissionConfig().with_options(**{"planning.time_s": -1.0})
     assert isinstance(err.value, NxtnavError) and isinstance(err.value, ValueError)
     _fails_cleanly(["localise", "--pose", "20,20,0", "--set", "n_particles=5"], capsys, "n_particles", "5")

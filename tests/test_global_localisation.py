@@ -63,7 +63,8 @@ def test_a_mission_and_the_benchmark_localise_globally_alike() -> None:
 
     mission_robot = LoggedRobot(m, TWIN_POSE, rng=3)
     target = (TWIN_POSE.x - 10.0, TWIN_POSE.y + 10.0)
-    report = run_mission(mission_robot, m, target, localiser=make_localiser("paper-pf", m, rng=0), rng=seed)
+    report = run_mission(mission_robot, m, target, localiser=make_localiser("paper-pf", m, rng=0), rng=seed,
+                         truth=mission_robot)
     assert report.success, report.status
     n = len(bench_robot.log)
     assert mission_robot.log[:n] == bench_robot.log  # the same sweeps, turns and moves, in the same order
@@ -77,11 +78,11 @@ def test_a_mission_and_the_benchmark_localise_globally_alike() -> None:
 
 @pytest.mark.parametrize("sonar", ["ideal", "nxt"])
 def test_the_benchmark_runs_the_missions_strategy(sonar: str) -> None:
-    mission = MissionConfig.for_sonar(sonar).global_strategy()
+    mission = MissionConfig.for_sonar(sonar).global_localisation
     assert BenchConfig(sonar=sonar).strategy == mission == GlobalLocalisation()
     # a mission setting reaches the strategy; the benchmark's options reach its own
-    assert MissionConfig(exploration="scan", max_explore_moves=2).global_strategy() == GlobalLocalisation(
-        exploration="scan", max_explore_moves=2)
+    assert MissionConfig().with_options(exploration="scan", max_explore_moves=2).global_localisation == \
+        GlobalLocalisation(exploration="scan", max_explore_moves=2)
     assert BenchConfig(sonar=sonar, exploration="scan", scan_processing="raw").strategy == GlobalLocalisation(
         exploration="scan", process=False)
 
@@ -162,7 +163,7 @@ def test_bad_strategy_settings_are_config_errors() -> None:
     with pytest.raises(ConfigError, match="attempts"):
         GlobalLocalisation(attempts=0)
     with pytest.raises(ConfigError, match="exploration"):
-        MissionConfig(exploration="wander")
+        MissionConfig().with_options(**{"global_localisation.exploration": "wander"})
 
 
 def test_the_robot_driver_predicts_what_the_robot_did() -> None:

@@ -25,7 +25,7 @@ def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "idea
     assert m.start is not None and m.target is not None
     pose = start or Pose(*m.start, np.random.default_rng(s_start).uniform(-math.pi, math.pi))
     robot = SimRobot(m, pose, noise=MotionNoise(model), sonar=sonar, rng=s_sim)
-    report = run_mission(robot, m, m.target, rng=s_stack)
+    report = run_mission(robot, m, m.target, rng=s_stack, truth=robot)
     return report, robot
 
 
@@ -91,7 +91,7 @@ def test_unreachable_target_with_the_real_stack() -> None:
 
     m = map_from_dict({"name": "split", "boundary": [[0, 0], [60, 0], [60, 25], [65, 25], [65, 0], [120, 0],
                                                       [120, 60], [65, 60], [65, 35], [60, 35], [60, 60], [0, 60]]})
-    cfg = MissionConfig(planning_time_s=0.2)
+    cfg = MissionConfig().with_options(**{"planning.time_s": 0.2})
     report = run_sim_mission(m, seed=1, start=Pose(25, 30, 0.0), target=(95.0, 30.0), config=cfg)
     assert not report.success
     assert report.outcome in (Outcome.UNREACHABLE, Outcome.LOST), report.status

@@ -118,7 +118,7 @@ def _mission(m: Map, start: Pose, target: Any, seed: int = 0, *, noise: MotionNo
     robot = SimRobot(m, start, noise=noise, rng=seed)
     loc = OracleLocaliser(m, robot, sd_cm=sd_cm, converge=converge, rng=seed + 1)
     report = run_mission(robot, m, target, planner=VisibilityPlanner(), localiser=loc,
-                         procedure=oracle_localise, rng=seed, config=config)
+                         procedure=oracle_localise, rng=seed, config=config, truth=robot)
     return report, robot
 
 
@@ -174,13 +174,13 @@ def test_lost_robot() -> None:
     assert not report.success
     assert report.outcome is Outcome.LOST, report.status
     assert report.relocalisations == 0
-    cfg = MissionConfig()
+    strategy = MissionConfig().global_localisation
     finals = [s for s in report.trace if s.action == Action.LOCALISE and "not converged" in s.note]
-    assert len(finals) == cfg.max_localisation_attempts
+    assert len(finals) == strategy.attempts
     assert Action.PLAN not in [s.action for s in report.trace]
     # between attempts the mission explored, within the limit of moves per attempt
     moves = [s for s in report.trace if s.action == Action.EXPLORE_MOVE]
-    assert 0 < len(moves) <= cfg.max_localisation_attempts * cfg.max_explore_moves
+    assert 0 < len(moves) <= strategy.attempts * strategy.max_explore_moves
 
 
 def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
@@ -198,9 +198,10 @@ def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
             loc.pose = Pose(loc.pose.x, loc.pose.y - 20.0, loc.pose.theta)
 
     loc.update = biased  # type: ignore[method-assign]
-    cfg = MissionConfig(relocalise_every_cm=None, first_leg_cm=None, confirm_global=False)
+    cfg = MissionConfig().with_options(**{"fix.relocalise_every_cm": None, "fix.first_leg_cm": None,
+                                          "global_localisation.confirm": False})
     report = run_mission(robot, m, (20.0, 88.0), planner=VisibilityPlanner(), localiser=loc,
-                         procedure=oracle_localise, rng=0, config=cfg)
+                         procedure=oracle_localise, rng=0, config=cfg, truth=robot)
     assert robot.true_pose.distance_to((20.0, 88.0)) < 2.0
     assert report.success, report.status
     assert robot.collisions == 0
@@ -245,7 +246,7 @@ def test_a_wrong_single_place_fix_is_caught_by_the_confirmation() -> None:
 
     loc.update = twin  # type: ignore[method-assign]
     report = run_mission(robot, m, m.target, planner=VisibilityPlanner(), localiser=loc,
-                         procedure=oracle_localise, rng=0)
+                         procedure=oracle_localise, rng=0, truth=robot)
     assert report.success, report.status
     assert robot.true_pose.distance_to(m.target) < 2.0
     assert any("disagree" in s.note for s in report.trace)

@@ -105,14 +105,16 @@ def test_rows_carry_the_median_robot_time_and_the_mean_split() -> None:
 
 def test_options_make_their_own_tables() -> None:
     plain = paper_tasks(1, maps=("map1",), noise_models=("botsim",))
-    habit = paper_tasks(1, maps=("map1",), noise_models=("botsim",), options={"fix_rule": "habit"})
-    assert habit[0].config().fix_rule == "habit" and plain[0].config().fix_rule == "spread"
-    assert habit[0].seed == plain[0].seed  # common random numbers across settings
-    tables = summarise([_result(plain[0], True, 0.3, 0.1), _result(habit[0], True, 0.2, 0.1)])
+    always = paper_tasks(1, maps=("map1",), noise_models=("botsim",), options={"fix.rule": "always"})
+    assert always[0].config().fix.rule == "always" and plain[0].config().fix.rule == "spread"
+    assert always[0].seed == plain[0].seed  # common random numbers across settings
+    tables = summarise([_result(plain[0], True, 0.3, 0.1), _result(always[0], True, 0.2, 0.1)])
     assert len(tables) == 2
-    assert "`fix_rule=habit`" in tables_to_markdown(tables)
-    with pytest.raises(ValueError, match="fix_rule"):
-        paper_tasks(1, options={"fix_rule": "never"})
+    assert "`fix.rule=always`" in tables_to_markdown(tables)
+    with pytest.raises(ValueError, match=r"fix\.rule"):
+        paper_tasks(1, options={"fix.rule": "never"})
+    with pytest.raises(ValueError, match=r"fix\.rule"):  # an unknown key is named
+        paper_tasks(1, options={"fix_rule": "always"})
 
 
 def test_pareto_front_and_points() -> None:

@@ -176,10 +176,13 @@ def test_virtual_brick_recording_replays_bit_for_bit(tmp_path: Path) -> None:
         try:
             opts = localiser_options("amcl", RobotModel.build("nxt"))  # the brick draws every reading independently
             report = run_mission(robot, m, (30.0, 80.0), localiser="amcl", rng=2,
-                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=rec)
+                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts), recorder=rec,
+                                 truth=world)
         finally:
             robot.close()
             rec.close(report.status, report.success)
+    assert report.start == Pose.from_deg(20.0, 20.0, 30.0)  # the world is the report's truth source
+    assert report.final_pose is not None and report.collisions is not None
     recording = read_recording(path)
     moves = [e for _, e in recording.events if e["type"] == "move"]
     assert moves and all(e["odometry"]["tacho_after"]["left"] != e["odometry"]["tacho_before"]["left"]

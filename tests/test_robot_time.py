@@ -66,15 +66,18 @@ def test_model_clock_equals_the_simulators_model() -> None:
     m = load_map("map2")
     robot = SimRobot(m, Pose(30.0, 20.0, 0.5), rng=4)
     clock = ModelClock(robot)
-    report = run_mission(clock, m, m.target, rng=4, config=MissionConfig())
+    report = run_mission(clock, m, m.target, rng=4, config=MissionConfig(), truth=robot)
     assert report.success
     assert clock.model_time_s == pytest.approx(robot.robot_time_s)
-    assert report.collisions == robot.collisions  # counters are read through the clock
+    assert report.collisions == robot.collisions
+    assert report.watchdog_stops == robot.watchdog_stops  # the robot's counters are read through the clock
+    assert report.path_length_cm == pytest.approx(robot.odometry_cm)
 
 
 def test_scan_less_defaults_cost_less_robot_time_than_the_papers_habit() -> None:
-    habit = MissionConfig(global_align=True, global_scan_step_deg=1.0, track_align=True, fix_rule="habit",
-                          relocalise_every_cm=40.0)
+    habit = MissionConfig().with_options(**{"global_localisation.align": True,
+                                            "global_localisation.scan_step_deg": 1.0, "sweeps.track_align": True,
+                                            "fix.rule": "always", "fix.relocalise_every_cm": 40.0})
     lean = run_sim_mission("map2", seed=3)
     old = run_sim_mission("map2", seed=3, config=habit)
     assert lean.success and old.success
@@ -84,12 +87,13 @@ def test_scan_less_defaults_cost_less_robot_time_than_the_papers_habit() -> None
     assert lean.final_error_cm is not None and lean.final_error_cm < 1.0
 
 
-@pytest.mark.parametrize("bad", [{"track_window_deg": 200.0}, {"global_scan_step_deg": 0.0},
-                                 {"fix_rule": "sometimes"}, {"spread_sigmas": -1.0},
-                                 {"align_sweeps": -1}])
+@pytest.mark.parametrize("bad", [{"sweeps.track_window_deg": 200.0}, {"global_localisation.scan_step_deg": 0.0},
+                                 {"fix.rule": "sometimes"}, {"fix.spread_sigmas": -1.0},
+                                 {"global_localisation.align_sweeps": -1}, {"rule": "habit"}])
 def test_bad_sweep_options_are_refused(bad: dict[str, object]) -> None:
-    with pytest.raises(ValueError, match=next(iter(bad))):
-        MissionConfig(**bad)  # type: ignore[arg-type]
+    name = next(iter(bad)).rpartition(".")[2]
+    with pytest.raises(ValueError, match=name):
+        MissionConfig().with_options(**bad)
 
 
 @pytest.mark.slow

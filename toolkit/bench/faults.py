@@ -211,7 +211,8 @@ def _mission(task: FaultTask, faults: list[Fault], record: Path | None) -> _Run:
                                     truth=lambda: world.pose, extra={"faults": [f.to_dict() for f in faults]})
             with _quiet("toolkit.mission.recovery"):
                 report = run_mission(robot, m, m.target, planner="min-turn", localiser="paper-pf", rng=task.seed,
-                                     config=config, recorder=recorder, reconnect_timeout_s=task.reconnect_timeout_s)
+                                     config=config, recorder=recorder, reconnect_timeout_s=task.reconnect_timeout_s,
+                                     truth=world)
         finally:
             robot.close()
             if recorder is not None:

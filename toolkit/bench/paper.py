@@ -145,7 +145,7 @@ def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> PaperRes
     # success in the table is judged by the truth: the mission says it arrived AND the robot is truly
     # within the mission's success radius of the target
     cfg = config
-    truly = r.success and r.final_error_cm is not None and r.final_error_cm <= cfg.success_radius_cm
+    truly = r.success and r.final_error_cm is not None and r.final_error_cm <= cfg.final.success_radius_cm
     status = r.status if truly or not r.success else f"{r.status}, but truly {r.final_error_cm:.1f} cm away"
     return PaperResult(
         task, truly, status, r.completion_s,

@@ -24,15 +24,15 @@ from .paper import PAPER_MAPS, PaperResult, PaperTrial, paper_tasks
 __all__ = ["MISSION_SETTINGS", "ParetoPoint", "pareto_front", "pareto_points", "pareto_tasks"]
 
 MISSION_SETTINGS: dict[str, dict[str, Any]] = {
-    "paper-habit": {"global_align": True, "global_scan_step_deg": 1.0, "track_align": True,
-                    "fix_rule": "habit", "relocalise_every_cm": 40.0},
-    "full-sweeps": {"track_window_deg": 180.0, "final_window_deg": 180.0, "track_scan_step_deg": 2.0,
-                    "final_scan_step_deg": 2.0},
-    "fix-every-leg": {"fix_rule": "habit", "relocalise_every_cm": 40.0},
+    "paper-habit": {"global_localisation.align": True, "global_localisation.scan_step_deg": 1.0,
+                    "sweeps.track_align": True, "fix.rule": "always", "fix.relocalise_every_cm": 40.0},
+    "full-sweeps": {"sweeps.track_window_deg": 180.0, "sweeps.final_window_deg": 180.0,
+                    "sweeps.track_scan_step_deg": 2.0, "sweeps.final_scan_step_deg": 2.0},
+    "fix-every-leg": {"fix.rule": "always", "fix.relocalise_every_cm": 40.0},
     "default": {},
-    "dense-windows": {"track_scan_step_deg": 1.0},
-    "axes-windows": {"track_windows": "axes"},
-    "lean": {"track_scan_step_deg": 3.0, "final_scan_step_deg": 2.0, "first_leg_cm": None},
+    "dense-windows": {"sweeps.track_scan_step_deg": 1.0},
+    "axes-windows": {"sweeps.track_windows": "axes"},
+    "lean": {"sweeps.track_scan_step_deg": 3.0, "sweeps.final_scan_step_deg": 2.0, "fix.first_leg_cm": None},
 }
 """Named mission settings (`MissionConfig` options over the sonar model's defaults), from the
 paper's habit to the leanest; ``default`` is `MissionConfig`'s own."""

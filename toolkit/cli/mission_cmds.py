@@ -297,25 +297,25 @@ def _names(text: str, option: str, known: list[str]) -> list[str]:
 
 
 def _parse_options(items: list[str] | None) -> dict[str, Any]:
-    """``KEY=VALUE`` pairs as MissionConfig options (values as YAML scalars: 2, 2.5, true, null, spread)."""
+    """``KEY=VALUE`` pairs as mission options (`MissionConfig.with_options`: KEY is ``group.field`` or a
+    field name only one group has; values as YAML scalars: 2, 2.5, true, null, spread)."""
     import yaml
 
     from ..mission import MissionConfig
 
     out: dict[str, Any] = {}
-    fields = MissionConfig.__dataclass_fields__
     for item in items or []:
         key, sep, value = item.partition("=")
         key = key.strip()
-        if not sep or key not in fields:
-            raise typer.BadParameter(f"expected KEY=VALUE with a MissionConfig field as KEY, got {item!r}",
+        if not sep or not key:
+            raise typer.BadParameter(f"expected KEY=VALUE with a mission option as KEY, got {item!r}",
                                      param_hint="--option")
         try:
             out[key] = yaml.safe_load(value)
         except yaml.YAMLError:
             raise typer.BadParameter(f"cannot read the value of {item!r}", param_hint="--option") from None
     try:
-        MissionConfig(**out)
+        MissionConfig().with_options(**out)
     except (TypeError, ValueError) as exc:
         raise typer.BadParameter(str(exc), param_hint="--option") from None
     return out
@@ -401,7 +401,7 @@ def paper(
                                       help="Start each trial from a seeded random free pose (>= 10 cm from walls)."),
     option: list[str] | None = typer.Option(None, "--option", metavar="KEY=VALUE",
                                             help="A MissionConfig option for every mission (repeatable), "
-                                                 "e.g. track_scan_step_deg=2."),
+                                                 "group.field or a field name, e.g. sweeps.track_scan_step_deg=2."),
     pareto: Path | None = typer.Option(None, "--pareto", metavar="FILE.png",
                                        help="Run every mission setting instead and draw mean final error "
                                             "against median robot time (the Pareto front)."),

@@ -1,267 +1,349 @@
-"""How a mission is run: `MissionConfig` (the turret angles of its sweeps: `localisation.scan.sweep_angles`)."""
+"""How a mission is run: `MissionConfig`, a frozen tree of small groups.
+
+Each group documents its own fields (lengths in cm, angles in degrees unless the name says otherwise,
+times in s). `MissionConfig.with_options` sets fields from flat ``key=value`` options, as
+``nxtnav paper --option`` passes them: a key is ``group.field`` (``fix.rule``) or a field name that
+only one group has (``rule``). `MissionConfig.for_sonar` holds the tuning for the ``nxt`` sensor.
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 from localisation.global_localisation import GlobalLocalisation
 from toolkit.world import CHECKER_BACKENDS, ConfigError
 
-_GLOBAL = GlobalLocalisation()
-"""The global strategy's defaults: a mission's global-localisation settings default to them."""
+__all__ = ["FIX_RULES", "TRACK_WINDOWS", "DriveConfig", "FinalConfig", "FixConfig", "LimitsConfig", "MissionConfig",
+           "PlanningConfig", "SweepConfig"]
 
-_WINDOW_CENTRES: dict[str, tuple[float, ...]] = {"axes": (0.0, 90.0, 180.0, 270.0), "sides": (-90.0, 0.0, 90.0)}
+TRACK_WINDOWS: dict[str, tuple[float, ...]] = {"axes": (0.0, 90.0, 180.0, 270.0), "sides": (-90.0, 0.0, 90.0)}
+"""Centres (deg, relative to the heading) of the windows a tracking sweep reads."""
+
+FIX_RULES = ("always", "spread")
+"""When a leg ends: re-localise ``always``, or only when the belief's ``spread`` could not drive on."""
+
+TRACKING = ("continue", "prior")
+"""How a tracking re-localisation starts (`FixConfig.tracking`)."""
+
+
+def _check(group: str, name: str, value: Any, *, low: float = 0.0, strict: bool = False,
+           integer: bool = False, high: float = math.inf) -> None:
+    """ConfigError unless `value` is a finite number (an int when `integer`) in the range."""
+    kind = int if integer else int | float
+    ok = isinstance(value, kind) and not isinstance(value, bool) and math.isfinite(value)
+    ok = ok and (value > low if strict else value >= low) and value <= high
+    if not ok:
+        what = "an integer" if integer else "a number"
+        bounds = f"> {low:g}" if strict else f">= {low:g}"
+        if high < math.inf:
+            bounds += f" and <= {high:g}"
+        raise ConfigError(f"MissionConfig.{group}.{name} must be {what} {bounds}, got {value!r}")
+
+
+def _check_choice(group: str, name: str, value: Any, choices: tuple[str, ...] | Mapping[str, Any]) -> None:
+    if value not in choices:
+        raise ConfigError(f"MissionConfig.{group}.{name} must be one of {', '.join(choices)}, got {value!r}")
 
 
 @dataclass(frozen=True)
-class MissionConfig:
-    """How a mission is run (all lengths in cm, angles in rad, times in s).
+class PlanningConfig:
+    """How paths are planned.
 
     Parameters
     ----------
-    planning_time_s : float
-        Time budget of each planner query.
-    planner_options, localiser_options : mapping
-        Keyword arguments for `make_planner` / `make_localiser` when the stack is given by name.
-    localise_options : mapping
-        Extra keyword arguments of every look (`localisation.procedure.look`), global or tracking.
+    time_s : float
+        Time budget of each planner query (s).
     safety_margin_cm : float
-        Extra clearance added to the robot radius when planning; the mission tries half the margin and
-        then the bare radius when no path exists with it (narrow passages). Starts and targets closer
-        to a wall than the margin are joined to the path by a short straight leg.
-    move_step_cm : float
-        Longest single Move command; a segment is driven as several Moves, the localiser predicting
-        after each one (the watchdog runs inside every Move).
-    relocalise_every_cm : float or None
-        Re-localise (tracking) after driving this far along one segment, then re-aim at the waypoint;
-        None re-localises at the waypoints only.
-    first_leg_cm : float or None
-        After a global fix, the first leg is at most this long before re-localising: a heading error
-        of the fix shows as a sideways offset after a short drive, before it can bring the robot to
-        a wall (None: no special first leg).
-    waypoint_tolerance_cm : float
-        A waypoint counts as reached when the estimate is this close to it (after re-localising there).
-    max_legs : int
-        Legs (re-aimed after each re-localisation) toward one waypoint before re-planning.
-    heading_tolerance_deg, min_leg_cm : float
-        A leg ends (and the robot re-localises) where the straight drive would touch a wall if the
-        estimated heading were off by this much either way; legs are never shorter than
-        `min_leg_cm`. Bounds the damage of a heading error, the error a sonar localiser makes most.
-    leg_margin_cm : float
-        Extra clearance (cm) for that check (position error of the estimate); used from estimates
-        that have it.
-    goal_tolerance_cm : float
-        The final correction stops when the estimate is this close to the target.
-    max_corrections : int
-        Correction moves at the target before giving up on the tolerance (the mission still counts
-        as a success when the estimate ends within `success_radius_cm`).
-    success_radius_cm : float
-        The estimate must end within this distance of the target for the mission to succeed.
-    final_scans : int
-        Scans fused at the target before each correction decision (more scans, tighter estimate).
-    reverse_cm : float
-        A correction move at the target up to this long whose direction is more than 90 degrees off
-        the heading backs up instead of turning around (0: always turn toward the target).
-    max_replans : int
-        Re-plans (after watchdog stops or deviations) before the mission gives up.
-    max_localisation_attempts : int
-        Global localisation attempts before the robot is declared lost.
-    max_explore_moves, explore_step_cm : int, float
-        While a global belief stays ambiguous, up to this many moves of at most this length toward
-        open space (chosen from the scan with room for the robot disc and the margin).
-    exploration : {"modes", "scan"}
-        How those moves are chosen (`localisation.exploration`): ``modes``, collision-free with half
-        the margin from every candidate pose the localiser reports (from the scan when it reports
-        none); ``scan``, the paper procedure's rule, toward the longest free run of the last sweep.
-    explore_heading_tolerance_deg : float
-        An exploration move planned from the localiser's modes must stay free when the modes'
-        headings are off by this much either way. From a belief that knows the place (position
-        spread and modes within `tracking_std_cm`) the move allows for three standard deviations
-        of the belief's heading and position instead, when more (its mean stands for the modes
-        when there are none).
-    align_sweeps : int
-        When a global belief that knows the place (position spread and modes within
-        `tracking_std_cm`) but not its heading finds no exploration move that is safe for its
-        heading spread, the robot settles the heading the paper's way on the spot instead (turning
-        cannot touch a wall): turn toward the minimum reading, sweep the four windows around the
-        axes again, update the same belief; up to this many times per global attempt. (Done before
-        every exploration, it cost map2's `nxt` missions 20 s of robot time for no gain: a move
-        tells more than a second look from the same place.)
-    confirm_global : bool
-        Confirm a global fix that rests on scans from one place with a second, independent one
-        (guards against a localiser that collapses on one of several identical places); fixes further apart than
-        `confirm_tolerance_cm` count as ambiguous.
-    confirm_tolerance_cm : float
-    confirm_all : bool
-        Confirm every global fix, also those reached by exploring (a short exploration can leave the
-        localiser collapsed on a twin place; on map3 without it about 1 mission in 100 ended in the
-        wrong room). False confirms single-place fixes only.
-    tracking : {"continue", "prior"}
-        How a re-localisation starts: from the localiser's current (predicted) belief, or reset to a
-        Gaussian prior around the last estimate (`tracking_std_cm`, `tracking_std_deg`). Either falls
-        back to the other, then to a global localisation, when it does not converge.
-    tracking_std_cm, tracking_std_deg : float
-        Minimum standard deviations of the prior handed to a tracking re-localisation.
-    max_actions : int
-        Hard limit on Turn/Move commands (guards against endless loops).
-    global_scan_step_deg : float
-        Turret step (deg) of the sweeps of a global localisation (1: the paper's 360 readings).
-    global_align : bool
-        Global localisation the paper's way: sweep, turn toward the minimum reading, sweep again and
-        keep the windows around the axes. False: one sweep, keeping the windows around the minimum
-        reading's direction of that sweep (the same near-perpendicular readings, half the sweeps).
-    track_window_deg : float
-        Sweeps of a tracking re-localisation (from a belief, no alignment) read only windows of
-        +-this many degrees around the robot's axes (`track_windows`; 15: the paper's window);
-        180 sweeps the full turn.
-    track_scan_step_deg : float
-        Turret step (deg) inside those windows.
-    track_windows : {"sides", "axes"}
-        ``sides``: the three windows ahead and to the sides (-90, 0, 90); ``axes``: the paper's
-        four, around 0, 90, 180 and 270 degrees. A tracking belief needs no look behind: over 30
-        Table I trials per map, ``sides`` (45 readings and 420 degrees of turret travel at 2 degrees,
-        2.8 s, against 62 and 600, 4.0 s) cut the median robot time by 2-14 s at the same
-        accuracy.
-    track_align : bool
-        Re-localise along the way the paper's way (full sweep, align, full sweep) instead of one
-        window sweep; the window settings are then ignored.
-    final_window_deg, final_scan_step_deg : float
-        The same for the re-localisations at the target (the final correction loop).
-    fix_rule : {"habit", "spread"}
-        When a leg ends (at a waypoint, after `relocalise_every_cm`, or where `heading_tolerance_deg`
-        cuts it), ``habit`` re-localises every time; ``spread`` only when the belief as predicted
-        through the motion could not drive on: the position spread across the next stretch plus
-        the heading spread over its length, times `spread_sigmas`, must leave the robot disc clear
-        of the walls along it. A waypoint the robot missed is skipped when the belief can drive on
-        to the next one by the same rule.
-    spread_sigmas : float
-        Standard deviations of the belief the ``spread`` rule keeps clear of the walls.
-    spread_min_heading_deg : float
-        The ``spread`` rule never takes the heading spread as smaller than this (deg): a sonar
-        localiser's belief can be narrower than its heading error.
-    spread_drift : float
-        Nor the position spread as smaller than this fraction of the distance driven since the
-        last fix (a localiser whose belief does not grow with the motion is not trusted blindly).
-    collision : {"index", "fcl"}
-        Backend of the mission's collision checks (planning, legs, exploration; the simulator's
-        watchdog and contacts too when the mission runs on it): `toolkit.world.make_checker`.
+        Clearance added to the robot radius when planning; half of it, then the bare radius, when no
+        path exists with it. Starts and targets closer to a wall join the path by a short straight leg.
+    planner_options : mapping
+        Keyword arguments of `make_planner` when the planner is given by name.
     """
 
-    planning_time_s: float = 1.0
-    planner_options: Mapping[str, Any] = field(default_factory=dict)
-    localiser_options: Mapping[str, Any] = field(default_factory=dict)
-    localise_options: Mapping[str, Any] = field(default_factory=dict)
+    time_s: float = 1.0
     safety_margin_cm: float = 2.0
+    planner_options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        _check("planning", "time_s", self.time_s, strict=True)
+        _check("planning", "safety_margin_cm", self.safety_margin_cm)
+
+
+@dataclass(frozen=True)
+class DriveConfig:
+    """How a path is driven, leg by leg.
+
+    Parameters
+    ----------
+    move_step_cm : float
+        Longest single Move; the localiser predicts after each (the watchdog runs inside every Move).
+    waypoint_tolerance_cm : float
+        A waypoint is reached when the estimate is this close to it.
+    max_legs : int
+        Legs (each re-aimed from the estimate) toward one waypoint before re-planning.
+    heading_tolerance_deg : float
+        A leg ends where the straight drive would touch a wall were the heading off by this much
+        either way (the error a sonar localiser makes most).
+    min_leg_cm : float
+        Legs are never cut shorter than this.
+    leg_margin_cm : float
+        Extra clearance of that check, for the estimate's position error (from estimates that have it).
+    """
+
     move_step_cm: float = 10.0
-    relocalise_every_cm: float | None = None
-    first_leg_cm: float | None = 6.0
     waypoint_tolerance_cm: float = 1.0
     max_legs: int = 12
     heading_tolerance_deg: float = 8.0
-    leg_margin_cm: float = 0.0
     min_leg_cm: float = 4.0
-    goal_tolerance_cm: float = 0.5
-    max_corrections: int = 6
-    success_radius_cm: float = 3.0
-    final_scans: int = 1
-    reverse_cm: float = 10.0
-    max_replans: int = 12
-    max_localisation_attempts: int = _GLOBAL.attempts
-    max_explore_moves: int = _GLOBAL.max_explore_moves
-    explore_step_cm: float = _GLOBAL.explore_step_cm
-    exploration: str = _GLOBAL.exploration
-    explore_heading_tolerance_deg: float = _GLOBAL.explore_heading_tolerance_deg
-    align_sweeps: int = _GLOBAL.align_sweeps
+    leg_margin_cm: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check("drive", "move_step_cm", self.move_step_cm, strict=True)
+        _check("drive", "waypoint_tolerance_cm", self.waypoint_tolerance_cm, strict=True)
+        _check("drive", "max_legs", self.max_legs, low=1, integer=True)
+        for name in ("heading_tolerance_deg", "min_leg_cm", "leg_margin_cm"):
+            _check("drive", name, getattr(self, name))
+
+
+@dataclass(frozen=True)
+class FixConfig:
+    """When and how the robot re-localises on the way (`toolkit.mission.fix_policy.FixPolicy`).
+
+    Parameters
+    ----------
+    rule : {"spread", "always"}
+        Where a leg ends, ``always`` re-localises; ``spread`` only when the belief, predicted through the
+        motion, could not drive on: its position spread across the next stretch plus its heading
+        spread over the stretch's length, times `spread_sigmas`, must leave the robot disc clear of
+        the walls. A missed waypoint is passed when the belief can drive on to the next one.
+    relocalise_every_cm : float or None
+        Legs longer than this end on the way to the waypoint (None: legs end at waypoints only).
+    first_leg_cm : float or None
+        The first leg after a global fix is at most this long, so a heading error of the fix shows
+        as a sideways offset before it brings the robot to a wall (None: no short first leg).
+    spread_sigmas : float
+        Standard deviations of the belief the ``spread`` rule keeps clear of the walls.
+    spread_min_heading_deg : float
+        The ``spread`` rule takes the heading spread as at least this (a sonar belief can be
+        narrower than its heading error).
+    spread_drift : float
+        ... and the position spread as at least this fraction of the distance driven since the last fix.
+    tracking : {"continue", "prior"}
+        A re-localisation starts from the localiser's predicted belief, or from a Gaussian prior around
+        the last estimate; either falls back to the other, then to a global localisation.
+    tracking_std_cm, tracking_std_deg : float
+        Smallest standard deviations of that prior.
+    """
+
+    rule: str = "spread"
+    relocalise_every_cm: float | None = None
+    first_leg_cm: float | None = 6.0
+    spread_sigmas: float = 3.0
+    spread_min_heading_deg: float = 1.0
+    spread_drift: float = 0.05
     tracking: str = "continue"
-    confirm_global: bool = _GLOBAL.confirm
-    confirm_tolerance_cm: float = _GLOBAL.confirm_tolerance_cm
-    confirm_all: bool = _GLOBAL.confirm_all
     tracking_std_cm: float = 4.0
     tracking_std_deg: float = 8.0
-    max_actions: int = 400
-    global_scan_step_deg: float = _GLOBAL.scan_step_deg
-    global_align: bool = _GLOBAL.align
+
+    def __post_init__(self) -> None:
+        _check_choice("fix", "rule", self.rule, FIX_RULES)
+        _check_choice("fix", "tracking", self.tracking, TRACKING)
+        for name in ("relocalise_every_cm", "first_leg_cm"):
+            if getattr(self, name) is not None:
+                _check("fix", name, getattr(self, name), strict=True)
+        for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
+            _check("fix", name, getattr(self, name))
+        _check("fix", "tracking_std_cm", self.tracking_std_cm, strict=True)
+        _check("fix", "tracking_std_deg", self.tracking_std_deg, strict=True)
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """How the sonar sweeps of the re-localisations read (the global ones: `GlobalLocalisation`).
+
+    Parameters
+    ----------
+    track_window_deg : float
+        A tracking sweep reads windows of +-this around the centres of `track_windows` (180: the full turn).
+    track_scan_step_deg : float
+        Turret step inside those windows.
+    track_windows : {"sides", "axes"}
+        ``sides``: ahead and to the sides (-90, 0, 90 degrees); ``axes``: the paper's four (0, 90, 180, 270).
+    track_align : bool
+        Re-localise the paper's way (full sweep, align, full sweep); the window settings are then ignored.
+    final_window_deg, final_scan_step_deg : float
+        Window and step of the sweeps at the target (one window, ahead).
+    localise_options : mapping
+        Extra keyword arguments of every look (`localisation.procedure.look`), global or tracking.
+    """
+
     track_window_deg: float = 15.0
     track_scan_step_deg: float = 2.0
     track_windows: str = "sides"
     track_align: bool = False
     final_window_deg: float = 15.0
     final_scan_step_deg: float = 1.0
-    fix_rule: str = "spread"
-    spread_sigmas: float = 3.0
-    spread_min_heading_deg: float = 1.0
-    spread_drift: float = 0.05
+    localise_options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name in ("track_scan_step_deg", "final_scan_step_deg"):
+            _check("sweeps", name, getattr(self, name), strict=True, high=90.0)
+        for name in ("track_window_deg", "final_window_deg"):
+            _check("sweeps", name, getattr(self, name), high=180.0)
+        _check_choice("sweeps", "track_windows", self.track_windows, TRACK_WINDOWS)
+
+
+@dataclass(frozen=True)
+class FinalConfig:
+    """The final correction at the target (`toolkit.mission.final_correction.FinalCorrectionPolicy`).
+
+    Parameters
+    ----------
+    goal_tolerance_cm : float
+        Corrections stop when the estimate is this close to the target.
+    max_corrections : int
+        Correction moves before giving up on the tolerance.
+    success_radius_cm : float
+        The mission succeeds when the estimate ends within this distance of the target.
+    reverse_cm : float
+        A correction up to this long toward a target behind the robot backs up instead of turning
+        around (0: always turn toward the target).
+    """
+
+    goal_tolerance_cm: float = 0.5
+    max_corrections: int = 6
+    success_radius_cm: float = 3.0
+    reverse_cm: float = 10.0
+
+    def __post_init__(self) -> None:
+        _check("final", "goal_tolerance_cm", self.goal_tolerance_cm, strict=True)
+        _check("final", "max_corrections", self.max_corrections, integer=True)
+        _check("final", "success_radius_cm", self.success_radius_cm, strict=True)
+        _check("final", "reverse_cm", self.reverse_cm)
+
+
+@dataclass(frozen=True)
+class LimitsConfig:
+    """When the mission gives up.
+
+    Parameters
+    ----------
+    max_replans : int
+        Re-plans (after watchdog stops or deviations).
+    max_actions : int
+        Turn and Move commands (a guard against endless loops).
+    """
+
+    max_replans: int = 12
+    max_actions: int = 400
+
+    def __post_init__(self) -> None:
+        _check("limits", "max_replans", self.max_replans, integer=True)
+        _check("limits", "max_actions", self.max_actions, low=1, integer=True)
+
+
+_GROUPS = ("planning", "drive", "fix", "global_localisation", "sweeps", "final", "limits")
+
+
+@dataclass(frozen=True)
+class MissionConfig:
+    """How a mission is run: one group per concern, each documenting its fields.
+
+    Parameters
+    ----------
+    planning : PlanningConfig
+    drive : DriveConfig
+    fix : FixConfig
+    global_localisation : GlobalLocalisation
+        The global strategy, the mission's exploration policy (`localisation.global_localisation`).
+    sweeps : SweepConfig
+    final : FinalConfig
+    limits : LimitsConfig
+    localiser_options : mapping
+        Keyword arguments of `make_localiser` when the localiser is given by name.
+    collision : {"index", "fcl"}
+        Backend of the mission's collision checks (`toolkit.world.make_checker`); the simulator's
+        watchdog and contacts use it too when the mission runs on it.
+    """
+
+    planning: PlanningConfig = field(default_factory=PlanningConfig)
+    drive: DriveConfig = field(default_factory=DriveConfig)
+    fix: FixConfig = field(default_factory=FixConfig)
+    global_localisation: GlobalLocalisation = field(default_factory=GlobalLocalisation)
+    sweeps: SweepConfig = field(default_factory=SweepConfig)
+    final: FinalConfig = field(default_factory=FinalConfig)
+    limits: LimitsConfig = field(default_factory=LimitsConfig)
+    localiser_options: Mapping[str, Any] = field(default_factory=dict)
     collision: str = "index"
 
     def __post_init__(self) -> None:
-        positive = ("planning_time_s", "move_step_cm", "waypoint_tolerance_cm", "goal_tolerance_cm",
-                    "success_radius_cm", "tracking_std_cm", "tracking_std_deg")
-        for name in positive:
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-                raise ConfigError(f"MissionConfig.{name} must be a positive number, got {v!r}")
-        if not (math.isfinite(self.safety_margin_cm) and self.safety_margin_cm >= 0):
-            raise ConfigError(f"MissionConfig.safety_margin_cm must be >= 0, got {self.safety_margin_cm!r}")
-        for name in ("global_scan_step_deg", "track_scan_step_deg", "final_scan_step_deg"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and 0 < v <= 90):
-                raise ConfigError(f"MissionConfig.{name} must be in (0, 90] degrees, got {v!r}")
-        for name in ("track_window_deg", "final_window_deg"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and 0 <= v <= 180):
-                raise ConfigError(f"MissionConfig.{name} must be in [0, 180] degrees, got {v!r}")
-        if self.track_windows not in _WINDOW_CENTRES:
-            raise ConfigError(f"MissionConfig.track_windows must be one of {', '.join(_WINDOW_CENTRES)}, "
-                             f"got {self.track_windows!r}")
-        if self.fix_rule not in ("habit", "spread"):
-            raise ConfigError(f"MissionConfig.fix_rule must be 'habit' or 'spread', got {self.fix_rule!r}")
-        for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ConfigError(f"MissionConfig.{name} must be >= 0, got {v!r}")
-        if self.collision not in CHECKER_BACKENDS:
-            raise ConfigError(f"MissionConfig.collision must be one of {', '.join(CHECKER_BACKENDS)}, "
-                              f"got {self.collision!r}")
-        if self.tracking not in ("continue", "prior"):
-            raise ConfigError(f"MissionConfig.tracking must be 'continue' or 'prior', got {self.tracking!r}")
-        if self.relocalise_every_cm is not None and not self.relocalise_every_cm > 0:
-            raise ConfigError("MissionConfig.relocalise_every_cm must be > 0 or None, "
-                              f"got {self.relocalise_every_cm!r}")
-        for name in ("max_corrections", "max_replans", "max_localisation_attempts", "max_actions", "final_scans",
-                     "max_legs", "max_explore_moves", "align_sweeps"):
-            v = getattr(self, name)
-            lowest = 0 if name in ("max_corrections", "max_replans", "max_explore_moves", "align_sweeps") else 1
-            if not (isinstance(v, int) and v >= lowest):
-                raise ConfigError(f"MissionConfig.{name} must be a non-negative integer, got {v!r}")
-        self.global_strategy()  # its own checks (exploration rule, ...)
+        _check_choice("", "collision", self.collision, CHECKER_BACKENDS)
 
-    def global_strategy(self) -> GlobalLocalisation:
-        """The global-localisation strategy of this mission, from its settings (the localiser benchmark
-        runs `GlobalLocalisation`'s defaults, which are the default mission's)."""
-        return GlobalLocalisation(
-            scan_step_deg=self.global_scan_step_deg, align=self.global_align,
-            attempts=self.max_localisation_attempts, confirm=self.confirm_global, confirm_all=self.confirm_all,
-            confirm_tolerance_cm=self.confirm_tolerance_cm, max_explore_moves=self.max_explore_moves,
-            explore_step_cm=self.explore_step_cm, explore_heading_tolerance_deg=self.explore_heading_tolerance_deg,
-            align_sweeps=self.align_sweeps, place_cm=self.tracking_std_cm, margin_cm=self.safety_margin_cm,
-            exploration=self.exploration)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in self.__dict__.items()}
+    def with_options(self, **options: Any) -> MissionConfig:
+        """This configuration with fields set from flat options: ``group.field`` or a field name only one
+        group has (``fix.rule`` or ``rule``), or ``localiser_options`` / ``collision``; an unknown key is
+        a `ConfigError` naming it."""
+        groups: dict[str, dict[str, Any]] = {}
+        top: dict[str, Any] = {}
+        for key, value in options.items():
+            group, name = _locate(key)
+            if group:
+                groups.setdefault(group, {})[name] = value
+            else:
+                top[name] = value
+        changed = {g: replace(getattr(self, g), **values) for g, values in groups.items()}
+        return replace(self, **changed, **top)
 
     @classmethod
-    def for_sonar(cls, sonar: str, **overrides: Any) -> MissionConfig:
-        """Defaults for a sonar model: the ``nxt`` sensor (and a real NXT) gets a wider heading
-        tolerance and a position margin for each leg (its localisation errs by up to ~10 degrees in
-        heading and ~2 cm in position near slanted walls while reporting a narrow belief), and keeps
-        the paper's four tracking windows (the wide lobe's tracking drifts with three: a virtual-brick
-        mission ended 2.4 cm off with ``sides``)."""
+    def for_sonar(cls, sonar: str, **options: Any) -> MissionConfig:
+        """The defaults for a sonar model, then `options` (as `with_options`). The ``nxt`` sensor (and a
+        real NXT) gets a wider heading tolerance, a position margin for each leg and a wider least
+        heading spread (its fixes err in heading near slanted walls while its belief stays narrow), and
+        the paper's four tracking windows (its wide lobe tracks less well with three)."""
         base: dict[str, Any] = {}
         if sonar == "nxt":
-            base = {"heading_tolerance_deg": 15.0, "leg_margin_cm": 2.0, "spread_min_heading_deg": 4.0,
-                    "track_windows": "axes"}
-        return cls(**{**base, **overrides})
+            base = {"drive.heading_tolerance_deg": 15.0, "drive.leg_margin_cm": 2.0,
+                    "fix.spread_min_heading_deg": 4.0, "sweeps.track_windows": "axes"}
+        return cls().with_options(**base).with_options(**options)
 
+    def to_dict(self) -> dict[str, Any]:
+        """Every field, groups as nested dicts."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            out[f.name] = ({g.name: _plain(getattr(v, g.name)) for g in fields(v)} if f.name in _GROUPS
+                           else _plain(v))
+        return out
+
+
+def _plain(v: Any) -> Any:
+    return dict(v) if isinstance(v, Mapping) else v
+
+
+def _group_fields() -> dict[str, tuple[str, ...]]:
+    """The field names of each group."""
+    default = MissionConfig()
+    return {g: tuple(f.name for f in fields(getattr(default, g))) for g in _GROUPS}
+
+
+def _locate(key: str) -> tuple[str, str]:
+    """(group, field) of a flat option key (group "" for `MissionConfig`'s own fields)."""
+    by_group = _group_fields()
+    group, dot, name = key.rpartition(".")
+    if dot:
+        if group in by_group and name in by_group[group]:
+            return group, name
+        raise ConfigError(f"unknown mission option {key!r}: {group!r} has no field {name!r}"
+                          if group in by_group else
+                          f"unknown mission option {key!r}: no group {group!r} (groups: {', '.join(_GROUPS)})")
+    if key in ("localiser_options", "collision"):
+        return "", key
+    owners = [g for g, names in by_group.items() if key in names]
+    if len(owners) == 1:
+        return owners[0], key
+    if owners:
+        raise ConfigError(f"mission option {key!r} is ambiguous: say {' or '.join(f'{g}.{key}' for g in owners)}")
+    raise ConfigError(f"unknown mission option {key!r} (give group.field; groups: {', '.join(_GROUPS)})")

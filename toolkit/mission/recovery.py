@@ -36,12 +36,24 @@ import numpy as np
 
 from localisation.base import Motion, PoseEstimate, Prior
 
-from ..world import LinkLostError, Resumption, RobotError, angle_diff, ray_cast
+from ..world import (
+    LinkLostError,
+    Reconnectable,
+    Resumption,
+    Robot,
+    RobotError,
+    TruthSource,
+    WatchdogDistance,
+    angle_diff,
+    ray_cast,
+)
 from .report import Action, Outcome
+from .states import MissionEnded
 
 if TYPE_CHECKING:
     from ..recording import Recorder
-    from .stack import _Mission
+    from .context import MissionContext
+    from .localising import Fixes
 
 __all__ = ["DEFAULT_RECONNECT_TIMEOUT_S", "OFF_COURSE_CM", "OFF_COURSE_DEG", "UNEXPLAINED_STOP_CM", "WIDE_STD_CM",
            "WIDE_STD_DEG", "FaultLog", "FaultNote", "Recovery", "StopCheck", "off_course", "watchdog_cm",
@@ -83,14 +95,11 @@ def widened_prior(est: PoseEstimate, floor_cm: float, floor_rad: float) -> Prior
     return Prior(est.pose, cov)
 
 
-def watchdog_cm(robot: Any) -> float:
-    """The distance (cm) at which `robot`'s watchdog stops a move: its own (the simulator's
-    ``watchdog_cm``, an NXT profile's ``watchdog_distance_cm``), else the radius plus 4 cm."""
-    own = getattr(robot, "watchdog_cm", None)
-    if not isinstance(own, int | float):
-        own = getattr(getattr(robot, "profile", None), "watchdog_distance_cm", None)
-    if isinstance(own, int | float) and not isinstance(own, bool):
-        return float(own)
+def watchdog_cm(robot: Robot) -> float:
+    """The distance (cm) at which `robot`'s watchdog stops a move: its own when it says
+    (`toolkit.world.WatchdogDistance`), else the radius plus 4 cm."""
+    if isinstance(robot, WatchdogDistance):
+        return float(robot.watchdog_distance_cm)
     return float(robot.geometry.radius_cm) + 4.0
 
 
@@ -102,7 +111,7 @@ class StopCheck:
     def __init__(self) -> None:
         self._last: np.ndarray | None = None
 
-    def __call__(self, mission: _Mission) -> str | None:
+    def __call__(self, mission: MissionContext) -> str | None:
         """Why the stop just made says the belief is wrong (see `UNEXPLAINED_STOP_CM`), or None."""
         est = mission.estimate
         if est is None:
@@ -191,13 +200,12 @@ class FaultLog:
         if self._recorder is not None:
             self._recorder.event("fault", kind=kind, t=robot_time_s, detail=detail)
 
-    def add(self, note: FaultNote, robot: Any = None) -> None:
+    def add(self, note: FaultNote, truth: TruthSource | None = None) -> None:
         """What came of a fault: kept for the report, a ``recovery`` line in the recording (with the
-        true pose of `robot` where the recording knows it)."""
+        true pose from `truth`, else from the recording's own truth, when there is one)."""
         self.notes.append(note)
         if self._recorder is not None:
-            truth = None if robot is None else self._recorder.true_pose(robot)
-            self._recorder.event("recovery", **note.to_dict(), true_pose=truth)
+            self._recorder.event("recovery", **note.to_dict(), true_pose=self._recorder.true_pose(truth))
 
     def say_once(self, key: str, message: str) -> None:
         """Log `message` as a warning the first time `key` comes up in this mission."""
@@ -232,40 +240,29 @@ class Recovery:
         self._sleep = sleep
 
     # -- the sonar ----------------------------------------------------------------------------------
-    def sonar_fault(self, mission: _Mission, detail: str) -> None:
+    def sonar_fault(self, mission: MissionContext, detail: str) -> None:
         """A look sweeps again because of `detail` (its `on_sweep_fault`, global or tracking)."""
         t = float(mission.robot.robot_time_s)
         self.log.say_once(detail.split(":", 1)[0], f"the sonar looks faulty ({detail}); sweeping again")
         self.log.fault("sonar", t, detail)
-        self.log.add(FaultNote("sonar", t, detail), mission.robot)
+        self.log.add(FaultNote("sonar", t, detail), mission.truth)
         mission.record(Action.SONAR_FAULT, note=f"{detail}; sweeping again")
 
-    def motion_fault(self, mission: _Mission, detail: str) -> None:
+    def motion_fault(self, mission: MissionContext, detail: str) -> None:
         """A fix far off the prediction (the mission's `on_motion_fault`)."""
         t = float(mission.robot.robot_time_s)
         self.log.fault("motion", t, detail)
-        self.log.add(FaultNote("motion", t, detail), mission.robot)
+        self.log.add(FaultNote("motion", t, detail), mission.truth)
 
     # -- the link -----------------------------------------------------------------------------------
-    def run(self, mission: _Mission) -> tuple[Outcome, str]:
-        """`mission.run()`, resumed after every lost link until it ends."""
-        from .stack import _MissionEnded
-
+    def resume_or_end(self, mission: MissionContext, fixes: Fixes, lost: LinkLostError) -> None:
+        """`resume`; a link that does not come back ends the mission (`Outcome.LINK_LOST`)."""
         try:
-            return mission.run()
-        except LinkLostError as exc:
-            lost = exc
-        while True:
-            try:
-                self.resume(mission, lost)
-                mission.navigate()
-                return mission.final_correction()
-            except LinkLostError as exc:
-                lost = exc
-            except _Ended as end:
-                raise _MissionEnded(Outcome.LINK_LOST, str(end)) from None
+            self.resume(mission, fixes, lost)
+        except _Ended as end:
+            raise MissionEnded(Outcome.LINK_LOST, str(end)) from None
 
-    def resume(self, mission: _Mission, lost: LinkLostError) -> None:
+    def resume(self, mission: MissionContext, fixes: Fixes, lost: LinkLostError) -> None:
         """Reconnect, account for the interrupted motion, re-localise (see the module docstring)."""
         robot = mission.robot
         t_lost = float(robot.robot_time_s)
@@ -284,15 +281,15 @@ class Recovery:
         self._account(mission, back)
         mission.record(Action.LINK_RESTORED, note=f"after {outage:.1f} s; the interrupted {back.action or 'action'} "
                                              f"did {back.done:.2f} of {back.requested:.2f} by the tachometers")
-        self._relocalise(mission, back)
+        self._relocalise(mission, fixes, back)
         note = FaultNote("link-lost", t_lost, detail, True, outage, float(robot.robot_time_s) - t_back, back)
-        self.log.add(note, robot)
+        self.log.add(note, mission.truth)
 
-    def _reconnect(self, robot: Any, detail: str, wall0: float) -> Resumption:
+    def _reconnect(self, robot: Robot, detail: str, wall0: float) -> Resumption:
         """Reach the robot again within the timeout, or end the mission with one line."""
-        reconnect = getattr(robot, "reconnect", None)
-        if not callable(reconnect):
+        if not isinstance(robot, Reconnectable):
             raise _Ended(f"link lost ({detail}); this robot cannot reconnect")
+        reconnect = robot.reconnect
         pause = _FIRST_PAUSE_S
         last = ""
         while True:
@@ -313,26 +310,26 @@ class Recovery:
             pause = min(2.0 * pause, _LONGEST_PAUSE_S)
 
     @staticmethod
-    def _account(mission: _Mission, back: Resumption) -> None:
+    def _account(mission: MissionContext, back: Resumption) -> None:
         """Tell the localiser of the part of the interrupted motion the tachometers measured."""
         if back.action == "move" and back.done:
             mission.localiser.predict(Motion(distance_cm=back.done))
-            mission.path_length += abs(back.done)
+            mission.counts.path_cm += abs(back.done)
             mission.since_fix_cm += abs(back.done)
         elif back.action == "turn" and back.done:
             mission.localiser.predict(Motion(turn_rad=back.done))
         mission.estimate = mission.localiser.estimate()
 
-    def _relocalise(self, mission: _Mission, back: Resumption) -> None:
+    def _relocalise(self, mission: MissionContext, fixes: Fixes, back: Resumption) -> None:
         """Localise again from the estimate widened by the interrupted motion, the mission's way (tracking,
         then a wider prior, then global); globally at once when the mission had no fix yet."""
         est = mission.estimate
         if not mission.plans or est is None or not np.all(np.isfinite(est.cov)):
-            mission.localise_global()  # the link dropped before the first fix: start it again
+            fixes.localise_global()  # the link dropped before the first fix: start it again
             return
-        cfg = mission.cfg
+        cfg = mission.cfg.fix
         move = 0.5 * abs(back.requested) if back.action == "move" else 0.0
         turn = 0.5 * abs(back.requested) if back.action == "turn" else 0.0
         prior = widened_prior(est, cfg.tracking_std_cm + move, math.radians(cfg.tracking_std_deg) + turn)
-        mission.relocalise_from(prior, f"after the lost link, from the last estimate widened by the interrupted "
+        fixes.relocalise_from(prior, f"after the lost link, from the last estimate widened by the interrupted "
                                        f"{back.action or 'action'}")

@@ -75,18 +75,6 @@ class Action(StrEnum):
     """A fix far from the prediction, or watchdog stops the map does not explain."""
 
 
-class Leg(Enum):
-    """How driving toward one waypoint ended (`_Mission.drive_to`)."""
-
-    ARRIVED = "arrived"
-    WATCHDOG = "watchdog"
-    """The watchdog stopped a move."""
-    BLOCKED = "blocked"
-    """A move made almost no progress: a contact."""
-    DEVIATED = "deviated"
-    """The straight line from the estimate is no longer free, or the goal was not reached in a few legs."""
-
-
 @dataclass(frozen=True)
 class TraceStep:
     """One recorded step of a mission.

@@ -31,25 +31,13 @@ if TYPE_CHECKING:
     from ..recording import Recorder
 
 
-def run_sim_mission(
-    map: Map | str,
-    *,
-    seed: int = 0,
-    start: Pose | ArrayLike | None = None,
-    random_start_pose: bool = False,
-    target: ArrayLike | None = None,
-    planner: str | Planner = "min-turn",
-    localiser: str | Localiser = "paper-pf",
-    noise_model: str = "botsim",
-    sensor_noise: float = 1.0,
-    motion_noise: float = 0.1,
-    turn_noise: float = 0.005,
-    sonar: str = "ideal",
-    sonar_model: NxtSonar | None = None,
-    config: MissionConfig | None = None,
-    recorder: Recorder | None = None,
-    robot_radius_cm: float | None = None,
-) -> MissionReport:
+def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | None = None,
+                    random_start_pose: bool = False, target: ArrayLike | None = None,
+                    planner: str | Planner = "min-turn", localiser: str | Localiser = "paper-pf",
+                    noise_model: str = "botsim", sensor_noise: float = 1.0, motion_noise: float = 0.1,
+                    turn_noise: float = 0.005, sonar: str = "ideal", sonar_model: NxtSonar | None = None,
+                    config: MissionConfig | None = None, recorder: Recorder | None = None,
+                    robot_radius_cm: float | None = None) -> MissionReport:
     """One seeded mission on the simulator, as `nxtnav run` and `nxtnav paper` run it.
 
     Parameters
@@ -66,19 +54,15 @@ def run_sim_mission(
     target : (2,) array_like or None
         Target (cm); None is the map's preset.
     planner, localiser : str or plug-in
-    noise_model : {"botsim", "absolute"}
-    sensor_noise, motion_noise, turn_noise : float
-        Noise of the ``ideal`` sonar (cm), motion noise (fraction or cm) and turn noise (fraction or rad);
-        the paper's by default. The ``nxt`` sonar's noise is part of its model.
-    sonar : {"ideal", "nxt"}
-    sonar_model : NxtSonar, optional
-        The ``nxt`` sonar's model (a fitted profile's, `toolkit.sonar_fit.load_sonar_profile`): the
-        simulator reads with it and the localiser is told it (`localisation.robot_options`). None: the
-        model's defaults. Only with ``sonar="nxt"``.
+    noise_model, sensor_noise, motion_noise, turn_noise : {"botsim", "absolute"}, float
+        The noise model, the ``ideal`` sonar's noise (cm), motion noise (fraction or cm) and turn noise
+        (fraction or rad); the paper's by default. The ``nxt`` sonar's noise is part of its model.
+    sonar, sonar_model : {"ideal", "nxt"}, NxtSonar or None
+        The sonar, and the ``nxt`` one's model (a fitted profile's): the simulator reads with it and the
+        localiser is told it (`localisation.robot_options`). None: the model's defaults.
     config : MissionConfig or None
         None: `MissionConfig.for_sonar(sonar)`.
     recorder : toolkit.recording.Recorder, optional
-        Passed to `run_mission`.
     robot_radius_cm : float, optional
         Radius of the robot disc (cm; default `RobotGeometry`'s 8 cm): a robot scaled to the map. The
         random start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm``
@@ -91,33 +75,35 @@ def run_sim_mission(
     robot_model = RobotModel.build(sonar if sonar_model is None else sonar_model, sensor_noise=sensor_noise,
                                    noise_model=noise_model, motion_noise=motion_noise, turn_noise=turn_noise,
                                    radius_cm=robot_radius_cm)
-    geometry = robot_model.geometry
-
+    radius = robot_model.geometry.radius_cm
     m = map if isinstance(map, Map) else load_map(map)
     s_start, s_sim, s_stack = derive_seeds(seed, n=3)
-    start_rng = np.random.default_rng(s_start)
-    if random_start_pose:
-        pose = m.random_pose(start_rng, 10.0 if robot_radius_cm is None else geometry.radius_cm + 2.0)
-    elif isinstance(start, Pose):
-        pose = start
-    else:
-        xy = m.start if start is None else np.asarray(start, dtype=float).ravel()
-        if xy is None:
-            raise NxtnavError(f"map {m.name} has no preset start: give one")
-        if xy.shape != (2,) or not np.all(np.isfinite(xy)):
-            raise NxtnavError(f"start must be (x, y) or a Pose, got {np.asarray(start).tolist()!r}")
-        pose = Pose(float(xy[0]), float(xy[1]), float(start_rng.uniform(-math.pi, math.pi)))
+    pose = _start_pose(m, start, random_start_pose, np.random.default_rng(s_start),
+                       10.0 if robot_radius_cm is None else radius + 2.0)
+    target = m.target if target is None else target
     if target is None:
-        if m.target is None:
-            raise NxtnavError(f"map {m.name} has no preset target: give one")
-        target = m.target
+        raise NxtnavError(f"map {m.name} has no preset target: give one")
     cfg = config or MissionConfig.for_sonar(sonar)
     if isinstance(localiser, str):
-        opts = localiser_options(localiser, robot_model)
-        cfg = replace(cfg, localiser_options={**opts, **dict(cfg.localiser_options)})
-    checker = make_checker(m, geometry.radius_cm, cfg.collision)  # the simulator's contacts too: one backend
-    robot = SimRobot(m, pose, geometry=geometry, noise=robot_model.motion, sonar=robot_model.sonar, rng=s_sim,
-                     checker=checker)
-    report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=s_stack, config=cfg,
-                         recorder=recorder)
+        cfg = replace(cfg, localiser_options={**localiser_options(localiser, robot_model), **cfg.localiser_options})
+    robot = SimRobot(m, pose, geometry=robot_model.geometry, noise=robot_model.motion, sonar=robot_model.sonar,
+                     rng=s_sim, checker=make_checker(m, radius, cfg.collision))  # the simulator's contacts: one backend
+    report = run_mission(robot, m, target, planner=planner, localiser=localiser,
+                         rng=s_stack, config=cfg, recorder=recorder, truth=robot)
     return replace(report, seed=int(seed))
+
+
+def _start_pose(m: Map, start: Pose | ArrayLike | None, random_start: bool, rng: np.random.Generator,
+                clearance_cm: float) -> Pose:
+    """The true start: drawn (`random_start`, `clearance_cm` from the walls), given, or the map's preset
+    position, with a drawn heading where none is given."""
+    if random_start:
+        return m.random_pose(rng, clearance_cm)
+    if isinstance(start, Pose):
+        return start
+    xy = m.start if start is None else np.asarray(start, dtype=float).ravel()
+    if xy is None:
+        raise NxtnavError(f"map {m.name} has no preset start: give one")
+    if xy.shape != (2,) or not np.all(np.isfinite(xy)):
+        raise NxtnavError(f"start must be (x, y) or a Pose, got {np.asarray(start).tolist()!r}")
+    return Pose(float(xy[0]), float(xy[1]), float(rng.uniform(-math.pi, math.pi)))

@@ -197,6 +197,17 @@ class NxtRobot:
             time.sleep(0.1)  # the sensor's I2C bus needs a moment after power-up
         self._i2c_write(_US_COMMAND, bytes((_US_CONTINUOUS,)))
 
+    @property
+    def watchdog_distance_cm(self) -> float:
+        """The distance (cm) at which the watchdog stops a move (the profile's)."""
+        return float(self.profile.watchdog_distance_cm)
+
+    def counters(self) -> dict[str, float]:
+        """The robot's running totals (`toolkit.world.RobotCounters`)."""
+        return {"watchdog_stops": float(self.watchdog_stops), "odometry_cm": self.odometry_cm,
+                "sweep_s": self.sweep_s, "turret_return_s": self.turret_return_s, "drive_s": self.drive_s,
+                "turn_s": self.turn_s, "readings": float(self.readings)}
+
     def set_profile(self, profile: NxtProfile) -> None:
         """Use new calibration values (the wiring must stay the same)."""
         old = self.profile

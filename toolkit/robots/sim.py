@@ -218,6 +218,17 @@ class SimRobot:
         """The true pose, for evaluation and plots only (never for the localiser)."""
         return self._pose
 
+    @property
+    def watchdog_distance_cm(self) -> float:
+        """The distance (cm) at which the watchdog stops a move (`watchdog_cm`)."""
+        return self.watchdog_cm
+
+    def counters(self) -> dict[str, float]:
+        """The simulator's running totals (`toolkit.world.RobotCounters`; collisions are the truth's)."""
+        return {"watchdog_stops": float(self.watchdog_stops), "odometry_cm": self.odometry_cm,
+                "sweep_s": self.sweep_s, "turret_return_s": self.turret_return_s, "drive_s": self.drive_s,
+                "turn_s": self.turn_s, "readings": float(self.readings)}
+
     def teleport(self, pose: Pose) -> None:
         """Put the robot at `pose` (kidnapped-robot experiments)."""
         if not self.checker.point_free(pose.xy):

@@ -428,6 +428,11 @@ class BrickWorld:
             return self._pose
 
     @property
+    def true_pose(self) -> Pose:
+        """The true pose (`pose`): the world is a `toolkit.world.TruthSource` for mission reports."""
+        return self.pose
+
+    @property
     def turret_angle(self) -> float:
         """Sensor direction relative to the robot heading (rad)."""
         return math.radians(self.motors[self.config.turret_port].position / self.geometry.turret_gear_ratio)

@@ -31,7 +31,19 @@ from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_ma
 from .params import Param, Params
 from .point_collision import CHECKER_BACKENDS, PointCollisionChecker, make_checker
 from .registry import Registry
-from .robot import NO_ECHO, MoveOutcome, Resumption, Robot, RobotGeometry, Scan, default_scan_angles
+from .robot import (
+    NO_ECHO,
+    MoveOutcome,
+    Reconnectable,
+    Resumption,
+    Robot,
+    RobotCounters,
+    RobotGeometry,
+    Scan,
+    TruthSource,
+    WatchdogDistance,
+    default_scan_angles,
+)
 from .robot_model import FACETS, NXT_SONAR_SIGMA_CM, MotionNoise, RobotModel
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
 
@@ -61,17 +73,21 @@ __all__ = [
     "PlanningError",
     "PointCollisionChecker",
     "Pose",
+    "Reconnectable",
     "Region",
     "Registry",
     "RegistryError",
     "Resumption",
     "RngLike",
     "Robot",
+    "RobotCounters",
     "RobotError",
     "RobotGeometry",
     "RobotModel",
     "Scan",
     "SonarModel",
+    "TruthSource",
+    "WatchdogDistance",
     "angle_diff",
     "as_rng",
     "circular_mean",

@@ -14,14 +14,19 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ConfigError
+from .geometry import Pose
 
 __all__ = [
     "NO_ECHO",
     "MoveOutcome",
+    "Reconnectable",
     "Resumption",
     "Robot",
+    "RobotCounters",
     "RobotGeometry",
     "Scan",
+    "TruthSource",
+    "WatchdogDistance",
     "default_scan_angles",
 ]
 
@@ -207,3 +212,44 @@ class Robot(Protocol):
     def robot_time_s(self) -> float:
         """Time the robot has spent acting so far (modelled on the simulator, measured on the NXT)."""
         ...
+
+
+# -- optional capabilities: a robot declares one by having its member (checked with isinstance) ----------
+@runtime_checkable
+class RobotCounters(Protocol):
+    """A robot that keeps an account of its own work."""
+
+    def counters(self) -> dict[str, float]:
+        """Running totals: ``odometry_cm`` (driven, forward and backward), ``watchdog_stops``, and the
+        robot time split ``sweep_s``, ``turret_return_s``, ``drive_s``, ``turn_s``, ``readings``."""
+        ...
+
+
+@runtime_checkable
+class WatchdogDistance(Protocol):
+    """A robot that says at which distance (cm) its watchdog stops a move."""
+
+    @property
+    def watchdog_distance_cm(self) -> float: ...
+
+
+@runtime_checkable
+class Reconnectable(Protocol):
+    """A robot that can reach its brick again after a lost link (`LinkLostError`)."""
+
+    def reconnect(self) -> Resumption:
+        """Reconnect (raises `LinkLostError` while the link stays down, `RobotError` when it cannot come
+        back); what the interrupted motion did, by the tachometers."""
+        ...
+
+
+@runtime_checkable
+class TruthSource(Protocol):
+    """Where reports take what only a simulated world knows (never given to a localiser): the robot's
+    true pose and its contacts with the walls."""
+
+    @property
+    def true_pose(self) -> Pose: ...
+
+    @property
+    def collisions(self) -> int: ...

@@ -1,0 +1,144 @@
+"""What one mission run knows and does to its robot: the belief, the counters, the trace, the actions."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from localisation.base import Localiser, Motion, PoseEstimate
+from localisation.global_localisation import DriveAction
+
+from ..world import Map, MoveOutcome, Pose, Robot, TruthSource
+from .config import MissionConfig
+from .report import Action, Outcome, TraceStep
+from .states import MissionEnded
+
+FloatArray = NDArray[np.float64]
+
+TURN_EPS = math.radians(0.5)
+"""Turns smaller than this (rad) are not counted as turns."""
+
+
+@dataclass
+class Counts:
+    """The mission's own counters."""
+
+    actions: int = 0
+    turns: int = 0
+    watchdog_stops: int = 0
+    relocalisations: int = 0
+    replans: int = 0
+    path_cm: float = 0.0
+    """Distance driven, forward and backward (cm)."""
+
+
+class MissionContext:
+    """The mutable state of one run, and the robot's actions as the mission takes them: each one counted
+    (against `LimitsConfig.max_actions`), told to the localiser and recorded in the trace. It is the
+    global strategy's `Driver` too, so the strategy's moves are the mission's.
+
+    Attributes
+    ----------
+    estimate : PoseEstimate or None
+        The current belief (after the latest action or look).
+    fresh_fix : bool
+        The estimate comes from a global fix not yet checked by a drive.
+    since_fix_cm : float
+        Distance driven since the last converged fix (cm).
+    last_move : MoveOutcome or None
+        The outcome of the latest move.
+    on_sweep_fault, on_motion_fault : callable or None
+        Told of sweeps taken again (a faulty sonar) and of fixes far off the prediction.
+    on_watchdog_stop : callable or None
+        Says why a watchdog stop shows the belief is wrong (None: it does not).
+    """
+
+    def __init__(self, robot: Robot, m: Map, target: FloatArray, config: MissionConfig,
+                 localiser: Callable[[], Localiser], truth: TruthSource | None = None) -> None:
+        self.robot = robot
+        self.map = m
+        self.target = target
+        self.cfg = config
+        self.radius = float(robot.geometry.radius_cm)
+        self.truth = truth
+        self._make_localiser = localiser
+        self._localiser: Localiser | None = None
+        self.counts = Counts()
+        self.trace: list[TraceStep] = []
+        self.plans: list[FloatArray] = []
+        self.candidates: list[Pose] = []  # the belief's candidate poses when it stayed ambiguous
+        self.estimate: PoseEstimate | None = None
+        self.fresh_fix = False
+        self.since_fix_cm = 0.0
+        self.last_move: MoveOutcome | None = None
+        self.on_sweep_fault: Callable[[str], None] | None = None
+        self.on_motion_fault: Callable[[str], None] | None = None
+        self.on_watchdog_stop: Callable[[MissionContext], str | None] | None = None
+
+    @property
+    def localiser(self) -> Localiser:
+        """The localiser, built at its first use (a target in a wall is reported before any range table
+        is computed)."""
+        if self._localiser is None:
+            self._localiser = self._make_localiser()
+        return self._localiser
+
+    def true_pose(self) -> Pose | None:
+        """The true pose from the truth source (None without one)."""
+        return None if self.truth is None else self.truth.true_pose
+
+    def record(self, action: Action | str, **kw: Any) -> None:
+        """A trace step: `action` (an `Action` or its value; another string is a ValueError) and the belief."""
+        est = self.estimate.pose if self.estimate is not None else None
+        spread = self.estimate.std_xy_cm if self.estimate is not None else None
+        self.trace.append(TraceStep(Action(action), est, self.true_pose(), robot_time_s=float(self.robot.robot_time_s),
+                                    spread_cm=spread, **kw))
+
+    def _count_action(self) -> None:
+        self.counts.actions += 1
+        limit = self.cfg.limits.max_actions
+        if self.counts.actions > limit:
+            raise MissionEnded(Outcome.GAVE_UP, f"gave up after {limit} actions")
+
+    def _predicted(self, motion: Motion, driven_cm: float = 0.0) -> None:
+        """Tell the localiser of `motion`; `driven_cm` adds to the distance counters."""
+        self.localiser.predict(motion)
+        self.estimate = self.localiser.estimate()
+        self.counts.path_cm += abs(driven_cm)
+        self.since_fix_cm += abs(driven_cm)
+
+    def turn(self, angle: float, action: Action | DriveAction = Action.TURN) -> None:
+        """Turn in place by `angle` (rad)."""
+        self._count_action()
+        self.robot.turn(angle)
+        self._predicted(Motion(turn_rad=angle))
+        if abs(angle) > TURN_EPS:
+            self.counts.turns += 1
+        self.record(action, turn_rad=angle)
+
+    def move(self, distance: float, action: Action | DriveAction = Action.MOVE) -> bool:
+        """Move `distance` cm; True when the watchdog stopped it."""
+        self._count_action()
+        out = self.robot.move(distance)
+        self._predicted(Motion(distance_cm=out.distance_cm), out.distance_cm)
+        if out.watchdog:
+            self.counts.watchdog_stops += 1
+        self.last_move = out
+        self.record(action, distance_cm=out.distance_cm, watchdog=out.watchdog)
+        return bool(out.watchdog)
+
+    def turnback(self) -> None:
+        """Back off from the wall ahead."""
+        self._count_action()
+        out = self.robot.turnback()
+        self._predicted(Motion(distance_cm=out.distance_cm), out.distance_cm)
+        self.record(Action.TURNBACK, distance_cm=out.distance_cm)
+
+    def note(self, text: str) -> None:
+        """A decision of the global strategy, recorded in the trace."""
+        self.record(Action.LOCALISE, note=text)

@@ -1,0 +1,118 @@
+"""Driving one leg toward a waypoint: aim from the estimate, cut the leg where a heading error could
+reach a wall, move in steps with the watchdog on."""
+
+from __future__ import annotations
+
+import math
+from enum import Enum
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from localisation.base import PoseEstimate
+
+from ..world import angle_diff
+from .checkers import Checkers
+from .context import MissionContext
+from .fix_policy import FixPolicy
+from .recovery import off_course
+from .report import Action
+
+FloatArray = NDArray[np.float64]
+
+
+class Leg(Enum):
+    """How one leg toward a waypoint ended."""
+
+    ARRIVED = "arrived"
+    """The estimate is at the waypoint (or, for the last one, the leg drove the whole way to it)."""
+    PASSED = "passed"
+    """The waypoint was missed, and the belief can drive on to the next one: it is left behind."""
+    DRIVEN = "driven"
+    """The leg was driven; the fix policy decides whether to re-localise before the next one."""
+    WATCHDOG = "watchdog"
+    """The watchdog stopped a move."""
+    BLOCKED = "blocked"
+    """A move made almost no progress: a contact."""
+    DEVIATED = "deviated"
+    """The straight line from the estimate to the waypoint is no longer free."""
+
+
+class LegEnd(NamedTuple):
+    """A leg's end: how, and whether the leg was long enough to reach the waypoint."""
+
+    leg: Leg
+    to_goal: bool = False
+
+
+class Driving:
+    """Drives the legs of `mission` (`DriveConfig`), their lengths as `policy` says."""
+
+    def __init__(self, mission: MissionContext, policy: FixPolicy, checkers: Checkers) -> None:
+        self.mission = mission
+        self.policy = policy
+        self.checkers = checkers
+        self.cfg = mission.cfg.drive
+
+    def leg(self, goal: FloatArray, legs: int, next_goal: FloatArray | None) -> LegEnd:
+        """Leg number `legs` (from 0) toward `goal`; `next_goal` is the waypoint after it (None: `goal` is
+        the last)."""
+        mission = self.mission
+        assert mission.estimate is not None
+        pose = mission.estimate.pose
+        delta = goal - pose.xy
+        dist = float(np.hypot(*delta))
+        if dist <= self.cfg.waypoint_tolerance_cm and (legs > 0 or dist < 1e-6):
+            return LegEnd(Leg.ARRIVED)
+        if legs > 0 and self.policy.passes_missed(mission.estimate, mission.since_fix_cm, next_goal):
+            return LegEnd(Leg.PASSED)
+        if not self.checkers.bare.segment_free(pose.xy, goal):
+            return LegEnd(Leg.DEVIATED)
+        heading = math.atan2(delta[1], delta[0])
+        turn = float(angle_diff(heading, pose.theta))
+        if abs(turn) > 1e-9:
+            mission.turn(turn)
+        length = self.policy.leg_length(dist, mission.fresh_fix)
+        length = self.safe_length(pose.xy, heading, length)
+        moved = self._steps(length)
+        return LegEnd(moved, length >= dist)
+
+    def _steps(self, length: float) -> Leg:
+        """Move `length` cm in steps of at most `move_step_cm`: DRIVEN, or how a step ended early."""
+        driven = 0.0
+        while length - driven > 1e-9:
+            step = min(self.cfg.move_step_cm, length - driven)
+            before = self.mission.counts.path_cm
+            if self.mission.move(step):
+                return Leg.WATCHDOG
+            if self.mission.counts.path_cm - before < 0.5 * step:
+                return Leg.BLOCKED
+            driven += step
+        return Leg.DRIVEN
+
+    def safe_length(self, xy: FloatArray, heading: float, leg: float) -> float:
+        """The part of a `leg` (cm) from `xy` along `heading` (rad) that stays collision-free when the
+        heading is off by `heading_tolerance_deg` either way (at least `min_leg_cm`)."""
+        tol = math.radians(self.cfg.heading_tolerance_deg)
+        if tol <= 0 or leg <= self.cfg.min_leg_cm:
+            return leg
+        length = leg
+        checker = self.checkers.leg if self.checkers.leg.point_free(xy) else self.checkers.bare
+        for dev in (-tol, tol):
+            end = xy + leg * np.array([math.cos(heading + dev), math.sin(heading + dev)])
+            length = min(length, checker.first_contact(xy, end, tol=0.2) * leg)
+        return max(length, self.cfg.min_leg_cm)
+
+    def off_course(self, predicted: PoseEstimate | None, fixed: bool) -> bool:
+        """Whether the fix just taken (`fixed`: it converged inside the map) lies further from the
+        `predicted` belief than motion noise explains (`toolkit.mission.recovery.off_course`: a wheel
+        that slipped, a robot pushed); said in the trace and to `on_motion_fault`."""
+        mission = self.mission
+        why = off_course(predicted, mission.estimate) if mission.estimate is not None and fixed else None
+        if why is None:
+            return False
+        mission.record(Action.OFF_COURSE, note=why)
+        if mission.on_motion_fault is not None:
+            mission.on_motion_fault(why)
+        return True
