@@ -129,8 +129,8 @@ class RobotDriver:
 class GlobalLocalisation:
     """The global-localisation strategy and its settings (lengths in cm, angles in degrees).
 
-    The defaults are a mission's (`toolkit.mission.MissionConfig.global_strategy` builds the same
-    object from the mission's settings), so the localiser benchmark measures what missions do.
+    The defaults are a mission's (`toolkit.mission.MissionConfig.global_localisation` is one, the
+    mission's exploration policy), so the localiser benchmark measures what missions do.
 
     Parameters
     ----------

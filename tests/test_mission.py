@@ -7,6 +7,7 @@ watchdog counter, odometry, clock).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -15,7 +16,7 @@ import localisation
 from toolkit.mission import Action, MissionConfig, Outcome, run_mission, run_sim_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.seeds import derive_seeds
-from toolkit.world import NxtSonar, Pose, load_map
+from toolkit.world import NxtSonar, Pose, Robot, RobotCounters, TruthSource, load_map
 
 
 def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "ideal",
@@ -156,3 +157,71 @@ def test_report_counts_the_cpu_time_of_the_mission() -> None:
     assert 0.0 < report.cpu_s < math.inf
     assert report.to_dict(trace=False)["cpu_s"] == report.cpu_s
     assert "s CPU" in report.summary()
+
+
+class _ProtocolOnly:
+    """The simulator seen through the `Robot` protocol alone: no truth, no counters, no checker."""
+
+    def __init__(self, robot: SimRobot) -> None:
+        self._robot = robot
+        self.geometry = robot.geometry
+
+    def move(self, distance_cm: float) -> Any:
+        return self._robot.move(distance_cm)
+
+    def turn(self, angle_rad: float) -> None:
+        self._robot.turn(angle_rad)
+
+    def ultrascan(self, angles: Any = None) -> Any:
+        return self._robot.ultrascan(angles)
+
+    def turnback(self) -> Any:
+        return self._robot.turnback()
+
+    def stop(self) -> None:
+        self._robot.stop()
+
+    def close(self) -> None:
+        self._robot.close()
+
+    @property
+    def robot_time_s(self) -> float:
+        return self._robot.robot_time_s
+
+
+def test_a_mission_reads_the_robot_through_its_protocol_and_the_truth_from_its_source() -> None:
+    m = load_map("map1")
+    assert m.target is not None
+    sim = SimRobot(m, Pose(30.0, 20.0, 1.0), rng=2)
+    robot = _ProtocolOnly(sim)
+    assert isinstance(robot, Robot) and not isinstance(robot, TruthSource | RobotCounters)
+    blind = run_mission(robot, m, m.target, rng=2)  # no truth source: nothing true in the report
+    assert blind.success and blind.final_pose is None and blind.collisions is None and blind.start is None
+    assert blind.path_length_cm == pytest.approx(sim.odometry_cm)  # the mission's own count of the moves
+    assert all(s.true_pose is None for s in blind.trace)
+
+    sim = SimRobot(m, Pose(30.0, 20.0, 1.0), rng=2)
+    report = run_mission(_ProtocolOnly(sim), m, m.target, rng=2, truth=sim)
+    assert report.start == Pose(30.0, 20.0, 1.0) and report.final_pose == sim.true_pose
+    assert report.collisions == sim.collisions == 0
+    assert report.trace[-1].true_pose == sim.true_pose
+    assert [s.action for s in report.trace] == [s.action for s in blind.trace]  # the truth steers nothing
+
+
+@pytest.mark.parametrize("tracking", ["continue", "prior"])
+def test_tracking_from_a_prior_converges_as_tracking_from_the_belief_does(tracking: str) -> None:
+    m = load_map("map2")
+    assert m.start is not None and m.target is not None
+    robot = SimRobot(m, Pose(float(m.start[0]), float(m.start[1]), 0.4), rng=3)
+    loc = localisation.make_localiser("paper-pf", m, rng=3)
+    priors: list[object] = []
+    reset = loc.reset
+    loc.reset = lambda prior=None: (priors.append(prior), reset(prior))[1]  # type: ignore[method-assign]
+    cfg = MissionConfig().with_options(**{"fix.tracking": tracking})
+    report = run_mission(robot, m, m.target, localiser=loc, rng=3, config=cfg, truth=robot)
+    _check_against_truth(report, robot)
+    fixes = [s.note for s in report.trace if s.action == Action.RELOCALISE]
+    assert len(fixes) == report.relocalisations >= 3
+    assert all(": converged" in note for note in fixes)  # no fallback was needed
+    from_prior = sum(p is not None for p in priors)
+    assert from_prior == (report.relocalisations if tracking == "prior" else 0)

@@ -89,7 +89,9 @@ def test_run_target_in_wall_reports_it(tmp_path: Path, capsys: pytest.CaptureFix
     ["paper", "--sonar", "radar"],
     ["paper", "--sonar", "ideal,radar"],
     ["paper", "--option", "no_such_option=1"],
-    ["paper", "--option", "fix_rule=never"],
+    ["paper", "--option", "fix.rule=never"],
+    ["paper", "--option", "fix_rule=always"],
+    ["paper", "--option", "fix.habit=1"],
     ["paper", "--option", "track_scan_step_deg"],
     ["paper", "--pareto", "x.png", "--settings", "no-such-setting"],
 ])

@@ -1,7 +1,7 @@
 """What a mission does when its robot fails it: a lost link, a stuck or garbage sonar.
 
 A lost link (`toolkit.world.LinkLostError`: a pulled cable, Bluetooth out of range, a brick that
-stopped answering) no longer ends the run. The motors stop (the robot braked them, or the brick's
+stopped answering) does not end the run. The motors stop (the robot braked them, or the brick's
 tacho limits did), and `Recovery.resume`:
 
 1. reconnects with a growing pause between attempts (0.25 s doubling up to 2 s) for up to
@@ -13,7 +13,8 @@ tacho limits did), and `Recovery.resume`:
    the mission's tracking sweep; a re-localisation that does not converge falls back to the global
    strategy the mission starts with (`localisation.global_localisation.GlobalLocalisation`), and so
    does a link lost before the first fix;
-4. goes on: the mission plans again from the new estimate.
+4. goes on: the mission plans again from the new estimate (the `RECONNECT` state of
+   `toolkit.mission.states.State`).
 
 A sweep a look (`localisation.procedure.look`) takes again because the sensor looked stuck or gave garbage
 (`localisation.scan.sweep_fault`) is noted too, and so is a fix that lies further from the belief
@@ -69,9 +70,8 @@ _LONGEST_PAUSE_S = 2.0
 OFF_COURSE_CM = 5.0
 OFF_COURSE_DEG = 10.0
 """A fix further than `OFF_COURSE_CM` or `OFF_COURSE_DEG` from the belief predicted through the
-motions since the last one means the robot did not move as commanded. Normal fixes stay well inside:
-in 206 re-localisations of 18 simulated missions with the ``nxt`` sonar and the paper's motion noise
-(maps 1-3), the largest differences were 3.4 cm and 2.6 degrees."""
+motions since the last one means the robot did not move as commanded (docs/missions.md: how far
+normal fixes stay inside)."""
 
 
 UNEXPLAINED_STOP_CM = 10.0
