@@ -258,7 +258,9 @@ class MissionConfig:
     drive : DriveConfig
     fix : FixConfig
     global_localisation : GlobalLocalisation
-        The global strategy, the mission's exploration policy (`localisation.global_localisation`).
+        The global strategy, the mission's exploration policy (`localisation.global_localisation`); its
+        ``place_cm`` and ``margin_cm`` are its own settings (their defaults equal `FixConfig.tracking_std_cm`
+        and `PlanningConfig.safety_margin_cm`).
     sweeps : SweepConfig
     final : FinalConfig
     limits : LimitsConfig
