@@ -127,6 +127,10 @@ class Amcl(Localiser):
         Where injected particles come from.
     resample_interval : int
         Updates between resamplings (nav2: 1).
+    update_min_d, update_min_a : float
+        A scan updates the filter only once the robot has driven `update_min_d` cm or turned
+        `update_min_a` rad since the last update (nav2: 25 cm, 0.2 rad); in between, the belief follows
+        the odometry alone. 0 and 0: every scan updates (the sonar's sweeps are far apart).
     sigma_hit, z_hit, z_short, z_rand, lambda_short : float
         Measurement mixture: reading standard deviation (cm), weights, short-reading rate (1/cm).
     laser_max_range : float
@@ -200,6 +204,8 @@ class Amcl(Localiser):
         recovery_alpha_fast: float = 0.1,
         recovery_sampler: str = "scan",
         resample_interval: int = 1,
+        update_min_d: float = 0.0,
+        update_min_a: float = 0.0,
         sigma_hit: float = 1.0,
         z_hit: float = 0.95,
         z_short: float = 0.0,
@@ -269,6 +275,9 @@ class Amcl(Localiser):
         self.alpha_slow, self.alpha_fast = float(recovery_alpha_slow), float(recovery_alpha_fast)
         self.recovery_sampler = recovery_sampler
         self.resample_interval = int(resample_interval)
+        self.update_min_d = float(update_min_d)
+        self.update_min_a = float(update_min_a)
+        self._driven_cm = self._turned_rad = 0.0  # since the last update
         z = z_hit + z_short + z_rand  # normalised so the mixture is a density
         self.z_hit, self.z_short, self.z_rand = z_hit / z, z_short / z, z_rand / z
         self.sigma_hit = float(sigma_hit)
@@ -327,6 +336,7 @@ class Amcl(Localiser):
     def reset(self, prior: Prior | None = None) -> None:
         self.iterations = 0
         self._updates = 0
+        self._driven_cm = self._turned_rad = 0.0
         self.particle_counts = []
         self._log_w_slow = self._log_w_fast = -math.inf
         n = self.max_particles
@@ -348,9 +358,21 @@ class Amcl(Localiser):
         if self._uniform or (motion.turn_rad == 0.0 and motion.distance_cm == 0.0):
             return  # a uniform belief stays uniform
         self.particles = self.motion_model.sample(self.particles, motion, self.rng)
+        self._driven_cm += abs(motion.distance_cm)
+        self._turned_rad += abs(motion.turn_rad)
         self._estimate = self._make_estimate()
 
+    def _still(self) -> bool:
+        """Whether the robot has moved too little since the last update for a scan to update the filter
+        (`update_min_d`, `update_min_a`; never while the belief is uniform or before the first update)."""
+        if self._uniform or self._updates == 0 or (self.update_min_d <= 0 and self.update_min_a <= 0):
+            return False
+        return self._driven_cm < self.update_min_d and self._turned_rad < self.update_min_a
+
     def update(self, scan: Scan) -> None:
+        if self._still():
+            return
+        self._driven_cm = self._turned_rad = 0.0
         if self._beam is not None:
             rel, meas, self._lik = scan_readings(scan, self._beam)
         else:

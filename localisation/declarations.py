@@ -110,6 +110,9 @@ AMCL_PARAMS = Params(
           low=0.0, high=1.0),
     Param("recovery_sampler", str, "scan", "Where injected particles come from", choices=("scan", "uniform")),
     Param("resample_interval", int, 1, "Updates between resamplings (nav2: 1)", low=1),
+    Param("update_min_d", float, 0.0, "A scan updates the filter only after this much driving since the last "
+          "update, or `update_min_a` of turning (nav2: 25 cm; 0: every scan)", unit="cm", low=0.0),
+    Param("update_min_a", float, 0.0, "... or after this much turning (nav2: 0.2 rad)", unit="rad", low=0.0),
     Param("sigma_hit", float, 1.0, "Beam mixture: reading standard deviation", unit="cm", low=1e-6, robot=True),
     Param("z_hit", float, 0.95, "Beam mixture: weight of the true reading", low=0.0),
     Param("z_short", float, 0.0, "Beam mixture: weight of short readings", low=0.0),

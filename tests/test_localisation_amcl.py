@@ -186,3 +186,37 @@ def test_a_new_fix_is_refined_on_its_scan() -> None:
         errors[steps] = max(errs)
     # unrefined, the fresh particles that took over collapse onto the one nearest the truth, and stay
     assert errors[12] < 0.5 < errors[0]
+
+
+def test_scans_update_only_after_update_min_d_or_a() -> None:
+    """nav2's update thresholds: a scan taken before the robot drove `update_min_d` or turned `update_min_a`
+    since the last update leaves the belief where the motion put it; one taken after updates it."""
+    m = load_map("map2")
+    truth = Pose(40.0, 20.0, 1.0)
+    prior = Prior(Pose(42.0, 19.0, 1.05), np.diag([9.0, 9.0, math.radians(5.0) ** 2]))
+    a = make_localiser("amcl", m, rng=3, update_min_d=5.0, update_min_a=0.3)
+    a.reset(prior)
+    a.update(_scan(m, truth))
+    first = a.estimate().pose.as_array()
+    a.predict(Motion(0.1, 2.0))  # 2 cm and 0.1 rad: under both thresholds
+    moved = a.estimate().pose.as_array()
+    a.update(_scan(m, Pose(*_after(truth, 0.1, 2.0)), seed=1))
+    assert np.array_equal(a.estimate().pose.as_array(), moved)
+    assert not np.array_equal(moved, first)
+    a.predict(Motion(0.0, 4.0))  # 6 cm since the last update: over update_min_d
+    before = a.estimate().pose.as_array()
+    a.update(_scan(m, Pose(*_after(truth, 0.1, 6.0)), seed=2))
+    assert not np.array_equal(a.estimate().pose.as_array(), before)
+    b = make_localiser("amcl", m, rng=3)  # the defaults (0, 0): every scan updates
+    b.reset(prior)
+    b.update(_scan(m, truth))
+    b.predict(Motion(0.1, 2.0))
+    kept = b.estimate().pose.as_array()
+    b.update(_scan(m, Pose(*_after(truth, 0.1, 2.0)), seed=1))
+    assert not np.array_equal(b.estimate().pose.as_array(), kept)
+
+
+def _after(pose: Pose, turn: float, distance: float) -> tuple[float, float, float]:
+    """Where a noise-free turn and drive take `pose`."""
+    th = pose.theta + turn
+    return pose.x + distance * math.cos(th), pose.y + distance * math.sin(th), th
