@@ -16,7 +16,7 @@ import localisation
 from toolkit.mission import Action, MissionConfig, Outcome, run_mission, run_sim_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.seeds import derive_seeds
-from toolkit.world import NxtSonar, Pose, Robot, RobotCounters, TruthSource, load_map
+from toolkit.world import ConfigError, NxtSonar, Pose, Robot, RobotCounters, TruthSource, load_map
 
 
 def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "ideal",
@@ -225,3 +225,46 @@ def test_tracking_from_a_prior_converges_as_tracking_from_the_belief_does(tracki
     assert all(": converged" in note for note in fixes)  # no fallback was needed
     from_prior = sum(p is not None for p in priors)
     assert from_prior == (report.relocalisations if tracking == "prior" else 0)
+
+
+class _SlipsOnce(_ProtocolOnly):
+    """A robot whose first turn of more than 40 degrees turns only 60 % of the command (wheels that skid)."""
+
+    def __init__(self, robot: SimRobot) -> None:
+        super().__init__(robot)
+        self.slipped: float | None = None
+
+    def turn(self, angle_rad: float) -> None:
+        if self.slipped is None and abs(angle_rad) > math.radians(40.0):
+            self.slipped = angle_rad
+            angle_rad *= 0.6
+        self._robot.turn(angle_rad)
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_a_fix_after_a_large_turn_sees_a_slipped_turn_before_the_leg(seed: int) -> None:
+    m = load_map("map1")
+    assert m.start is not None and m.target is not None
+    reports = {}
+    for after_turn in (20.0, None):
+        sim = SimRobot(m, Pose(*m.start, 1.0), rng=seed)
+        robot = _SlipsOnce(sim)
+        cfg = MissionConfig().with_options(**{"fix.after_turn_deg": after_turn})
+        reports[after_turn] = run_mission(robot, m, m.target, rng=seed, truth=sim, config=cfg)
+        assert robot.slipped is not None and abs(robot.slipped) > math.radians(40.0)
+    fixing, blind = reports[20.0], reports[None]
+    assert blind.collisions is not None and blind.collisions > 0  # the situation: a slip that meets a wall
+    assert fixing.success and fixing.collisions == 0, fixing.status
+    actions = [s.action for s in fixing.trace]
+    assert Action.OFF_COURSE in actions  # the fix after the turn saw it, and the mission planned again
+    turned = [i for i, s in enumerate(fixing.trace) if s.action == Action.TURN and s.turn_rad is not None
+              and abs(s.turn_rad) >= math.radians(20.0)]
+    assert turned and all(actions[i + 1] == Action.RELOCALISE for i in turned)  # a fix before every such leg
+
+
+def test_the_fix_after_a_turn_can_be_left_out() -> None:
+    with pytest.raises(ConfigError, match="after_turn_deg"):
+        MissionConfig().with_options(**{"fix.after_turn_deg": -5.0})
+    report = run_sim_mission("map1", seed=1, config=MissionConfig().with_options(**{"fix.after_turn_deg": None}))
+    assert report.success, report.status
+    assert not any(s.note and "after the turn" in s.note for s in report.trace)

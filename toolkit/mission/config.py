@@ -136,6 +136,11 @@ class FixConfig:
         the last estimate; either falls back to the other, then to a global localisation.
     tracking_std_cm, tracking_std_deg : float
         Smallest standard deviations of that prior.
+    after_turn_deg : float or None
+        A turn of at least this many degrees toward a waypoint is followed by a fix before the leg it
+        aims, and the fix at the waypoint before the turn is left out: a turn that slipped (wheels
+        that skid turn the robot less than the tachometers say) is seen before the leg, not at a
+        wall. None: fix at the waypoint, then turn and drive.
     """
 
     rule: str = "spread"
@@ -147,11 +152,12 @@ class FixConfig:
     tracking: str = "continue"
     tracking_std_cm: float = 4.0
     tracking_std_deg: float = 8.0
+    after_turn_deg: float | None = 20.0
 
     def __post_init__(self) -> None:
         _check_choice("fix", "rule", self.rule, FIX_RULES)
         _check_choice("fix", "tracking", self.tracking, TRACKING)
-        for name in ("relocalise_every_cm", "first_leg_cm"):
+        for name in ("relocalise_every_cm", "first_leg_cm", "after_turn_deg"):
             if getattr(self, name) is not None:
                 _check("fix", name, getattr(self, name), strict=True)
         for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):

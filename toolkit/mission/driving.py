@@ -37,6 +37,9 @@ class Leg(Enum):
     """A move made almost no progress: a contact."""
     DEVIATED = "deviated"
     """The straight line from the estimate to the waypoint is no longer free."""
+    TURNED = "turned"
+    """The robot turned toward the waypoint by enough that a fix comes before the leg
+    (`FixPolicy.fixes_after_turn`)."""
 
 
 class LegEnd(NamedTuple):
@@ -73,10 +76,18 @@ class Driving:
         turn = float(angle_diff(heading, pose.theta))
         if abs(turn) > 1e-9:
             mission.turn(turn)
+        if self.policy.fixes_after_turn(turn):
+            return LegEnd(Leg.TURNED)
         length = self.policy.leg_length(dist, mission.fresh_fix)
         length = self.safe_length(pose.xy, heading, length)
         moved = self._steps(length)
         return LegEnd(moved, length >= dist)
+
+    def turn_toward(self, goal: FloatArray) -> float:
+        """The turn (rad) that points the estimate at `goal`."""
+        assert self.mission.estimate is not None
+        pose = self.mission.estimate.pose
+        return float(angle_diff(math.atan2(goal[1] - pose.y, goal[0] - pose.x), pose.theta))
 
     def _steps(self, length: float) -> Leg:
         """Move `length` cm in steps of at most `move_step_cm`: DRIVEN, or how a step ended early."""

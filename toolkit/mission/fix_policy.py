@@ -43,6 +43,12 @@ class FixPolicy:
             every = first if every is None else min(every, first)
         return dist_cm if every is None or dist_cm <= 1.25 * every else every
 
+    def fixes_after_turn(self, turn_rad: float) -> bool:
+        """Whether a turn of `turn_rad` toward a waypoint is followed by a fix before its leg
+        (`FixConfig.after_turn_deg`)."""
+        limit = self.cfg.after_turn_deg
+        return limit is not None and abs(turn_rad) >= math.radians(limit)
+
     def passes_missed(self, est: PoseEstimate, since_fix_cm: float, next_goal: FloatArray | None) -> bool:
         """Whether a waypoint missed after a leg can be passed: the belief can drive on to `next_goal`."""
         return (self.cfg.rule == "spread" and next_goal is not None

@@ -3,7 +3,8 @@
 The transitions (`step` runs one state and returns the next)::
 
     CHECK_TARGET -> LOCALISE_GLOBAL -> PLAN -> DRIVE
-    DRIVE -> DRIVE (next leg or waypoint) | RELOCALISE | FINAL_CORRECTION (path driven)
+    DRIVE -> DRIVE (next leg or waypoint) | RELOCALISE (a leg driven, or a large turn before one)
+          | FINAL_CORRECTION (path driven)
           | RECOVER_STOP (watchdog stop, blocked move) | REPLAN (deviated, too many legs)
     RELOCALISE -> DRIVE | REPLAN (the fix is off course)
     RECOVER_STOP -> REPLAN -> PLAN
@@ -69,7 +70,7 @@ class Mission:
         self._path: FloatArray = np.empty((0, 2))
         self._waypoint = 1  # index in the path of the waypoint driven to
         self._legs = 0  # legs driven toward it
-        self._leg_to_goal = False  # the leg just driven was long enough to reach it
+        self._fix_reason = ""  # why the next RELOCALISE re-localises (the trace's note)
         self._corrections = 0  # correction rounds at the target
         self._lost: LinkLostError | None = None
 
@@ -135,7 +136,9 @@ class Mission:
             return State.RECOVER_STOP
         if end.leg is Leg.DEVIATED:
             return State.REPLAN
-        self._leg_to_goal = end.to_goal
+        if end.leg is Leg.TURNED:
+            self._fix_reason = "after the turn"
+            return State.RELOCALISE
         if end.to_goal and ahead is None:
             return self._next_waypoint()  # at the target, the final correction re-localises
         mission = self.context
@@ -147,11 +150,15 @@ class Mission:
                 return self._next_waypoint()
             self._legs += 1
             return State.DRIVE
+        if end.to_goal and ahead is not None and self.fix_policy.fixes_after_turn(self.driving.turn_toward(ahead)):
+            mission.record(Action.SKIP_FIX, note="the fix after the turn toward the next waypoint stands for it")
+            return self._next_waypoint()
+        self._fix_reason = "at waypoint" if end.to_goal else "along segment"
         return State.RELOCALISE
 
     def _relocalise(self) -> State:
         predicted = self.context.estimate
-        est = self.fixes.relocalise("at waypoint" if self._leg_to_goal else "along segment")
+        est = self.fixes.relocalise(self._fix_reason)
         if self.driving.off_course(predicted, self.fixes.ok(est)):
             return State.REPLAN  # the robot did not go where its motions should have taken it
         self._legs += 1
