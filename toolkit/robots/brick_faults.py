@@ -14,8 +14,9 @@ A fault is written ``KIND:AT_S[:ARG]`` (``nxtnav brick serve --fault``, repeatab
     Each reading (from the start, or from brick time AT_S) is replaced with probability P by a random
     value from 0 to 255.
 ``motor-slip:AT_S:FRACTION``
-    The first drive motion commanded at or after brick time AT_S moves the robot only FRACTION of
-    what the wheels' tachometers count (a wheel spinning on a slippery floor).
+    The first motion of the wheels commanded at or after brick time AT_S (a drive, or a turn on the
+    spot) moves the robot only FRACTION of what their tachometers count (wheels that skid on a
+    slippery floor).
 
 AT_S is in the brick's robot time, the clock ``--time-factor`` speeds up; the durations of a dropped
 link or a stalled brick are wall-clock seconds, since a client waits for its brick in wall-clock time;
