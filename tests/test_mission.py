@@ -262,9 +262,13 @@ def test_a_fix_after_a_large_turn_sees_a_slipped_turn_before_the_leg(seed: int) 
     assert turned and all(actions[i + 1] == Action.RELOCALISE for i in turned)  # a fix before every such leg
 
 
-def test_the_fix_after_a_turn_can_be_left_out() -> None:
+def test_the_fix_after_a_turn_is_an_option() -> None:
     with pytest.raises(ConfigError, match="after_turn_deg"):
         MissionConfig().with_options(**{"fix.after_turn_deg": -5.0})
-    report = run_sim_mission("map1", seed=1, config=MissionConfig().with_options(**{"fix.after_turn_deg": None}))
+    assert MissionConfig().fix.after_turn_deg is None
+    report = run_sim_mission("map1", seed=1)
     assert report.success, report.status
     assert not any(s.note and "after the turn" in s.note for s in report.trace)
+    report = run_sim_mission("map1", seed=1, config=MissionConfig().with_options(**{"fix.after_turn_deg": 20.0}))
+    assert report.success, report.status
+    assert any(s.note and "after the turn" in s.note for s in report.trace)
