@@ -73,7 +73,7 @@ class Driving:
         if not self.checkers.bare.segment_free(pose.xy, goal):
             return LegEnd(Leg.DEVIATED)
         heading = math.atan2(delta[1], delta[0])
-        turn = float(angle_diff(heading, pose.theta))
+        turn = self.turn_toward(goal)
         if abs(turn) > 1e-9:
             mission.turn(turn)
         if self.policy.fixes_after_turn(turn):
