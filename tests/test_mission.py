@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 import localisation
-from toolkit.mission import Action, MissionConfig, Outcome, run_mission, run_sim_mission
+from localisation.robot_options import localiser_options
+from toolkit.mission import Action, MissionConfig, MissionReport, Outcome, run_mission, run_sim_mission
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.seeds import derive_seeds
-from toolkit.world import ConfigError, NxtSonar, Pose, Robot, RobotCounters, TruthSource, load_map
+from toolkit.world import ConfigError, NxtSonar, Pose, Robot, RobotCounters, RobotModel, TruthSource, load_map
 
 
 def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "ideal",
@@ -241,34 +242,50 @@ class _SlipsOnce(_ProtocolOnly):
         self._robot.turn(angle_rad)
 
 
-@pytest.mark.parametrize("seed", [0, 2])
-def test_a_fix_after_a_large_turn_sees_a_slipped_turn_before_the_leg(seed: int) -> None:
+def _nxt_slip_mission(seed: int, check_turn_deg: float | None) -> tuple[MissionReport, _SlipsOnce]:
+    """map1 with the simulated NXT sonar (the ``nxt`` tuning, the localiser told the sensor), through a
+    robot whose first large turn slips."""
     m = load_map("map1")
     assert m.start is not None and m.target is not None
-    reports = {}
-    for after_turn in (20.0, None):
-        sim = SimRobot(m, Pose(*m.start, 1.0), rng=seed)
-        robot = _SlipsOnce(sim)
-        cfg = MissionConfig().with_options(**{"fix.after_turn_deg": after_turn})
-        reports[after_turn] = run_mission(robot, m, m.target, rng=seed, truth=sim, config=cfg)
-        assert robot.slipped is not None and abs(robot.slipped) > math.radians(40.0)
-    fixing, blind = reports[20.0], reports[None]
+    model = RobotModel.build("nxt")
+    sim = SimRobot(m, Pose(*m.start, 1.0), geometry=model.geometry, noise=model.motion, sonar=model.sonar, rng=seed)
+    robot = _SlipsOnce(sim)
+    cfg = MissionConfig.for_sonar("nxt", localiser_options=localiser_options("paper-pf", model))
+    cfg = cfg.with_options(**{"fix.check_turn_deg": check_turn_deg})
+    return run_mission(robot, m, m.target, rng=seed, truth=sim, config=cfg), robot
+
+
+def test_a_heading_check_after_a_large_turn_sees_a_slipped_turn_before_the_leg() -> None:
+    seed = 0
+    checking, robot = _nxt_slip_mission(seed, 20.0)
+    blind, blind_robot = _nxt_slip_mission(seed, None)
+    assert robot.slipped is not None and blind_robot.slipped is not None
     assert blind.collisions is not None and blind.collisions > 0  # the situation: a slip that meets a wall
-    assert fixing.success and fixing.collisions == 0, fixing.status
-    actions = [s.action for s in fixing.trace]
-    assert Action.OFF_COURSE in actions  # the fix after the turn saw it, and the mission planned again
-    turned = [i for i, s in enumerate(fixing.trace) if s.action == Action.TURN and s.turn_rad is not None
-              and abs(s.turn_rad) >= math.radians(20.0)]
-    assert turned and all(actions[i + 1] == Action.RELOCALISE for i in turned)  # a fix before every such leg
+    assert checking.success and checking.collisions == 0, checking.status
+    off = [s for s in checking.trace if s.action == Action.OFF_COURSE]
+    assert len(off) == 1 and "sweep after the turn fits a heading" in (off[0].note or "")
+    assert [f.kind for f in checking.faults] == ["motion"]  # said once, as a motion fault
+    # the next large turn's check agrees (the belief was put right)
+    assert any(s.action == Action.CHECK_HEADING for s in checking.trace[checking.trace.index(off[0]):])
 
 
-def test_the_fix_after_a_turn_is_an_option() -> None:
-    with pytest.raises(ConfigError, match="after_turn_deg"):
-        MissionConfig().with_options(**{"fix.after_turn_deg": -5.0})
-    assert MissionConfig().fix.after_turn_deg is None
+def test_the_heading_check_is_the_nxt_tuning_and_leaves_an_agreeing_belief_alone() -> None:
+    with pytest.raises(ConfigError, match="check_turn_deg"):
+        MissionConfig().with_options(**{"fix.check_turn_deg": -5.0})
+    assert MissionConfig().fix.check_turn_deg is None
+    assert MissionConfig.for_sonar("nxt").fix.check_turn_deg == 20.0
     report = run_sim_mission("map1", seed=1)
     assert report.success, report.status
-    assert not any(s.note and "after the turn" in s.note for s in report.trace)
-    report = run_sim_mission("map1", seed=1, config=MissionConfig().with_options(**{"fix.after_turn_deg": 20.0}))
-    assert report.success, report.status
-    assert any(s.note and "after the turn" in s.note for s in report.trace)
+    assert not any(s.action == Action.CHECK_HEADING for s in report.trace)
+    report = run_sim_mission("map1", seed=1, sonar="nxt")
+    assert report.success and report.collisions == 0, report.status
+    checks = [i for i, s in enumerate(report.trace) if s.action == Action.CHECK_HEADING]
+    assert checks and not any(s.action == Action.OFF_COURSE for s in report.trace)
+    for i in checks:  # the turn before, the same belief after, then the leg
+        before, step = report.trace[i - 1], report.trace[i]
+        assert before.action == Action.TURN and before.turn_rad is not None
+        assert abs(before.turn_rad) >= math.radians(20.0)
+        assert step.estimate == before.estimate
+        after = report.trace[i + 1]  # the leg: at most a small turn to re-aim from the predicted belief first
+        assert after.action == Action.MOVE or (after.action == Action.TURN and after.turn_rad is not None
+                                                and abs(after.turn_rad) < math.radians(20.0))

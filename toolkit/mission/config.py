@@ -136,12 +136,13 @@ class FixConfig:
         the last estimate; either falls back to the other, then to a global localisation.
     tracking_std_cm, tracking_std_deg : float
         Smallest standard deviations of that prior.
-    after_turn_deg : float or None
-        A turn of at least this many degrees toward a waypoint is followed by a fix before the leg it
-        aims, and the fix at the waypoint before the turn is left out: a turn that slipped (wheels
-        that skid turn the robot less than the tachometers say) is seen before the leg, not at a
-        wall. None (the default): fix at the waypoint, then turn and drive. A trade-off measured in
-        docs/hardware.md: fewer collisions after slipped turns, more without faults.
+    check_turn_deg : float or None
+        After a turn of at least this many degrees toward a waypoint, one tracking sweep is read
+        against the believed heading before the leg (`localisation.heading_check`): a turn that
+        slipped (wheels that skid turn the robot less than the tachometers say) is seen before the
+        leg meets a wall, and the mission re-localises from the heading the sweep fits and plans
+        again. A sweep that agrees leaves the belief as it was. None: no check (the default; the
+        ``nxt`` sonar's tuning, `MissionConfig.for_sonar`, checks turns of 20 degrees or more).
     """
 
     rule: str = "spread"
@@ -153,12 +154,12 @@ class FixConfig:
     tracking: str = "continue"
     tracking_std_cm: float = 4.0
     tracking_std_deg: float = 8.0
-    after_turn_deg: float | None = None
+    check_turn_deg: float | None = None
 
     def __post_init__(self) -> None:
         _check_choice("fix", "rule", self.rule, FIX_RULES)
         _check_choice("fix", "tracking", self.tracking, TRACKING)
-        for name in ("relocalise_every_cm", "first_leg_cm", "after_turn_deg"):
+        for name in ("relocalise_every_cm", "first_leg_cm", "check_turn_deg"):
             if getattr(self, name) is not None:
                 _check("fix", name, getattr(self, name), strict=True)
         for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
@@ -310,12 +311,13 @@ class MissionConfig:
     def for_sonar(cls, sonar: str, **options: Any) -> MissionConfig:
         """The defaults for a sonar model, then `options` (as `with_options`). The ``nxt`` sensor (and a
         real NXT) gets a wider heading tolerance, a position margin for each leg and a wider least
-        heading spread (its fixes err in heading near slanted walls while its belief stays narrow), and
-        the paper's four tracking windows (its wide lobe tracks less well with three)."""
+        heading spread (its fixes err in heading near slanted walls while its belief stays narrow), the
+        paper's four tracking windows (its wide lobe tracks less well with three), and a heading check
+        after turns of 20 degrees or more (a real robot's turns slip)."""
         base: dict[str, Any] = {}
         if sonar == "nxt":
             base = {"drive.heading_tolerance_deg": 15.0, "drive.leg_margin_cm": 2.0,
-                    "fix.spread_min_heading_deg": 4.0, "sweeps.track_windows": "axes"}
+                    "fix.spread_min_heading_deg": 4.0, "fix.check_turn_deg": 20.0, "sweeps.track_windows": "axes"}
         return cls().with_options(**base).with_options(**options)
 
     def to_dict(self) -> dict[str, Any]:

@@ -38,8 +38,8 @@ class Leg(Enum):
     DEVIATED = "deviated"
     """The straight line from the estimate to the waypoint is no longer free."""
     TURNED = "turned"
-    """The robot turned toward the waypoint by enough that a fix comes before the leg
-    (`FixPolicy.fixes_after_turn`)."""
+    """The robot turned toward the waypoint by enough that its heading is checked before the leg
+    (`FixPolicy.checks_turn`)."""
 
 
 class LegEnd(NamedTuple):
@@ -76,7 +76,7 @@ class Driving:
         turn = self.turn_toward(goal)
         if abs(turn) > 1e-9:
             mission.turn(turn)
-        if self.policy.fixes_after_turn(turn):
+        if self.policy.checks_turn(turn):
             return LegEnd(Leg.TURNED)
         length = self.policy.leg_length(dist, mission.fresh_fix)
         length = self.safe_length(pose.xy, heading, length)

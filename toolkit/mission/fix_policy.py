@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 from localisation.base import PoseEstimate, Prior
 from localisation.scan import sweep_angles
 
+from ..world import Pose
 from .checkers import Checkers
 from .config import TRACK_WINDOWS, FixConfig, SweepConfig
 
@@ -43,10 +44,10 @@ class FixPolicy:
             every = first if every is None else min(every, first)
         return dist_cm if every is None or dist_cm <= 1.25 * every else every
 
-    def fixes_after_turn(self, turn_rad: float) -> bool:
-        """Whether a turn of `turn_rad` toward a waypoint is followed by a fix before its leg
-        (`FixConfig.after_turn_deg`)."""
-        limit = self.cfg.after_turn_deg
+    def checks_turn(self, turn_rad: float) -> bool:
+        """Whether a turn of `turn_rad` toward a waypoint is followed by a heading check before its leg
+        (`FixConfig.check_turn_deg`)."""
+        limit = self.cfg.check_turn_deg
         return limit is not None and abs(turn_rad) >= math.radians(limit)
 
     def passes_missed(self, est: PoseEstimate, since_fix_cm: float, next_goal: FloatArray | None) -> bool:
@@ -96,6 +97,12 @@ class FixPolicy:
         else:
             cov[np.diag_indices(3)] = d
         return Prior(est.pose, cov)
+
+    def turned_prior(self, est: PoseEstimate, offset_rad: float) -> Prior:
+        """`prior` of `est` with its heading turned by `offset_rad` (where a heading check found the robot
+        pointing)."""
+        p = self.prior(est)
+        return Prior(Pose(p.mean.x, p.mean.y, p.mean.theta + offset_rad), p.cov)
 
     def sweep(self, kind: str) -> dict[str, Any]:
         """How a ``track`` or ``final`` re-localisation sweeps (keyword arguments of the look)."""

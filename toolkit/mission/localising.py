@@ -6,8 +6,11 @@ from typing import Any
 
 from localisation.ambiguity import candidate_poses, describe_candidates
 from localisation.base import PoseEstimate, Prior
+from localisation.heading_check import HeadingCheck, check_heading
 from localisation.procedure import LocaliseProcedure
+from localisation.scan import sweep_fault
 
+from ..world import NxtSonar
 from .checkers import Checkers
 from .context import MissionContext
 from .fix_policy import FixPolicy
@@ -107,3 +110,19 @@ class Fixes:
         est = self.relocalise(reason)
         mission.fresh_fix = True
         return est
+
+    def heading_check(self) -> HeadingCheck | None:
+        """One tracking sweep read against the believed heading (`localisation.heading_check`) with the
+        sonar model the localiser was told (``localiser_options["sonar_model"]``; none: ideal readings);
+        the belief is left as it was. None when the sensor was stuck or gave garbage (said through
+        `on_sweep_fault`)."""
+        mission = self.mission
+        assert mission.estimate is not None
+        scan = mission.robot.ultrascan(self.policy.sweep("track")["scan_angles"])
+        fault = sweep_fault(scan)
+        if fault is not None:
+            if mission.on_sweep_fault is not None:
+                mission.on_sweep_fault(fault)
+            return None
+        sonar = mission.cfg.localiser_options.get("sonar_model")
+        return check_heading(mission.map, mission.estimate.pose, scan, sonar if isinstance(sonar, NxtSonar) else None)

@@ -3,10 +3,11 @@
 The transitions (`step` runs one state and returns the next)::
 
     CHECK_TARGET -> LOCALISE_GLOBAL -> PLAN -> DRIVE
-    DRIVE -> DRIVE (next leg or waypoint) | RELOCALISE (a leg driven, or a large turn before one)
+    DRIVE -> DRIVE (next leg or waypoint) | RELOCALISE (a leg driven) | CHECK_HEADING (a large turn)
           | FINAL_CORRECTION (path driven)
           | RECOVER_STOP (watchdog stop, blocked move) | REPLAN (deviated, too many legs)
     RELOCALISE -> DRIVE | REPLAN (the fix is off course)
+    CHECK_HEADING -> DRIVE (the sweep agrees) | RELOCALISE (the sweep was faulty) | REPLAN (it did not agree)
     RECOVER_STOP -> REPLAN -> PLAN
     FINAL_CORRECTION -> FINAL_CORRECTION (a correction move) | PLAN (no straight way)
           | RECOVER_STOP | DONE | FAILED
@@ -137,8 +138,7 @@ class Mission:
         if end.leg is Leg.DEVIATED:
             return State.REPLAN
         if end.leg is Leg.TURNED:
-            self._fix_reason = "after the turn"
-            return State.RELOCALISE
+            return State.CHECK_HEADING
         if end.to_goal and ahead is None:
             return self._next_waypoint()  # at the target, the final correction re-localises
         mission = self.context
@@ -150,11 +150,26 @@ class Mission:
                 return self._next_waypoint()
             self._legs += 1
             return State.DRIVE
-        if end.to_goal and ahead is not None and self.fix_policy.fixes_after_turn(self.driving.turn_toward(ahead)):
-            mission.record(Action.SKIP_FIX, note="the fix after the turn toward the next waypoint stands for it")
-            return self._next_waypoint()
         self._fix_reason = "at waypoint" if end.to_goal else "along segment"
         return State.RELOCALISE
+
+    def _check_heading(self) -> State:
+        mission = self.context
+        check = self.fixes.heading_check()
+        if check is None:  # the sensor was faulty: a fix instead
+            self._fix_reason = "after the turn"
+            return State.RELOCALISE
+        if not check.off:
+            mission.record(Action.CHECK_HEADING, note=f"the heading agrees: {check.describe()}")
+            return State.DRIVE
+        why = (f"the sweep after the turn fits a heading {math.degrees(check.offset_rad):+.0f} degrees from the "
+               f"belief ({check.describe()}; did a wheel slip?); re-localising from there")
+        mission.record(Action.OFF_COURSE, note=why)
+        if mission.on_motion_fault is not None:
+            mission.on_motion_fault(why)
+        assert mission.estimate is not None
+        self.fixes.relocalise_from(self.fix_policy.turned_prior(mission.estimate, check.offset_rad), why)
+        return State.REPLAN
 
     def _relocalise(self) -> State:
         predicted = self.context.estimate
@@ -210,6 +225,7 @@ _HANDLERS: dict[State, Callable[[Mission], State]] = {
     State.LOCALISE_GLOBAL: Mission._localise_global,
     State.PLAN: Mission._plan,
     State.DRIVE: Mission._drive,
+    State.CHECK_HEADING: Mission._check_heading,
     State.RELOCALISE: Mission._relocalise,
     State.RECOVER_STOP: Mission._recover_stop,
     State.REPLAN: Mission._replan,

@@ -72,7 +72,10 @@ class Action(StrEnum):
     SONAR_FAULT = "sonar-fault"
     """A sweep taken again: the sensor was stuck or gave garbage."""
     OFF_COURSE = "off-course"
-    """A fix far from the prediction, or watchdog stops the map does not explain."""
+    """A fix far from the prediction, watchdog stops the map does not explain, or a heading check
+    that found the robot pointing elsewhere."""
+    CHECK_HEADING = "check-heading"
+    """A sweep after a large turn that agreed with the believed heading (`FixConfig.check_turn_deg`)."""
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,9 @@ class State(Enum):
     """A path from the estimate to the target; then drive its first waypoint."""
     DRIVE = "drive"
     """One leg toward the current waypoint: aim, move in steps; the fix policy says whether to re-localise."""
+    CHECK_HEADING = "check-heading"
+    """After a large turn: one sweep against the believed heading; drive on when it agrees, else
+    re-localise from the heading it fits and re-plan."""
     RELOCALISE = "relocalise"
     """A fix where a leg ended; a fix far off the prediction re-plans, else the next leg."""
     RECOVER_STOP = "recover-stop"
