@@ -13,8 +13,11 @@ import numpy as np
 import pytest
 
 import localisation
+from localisation.base import Prior
 from localisation.robot_options import localiser_options
 from toolkit.mission import Action, MissionConfig, MissionReport, Outcome, run_mission, run_sim_mission
+from toolkit.mission.checkers import Checkers
+from toolkit.mission.context import MissionContext
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.seeds import derive_seeds
 from toolkit.world import ConfigError, NxtSonar, Pose, Robot, RobotCounters, RobotModel, TruthSource, load_map
@@ -289,3 +292,54 @@ def test_the_heading_check_is_the_nxt_tuning_and_leaves_an_agreeing_belief_alone
         after = report.trace[i + 1]  # the leg: at most a small turn to re-aim from the predicted belief first
         assert after.action == Action.MOVE or (after.action == Action.TURN and after.turn_rad is not None
                                                 and abs(after.turn_rad) < math.radians(20.0))
+
+
+def _context_at(pose: Pose) -> tuple[MissionContext, SimRobot]:
+    """A mission's context on map1 with the simulator at `pose` and the belief there too."""
+    m = load_map("map1")
+    assert m.target is not None
+    robot = SimRobot(m, pose, noise=MotionNoise("absolute", 0.0, 0.0), rng=0)
+    loc = localisation.make_localiser("paper-pf", m, rng=0)
+    ctx = MissionContext(robot, m, m.target, MissionConfig(), lambda: loc, truth=robot)
+    ctx.checker = Checkers(m, ctx.radius, ctx.cfg).bare
+    loc.reset(Prior(pose, np.diag([0.25, 0.25, math.radians(0.5) ** 2])))
+    ctx.estimate = loc.estimate()
+    return ctx, robot
+
+
+@pytest.mark.parametrize(("behind_cm", "backs_cm"), [(30.0, 10.0), (15.0, 5.0), (9.5, 0.0)])
+def test_a_back_off_stops_short_of_the_wall_behind(behind_cm: float, backs_cm: float) -> None:
+    ctx, robot = _context_at(Pose(50.0, behind_cm, math.pi / 2))  # facing +y, the outer wall y = 0 behind
+    assert robot.backoff_distance_cm == 10.0
+    ctx.turnback()
+    step = ctx.trace[-1]
+    assert step.action == Action.TURNBACK
+    # the robot (radius 8) keeps 2 cm from the wall, as the map shows it from the belief
+    assert step.distance_cm == pytest.approx(-backs_cm, abs=0.3)
+    assert robot.true_pose.y == pytest.approx(behind_cm - backs_cm, abs=0.3)
+    assert robot.collisions == 0
+    if backs_cm == 0.0:
+        assert step.note == "no room behind to back off"
+
+
+def test_an_estimate_touching_a_wall_drives_out_instead_of_re_planning_until_it_gives_up() -> None:
+    from planners import make_planner
+    from toolkit.mission.driving import Leg
+    from toolkit.mission.machine import Mission
+
+    m = load_map("map1")
+    assert m.target is not None
+    robot = SimRobot(m, Pose(8.8, 50.0, 0.0), noise=MotionNoise("absolute", 0.0, 0.0), rng=0)
+    loc = localisation.make_localiser("paper-pf", m, rng=0)
+    mission = Mission(robot, m, m.target, make_planner("min-turn"), lambda: loc, np.random.default_rng(0),
+                      MissionConfig(), truth=robot)
+    belief = Pose(7.6, 50.0, 0.0)  # 1.2 cm off: the disc (8 cm) of the belief is in the wall x = 0
+    loc.reset(Prior(belief, np.diag([0.25, 0.25, math.radians(0.5) ** 2])))
+    mission.context.estimate = loc.estimate()
+    path = mission.planner.plan()
+    bare = mission.checkers.bare
+    assert not bare.point_free(path[0])  # the situation: planned from an estimate inside the c-space
+    assert bare.point_free(path[1]) and float(np.hypot(*(path[1] - path[0]))) <= 8.0  # the escape
+    end = mission.driving.leg(path[1], 0, path[2])
+    assert end.leg is not Leg.DEVIATED  # driven, not planned again and again
+    assert robot.true_pose.x > 8.8 and robot.collisions == 0

@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from localisation.base import Localiser, Motion, PoseEstimate
 from localisation.global_localisation import DriveAction
 
-from ..world import Map, MoveOutcome, Pose, Robot, TruthSource
+from ..world import BackoffDistance, CollisionChecker, Map, MoveOutcome, Pose, Robot, TruthSource
 from .config import MissionConfig
 from .report import Action, Outcome, TraceStep
 from .states import MissionEnded
@@ -22,6 +22,10 @@ FloatArray = NDArray[np.float64]
 
 TURN_EPS = math.radians(0.5)
 """Turns smaller than this (rad) are not counted as turns."""
+BACKOFF_CM = 10.0
+"""How far a robot that does not say (`toolkit.world.BackoffDistance`) reverses in `turnback`."""
+BACKOFF_MARGIN_CM = 2.0
+"""Room (cm) a back-off leaves between the robot and the wall behind it, as the map shows it from the belief."""
 
 
 @dataclass
@@ -56,6 +60,8 @@ class MissionContext:
         Told of sweeps taken again (a faulty sonar) and of fixes far off the prediction.
     on_watchdog_stop : callable or None
         Says why a watchdog stop shows the belief is wrong (None: it does not).
+    checker : CollisionChecker or None
+        The robot disc against the map (the mission's bare checker): how much room a back-off has.
     """
 
     def __init__(self, robot: Robot, m: Map, target: FloatArray, config: MissionConfig,
@@ -77,6 +83,7 @@ class MissionContext:
         self.since_fix_cm = 0.0
         self.last_move: MoveOutcome | None = None
         self.on_sweep_fault: Callable[[str], None] | None = None
+        self.checker: CollisionChecker | None = None
         self.on_motion_fault: Callable[[str], None] | None = None
         self.on_watchdog_stop: Callable[[MissionContext], str | None] | None = None
 
@@ -133,11 +140,29 @@ class MissionContext:
         return bool(out.watchdog)
 
     def turnback(self) -> None:
-        """Back off from the wall ahead."""
+        """Back off from the wall ahead: the robot's `turnback` when the map behind the belief has room for
+        it, a shorter reverse when it has less, none without room (`BACKOFF_MARGIN_CM` kept clear)."""
         self._count_action()
-        out = self.robot.turnback()
+        full = float(self.robot.backoff_distance_cm) if isinstance(self.robot, BackoffDistance) else BACKOFF_CM
+        room = self.room_behind(full + BACKOFF_MARGIN_CM) - BACKOFF_MARGIN_CM
+        if room >= full:
+            out = self.robot.turnback()
+        elif room >= 0.5:
+            out = self.robot.move(-room)
+        else:
+            self.record(Action.TURNBACK, distance_cm=0.0, note="no room behind to back off")
+            return
         self._predicted(Motion(distance_cm=out.distance_cm), out.distance_cm)
         self.record(Action.TURNBACK, distance_cm=out.distance_cm)
+
+    def room_behind(self, length_cm: float) -> float:
+        """How far (cm, at most `length_cm`) the robot can reverse from the belief before the map's walls
+        (all of it without a belief or a checker, or from a belief already in a wall: nothing to go by)."""
+        if self.checker is None or self.estimate is None or not self.checker.point_free(self.estimate.pose.xy):
+            return length_cm
+        p = self.estimate.pose
+        end = p.xy - length_cm * np.array([math.cos(p.theta), math.sin(p.theta)])
+        return float(self.checker.first_contact(p.xy, end, tol=0.2)) * length_cm
 
     def note(self, text: str) -> None:
         """A decision of the global strategy, recorded in the trace."""

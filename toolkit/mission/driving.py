@@ -70,18 +70,27 @@ class Driving:
             return LegEnd(Leg.ARRIVED)
         if legs > 0 and self.policy.passes_missed(mission.estimate, mission.since_fix_cm, next_goal):
             return LegEnd(Leg.PASSED)
-        if not self.checkers.bare.segment_free(pose.xy, goal):
+        if not self._clear(pose.xy, goal, dist):
             return LegEnd(Leg.DEVIATED)
         heading = math.atan2(delta[1], delta[0])
         turn = self.turn_toward(goal)
         if abs(turn) > 1e-9:
             mission.turn(turn)
-        if self.policy.checks_turn(turn):
+        if dist > self.checkers.radius and self.policy.checks_turn(turn):  # a shorter leg cannot go far astray
             return LegEnd(Leg.TURNED)
         length = self.policy.leg_length(dist, mission.fresh_fix)
         length = self.safe_length(pose.xy, heading, length)
         moved = self._steps(length)
         return LegEnd(moved, length >= dist)
+
+    def _clear(self, xy: FloatArray, goal: FloatArray, dist: float) -> bool:
+        """Whether the straight leg from `xy` to `goal` (`dist` cm) is free for the robot. From an estimate
+        inside the c-space (the robot touching a wall), the leg out to a free point at most a radius
+        away is: the plan's escape (`PathPlanner.plan`)."""
+        bare = self.checkers.bare
+        if bare.point_free(xy):
+            return bool(bare.segment_free(xy, goal))
+        return dist <= self.checkers.radius + 1.0 and bool(bare.point_free(goal))
 
     def turn_toward(self, goal: FloatArray) -> float:
         """The turn (rad) that points the estimate at `goal`."""

@@ -55,6 +55,7 @@ class Mission:
                  recovery: Recovery | None = None, on_plan: Callable[[FloatArray], None] | None = None) -> None:
         self.context = MissionContext(robot, m, target, config, localiser, truth)
         self.checkers = Checkers(m, self.context.radius, config)
+        self.context.checker = self.checkers.bare
         self.fix_policy = FixPolicy(config.fix, config.sweeps, self.checkers)
         self.final_policy = FinalCorrectionPolicy(config.final, target, self.checkers.bare)
         self.fixes = Fixes(self.context, self.fix_policy, self.checkers, procedure, rng)

@@ -202,6 +202,11 @@ class NxtRobot:
         """The distance (cm) at which the watchdog stops a move (the profile's)."""
         return float(self.profile.watchdog_distance_cm)
 
+    @property
+    def backoff_distance_cm(self) -> float:
+        """How far (cm) `turnback` reverses (the profile's)."""
+        return float(self.profile.backoff_cm)
+
     def counters(self) -> dict[str, float]:
         """The robot's running totals (`toolkit.world.RobotCounters`)."""
         return {"watchdog_stops": float(self.watchdog_stops), "odometry_cm": self.odometry_cm,

@@ -223,6 +223,11 @@ class SimRobot:
         """The distance (cm) at which the watchdog stops a move (`watchdog_cm`)."""
         return self.watchdog_cm
 
+    @property
+    def backoff_distance_cm(self) -> float:
+        """How far (cm) `turnback` reverses (`backoff_cm`)."""
+        return self.backoff_cm
+
     def counters(self) -> dict[str, float]:
         """The simulator's running totals (`toolkit.world.RobotCounters`; collisions are the truth's)."""
         return {"watchdog_stops": float(self.watchdog_stops), "odometry_cm": self.odometry_cm,

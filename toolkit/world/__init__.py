@@ -33,6 +33,7 @@ from .point_collision import CHECKER_BACKENDS, PointCollisionChecker, make_check
 from .registry import Registry
 from .robot import (
     NO_ECHO,
+    BackoffDistance,
     MoveOutcome,
     Reconnectable,
     Resumption,
@@ -54,6 +55,7 @@ __all__ = [
     "NO_ECHO",
     "NXT_SONAR_SIGMA_CM",
     "SONAR_MODELS",
+    "BackoffDistance",
     "CollisionChecker",
     "ConfigError",
     "GridSpec",

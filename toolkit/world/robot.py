@@ -18,6 +18,7 @@ from .geometry import Pose
 
 __all__ = [
     "NO_ECHO",
+    "BackoffDistance",
     "MoveOutcome",
     "Reconnectable",
     "Resumption",
@@ -231,6 +232,14 @@ class WatchdogDistance(Protocol):
 
     @property
     def watchdog_distance_cm(self) -> float: ...
+
+
+@runtime_checkable
+class BackoffDistance(Protocol):
+    """A robot that says how far (cm) its `turnback` reverses."""
+
+    @property
+    def backoff_distance_cm(self) -> float: ...
 
 
 @runtime_checkable
