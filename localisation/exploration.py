@@ -24,7 +24,7 @@ import numpy as np
 
 from toolkit.world import CollisionChecker, Pose, RngLike, Scan, angle_diff, as_rng, ray_cast
 
-__all__ = ["explore_direction", "explore_from_modes", "free_travel", "open_direction", "scan_explore_move"]
+__all__ = ["EXPLORE_OVERSHOOT", "explore_direction", "explore_from_modes", "free_travel", "open_direction", "scan_explore_move"]
 
 
 def free_travel(scan: Scan, radius_cm: float, directions: Any = None) -> tuple[Any, Any]:
@@ -87,6 +87,12 @@ def open_direction(scan: Scan, clearance_cm: float, rng: RngLike = None, avoid_r
     return float(angle_diff(phi[k], 0.0)), float(free[k])
 
 
+EXPLORE_OVERSHOOT = 0.2
+"""An exploration move is checked for this fraction more than it drives: a single move of up to 30 cm
+is driven at once, and the paper's motion noise (10 % of the distance) takes it up to 20 % further
+at two standard deviations."""
+
+
 def explore_direction(scan: Scan, clearance_cm: float, rng: RngLike = None,
                       avoid_rad: float | None = None, max_step_cm: float = 30.0) -> tuple[float, float]:
     """The ``modes`` rule's fallback from one scan: `open_direction` with a 45-degree cone behind, any
@@ -121,13 +127,14 @@ def scan_explore_move(scan: Scan, radius_cm: float, rng: RngLike = None, avoid_r
 
 
 def explore_from_modes(poses: Sequence[Pose], walls: Any, checker: CollisionChecker, step_cm: float,
-                       heading_tolerance_rad: float, avoid_rad: float | None = None) -> tuple[float, float]:
+                       heading_tolerance_rad: float, avoid_rad: float | None = None,
+                       overshoot: float = EXPLORE_OVERSHOOT) -> tuple[float, float]:
     """The ``modes`` rule: a move that is safe from every candidate pose.
 
     Directions every 5 degrees (those within 45 degrees of `avoid_rad`, where the robot came from,
     left out) are tried for `step_cm`, then half and a quarter of it; a direction qualifies when the
-    straight move is free for `checker`'s disc from every pose in `poses`, with the pose's heading as
-    it is and off by `heading_tolerance_rad` either way. Among those, the one whose nearest wall
+    straight move, `overshoot` longer than it is meant to drive, is free for `checker`'s disc from every
+    pose in `poses`, with the pose's heading as it is and off by `heading_tolerance_rad` either way. Among those, the one whose nearest wall
     (ray cast along it from every pose and deviation, `walls` as a (W, 4) array) is farthest.
 
     Returns
@@ -145,7 +152,7 @@ def explore_from_modes(poses: Sequence[Pose], walls: Any, checker: CollisionChec
         for p in poses:
             for dev in (-tol, 0.0, tol):  # the poses' headings may be off by the tolerance
                 ang = p.theta + rel + dev
-                ends = p.xy[None, :] + length * np.column_stack([np.cos(ang), np.sin(ang)])
+                ends = p.xy[None, :] + (1.0 + overshoot) * length * np.column_stack([np.cos(ang), np.sin(ang)])
                 ok &= checker.segments_free(np.repeat(p.xy[None, :], rel.size, axis=0), ends)
                 room = np.minimum(room, ray_cast(walls, p.xy, ang))
         if ok.any():

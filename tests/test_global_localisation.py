@@ -16,7 +16,7 @@ import pytest
 
 from localisation import GlobalLocalisation, Motion, PoseEstimate, Prior, make_localiser
 from localisation.base import Localiser
-from localisation.exploration import explore_from_modes, scan_explore_move
+from localisation.exploration import EXPLORE_OVERSHOOT, explore_from_modes, scan_explore_move
 from toolkit.bench.localisers import BenchConfig, call_localise
 from toolkit.mission import Action, MissionConfig, run_mission
 from toolkit.robots.sim import SimRobot
@@ -140,10 +140,28 @@ def test_a_move_from_the_modes_is_free_from_every_mode() -> None:
     for p in twins:
         for dev in (-12.0, 0.0, 12.0):
             h = p.theta + turn + math.radians(dev)
-            end = p.xy + dist * np.array([math.cos(h), math.sin(h)])
-            assert checker.segment_free(p.xy, end)
+            end = p.xy + (1.0 + EXPLORE_OVERSHOOT) * dist * np.array([math.cos(h), math.sin(h)])
+            assert checker.segment_free(p.xy, end)  # with room for the move to overshoot
     # walled in on every side: no move at all
     assert explore_from_modes([Pose(56.3, 26.9, 0.0)], m.walls, CollisionChecker(m, 25.0), 30.0, 0.2) == (0.0, 0.0)
+
+
+def test_an_exploration_move_leaves_room_to_overshoot() -> None:
+    # map1's start, heading 78 degrees (a paper trial's first fix): the roomiest 30 cm move ends where a
+    # move 20 % longer (the paper's motion noise at two standard deviations) would meet a wall
+    m = load_map("map1")
+    checker = CollisionChecker(m, 9.0)
+    pose = Pose(19.6, 19.8, math.radians(77.8))
+    exact = explore_from_modes([pose], m.walls, checker, 30.0, math.radians(12.0), overshoot=0.0)
+    safe = explore_from_modes([pose], m.walls, checker, 30.0, math.radians(12.0))
+
+    def free(move: tuple[float, float], stretch: float) -> bool:
+        turn, dist = move
+        return all(checker.segment_free(pose.xy, pose.xy + stretch * dist * np.array(
+            [math.cos(pose.theta + turn + d), math.sin(pose.theta + turn + d)])) for d in np.radians([-12, 0, 12]))
+
+    assert exact[1] > 0 and not free(exact, 1.0 + EXPLORE_OVERSHOOT)  # the situation
+    assert safe[1] > 0 and free(safe, 1.0 + EXPLORE_OVERSHOOT)
 
 
 def test_the_scan_rule_keeps_its_distance_from_the_wall_ahead() -> None:

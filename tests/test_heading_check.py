@@ -11,7 +11,7 @@ from localisation.heading_check import MIN_OFFSET_DEG, check_heading
 from localisation.scan import sweep_angles
 from toolkit.world import IdealSonar, NxtSonar, Pose, Scan, load_map
 
-TRACK = sweep_angles(2.0, 15.0, (0.0, 90.0, 180.0, 270.0))
+TRACK = sweep_angles(2.0, 15.0, (-90.0, 0.0, 90.0))  # a mission's check sweep
 
 
 def _cases(n: int, seed: int) -> list[tuple[str, np.ndarray, float]]:

@@ -20,7 +20,17 @@ from toolkit.mission.checkers import Checkers
 from toolkit.mission.context import MissionContext
 from toolkit.robots.sim import MotionNoise, SimRobot
 from toolkit.seeds import derive_seeds
-from toolkit.world import ConfigError, NxtSonar, Pose, Robot, RobotCounters, RobotModel, TruthSource, load_map
+from toolkit.world import (
+    ConfigError,
+    NxtSonar,
+    Pose,
+    Robot,
+    RobotCounters,
+    RobotModel,
+    TruthSource,
+    angle_diff,
+    load_map,
+)
 
 
 def _sim_mission(name: str, seed: int, model: str = "botsim", sonar: str = "ideal",
@@ -268,8 +278,13 @@ def test_a_heading_check_after_a_large_turn_sees_a_slipped_turn_before_the_leg()
     off = [s for s in checking.trace if s.action == Action.OFF_COURSE]
     assert len(off) == 1 and "sweep after the turn fits a heading" in (off[0].note or "")
     assert [f.kind for f in checking.faults] == ["motion"]  # said once, as a motion fault
-    # the next large turn's check agrees (the belief was put right)
-    assert any(s.action == Action.CHECK_HEADING for s in checking.trace[checking.trace.index(off[0]):])
+    # the re-localisation from the heading the sweep fits put the belief right, by the simulator's truth
+    i = checking.trace.index(off[0])
+    assert off[0].estimate is not None and off[0].true_pose is not None
+    assert abs(math.degrees(angle_diff(off[0].estimate.theta, off[0].true_pose.theta))) > 15.0
+    fix = checking.trace[i + 1]
+    assert fix.action == Action.RELOCALISE and fix.estimate is not None and fix.true_pose is not None
+    assert abs(math.degrees(angle_diff(fix.estimate.theta, fix.true_pose.theta))) < 3.0
 
 
 def test_the_heading_check_is_the_nxt_tuning_and_leaves_an_agreeing_belief_alone() -> None:

@@ -4,8 +4,8 @@ Usage: ``python tools/heading_check_rates.py [--poses 60] [--seed 1]``
 
 On each paper map, `--poses` positions at least 12 cm from the walls with a drawn heading; the belief
 lies at the true position plus 1 cm of Gaussian error (a fix's) and at the drawn heading. For every
-heading error (0, 10, 20, 35 degrees, either way at random) one tracking sweep (the four 15-degree
-windows at 2 degrees, as the ``nxt`` tuning sweeps) is simulated with the ``nxt`` sonar at the true
+heading error (0, 10, 20, 35 degrees, either way at random) one check sweep (the three 15-degree
+windows ahead and to the sides at 2 degrees, as a mission checks) is simulated with the ``nxt`` sonar at the true
 pose and checked against the belief. Prints, per error, the share of checks that call the heading
 off and the share that also put it within 8 degrees of the truth.
 """
@@ -29,7 +29,7 @@ def rates(poses: int, seed: int) -> dict[float, tuple[float, float, int]]:
     """Per heading error (degrees): (share called off, share called off within 8 degrees, checks)."""
     sonar = NxtSonar().simulated()
     rng = np.random.default_rng(seed)
-    angles = sweep_angles(2.0, 15.0, (0.0, 90.0, 180.0, 270.0))
+    angles = sweep_angles(2.0, 15.0, (-90.0, 0.0, 90.0))
     out: dict[float, list[tuple[bool, bool]]] = {e: [] for e in ERRORS_DEG}
     for name in MAPS:
         m = load_map(name)

@@ -22,6 +22,12 @@ from .report import Action
 FloatArray = NDArray[np.float64]
 
 
+SLIP_SHARE = 0.5
+"""The largest part of a turn a slip is taken to lose (wheels that skid on a smooth floor). The turns
+toward waypoints since the last heading check add up; a leg that stays clear of the walls with its
+heading off by this share of their sum either way needs no check."""
+
+
 class Leg(Enum):
     """How one leg toward a waypoint ended."""
 
@@ -57,6 +63,9 @@ class Driving:
         self.policy = policy
         self.checkers = checkers
         self.cfg = mission.cfg.drive
+        self.turned_rad = 0.0
+        """Turning toward waypoints since the heading was last checked (or found globally), rad: a slip
+        in any of those turns may still be in the belief."""
 
     def leg(self, goal: FloatArray, legs: int, next_goal: FloatArray | None) -> LegEnd:
         """Leg number `legs` (from 0) toward `goal`; `next_goal` is the waypoint after it (None: `goal` is
@@ -76,10 +85,11 @@ class Driving:
         turn = self.turn_toward(goal)
         if abs(turn) > 1e-9:
             mission.turn(turn)
-        if dist > self.checkers.radius and self.policy.checks_turn(turn):  # a shorter leg cannot go far astray
+            self.turned_rad += abs(turn)
+        length = self.safe_length(pose.xy, heading, self.policy.leg_length(dist, mission.fresh_fix))
+        if (dist > self.checkers.radius and self.policy.checks_turn(self.turned_rad)
+                and not self.slip_safe(pose.xy, heading, length, SLIP_SHARE * self.turned_rad)):
             return LegEnd(Leg.TURNED)
-        length = self.policy.leg_length(dist, mission.fresh_fix)
-        length = self.safe_length(pose.xy, heading, length)
         moved = self._steps(length)
         return LegEnd(moved, length >= dist)
 
@@ -123,6 +133,17 @@ class Driving:
             end = xy + leg * np.array([math.cos(heading + dev), math.sin(heading + dev)])
             length = min(length, checker.first_contact(xy, end, tol=0.2) * leg)
         return max(length, self.cfg.min_leg_cm)
+
+    def checked(self) -> None:
+        """The heading was just checked or found: no slip of the turns before is left in the belief."""
+        self.turned_rad = 0.0
+
+    def slip_safe(self, xy: FloatArray, heading: float, length: float, slip: float) -> bool:
+        """Whether the leg of `length` cm from `xy` along `heading` (rad) stays free for the robot with its
+        heading off by up to `slip` (rad) either way: then no heading check is needed."""
+        devs = np.linspace(-slip, slip, 2 * math.ceil(math.degrees(slip) / 5.0) + 1)
+        ends = xy + length * np.column_stack([np.cos(heading + devs), np.sin(heading + devs)])
+        return bool(np.all(self.checkers.bare.segments_free(np.repeat(xy[None, :], devs.size, axis=0), ends)))
 
     def off_course(self, predicted: PoseEstimate | None, fixed: bool) -> bool:
         """Whether the fix just taken (`fixed`: it converged inside the map) lies further from the

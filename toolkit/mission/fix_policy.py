@@ -45,8 +45,8 @@ class FixPolicy:
         return dist_cm if every is None or dist_cm <= 1.25 * every else every
 
     def checks_turn(self, turn_rad: float) -> bool:
-        """Whether a turn of `turn_rad` toward a waypoint is followed by a heading check before its leg
-        (`FixConfig.check_turn_deg`)."""
+        """Whether turning by `turn_rad` toward waypoints since the last check calls for a heading check
+        before the next leg (`FixConfig.check_turn_deg`; the leg's own safety decides too)."""
         limit = self.cfg.check_turn_deg
         return limit is not None and abs(turn_rad) >= math.radians(limit)
 
@@ -103,6 +103,13 @@ class FixPolicy:
         pointing)."""
         p = self.prior(est)
         return Prior(Pose(p.mean.x, p.mean.y, p.mean.theta + offset_rad), p.cov)
+
+    def check_angles(self) -> FloatArray:
+        """The turret angles of a heading check: the tracking windows ahead and to the sides (three of
+        them: 420 degrees of turret travel, against 600 for the four axes), as good at finding a slipped
+        turn as four in `tools/heading_check_rates.py`."""
+        s = self.sweeps
+        return sweep_angles(s.track_scan_step_deg, s.track_window_deg, TRACK_WINDOWS["sides"])
 
     def sweep(self, kind: str) -> dict[str, Any]:
         """How a ``track`` or ``final`` re-localisation sweeps (keyword arguments of the look)."""

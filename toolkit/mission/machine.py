@@ -114,6 +114,7 @@ class Mission:
 
     def _localise_global(self) -> State:
         self.fixes.localise_global()
+        self.driving.checked()  # a global fix finds the heading afresh
         return State.PLAN
 
     def _plan(self) -> State:
@@ -157,6 +158,7 @@ class Mission:
     def _check_heading(self) -> State:
         mission = self.context
         check = self.fixes.heading_check()
+        self.driving.checked()
         if check is None:  # the sensor was faulty: a fix instead
             self._fix_reason = "after the turn"
             return State.RELOCALISE
