@@ -24,7 +24,8 @@ import numpy as np
 
 from toolkit.world import CollisionChecker, Pose, RngLike, Scan, angle_diff, as_rng, ray_cast
 
-__all__ = ["EXPLORE_OVERSHOOT", "explore_direction", "explore_from_modes", "free_travel", "open_direction", "scan_explore_move"]
+__all__ = ["EXPLORE_OVERSHOOT", "explore_direction", "explore_from_modes", "free_travel", "open_direction",
+           "scan_explore_move"]
 
 
 def free_travel(scan: Scan, radius_cm: float, directions: Any = None) -> tuple[Any, Any]:
@@ -133,9 +134,10 @@ def explore_from_modes(poses: Sequence[Pose], walls: Any, checker: CollisionChec
 
     Directions every 5 degrees (those within 45 degrees of `avoid_rad`, where the robot came from,
     left out) are tried for `step_cm`, then half and a quarter of it; a direction qualifies when the
-    straight move, `overshoot` longer than it is meant to drive, is free for `checker`'s disc from every
-    pose in `poses`, with the pose's heading as it is and off by `heading_tolerance_rad` either way. Among those, the one whose nearest wall
-    (ray cast along it from every pose and deviation, `walls` as a (W, 4) array) is farthest.
+    straight move, `overshoot` (a fraction) longer than it is meant to drive, is free for `checker`'s
+    disc from every pose in `poses`, with the pose's heading as it is and off by
+    `heading_tolerance_rad` either way. Among those, the one whose nearest wall (ray cast along it
+    from every pose and deviation, `walls` as a (W, 4) array) is farthest.
 
     Returns
     -------
