@@ -107,7 +107,7 @@ def test_brick_clock_agrees_with_the_time_model() -> None:
     m = load_map("map1")
     assert m.start is not None and m.target is not None
     world = BrickWorld(m, Pose.from_deg(float(m.start[0]), float(m.start[1]), 60.0),
-                       BrickConfig(latency_s=0.003), rng=3)
+                       BrickConfig(latency_s=0.003), sonar="nxt", rng=3)  # the sensor the localiser is told
     with BrickServer(world, port=0) as server:
         robot = ModelClock(connect_robot("socket", host="127.0.0.1", port=server.port))
         try:
@@ -122,3 +122,4 @@ def test_brick_clock_agrees_with_the_time_model() -> None:
     split = report.time_split
     assert split is not None and split.readings > 0
     assert split.sweep_s > 0.5 * report.robot_time_s
+

@@ -111,10 +111,21 @@ def _pose(sw: _Sweep, index: int) -> tuple[float, float, float]:
     return sw.sweep.x_cm + dx, sw.sweep.y_cm + dy, float(wrap_angle(_directions()[index % n_dir]))
 
 
+def _sweep_log_pmf(model: NxtSonar, echoes: FloatArray, readings: FloatArray) -> FloatArray:
+    """``model.log_pmf(echoes, readings[None, :])``, (rows, n), from a table over the distinct echo
+    distances x the distinct readings: the rows of `_echo_by_pose` repeat a few thousand distances
+    and a sweep a few dozen readings, so the table is several times smaller than the array and its
+    values are the same numbers."""
+    d, d_at = np.unique(echoes, return_inverse=True)
+    r, r_at = np.unique(readings, return_inverse=True)
+    table = model.log_pmf(d.astype(float)[:, None], r[None, :])
+    return np.asarray(table[d_at.reshape(echoes.shape), r_at.reshape(1, -1)])
+
+
 def _best_poses(model: NxtSonar, echoes: list[FloatArray], sweeps: list[_Sweep]) -> list[int]:
     """The row of `_echo_by_pose` (position and heading) where each sweep is most likely."""
-    return [int(np.argmax(model.log_pmf(e, sw.readings[None, :]).sum(axis=1))) for e, sw in zip(echoes, sweeps,
-                                                                                                   strict=True)]
+    return [int(np.argmax(_sweep_log_pmf(model, e, sw.readings).sum(axis=1)))
+            for e, sw in zip(echoes, sweeps, strict=True)]
 
 
 def _with(model: NxtSonar, names: Sequence[str], x: FloatArray) -> NxtSonar:
