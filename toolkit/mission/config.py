@@ -137,13 +137,15 @@ class FixConfig:
     tracking_std_cm, tracking_std_deg : float
         Smallest standard deviations of that prior.
     check_turn_deg : float or None
-        After a turn of at least this many degrees toward a waypoint more than a robot radius away,
-        one tracking sweep is read against the believed heading before the leg
-        (`localisation.heading_check`): a turn that slipped (wheels that skid turn the robot less than
-        the tachometers say) is seen before the leg meets a wall, and the mission re-localises from
-        the heading the sweep fits and plans again. A sweep that agrees leaves the belief as it was.
-        None: no check (the default; the ``nxt`` sonar's tuning, `MissionConfig.for_sonar`, checks
-        turns of 20 degrees or more).
+        Once the turns toward waypoints since the heading was last checked add up to this many
+        degrees, a leg that would meet a wall were its heading off by half of them
+        (`toolkit.mission.driving.SLIP_SHARE`) is preceded by a heading check: one sweep of the
+        tracking windows ahead and to the sides (`FixPolicy.check_angles`) read against the believed
+        heading (`localisation.heading_check`). A turn that slipped (wheels that skid turn the robot
+        less than the tachometers say) is seen before the leg meets a wall, and the mission
+        re-localises from the heading the sweep fits and plans again; a sweep that agrees leaves the
+        belief as it was. None: no check (the default; the ``nxt`` sonar's tuning,
+        `MissionConfig.for_sonar`, checks from 20 degrees).
     """
 
     rule: str = "spread"
