@@ -13,8 +13,9 @@ from numpy.typing import NDArray
 from localisation.base import Localiser, Motion, PoseEstimate
 from localisation.global_localisation import DriveAction
 
-from ..world import BackoffDistance, CollisionChecker, Map, MoveOutcome, Pose, Robot, TruthSource
+from ..world import CollisionChecker, Map, MoveOutcome, Pose, Robot, TruthSource
 from .config import MissionConfig
+from .recovery import backoff_cm
 from .report import Action, Outcome, TraceStep
 from .states import MissionEnded
 
@@ -22,8 +23,6 @@ FloatArray = NDArray[np.float64]
 
 TURN_EPS = math.radians(0.5)
 """Turns smaller than this (rad) are not counted as turns."""
-BACKOFF_CM = 10.0
-"""How far a robot that does not say (`toolkit.world.BackoffDistance`) reverses in `turnback`."""
 BACKOFF_MARGIN_CM = 2.0
 """Room (cm) a back-off leaves between the robot and the wall behind it, as the map shows it from the belief."""
 
@@ -143,7 +142,7 @@ class MissionContext:
         """Back off from the wall ahead: the robot's `turnback` when the map behind the belief has room for
         it, a shorter reverse when it has less, none without room (`BACKOFF_MARGIN_CM` kept clear)."""
         self._count_action()
-        full = float(self.robot.backoff_distance_cm) if isinstance(self.robot, BackoffDistance) else BACKOFF_CM
+        full = backoff_cm(self.robot)
         room = self.room_behind(full + BACKOFF_MARGIN_CM) - BACKOFF_MARGIN_CM
         if room >= full:
             out = self.robot.turnback()

@@ -38,6 +38,7 @@ import numpy as np
 from localisation.base import Motion, PoseEstimate, Prior
 
 from ..world import (
+    BackoffDistance,
     LinkLostError,
     Reconnectable,
     Resumption,
@@ -56,9 +57,9 @@ if TYPE_CHECKING:
     from .context import MissionContext
     from .localising import Fixes
 
-__all__ = ["DEFAULT_RECONNECT_TIMEOUT_S", "OFF_COURSE_CM", "OFF_COURSE_DEG", "UNEXPLAINED_STOP_CM", "WIDE_STD_CM",
-           "WIDE_STD_DEG", "FaultLog", "FaultNote", "Recovery", "StopCheck", "off_course", "watchdog_cm",
-           "widened_prior"]
+__all__ = ["BACKOFF_CM", "DEFAULT_RECONNECT_TIMEOUT_S", "OFF_COURSE_CM", "OFF_COURSE_DEG", "UNEXPLAINED_STOP_CM",
+           "WIDE_STD_CM", "WIDE_STD_DEG", "FaultLog", "FaultNote", "Recovery", "StopCheck", "backoff_cm",
+           "off_course", "watchdog_cm", "widened_prior"]
 
 log = logging.getLogger(__name__)
 
@@ -93,6 +94,16 @@ def widened_prior(est: PoseEstimate, floor_cm: float, floor_rad: float) -> Prior
     cov[1, 1] = max(cov[1, 1], floor_cm ** 2)
     cov[2, 2] = max(cov[2, 2], floor_rad ** 2)
     return Prior(est.pose, cov)
+
+
+BACKOFF_CM = 10.0
+"""How far (cm) a robot that does not say (`toolkit.world.BackoffDistance`) reverses in `turnback`."""
+
+
+def backoff_cm(robot: Robot) -> float:
+    """How far (cm) `robot`'s `turnback` reverses: its own when it says (`toolkit.world.BackoffDistance`),
+    else `BACKOFF_CM`."""
+    return float(robot.backoff_distance_cm) if isinstance(robot, BackoffDistance) else BACKOFF_CM
 
 
 def watchdog_cm(robot: Robot) -> float:
