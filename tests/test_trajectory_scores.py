@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from toolkit.trajectory_scores import score_trajectory
+from toolkit.trajectory_scores import relative_pose_error, score_trajectory
 
 
 def _loop(n: int = 200) -> np.ndarray:
@@ -61,3 +61,17 @@ def test_short_paths_have_no_rpe() -> None:
 def test_a_straight_line_cannot_be_aligned() -> None:
     truth = np.column_stack([np.linspace(0, 500, 50), np.zeros(50), np.zeros(50)])
     assert math.isnan(score_trajectory(truth, truth + 1.0).ape_rmse_cm)
+
+
+def test_a_constant_heading_offset_shows_over_every_pair() -> None:
+    """Headings 0.5 degrees off the truth's everywhere, positions exact: one metre of driving, seen from
+    a frame turned by 0.5 degrees, lands 2 sin(0.25 degrees) x 100 cm away, and the rotation between
+    two poses is exact. Over 10 cm it is a tenth of that."""
+    truth = _loop(4000)
+    est = truth.copy()
+    est[:, 2] += math.radians(0.5)
+    for delta_m in (0.1, 1.0):
+        translation, rotation = relative_pose_error(truth, est, delta_m)
+        assert translation == pytest.approx(2 * math.sin(math.radians(0.25)) * 100 * delta_m, rel=0.02)
+        assert rotation == pytest.approx(0.0, abs=1e-6)
+    assert score_trajectory(truth, est).rpe_per_m_cm == pytest.approx(relative_pose_error(truth, est)[0])

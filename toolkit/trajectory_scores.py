@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["TrajectoryScores", "score_trajectory"]
+__all__ = ["TrajectoryScores", "relative_pose_error", "score_trajectory"]
 
 CM_PER_M = 100.0
 RPE_DELTA_M = 1.0
@@ -66,7 +66,6 @@ def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | 
     """
     from evo.core import metrics
     from evo.core.geometry import GeometryException
-    from evo.core.units import Unit
 
     t = np.asarray(truth, dtype=float).reshape(-1, 3)
     e = np.asarray(estimate, dtype=float).reshape(-1, 3)
@@ -86,14 +85,35 @@ def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | 
     ape_t.process_data((ref, aligned))
     ape_r = metrics.APE(metrics.PoseRelation.rotation_angle_deg)
     ape_r.process_data((ref, aligned))
-    rpe = math.nan
-    if ref.path_length >= RPE_DELTA_M:
-        metric = metrics.RPE(metrics.PoseRelation.translation_part, delta=RPE_DELTA_M, delta_unit=Unit.meters,
-                             all_pairs=True, pairs_from_reference=True)
-        try:
-            metric.process_data((ref, est))
-            rpe = float(metric.get_statistic(metrics.StatisticsType.rmse)) * CM_PER_M
-        except metrics.MetricsException:  # no pair of poses a metre apart within evo's tolerance
-            rpe = math.nan
+    rpe = relative_pose_error(t, e, RPE_DELTA_M, s)[0]
     return TrajectoryScores(float(ape_t.get_statistic(metrics.StatisticsType.rmse)) * CM_PER_M,
                             float(ape_r.get_statistic(metrics.StatisticsType.rmse)), rpe, n)
+
+
+def relative_pose_error(truth: ArrayLike, estimate: ArrayLike, delta_m: float = RPE_DELTA_M,
+                        stamps: ArrayLike | None = None) -> tuple[float, float]:
+    """evo's relative pose error over every pair of poses `delta_m` metres apart along the true path:
+    RMSE of the translation part (cm) and of the rotation angle (degrees); NaN when the truth never
+    covers `delta_m`. Poses as in `score_trajectory`."""
+    from evo.core import metrics
+    from evo.core.units import Unit
+
+    t = np.asarray(truth, dtype=float).reshape(-1, 3)
+    e = np.asarray(estimate, dtype=float).reshape(-1, 3)
+    if t.shape != e.shape:
+        raise ValueError(f"truth has {len(t)} poses, the estimate {len(e)}")
+    s = np.arange(len(t), dtype=float) if stamps is None else np.asarray(stamps, dtype=float).ravel()
+    ref, est = _trajectory(t, s), _trajectory(e, s)
+    if len(t) < 2 or ref.path_length < delta_m:
+        return math.nan, math.nan
+    out = []
+    for relation, scale in ((metrics.PoseRelation.translation_part, CM_PER_M),
+                            (metrics.PoseRelation.rotation_angle_deg, 1.0)):
+        metric = metrics.RPE(relation, delta=delta_m, delta_unit=Unit.meters, all_pairs=True,
+                             pairs_from_reference=True)
+        try:
+            metric.process_data((ref, est))
+        except metrics.MetricsException:  # no pair of poses delta_m apart within evo's tolerance
+            return math.nan, math.nan
+        out.append(float(metric.get_statistic(metrics.StatisticsType.rmse)) * scale)
+    return out[0], out[1]
