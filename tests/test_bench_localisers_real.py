@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
+import socket
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -70,10 +73,25 @@ def test_process_pool_matches_in_process(tmp_path: Path) -> None:
             assert ra[k] == rb[k]
 
 
+@contextlib.contextmanager
+def _port_taken(port: int) -> Iterator[None]:
+    """`port` taken on every interface for the block (by this socket, or already by something else)."""
+    sock = socket.socket()
+    try:
+        with contextlib.suppress(OSError):  # taken already: just as good
+            sock.bind(("0.0.0.0", port))
+            sock.listen(1)
+        yield
+    finally:
+        sock.close()
+
+
 def test_dask_local_tiny_run(tmp_path: Path) -> None:
+    """A local cluster starts while Dask's usual dashboard port is taken (another run on the machine)."""
     out = tmp_path / "d"
-    assert run_cli(["bench", "localisers", "--maps", "map2", "--localisers", "paper-pf", "--trials", "2", "--seed", "4",
-                "--workers", "1", "--dask", "local", "--out", str(out)]) == 0
+    with _port_taken(8787):
+        assert run_cli(["bench", "localisers", "--maps", "map2", "--localisers", "paper-pf", "--trials", "2",
+                        "--seed", "4", "--workers", "1", "--dask", "local", "--out", str(out)]) == 0
     rows = _rows(out / "runs.csv")
     assert [int(r["trial"]) for r in rows] == [0, 1]
     assert all(int(r["seed"]) == derive_seed(4, "map2", int(r["trial"])) for r in rows)

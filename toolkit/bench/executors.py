@@ -166,7 +166,9 @@ def _run_dask(
         raise NxtnavError("--dask needs the 'cluster' extra: pip install 'nxtnav[cluster]'") from exc
     cluster: Any = None
     if address == "local":
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        # the scheduler's HTTP server on a free port: without an address it takes 8787, and a second run on
+        # the same machine (another benchmark, another clone's tests) finds it taken and fails to start
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
         client = Client(cluster)
     else:
         try:
