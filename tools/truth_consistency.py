@@ -21,6 +21,7 @@ import numpy as np
 
 from toolkit.replay import read_recording
 from toolkit.trajectory_scores import relative_pose_error
+from toolkit.world import NxtnavError
 
 
 def odometry_and_truth(path: str) -> tuple[np.ndarray, np.ndarray]:
@@ -44,16 +45,28 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("recordings", nargs="+")
     parser.add_argument("--deltas", default="0.1,0.25,0.5,1", help="pair distances (m), comma-separated")
     args = parser.parse_args(argv)
-    deltas = [float(v) for v in args.deltas.split(",")]
-    print("| recording | poses | " + " | ".join(f"RPE over {d:g} m (cm, deg)" for d in deltas) + " |")
-    print("|---|---:|" + "---:|" * len(deltas))
+    try:
+        deltas = [float(v) for v in args.deltas.split(",")]
+    except ValueError:
+        deltas = []
+    if not deltas or not all(math.isfinite(d) and d > 0 for d in deltas):
+        print(f"truth_consistency: --deltas must be positive numbers (m), got {args.deltas!r}", file=sys.stderr)
+        return 2
+    rows = []
     for path in args.recordings:
-        odo, truth = odometry_and_truth(path)
+        try:
+            odo, truth = odometry_and_truth(path)
+        except (NxtnavError, OSError) as exc:
+            print(f"truth_consistency: {' '.join(str(exc).split())}", file=sys.stderr)
+            return 2
         if len(truth) < 2:
-            print(f"{path}: fewer than two true poses with a heading", file=sys.stderr)
+            print(f"truth_consistency: {path}: fewer than two true poses with a heading", file=sys.stderr)
             return 2
         cells = [relative_pose_error(truth, odo, d) for d in deltas]
-        print(f"| {path} | {len(truth)} | " + " | ".join(f"{t:.2f}, {r:.2f}" for t, r in cells) + " |")
+        rows.append(f"| {path} | {len(truth)} | " + " | ".join(f"{t:.2f}, {r:.2f}" for t, r in cells) + " |")
+    print("| recording | poses | " + " | ".join(f"RPE over {d:g} m (cm, deg)" for d in deltas) + " |")
+    print("|---|---:|" + "---:|" * len(deltas))
+    print("\n".join(rows))
     return 0
 
 
