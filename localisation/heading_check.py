@@ -69,6 +69,12 @@ class HeadingCheck:
         """Whether the sweep says the heading is off (module docstring)."""
         return abs(math.degrees(self.offset_rad)) >= MIN_OFFSET_DEG and self.margin_nats >= MARGIN_NATS
 
+    @property
+    def unsure(self) -> bool:
+        """Whether the sweep neither calls the heading off nor fits it best: a heading at least
+        `MIN_OFFSET_DEG` away fits as well or better, by less than `MARGIN_NATS`."""
+        return not self.off and abs(math.degrees(self.offset_rad)) >= MIN_OFFSET_DEG
+
     def describe(self) -> str:
         return (f"best fit {math.degrees(self.offset_rad):+.0f} degrees from the belief, "
                 f"{self.margin_nats:.1f} nats better, {self.readings} readings")

@@ -24,8 +24,9 @@ FloatArray = NDArray[np.float64]
 
 SLIP_SHARE = 0.5
 """The largest part of a turn a slip is taken to lose (wheels that skid on a smooth floor). The turns
-toward waypoints since the last heading check add up; a leg that stays clear of the walls with its
-heading off by this share of their sum either way needs no check."""
+toward waypoints since the last heading check add up; a leg whose whole way to its waypoint stays
+clear of the walls with its heading off by this share of their sum either way needs no check (the
+error stays in the belief over the legs after it: the fixes between them settle near it)."""
 
 
 class Leg(Enum):
@@ -88,7 +89,7 @@ class Driving:
             self.turned_rad += abs(turn)
         length = self.safe_length(pose.xy, heading, self.policy.leg_length(dist, mission.fresh_fix))
         if (dist > self.checkers.radius and self.policy.checks_turn(self.turned_rad)
-                and not self.slip_safe(pose.xy, heading, length, SLIP_SHARE * self.turned_rad)):
+                and not self.slip_safe(pose.xy, heading, dist, SLIP_SHARE * self.turned_rad)):
             return LegEnd(Leg.TURNED)
         moved = self._steps(length)
         return LegEnd(moved, length >= dist)

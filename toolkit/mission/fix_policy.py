@@ -104,11 +104,14 @@ class FixPolicy:
         p = self.prior(est)
         return Prior(Pose(p.mean.x, p.mean.y, p.mean.theta + offset_rad), p.cov)
 
-    def check_angles(self) -> FloatArray:
+    def check_angles(self, full: bool = False) -> FloatArray:
         """The turret angles of a heading check: the tracking windows ahead and to the sides (three of
         them: 420 degrees of turret travel, against 600 for the four axes), as good at finding a slipped
-        turn as four in `tools/heading_check_rates.py`."""
+        turn as four in `tools/heading_check_rates.py`; with `full`, the whole turn at the same step
+        (the second look of a check the windows left unsure)."""
         s = self.sweeps
+        if full:
+            return sweep_angles(s.track_scan_step_deg, 180.0)
         return sweep_angles(s.track_scan_step_deg, s.track_window_deg, TRACK_WINDOWS["sides"])
 
     def sweep(self, kind: str) -> dict[str, Any]:
