@@ -140,12 +140,12 @@ class FixConfig:
         Once the turns toward waypoints since the heading was last checked add up to this many
         degrees, a leg whose way to its waypoint would meet a wall were its heading off by half of
         them (`toolkit.mission.driving.SLIP_SHARE`) is preceded by a heading check: one sweep of the
-        tracking windows ahead and to the sides (`FixPolicy.check_angles`) read against the believed
-        heading (`localisation.heading_check`), and one of the whole turn when the windows leave it
-        unsure. A turn that slipped (wheels that skid turn the robot less than the tachometers say)
-        is seen before the leg meets a wall, and the mission re-localises from the heading the sweep
-        fits and plans again; a sweep that agrees leaves the belief as it was. None: no check (the
-        default; the ``nxt`` sonar's tuning, `MissionConfig.for_sonar`, checks from 20 degrees).
+        front half, -90 to +90 degrees (`FixPolicy.check_angles`), read against the believed heading
+        (`localisation.heading_check`). A turn that slipped (wheels that skid turn the robot less
+        than the tachometers say) is seen before the leg meets a wall, and the mission re-localises
+        from the heading the sweep fits and plans again; a sweep that agrees leaves the belief as it
+        was. None: no check (the default; the ``nxt`` sonar's tuning, `MissionConfig.for_sonar`,
+        checks from 20 degrees).
     """
 
     rule: str = "spread"

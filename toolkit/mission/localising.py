@@ -111,15 +111,14 @@ class Fixes:
         mission.fresh_fix = True
         return est
 
-    def heading_check(self, full: bool = False) -> HeadingCheck | None:
-        """One sweep of the tracking windows ahead and to the sides, or of the whole turn with `full`
-        (`FixPolicy.check_angles`), read against the believed heading (`localisation.heading_check`)
-        with the sonar model the localiser was told (``localiser_options["sonar_model"]``; none: ideal
-        readings); the belief is left as it was. None when the sensor was stuck or gave garbage (said
-        through `on_sweep_fault`)."""
+    def heading_check(self) -> HeadingCheck | None:
+        """One sweep of the front half (`FixPolicy.check_angles`), read against the believed heading
+        (`localisation.heading_check`) with the sonar model the localiser was told
+        (``localiser_options["sonar_model"]``; none: ideal readings); the belief is left as it was.
+        None when the sensor was stuck or gave garbage (said through `on_sweep_fault`)."""
         mission = self.mission
         assert mission.estimate is not None
-        scan = mission.robot.ultrascan(self.policy.check_angles(full))
+        scan = mission.robot.ultrascan(self.policy.check_angles())
         fault = sweep_fault(scan)
         if fault is not None:
             if mission.on_sweep_fault is not None:

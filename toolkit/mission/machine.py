@@ -7,8 +7,7 @@ The transitions (`step` runs one state and returns the next)::
           | FINAL_CORRECTION (path driven)
           | RECOVER_STOP (watchdog stop, blocked move) | REPLAN (deviated, too many legs)
     RELOCALISE -> DRIVE | REPLAN (the fix is off course)
-    CHECK_HEADING -> DRIVE (the sweep agrees) | RELOCALISE (the sweep was faulty) | REPLAN (it did not agree);
-          a sweep of the windows that leaves the heading unsure is followed by one of the whole turn
+    CHECK_HEADING -> DRIVE (the sweep agrees) | RELOCALISE (the sweep was faulty) | REPLAN (it did not agree)
     RECOVER_STOP -> REPLAN -> PLAN
     FINAL_CORRECTION -> FINAL_CORRECTION (a correction move) | PLAN (no straight way)
           | RECOVER_STOP | DONE | FAILED
@@ -159,9 +158,6 @@ class Mission:
     def _check_heading(self) -> State:
         mission = self.context
         check = self.fixes.heading_check()
-        if check is not None and check.unsure:  # the windows see too little here: look all round
-            mission.record(Action.CHECK_HEADING, note=f"unsure ({check.describe()}); sweeping the whole turn")
-            check = self.fixes.heading_check(full=True)
         self.driving.checked()
         if check is None:  # the sensor was faulty: a fix instead
             self._fix_reason = "after the turn"
