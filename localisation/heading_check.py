@@ -13,11 +13,11 @@ check here holds the believed position and asks the sensor model which heading t
 * the heading is **off** when the best offset lies at least `MIN_OFFSET_DEG` from the belief and its
   log-likelihood beats the belief's by at least `MARGIN_NATS`.
 
-Measured on simulated NXT sweeps of the three paper maps (45 readings: the 15-degree windows ahead and
-to the sides at 2 degrees, as a mission checks; ``python tools/heading_check_rates.py --poses 60
---seed 1``, 180 checks per row): a heading that is right is called off in 0.6 % of the checks; one
-that is 10, 20 or 35 degrees off is called off in 72, 82 and 92 % (within 8 degrees of the truth in
-69, 75 and 82 %).
+Measured on simulated NXT sweeps of the three paper maps (91 readings: the front half, -90 to +90
+degrees at 2 degrees, as a mission checks; ``python tools/heading_check_rates.py --poses 60 --seed
+1``, 180 checks per row): a heading that is right is called off in none of the checks; one that is
+10, 20 or 35 degrees off is called off in 99.4, 99.4 and 100 %, always within 8 degrees of the
+truth.
 """
 
 from __future__ import annotations
