@@ -368,6 +368,7 @@ def test_the_heading_check_sees_a_slip_the_tracking_windows_miss() -> None:
     tracking windows ahead and to the sides do not tell the heading; the check's front half does, and
     the mission re-localises from it."""
     from planners import make_planner
+    from toolkit.mission.config import TRACK_WINDOWS
     from toolkit.mission.machine import Mission
     from toolkit.mission.states import State
 
@@ -385,7 +386,7 @@ def test_the_heading_check_sees_a_slip_the_tracking_windows_miss() -> None:
     loc.reset(Prior(belief, np.diag([0.25, 0.25, math.radians(0.5) ** 2])))
     mission.context.estimate = loc.estimate()
     # the situation: sweeps of the three windows, simulated from the true pose, leave the heading unsure
-    windows = sweep_angles(2.0, 15.0, (-90.0, 0.0, 90.0))
+    windows = sweep_angles(cfg.sweeps.track_scan_step_deg, cfg.sweeps.track_window_deg, TRACK_WINDOWS["sides"])
     for _ in range(5):
         check = check_heading(m, belief, robot.ultrascan(windows), cfg.localiser_options["sonar_model"])
         assert not check.off and check.unsure

@@ -54,6 +54,33 @@ def _trajectory(poses: np.ndarray, stamps: np.ndarray) -> Any:
     return PoseTrajectory3D(positions_xyz=xyz, orientations_quat_wxyz=quat, timestamps=stamps)
 
 
+def _trajectories(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | None) -> tuple[Any, Any, int]:
+    """evo trajectories of `truth` and `estimate` (checked to match pose for pose), and their length."""
+    t = np.asarray(truth, dtype=float).reshape(-1, 3)
+    e = np.asarray(estimate, dtype=float).reshape(-1, 3)
+    if t.shape != e.shape:
+        raise ValueError(f"truth has {len(t)} poses, the estimate {len(e)}")
+    s = np.arange(len(t), dtype=float) if stamps is None else np.asarray(stamps, dtype=float).ravel()
+    return _trajectory(t, s), _trajectory(e, s), len(t)
+
+
+def _rpe(ref: Any, est: Any, delta_m: float, rotation: bool = False) -> float:
+    """evo's RPE RMSE over all pairs `delta_m` metres apart on `ref`: translation (cm), or with `rotation`
+    the rotation angle (degrees); NaN when no such pair exists."""
+    from evo.core import metrics
+    from evo.core.units import Unit
+
+    if len(ref.positions_xyz) < 2 or ref.path_length < delta_m:
+        return math.nan
+    relation = metrics.PoseRelation.rotation_angle_deg if rotation else metrics.PoseRelation.translation_part
+    metric = metrics.RPE(relation, delta=delta_m, delta_unit=Unit.meters, all_pairs=True, pairs_from_reference=True)
+    try:
+        metric.process_data((ref, est))
+    except metrics.MetricsException:  # no pair of poses delta_m apart within evo's tolerance
+        return math.nan
+    return float(metric.get_statistic(metrics.StatisticsType.rmse)) * (1.0 if rotation else CM_PER_M)
+
+
 def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | None = None) -> TrajectoryScores:
     """evo's APE (after rigid alignment) and RPE per metre of `estimate` against `truth`.
 
@@ -67,15 +94,9 @@ def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | 
     from evo.core import metrics
     from evo.core.geometry import GeometryException
 
-    t = np.asarray(truth, dtype=float).reshape(-1, 3)
-    e = np.asarray(estimate, dtype=float).reshape(-1, 3)
-    if t.shape != e.shape:
-        raise ValueError(f"truth has {len(t)} poses, the estimate {len(e)}")
-    n = len(t)
+    ref, est, n = _trajectories(truth, estimate, stamps)
     if n < 3:
         return TrajectoryScores(math.nan, math.nan, math.nan, n)
-    s = np.arange(n, dtype=float) if stamps is None else np.asarray(stamps, dtype=float).ravel()
-    ref, est = _trajectory(t, s), _trajectory(e, s)
     aligned = copy.deepcopy(est)
     try:
         aligned.align(ref, correct_scale=False)
@@ -85,9 +106,8 @@ def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | 
     ape_t.process_data((ref, aligned))
     ape_r = metrics.APE(metrics.PoseRelation.rotation_angle_deg)
     ape_r.process_data((ref, aligned))
-    rpe = relative_pose_error(t, e, RPE_DELTA_M, s)[0]
     return TrajectoryScores(float(ape_t.get_statistic(metrics.StatisticsType.rmse)) * CM_PER_M,
-                            float(ape_r.get_statistic(metrics.StatisticsType.rmse)), rpe, n)
+                            float(ape_r.get_statistic(metrics.StatisticsType.rmse)), _rpe(ref, est, RPE_DELTA_M), n)
 
 
 def relative_pose_error(truth: ArrayLike, estimate: ArrayLike, delta_m: float = RPE_DELTA_M,
@@ -95,25 +115,5 @@ def relative_pose_error(truth: ArrayLike, estimate: ArrayLike, delta_m: float = 
     """evo's relative pose error over every pair of poses `delta_m` metres apart along the true path:
     RMSE of the translation part (cm) and of the rotation angle (degrees); NaN when the truth never
     covers `delta_m`. Poses as in `score_trajectory`."""
-    from evo.core import metrics
-    from evo.core.units import Unit
-
-    t = np.asarray(truth, dtype=float).reshape(-1, 3)
-    e = np.asarray(estimate, dtype=float).reshape(-1, 3)
-    if t.shape != e.shape:
-        raise ValueError(f"truth has {len(t)} poses, the estimate {len(e)}")
-    s = np.arange(len(t), dtype=float) if stamps is None else np.asarray(stamps, dtype=float).ravel()
-    ref, est = _trajectory(t, s), _trajectory(e, s)
-    if len(t) < 2 or ref.path_length < delta_m:
-        return math.nan, math.nan
-    out = []
-    for relation, scale in ((metrics.PoseRelation.translation_part, CM_PER_M),
-                            (metrics.PoseRelation.rotation_angle_deg, 1.0)):
-        metric = metrics.RPE(relation, delta=delta_m, delta_unit=Unit.meters, all_pairs=True,
-                             pairs_from_reference=True)
-        try:
-            metric.process_data((ref, est))
-        except metrics.MetricsException:  # no pair of poses delta_m apart within evo's tolerance
-            return math.nan, math.nan
-        out.append(float(metric.get_statistic(metrics.StatisticsType.rmse)) * scale)
-    return out[0], out[1]
+    ref, est, _ = _trajectories(truth, estimate, stamps)
+    return _rpe(ref, est, delta_m), _rpe(ref, est, delta_m, rotation=True)
