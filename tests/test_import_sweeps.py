@@ -87,13 +87,15 @@ def test_replay_scores_position_only_and_repeats_itself(tmp_path: Path) -> None:
     assert math.isfinite(summary["rmse_cm"]) and math.isfinite(summary["median_error_cm"])
 
 
-def test_replay_is_a_global_reset_and_one_update_per_sweep(tmp_path: Path) -> None:
+@pytest.mark.parametrize("extra", [{}, {"n_particles": 700}])
+def test_replay_is_a_global_reset_and_one_update_per_sweep(tmp_path: Path, extra: dict[str, int]) -> None:
     """The replayed estimates are, bit for bit, those of paper-pf with the options matched to the nxt
-    sonar, reset globally and given each sweep's scan (guards the episodes' shape and the options)."""
+    sonar (and the replay's `options` on top), reset globally and given each sweep's scan (guards the
+    episodes' shape and the options)."""
     rec = read_recording(_import(tmp_path))
-    report = replay(rec, ["paper-pf"], seed=5)
+    report = replay(rec, ["paper-pf"], seed=5, options={"paper-pf": extra})
     real = RobotModel.build("nxt", readings="real")
-    loc = make_localiser("paper-pf", rec.map, rng=5, **localiser_options("paper-pf", real))
+    loc = make_localiser("paper-pf", rec.map, rng=5, **{**localiser_options("paper-pf", real), **extra})
     ups = [s for s in report.steps if s.call == "update"]
     for sweep, step in zip(load_sweep_set(REAL_NXT, map=rec.map), ups, strict=True):
         loc.reset(None)

@@ -19,7 +19,7 @@ from toolkit.cli import main
 from toolkit.mission import MissionConfig, localiser_options, run_mission, run_sim_mission
 from toolkit.recording import Recorder, scan_fields, scan_from_fields
 from toolkit.replay import RecordingError, read_recording, replay
-from toolkit.world import Pose, RobotModel, Scan, load_map
+from toolkit.world import NxtnavError, Pose, RobotModel, Scan, load_map
 
 DATA = Path(__file__).parent / "data"
 EXAMPLE = DATA / "recording_map1_nxt.jsonl"
@@ -85,6 +85,40 @@ def test_example_recording_replays_bit_for_bit_and_is_small() -> None:
     report = replay(rec, ["amcl", "paper-pf"])
     assert report.reproduced == {"amcl": True}
     assert report.summary()["paper-pf"]["updates"] >= 2
+
+
+def test_options_replace_what_a_localiser_is_given() -> None:
+    """`replay(options=...)` changes what each localiser is given: its estimates differ from the plain
+    replay's, and the live localiser given options is a new run, not compared with the live estimates
+    (that the options go on top of the recording's is checked in test_import_sweeps)."""
+    rec = read_recording(EXAMPLE)
+    opts = {"pf-systematic": {"n_particles": 150}, "amcl": {"max_particles": 400}}
+    report = replay(rec, ["amcl", "pf-systematic"], seed=4, options=opts)
+    plain = replay(rec, ["amcl", "pf-systematic"], seed=4)
+    assert report.reproduced == {"amcl": None} and plain.reproduced == {"amcl": True}
+    got = [s.estimates["pf-systematic"] for s in report.steps]
+    want = [s.estimates["pf-systematic"] for s in plain.steps]
+    assert all(g is not None and w is not None for g, w in zip(got, want, strict=True))
+    assert any(g.pose != w.pose for g, w in zip(got, want, strict=True))  # type: ignore[union-attr]
+    assert any(s.estimates["amcl"] != p.estimates["amcl"] for s, p in zip(report.steps, plain.steps, strict=True))
+    with pytest.raises(NxtnavError, match="options for ekf, which is not among amcl"):
+        replay(rec, ["amcl"], options={"ekf": {"gate_cm": 5.0}})
+
+
+def test_cli_set_gives_replay_its_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    js = tmp_path / "r.json"
+    code, _, _ = _run_replay(EXAMPLE, capsys, "--localisers", "pf-systematic", "--seed", "4",
+                             "--set", "pf-systematic.n_particles=150", "--json", str(js))
+    assert code == 0
+    got = json.loads(js.read_text())
+    want = replay(read_recording(EXAMPLE), ["pf-systematic"], seed=4, options={"pf-systematic": {"n_particles": 150}})
+    assert [s["estimates"]["pf-systematic"]["pose"] for s in got["steps"]] == [
+        s.estimates["pf-systematic"].pose.to_list_deg() for s in want.steps]  # type: ignore[union-attr]
+    for bad, why in (("pf-systematic.bogus=1", "pf-systematic has no option bogus"),
+                     ("amcl.max_particles=10", "options for amcl, which is not among pf-systematic"),
+                     ("pf-systematic.n_particles=-3", "pf-systematic.n_particles: -3 is out of its range")):
+        code, _, err = _run_replay(EXAMPLE, capsys, "--localisers", "pf-systematic", "--set", bad)
+        assert code == 2 and why in err and len(err.strip().splitlines()) == 1, err
 
 
 def test_cli_records_and_replays(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -22,6 +22,7 @@ import dataclasses
 import json
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -607,26 +608,34 @@ def _options_for(rec: Recording, name: str) -> dict[str, Any]:
     return opts
 
 
-def _build(rec: Recording, name: str, seed: int) -> tuple[Localiser, bool]:
-    """The localiser `name` for the recording's map; True when it is the live one with its own stream."""
+def _build(rec: Recording, name: str, seed: int, extra: Mapping[str, Any]) -> tuple[Localiser, bool]:
+    """The localiser `name` for the recording's map, with the options `extra` on top of those it would
+    get; True when it is the live one, as it ran, with its own stream."""
     spec = rec.localiser
     if spec is not None and spec.name == name:
-        gen = spec.generator()
-        return make_localiser(name, rec.map, rng=gen if gen is not None else seed, **spec.options), gen is not None
-    return make_localiser(name, rec.map, rng=seed, **_options_for(rec, name)), False
+        gen = None if extra else spec.generator()
+        return (make_localiser(name, rec.map, rng=gen if gen is not None else seed, **{**spec.options, **extra}),
+                gen is not None)
+    return make_localiser(name, rec.map, rng=seed, **{**_options_for(rec, name), **extra}), False
 
 
-def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Prior | None = None) -> ReplayReport:
+def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Prior | None = None,
+           options: Mapping[str, Mapping[str, Any]] | None = None) -> ReplayReport:
     """Run `localisers` (registry names) over the recorded localiser calls; see the module docstring.
 
     `initial` replaces the prior of the recording's first ``reset`` (a pose to start tracking from, for
-    data recorded without one, such as an imported bag). Each localiser's CPU time (process time of
-    its construction and its calls) is in `ReplayReport.cpu_s`.
+    data recorded without one, such as an imported bag). `options` gives, per localiser name, constructor
+    options that replace the ones it would get (a live localiser given any is a new run, not a
+    reproduction). Each localiser's CPU time (process time of its construction and its calls) is in
+    `ReplayReport.cpu_s`.
     """
     if not localisers:
         raise NxtnavError("replay: no localiser given")
     for name in localisers:
         LOCALISERS.get(name)  # unknown names fail here, listing the known ones
+    stray = sorted(set(options or {}) - set(localisers))
+    if stray:
+        raise NxtnavError(f"replay: options for {', '.join(stray)}, which is not among {', '.join(localisers)}")
     locs: dict[str, Localiser | None] = {}
     exact: dict[str, bool] = {}
     failures: dict[str, str] = {}
@@ -635,7 +644,7 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Pri
     for name in dict.fromkeys(localisers):
         started = time.process_time()
         try:
-            locs[name], exact[name] = _build(rec, name, seed)
+            locs[name], exact[name] = _build(rec, name, seed, (options or {}).get(name, {}))
         except (NxtnavError, ValueError, TypeError) as exc:
             locs[name], exact[name] = None, False
             failures[name] = f"not built: {' '.join(str(exc).split())}"

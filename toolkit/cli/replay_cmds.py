@@ -11,6 +11,7 @@ import typer
 from ..formats import cell
 from .app import app
 from .options import parse_floats, parse_list
+from .set_options import checked_sets, parse_sets
 
 if TYPE_CHECKING:
     from localisation.base import Prior
@@ -38,6 +39,9 @@ def replay_cmd(
         None, "--initial-pose", metavar="X,Y,H[,SD_CM,SD_DEG]",
         help="Start every localiser here (cm, cm, degrees; spread default 10 cm, 5 degrees) instead of the "
              "recording's first reset."),
+    sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
+                                   help="Localiser option (repeatable) on top of the ones the recording gives it, "
+                                        "e.g. amcl.sigma_hit=3."),
 ) -> None:
     """Replay the recorded motions and scans through localisers: estimate, spread and error per step.
 
@@ -45,6 +49,8 @@ def replay_cmd(
     (ape_rmse_cm, ape_heading_rmse_deg) and relative pose error per metre driven (rpe_per_m_cm), and
     every localiser's CPU time (cpu_s).
     """
+    from localisation import LOCALISERS
+
     from ..replay import read_recording, replay
 
     prior = _initial_prior(initial_pose) if initial_pose is not None else None
@@ -56,7 +62,8 @@ def replay_cmd(
         if rec.localiser is None:
             raise typer.BadParameter(f"{recording} names no localiser; give --localisers", param_hint="--localisers")
         names = [rec.localiser.name]
-    report = replay(rec, names, seed=seed, initial=prior)
+    options = checked_sets(parse_sets(sets), names, lambda n: LOCALISERS.get(n).params, "localiser")
+    report = replay(rec, names, seed=seed, initial=prior, options=options)
     live = rec.localiser.name if rec.localiser else "none"
     typer.echo(f"{recording}: map {rec.map.name}, robot {rec.header['robot'].get('kind')}, sonar "
                f"{rec.header['sonar'].get('model')}, live localiser {live}, {rec.calls} localiser calls, "
