@@ -103,6 +103,8 @@ def test_options_replace_what_a_localiser_is_given() -> None:
     assert any(s.estimates["amcl"] != p.estimates["amcl"] for s, p in zip(report.steps, plain.steps, strict=True))
     with pytest.raises(NxtnavError, match="options for ekf, which is not among amcl"):
         replay(rec, ["amcl"], options={"ekf": {"gate_cm": 5.0}})
+    with pytest.raises(NxtnavError, match="amcl refuses min_particles=500, max_particles=100: need"):
+        replay(rec, ["amcl"], options={"amcl": {"min_particles": 500, "max_particles": 100}})
 
 
 def test_cli_set_gives_replay_its_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -114,6 +116,11 @@ def test_cli_set_gives_replay_its_options(tmp_path: Path, capsys: pytest.Capture
     want = replay(read_recording(EXAMPLE), ["pf-systematic"], seed=4, options={"pf-systematic": {"n_particles": 150}})
     assert [s["estimates"]["pf-systematic"]["pose"] for s in got["steps"]] == [
         s.estimates["pf-systematic"].pose.to_list_deg() for s in want.steps]  # type: ignore[union-attr]
+    code, out, _ = _run_replay(EXAMPLE, capsys, "--localisers", "amcl", "--set", "amcl.max_particles=400")
+    assert code == 0 and "amcl: given --set options, a new run; not compared with the live estimates" in out
+    code, _, err = _run_replay(EXAMPLE, capsys, "--localisers", "amcl", "--set", "amcl.min_particles=500",
+                               "--set", "amcl.max_particles=100")
+    assert code == 2 and "amcl refuses min_particles=500, max_particles=100" in err and err.count("\n") == 1, err
     for bad, why in (("pf-systematic.bogus=1", "pf-systematic has no option bogus"),
                      ("amcl.max_particles=10", "options for amcl, which is not among pf-systematic"),
                      ("pf-systematic.n_particles=-3", "pf-systematic.n_particles: -3 is out of its range")):

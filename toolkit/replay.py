@@ -626,8 +626,8 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Pri
     `initial` replaces the prior of the recording's first ``reset`` (a pose to start tracking from, for
     data recorded without one, such as an imported bag). `options` gives, per localiser name, constructor
     options that replace the ones it would get (a live localiser given any is a new run, not a
-    reproduction). Each localiser's CPU time (process time of its construction and its calls) is in
-    `ReplayReport.cpu_s`.
+    reproduction; options its constructor refuses raise `NxtnavError`). Each localiser's CPU time
+    (process time of its construction and its calls) is in `ReplayReport.cpu_s`.
     """
     if not localisers:
         raise NxtnavError("replay: no localiser given")
@@ -643,9 +643,13 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Pri
     first_reset = True
     for name in dict.fromkeys(localisers):
         started = time.process_time()
+        extra = (options or {}).get(name, {})
         try:
-            locs[name], exact[name] = _build(rec, name, seed, (options or {}).get(name, {}))
+            locs[name], exact[name] = _build(rec, name, seed, extra)
         except (NxtnavError, ValueError, TypeError) as exc:
+            if extra:  # the caller's own choice: said at once, not as a failed row
+                given = ", ".join(f"{k}={v!r}" for k, v in extra.items())
+                raise NxtnavError(f"replay: {name} refuses {given}: {' '.join(str(exc).split())}") from None
             locs[name], exact[name] = None, False
             failures[name] = f"not built: {' '.join(str(exc).split())}"
         cpu[name] = time.process_time() - started

@@ -88,7 +88,9 @@ def replay_cmd(
             typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['median_agreement_cm'])} | "
                        f"{cell(r['max_agreement_cm'])} | {cell(r['median_spread_cm'])} | {cell(r['cpu_s'])} |")
     for n, ok in report.reproduced.items():
-        if ok is None:
+        if ok is None and n in options:
+            typer.echo(f"{n}: given --set options, a new run; not compared with the live estimates")
+        elif ok is None:
             why = "holds no live estimate" if not report.compared else "lacks the localiser's random stream"
             typer.echo(f"{n}: the recording {why}; not compared with the live estimates")
         elif ok:
