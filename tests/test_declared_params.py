@@ -28,6 +28,11 @@ def test_an_int_option_reads_yaml(text: str, value: int | None) -> None:
     assert p.parse(text) == value
 
 
+@pytest.mark.parametrize(("text", "value"), [("1e9", 1e9), ("2E-3", 0.002), ("1.0e+3", 1000.0), ("7", 7.0)])
+def test_a_float_option_reads_exponents(text: str, value: float) -> None:
+    assert Param("x", float, 1.0, "length", low=0.0).parse(text) == value
+
+
 @pytest.mark.parametrize(("param", "text", "message"), [
     (Param("n", int, 1, "count", low=1), "0", "0 is out of its range [1, inf)"),
     (Param("n", int, 1, "count"), "2.5", "expected an integer"),

@@ -149,7 +149,19 @@ class Param:
             value = text
         if self.kind is str and value is not None and not isinstance(value, str):
             value = text.strip()
+        if self.kind in (int, float) and isinstance(value, str):
+            value = _number(value)  # YAML 1.1 reads 1e9 (no dot, no sign) as a text
         return self.check(value)
+
+
+def _number(text: str) -> int | float | str:
+    """`text` as Python reads a number (``1e9``, ``2E-3``), else unchanged."""
+    for kind in (int, float):
+        try:
+            return kind(text.strip())
+        except ValueError:
+            pass
+    return text
 
 
 @dataclass(frozen=True)
