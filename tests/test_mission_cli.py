@@ -8,6 +8,8 @@ from pathlib import Path
 import pytest
 from conftest import run_cli
 
+from toolkit.mission import MissionConfig
+
 
 def test_run_with_defaults_writes_json_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out_json, out_png = tmp_path / "m.json", tmp_path / "out" / "m.png"
@@ -99,6 +101,15 @@ def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str])
     assert run_cli(argv) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and err.strip()
+
+
+def test_mission_options_read_exponents() -> None:
+    """`--option` values are YAML, with Python's number syntax where YAML 1.1 leaves a text (1e1)."""
+    from toolkit.cli.mission_cmds import _parse_options
+
+    got = _parse_options(["drive.move_step_cm=1e1", "fix.check_turn_deg=2.5E1", "sweeps.track_windows=sides"])
+    assert got == {"drive.move_step_cm": 10.0, "fix.check_turn_deg": 25.0, "sweeps.track_windows": "sides"}
+    assert MissionConfig().with_options(**got).drive.move_step_cm == 10.0
 
 
 def test_paper_json_shape(tmp_path: Path) -> None:

@@ -33,6 +33,17 @@ def _profile(folder: Path, name: str = "profile.yaml", **params: float) -> Path:
     return path
 
 
+def test_a_hand_written_profile_may_use_exponents(tmp_path: Path) -> None:
+    """YAML 1.1 reads ``8e-3`` as a text; a profile's parameter is a number all the same."""
+    path = tmp_path / "hand.yaml"
+    path.write_text("params:\n  dropout_prob: 8e-3\n  reach_cm: 5.8E1\n")
+    model = load_sonar_profile(path)
+    assert model.dropout_prob == 0.008 and model.reach_cm == 58.0
+    path.write_text("params:\n  dropout_prob: 8e-3x\n")
+    with pytest.raises(NxtnavError, match=r"params\.dropout_prob must be a number, got '8e-3x'"):
+        load_sonar_profile(path)
+
+
 def _scan(tmp_path: Path, *extra: str) -> list[float | None]:
     out = tmp_path / "scan.json"
     assert run_cli(["scan", "--map", "map1", "--pose", "50,30,0", "--seed", "1", "--json", str(out), *extra]) == 0

@@ -302,6 +302,7 @@ def _parse_options(items: list[str] | None) -> dict[str, Any]:
     import yaml
 
     from ..mission import MissionConfig
+    from ..world.params import number_or_text
 
     out: dict[str, Any] = {}
     for item in items or []:
@@ -311,9 +312,10 @@ def _parse_options(items: list[str] | None) -> dict[str, Any]:
             raise typer.BadParameter(f"expected KEY=VALUE with a mission option as KEY, got {item!r}",
                                      param_hint="--option")
         try:
-            out[key] = yaml.safe_load(value)
+            read = yaml.safe_load(value)
         except yaml.YAMLError:
             raise typer.BadParameter(f"cannot read the value of {item!r}", param_hint="--option") from None
+        out[key] = number_or_text(read) if isinstance(read, str) else read
     try:
         MissionConfig().with_options(**out)
     except (TypeError, ValueError) as exc:

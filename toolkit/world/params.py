@@ -30,7 +30,7 @@ import yaml
 
 from .errors import ConfigError
 
-__all__ = ["Param", "Params"]
+__all__ = ["Param", "Params", "number_or_text"]
 
 _TYPE_NAMES = {bool: "bool", int: "int", float: "float", str: "str", object: "model"}
 
@@ -150,12 +150,12 @@ class Param:
         if self.kind is str and value is not None and not isinstance(value, str):
             value = text.strip()
         if self.kind in (int, float) and isinstance(value, str):
-            value = _number(value)  # YAML 1.1 reads 1e9 (no dot, no sign) as a text
+            value = number_or_text(value)  # YAML 1.1 reads 1e9 (no dot, no sign) as a text
         return self.check(value)
 
 
-def _number(text: str) -> int | float | str:
-    """`text` as Python reads a number (``1e9``, ``2E-3``), else unchanged."""
+def number_or_text(text: str) -> int | float | str:
+    """`text` as Python reads a number (``1e9``, ``2E-3``, which YAML 1.1 leaves as text), else unchanged."""
     for kind in (int, float):
         try:
             return kind(text.strip())
