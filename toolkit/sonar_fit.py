@@ -35,7 +35,7 @@ from localisation.scan import drop_stuck
 from .sweep_margins import sweep_margins
 from .sweeps import Sweep, SweepSet
 from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar, wrap_angle
-from .world.params import number_or_text
+from .world.yaml_text import load_yaml
 
 __all__ = ["FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
            "SonarProfileError", "SweepScore", "align_sweeps", "fit_sonar", "load_sonar_profile", "repo_folds",
@@ -481,7 +481,7 @@ def load_sonar_profile(path: str | Path) -> NxtSonar:
     """
     p = Path(path)
     try:
-        doc = yaml.safe_load(p.read_text(encoding="utf-8"))
+        doc = load_yaml(p.read_text(encoding="utf-8"))
     except OSError as e:
         raise SonarProfileError(f"{p}: cannot read the sonar profile ({e.strerror or e})") from None
     except UnicodeDecodeError:
@@ -504,8 +504,6 @@ def load_sonar_profile(path: str | Path) -> NxtSonar:
     for k, v in params.items():
         if k not in known:
             raise SonarProfileError(f"{p}: unknown parameter params.{k} (known: {', '.join(known)})")
-        if isinstance(v, str):
-            v = params[k] = number_or_text(v)  # YAML 1.1 reads 8e-3 as a text
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise SonarProfileError(f"{p}: params.{k} must be a number, got {v!r}")
         try:

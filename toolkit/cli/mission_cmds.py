@@ -299,10 +299,8 @@ def _names(text: str, option: str, known: list[str]) -> list[str]:
 def _parse_options(items: list[str] | None) -> dict[str, Any]:
     """``KEY=VALUE`` pairs as mission options (`MissionConfig.with_options`: KEY is ``group.field`` or a
     field name only one group has; values as YAML scalars: 2, 2.5, true, null, spread)."""
-    import yaml
-
     from ..mission import MissionConfig
-    from ..world.params import number_or_text
+    from ..world.yaml_text import YAMLError, load_yaml
 
     out: dict[str, Any] = {}
     for item in items or []:
@@ -312,10 +310,9 @@ def _parse_options(items: list[str] | None) -> dict[str, Any]:
             raise typer.BadParameter(f"expected KEY=VALUE with a mission option as KEY, got {item!r}",
                                      param_hint="--option")
         try:
-            read = yaml.safe_load(value)
-        except yaml.YAMLError:
+            out[key] = load_yaml(value)
+        except YAMLError:
             raise typer.BadParameter(f"cannot read the value of {item!r}", param_hint="--option") from None
-        out[key] = number_or_text(read) if isinstance(read, str) else read
     try:
         MissionConfig().with_options(**out)
     except (TypeError, ValueError) as exc:

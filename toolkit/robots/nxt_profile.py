@@ -26,6 +26,7 @@ from typing import Any
 import yaml
 
 from ..world import NxtnavError, RobotGeometry
+from ..world.yaml_text import YAMLError, load_yaml
 
 __all__ = ["NxtProfile", "ProfileError", "calibrated_track_width", "calibrated_wheel_diameter"]
 
@@ -194,8 +195,8 @@ class NxtProfile:
         except OSError as exc:
             raise ProfileError(f"cannot read robot profile {p}: {exc.strerror or exc}") from None
         try:
-            data = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
+            data = load_yaml(text)
+        except YAMLError as exc:
             raise ProfileError(f"robot profile {p} is not valid YAML: {str(exc).splitlines()[0]}") from None
         return cls.from_dict(data, where=str(p))
 

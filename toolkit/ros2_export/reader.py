@@ -13,12 +13,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from localisation.base import PoseEstimate
 
 from ..timeline import EstimateItem, Item, OdometryItem, PlanItem, RunInfo, SweepItem, TruthItem, run_info
 from ..world import Pose, Scan
+from ..world.yaml_text import YAMLError, load_yaml
 from .messages import ExportError, yaw_of
 from .typestore import typestore
 from .writer import HEADER_KEY
@@ -29,12 +29,12 @@ __all__ = ["timeline_of_bag"]
 def _header(folder: Path) -> dict[str, Any]:
     meta = folder / "metadata.yaml"
     try:
-        doc = yaml.safe_load(meta.read_text(encoding="utf-8"))
+        doc = load_yaml(meta.read_text(encoding="utf-8"))
         text = doc["rosbag2_bagfile_information"]["custom_data"][HEADER_KEY]
         header = json.loads(text)
     except OSError as exc:
         raise ExportError(f"{folder}: not a rosbag2 folder ({meta.name}: {exc.strerror or exc})") from None
-    except (yaml.YAMLError, KeyError, TypeError, json.JSONDecodeError):
+    except (YAMLError, KeyError, TypeError, json.JSONDecodeError):
         raise ExportError(f"{folder}: not a bag written by nxtnav export ({meta.name} has no custom_data "
                           f"'{HEADER_KEY}')") from None
     return {"type": "header", **header}

@@ -27,11 +27,11 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import yaml
 
 from .errors import MapError
 from .grids import OccupancyGrid, grid_to_map
 from .maps import Map
+from .yaml_text import YAMLError, load_yaml
 
 __all__ = ["MOVINGAI_BLOCKED", "MOVINGAI_PASSABLE", "import_map", "read_movingai_map", "read_ros_map",
            "write_movingai_map"]
@@ -103,8 +103,8 @@ def read_ros_map(path: str | os.PathLike[str], unknown: Unknown = "occupied") ->
     if unknown not in ("occupied", "free"):
         raise MapError(f"unknown cells must be 'occupied' or 'free', got {unknown!r}")
     try:
-        data = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        data = load_yaml(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, YAMLError) as exc:
         raise MapError(f"{p}: cannot read ROS map YAML: {str(exc).splitlines()[0]}") from None
     if not isinstance(data, dict):
         raise MapError(f"{p}: expected a ROS map_server mapping (image, resolution, origin, ...)")

@@ -50,7 +50,6 @@ from typing import Any
 
 import numpy as np
 import shapely
-import yaml
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry.base import BaseGeometry
 
@@ -58,6 +57,7 @@ from .bundled import data_path, data_root
 from .edge_index import edge_index
 from .errors import MapError
 from .geometry import Pose, RngLike, as_rng
+from .yaml_text import YAMLError, load_yaml
 
 __all__ = ["COORDINATE_LIMIT_CM", "MAP_FIELDS", "THIN_WALL_SLIT_CM", "GridSpec", "Map", "Region", "list_maps",
            "load_map", "map_from_dict", "map_search_path"]
@@ -148,10 +148,9 @@ def _read_yaml(path: Path) -> Any:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise MapError(f"{path}: cannot read map file: {exc}") from None
-    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
-        return yaml.load(text, Loader=loader)
-    except yaml.YAMLError as exc:
+        return load_yaml(text)
+    except YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or "syntax error"

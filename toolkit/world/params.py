@@ -26,11 +26,10 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import yaml
-
 from .errors import ConfigError
+from .yaml_text import YAMLError, load_yaml
 
-__all__ = ["Param", "Params", "number_or_text"]
+__all__ = ["Param", "Params"]
 
 _TYPE_NAMES = {bool: "bool", int: "int", float: "float", str: "str", object: "model"}
 
@@ -144,24 +143,12 @@ class Param:
         if self.kind is object:
             raise ConfigError(f"{self.name}: set from the robot model (a sonar profile), not from the command line")
         try:
-            value = yaml.safe_load(text) if text.strip() else text
-        except yaml.YAMLError:
+            value = load_yaml(text) if text.strip() else text
+        except YAMLError:
             value = text
         if self.kind is str and value is not None and not isinstance(value, str):
             value = text.strip()
-        if self.kind in (int, float) and isinstance(value, str):
-            value = number_or_text(value)  # YAML 1.1 reads 1e9 (no dot, no sign) as a text
         return self.check(value)
-
-
-def number_or_text(text: str) -> int | float | str:
-    """`text` as Python reads a number (``1e9``, ``2E-3``, which YAML 1.1 leaves as text), else unchanged."""
-    for kind in (int, float):
-        try:
-            return kind(text.strip())
-        except ValueError:
-            pass
-    return text
 
 
 @dataclass(frozen=True)
