@@ -625,7 +625,7 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Pri
 
     `initial` replaces the prior of the recording's first ``reset`` (a pose to start tracking from, for
     data recorded without one, such as an imported bag). `options` gives, per localiser name, constructor
-    options that replace the ones it would get (a live localiser given any is a new run, not a
+    options that go on top of the ones it would get (a live localiser given any is a new run, not a
     reproduction; options its constructor refuses raise `NxtnavError`). Each localiser's CPU time
     (process time of its construction and its calls) is in `ReplayReport.cpu_s`.
     """
