@@ -28,7 +28,7 @@ from .options import (
 from .options import seed as seed_ok
 from .options import workers as workers_ok
 from .progress import progress
-from .set_options import checked_sets, parse_sets
+from .set_options import localiser_sets
 
 __all__: list[str] = []
 
@@ -49,17 +49,6 @@ def _check_sonar(sonar: str) -> str:
     if sonar not in SONAR_MODELS:
         raise NxtnavError(f"--sonar: unknown sonar model {sonar!r}; known: {', '.join(SONAR_MODELS.names())}")
     return sonar
-
-
-def _declared(name: str) -> Any:
-    from localisation.base import LOCALISERS
-
-    return LOCALISERS.get(name).params
-
-
-def _options_for(sets: list[str], names: list[str]) -> dict[str, dict[str, Any]]:
-    """Per localiser, its `--set` options checked against its declared parameters."""
-    return checked_sets(parse_sets(sets), names, _declared, "localiser")
 
 
 def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
@@ -116,7 +105,7 @@ def localise_cmd(
         raise NxtnavError(f"--pose: ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
-                      localiser_options=_options_for(sets, [localiser]), sonar_model=profile)
+                      localiser_options=localiser_sets(sets, [localiser]), sonar_model=profile)
     out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
     candidates = candidate_poses(loc)
     if candidates:  # the mean of several modes means nothing: name the candidates instead
@@ -201,7 +190,7 @@ def bench_localisers(
     check_out_folder(out, force)
     if not math.isfinite(sensor_noise) or sensor_noise < 0:
         raise NxtnavError(f"--sensor-noise must be a non-negative number, got {sensor_noise}")
-    options = _options_for(sets, locs)
+    options = localiser_sets(sets, locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
                       exploration=exploration, lobe=lobe, robot_radius_cm=radius, localiser_options=options,

@@ -11,7 +11,7 @@ import typer
 from ..formats import cell
 from .app import app
 from .options import parse_floats, parse_list
-from .set_options import checked_sets, parse_sets
+from .set_options import localiser_sets
 
 if TYPE_CHECKING:
     from localisation.base import Prior
@@ -49,8 +49,6 @@ def replay_cmd(
     (ape_rmse_cm, ape_heading_rmse_deg) and relative pose error per metre driven (rpe_per_m_cm), and
     every localiser's CPU time (cpu_s).
     """
-    from localisation import LOCALISERS
-
     from ..replay import read_recording, replay
 
     prior = _initial_prior(initial_pose) if initial_pose is not None else None
@@ -62,7 +60,7 @@ def replay_cmd(
         if rec.localiser is None:
             raise typer.BadParameter(f"{recording} names no localiser; give --localisers", param_hint="--localisers")
         names = [rec.localiser.name]
-    options = checked_sets(parse_sets(sets), names, lambda n: LOCALISERS.get(n).params, "localiser")
+    options = localiser_sets(sets, names)
     report = replay(rec, names, seed=seed, initial=prior, options=options)
     live = rec.localiser.name if rec.localiser else "none"
     typer.echo(f"{recording}: map {rec.map.name}, robot {rec.header['robot'].get('kind')}, sonar "

@@ -13,7 +13,7 @@ from typing import Any
 
 from toolkit.world import ConfigError, NxtnavError, Params
 
-__all__ = ["checked_sets", "parse_sets"]
+__all__ = ["checked_sets", "localiser_sets", "parse_sets"]
 
 
 def parse_sets(values: list[str], option: str = "--set") -> dict[str, dict[str, str]]:
@@ -53,3 +53,10 @@ def checked_sets(sets: dict[str, dict[str, str]], names: list[str], declared: Ca
     if stray:
         raise NxtnavError(f"{option}: no chosen {kind} has an option {', '.join(stray)}")
     return out
+
+
+def localiser_sets(sets: list[str], names: list[str]) -> dict[str, dict[str, Any]]:
+    """Per chosen localiser (registry names), its ``--set`` options checked against its declarations."""
+    from localisation.base import LOCALISERS
+
+    return checked_sets(parse_sets(sets), names, lambda n: LOCALISERS.get(n).params, "localiser")
