@@ -21,6 +21,8 @@ import numpy as np
 
 from localisation.heading_check import HeadingCheck, check_heading
 from localisation.scan import sweep_angles
+from toolkit.mission import MissionConfig
+from toolkit.mission.config import TRACK_WINDOWS
 from toolkit.world import Map, NxtSonar, Pose, Scan, load_map
 
 ERRORS_DEG = (0.0, 10.0, 20.0, 35.0)
@@ -39,7 +41,9 @@ def rates(poses: int, seed: int, windows: bool = False) -> dict[float, tuple[flo
     unsure, checks)."""
     sonar = NxtSonar().simulated()
     rng = np.random.default_rng(seed)
-    first = sweep_angles(2.0, 15.0, (-90.0, 0.0, 90.0)) if windows else sweep_angles(2.0, 90.0, (0.0,))
+    s = MissionConfig.for_sonar("nxt").sweeps
+    angles = (sweep_angles(s.track_scan_step_deg, s.track_window_deg, TRACK_WINDOWS["sides"]) if windows
+              else s.heading_check_angles())
     out: dict[float, list[tuple[bool, bool, bool]]] = {e: [] for e in ERRORS_DEG}
     for name in MAPS:
         m = load_map(name)
@@ -55,10 +59,10 @@ def rates(poses: int, seed: int, windows: bool = False) -> dict[float, tuple[flo
             for err in ERRORS_DEG:
                 slip = math.radians(err) * float(rng.choice([-1.0, 1.0]))
                 true = Pose(float(xy[0]), float(xy[1]), heading + slip)
-                c = _check(m, true, belief, first, sonar, rng)
+                c = _check(m, true, belief, angles, sonar, rng)
                 out[err].append((c.off, c.off and abs(c.offset_rad - slip) <= math.radians(8.0), c.unsure))
     return {e: (float(np.mean([o for o, _, _ in r])), float(np.mean([n for _, n, _ in r])),
-                float(np.mean([w for _, _, w in r])), len(r)) for e, r in out.items()}
+                float(np.mean([u for _, _, u in r])), len(r)) for e, r in out.items()}
 
 
 def main() -> None:

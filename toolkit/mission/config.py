@@ -13,7 +13,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from localisation.global_localisation import GlobalLocalisation
+from localisation.scan import sweep_angles
 from toolkit.world import CHECKER_BACKENDS, ConfigError
 
 __all__ = ["FIX_RULES", "TRACK_WINDOWS", "DriveConfig", "FinalConfig", "FixConfig", "LimitsConfig", "MissionConfig",
@@ -140,7 +144,7 @@ class FixConfig:
         Once the turns toward waypoints since the heading was last checked add up to this many
         degrees, a leg whose way to its waypoint would meet a wall were its heading off by half of
         them (`toolkit.mission.driving.SLIP_SHARE`) is preceded by a heading check: one sweep of the
-        front half, -90 to +90 degrees (`FixPolicy.check_angles`), read against the believed heading
+        front half, -90 to +90 degrees (`SweepConfig.heading_check_angles`), read against the believed heading
         (`localisation.heading_check`). A turn that slipped (wheels that skid turn the robot less
         than the tachometers say) is seen before the leg meets a wall, and the mission re-localises
         from the heading the sweep fits and plans again; a sweep that agrees leaves the belief as it
@@ -205,6 +209,13 @@ class SweepConfig:
         for name in ("track_window_deg", "final_window_deg"):
             _check("sweeps", name, getattr(self, name), high=180.0)
         _check_choice("sweeps", "track_windows", self.track_windows, TRACK_WINDOWS)
+
+    def heading_check_angles(self) -> NDArray[np.float64]:
+        """The turret angles of a heading check: the front half, -90 to +90 degrees at the tracking step.
+        It has less turret travel than the three tracking windows ahead and to the sides (360 degrees
+        against 420) and sees the diagonals, where a turned heading shows most; it calls off a slipped
+        turn where the windows leave it unsure (`tools/heading_check_rates.py`)."""
+        return sweep_angles(self.track_scan_step_deg, 90.0, (0.0,))
 
 
 @dataclass(frozen=True)

@@ -104,14 +104,6 @@ class FixPolicy:
         p = self.prior(est)
         return Prior(Pose(p.mean.x, p.mean.y, p.mean.theta + offset_rad), p.cov)
 
-    def check_angles(self) -> FloatArray:
-        """The turret angles of a heading check: the front half, -90 to +90 degrees at the tracking step.
-        It has less turret travel than the three tracking windows ahead and to the sides (360 degrees
-        against 420) and sees the diagonals, where a turned heading shows most; it calls off a slipped
-        turn where the windows leave it unsure (`tools/heading_check_rates.py`)."""
-        s = self.sweeps
-        return sweep_angles(s.track_scan_step_deg, 90.0, (0.0,))
-
     def sweep(self, kind: str) -> dict[str, Any]:
         """How a ``track`` or ``final`` re-localisation sweeps (keyword arguments of the look)."""
         s = self.sweeps

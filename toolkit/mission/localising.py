@@ -112,13 +112,13 @@ class Fixes:
         return est
 
     def heading_check(self) -> HeadingCheck | None:
-        """One sweep of the front half (`FixPolicy.check_angles`), read against the believed heading
+        """One sweep of the front half (`SweepConfig.heading_check_angles`), read against the believed heading
         (`localisation.heading_check`) with the sonar model the localiser was told
         (``localiser_options["sonar_model"]``; none: ideal readings); the belief is left as it was.
         None when the sensor was stuck or gave garbage (said through `on_sweep_fault`)."""
         mission = self.mission
         assert mission.estimate is not None
-        scan = mission.robot.ultrascan(self.policy.check_angles())
+        scan = mission.robot.ultrascan(self.policy.sweeps.heading_check_angles())
         fault = sweep_fault(scan)
         if fault is not None:
             if mission.on_sweep_fault is not None:
