@@ -7,7 +7,7 @@ the benchmark share, driving a robot; `look` is one look the paper's way (sweep,
 
 from .ambiguity import candidate_poses, describe_candidates
 from .amcl import Amcl, DistanceField
-from .base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from .base import LOCALISERS, HeadingPrior, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from .filterpy_variants import EkfLocaliser, UkfLocaliser, filterpy_resample
 from .global_localisation import GlobalLocalisation, localise
 from .models import MotionModel, RangeLikelihood, RangeTable, exact_ranges, range_table
@@ -21,6 +21,7 @@ __all__ = [
     "DistanceField",
     "EkfLocaliser",
     "GlobalLocalisation",
+    "HeadingPrior",
     "LocalisationResult",
     "Localiser",
     "Mode",

@@ -84,7 +84,7 @@ from toolkit.world import (
 
 from .adaptive import kld_bound, log_blend, log_mean_exp
 from .ambiguity import lattice_candidates
-from .base import Localiser, Mode, Motion, PoseEstimate, Prior
+from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import BeamLikelihood, echo_mask, lattice_costs, scan_readings
 from .declarations import AMCL_PARAMS, AMCL_ROBOT
 from .likelihood_field import DistanceField
@@ -186,6 +186,7 @@ class Amcl(Localiser):
 
     name: ClassVar[str] = "amcl"
     params: ClassVar[Params | None] = AMCL_PARAMS
+    _heading_prior: HeadingPrior | None = None
     robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = AMCL_ROBOT
 
     def __init__(
@@ -333,15 +334,16 @@ class Amcl(Localiser):
         self.reset()
 
     # -- Localiser interface ------------------------------------------------------------------------
-    def reset(self, prior: Prior | None = None) -> None:
+    def reset(self, prior: Prior | HeadingPrior | None = None) -> None:
         self.iterations = 0
         self._updates = 0
         self._driven_cm = self._turned_rad = 0.0
         self.particle_counts = []
         self._log_w_slow = self._log_w_fast = -math.inf
         n = self.max_particles
-        self._fixing = prior is None
-        if prior is None:
+        self._heading_prior = prior if isinstance(prior, HeadingPrior) else None
+        self._fixing = prior is None or self._heading_prior is not None
+        if prior is None or isinstance(prior, HeadingPrior):
             self.particles = self._uniform_poses(n)
             self._uniform = True
         else:
@@ -355,6 +357,9 @@ class Amcl(Localiser):
         self._estimate = self._make_estimate()
 
     def predict(self, motion: Motion) -> None:
+        if self._uniform and self._heading_prior is not None:  # the heading prior turns with the robot
+            hp = self._heading_prior
+            self._heading_prior = replace(hp, heading_rad=float(wrap_angle(hp.heading_rad + motion.turn_rad)))
         if self._uniform or (motion.turn_rad == 0.0 and motion.distance_cm == 0.0):
             return  # a uniform belief stays uniform
         self.particles = self.motion_model.sample(self.particles, motion, self.rng)
@@ -393,20 +398,21 @@ class Amcl(Localiser):
             self.log_weights = np.full(n, -math.log(n))
             self._weighed = np.ones(n, dtype=bool)
             self._uniform = False
-        ll = self.log_likelihood(self.particles, rel, meas)
-        if not np.isfinite(ll).any():  # every particle left the free space: nothing to weigh
+        lik = self.log_likelihood(self.particles, rel, meas)
+        if not np.isfinite(lik).any():  # every particle left the free space: nothing to weigh
             log.info("no particle inside the free space: drawing the belief from the scan")
             n = self.max_particles
             self.particles = self._scan_poses(n, rel, meas)
             self.log_weights = np.full(n, -math.log(n))
-            ll = self.log_likelihood(self.particles, rel, meas)
+            lik = self.log_likelihood(self.particles, rel, meas)
             self._fixing = True
+        ll = lik + self._log_heading_prior(self.particles)
         self.iterations += 1
         self._updates += 1
         self.log_weights = self.log_weights + ll
         self._weighed = np.ones(self.particles.shape[0], dtype=bool)
         # augmented MCL: short- and long-term averages of the per-beam likelihood (log domain)
-        per_beam = np.where(np.isfinite(ll), ll / meas.size, -np.inf)
+        per_beam = np.where(np.isfinite(lik), lik / meas.size, -np.inf)
         log_w_avg = log_mean_exp(per_beam)
         if self._log_w_slow == -math.inf:
             self._log_w_slow = self._log_w_fast = log_w_avg
@@ -434,6 +440,7 @@ class Amcl(Localiser):
         if self._updates % self.resample_interval == 0:
             self._resample(rel, meas)
         self.particle_counts.append(int(self.particles.shape[0]))
+        self._heading_prior = None  # a heading prior weighs the first fix only
 
     def estimate(self) -> PoseEstimate:
         if self._estimate is None:
@@ -559,7 +566,16 @@ class Amcl(Localiser):
         the beam mixture of a `sonar_model`, else the Gaussian of `sigma_hit` (`lattice_costs`)."""
         if self._ssd is None:
             self._ssd = lattice_costs(self.lattice, rel, meas, self._lik if self._lik is not None else self._gaussian)
+            if self._heading_prior is not None:
+                n_ang = self._ssd.shape[1]
+                self._ssd += self._heading_prior.cost(np.arange(n_ang) * (2.0 * math.pi / n_ang))[None, :]
         return self._ssd
+
+    def _log_heading_prior(self, poses: FloatArray) -> FloatArray | float:
+        """log p(heading) of `poses` (N, 3) under the heading prior of a first fix (0 without one)."""
+        if self._heading_prior is None:
+            return 0.0
+        return -0.5 * self._heading_prior.cost(poses[:, 2])
 
     def _ambiguous(self, rel: FloatArray, meas: FloatArray, pose: Pose) -> bool:
         """Whether a lattice pose away from `pose` (further than `mode_radius_cm` or `mode_heading_deg`)
@@ -607,7 +623,7 @@ class Amcl(Localiser):
             cov = (2.38**2 / 3.0) * (d.T @ d) / k + np.diag([sc, sc, math.radians(sc)]) ** 2
             q = p + self.rng.standard_normal(p.shape) @ np.linalg.cholesky(cov).T
             q[:, 2] = wrap_angle(q[:, 2])
-            new = self.log_likelihood(q, rel, meas)
+            new = self.log_likelihood(q, rel, meas) + self._log_heading_prior(q)
             with np.errstate(invalid="ignore"):
                 accept = np.log(self.rng.random(k)) < new - cur
             p[accept], cur[accept] = q[accept], new[accept]
@@ -651,7 +667,8 @@ class Amcl(Localiser):
             out.append(keep)
             have += len(keep)
         xy = np.vstack(out)[:n]
-        return np.column_stack([xy, self.rng.uniform(-math.pi, math.pi, n)])
+        hp = self._heading_prior
+        return np.column_stack([xy, self.rng.uniform(-math.pi, math.pi, n) if hp is None else hp.sample(n, self.rng)])
 
     def _scan_poses(self, n: int, rel: FloatArray, meas: FloatArray) -> FloatArray:
         """`n` poses drawn from the lattice scored against the scan, tempered to about `scan_sample_ess`

@@ -14,11 +14,12 @@ from numpy.typing import NDArray
 
 from toolkit.world import angle_diff, wrap_angle
 
+from .base import HeadingPrior
 from .clusters import cloud_stats, cluster
 from .models import RangeLattice, RangeTable
 from .resampling import effective_sample_size, log_normalise
 
-__all__ = ["GaussianPrior", "best_lattice_poses", "log_prior", "next_beta", "predicted_prior"]
+__all__ = ["GaussianPrior", "best_lattice_poses", "heading_gaussian", "log_prior", "next_beta", "predicted_prior"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -68,6 +69,18 @@ def next_beta(log_w: FloatArray, s: FloatArray, beta: float, ess_target: float,
         if b - a <= 1e-3 * b:
             break
     return max(a, beta + 1e-9)
+
+
+def heading_gaussian(prior: HeadingPrior) -> tuple[FloatArray, FloatArray, float]:
+    """A `HeadingPrior` as one component of a `GaussianPrior`: no information on the position (a zero
+    inverse variance), the heading's Gaussian.
+
+    >>> hp = HeadingPrior(0.5, 0.1)
+    >>> float(log_prior([heading_gaussian(hp)], np.array([[30.0, -7.0, 0.6]]))[0])  # doctest: +ELLIPSIS
+    -0.5...
+    """
+    inv = np.diag([0.0, 0.0, 1.0 / prior.sd_rad**2])
+    return np.array([0.0, 0.0, prior.heading_rad]), inv, 0.0
 
 
 def predicted_prior(particles: FloatArray, log_weights: FloatArray, per_mode: bool, mode_radius_cm: float,

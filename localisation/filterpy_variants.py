@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import ConfigError, LocalisationError, Map, Params, Pose, RngLike, Scan, angle_diff, wrap_angle
 
-from .base import Localiser, Motion, PoseEstimate, Prior
+from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 from .declarations import EKF_PARAMS, KALMAN_ROBOT, UKF_PARAMS
 from .models import MotionModel, exact_ranges
 from .particle_filter import ParticleFilter
@@ -323,9 +323,12 @@ class KalmanLocaliser(Localiser):
         if not self._ready:
             raise LocalisationError(f"{self.name} is a pose tracker: reset it with a prior first")
 
-    def reset(self, prior: Prior | None = None) -> None:
+    def reset(self, prior: Prior | HeadingPrior | None = None) -> None:
         if prior is None:
             raise LocalisationError(f"{self.name} is a pose tracker and needs a prior (reset(prior=Prior(...)))")
+        if isinstance(prior, HeadingPrior):
+            raise LocalisationError(f"{self.name} is a pose tracker: a heading prior gives it no position to start "
+                                    "from (reset(prior=Prior(...)))")
         self.iterations = 0
         cov = np.asarray(prior.cov, dtype=float)
         self._set(prior.mean.as_array(), 0.5 * (cov + cov.T))

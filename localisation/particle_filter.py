@@ -47,8 +47,8 @@ from toolkit.world import (
     wrap_angle,
 )
 
-from .annealing import GaussianPrior, best_lattice_poses, log_prior, next_beta, predicted_prior
-from .base import Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
+from .annealing import GaussianPrior, best_lattice_poses, heading_gaussian, log_prior, next_beta, predicted_prior
+from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .beam_model import BeamLikelihood, MeasurementModel, echo_mask, lattice_costs, scan_readings
 from .clusters import cloud_stats, cluster, describe_modes, mode_stds
 from .declarations import PF_PARAMS, PF_ROBOT
@@ -305,13 +305,13 @@ class ParticleFilter(Localiser):
         return systematic_resample(weights, n, self.rng)
 
     # -- Localiser interface ------------------------------------------------------------------------
-    def reset(self, prior: Prior | None = None) -> None:
+    def reset(self, prior: Prior | HeadingPrior | None = None) -> None:
         self.snapshots = []
         self.iterations = 0
         self._converged = False
         self._modes = []
-        if prior is None:
-            self._reset_global()
+        if prior is None or isinstance(prior, HeadingPrior):
+            self._reset_global(prior)
         else:
             cov = np.asarray(prior.cov, dtype=float)
             p = self.rng.multivariate_normal(prior.mean.as_array(), 0.5 * (cov + cov.T), self.n_particles)
@@ -323,14 +323,19 @@ class ParticleFilter(Localiser):
 
     _move_cap: tuple[float, float] = (math.inf, math.inf)
 
-    def _reset_global(self) -> None:
+    _heading_prior: HeadingPrior | None = None
+
+    def _reset_global(self, heading: HeadingPrior | None = None) -> None:
+        """A uniform belief over the free space; with `heading`, the headings drawn from it, and the
+        global start's fix weighed by it (see `HeadingPrior`)."""
         # with the lattice start the uniform cloud only stands for the belief until the first scan
         n = self.n_particles if self.global_init == "lattice" else self.n_global
         xy = self._sample_free(n)
-        theta = self.rng.uniform(-math.pi, math.pi, n)
+        theta = self.rng.uniform(-math.pi, math.pi, n) if heading is None else heading.sample(n, self.rng)
         self.particles = np.column_stack([xy, theta])
         self.log_weights = np.full(n, -math.log(n))
         self._global = True
+        self._heading_prior = heading
 
     def _sample_free(self, n: int) -> FloatArray:
         if self.table is None:
@@ -351,6 +356,9 @@ class ParticleFilter(Localiser):
         if motion.turn_rad == 0.0 and motion.distance_cm == 0.0:
             return
         if self._global:
+            if self._heading_prior is not None:  # the heading prior turns with the robot
+                hp = self._heading_prior
+                self._heading_prior = replace(hp, heading_rad=float(wrap_angle(hp.heading_rad + motion.turn_rad)))
             return  # a uniform belief stays uniform; the first scan will start the global search
         self.particles = self.motion_model.sample(self.particles, motion, self.rng)
         # the modes move with the cloud: an ambiguous belief's estimate is its best mode's pose, which
@@ -382,9 +390,14 @@ class ParticleFilter(Localiser):
             # one of them
             unimodal = len(self._modes) <= 1
             use_prior = tracking and self.tracking_prior and (unimodal or self.tracking_prior_modes)
-            self._iterate(rel, meas, self._predicted_prior(not unimodal) if use_prior else None)
+            prior = self._predicted_prior(not unimodal) if use_prior else None
+            first_fix = not tracking and self._heading_prior is not None
+            if first_fix:
+                prior = [heading_gaussian(self._heading_prior)]
+            self._iterate(rel, meas, prior, rank_by_prior=first_fix)
         finally:
             self._exact = False
+            self._heading_prior = None  # a heading prior weighs the first fix only
         if tracking and self.recovery_threshold is not None and self._outliers_at_best > self.recovery_threshold:
             # no pose near the belief explains the scan: the robot was kidnapped (or the belief was wrong)
             log.info("%.0f %% of the beams are outliers at the best particle: restarting global localisation",
@@ -399,6 +412,9 @@ class ParticleFilter(Localiser):
         """Replace the uniform cloud by the best lattice poses for this scan (see `global_init`)."""
         assert self.lattice is not None and self.table is not None
         costs = lattice_costs(self.lattice, rel, meas, self.likelihood)
+        if self._heading_prior is not None:
+            n_ang = costs.shape[1]
+            costs = costs + self._heading_prior.cost(np.arange(n_ang) * (2.0 * math.pi / n_ang))[None, :]
         self.particles, self._move_cap = best_lattice_poses(self.lattice, self.table, costs, self.n_particles,
                                                             self.mode_radius_cm, self.mode_heading_rad, self.rng)
         k = len(self.particles)
@@ -446,11 +462,14 @@ class ParticleFilter(Localiser):
         return predicted_prior(self.particles, self.log_weights, per_mode, self.mode_radius_cm,
                                self.mode_heading_rad, self.max_modes)
 
-    def _iterate(self, rel: FloatArray, meas: FloatArray, prior: GaussianPrior | None = None) -> None:
+    def _iterate(self, rel: FloatArray, meas: FloatArray, prior: GaussianPrior | None = None,
+                 rank_by_prior: bool = False) -> None:
         """Annealed SMC on one scan: reweigh by a likelihood increment, resample, move (Metropolis).
 
         With a `prior` (Gaussians of `_predicted_prior`; see `tracking_prior`) the moves target the prior
-        times the tempered likelihood; without, the tempered likelihood alone (a uniform prior).
+        times the tempered likelihood; without, the tempered likelihood alone (a uniform prior). With
+        `rank_by_prior` (a first fix weighed by a `HeadingPrior`) the modes' best fits, by which the
+        estimate picks one, include the log prior too.
         """
 
         p = self.particles
@@ -509,7 +528,7 @@ class ParticleFilter(Localiser):
             s_kept = s  # residuals of the particles kept (p and s are resampled below)
             stds = mode_stds(p, w, labels, keep) if clustered else np.zeros((0, 2))
             if beta >= 1.0 and clustered:
-                self._modes = describe_modes(p, w, s, labels, keep)
+                self._modes = describe_modes(p, w, s - 2.0 * log_prior(prior, p) if rank_by_prior else s, labels, keep)
                 narrow = bool(np.all(stds[:, 0] < self.converged_xy_cm)
                               and np.all(stds[:, 1] < self.converged_heading_rad))
                 if narrow:

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from toolkit.world import Map, Pose, RngLike, Scan, circular_mean, ray_wall_distances, wrap_angle
 
-from .base import Localiser, Motion, PoseEstimate, Prior
+from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 
 __all__ = ["ReferenceParticleFilter"]
 
@@ -71,11 +71,13 @@ class ReferenceParticleFilter(Localiser):
         self.reset()
 
     # -- the belief -------------------------------------------------------------------------------
-    def reset(self, prior: Prior | None = None) -> None:
-        """Uniform particles over the free space (no prior), or drawn from the Gaussian `prior`."""
-        if prior is None:
+    def reset(self, prior: Prior | HeadingPrior | None = None) -> None:
+        """Uniform particles over the free space (no prior; a `HeadingPrior`: headings drawn from it), or
+        drawn from the Gaussian `prior`."""
+        if prior is None or isinstance(prior, HeadingPrior):
             xy = self.map.sample_free(self.n, self.clearance, self.rng)
-            theta = self.rng.uniform(-math.pi, math.pi, self.n)
+            theta = (self.rng.uniform(-math.pi, math.pi, self.n) if prior is None
+                     else prior.sample(self.n, self.rng))
             self.particles = np.column_stack([xy, theta])
         else:
             mean = np.array([prior.mean.x, prior.mean.y, prior.mean.theta])

@@ -1,7 +1,9 @@
 """``nxtnav bench sweeps``: global localisation from each real sweep alone, scored against its waypoint.
 
 Each task resets one localiser globally, gives it one sweep (no motion) and compares its estimate's
-position with the waypoint (the heading of a real sweep is not known, so positions only). A run is
+position with the waypoint (the heading of a real sweep is not known, so positions only). With a
+`HeadingPrior` (``--heading-prior``) the reset knows the heading roughly and the position not at all:
+another task, for a robot that believes its heading (it drove there by odometry). A run is
 
 * within 10 / 20 cm: its estimate's position error;
 * **confidently wrong**: converged, not ambiguous, more than 20 cm off;
@@ -22,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from localisation.ambiguity import candidate_poses
-from localisation.base import make_localiser
+from localisation.base import HeadingPrior, make_localiser
 from localisation.robot_options import localiser_options
 from toolkit.seeds import derive_seed
 from toolkit.sweeps import SweepSet, load_sweep_set
@@ -46,6 +48,7 @@ class SweepTask:
     seed: int
     sonar: dict[str, Any]
     options: dict[str, Any]
+    heading_prior: HeadingPrior | None = None
 
 
 @dataclass(frozen=True)
@@ -89,14 +92,16 @@ def _sweep_set(folder: str, map: str | None) -> SweepSet:
 
 
 def make_sweep_tasks(sweeps: SweepSet, map: str | None, localisers: Sequence[str], seeds: Sequence[int],
-                     sonar: NxtSonar, options: dict[str, dict[str, Any]] | None = None) -> list[SweepTask]:
-    """Every localiser x seed x sweep of `sweeps` (the slowest loop innermost, so progress is even).
+                     sonar: NxtSonar, options: dict[str, dict[str, Any]] | None = None,
+                     heading_prior: HeadingPrior | None = None) -> list[SweepTask]:
+    """Every localiser x seed x sweep of `sweeps` (the slowest loop innermost, so progress is even);
+    every reset global, or with `heading_prior` the heading known roughly.
 
     The tasks name the folder by its absolute path: a worker process may run in another folder."""
     params = asdict(sonar)
     opts = options or {}
     folder = str(Path(sweeps.folder).absolute())
-    return [SweepTask(folder, map, i, name, int(s), params, dict(opts.get(name, {})))
+    return [SweepTask(folder, map, i, name, int(s), params, dict(opts.get(name, {})), heading_prior)
             for name in localisers for s in seeds for i in range(len(sweeps))]
 
 
@@ -108,7 +113,7 @@ def run_sweep(task: SweepTask) -> SweepRun:
     opts = {**localiser_options(task.localiser, robot), **task.options}
     t0 = time.perf_counter()
     loc = make_localiser(task.localiser, sweeps.map, rng=derive_seed(task.seed, "sweeps", sw.label), **opts)
-    loc.reset(None)
+    loc.reset(task.heading_prior)
     loc.update(sw.scan())
     est = loc.estimate()
     cands = candidate_poses(loc)
@@ -148,10 +153,13 @@ def summarise(runs: Sequence[SweepRun], localiser: str) -> dict[str, float]:
 
 def write_sweeps_summary(runs: Sequence[SweepRun], path: Path, *, localisers: Sequence[str], sweeps: SweepSet,
                          seeds: Sequence[int], sonar: NxtSonar, command: str, wall_time_s: float,
-                         complete: bool = True) -> Path:
+                         complete: bool = True, heading_prior: HeadingPrior | None = None) -> Path:
     """A Markdown summary: per localiser, the shares of the module docstring, and the sonar model used."""
     lines = [] if complete else [f"**INCOMPLETE**: {len(runs)} runs finished; the table covers only them.\n"]
-    lines += [f"# Global localisation from one real sweep: {len(sweeps)} sweeps of `{sweeps.folder}`, "
+    task = ("Global localisation" if heading_prior is None else
+            f"Localisation with the heading known to {math.degrees(heading_prior.sd_rad):g} degrees "
+            f"(prior {math.degrees(heading_prior.heading_rad):g} degrees) and the position unknown")
+    lines += [f"# {task} from one real sweep: {len(sweeps)} sweeps of `{sweeps.folder}`, "
               f"map `{sweeps.map.name}`, seeds {', '.join(map(str, seeds))}", "",
               "| localiser | runs | within 10 cm | within 20 cm | median error (cm) | confidently wrong | honest "
               "| ambiguous | median time (s) |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]

@@ -6,6 +6,7 @@ import json
 import shlex
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
@@ -16,6 +17,9 @@ from .options import check_out_folder, parse_list, shipped
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
+
+if TYPE_CHECKING:
+    from localisation.base import HeadingPrior
 
 
 def _seeds(text: str) -> list[int]:
@@ -31,6 +35,15 @@ def _seeds(text: str) -> list[int]:
     return out
 
 
+def _heading_prior(text: str) -> HeadingPrior:
+    from localisation.base import HeadingPrior
+
+    try:
+        return HeadingPrior.parse(text)
+    except NxtnavError as exc:
+        raise NxtnavError("--heading-prior" + str(exc).removeprefix("heading prior")) from None
+
+
 @bench_app.command("sweeps")
 def bench_sweeps(
     folder: Path = typer.Argument(..., callback=shipped,
@@ -40,6 +53,10 @@ def bench_sweeps(
     seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
     sonar_profile: Path | None = typer.Option(None, "--sonar-profile",
                                               help="nxt sonar model (YAML profile; default: the fitted default)."),
+    heading_prior_text: str | None = typer.Option(
+        None, "--heading-prior", metavar="H:SD",
+        help="The robot believes its heading is H degrees, give or take SD (the position stays unknown); "
+             "default: global localisation, no heading known."),
     out: Path = typer.Option(Path("out/sweeps"), "--out", help="Output folder (must be empty or new, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
     workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
@@ -59,10 +76,11 @@ def bench_sweeps(
         raise NxtnavError(f"--localisers: {', '.join(trackers)} track a known pose and cannot localise from one "
                           "sweep alone; use particle filters (paper-pf, amcl, pf-*)")
     seeds = _seeds(seeds_text)
+    heading_prior = None if heading_prior_text is None else _heading_prior(heading_prior_text)
     sweeps = load_sweep_set(folder, map_file)
     sonar = load_profile(sonar_profile, "nxt") or NxtSonar()
     check_out_folder(out, force)
-    tasks = make_sweep_tasks(sweeps, map_file, locs, seeds, sonar)
+    tasks = make_sweep_tasks(sweeps, map_file, locs, seeds, sonar, heading_prior=heading_prior)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     complete = True
@@ -80,13 +98,16 @@ def bench_sweeps(
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "sweeps", str(folder), *(["--map", map_file] if map_file else []),
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)),
-        *(["--sonar-profile", str(sonar_profile)] if sonar_profile else []), "--out", str(out),
+        *(["--sonar-profile", str(sonar_profile)] if sonar_profile else []),
+        *(["--heading-prior", heading_prior_text] if heading_prior_text else []), "--out", str(out),
         "--workers", str(workers), *(["--dask", dask] if dask else [])])
     csv_path = write_sweeps_csv(runs, out / "sweeps.csv")
     md = write_sweeps_summary(runs, out / "summary.md", localisers=locs, sweeps=sweeps, seeds=seeds, sonar=sonar,
-                              command=command, wall_time_s=wall, complete=complete)
+                              command=command, wall_time_s=wall, complete=complete, heading_prior=heading_prior)
     (out / "config.json").write_text(json.dumps({"folder": str(folder), "map": map_file, "localisers": locs,
-                                                 "seeds": seeds, "sonar": sonar.to_dict(), "complete": complete,
+                                                 "seeds": seeds, "sonar": sonar.to_dict(),
+                                                 "heading_prior": heading_prior and heading_prior.to_dict(),
+                                                 "complete": complete,
                                                  "runs_done": len(runs), "runs_planned": len(tasks),
                                                  "wall_time_s": wall}, indent=1))
     typer.echo(md.read_text())
