@@ -24,11 +24,11 @@ from toolkit.world import ConfigError, Map, Params, Pose, Registry, RngLike, Sca
 
 __all__ = [
     "LOCALISERS",
+    "HeadingPrior",
     "Localiser",
     "Mode",
     "Motion",
     "PoseEstimate",
-    "HeadingPrior",
     "Prior",
     "Snapshot",
     "make_localiser",

@@ -392,7 +392,7 @@ class ParticleFilter(Localiser):
             use_prior = tracking and self.tracking_prior and (unimodal or self.tracking_prior_modes)
             prior = self._predicted_prior(not unimodal) if use_prior else None
             first_fix = not tracking and self._heading_prior is not None
-            if first_fix:
+            if first_fix and self._heading_prior is not None:
                 prior = [heading_gaussian(self._heading_prior)]
             self._iterate(rel, meas, prior, rank_by_prior=first_fix)
         finally:

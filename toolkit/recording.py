@@ -45,7 +45,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from localisation.base import Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
+from localisation.base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 
 from .world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
 
@@ -328,8 +328,12 @@ class Recorder:
                                    "weights": encode_floats(weights)}
         self.event("estimate", **fields)
 
-    def reset_event(self, prior: Prior | None) -> None:
-        """A reset of the localiser: global (`prior` None) or around a prior."""
+    def reset_event(self, prior: Prior | HeadingPrior | None) -> None:
+        """A reset of the localiser: global (`prior` None), with the heading known roughly (a
+        `HeadingPrior`) or around a prior."""
+        if isinstance(prior, HeadingPrior):
+            self.event("reset", prior=prior.to_dict())
+            return
         self.event("reset", prior=None if prior is None else {
             "mean": _pose(prior.mean), "cov": [encode_floats(r) for r in np.asarray(prior.cov, dtype=float)]})
 
@@ -428,7 +432,7 @@ class _RecordingLocaliser(Localiser):
     def _after(self) -> None:
         self._rec.estimate_event(self._inner.estimate(), self._inner)
 
-    def reset(self, prior: Prior | None = None) -> None:
+    def reset(self, prior: Prior | HeadingPrior | None = None) -> None:
         self._rec.reset_event(prior)
         self._inner.reset(prior)
         self._after()

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from localisation.base import LOCALISERS, Localiser, Motion, PoseEstimate, Prior, make_localiser
+from localisation.base import LOCALISERS, HeadingPrior, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from localisation.robot_options import localiser_options
 
 from .recording import (
@@ -43,6 +43,7 @@ from .recording import (
 )
 from .trajectory_scores import TrajectoryScores, score_trajectory
 from .world import (
+    ConfigError,
     LaserScanner,
     Map,
     MapError,
@@ -225,7 +226,13 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
                 raise RecordingError(f"{where}: field 'rng' must hold an integer 'entropy' and a 'spawn_key' list")
     elif kind == "reset":
         prior = _need(e, "prior", dict, where, nullable=True)
-        if prior is not None:
+        if prior is not None and "heading_deg" in prior:
+            try:
+                HeadingPrior(math.radians(_need(prior, "heading_deg", _NUM, where)),
+                             math.radians(_need(prior, "sd_deg", _NUM, where)))
+            except ConfigError as exc:
+                raise RecordingError(f"{where}: field 'prior': {exc}") from None
+        elif prior is not None:
             if _pose_field(prior, "mean", where) is None:
                 raise RecordingError(f"{where}: field 'prior' needs a 'mean'")
             _cov(prior, "cov", where)
@@ -620,11 +627,14 @@ def _build(rec: Recording, name: str, seed: int, extra: Mapping[str, Any]) -> tu
 
 
 def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Prior | None = None,
+           heading: HeadingPrior | None = None,
            options: Mapping[str, Mapping[str, Any]] | None = None) -> ReplayReport:
     """Run `localisers` (registry names) over the recorded localiser calls; see the module docstring.
 
     `initial` replaces the prior of the recording's first ``reset`` (a pose to start tracking from, for
-    data recorded without one, such as an imported bag). `options` gives, per localiser name, constructor
+    data recorded without one, such as an imported bag). `heading` replaces every global reset's (prior
+    null, after `initial`): the heading known roughly, the position not (each sweep of an imported
+    sweep set is one). `options` gives, per localiser name, constructor
     options that go on top of the ones it would get (a live localiser given any is a new run, not a
     reproduction; options its constructor refuses raise `NxtnavError`). Each localiser's CPU time
     (process time of its construction and its calls) is in `ReplayReport.cpu_s`.
@@ -680,10 +690,16 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Pri
             arg: Any
             if kind == "reset":
                 pr = e["prior"]
-                arg = None if pr is None else Prior(Pose(*[float(v) for v in pr["mean"]]),
-                                                    np.vstack([decode_floats(r) for r in pr["cov"]]))
+                if pr is None:
+                    arg = None
+                elif "heading_deg" in pr:
+                    arg = HeadingPrior(math.radians(float(pr["heading_deg"])), math.radians(float(pr["sd_deg"])))
+                else:
+                    arg = Prior(Pose(*[float(v) for v in pr["mean"]]), np.vstack([decode_floats(r) for r in pr["cov"]]))
                 if first_reset and initial is not None:
                     arg = initial
+                elif arg is None and heading is not None:
+                    arg = heading
                 first_reset = False
             elif kind == "predict":
                 arg = Motion(float(e["turn_rad"]), float(e["distance_cm"]))

@@ -10,12 +10,15 @@ import math
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 
 from ..world import CHECKER_BACKENDS, COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
 from ..world.bundled import data_path
+
+if TYPE_CHECKING:
+    from localisation.base import HeadingPrior
 
 __all__ = [
     "COLLISION_HELP",
@@ -178,6 +181,16 @@ def parse_pose(text: str, option: str, heading_required: bool = True) -> Pose | 
     if len(values) == 2:
         return values[0], values[1]
     return Pose.from_deg(*values)
+
+
+def parse_heading_prior(text: str, option: str) -> HeadingPrior:
+    """``H:SD`` (degrees) as a `localisation.base.HeadingPrior`; one line naming `option` when it is not."""
+    from localisation.base import HeadingPrior
+
+    try:
+        return HeadingPrior.parse(text)
+    except NxtnavError as exc:
+        raise NxtnavError(option + str(exc).removeprefix("heading prior")) from None
 
 
 def parse_list(text: str, option: str, known: list[str] | None = None) -> list[str]:

@@ -10,7 +10,7 @@ import typer
 
 from ..formats import cell
 from .app import app
-from .options import parse_floats, parse_list
+from .options import parse_floats, parse_heading_prior, parse_list
 from .set_options import localiser_sets
 
 if TYPE_CHECKING:
@@ -39,6 +39,10 @@ def replay_cmd(
         None, "--initial-pose", metavar="X,Y,H[,SD_CM,SD_DEG]",
         help="Start every localiser here (cm, cm, degrees; spread default 10 cm, 5 degrees) instead of the "
              "recording's first reset."),
+    initial_heading: str | None = typer.Option(
+        None, "--initial-heading", metavar="H:SD",
+        help="Every global reset of the recording (each sweep of a sweep set) knows the heading (degrees, "
+             "give or take SD) but not the position (global localisers only)."),
     sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
                                    help="Localiser option (repeatable) on top of the ones the recording gives it, "
                                         "e.g. amcl.sigma_hit=3."),
@@ -52,6 +56,7 @@ def replay_cmd(
     from ..replay import read_recording, replay
 
     prior = _initial_prior(initial_pose) if initial_pose is not None else None
+    heading = None if initial_heading is None else parse_heading_prior(initial_heading, "--initial-heading")
     rec = read_recording(recording)
     if rec.truncated:
         typer.echo(f"nxtnav: warning: {rec.truncated}", err=True)
@@ -61,7 +66,7 @@ def replay_cmd(
             raise typer.BadParameter(f"{recording} names no localiser; give --localisers", param_hint="--localisers")
         names = [rec.localiser.name]
     options = localiser_sets(sets, names)
-    report = replay(rec, names, seed=seed, initial=prior, options=options)
+    report = replay(rec, names, seed=seed, initial=prior, heading=heading, options=options)
     live = rec.localiser.name if rec.localiser else "none"
     typer.echo(f"{recording}: map {rec.map.name}, robot {rec.header['robot'].get('kind')}, sonar "
                f"{rec.header['sonar'].get('model')}, live localiser {live}, {rec.calls} localiser calls, "

@@ -6,20 +6,16 @@ import json
 import shlex
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import typer
 
 from toolkit.world import NxtnavError
 
 from .app import Interrupted, bench_app
-from .options import check_out_folder, parse_list, shipped
+from .options import check_out_folder, parse_heading_prior, parse_list, shipped
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
-
-if TYPE_CHECKING:
-    from localisation.base import HeadingPrior
 
 
 def _seeds(text: str) -> list[int]:
@@ -33,15 +29,6 @@ def _seeds(text: str) -> list[int]:
             raise NxtnavError(f"--seeds: seeds are >= 0, got {v}")
         out.append(v)
     return out
-
-
-def _heading_prior(text: str) -> HeadingPrior:
-    from localisation.base import HeadingPrior
-
-    try:
-        return HeadingPrior.parse(text)
-    except NxtnavError as exc:
-        raise NxtnavError("--heading-prior" + str(exc).removeprefix("heading prior")) from None
 
 
 @bench_app.command("sweeps")
@@ -76,7 +63,7 @@ def bench_sweeps(
         raise NxtnavError(f"--localisers: {', '.join(trackers)} track a known pose and cannot localise from one "
                           "sweep alone; use particle filters (paper-pf, amcl, pf-*)")
     seeds = _seeds(seeds_text)
-    heading_prior = None if heading_prior_text is None else _heading_prior(heading_prior_text)
+    heading_prior = None if heading_prior_text is None else parse_heading_prior(heading_prior_text, "--heading-prior")
     sweeps = load_sweep_set(folder, map_file)
     sonar = load_profile(sonar_profile, "nxt") or NxtSonar()
     check_out_folder(out, force)
