@@ -86,6 +86,7 @@ from .adaptive import kld_bound, log_blend, log_mean_exp
 from .ambiguity import lattice_candidates
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import BeamLikelihood, echo_mask, lattice_costs, scan_readings
+from .clusters import cluster
 from .declarations import AMCL_PARAMS, AMCL_ROBOT
 from .likelihood_field import DistanceField
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
@@ -97,6 +98,8 @@ log = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 AMCL_MODELS = ("auto", "beam", "field")
+ESTIMATE_CLUSTERS = 8
+"""Clusters the estimate of a spread cloud looks among for the heaviest (`mode_radius_cm`, `mode_heading_deg`)."""
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
 
 
@@ -714,6 +717,16 @@ class Amcl(Localiser):
         d = np.column_stack([p[:, 0] - mean[0], p[:, 1] - mean[1], angle_diff(p[:, 2], mean[2])])
         cov = np.einsum("ni,nj->ij", d * w[:, None], d)
         cov = 0.5 * (cov + cov.T)
-        converged = (not self._uniform and math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)) < self.converged_xy_cm
-                     and math.sqrt(max(cov[2, 2], 0.0)) < self.converged_heading_rad)
+        spread_xy, spread_th = math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))
+        converged = not self._uniform and spread_xy < self.converged_xy_cm and spread_th < self.converged_heading_rad
+        if not self._uniform and (spread_xy > self.mode_radius_cm or spread_th > self.mode_heading_rad):
+            # a cloud of several places: the mean of them all is no place at all; as nav2, report the
+            # heaviest cluster's mean (with the whole cloud's covariance, which shows the spread)
+            with np.errstate(divide="ignore"):
+                labels, log_masses = cluster(p, np.log(w), self.mode_radius_cm, self.mode_heading_rad,
+                                             ESTIMATE_CLUSTERS)
+            members = labels == int(np.argmax(log_masses))
+            wk = w[members] / float(w[members].sum())
+            mean = np.array([float(wk @ p[members, 0]), float(wk @ p[members, 1]),
+                             float(circular_mean(p[members, 2], wk))])
         return PoseEstimate(Pose.from_array(mean), cov, bool(converged), self.iterations)

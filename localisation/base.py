@@ -93,8 +93,8 @@ class HeadingPrior:
             h, sd = (float(x) for x in parts) if len(parts) == 2 else (math.nan, math.nan)
         except ValueError:
             h = sd = math.nan
-        if not (math.isfinite(h) and math.isfinite(sd)):
-            raise ConfigError(f"heading prior: expected HEADING:SD in degrees (e.g. 0:20), got {text!r}")
+        if not (math.isfinite(h) and math.isfinite(sd) and sd > 0.0):
+            raise ConfigError(f"heading prior: expected HEADING:SD in degrees, SD > 0 (e.g. 0:20), got {text!r}")
         return cls(math.radians(h), math.radians(sd))
 
     def cost(self, theta: Any) -> FloatArray:

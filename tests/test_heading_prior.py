@@ -18,6 +18,8 @@ from localisation import HeadingPrior, Motion, candidate_poses, make_localiser
 from localisation.robot_options import localiser_options
 from toolkit.recording import Recorder
 from toolkit.replay import read_recording, replay
+from toolkit.sweep_margins import sweep_margins
+from toolkit.sweeps import load_sweep_set
 from toolkit.world import ConfigError, LocalisationError, NxtSonar, RobotModel, Scan, map_from_dict
 
 SQUARE = map_from_dict({"name": "square", "boundary": [[0, 0], [120, 0], [120, 120], [0, 120]]})
@@ -144,14 +146,26 @@ def test_bench_sweeps_and_replay_take_a_heading_prior(tmp_path: Path) -> None:
     assert len(steps) == 3  # every sweep's global reset took the prior (its own fix, the same scores)
 
 
-@pytest.mark.parametrize("argv", [
-    ["bench", "sweeps", str(REAL_NXT), "--heading-prior", "north"],
-    ["bench", "sweeps", str(REAL_NXT), "--heading-prior", "0:0"],
+def test_on_a_real_sweep_the_prior_turns_the_twin_margin_round() -> None:
+    """At (180, 30) the arena turned by 90 degrees explains the real sweep better than the waypoint
+    (docs/real-sonar.md); weighed by the heading the robot believed (+x), the waypoint wins."""
+    sweeps = load_sweep_set(REAL_NXT)
+    i = [(s.x_cm, s.y_cm) for s in sweeps].index((180.0, 30.0))
+    plain = sweep_margins(SONAR, sweeps)
+    weighed = sweep_margins(SONAR, sweeps, heading_prior=HeadingPrior(0.0, math.radians(20.0)))
+    assert plain[i] < 0.0 < weighed[i]
+    assert all(w > 0.0 for w in weighed)
+
+
+@pytest.mark.parametrize(("command", "value"), [
+    (["bench", "sweeps", str(REAL_NXT), "--out"], "north"),
+    (["bench", "sweeps", str(REAL_NXT), "--out"], "0:0"),
+    (["sonar", "score", str(REAL_NXT), "--json"], "0"),
 ])
-def test_a_bad_heading_prior_is_one_line_and_exit_2(tmp_path: Path, argv: list[str],
+def test_a_bad_heading_prior_is_one_line_and_exit_2(tmp_path: Path, command: list[str], value: str,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "out"
-    assert run_cli([*argv, "--out", str(out)]) == 2
+    assert run_cli([*command, str(out), "--heading-prior", value]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--heading-prior" in err[0]
+    assert len(err) == 1 and "--heading-prior" in err[0] and value in err[0]
     assert not out.exists()

@@ -30,6 +30,7 @@ import yaml
 from numpy.typing import NDArray
 from scipy.optimize import minimize
 
+from localisation.base import HeadingPrior
 from localisation.scan import drop_stuck
 
 from .sweep_margins import sweep_margins
@@ -283,16 +284,18 @@ class SweepScore:
         return asdict(self)
 
 
-def score_sonar(model: NxtSonar, sets: Sequence[SweepSet], margins: bool = True) -> SweepScore:
+def score_sonar(model: NxtSonar, sets: Sequence[SweepSet], margins: bool = True,
+                heading_prior: HeadingPrior | None = None) -> SweepScore:
     """Mean log-probability per reading, no-echo share real against model, and the median |real - model|
     of the readings where both answer (the model's noise-free reading ``d + bias``), each sweep where
     the model finds it most likely (`align_sweeps`); and, with `margins` (a search of the whole map's
     lattice per sweep, the costly part), per sweep the margin (nats) by which the model prefers the
-    waypoint to any place further than 20 cm (`toolkit.sweep_margins`); NaN without."""
+    waypoint to any place further than 20 cm (`toolkit.sweep_margins`, weighed by `heading_prior` when
+    given); NaN without."""
     aligned = [a for s in sets for a in align_sweeps(model, s)]
     if not aligned:
         raise ConfigError("no sweeps to score")
-    margin = ([m for s in sets for m in sweep_margins(model, s)] if margins
+    margin = ([m for s in sets for m in sweep_margins(model, s, heading_prior=heading_prior)] if margins
               else [math.nan] * len(aligned))
     per: list[dict[str, Any]] = []
     lps, silents, diffs, reals = [], [], [], []

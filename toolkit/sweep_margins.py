@@ -7,13 +7,15 @@ model's beam likelihood, and compares the best pose near the waypoint (within `n
 with the best pose further than `far_cm` from it. A positive margin (nats) means the waypoint is the most
 likely place; a negative one means some other place explains the sweep better, and no estimator using
 this model can pick the waypoint from this sweep alone: the share of positive margins bounds the share
-of sweeps any such localiser gets right.
+of sweeps any such localiser gets right. With a `HeadingPrior` the lattice is weighed by it too (the
+bound for a localiser that knows the heading roughly).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from localisation.base import HeadingPrior
 from localisation.beam_model import BeamLikelihood, lattice_costs, scan_readings
 from localisation.range_table import range_lattice, range_table
 
@@ -26,9 +28,11 @@ LATTICE_STEP_CM = 2
 """Cell step of the scored lattice (cm); headings every degree."""
 
 
-def sweep_margins(model: NxtSonar, sweeps: SweepSet, *, near_cm: float = 6.0, far_cm: float = 20.0) -> list[float]:
+def sweep_margins(model: NxtSonar, sweeps: SweepSet, *, near_cm: float = 6.0, far_cm: float = 20.0,
+                  heading_prior: HeadingPrior | None = None) -> list[float]:
     """Per sweep, ``log L(best pose within near_cm of the waypoint) - log L(best pose beyond far_cm)`` (nats),
-    with every usable reading (stuck runs left out) weighed as the localisers weigh it."""
+    with every usable reading (stuck runs left out) weighed as the localisers weigh it, and with
+    `heading_prior` the log prior of each lattice heading added."""
     if not 0.0 < near_cm < far_cm:
         raise ValueError(f"need 0 < near_cm < far_cm, got {near_cm} and {far_cm}")
     table = range_table(sweeps.map, 1.0, 360, None, model.beam_width_deg, model.critical_incidence_deg,
@@ -39,6 +43,8 @@ def sweep_margins(model: NxtSonar, sweeps: SweepSet, *, near_cm: float = 6.0, fa
     for s in sweeps:
         rel, meas, weighed = scan_readings(s.scan(), likelihood)
         costs = lattice_costs(lattice, rel, meas, weighed, max_beams=0)  # -2 log L, every reading
+        if heading_prior is not None:
+            costs = costs + heading_prior.cost(np.arange(costs.shape[1]) * (2.0 * np.pi / costs.shape[1]))[None, :]
         dist = np.hypot(lattice.xy[:, 0] - s.x_cm, lattice.xy[:, 1] - s.y_cm)
         near, far = dist <= near_cm, dist > far_cm
         if not near.any() or not far.any():

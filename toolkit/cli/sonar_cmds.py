@@ -24,7 +24,7 @@ from rich.table import Table
 from ..formats import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import Interrupted, sonar_app
-from .options import check_writable, parse_list, shipped
+from .options import check_writable, parse_heading_prior, parse_list, shipped
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
@@ -191,6 +191,10 @@ def sonar_score(
     baseline_text: str | None = typer.Option(None, "--baseline", metavar="NAME[,NAME]",
                                              help="Also score these beside it: hardware (the model from the "
                                                   "published hardware facts), default (the toolkit's nxt model)."),
+    heading_prior_text: str | None = typer.Option(
+        None, "--heading-prior", metavar="H:SD",
+        help="Weigh the places by a heading prior (degrees; the position stays unknown): the bound for a "
+             "localiser that knows the heading roughly."),
     json_out: Path | None = _JSON,
 ) -> None:
     """How well a sonar model explains real sweeps at their waypoints.
@@ -204,12 +208,13 @@ def sonar_score(
     """
     from ..sonar_fit import score_sonar
 
+    heading = None if heading_prior_text is None else parse_heading_prior(heading_prior_text, "--heading-prior")
     baselines = [] if baseline_text is None else parse_list(baseline_text, "--baseline", list(BASELINES))
     check_writable(json_out, "--json")
     models = _score_models(sonar_profile, baselines)
     sets = _load_sets(dirs, map_file)
     with _stuck_noted(sets):
-        scores = {label: score_sonar(model, sets) for label, (model, _) in models.items()}
+        scores = {label: score_sonar(model, sets, heading_prior=heading) for label, (model, _) in models.items()}
     console = Console()
     table = Table("model", "readings", "log-lik", "no echo real", "no echo model", "median |Δ|", "waypoint best",
                   title="sonar models against real sweeps (log-lik: nats per reading, higher is better; |Δ|: "
@@ -233,7 +238,8 @@ def sonar_score(
                         cell(r["median_abs_diff_cm"], ".1f", " cm"), cell(r["margin_nats"], "+.1f", " nats"))
     console.print(per)
     if json_out is not None:
-        _write_json(json_out, {"folders": [str(d) for d in dirs], "models": [
+        _write_json(json_out, {"folders": [str(d) for d in dirs],
+                               "heading_prior": heading and heading.to_dict(), "models": [
             {"label": label, "source": models[label][1], "params": models[label][0].to_dict(), **sc.to_dict()}
             for label, sc in scores.items()]})
 
