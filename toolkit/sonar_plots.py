@@ -1,4 +1,5 @@
-"""Figures of real sweeps against the `nxt` sonar model: radar charts and no-echo probability curves.
+"""Figures of real sweeps against the `nxt` sonar model: radar charts, no-echo probability curves, and
+where in the map one sweep puts the robot.
 
 Every sweep is drawn where the model finds it most likely (`toolkit.sonar_fit.align_sweeps`: heading
 and a few cm of position around its waypoint), so real and model are compared reading for reading.
@@ -16,11 +17,18 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from .sonar_fit import AlignedSweep, align_sweeps
-from .sweeps import SweepSet
-from .world import NO_ECHO, NxtSonar, ray_cast
+from localisation.base import HeadingPrior
 
-__all__ = ["draw_incidence_curves", "draw_sweep_radar", "real_sonar_figures"]
+from .plotting import draw_map
+from .sonar_fit import AlignedSweep, align_sweeps
+from .sweep_margins import LATTICE_STEP_CM, place_costs
+from .sweeps import Sweep, SweepSet
+from .world import NO_ECHO, Map, NxtSonar, ray_cast
+
+__all__ = ["draw_incidence_curves", "draw_places", "draw_sweep_radar", "real_sonar_figures"]
+
+PLACES_FLOOR_NATS = 15.0
+"""The place map's colour scale: from the best place down to this many nats below it."""
 
 FloatArray = NDArray[np.float64]
 
@@ -89,10 +97,36 @@ def draw_incidence_curves(ax_inc: Any, ax_range: Any, aligned: Sequence[AlignedS
         ax_.legend(fontsize=8)
 
 
+def draw_places(ax: Any, m: Map, xy: FloatArray, costs: FloatArray, sweep: Sweep, title: str) -> Any:
+    """Where one sweep puts the robot: per lattice cell, the log-likelihood of its best heading (nats
+    below the best cell, down to `PLACES_FLOOR_NATS`), the waypoint (red star) and the best pose
+    (white arrow). Returns the image (for a colour bar)."""
+    best_h = costs.min(axis=1)
+    ll = np.maximum(-0.5 * (best_h - best_h.min()), -PLACES_FLOOR_NATS)
+    step = float(LATTICE_STEP_CM)
+    ij = np.rint((xy - xy.min(axis=0)) / step).astype(np.int64)
+    grid = np.full((ij[:, 1].max() + 1, ij[:, 0].max() + 1), np.nan)
+    grid[ij[:, 1], ij[:, 0]] = ll
+    x0, y0 = xy.min(axis=0) - step / 2.0
+    draw_map(m, ax, presets=False, title=False)
+    im = ax.imshow(grid, origin="lower", extent=(x0, x0 + grid.shape[1] * step, y0, y0 + grid.shape[0] * step),
+                   cmap="magma", vmin=-PLACES_FLOOR_NATS, vmax=0.0, interpolation="nearest", zorder=1)
+    c, h = np.unravel_index(int(np.argmin(costs)), costs.shape)
+    th = 2.0 * math.pi * h / costs.shape[1]
+    ax.annotate("", xy=(xy[c, 0] + 14 * math.cos(th), xy[c, 1] + 14 * math.sin(th)), xytext=tuple(xy[c]),
+                arrowprops={"arrowstyle": "->", "color": "white", "lw": 2}, zorder=6)
+    ax.plot(sweep.x_cm, sweep.y_cm, marker="*", color="tab:red", ms=15, mec="white", ls="", zorder=7,
+            label="waypoint")
+    ax.set_title(title, fontsize=9)
+    return im
+
+
 def real_sonar_figures(sets: Sequence[SweepSet], model: NxtSonar, out: Path, *, radar_sweeps: int = 3,
-                       rng: int = 0) -> list[Path]:
+                       rng: int = 0, heading_prior: HeadingPrior | None = None) -> list[Path]:
     """``real_sonar_radar.png`` (the first `radar_sweeps` sweeps at distinct waypoints, real against
-    model) and ``real_sonar_no_echo.png`` (no-echo share against incidence and range) in `out`."""
+    model), ``real_sonar_no_echo.png`` (no-echo share against incidence and range) and
+    ``real_sonar_places.png`` (where the first sweep puts the robot, alone and, with `heading_prior`,
+    with the heading known roughly) in `out`."""
     out.mkdir(parents=True, exist_ok=True)
     aligned = [x for s in sets for x in align_sweeps(model, s)]
     seen: set[tuple[float, float]] = set()
@@ -118,4 +152,26 @@ def real_sonar_figures(sets: Sequence[SweepSet], model: NxtSonar, out: Path, *, 
     fig2.suptitle(f"no-echo readings of {len(aligned)} real sweeps against the model", fontsize=10)
     curves = out / "real_sonar_no_echo.png"
     fig2.savefig(curves, dpi=110, bbox_inches="tight")
-    return [radar, curves]
+    return [radar, curves, _places_figure(sets[0], model, out / "real_sonar_places.png", heading_prior)]
+
+
+def _places_figure(sweeps: SweepSet, model: NxtSonar, path: Path, heading_prior: HeadingPrior | None) -> Path:
+    first = SweepSet(sweeps.folder, sweeps.map, sweeps.sweeps[:1])
+    sw = first.sweeps[0]
+    panels: list[tuple[HeadingPrior | None, str]] = [(None, "one sweep alone (global)")]
+    if heading_prior is not None:
+        panels.append((heading_prior, f"heading known: {math.degrees(heading_prior.heading_rad):g} +- "
+                                      f"{math.degrees(heading_prior.sd_rad):g} deg"))
+    fig = Figure(figsize=(4.6 * len(panels) + 0.8, 4.4))
+    axes = [fig.add_subplot(1, len(panels), i + 1) for i in range(len(panels))]
+    im = None
+    for ax, (prior, title) in zip(axes, panels, strict=True):
+        xy, costs = place_costs(model, first, prior)
+        im = draw_places(ax, sweeps.map, xy, next(costs), sw, title)
+    axes[0].legend(fontsize=8, loc="lower left")
+    assert im is not None
+    fig.colorbar(im, ax=axes, shrink=0.8, label="best heading's log-likelihood (nats below the best place)")
+    fig.suptitle(f"where one real sweep puts the robot: {sw.label} at ({sw.x_cm:g}, {sw.y_cm:g});\n"
+                 "arrow: the most likely pose", fontsize=9)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    return path

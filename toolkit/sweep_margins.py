@@ -13,7 +13,10 @@ bound for a localiser that knows the heading roughly).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
+from numpy.typing import NDArray
 
 from localisation.base import HeadingPrior
 from localisation.beam_model import BeamLikelihood, lattice_costs, scan_readings
@@ -22,10 +25,32 @@ from localisation.range_table import range_lattice, range_table
 from .sweeps import SweepSet
 from .world import NxtSonar
 
-__all__ = ["LATTICE_STEP_CM", "sweep_margins"]
+__all__ = ["LATTICE_STEP_CM", "place_costs", "sweep_margins"]
 
 LATTICE_STEP_CM = 2
 """Cell step of the scored lattice (cm); headings every degree."""
+
+
+def place_costs(model: NxtSonar, sweeps: SweepSet, heading_prior: HeadingPrior | None = None
+                ) -> tuple[NDArray[np.float64], Iterator[NDArray[np.float64]]]:
+    """The lattice's cell centres (P, 2) and, per sweep, ``-2 log L`` of every cell x heading (P, 360), every
+    usable reading (stuck runs left out) weighed as the localisers weigh it, and with `heading_prior`
+    ``-2 log p(heading)`` added."""
+    table = range_table(sweeps.map, 1.0, 360, None, model.beam_width_deg, model.critical_incidence_deg,
+                        max_range_cm=model.max_range_cm)
+    lattice = range_lattice(table, LATTICE_STEP_CM, 0.0)
+    likelihood = BeamLikelihood(model)
+
+    def each() -> Iterator[NDArray[np.float64]]:
+        for s in sweeps:
+            rel, meas, weighed = scan_readings(s.scan(), likelihood)
+            costs = lattice_costs(lattice, rel, meas, weighed, max_beams=0)
+            if heading_prior is not None:
+                n = costs.shape[1]
+                costs = costs + heading_prior.cost(np.arange(n) * (2.0 * np.pi / n))[None, :]
+            yield costs
+
+    return lattice.xy, each()
 
 
 def sweep_margins(model: NxtSonar, sweeps: SweepSet, *, near_cm: float = 6.0, far_cm: float = 20.0,
@@ -35,17 +60,10 @@ def sweep_margins(model: NxtSonar, sweeps: SweepSet, *, near_cm: float = 6.0, fa
     `heading_prior` the log prior of each lattice heading added."""
     if not 0.0 < near_cm < far_cm:
         raise ValueError(f"need 0 < near_cm < far_cm, got {near_cm} and {far_cm}")
-    table = range_table(sweeps.map, 1.0, 360, None, model.beam_width_deg, model.critical_incidence_deg,
-                        max_range_cm=model.max_range_cm)
-    lattice = range_lattice(table, LATTICE_STEP_CM, 0.0)
-    likelihood = BeamLikelihood(model)
+    xy, per_sweep = place_costs(model, sweeps, heading_prior)
     out = []
-    for s in sweeps:
-        rel, meas, weighed = scan_readings(s.scan(), likelihood)
-        costs = lattice_costs(lattice, rel, meas, weighed, max_beams=0)  # -2 log L, every reading
-        if heading_prior is not None:
-            costs = costs + heading_prior.cost(np.arange(costs.shape[1]) * (2.0 * np.pi / costs.shape[1]))[None, :]
-        dist = np.hypot(lattice.xy[:, 0] - s.x_cm, lattice.xy[:, 1] - s.y_cm)
+    for s, costs in zip(sweeps, per_sweep, strict=True):
+        dist = np.hypot(xy[:, 0] - s.x_cm, xy[:, 1] - s.y_cm)
         near, far = dist <= near_cm, dist > far_cm
         if not near.any() or not far.any():
             out.append(float("nan"))

@@ -95,10 +95,12 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         "one 360-degree scan with the LEGO sensor model, as the paper's Fig. 3"),
     FigureJob(
         "real-sonar",
-        ("sonar", "plot", "maps/real-nxt", "--out", f"{WORK}/real-sonar"),
+        ("sonar", "plot", "maps/real-nxt", "--heading-prior", "0:20", "--out", f"{WORK}/real-sonar"),
         {"real_sonar_radar.png": "real-sonar/real_sonar_radar.png",
-         "real_sonar_no_echo.png": "real-sonar/real_sonar_no_echo.png"},
-        "the three shipped real NXT sweeps against the fitted nxt sonar model: radar charts, no-echo curves"),
+         "real_sonar_no_echo.png": "real-sonar/real_sonar_no_echo.png",
+         "real_sonar_places.png": "real-sonar/real_sonar_places.png"},
+        "the three shipped real NXT sweeps against the fitted nxt sonar model: radar charts, no-echo curves, "
+        "where one sweep puts the robot"),
     FigureJob(
         "planners",
         # defaults: maps map1,map2,map3; planners min-turn, astar, rrtstar, prm, ompl:RRTConnect,

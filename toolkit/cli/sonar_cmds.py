@@ -319,17 +319,22 @@ def sonar_plot(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
     sonar_profile: Path | None = _MODEL,
-    out: Path = typer.Option(Path("out"), "--out", help="Folder of the two PNG figures."),
+    out: Path = typer.Option(Path("out"), "--out", help="Folder of the PNG figures."),
     seed: int = typer.Option(0, help="Seed of the model's drawn sweeps."),
+    heading_prior_text: str | None = typer.Option(
+        None, "--heading-prior", metavar="H:SD",
+        help="Also draw where the first sweep puts the robot with the heading known (degrees)."),
 ) -> None:
     """Real sweeps against the model: real_sonar_radar.png (three waypoints, real and model on one radar
-    chart each) and real_sonar_no_echo.png (no-echo share against incidence and range, real and model)."""
+    chart each), real_sonar_no_echo.png (no-echo share against incidence and range, real and model) and
+    real_sonar_places.png (where the first sweep puts the robot in the map)."""
     from ..sonar_plots import real_sonar_figures
 
+    heading = None if heading_prior_text is None else parse_heading_prior(heading_prior_text, "--heading-prior")
     model = load_profile(sonar_profile, "nxt") or NxtSonar()
     if out.exists() and not out.is_dir():
         raise NxtnavError(f"--out: {out} exists and is not a folder")
     sets = _load_sets(dirs, map_file)
     with _stuck_noted(sets):
-        written = real_sonar_figures(sets, model, out, rng=seed)
+        written = real_sonar_figures(sets, model, out, rng=seed, heading_prior=heading)
     typer.echo(f"wrote {', '.join(str(p) for p in written)}")
