@@ -395,9 +395,13 @@ class Amcl(Localiser):
         if 0 < self.max_beams < meas.size:
             pick = np.linspace(0, meas.size - 1, self.max_beams).round().astype(np.int64)
             rel, meas = rel[pick], meas[pick]
+        # particles drawn uniformly carry a heading prior already (they are drawn from it); those drawn
+        # from the scan's lattice are weighed by it
+        from_prior = False
         if self._uniform:
             n = self.max_particles
-            self.particles = self._scan_poses(n, rel, meas) if self.global_init == "scan" else self._uniform_poses(n)
+            from_prior = self.global_init != "scan"
+            self.particles = self._uniform_poses(n) if from_prior else self._scan_poses(n, rel, meas)
             self.log_weights = np.full(n, -math.log(n))
             self._weighed = np.ones(n, dtype=bool)
             self._uniform = False
@@ -409,7 +413,9 @@ class Amcl(Localiser):
             self.log_weights = np.full(n, -math.log(n))
             lik = self.log_likelihood(self.particles, rel, meas)
             self._fixing = True
-        ll = lik + self._log_heading_prior(self.particles)
+            from_prior = False
+        post = lik + self._log_heading_prior(self.particles)  # the posterior the refinement targets
+        ll = lik if from_prior else post
         self.iterations += 1
         self._updates += 1
         self.log_weights = self.log_weights + ll
@@ -428,7 +434,7 @@ class Amcl(Localiser):
                 or abs(float(angle_diff(after.theta, before.theta))) > self.mode_heading_rad):
             self._fixing = True  # the belief jumped (fresh particles took over): a new fix, to be checked
         if self._fixing and self.refine_steps > 0:
-            self._refine(rel, meas, ll)
+            self._refine(rel, meas, post)
             self._estimate = self._make_estimate()
         self._ambiguous_fix = False
         self._modes = []
@@ -609,8 +615,8 @@ class Amcl(Localiser):
 
     def _refine(self, rel: FloatArray, meas: FloatArray, ll: FloatArray) -> None:
         """Resample-move on a new fix: `refine_particles` draws from the weights, then `refine_steps`
-        Metropolis moves targeting this scan's likelihood, with step sizes shrinking from 2 cm / 2 degrees
-        to 0.1 cm / 0.1 degrees.
+        Metropolis moves targeting this scan's likelihood (times a first fix's heading prior; `ll` is that
+        target at the particles), with step sizes shrinking from 2 cm / 2 degrees to 0.1 cm / 0.1 degrees.
 
         A new fix's particles came from the scan (a global start, or fresh particles that took over), so
         the prior is flat at the scale of the likelihood: the moves then sample the posterior of the fix

@@ -319,6 +319,7 @@ class ParticleFilter(Localiser):
             self.particles = p
             self.log_weights = np.full(self.n_particles, -math.log(self.n_particles))
             self._global = False
+            self._heading_prior = None
         self._estimate = self._make_estimate()
 
     _move_cap: tuple[float, float] = (math.inf, math.inf)
