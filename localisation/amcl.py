@@ -361,8 +361,7 @@ class Amcl(Localiser):
 
     def predict(self, motion: Motion) -> None:
         if self._uniform and self._heading_prior is not None:  # the heading prior turns with the robot
-            hp = self._heading_prior
-            self._heading_prior = replace(hp, heading_rad=float(wrap_angle(hp.heading_rad + motion.turn_rad)))
+            self._heading_prior = self._heading_prior.turned(motion.turn_rad)
         if self._uniform or (motion.turn_rad == 0.0 and motion.distance_cm == 0.0):
             return  # a uniform belief stays uniform
         self.particles = self.motion_model.sample(self.particles, motion, self.rng)
@@ -576,8 +575,7 @@ class Amcl(Localiser):
         if self._ssd is None:
             self._ssd = lattice_costs(self.lattice, rel, meas, self._lik if self._lik is not None else self._gaussian)
             if self._heading_prior is not None:
-                n_ang = self._ssd.shape[1]
-                self._ssd += self._heading_prior.cost(np.arange(n_ang) * (2.0 * math.pi / n_ang))[None, :]
+                self._ssd += self._heading_prior.direction_costs(self._ssd.shape[1])[None, :]
         return self._ssd
 
     def _log_heading_prior(self, poses: FloatArray) -> FloatArray | float:

@@ -103,6 +103,14 @@ class HeadingPrior:
         d = np.asarray(angle_diff(np.asarray(theta, dtype=float), self.heading_rad), dtype=float) / self.sd_rad
         return np.asarray(d * d)
 
+    def direction_costs(self, n_angles: int) -> FloatArray:
+        """`cost` of the `n_angles` headings ``2 pi k / n_angles`` of a lattice (its columns)."""
+        return self.cost(np.arange(n_angles) * (2.0 * math.pi / n_angles))
+
+    def turned(self, turn_rad: float) -> HeadingPrior:
+        """The prior after the robot turned by `turn_rad` (the turn's noise left out)."""
+        return HeadingPrior(float(wrap_angle(self.heading_rad + turn_rad)), self.sd_rad)
+
     def sample(self, n: int, rng: np.random.Generator) -> FloatArray:
         """`n` headings drawn from the prior (rad, wrapped to [-pi, pi))."""
         return np.asarray(wrap_angle(self.heading_rad + self.sd_rad * rng.standard_normal(n)), dtype=float)

@@ -358,8 +358,7 @@ class ParticleFilter(Localiser):
             return
         if self._global:
             if self._heading_prior is not None:  # the heading prior turns with the robot
-                hp = self._heading_prior
-                self._heading_prior = replace(hp, heading_rad=float(wrap_angle(hp.heading_rad + motion.turn_rad)))
+                self._heading_prior = self._heading_prior.turned(motion.turn_rad)
             return  # a uniform belief stays uniform; the first scan will start the global search
         self.particles = self.motion_model.sample(self.particles, motion, self.rng)
         # the modes move with the cloud: an ambiguous belief's estimate is its best mode's pose, which
@@ -414,8 +413,7 @@ class ParticleFilter(Localiser):
         assert self.lattice is not None and self.table is not None
         costs = lattice_costs(self.lattice, rel, meas, self.likelihood)
         if self._heading_prior is not None:
-            n_ang = costs.shape[1]
-            costs = costs + self._heading_prior.cost(np.arange(n_ang) * (2.0 * math.pi / n_ang))[None, :]
+            costs = costs + self._heading_prior.direction_costs(costs.shape[1])[None, :]
         self.particles, self._move_cap = best_lattice_poses(self.lattice, self.table, costs, self.n_particles,
                                                             self.mode_radius_cm, self.mode_heading_rad, self.rng)
         k = len(self.particles)

@@ -131,6 +131,20 @@ def test_a_recorded_heading_prior_replays_bit_for_bit(tmp_path: Path) -> None:
     assert est is not None and math.hypot(est.pose.x - TRUTH[0], est.pose.y - TRUTH[1]) <= 5.0
 
 
+def test_a_recording_with_a_bad_heading_prior_is_one_line_and_exit_2(tmp_path: Path,
+                                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "rec.jsonl"
+    rec = Recorder(path, map=SQUARE, robot={"kind": "sim"}, sonar={"model": "nxt", "params": SONAR.to_dict()},
+                   seed=0)
+    rec.reset_event(HeadingPrior(0.0, 0.2))
+    rec.close("done", None)
+    good = path.read_text()
+    path.write_text(good.replace('"sd_deg":', '"sd_deg":-').replace(":--", ":-"))
+    assert run_cli(["replay", str(path), "--localisers", "paper-pf"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{path} line 2" in err[0] and "sd_deg > 0" in err[0] and "-11.4" in err[0]
+
+
 @pytest.mark.slow
 def test_bench_sweeps_and_replay_take_a_heading_prior(tmp_path: Path) -> None:
     out = tmp_path / "out"

@@ -43,7 +43,6 @@ from .recording import (
 )
 from .trajectory_scores import TrajectoryScores, score_trajectory
 from .world import (
-    ConfigError,
     LaserScanner,
     Map,
     MapError,
@@ -227,11 +226,7 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
     elif kind == "reset":
         prior = _need(e, "prior", dict, where, nullable=True)
         if prior is not None and "heading_deg" in prior:
-            try:
-                HeadingPrior(math.radians(_need(prior, "heading_deg", _NUM, where)),
-                             math.radians(_need(prior, "sd_deg", _NUM, where)))
-            except ConfigError as exc:
-                raise RecordingError(f"{where}: field 'prior': {exc}") from None
+            _heading_prior(prior, where)
         elif prior is not None:
             if _pose_field(prior, "mean", where) is None:
                 raise RecordingError(f"{where}: field 'prior' needs a 'mean'")
@@ -271,6 +266,15 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
         pass
     else:
         raise RecordingError(f"{where}: unknown event type {kind!r}")
+
+
+def _heading_prior(prior: dict[str, Any], where: str) -> HeadingPrior:
+    """A reset's heading prior (``{"heading_deg", "sd_deg"}``); `RecordingError` naming `where` if it is not one."""
+    h, sd = float(_need(prior, "heading_deg", _NUM, where)), float(_need(prior, "sd_deg", _NUM, where))
+    if not (math.isfinite(h) and math.isfinite(sd) and sd > 0.0):
+        raise RecordingError(f"{where}: field 'prior': a heading prior needs a finite heading_deg and sd_deg > 0, "
+                             f"got {h!r} and {sd!r}")
+    return HeadingPrior(math.radians(h), math.radians(sd))
 
 
 def _since(version: int, what: str, where: str, got: int) -> None:
@@ -693,7 +697,7 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Pri
                 if pr is None:
                     arg = None
                 elif "heading_deg" in pr:
-                    arg = HeadingPrior(math.radians(float(pr["heading_deg"])), math.radians(float(pr["sd_deg"])))
+                    arg = _heading_prior(pr, f"{rec.path}:{line}")
                 else:
                     arg = Prior(Pose(*[float(v) for v in pr["mean"]]), np.vstack([decode_floats(r) for r in pr["cov"]]))
                 if first_reset and initial is not None:

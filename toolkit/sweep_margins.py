@@ -46,8 +46,7 @@ def place_costs(model: NxtSonar, sweeps: SweepSet, heading_prior: HeadingPrior |
             rel, meas, weighed = scan_readings(s.scan(), likelihood)
             costs = lattice_costs(lattice, rel, meas, weighed, max_beams=0)
             if heading_prior is not None:
-                n = costs.shape[1]
-                costs = costs + heading_prior.cost(np.arange(n) * (2.0 * np.pi / n))[None, :]
+                costs = costs + heading_prior.direction_costs(costs.shape[1])[None, :]
             yield costs
 
     return lattice.xy, each()
