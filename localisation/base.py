@@ -72,8 +72,8 @@ class HeadingPrior:
     motion history carries the heading.
 
     >>> hp = HeadingPrior(0.0, math.radians(20.0))
-    >>> [round(float(c), 2) for c in hp.cost(np.radians([0.0, 20.0, -40.0, 340.0]))]
-    [0.0, 1.0, 4.0, 1.0]
+    >>> tuple(round(float(c), 2) for c in hp.cost(np.radians([0.0, 20.0, -40.0, 340.0])))
+    (0.0, 1.0, 4.0, 1.0)
     """
 
     heading_rad: float

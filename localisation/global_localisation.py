@@ -36,7 +36,7 @@ import numpy as np
 
 from toolkit.world import CollisionChecker, ConfigError, Map, RngLike, Robot, Scan, angle_diff, as_rng, make_checker
 
-from .base import Localiser, Motion, PoseEstimate, Prior
+from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 from .exploration import explore_direction, explore_from_modes, scan_explore_move
 from .procedure import LocalisationResult, LocaliseProcedure, TraceStep, look
 from .scan import ScanProcessing, min_reading, sweep_angles
@@ -206,7 +206,7 @@ class GlobalLocalisation:
         return {"align": self.align, "scan_angles": sweep_angles(self.scan_step_deg),
                 "processing": None if self.align else ScanProcessing(reference="min"), "process": self.process}
 
-    def run(self, robot: Robot, localiser: Localiser, *, prior: Prior | None = None, rng: RngLike = None,
+    def run(self, robot: Robot, localiser: Localiser, *, prior: Prior | HeadingPrior | None = None, rng: RngLike = None,
             reset: bool = True, driver: Driver | None = None, procedure: LocaliseProcedure = look,
             look_options: Mapping[str, Any] | None = None, map: Map | None = None,
             checker: CollisionChecker | None = None,
@@ -218,8 +218,9 @@ class GlobalLocalisation:
         robot : Robot
             Swept by the looks (its ``geometry.radius_cm`` sizes the exploration moves).
         localiser : Localiser
-        prior : Prior, optional
-            The belief every reset starts from (None: global; trackers need one).
+        prior : Prior or HeadingPrior, optional
+            The belief every reset starts from (None: global; trackers need one). A `HeadingPrior` turns
+            with every turn the strategy makes, so each fresh reset knows the heading as it is then.
         rng : None, int or Generator
             The strategy's own draws (the ``modes`` fallback and the ``scan`` rule pick among equally
             open directions).
@@ -255,7 +256,8 @@ class GlobalLocalisation:
 class _Run:
     """The state of one `GlobalLocalisation.run`: counters, trace, the last sweep."""
 
-    def __init__(self, strategy: GlobalLocalisation, robot: Robot, localiser: Localiser, *, prior: Prior | None,
+    def __init__(self, strategy: GlobalLocalisation, robot: Robot, localiser: Localiser, *,
+                 prior: Prior | HeadingPrior | None,
                  rng: np.random.Generator, driver: Driver, procedure: LocaliseProcedure,
                  look_options: dict[str, Any], map: Map, checker: CollisionChecker | None,
                  margin_checker: CollisionChecker | None) -> None:
@@ -294,9 +296,12 @@ class _Run:
         return res.estimate
 
     def turned(self, angle: float) -> None:
-        """Keep `behind` relative to the heading after the robot turned by `angle`."""
+        """Keep `behind` relative to the heading, and a heading prior on the robot, after the robot turned
+        by `angle`."""
         if self.behind is not None and abs(angle) > 1e-9:
             self.behind = float(angle_diff(self.behind, angle))
+        if isinstance(self.prior, HeadingPrior):
+            self.prior = self.prior.turned(angle)
 
     def ok(self, est: PoseEstimate) -> bool:
         return bool(est.converged) and bool(self.map.contains(est.pose.xy))
@@ -381,6 +386,7 @@ class _Run:
                 return est
             self.driver.note(f"global attempt {attempt}: ambiguous (spread {est.std_xy_cm:.1f} cm), exploring")
             self.driver.turn(direction, DriveAction.EXPLORE_TURN)
+            self.turned(direction)
             if self.driver.move(distance, DriveAction.EXPLORE_MOVE):
                 self.driver.turnback()
             explores += 1

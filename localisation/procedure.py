@@ -24,7 +24,7 @@ import numpy as np
 
 from toolkit.world import LocalisationError, RngLike, Robot, Scan
 
-from .base import Localiser, Motion, PoseEstimate, Prior, Snapshot
+from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior, Snapshot
 from .scan import ProcessedScan, ScanProcessing, min_reading, process_scan, sweep_fault
 
 __all__ = ["LocalisationResult", "LocaliseProcedure", "TraceStep", "look"]
@@ -140,7 +140,7 @@ def look(
     localiser: Localiser,
     *,
     rng: RngLike = None,
-    prior: Prior | None = None,
+    prior: Prior | HeadingPrior | None = None,
     reset: bool = True,
     align: bool = True,
     processing: ScanProcessing | None = None,
@@ -162,8 +162,9 @@ def look(
         Built for the robot's map.
     rng : None, int or Generator
         Unused (a look draws nothing); accepted so that every look of the seam takes the same arguments.
-    prior : Prior, optional
-        Start belief when resetting (None: global). Trackers (EKF, UKF) need one.
+    prior : Prior or HeadingPrior, optional
+        Start belief when resetting (None: global; a `HeadingPrior`: global with the heading known
+        roughly). Trackers (EKF, UKF) need a `Prior`.
     reset : bool
         Reset the localiser with `prior` first (False continues from its current belief).
     align : bool

@@ -16,11 +16,12 @@ from conftest import REAL_NXT, run_cli
 
 from localisation import HeadingPrior, Motion, candidate_poses, make_localiser
 from localisation.robot_options import localiser_options
+from toolkit.mission import Outcome, run_sim_mission
 from toolkit.recording import Recorder
 from toolkit.replay import read_recording, replay
 from toolkit.sweep_margins import sweep_margins
 from toolkit.sweeps import load_sweep_set
-from toolkit.world import ConfigError, LocalisationError, NxtSonar, RobotModel, Scan, map_from_dict
+from toolkit.world import ConfigError, LocalisationError, NxtSonar, Pose, RobotModel, Scan, map_from_dict
 
 SQUARE = map_from_dict({"name": "square", "boundary": [[0, 0], [120, 0], [120, 120], [0, 120]]})
 TRUTH = (35.0, 25.0, math.radians(10.0))
@@ -143,6 +144,20 @@ def test_a_recording_with_a_bad_heading_prior_is_one_line_and_exit_2(tmp_path: P
     assert run_cli(["replay", str(path), "--localisers", "paper-pf"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{path} line 2" in err[0] and "sd_deg > 0" in err[0] and "-11.4" in err[0]
+
+
+def test_a_mission_told_its_start_heading_finds_the_true_twin() -> None:
+    """In a square room no exploration move tells the four twins apart (the moves are symmetric too):
+    the mission ends ambiguous. Told its heading to 10 degrees (1 SD off the truth), the first global
+    localisation picks the true twin and the mission reaches the target."""
+    room = map_from_dict({"name": "square", "boundary": [[0, 0], [120, 0], [120, 120], [0, 120]],
+                          "target": [90, 90]})
+    start = Pose(TRUTH[0], TRUTH[1], TRUTH[2])
+    blind = run_sim_mission(room, seed=0, start=start)
+    assert blind.outcome is Outcome.AMBIGUOUS, blind.status
+    for seed in (0, 1):
+        told = run_sim_mission(room, seed=seed, start=start, start_heading=HeadingPrior(0.0, math.radians(10.0)))
+        assert told.success and told.final_error_cm < 1.0 and told.collisions == 0, told.status
 
 
 @pytest.mark.slow

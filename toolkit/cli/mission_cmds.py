@@ -20,6 +20,7 @@ from .options import (
     count,
     non_negative,
     parse_floats,
+    parse_heading_prior,
     parse_list,
     parse_pose,
     parse_xy,
@@ -83,6 +84,10 @@ def run(
     random_start: bool = typer.Option(False, "--random-start",
                                       help="Start from a random free pose at least 10 cm from every wall."),
     target_text: str | None = typer.Option(None, "--target", metavar="X,Y", help="Target (default: the preset)."),
+    start_heading_text: str | None = typer.Option(
+        None, "--start-heading", metavar="H:SD",
+        help="The robot's heading at the start is H degrees, give or take SD (its position unknown): the first "
+             "global localisation knows it. Default: nothing known."),
     planner: str = typer.Option("min-turn", help="Planner (registry name or ompl:NAME)."),
     localiser: str = typer.Option("paper-pf", help="Localiser (registry name)."),
     robot_kind: str = typer.Option("sim", "--robot", help="sim or nxt."),
@@ -140,6 +145,8 @@ def run(
         raise typer.BadParameter(f"expected usb, bluetooth or socket, got {nxt_backend!r}",
                                  param_hint="--nxt-backend")
     sensor_noise, motion_noise, turn_noise = _noise(noise_text)
+    start_heading = (None if start_heading_text is None
+                     else parse_heading_prior(start_heading_text, "--start-heading"))
     fitted_sonar = sonar_profile(sonar_profile_path, "nxt" if robot_kind == "nxt" else sonar)
     check_writable(json_out, "--json")
     check_writable(plot, "--plot")
@@ -176,7 +183,8 @@ def run(
             opts = localiser_options(localiser, robot_model)
             report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
                                  config=MissionConfig.for_sonar("nxt", localiser_options=opts, collision=collision),
-                                 recorder=recorder, reconnect_timeout_s=reconnect_timeout)
+                                 recorder=recorder, reconnect_timeout_s=reconnect_timeout,
+                                 start_heading=start_heading)
         finally:
             robot.close()
             _finish(recorder, report, stream)
@@ -202,7 +210,7 @@ def run(
                 m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
                 localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
                 turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar, recorder=recorder, robot_radius_cm=radius,
-                config=MissionConfig.for_sonar(sonar, collision=collision),
+                config=MissionConfig.for_sonar(sonar, collision=collision), start_heading=start_heading,
             )
         finally:
             _finish(recorder, report, stream)

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from localisation.base import Localiser, Motion, PoseEstimate
+from localisation.base import HeadingPrior, Localiser, Motion, PoseEstimate
 from localisation.global_localisation import DriveAction
 
 from ..world import CollisionChecker, Map, MoveOutcome, Pose, Robot, TruthSource
@@ -61,10 +61,14 @@ class MissionContext:
         Says why a watchdog stop shows the belief is wrong (None: it does not).
     checker : CollisionChecker or None
         The robot disc against the map (the mission's bare checker): how much room a back-off has.
+    start_heading : HeadingPrior or None
+        What the robot knows of its heading at the start (its position unknown): the first global
+        localisation starts from it, later ones (after a lost belief) do not.
     """
 
     def __init__(self, robot: Robot, m: Map, target: FloatArray, config: MissionConfig,
-                 localiser: Callable[[], Localiser], truth: TruthSource | None = None) -> None:
+                 localiser: Callable[[], Localiser], truth: TruthSource | None = None,
+                 start_heading: HeadingPrior | None = None) -> None:
         self.robot = robot
         self.map = m
         self.target = target
@@ -81,6 +85,7 @@ class MissionContext:
         self.fresh_fix = False
         self.since_fix_cm = 0.0
         self.last_move: MoveOutcome | None = None
+        self.start_heading = start_heading
         self.on_sweep_fault: Callable[[str], None] | None = None
         self.checker: CollisionChecker | None = None
         self.on_motion_fault: Callable[[str], None] | None = None

@@ -47,11 +47,12 @@ class Fixes:
 
     def localise_global(self) -> PoseEstimate:
         """Global localisation by the exploration policy (`MissionConfig.global_localisation`), the mission
-        as its `Driver`; ends the mission when the robot stays lost, naming the candidate places when
-        several fit."""
+        as its `Driver` (the first one from the start's heading prior, when the mission has one); ends
+        the mission when the robot stays lost, naming the candidate places when several fit."""
         mission = self.mission
         strategy = mission.cfg.global_localisation
-        result = strategy.run(mission.robot, mission.localiser, rng=self.rng, driver=mission,
+        heading, mission.start_heading = mission.start_heading, None  # the start's heading, once
+        result = strategy.run(mission.robot, mission.localiser, prior=heading, rng=self.rng, driver=mission,
                               procedure=self.procedure, look_options=self.look_options(), map=mission.map,
                               checker=self.checkers.bare,
                               margin_checker=self.checkers.safe[-1] if self.checkers.safe else None)

@@ -26,7 +26,7 @@ from functools import partial
 import numpy as np
 from numpy.typing import NDArray
 
-from localisation.base import Localiser
+from localisation.base import HeadingPrior, Localiser
 from localisation.procedure import LocaliseProcedure, look
 from planners.base import Planner
 
@@ -52,8 +52,9 @@ class Mission:
     def __init__(self, robot: Robot, m: Map, target: FloatArray, planner: Planner,
                  localiser: Callable[[], Localiser], rng: np.random.Generator, config: MissionConfig, *,
                  procedure: LocaliseProcedure = look, truth: TruthSource | None = None,
-                 recovery: Recovery | None = None, on_plan: Callable[[FloatArray], None] | None = None) -> None:
-        self.context = MissionContext(robot, m, target, config, localiser, truth)
+                 recovery: Recovery | None = None, on_plan: Callable[[FloatArray], None] | None = None,
+                 start_heading: HeadingPrior | None = None) -> None:
+        self.context = MissionContext(robot, m, target, config, localiser, truth, start_heading)
         self.checkers = Checkers(m, self.context.radius, config)
         self.context.checker = self.checkers.bare
         self.fix_policy = FixPolicy(config.fix, config.sweeps, self.checkers)

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from localisation.base import LOCALISERS, Localiser, make_localiser
+from localisation.base import LOCALISERS, HeadingPrior, Localiser, make_localiser
 from localisation.procedure import LocaliseProcedure, look
 from planners.base import Planner, make_planner
 
@@ -56,7 +56,7 @@ def run_mission(robot: Robot, map: Map | str, target: ArrayLike, *, planner: str
                 localiser: str | Localiser = "paper-pf", rng: RngLike = None, config: MissionConfig | None = None,
                 recorder: Recorder | None = None, procedure: LocaliseProcedure = look,
                 reconnect_timeout_s: float = DEFAULT_RECONNECT_TIMEOUT_S,
-                truth: TruthSource | None = None) -> MissionReport:
+                truth: TruthSource | None = None, start_heading: HeadingPrior | None = None) -> MissionReport:
     """Run the stack on `robot` from its unknown pose to `target`.
 
     Parameters
@@ -73,13 +73,13 @@ def run_mission(robot: Robot, map: Map | str, target: ArrayLike, *, planner: str
     recorder : toolkit.recording.Recorder, optional
         Records every command, scan and localiser call; the caller closes it.
     procedure : callable
-        One look (`localisation.procedure.look`; tests pass stand-ins), called as ``procedure(robot,
-        localiser, prior=..., rng=..., reset=..., **options)``; it returns a `LocalisationResult`.
+        One look, ``procedure(robot, localiser, prior=..., rng=..., reset=..., **options)`` returning a
+        `LocalisationResult` (`localisation.procedure.look`; tests pass stand-ins).
     reconnect_timeout_s : float
         After a lost link, how long (wall-clock s) to try to reach the robot again.
-    truth : TruthSource, optional
-        What knows the true pose (the simulator, the virtual brick's world): the report's true start,
-        trajectory, final error and collisions come from it.
+    truth, start_heading : TruthSource, HeadingPrior, optional
+        What knows the true pose (the simulator, the virtual brick's world), for the report's true start,
+        trajectory, final error and collisions; the start's heading, known roughly, for the first global fix.
 
     Returns
     -------
@@ -97,11 +97,11 @@ def run_mission(robot: Robot, map: Map | str, target: ArrayLike, *, planner: str
     loc_name, build_localiser = _localiser_factory(localiser, m, cfg, loc_rng)
     if recorder is not None:
         robot, build_localiser = _recorded(recorder, robot, build_localiser, localiser, cfg, loc_rng)
-    before = _Before(truth.true_pose if truth is not None else None, float(robot.robot_time_s),
-                     _counters(robot, truth))
+    before = _Before(truth.true_pose if truth is not None else None, float(robot.robot_time_s), _counters(robot, truth))
     recovery = Recovery(reconnect_timeout_s, FaultLog(recorder))
     mission = Mission(robot, m, tgt, plan_obj, build_localiser, plan_rng, cfg, procedure=procedure, truth=truth,
-                      recovery=recovery, on_plan=None if recorder is None else recorder.plan_event)
+                      recovery=recovery, on_plan=None if recorder is None else recorder.plan_event,
+                      start_heading=start_heading)
     try:
         outcome, status = mission.run()
     except ConfigError:

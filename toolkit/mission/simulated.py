@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from localisation.base import Localiser
+from localisation.base import HeadingPrior, Localiser
 from localisation.robot_options import localiser_options
 from planners.base import Planner
 
@@ -37,7 +37,7 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
                     noise_model: str = "botsim", sensor_noise: float = 1.0, motion_noise: float = 0.1,
                     turn_noise: float = 0.005, sonar: str = "ideal", sonar_model: NxtSonar | None = None,
                     config: MissionConfig | None = None, recorder: Recorder | None = None,
-                    robot_radius_cm: float | None = None) -> MissionReport:
+                    robot_radius_cm: float | None = None, start_heading: HeadingPrior | None = None) -> MissionReport:
     """One seeded mission on the simulator, as `nxtnav run` and `nxtnav paper` run it.
 
     Parameters
@@ -47,8 +47,7 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
         Expands (`toolkit.seeds.derive_seeds(seed, n=3)`) into the start heading (or random start),
         the simulator's noise and the stack's draws: the same seed gives the same mission.
     start : Pose, (x, y) or None
-        True start pose; (x, y) gets a seeded random heading; None is the map's preset start with a
-        seeded random heading.
+        True start pose; (x, y), or None (the map's preset start), gets a seeded random heading.
     random_start_pose : bool
         Ignore `start` and draw a free pose at least 10 cm from every wall.
     target : (2,) array_like or None
@@ -64,9 +63,10 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
         None: `MissionConfig.for_sonar(sonar)`.
     recorder : toolkit.recording.Recorder, optional
     robot_radius_cm : float, optional
-        Radius of the robot disc (cm; default `RobotGeometry`'s 8 cm): a robot scaled to the map. The
-        random start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm``
-        get it.
+        Radius of the robot disc (cm; default `RobotGeometry`'s 8 cm), a robot scaled to the map: the random
+        start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm`` get it.
+    start_heading : HeadingPrior, optional
+        What the mission is told of the start's heading (`run_mission`).
     """
     from ..robots.sim import SimRobot
 
@@ -89,7 +89,7 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
     robot = SimRobot(m, pose, geometry=robot_model.geometry, noise=robot_model.motion, sonar=robot_model.sonar,
                      rng=s_sim, checker=make_checker(m, radius, cfg.collision))  # the simulator's contacts: one backend
     report = run_mission(robot, m, target, planner=planner, localiser=localiser,
-                         rng=s_stack, config=cfg, recorder=recorder, truth=robot)
+                         rng=s_stack, config=cfg, recorder=recorder, truth=robot, start_heading=start_heading)
     return replace(report, seed=int(seed))
 
 
