@@ -19,7 +19,7 @@ EXPECTED: dict[str, tuple[tuple[str, ...], int]] = {
     "planner_comparison": (("## map1", "## map2", "## map3", "| min-turn |"), 4),
     "localisation_comparison": (("| processed (kept) |", "| auto | raw |", "| off | paper |", "| map3 | paper-pf |",
                                  "RMSE", "recovered", "| nxt, amcl live | paper-pf |",
-                                 "| bit for bit |"), 4),
+                                 "| bit for bit |", "| amcl | 0 +- 20 deg |"), 5),
     "paper_reproduction": (("| map1 |", "| map3 |", "| paper-habit | ideal |"), 4),
 }
 
