@@ -86,7 +86,7 @@ from .adaptive import kld_bound, log_blend, log_mean_exp
 from .ambiguity import lattice_candidates
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import BeamLikelihood, echo_mask, lattice_costs, scan_readings
-from .clusters import cluster
+from .clusters import cloud_stats, cluster
 from .declarations import AMCL_PARAMS, AMCL_ROBOT
 from .likelihood_field import DistanceField
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
@@ -717,10 +717,7 @@ class Amcl(Localiser):
             raise LocalisationError("amcl has no particles")
         w = self._estimate_weights()
         p = self.particles
-        mean = np.array([float(w @ p[:, 0]), float(w @ p[:, 1]), float(circular_mean(p[:, 2], w))])
-        d = np.column_stack([p[:, 0] - mean[0], p[:, 1] - mean[1], angle_diff(p[:, 2], mean[2])])
-        cov = np.einsum("ni,nj->ij", d * w[:, None], d)
-        cov = 0.5 * (cov + cov.T)
+        mean, cov = cloud_stats(p, w)
         spread_xy, spread_th = math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))
         converged = not self._uniform and spread_xy < self.converged_xy_cm and spread_th < self.converged_heading_rad
         if not self._uniform and (spread_xy > self.mode_radius_cm or spread_th > self.mode_heading_rad):
@@ -730,7 +727,5 @@ class Amcl(Localiser):
                 labels, log_masses = cluster(p, np.log(w), self.mode_radius_cm, self.mode_heading_rad,
                                              ESTIMATE_CLUSTERS)
             members = labels == int(np.argmax(log_masses))
-            wk = w[members] / float(w[members].sum())
-            mean = np.array([float(wk @ p[members, 0]), float(wk @ p[members, 1]),
-                             float(circular_mean(p[members, 2], wk))])
+            mean, _ = cloud_stats(p[members], w[members] / float(w[members].sum()))
         return PoseEstimate(Pose.from_array(mean), cov, bool(converged), self.iterations)

@@ -90,12 +90,11 @@ class HeadingPrior:
         """``"H:SD"`` in degrees (e.g. ``"0:20"``), as the command line takes it."""
         parts = text.split(":")
         try:
-            h, sd = (float(x) for x in parts) if len(parts) == 2 else (math.nan, math.nan)
-        except ValueError:
-            h = sd = math.nan
-        if not (math.isfinite(h) and math.isfinite(sd) and sd > 0.0):
-            raise ConfigError(f"heading prior: expected HEADING:SD in degrees, SD > 0 (e.g. 0:20), got {text!r}")
-        return cls(math.radians(h), math.radians(sd))
+            h, sd = (float(x) for x in parts)
+            return cls(math.radians(h), math.radians(sd))
+        except (ValueError, ConfigError):
+            raise ConfigError(f"heading prior: expected HEADING:SD in degrees, SD > 0 (e.g. 0:20), "
+                              f"got {text!r}") from None
 
     def cost(self, theta: Any) -> FloatArray:
         """``-2 log p(theta)`` up to a constant: the squared wrapped distance to the mean in standard

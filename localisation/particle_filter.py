@@ -391,10 +391,10 @@ class ParticleFilter(Localiser):
             unimodal = len(self._modes) <= 1
             use_prior = tracking and self.tracking_prior and (unimodal or self.tracking_prior_modes)
             prior = self._predicted_prior(not unimodal) if use_prior else None
-            first_fix = not tracking and self._heading_prior is not None
-            if first_fix and self._heading_prior is not None:
-                prior = [heading_gaussian(self._heading_prior)]
-            self._iterate(rel, meas, prior, rank_by_prior=first_fix)
+            heading = None if tracking else self._heading_prior  # a first fix's heading prior
+            if heading is not None:
+                prior = [heading_gaussian(heading)]
+            self._iterate(rel, meas, prior, rank_by_prior=heading is not None)
         finally:
             self._exact = False
             self._heading_prior = None  # a heading prior weighs the first fix only

@@ -145,8 +145,7 @@ def run(
         raise typer.BadParameter(f"expected usb, bluetooth or socket, got {nxt_backend!r}",
                                  param_hint="--nxt-backend")
     sensor_noise, motion_noise, turn_noise = _noise(noise_text)
-    start_heading = (None if start_heading_text is None
-                     else parse_heading_prior(start_heading_text, "--start-heading"))
+    start_heading = parse_heading_prior(start_heading_text, "--start-heading")
     fitted_sonar = sonar_profile(sonar_profile_path, "nxt" if robot_kind == "nxt" else sonar)
     check_writable(json_out, "--json")
     check_writable(plot, "--plot")

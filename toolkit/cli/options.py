@@ -183,10 +183,13 @@ def parse_pose(text: str, option: str, heading_required: bool = True) -> Pose | 
     return Pose.from_deg(*values)
 
 
-def parse_heading_prior(text: str, option: str) -> HeadingPrior:
-    """``H:SD`` (degrees) as a `localisation.base.HeadingPrior`; one line naming `option` when it is not."""
+def parse_heading_prior(text: str | None, option: str) -> HeadingPrior | None:
+    """``H:SD`` (degrees) as a `localisation.base.HeadingPrior` (None: none given); one line naming
+    `option` when it is not one."""
     from localisation.base import HeadingPrior
 
+    if text is None:
+        return None
     try:
         return HeadingPrior.parse(text)
     except NxtnavError as exc:

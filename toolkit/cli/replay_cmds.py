@@ -56,7 +56,7 @@ def replay_cmd(
     from ..replay import read_recording, replay
 
     prior = _initial_prior(initial_pose) if initial_pose is not None else None
-    heading = None if initial_heading is None else parse_heading_prior(initial_heading, "--initial-heading")
+    heading = parse_heading_prior(initial_heading, "--initial-heading")
     rec = read_recording(recording)
     if rec.truncated:
         typer.echo(f"nxtnav: warning: {rec.truncated}", err=True)

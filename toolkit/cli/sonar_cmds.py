@@ -208,7 +208,7 @@ def sonar_score(
     """
     from ..sonar_fit import score_sonar
 
-    heading = None if heading_prior_text is None else parse_heading_prior(heading_prior_text, "--heading-prior")
+    heading = parse_heading_prior(heading_prior_text, "--heading-prior")
     baselines = [] if baseline_text is None else parse_list(baseline_text, "--baseline", list(BASELINES))
     check_writable(json_out, "--json")
     models = _score_models(sonar_profile, baselines)
@@ -330,7 +330,7 @@ def sonar_plot(
     real_sonar_places.png (where the first sweep puts the robot in the map)."""
     from ..sonar_plots import real_sonar_figures
 
-    heading = None if heading_prior_text is None else parse_heading_prior(heading_prior_text, "--heading-prior")
+    heading = parse_heading_prior(heading_prior_text, "--heading-prior")
     model = load_profile(sonar_profile, "nxt") or NxtSonar()
     if out.exists() and not out.is_dir():
         raise NxtnavError(f"--out: {out} exists and is not a folder")

@@ -63,7 +63,7 @@ def bench_sweeps(
         raise NxtnavError(f"--localisers: {', '.join(trackers)} track a known pose and cannot localise from one "
                           "sweep alone; use particle filters (paper-pf, amcl, pf-*)")
     seeds = _seeds(seeds_text)
-    heading_prior = None if heading_prior_text is None else parse_heading_prior(heading_prior_text, "--heading-prior")
+    heading_prior = parse_heading_prior(heading_prior_text, "--heading-prior")
     sweeps = load_sweep_set(folder, map_file)
     sonar = load_profile(sonar_profile, "nxt") or NxtSonar()
     check_out_folder(out, force)
