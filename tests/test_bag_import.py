@@ -229,8 +229,8 @@ def test_missing_tf_frame(small_bag: Path, tmp_path: Path, capsys: pytest.Captur
 
 # -- the real bag ---------------------------------------------------------------------------------
 
-def _jarvis(out: Path, **kw: object) -> object:
-    return import_bag(JARVIS / "jarvis_circular_path_fast.bag", load_map(JARVIS / "i-108_10mm.yaml"), out,
+def _jarvis(out: Path, bag: str = "jarvis_circular_path_fast.bag", **kw: object) -> object:
+    return import_bag(JARVIS / bag, load_map(JARVIS / "i-108_10mm.yaml"), out,
                       scan_topic="/driver_laser_navigation/laser_scan", truth_topic="/pose_ground_truth",
                       truth_frame=(1460.64, 334.25, math.radians(-1.536)), **kw)  # type: ignore[arg-type]
 
@@ -257,3 +257,16 @@ def test_jarvis_amcl_from_the_initial_pose(tmp_path: Path) -> None:
     report = replay(read_recording(out), ["amcl"], initial=prior)
     row = report.summary()["amcl"]
     assert row["ape_rmse_cm"] <= 3.0 and row["ape_heading_rmse_deg"] <= 1.0
+
+
+@pytest.mark.slow
+def test_jarvis_amcl_on_the_longer_bag(tmp_path: Path) -> None:
+    """On the 74 s complex path, with the options chosen on the circular one, amcl meets all three of
+    the issue's targets: 3 cm and 1 degree after alignment, 2 cm per metre driven (evo)."""
+    out = tmp_path / "complex.jsonl"
+    result = _jarvis(out, bag="jarvis_complex_path_fast.bag", beams=120, scan_delay_s=0.125)
+    assert 17.0 < result.odometry_m < 19.0  # type: ignore[attr-defined]
+    prior = Prior(Pose.from_deg(1932.5, 467.3, 178.7), np.diag([100.0, 100.0, math.radians(5.0) ** 2]))
+    row = replay(read_recording(out), ["amcl"], initial=prior).summary()["amcl"]
+    assert row["scored_updates"] > 580
+    assert row["ape_rmse_cm"] <= 3.0 and row["ape_heading_rmse_deg"] <= 1.0 and row["rpe_per_m_cm"] <= 2.0
