@@ -271,3 +271,31 @@ def test_a_bad_recording_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(bad) in err and needle in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.jsonl"]
+
+
+def test_a_deskewed_laser_recording_exports(tmp_path: Path) -> None:
+    """An imported real bag's sweeps are deskewed: their angles wrap at +-pi and lie off any regular
+    grid. Each still becomes a LaserScan, every reading in a slot within 1 mrad of its angle."""
+    from toolkit.bag_import import import_bag
+    from toolkit.ros2_export.messages import SNAP_TOLERANCE_RAD
+    from toolkit.world import load_map
+
+    jarvis = Path(__file__).resolve().parents[1] / "maps" / "jarvis"
+    rec = tmp_path / "jarvis.jsonl"
+    import_bag(jarvis / "jarvis_circular_path_fast.bag", load_map(jarvis / "i-108_10mm.yaml"), rec,
+               scan_topic="/driver_laser_navigation/laser_scan", every=10, beams=120, scan_delay_s=0.125)
+    out = tmp_path / "bag"
+    assert run_cli(["export", str(rec), "--mcap", str(out)]) == 0
+    scans = _events(rec, "scan")
+    msgs = [m for _, m in _rosbags_messages(out)["/scan"]]
+    assert len(msgs) == len(scans) > 10
+    worst = 0.0
+    for e, msg in zip(scans, msgs, strict=True):
+        scan = scan_from_fields(e)
+        ranges = np.asarray(msg.ranges, dtype=np.float64)
+        k = np.flatnonzero(~np.isnan(ranges))
+        assert k.size == len(scan)
+        angles = np.float64(msg.angle_min) + k * np.float64(msg.angle_increment)
+        worst = max(worst, float(np.max(np.abs(angle_diff(angles, scan.angles)))))
+        assert np.allclose(ranges[k][scan.valid] * 100.0, scan.ranges[scan.valid], rtol=2 * F32, atol=0)
+    assert 1e-6 < worst <= SNAP_TOLERANCE_RAD + 1e-6

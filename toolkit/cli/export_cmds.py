@@ -26,6 +26,9 @@ def export_cmd(
     summary = export_mcap(recording, mcap, resolution_cm=grid_cm, particles=particles)
     for topic, (kind, n) in summary.topics.items():
         typer.echo(f"{topic:16s} {kind:45s} {n:6d}")
+    if summary.moved_scans:
+        typer.echo(f"{summary.moved_scans} sweeps lie off a regular grid of angles (deskewed); /scan puts their "
+                   f"readings in the nearest slot of a finer one, at most {summary.moved_rad:.1e} rad away")
     typer.echo(f"wrote {summary.path} ({summary.messages} messages)")
 
 

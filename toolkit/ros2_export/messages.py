@@ -29,6 +29,12 @@ FRAMES = {"map": "map", "odom": "odom", "base": "base_link", "sonar": "sonar_lin
 ANGLE_TOLERANCE_RAD = 1e-6
 """How far a reading's angle may sit from its LaserScan slot (angle_min + k increment)."""
 
+SNAP_TOLERANCE_RAD = 1e-3
+"""For a sweep whose angles lie off any regular grid (a laser deskewed for the robot's motion): how far
+a reading may be moved to the nearest slot of a finer grid (at most `MAX_SUBDIVISION` slots per step)."""
+
+MAX_SUBDIVISION = 64
+
 
 class ExportError(NxtnavError):
     """A recording that cannot be written as ROS 2 messages (the message says which part and why)."""
@@ -132,44 +138,60 @@ def particle_cloud(ns: int, poses: Any, weights: Any) -> Any:
     return _t(PARTICLE_CLOUD)(header=header(ns, FRAMES["map"]), particles=items)
 
 
-def _slots(angles: FloatArray, where: str) -> tuple[float, float, NDArray[np.int64]]:
-    """angle_min, increment and each reading's slot k (angle = angle_min + k increment)."""
+def _slots(angles: FloatArray, where: str) -> tuple[float, float, NDArray[np.int64], float]:
+    """angle_min, increment, each reading's slot k (angle = angle_min + k increment) and how far the
+    furthest reading lies from its slot (rad).
+
+    Angles that wrap (from +pi to -pi) are unwrapped first. A sweep on a regular grid keeps its angles
+    to `ANGLE_TOLERANCE_RAD`; one off any grid (deskewed) goes on the coarsest grid of its smallest
+    step divided by 2 ... `MAX_SUBDIVISION` that holds every reading within `SNAP_TOLERANCE_RAD`, the
+    slots between them NaN.
+    """
     if angles.size == 1:
-        return float(angles[0]), 0.0, np.zeros(1, dtype=np.int64)
+        return float(angles[0]), 0.0, np.zeros(1, dtype=np.int64), 0.0
+    angles = np.unwrap(angles)
     d = np.diff(angles)
     if not (np.all(d > 0) or np.all(d < 0)):
         raise ExportError(f"{where}: its angles neither only grow nor only shrink; a LaserScan cannot hold them")
-    inc = float(d[np.argmin(np.abs(d))])
-    k = np.rint((angles - angles[0]) / inc).astype(np.int64)
-    off = np.abs(angles - (angles[0] + k * inc))
-    if off.max() > ANGLE_TOLERANCE_RAD or k[-1] > 100 * angles.size:
-        raise ExportError(f"{where}: its angles are not on a regular grid (a reading lies {off.max():.2g} rad "
-                          f"from its slot); a LaserScan cannot hold them")
-    return float(angles[0]), inc, k
+    step = float(d[np.argmin(np.abs(d))])
+    off = np.inf
+    for parts in range(1, MAX_SUBDIVISION + 1):
+        inc = step / parts
+        k = np.rint((angles - angles[0]) / inc).astype(np.int64)
+        off = float(np.abs(angles - (angles[0] + k * inc)).max())
+        if off <= (ANGLE_TOLERANCE_RAD if parts == 1 else SNAP_TOLERANCE_RAD) and k[-1] <= 100 * parts * angles.size:
+            return float(angles[0]), inc, k, off
+    raise ExportError(f"{where}: its angles are not on a regular grid (on the finest tried, a reading lies {off:.2g} "
+                      f"rad from its slot); a LaserScan cannot hold them")
 
 
 def laser_scan(ns: int, scan: Scan, times: FloatArray, duration_s: float, offset_cm: float, range_min_cm: float,
-               range_max_cm: float, where: str) -> Any:
+               range_max_cm: float, where: str) -> tuple[Any, float]:
     """``sensor_msgs/LaserScan`` of one sweep in the sonar frame.
 
     The readings sit in slots ``angle_min + k * angle_increment``: a sweep with windows (readings
     only near some directions) leaves the slots between them at NaN (no reading taken); a reading
     without an echo is +inf (REP 117); a range is the reading plus the sensor's offset from the
     turret axis, in metres. `ns` is the time of the first reading; ``time_increment`` the median
-    time between readings in neighbouring slots; ``scan_time`` the sweep's whole duration.
+    time between readings in neighbouring slots; ``scan_time`` the sweep's whole duration. Returns
+    the message and how far a reading was moved to its slot (rad; `_slots`).
     """
     angles = np.asarray(scan.angles, dtype=float)
-    a0, inc, k = _slots(angles, where)
+    a0, inc, k, moved = _slots(angles, where)
     slots = np.full(int(k[-1]) + 1, np.nan)
     valid = np.asarray(scan.valid, dtype=bool) & np.isfinite(scan.ranges)
     slots[k] = np.where(valid, (np.asarray(scan.ranges, dtype=float) + offset_cm) / 100.0, np.inf)
     t = np.asarray(times, dtype=float)
-    step = np.diff(k) == 1
-    dt = float(np.median(np.diff(t)[step])) if step.any() else 0.0
-    return _t("sensor_msgs/msg/LaserScan")(
+    dk = np.diff(k)
+    step = dk == 1
+    # time per slot: from readings in neighbouring slots, else (a subdivided grid) per slot between readings
+    dt = (float(np.median(np.diff(t)[step])) if step.any()
+          else float(np.median(np.diff(t) / dk)) if t.size > 1 else 0.0)
+    message = _t("sensor_msgs/msg/LaserScan")(
         header=header(ns, FRAMES["sonar"]), angle_min=a0, angle_max=a0 + float(k[-1]) * inc, angle_increment=inc,
         time_increment=dt, scan_time=float(duration_s), range_min=range_min_cm / 100.0,
         range_max=range_max_cm / 100.0, ranges=slots.astype(np.float32), intensities=np.zeros(0, dtype=np.float32))
+    return message, moved
 
 
 def map_extent_cm(m: Map) -> float:

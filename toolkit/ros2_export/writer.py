@@ -54,6 +54,10 @@ class ExportSummary:
 
     path: Path
     topics: dict[str, tuple[str, int]] = field(default_factory=dict)
+    moved_scans: int = 0
+    """Sweeps whose angles lie off any regular grid (deskewed), put on a finer one (`messages._slots`)."""
+    moved_rad: float = 0.0
+    """How far the furthest of their readings was moved to its slot (rad)."""
 
     @property
     def messages(self) -> int:
@@ -84,8 +88,9 @@ def _map_to_odom(estimate: Pose, odom: Pose) -> Pose:
 
 
 def _messages(info: RunInfo, items: list[Any], header: dict[str, Any], resolution_cm: float,
-              particles: int | None) -> list[tuple[str, int, Any]]:
-    """(topic, log time ns, message) of the whole run, in time order."""
+              particles: int | None, snapped: list[float]) -> list[tuple[str, int, Any]]:
+    """(topic, log time ns, message) of the whole run, in time order; `snapped` gets, per sweep put on a
+    finer grid than its own, how far its furthest reading moved (rad)."""
     out: list[tuple[str, int, Any]] = []
     t0 = info.stamp_ns(0.0)
     out.append(("/map", t0, msg.occupancy_grid(t0, rasterise(info.map, resolution_cm))))
@@ -108,8 +113,11 @@ def _messages(info: RunInfo, items: list[Any], header: dict[str, Any], resolutio
                                                                  it.pose)])))
         elif isinstance(it, SweepItem):
             first = info.stamp_ns(float(np.min(it.times))) if it.times.size else ns
-            out.append(("/scan", ns, msg.laser_scan(first, it.scan, it.times, it.t - it.t_start,
-                                                    info.sensor_offset_cm, rmin, rmax, f"scan {it.id}")))
+            scan, moved = msg.laser_scan(first, it.scan, it.times, it.t - it.t_start, info.sensor_offset_cm, rmin,
+                                         rmax, f"scan {it.id}")
+            out.append(("/scan", ns, scan))
+            if moved > msg.ANGLE_TOLERANCE_RAD:
+                snapped.append(moved)
         elif isinstance(it, EstimateItem):
             est = it.estimate
             out.append(("/amcl_pose", ns, msg.pose_with_covariance(ns, msg.FRAMES["map"], est.pose, est.cov)))
@@ -150,7 +158,8 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
 
     rec = read_recording(recording)
     info, items = timeline_of(recording)
-    messages = _messages(info, items, rec.header, resolution_cm, particles)
+    snapped: list[float] = []
+    messages = _messages(info, items, rec.header, resolution_cm, particles, snapped)
     messages.sort(key=lambda m: m[1])  # stable: same-time messages keep the run's order
     store = typestore()
     # the bag is written as TMP/NAME (its MCAP file is named after NAME), then moved to `dest`
@@ -181,4 +190,5 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return ExportSummary(dest, {t: (TOPICS[t], counts[t]) for t in TOPICS if t in counts})
+    return ExportSummary(dest, {t: (TOPICS[t], counts[t]) for t in TOPICS if t in counts}, len(snapped),
+                         max(snapped, default=0.0))
