@@ -142,15 +142,17 @@ def _slots(angles: FloatArray, where: str) -> tuple[float, float, NDArray[np.int
     """angle_min, increment, each reading's slot k (angle = angle_min + k increment) and how far the
     furthest reading lies from its slot (rad).
 
-    Angles that wrap (from +pi to -pi) are unwrapped first. A sweep on a regular grid keeps its angles
-    to `ANGLE_TOLERANCE_RAD`; one off any grid (deskewed) goes on the coarsest grid of its smallest
-    step divided by 2 ... `MAX_SUBDIVISION` that holds every reading within `SNAP_TOLERANCE_RAD`, the
-    slots between them NaN.
+    Angles that turn one way only once unwrapped (a wrap from +pi to -pi) are unwrapped. A sweep on a
+    regular grid keeps its angles to `ANGLE_TOLERANCE_RAD`; one off any grid (deskewed) goes on the
+    coarsest grid of its smallest step divided by 2 ... `MAX_SUBDIVISION` that holds every reading
+    within `SNAP_TOLERANCE_RAD`, the slots between them NaN.
     """
     if angles.size == 1:
         return float(angles[0]), 0.0, np.zeros(1, dtype=np.int64), 0.0
-    angles = np.unwrap(angles)
     d = np.diff(angles)
+    if not (np.all(d > 0) or np.all(d < 0)):  # perhaps a wrap from +pi to -pi
+        angles = np.unwrap(angles)
+        d = np.diff(angles)
     if not (np.all(d > 0) or np.all(d < 0)):
         raise ExportError(f"{where}: its angles neither only grow nor only shrink; a LaserScan cannot hold them")
     step = float(d[np.argmin(np.abs(d))])

@@ -113,9 +113,9 @@ def _messages(info: RunInfo, items: list[Any], header: dict[str, Any], resolutio
                                                                  it.pose)])))
         elif isinstance(it, SweepItem):
             first = info.stamp_ns(float(np.min(it.times))) if it.times.size else ns
-            scan, moved = msg.laser_scan(first, it.scan, it.times, it.t - it.t_start, info.sensor_offset_cm, rmin,
-                                         rmax, f"scan {it.id}")
-            out.append(("/scan", ns, scan))
+            laser, moved = msg.laser_scan(first, it.scan, it.times, it.t - it.t_start, info.sensor_offset_cm, rmin,
+                                          rmax, f"scan {it.id}")
+            out.append(("/scan", ns, laser))
             if moved > msg.ANGLE_TOLERANCE_RAD:
                 snapped.append(moved)
         elif isinstance(it, EstimateItem):
