@@ -185,10 +185,9 @@ def laser_scan(ns: int, scan: Scan, times: FloatArray, duration_s: float, offset
     slots[k] = np.where(valid, (np.asarray(scan.ranges, dtype=float) + offset_cm) / 100.0, np.inf)
     t = np.asarray(times, dtype=float)
     dk = np.diff(k)
-    step = dk == 1
-    # time per slot: from readings in neighbouring slots, else (a subdivided grid) per slot between readings
-    dt = (float(np.median(np.diff(t)[step])) if step.any()
-          else float(np.median(np.diff(t) / dk)) if t.size > 1 else 0.0)
+    # time per slot: from readings in neighbouring slots, or (a subdivided grid has none) from all of them
+    pairs = dk == 1 if np.any(dk == 1) else dk > 0
+    dt = float(np.median(np.diff(t)[pairs] / dk[pairs])) if pairs.any() else 0.0
     message = _t("sensor_msgs/msg/LaserScan")(
         header=header(ns, FRAMES["sonar"]), angle_min=a0, angle_max=a0 + float(k[-1]) * inc, angle_increment=inc,
         time_increment=dt, scan_time=float(duration_s), range_min=range_min_cm / 100.0,

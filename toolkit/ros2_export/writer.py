@@ -88,10 +88,11 @@ def _map_to_odom(estimate: Pose, odom: Pose) -> Pose:
 
 
 def _messages(info: RunInfo, items: list[Any], header: dict[str, Any], resolution_cm: float,
-              particles: int | None, snapped: list[float]) -> list[tuple[str, int, Any]]:
-    """(topic, log time ns, message) of the whole run, in time order; `snapped` gets, per sweep put on a
-    finer grid than its own, how far its furthest reading moved (rad)."""
+              particles: int | None) -> tuple[list[tuple[str, int, Any]], list[float]]:
+    """(topic, log time ns, message) of the whole run, in time order, and, per sweep put on a finer grid
+    than its own, how far its furthest reading moved (rad)."""
     out: list[tuple[str, int, Any]] = []
+    snapped: list[float] = []
     t0 = info.stamp_ns(0.0)
     out.append(("/map", t0, msg.occupancy_grid(t0, rasterise(info.map, resolution_cm))))
     ident = Pose(0.0, 0.0, 0.0)
@@ -129,7 +130,7 @@ def _messages(info: RunInfo, items: list[Any], header: dict[str, Any], resolutio
                 out.append(("/particle_cloud", ns, msg.particle_cloud(ns, p, w)))
         elif isinstance(it, PlanItem):
             out.append(("/plan", ns, msg.path_msg(ns, it.path)))
-    return out
+    return out, snapped
 
 
 def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float = 1.0,
@@ -158,8 +159,7 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
 
     rec = read_recording(recording)
     info, items = timeline_of(recording)
-    snapped: list[float] = []
-    messages = _messages(info, items, rec.header, resolution_cm, particles, snapped)
+    messages, snapped = _messages(info, items, rec.header, resolution_cm, particles)
     messages.sort(key=lambda m: m[1])  # stable: same-time messages keep the run's order
     store = typestore()
     # the bag is written as TMP/NAME (its MCAP file is named after NAME), then moved to `dest`
