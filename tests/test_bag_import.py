@@ -114,6 +114,21 @@ def test_import_writes_scans_motions_and_truth(small_bag: Path, tmp_path: Path) 
         assert e["t_start"] == pytest.approx(0.5 * k, abs=1e-9)
 
 
+def test_truth_offset_moves_the_truth_to_the_base(small_bag: Path, tmp_path: Path) -> None:
+    """A truth that tracks a marker 5 cm ahead, 3 cm to the right of the base and turned by 10 degrees:
+    with that offset, each true pose written is the marker's pose composed with it, the base's."""
+    out = tmp_path / "rec.jsonl"
+    _import(small_bag, out, truth_offset=(5.0, -3.0, math.radians(10.0)))
+    rec = read_recording(out)
+    assert rec.header["source"]["truth_offset"] == pytest.approx([5.0, -3.0, 10.0])
+    scans = [e for _, e in rec.events if e["type"] == "scan"]
+    for k, e in enumerate(scans):
+        x, y, th = _true_pose(0.25 + 0.5 * k)
+        c, s = math.cos(th), math.sin(th)
+        want = [x * 100 + 5.0 * c + 3.0 * s, y * 100 + 5.0 * s - 3.0 * c, th + math.radians(10.0)]
+        assert e["true_pose"] == pytest.approx(want, abs=1e-6)
+
+
 def test_readings_in_the_base_frame_end_on_the_walls(small_bag: Path, tmp_path: Path) -> None:
     """The scans were cast from the laser 5 cm ahead of the base: re-expressed in the base frame and put at
     the true pose, every echo ends on a wall of the map."""

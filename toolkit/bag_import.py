@@ -20,7 +20,9 @@ turn to the new heading (a second ``predict``): a holonomic robot's sideways ste
 lost. A displacement more than 90 degrees behind the heading is driven in reverse.
 
 Ground truth. The poses of a pose topic, interpolated at each scan's stamp, after `truth_frame`
-(the pose of the truth's frame in the map: a ground-truth system has its own frame). Scans outside
+(the pose of the truth's frame in the map: a ground-truth system has its own frame) and before
+`truth_offset` (the pose of the base in the body the truth tracks: a marker or sensor mounted away
+from the base, or turned against it). Scans outside
 the odometry's time span are skipped (counted in the result).
 """
 
@@ -184,7 +186,8 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
                odom_frame: str = "odom", base_frame: str = "base_footprint", truth_topic: str | None = None,
                every: int = 1, beams: int = 0, truth_frame: tuple[float, float, float] = (0.0, 0.0, 0.0),
                range_noise_cm: float = 2.0, noise: OdometryNoise | None = None, deskew: bool = True,
-               scan_delay_s: float = 0.0, truth_delay_s: float = 0.0) -> BagImport:
+               scan_delay_s: float = 0.0, truth_delay_s: float = 0.0,
+               truth_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> BagImport:
     """Write the bag `bag` as a recording on `map` to `out` (module docstring).
 
     Parameters
@@ -197,6 +200,9 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
         Readings kept per scan, evenly spread over the message's (0: all).
     truth_frame : (x cm, y cm, heading rad)
         Pose of the ground truth's frame in the map.
+    truth_offset : (x cm, y cm, heading rad)
+        Pose of the base frame in the body the truth tracks: the true pose written is the truth's,
+        composed with this.
     range_noise_cm : float
         The ``laser`` model's reading noise written in the header (what the localisers are told).
     noise : OdometryNoise
@@ -223,17 +229,19 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
     first = data.scans[0]
     laser = LaserScanner(noise_sd=float(range_noise_cm), min_range_cm=max(first.range_min, 0.0) * M_TO_CM,
                          max_range_cm=max(first.range_max, first.range_min + 1e-3) * M_TO_CM)
-    truth_m = np.array([truth_frame[0] / M_TO_CM, truth_frame[1] / M_TO_CM, truth_frame[2]])
+    truth_frames_m = (np.array([truth_frame[0] / M_TO_CM, truth_frame[1] / M_TO_CM, truth_frame[2]]),
+               np.array([truth_offset[0] / M_TO_CM, truth_offset[1] / M_TO_CM, truth_offset[2]]))
     target = Path(out)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.part")
     source = {"kind": "ros-bag", "file": str(path), "scan_topic": scan_topic, "scan_type": data.scan_type,
               "sensor_frame": first.frame, "odometry": odo.source, "truth_topic": truth_topic,
               "truth_frame": [float(truth_frame[0]), float(truth_frame[1]), math.degrees(truth_frame[2])],
+              "truth_offset": [float(truth_offset[0]), float(truth_offset[1]), math.degrees(truth_offset[2])],
               "every": every, "beams": beams, "deskewed": bool(deskew), "scans_in_bag": len(data.scans),
               "scan_delay_s": float(scan_delay_s), "truth_delay_s": float(truth_delay_s)}
     try:
         delays = (round(scan_delay_s * 1e9), round(truth_delay_s * 1e9))
-        result = _write(data, map, tmp, odo, laser, truth_topic, truth_m, every, beams, deskew,
+        result = _write(data, map, tmp, odo, laser, truth_topic, truth_frames_m, every, beams, deskew,
                         noise or OdometryNoise(), source, delays)
         os.replace(tmp, target)
     except BaseException:
@@ -243,7 +251,7 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
 
 
 def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScanner, truth_topic: str | None,
-           truth_m: np.ndarray, every: int, beams: int, deskew: bool, noise: OdometryNoise,
+           truth_frames_m: tuple[np.ndarray, np.ndarray], every: int, beams: int, deskew: bool, noise: OdometryNoise,
            source: dict[str, Any], delays: tuple[int, int]) -> BagImport:
     kept = [(i, m) for i, m in enumerate(data.scans) if i % every == 0]
     scan_delay, truth_delay = delays
@@ -289,7 +297,7 @@ def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScann
             if truth_series is not None:
                 tp, tok = truth_series.at(np.array([stamps[k] + truth_delay], dtype=np.int64))
                 if tok[0]:
-                    g = se2_compose(truth_m, tp[0])
+                    g = se2_compose(se2_compose(truth_frames_m[0], tp[0]), truth_frames_m[1])
                     truth = Pose(float(g[0] * M_TO_CM), float(g[1] * M_TO_CM), float(g[2]))
                     counts["truths"] += 1
             t_rel = (times - t0) / 1e9

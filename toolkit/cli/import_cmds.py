@@ -56,6 +56,9 @@ def import_bag_cmd(
                                                 "PoseWithCovarianceStamped or nav_msgs/Odometry)."),
     truth_frame: str = typer.Option("0,0,0", "--truth-frame", metavar="X,Y,H",
                                     help="Pose of the ground truth's frame in the map (cm, cm, degrees)."),
+    truth_offset: str = typer.Option("0,0,0", "--truth-offset", metavar="X,Y,H",
+                                     help="Pose of the base in the body the truth tracks (cm, cm, degrees): a "
+                                          "marker or sensor mounted away from the base, or turned against it."),
     every: int = typer.Option(1, "--every", metavar="N", callback=count, help="Keep every N-th scan."),
     beams: int = typer.Option(0, "--beams", metavar="N", callback=repeats,
                               help="Readings kept per scan, evenly spread (0: all)."),
@@ -85,6 +88,7 @@ def import_bag_cmd(
 
     check_writable(output, "--output")
     tx, ty, th = parse_floats(truth_frame, "--truth-frame", (3,))
+    ox, oy, oh = parse_floats(truth_offset, "--truth-offset", (3,))
     drive, turn = parse_floats(odometry_noise, "--odometry-noise", (2,))
     if drive < 0 or turn < 0:
         raise typer.BadParameter(f"must be two fractions >= 0, got {odometry_noise!r}", param_hint="--odometry-noise")
@@ -93,7 +97,7 @@ def import_bag_cmd(
                         base_frame=base_frame, truth_topic=truth_topic, every=every, beams=beams,
                         truth_frame=(tx, ty, math.radians(th)), range_noise_cm=range_noise,
                         noise=OdometryNoise("botsim", drive, turn), deskew=deskew,
-                        scan_delay_s=scan_delay, truth_delay_s=truth_delay)
+                        scan_delay_s=scan_delay, truth_delay_s=truth_delay, truth_offset=(ox, oy, math.radians(oh)))
     share = result.echoes / result.readings if result.readings else 0.0
     typer.echo(f"{bag}: {result.scans} of {result.scans_in_bag} scans ({result.skipped} skipped without "
                f"odometry), {result.readings} readings ({share:.0%} echoes), {result.predicts} motions, "
