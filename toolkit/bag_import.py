@@ -230,7 +230,7 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
     laser = LaserScanner(noise_sd=float(range_noise_cm), min_range_cm=max(first.range_min, 0.0) * M_TO_CM,
                          max_range_cm=max(first.range_max, first.range_min + 1e-3) * M_TO_CM)
     truth_frames_m = (np.array([truth_frame[0] / M_TO_CM, truth_frame[1] / M_TO_CM, truth_frame[2]]),
-               np.array([truth_offset[0] / M_TO_CM, truth_offset[1] / M_TO_CM, truth_offset[2]]))
+                      np.array([truth_offset[0] / M_TO_CM, truth_offset[1] / M_TO_CM, truth_offset[2]]))
     target = Path(out)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.part")
     source = {"kind": "ros-bag", "file": str(path), "scan_topic": scan_topic, "scan_type": data.scan_type,
@@ -251,8 +251,8 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
 
 
 def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScanner, truth_topic: str | None,
-           truth_frames_m: tuple[np.ndarray, np.ndarray], every: int, beams: int, deskew: bool, noise: OdometryNoise,
-           source: dict[str, Any], delays: tuple[int, int]) -> BagImport:
+           truth_frames_m: tuple[np.ndarray, np.ndarray], every: int, beams: int, deskew: bool,
+           noise: OdometryNoise, source: dict[str, Any], delays: tuple[int, int]) -> BagImport:
     kept = [(i, m) for i, m in enumerate(data.scans) if i % every == 0]
     scan_delay, truth_delay = delays
     stamps = np.array([m.stamp for _, m in kept], dtype=np.int64) - scan_delay  # on the odometry's clock
