@@ -182,6 +182,16 @@ def _sensor_pose(data: BagData, base: str, frame: str, t_ns: int) -> tuple[np.nd
     return pose[0], bool(ok[0])
 
 
+def _metres(pose: tuple[float, float, float]) -> np.ndarray:
+    """A pose (cm, cm, rad) as the bag's (m, m, rad)."""
+    return np.array([pose[0] / M_TO_CM, pose[1] / M_TO_CM, pose[2]])
+
+
+def _degrees(pose: tuple[float, float, float]) -> list[float]:
+    """A pose (cm, cm, rad) as the recording's header states it (cm, cm, degrees)."""
+    return [float(pose[0]), float(pose[1]), math.degrees(pose[2])]
+
+
 def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, odom_topic: str | None = None,
                odom_frame: str = "odom", base_frame: str = "base_footprint", truth_topic: str | None = None,
                every: int = 1, beams: int = 0, truth_frame: tuple[float, float, float] = (0.0, 0.0, 0.0),
@@ -229,14 +239,12 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
     first = data.scans[0]
     laser = LaserScanner(noise_sd=float(range_noise_cm), min_range_cm=max(first.range_min, 0.0) * M_TO_CM,
                          max_range_cm=max(first.range_max, first.range_min + 1e-3) * M_TO_CM)
-    truth_frames_m = (np.array([truth_frame[0] / M_TO_CM, truth_frame[1] / M_TO_CM, truth_frame[2]]),
-                      np.array([truth_offset[0] / M_TO_CM, truth_offset[1] / M_TO_CM, truth_offset[2]]))
+    truth_frames_m = (_metres(truth_frame), _metres(truth_offset))
     target = Path(out)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.part")
     source = {"kind": "ros-bag", "file": str(path), "scan_topic": scan_topic, "scan_type": data.scan_type,
               "sensor_frame": first.frame, "odometry": odo.source, "truth_topic": truth_topic,
-              "truth_frame": [float(truth_frame[0]), float(truth_frame[1]), math.degrees(truth_frame[2])],
-              "truth_offset": [float(truth_offset[0]), float(truth_offset[1]), math.degrees(truth_offset[2])],
+              "truth_frame": _degrees(truth_frame), "truth_offset": _degrees(truth_offset),
               "every": every, "beams": beams, "deskewed": bool(deskew), "scans_in_bag": len(data.scans),
               "scan_delay_s": float(scan_delay_s), "truth_delay_s": float(truth_delay_s)}
     try:
