@@ -64,15 +64,17 @@ def test_fit_again_writes_the_same_bytes(fitted: Path, tmp_path: Path) -> None:
     assert again.read_bytes() == (fitted / "profile.yaml").read_bytes()
 
 
-def test_score_reports_each_model_and_sweep(fitted: Path, tmp_path: Path,
-                                            capsys: pytest.CaptureFixture[str]) -> None:
+def test_score_reports_each_model_and_sweep(fitted: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("COLUMNS", "80")  # a narrow terminal: names may fold, numbers may not be cut
     out = tmp_path / "score.json"
-    assert run_cli(["sonar", "score", str(REAL_NXT), "--map", str(fitted / "arena.yaml"), "--sonar-profile",
+    folder = _relabelled(tmp_path, "a-student-with-a-long-name/robotics-coursework-2016")
+    assert run_cli(["sonar", "score", str(folder), "--map", str(fitted / "arena.yaml"), "--sonar-profile",
                     str(fitted / "profile.yaml"), "--baseline", "hardware", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     assert "profile" in text and "hardware" in text
     doc = json.loads(out.read_text())
-    assert doc["folders"] == [str(REAL_NXT)]
+    assert doc["folders"] == [str(folder)]
     profile, hardware = doc["models"]
     assert (profile["label"], hardware["label"]) == ("profile", "hardware")
     assert profile["source"] == str(fitted / "profile.yaml")
@@ -87,6 +89,9 @@ def test_score_reports_each_model_and_sweep(fitted: Path, tmp_path: Path,
             assert {"sweep", "heading_deg", "mean_log_likelihood", "no_echo_real", "no_echo_model",
                     "median_abs_diff_cm"} <= set(r)
             assert r["mean_log_likelihood"] is not None  # a floor, never -inf
+            row = (f"{r['mean_log_likelihood']:.3f}", f"{100 * r['no_echo_real']:.0f} / {100 * r['no_echo_model']:.0f}",
+                   f"{r['margin_nats']:+.1f}")
+            assert any(all(v in line for v in row) for line in text.splitlines()), row  # one line per row
     # the same real readings; the fitted model explains them far better and expects their no-echo share
     assert profile["no_echo_real"] == hardware["no_echo_real"] > 0.05
     assert profile["mean_log_likelihood"] > hardware["mean_log_likelihood"] + 1.0
@@ -101,16 +106,22 @@ def test_score_without_a_profile_is_the_default_model(fitted: Path, tmp_path: Pa
     assert only["label"] == "default" and only["params"] == NxtSonar().to_dict()
 
 
-def _two_sources(folder: Path) -> Path:
-    """A copy of the shipped set whose last sweep is relabelled as coming from a second repository."""
-    out = folder / "two"
+def _relabelled(folder: Path, repo: str, last_only: bool = False) -> Path:
+    """A copy of the shipped set whose sweeps (or only its last) are said to come from repository `repo`."""
+    out = folder / "relabelled"
     shutil.copytree(REAL_NXT, out)
     with (out / "sweeps.csv").open(newline="") as fh:
         rows = list(csv.reader(fh))
-    rows[-1][rows[0].index("repo")] = "someone/else"
+    for row in rows[-1:] if last_only else rows[1:]:
+        row[rows[0].index("repo")] = repo
     with (out / "sweeps.csv").open("w", newline="") as fh:
         csv.writer(fh).writerows(rows)
     return out
+
+
+def _two_sources(folder: Path) -> Path:
+    """A copy of the shipped set whose last sweep is relabelled as coming from a second repository."""
+    return _relabelled(folder, "someone/else", last_only=True)
 
 
 def test_loo_holds_out_each_repository(fitted: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import typer
+from rich import box
 from rich.console import Console
 from rich.table import Table
 
@@ -225,17 +226,20 @@ def sonar_score(
                       percent(sc.no_echo_model, 1), cell(sc.median_abs_diff_cm, ".1f", " cm"),
                       percent(sc.waypoint_most_likely, 0))
     console.print(table)
-    per = Table(title="per sweep (at the heading each model finds most likely)")
-    per.add_column("sweep", overflow="fold")
-    for name in ("model", "heading", "log-lik", "no echo real / model", "median |Δ|", "margin"):
-        per.add_column(name)
+    # borderless and terse; in a narrow terminal the sweep's name folds, never a number
+    per = Table(title="per sweep (at the heading each model finds most likely)", box=box.SIMPLE_HEAD,
+                pad_edge=False, collapse_padding=True)
+    per.add_column("sweep", overflow="fold", ratio=1)
+    per.add_column("model", no_wrap=True)
+    for name in ("heading", "log-lik", "no echo %\nreal / model", "|Δ|\ncm", "margin\nnats"):
+        per.add_column(name, justify="right", no_wrap=True)
     for i, row in enumerate(next(iter(scores.values())).per_sweep):
         for k, (label, sc) in enumerate(scores.items()):
             r = sc.per_sweep[i]
             per.add_row(row["sweep"] if k == 0 else "", label, cell(r["heading_deg"], ".1f", "°"),
                         cell(r["mean_log_likelihood"], ".3f"),
-                        f"{percent(r['no_echo_real'], 1)} / {percent(r['no_echo_model'], 1)}",
-                        cell(r["median_abs_diff_cm"], ".1f", " cm"), cell(r["margin_nats"], "+.1f", " nats"))
+                        f"{100 * r['no_echo_real']:.0f} / {100 * r['no_echo_model']:.0f}",
+                        cell(r["median_abs_diff_cm"], ".1f"), cell(r["margin_nats"], "+.1f"))
     console.print(per)
     if json_out is not None:
         _write_json(json_out, {"folders": [str(d) for d in dirs],
