@@ -238,7 +238,7 @@ def sonar_score(
             r = sc.per_sweep[i]
             per.add_row(row["sweep"] if k == 0 else "", label, cell(r["heading_deg"], ".1f", "°"),
                         cell(r["mean_log_likelihood"], ".3f"),
-                        f"{100 * r['no_echo_real']:.0f} / {100 * r['no_echo_model']:.0f}",
+                        f"{_pct(r['no_echo_real'])} / {_pct(r['no_echo_model'])}",
                         cell(r["median_abs_diff_cm"], ".1f"), cell(r["margin_nats"], "+.1f"))
     console.print(per)
     if json_out is not None:
@@ -246,6 +246,11 @@ def sonar_score(
                                "heading_prior": heading and heading.to_dict(), "models": [
             {"label": label, "source": models[label][1], "params": models[label][0].to_dict(), **sc.to_dict()}
             for label, sc in scores.items()]})
+
+
+def _pct(fraction: float | None) -> str:
+    """A fraction in whole percent, without the sign (the table's header has it)."""
+    return cell(None if fraction is None else 100.0 * fraction, ".0f")
 
 
 @sonar_app.command("loo")
