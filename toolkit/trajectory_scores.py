@@ -117,3 +117,10 @@ def relative_pose_error(truth: ArrayLike, estimate: ArrayLike, delta_m: float = 
     covers `delta_m`. Poses as in `score_trajectory`."""
     ref, est, _ = _trajectories(truth, estimate, stamps)
     return _rpe(ref, est, delta_m), _rpe(ref, est, delta_m, rotation=True)
+
+
+def similarity_scale(truth: ArrayLike, estimate: ArrayLike) -> float:
+    """The scale of evo's best similarity alignment (Umeyama with scale) of `estimate` onto `truth`: above
+    1 when the estimate's path is the shorter. Poses as in `score_trajectory`."""
+    ref, est, _ = _trajectories(truth, estimate, None)
+    return float(copy.deepcopy(est).align(ref, correct_scale=True)[2])
