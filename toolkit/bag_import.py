@@ -261,6 +261,7 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
 def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScanner, truth_topic: str | None,
            truth_frames_m: tuple[np.ndarray, np.ndarray], every: int, beams: int, deskew: bool,
            noise: OdometryNoise, source: dict[str, Any], delays: tuple[int, int]) -> BagImport:
+    truth_frame_m, truth_offset_m = truth_frames_m  # the truth's frame in the map, the base in the truth's body
     kept = [(i, m) for i, m in enumerate(data.scans) if i % every == 0]
     scan_delay, truth_delay = delays
     stamps = np.array([m.stamp for _, m in kept], dtype=np.int64) - scan_delay  # on the odometry's clock
@@ -305,7 +306,7 @@ def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScann
             if truth_series is not None:
                 tp, tok = truth_series.at(np.array([stamps[k] + truth_delay], dtype=np.int64))
                 if tok[0]:
-                    g = se2_compose(se2_compose(truth_frames_m[0], tp[0]), truth_frames_m[1])
+                    g = se2_compose(se2_compose(truth_frame_m, tp[0]), truth_offset_m)
                     truth = Pose(float(g[0] * M_TO_CM), float(g[1] * M_TO_CM), float(g[2]))
                     counts["truths"] += 1
             t_rel = (times - t0) / 1e9
