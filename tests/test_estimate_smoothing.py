@@ -81,6 +81,9 @@ def test_a_report_of_another_recording_is_refused(tmp_path: Path, capsys: pytest
     assert smoothing.main([str(rec), str(rep), "--localisers", "amcl"]) == 2
     (tmp_path / "junk.json").write_text("{")
     assert smoothing.main([str(rec), str(tmp_path / "junk.json")]) == 2
+    (tmp_path / "stepless.json").write_text(json.dumps({"localisers": ["jumpy"], "steps": [{"call": "update"}]}))
+    assert smoothing.main([str(rec), str(tmp_path / "stepless.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 3
+    assert len(err) == 4
     assert "50 scored estimates" in err[0] and "no localiser 'amcl'" in err[1] and "not a replay report" in err[2]
+    assert "step 0 is not a replay step" in err[3]

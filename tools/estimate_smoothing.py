@@ -52,13 +52,16 @@ def estimates_after_updates(report: dict[str, Any], replay_json: str, name: str)
     if name not in report["localisers"]:
         raise NxtnavError(f"{replay_json}: no localiser {name!r} (it has {', '.join(report['localisers'])})")
     out = []
-    for s in report["steps"]:
-        if s["call"] != "update" or s["truth"] is None or s["truth"][2] is None:
-            continue
-        e = s["estimates"].get(name)
-        if e is None:
-            raise NxtnavError(f"{replay_json}: {name} has no estimate at step {s['index']} (it failed)")
-        x, y, h = e["pose"]
+    for k, s in enumerate(report["steps"]):
+        try:
+            if s["call"] != "update" or s["truth"] is None or s["truth"][2] is None:
+                continue
+            e = s["estimates"].get(name)
+            if e is None:
+                raise NxtnavError(f"{replay_json}: {name} has no estimate at step {k} (it failed)")
+            x, y, h = (float(v) for v in e["pose"])
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise NxtnavError(f"{replay_json}: step {k} is not a replay step ({type(exc).__name__}: {exc})") from None
         out.append([x, y, math.radians(h)])
     return np.array(out).reshape(-1, 3)
 
