@@ -30,7 +30,7 @@ from truth_consistency import odometry_and_truth
 
 from toolkit.bag_reader import se2_compose, se2_inverse
 from toolkit.trajectory_scores import relative_pose_error, similarity_scale
-from toolkit.world import NxtnavError
+from toolkit.world import NxtnavError, angle_diff, circular_mean
 
 GAINS = (1.0, 0.5, 0.2)
 WINDOWS = (2, 8)
@@ -66,17 +66,13 @@ def estimates_after_updates(report: dict[str, Any], replay_json: str, name: str)
     return np.array(out).reshape(-1, 3)
 
 
-def _mean_pose(c: np.ndarray) -> np.ndarray:
-    return np.array([c[:, 0].mean(), c[:, 1].mean(), math.atan2(np.sin(c[:, 2]).mean(), np.cos(c[:, 2]).mean())])
-
-
 def causal(corrections: np.ndarray, gain: float) -> np.ndarray:
     """Each correction moved into from the last smoothed one by the share `gain` (heading wrapped)."""
     out = np.empty_like(corrections)
     c = corrections[0].copy()
     for i, target in enumerate(corrections):
         step = target - c
-        step[2] = math.atan2(math.sin(step[2]), math.cos(step[2]))
+        step[2] = angle_diff(target[2], c[2])
         c = c + gain * step
         out[i] = c
     return out
@@ -85,14 +81,15 @@ def causal(corrections: np.ndarray, gain: float) -> np.ndarray:
 def centred(corrections: np.ndarray, window: int) -> np.ndarray:
     """The mean of the corrections within `window` updates on either side."""
     n = len(corrections)
-    return np.array([_mean_pose(corrections[max(0, i - window):min(n, i + window + 1)]) for i in range(n)])
+    spans = [corrections[max(0, i - window):i + window + 1] for i in range(n)]
+    return np.array([[*c[:, :2].mean(axis=0), circular_mean(c[:, 2])] for c in spans])
 
 
 def row(odo: np.ndarray, truth: np.ndarray, est: np.ndarray) -> list[float]:
-    corrections = np.array([se2_compose(e, se2_inverse(o)) for e, o in zip(est, odo, strict=True)])
+    corrections = se2_compose(est, se2_inverse(odo))
 
     def rebuilt(c: np.ndarray) -> float:
-        return relative_pose_error(truth, np.array([se2_compose(ci, o) for ci, o in zip(c, odo, strict=True)]))[0]
+        return relative_pose_error(truth, se2_compose(c, odo))[0]
 
     true_heading = est.copy()
     true_heading[:, 2] = truth[:, 2]
