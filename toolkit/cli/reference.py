@@ -7,6 +7,8 @@ writes it and a test checks the file equals it.
 
 from __future__ import annotations
 
+from typing import Any
+
 import typer
 import typer.core
 
@@ -28,7 +30,7 @@ def _one_line(text: str | None) -> str:
     return " ".join((text or "").split()).replace("|", "\\|")
 
 
-def _param_rows(command: typer.core.TyperCommand) -> list[str]:
+def _param_rows(command: Any) -> list[str]:
     """One table row per argument or option, as the command's own help prints it."""
     ctx = typer.Context(command, info_name=command.name)
     rows = []
@@ -43,7 +45,7 @@ def _param_rows(command: typer.core.TyperCommand) -> list[str]:
     return rows
 
 
-def _command_section(path: str, command: typer.core.TyperCommand) -> list[str]:
+def _command_section(path: str, command: Any) -> list[str]:
     lines = [f"## `{path}`", "", _one_line(command.help or command.short_help), ""]
     rows = _param_rows(command)
     if rows:
@@ -51,7 +53,7 @@ def _command_section(path: str, command: typer.core.TyperCommand) -> list[str]:
     return lines
 
 
-def _walk(path: str, command: typer.core.TyperCommand | typer.core.TyperGroup) -> list[str]:
+def _walk(path: str, command: Any) -> list[str]:
     if isinstance(command, typer.core.TyperGroup):
         lines = []
         for name in sorted(command.commands):
