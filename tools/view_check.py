@@ -6,9 +6,11 @@ VIEW_PNG=docs/img/rerun-view.png``. No viewer process outlives the command.
 """
 
 import argparse
+import sys
 from pathlib import Path
 
 from toolkit.view.check import DEFAULT_PNG, screenshot
+from toolkit.world import NxtnavError
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description="Screenshot a saved run (.rrd) in Rerun's web viewer.")
@@ -18,5 +20,8 @@ if __name__ == "__main__":
     args = parser.parse_args()
     if not args.rrd.is_file():
         parser.error(f"{args.rrd}: no such file")
-    screenshot(args.rrd, args.png)
+    try:
+        screenshot(args.rrd, args.png)
+    except (RuntimeError, NxtnavError) as exc:
+        sys.exit(f"view-check: {exc}")
     print(f"wrote {args.png}")

@@ -93,8 +93,9 @@ def screenshot(rrd: Path, png: Path = DEFAULT_PNG, *, size: tuple[int, int] = (1
     if chromium is None:
         raise RuntimeError("no chromium on PATH (Debian: apt-get install chromium)")
     web, grpc = _free_port(), _free_port()
-    server = subprocess.Popen([str(viewer_binary()), "--web-viewer", "--bind", "127.0.0.1", "--web-viewer-port",
-                               str(web), "--port", str(grpc), "--hide-welcome-screen", str(rrd)],
+    argv = [str(viewer_binary("view-check")), "--web-viewer", "--bind", "127.0.0.1", "--web-viewer-port", str(web),
+            "--port", str(grpc), "--hide-welcome-screen", str(rrd)]
+    server = subprocess.Popen(argv,
                               stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                               start_new_session=True)
     try:

@@ -80,9 +80,14 @@ def display_problem(env: Mapping[str, str] | None = None, platform: str | None =
     return f"no display for the Rerun viewer ({', '.join(DISPLAY_VARIABLES)} all unset)"
 
 
-def viewer_binary() -> Path:
+def viewer_binary(what: str = "the view") -> Path:
     """The Rerun viewer program: ``RERUN_CLI_PATH`` when set, else the one in the rerun-sdk wheel
     (package ``rerun_cli``), else ``rerun`` on PATH.
+
+    Parameters
+    ----------
+    what : str
+        The option or command that needs the viewer, named in the message.
 
     Raises
     ------
@@ -93,7 +98,7 @@ def viewer_binary() -> Path:
     override = os.environ.get("RERUN_CLI_PATH")
     if override:
         if not Path(override).is_file():
-            raise NxtnavError(f"RERUN_CLI_PATH names {override}, which is not a file: unset it or point it at "
+            raise NxtnavError(f"{what}: RERUN_CLI_PATH names {override}, which is not a file: unset it or point it at "
                               "the rerun program")
         return Path(override)
     spec = importlib.util.find_spec("rerun_cli")
@@ -108,7 +113,7 @@ def viewer_binary() -> Path:
     if on_path is not None:
         return Path(on_path)
     looked.append("rerun on PATH")
-    raise NxtnavError(f"the Rerun viewer program is missing (looked for {' and '.join(looked)}); "
+    raise NxtnavError(f"{what}: the Rerun viewer program is missing (looked for {' and '.join(looked)}); "
                       f"reinstall the 'viz' extra: {INSTALL_HINT}")
 
 
@@ -133,7 +138,7 @@ def check_view(what: str, save_option: str, *, spawn: bool) -> Path | None:
     if problem is not None:
         raise NxtnavError(f"{what}: {problem}; write the view with {save_option} FILE.rrd and open it where "
                           "there is a screen (rerun FILE.rrd) or in a browser (rerun --web-viewer FILE.rrd)")
-    return viewer_binary()
+    return viewer_binary(what)
 
 
 def _free_port() -> int:
