@@ -123,7 +123,9 @@ def run(
     record_particles: int = typer.Option(
         100, "--record-particles", min=0, metavar="N",
         help="With --record or a view: keep at most N particles of the cloud with each estimate (0: none)."),
-    view: bool = typer.Option(False, "--view", help="Watch the mission live in a Rerun viewer (extra 'viz')."),
+    view: bool = typer.Option(
+        False, "--view", help="Watch the mission live in a Rerun viewer (extra 'viz'; needs a display, "
+                              "else use --view-save)."),
     view_save: Path | None = typer.Option(None, "--view-save", metavar="FILE.rrd",
                                           help="Stream the live view into a Rerun file instead of a viewer."),
 ) -> None:
