@@ -41,13 +41,16 @@ figures: $(STAMP)
 	$(BIN)/nxtnav figures --out docs/img
 
 # a mission saved as a Rerun recording, rendered by Rerun's web viewer (shipped in the rerun-sdk wheel) in
-# headless Chromium (Debian's package; installed here when missing, which needs root), screenshot in docs/img
+# headless Chromium (Debian's package; installed here when missing, which needs root), screenshot in
+# out/ (untracked; VIEW_PNG=docs/img/rerun-view.png updates the README's picture); the viewer runs in
+# its own process group, ended with it, so no process is left; the viewcheck extra only when missing
+VIEW_PNG ?= out/rerun-view.png
 view-check: $(STAMP)
 	@command -v chromium >/dev/null || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; }
-	$(BIN)/python -m pip install --quiet -e ".[viewcheck]"
+	@$(BIN)/python -c "import playwright" 2>/dev/null || $(BIN)/python -m pip install --quiet -e ".[viewcheck]"
 	mkdir -p out
 	$(BIN)/nxtnav run --map map1 --view-save out/view-check.rrd
-	$(BIN)/python tools/view_check.py out/view-check.rrd docs/img/rerun-view.png
+	$(BIN)/python tools/view_check.py out/view-check.rrd $(VIEW_PNG)
 
 # the wheel and sdist (python -m build, into dist/), the wheel installed in a fresh venv outside the
 # repository, and nxtnav --version, maps list, import sweeps and run from there (tools/dist_check.py)

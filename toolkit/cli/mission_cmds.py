@@ -123,7 +123,9 @@ def run(
     record_particles: int = typer.Option(
         100, "--record-particles", min=0, metavar="N",
         help="With --record or a view: keep at most N particles of the cloud with each estimate (0: none)."),
-    view: bool = typer.Option(False, "--view", help="Watch the mission live in a Rerun viewer (extra 'viz')."),
+    view: bool = typer.Option(
+        False, "--view", help="Watch the mission live in a Rerun viewer (extra 'viz'; needs a display, "
+                              "else use --view-save)."),
     view_save: Path | None = typer.Option(None, "--view-save", metavar="FILE.rrd",
                                           help="Stream the live view into a Rerun file instead of a viewer."),
 ) -> None:
@@ -151,7 +153,7 @@ def run(
     check_writable(plot, "--plot")
     check_writable(animate, "--animate")
     check_writable(view_save, "--view-save")
-    stream = _view_stream(view, view_save)
+    _check_view(view, view_save)  # Rerun, a display, the viewer program: before any work
     if start_text is not None and random_start:
         raise typer.BadParameter("give either --start or --random-start", param_hint="--start")
     target = np.array(parse_xy(target_text, "--target")) if target_text is not None else m.target
@@ -169,8 +171,10 @@ def run(
         robot = ModelClock(_connect_nxt(nxt_backend, server_host, server_port, profile, reply_timeout))
         recorder: Any = None
         report: Any = None
+        stream: Any = None
         robot_radius = float(robot.geometry.radius_cm)
         try:
+            stream = _view_stream(view, view_save)
             if record is not None or stream is not None:
                 recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
                                                  "profile": robot.profile.to_dict()},
@@ -199,12 +203,14 @@ def run(
                 raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
                                          param_hint="--start")
 
-        recorder = None if record is None and stream is None else _recorder(
-            record, m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
-            {"model": sonar, "sensor_noise": sensor_noise, "params": sonar_model.to_dict()}, seed,
-            {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles, collision, stream)
-        report = None
+        stream = _view_stream(view, view_save)
+        recorder = report = None
         try:
+            recorder = None if record is None and stream is None else _recorder(
+                record, m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
+                {"model": sonar, "sensor_noise": sensor_noise, "params": sonar_model.to_dict()}, seed,
+                {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles, collision,
+                stream)
             report = run_sim_mission(
                 m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
                 localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
@@ -249,13 +255,23 @@ def run(
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED if reachable else EXIT_BAD_INPUT)
 
 
+def _check_view(view: bool, save: Path | None) -> None:
+    """Fail at once, in one line, when the asked view cannot be: Rerun missing, or for a viewer, no
+    display or no viewer program."""
+    if not view and save is None:
+        return
+    from ..view.viewer import check_view
+
+    check_view("--view-save" if save is not None else "--view", "--view-save", spawn=save is None)
+
+
 def _view_stream(view: bool, save: Path | None) -> Any:
     """The live view's Rerun stream (a viewer, or the file `save`), or None without a view."""
     if not view and save is None:
         return None
     from ..view.live import open_stream
 
-    return open_stream(save)
+    return open_stream(save, what="--view-save" if save is not None else "--view", save_option="--view-save")
 
 
 def _recorder(path: Path | None, m: Any, robot: dict[str, Any], sonar: dict[str, Any], seed: int,
