@@ -33,7 +33,9 @@ HEREDOC = re.compile(r"^cat > (\S+) <<'EOF'\n(.*?)^EOF\n", re.S | re.M)
 RUNNER = '''"""Execute a how-to page's python blocks before pytest collects (loaded with -p)."""
 import json, os, sys, types
 
-for _name, _code in json.loads(open(os.environ["NXTNAV_HOWTO_BLOCKS"], encoding="utf-8").read()):
+with open(os.environ["NXTNAV_HOWTO_BLOCKS"], encoding="utf-8") as _file:
+    _blocks = json.load(_file)
+for _name, _code in _blocks:
     _module = types.ModuleType(_name)
     _module.__file__ = _name + ".py"
     sys.modules[_name] = _module
