@@ -201,7 +201,26 @@ class Mode:
 
 
 class Localiser(ABC):
-    """Base class of localisers; subclasses set `name` and implement the four methods.
+    """Base class of localisers; subclasses set `name`, declare `params` and `robot_options` and
+    implement the four methods.
+
+    The suite's localiser tests are parametrised over `LOCALISERS`, so a registered localiser must:
+
+    - set ``name`` in the class body (that registers it) and implement `reset`, `predict`, `update`
+      and `estimate`; a pose tracker sets ``needs_prior = True`` and raises `LocalisationError` from
+      ``reset(None)``;
+    - declare its constructor options in ``params`` (a `toolkit.world.Params`) with the constructor's
+      own defaults (built with ``params.defaults()`` it gives the same estimates as built with none),
+      among them ``converged_xy_cm`` (cm, ``low=0.0``) and ``motion_inflation`` (a factor that reaches
+      the motion model: 4 gives other estimates than the default);
+    - map in ``robot_options`` every facet of `toolkit.world.RobotModel` (`toolkit.world.FACETS`) to
+      options declared with ``robot=True`` (in the facet's order) or to a sentence why it is not used;
+      motion and sensor sigma always, and, but for the Kalman filters ``ekf`` and ``ukf``, the lobe, the
+      range limit, the beam mixture and the clearance too;
+    - draw every random number from ``self.rng`` (the same seed gives the same estimate).
+
+    `localisation.conformance.check_localiser` (``nxtnav localisers check MODULE:CLASS``) runs these
+    checks on a class and says what is missing; ``docs/howto/localiser.md`` writes one that passes.
 
     Parameters
     ----------

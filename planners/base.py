@@ -6,16 +6,8 @@ A planner is configured once (constructor keyword arguments) and queried many ti
 unreachable goal (it returns a failed `PlanResult` with a status) and draws its randomness only
 from ``problem.rng``.
 
-Writing a planner is one file with one class::
-
-    class Straight(Planner):
-        name = "straight"
-
-        def _solve(self, problem):
-            path = np.array([problem.start, problem.goal])
-            ok = problem.checker.segment_free(problem.start, problem.goal)
-            return Solution(path if ok else None, PlanStatus.EXACT if ok else PlanStatus.NO_PATH,
-                            detail="" if ok else "no straight path")
+Writing a planner is one file with one class: ``docs/howto/planner.md`` writes one that passes the
+suite, and `Planner` lists what the suite demands (``nxtnav planners check MODULE:CLASS`` checks it).
 """
 
 from __future__ import annotations
@@ -195,9 +187,24 @@ class PlanResult:
 
 
 class Planner(ABC):
-    """Base class of planners. Subclasses set `name` and implement `_solve`.
+    """Base class of planners. Subclasses set `name`, declare `params` and implement `_solve`.
 
-    Subclasses with a `name` register themselves; `make_planner(name, **options)` builds one.
+    Subclasses with a `name` register themselves; `make_planner(name, **options)` builds one. The
+    suite's planner tests are parametrised over `PLANNERS`, so a registered planner must:
+
+    - set ``name`` in the class body (a string; that registers it) and implement `_solve`;
+    - declare its constructor keywords in ``params`` (a `toolkit.world.Params` with at least one
+      `toolkit.world.Param`: type, default, range, unit, description), with the constructor's own
+      defaults: a planner built with ``params.defaults()`` plans the same path as one built with none;
+    - solve the preset queries of map1, map2, map3 and pillars for a disc of 8 cm with a path from the
+      start to the goal that clears every wall by the radius (never shorter than ``shortest``), and
+      route round a thin wall for a disc and for a point robot;
+    - validate states and motions only through ``problem.checker``, draw every random number from
+      ``problem.rng`` (the same seed gives the same path) and keep to ``problem.time_limit`` (s);
+    - return a failed result with a `PlanStatus`, never raise, for a goal it cannot reach.
+
+    `planners.conformance.check_planner` (``nxtnav planners check MODULE:CLASS``) runs these checks on
+    a class and says what is missing; ``docs/howto/planner.md`` writes a planner that passes them.
     """
 
     name: ClassVar[str]

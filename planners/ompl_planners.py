@@ -22,8 +22,8 @@ every improvement and one every `progress_interval` of the budget, like the prog
 condition is polled (once per iteration), so in deterministic mode the interval is counted in
 iterations (``iterations_per_s * progress_interval`` polls) and the sampled costs repeat exactly with
 the seed; ``time_s`` is the wall-clock time since the call began. The cost comes from the planner's
-``bestCost()`` where it has one (RRT*, Informed RRT*, BIT*, AORRTC, ...), else from the problem's
-exact solution (RRTConnect and other feasibility planners: one sample, when they stop). PRM and PRM*
+``bestCost()`` where it has one (RRTstar, InformedRRTstar, BITstar, AORRTC, ...), else from the problem's
+exact solution (RRTConnect and other feasibility planners: one sample, when they stop). PRM and PRMstar
 in deterministic mode are queried after every 10 ms of their budget (a fixed number of iterations,
 whatever the interval, so the interval never changes their roadmap), which is their progress
 resolution; in wall-clock mode they poll from a thread of their own and report only the final cost.
@@ -258,7 +258,7 @@ class OmplPlanner(Planner):
     iterations_per_s : float or None
         Iterations (termination-condition polls) per second of the problem's time limit when
         `deterministic`; None: about what a laptop core does (5000 for the tree planners, 1000 for
-        PRM*, 50000 for the BIT* family).
+        PRMstar, 50000 for the BITstar family).
     progress_interval : float
         Seconds of budget between two progress samples (besides one at every improvement); in
         deterministic mode counted as ``iterations_per_s * progress_interval`` iterations.

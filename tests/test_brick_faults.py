@@ -10,7 +10,7 @@ import struct
 import numpy as np
 import pytest
 
-from toolkit.robots.brick_faults import FAULT_KINDS, Fault, FaultSchedule, parse_fault
+from toolkit.robots.brick_faults import FAULT_KINDS, SONAR_FAULT_PLUGINS, Fault, FaultSchedule, SonarFault, parse_fault
 from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld, MotorMode, RunState
 from toolkit.world import ConfigError, Pose, load_map
@@ -204,3 +204,44 @@ def test_every_kind_is_scheduled_on_the_brick_time() -> None:
     assert schedule.due(20.0) == []  # link faults fire once; sensor faults act when read
     assert math.isclose(schedule.fired[1].time_s, 1.0) and schedule.fired[2] is None  # type: ignore[union-attr]
 
+
+
+# -- a sensor fault kind of one's own (SonarFault) ----------------------------------------------------
+class _Deaf(SonarFault):
+    """Every reading from AT_S on is lost (255) with probability P, drawn from the schedule's stream."""
+
+    arg_name = "P"
+    arg_rule = "a probability in [0, 1]"
+
+    @classmethod
+    def arg_ok(cls, arg: float) -> bool:
+        return 0.0 <= arg <= 1.0
+
+    def reading(self, value: int, time_s: float, rng: np.random.Generator) -> int | None:
+        return 255 if rng.random() < self.fault.arg else None
+
+
+_Deaf.name = "sonar-deaf"  # set after the body: registered only inside `added`
+
+
+def test_a_sensor_fault_kind_of_ones_own_is_scheduled_like_the_builtin_ones() -> None:
+    with SONAR_FAULT_PLUGINS.added({"sonar-deaf": _Deaf}):
+        assert parse_fault("sonar-deaf:1.95:0.5") == Fault("sonar-deaf", 1.95, 0.5)
+        with pytest.raises(ConfigError, match=r"fault 'sonar-deaf:1:2': P must be a probability in \[0, 1\]"):
+            parse_fault("sonar-deaf:1:2")
+        clean = _readings(_world([], noise=0.0), 200)
+        deaf = _readings(_world(["sonar-deaf:1.95:0.5"], noise=0.0), 200)
+        assert deaf[:20] == clean[:20]  # before its time
+        lost = [d == 255 and c != 255 for c, d in zip(clean[20:], deaf[20:], strict=True)]
+        assert 0.35 < np.mean(lost) < 0.65
+        assert deaf == _readings(_world(["sonar-deaf:1.95:0.5"], noise=0.0), 200)  # seeded
+        schedule = FaultSchedule(["sonar-deaf:0:1"], rng=0)
+        assert schedule.sonar(40, 0.5) == 255 and schedule.to_dict()[0]["acted"] == 1
+    with pytest.raises(ConfigError, match=r"unknown kind 'sonar-deaf'; known: drop-link, stall, sonar-stuck, "
+                       r"sonar-garbage, motor-slip$"):
+        parse_fault("sonar-deaf:1:0.5")  # gone with its block
+
+
+def test_a_sensor_fault_kind_may_not_take_a_builtin_name() -> None:
+    with pytest.raises(ConfigError, match="'stall' is a built-in kind's name"):
+        type("Stall", (SonarFault,), {"name": "stall", "reading": lambda self, v, t, rng: None})

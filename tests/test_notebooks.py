@@ -6,6 +6,7 @@ Set ``NXTNAV_SAVE_EXECUTED=DIR`` to keep the executed notebooks (with outputs) i
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import nbclient
@@ -45,3 +46,7 @@ def test_notebook_runs_and_shows_its_results(name: str) -> None:
         assert needle in text, needle
     images = [o for o in outputs if "image/png" in o.get("data", {})]
     assert len(images) >= min_images
+    # the site shows these outputs: no folder of the machine that built it
+    shown = "".join(o.get("text", "") + o.get("data", {}).get("text/plain", "") for o in outputs) + text
+    for machine_path in {tempfile.gettempdir(), str(NOTEBOOKS.parent), str(Path.home())} - {"/", ""}:
+        assert machine_path not in shown, f"{name} prints {machine_path}"

@@ -1,4 +1,5 @@
-"""`nxtnav planners list|show` and `nxtnav localisers list|show`: the plug-ins and their declared options."""
+"""`nxtnav planners list|show|check` and `nxtnav localisers list|show|check`: the plug-ins, their declared
+options, and a check of a plug-in of your own against what the test suite demands."""
 
 from __future__ import annotations
 
@@ -78,3 +79,69 @@ def localisers_show(name: str = typer.Argument(..., help="A localiser: paper-pf,
     for facet, how in mapping.items():
         robot.add_row(facet, how if isinstance(how, str) else ", ".join(how))
     Console().print(robot)
+
+
+def _load_plugin_class(spec: str, base: type, kind: str) -> type:
+    """The class named by ``MODULE:CLASS`` (the current folder is searched first, as ``python -m`` does),
+    which must subclass `base`; a bad spec, a module that cannot be imported or a missing class is a
+    `NxtnavError` naming it."""
+    import importlib
+    import os
+    import sys
+
+    module_name, sep, class_name = spec.partition(":")
+    if not sep or not module_name or not class_name or ":" in class_name:
+        raise NxtnavError(f"expected MODULE:CLASS (e.g. my_{kind}s:My{kind.title()}), got {spec!r}")
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        raise NxtnavError(f"{spec}: no module named {exc.name!r} (run from the folder that holds "
+                          f"{module_name.replace('.', '/')}.py, or install it)") from None
+    except Exception as exc:  # the user's module failed while it was imported
+        raise NxtnavError(f"{spec}: importing {module_name} raised {type(exc).__name__}: "
+                          f"{' '.join(str(exc).split())}") from None
+    cls = getattr(module, class_name, None)
+    if cls is None:
+        raise NxtnavError(f"{spec}: module {module_name} has no {class_name!r}")
+    if not (isinstance(cls, type) and issubclass(cls, base)):
+        raise NxtnavError(f"{spec}: {class_name} is not a {kind} class (a subclass of {base.__module__}."
+                          f"{base.__qualname__})")
+    return cls
+
+
+def _report(spec: str, kind: str, problems: list[str]) -> None:
+    """The problems one per line on stdout, exit 1; or one line saying the class passes."""
+    for problem in problems:
+        typer.echo(f"{spec}: {problem}")
+    if problems:
+        typer.echo(f"{spec}: {len(problems)} problem{'s' if len(problems) > 1 else ''}; see the how-to guide "
+                   f"for a {kind} (docs/howto/{kind}.md)", err=True)
+        raise typer.Exit(1)
+    typer.echo(f"{spec}: passes the {kind} checks")
+
+
+@planners_app.command("check")
+def planners_check(spec: str = typer.Argument(..., metavar="MODULE:CLASS",
+                                              help="Your planner class, e.g. detour:DetourPlanner")) -> None:
+    """Check a planner plug-in as the test suite does: registered, declared options, a valid and seeded
+    path on map1's preset query. One line per problem, exit 1 if any; exit 2 for a bad MODULE:CLASS."""
+    from planners import Planner
+    from planners.conformance import check_planner
+
+    cls = _load_plugin_class(spec, Planner, "planner")
+    _report(spec, "planner", check_planner(cls))
+
+
+@localisers_app.command("check")
+def localisers_check(spec: str = typer.Argument(..., metavar="MODULE:CLASS",
+                                                help="Your localiser class, e.g. my_mcl:MclLocaliser")) -> None:
+    """Check a localiser plug-in as the test suite does: registered, declared options, every facet of the
+    robot model taken or refused with a reason, seeded tracking. One line per problem, exit 1 if any;
+    exit 2 for a bad MODULE:CLASS."""
+    from localisation import Localiser
+    from localisation.conformance import check_localiser
+
+    cls = _load_plugin_class(spec, Localiser, "localiser")
+    _report(spec, "localiser", check_localiser(cls))

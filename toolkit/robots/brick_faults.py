@@ -18,6 +18,10 @@ A fault is written ``KIND:AT_S[:ARG]`` (``nxtnav brick serve --fault``, repeatab
     spot) moves the robot only FRACTION of what their tachometers count (wheels that skid on a
     slippery floor).
 
+A fault kind of one's own for the sensor is a `SonarFault` subclass with a ``name`` (see its docstring
+and ``docs/howto/fault.md``): once its module is imported, ``KIND:AT_S:ARG`` schedules it like the kinds
+above.
+
 AT_S is in the brick's robot time, the clock ``--time-factor`` speeds up; the durations of a dropped
 link or a stalled brick are wall-clock seconds, since a client waits for its brick in wall-clock time;
 a stuck sensor's duration is robot time, like the readings it spoils.
@@ -39,13 +43,17 @@ from __future__ import annotations
 import math
 import threading
 import time
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
-from ..world import ConfigError, RngLike, as_rng
+import numpy as np
 
-__all__ = ["FAULT_KINDS", "LINK_FAULTS", "SONAR_FAULTS", "Fault", "FaultSchedule", "Fired", "parse_fault"]
+from ..world import ConfigError, Registry, RngLike, as_rng
+
+__all__ = ["FAULT_KINDS", "LINK_FAULTS", "SONAR_FAULTS", "SONAR_FAULT_PLUGINS", "Fault", "FaultSchedule", "Fired",
+           "SonarFault", "parse_fault"]
 
 FAULT_KINDS = ("drop-link", "stall", "sonar-stuck", "sonar-garbage", "motor-slip")
 """Every fault the virtual brick can make."""
@@ -57,6 +65,68 @@ SONAR_FAULTS = ("sonar-stuck", "sonar-garbage")
 _ARG_NAMES = {"drop-link": "DOWN_S", "stall": "DUR_S", "sonar-stuck": "DUR_S", "sonar-garbage": "P",
               "motor-slip": "FRACTION"}
 _MAX_WAIT_S = 3600.0
+
+
+class SonarFault(ABC):
+    """A fault kind of one's own for the virtual brick's ultrasonic sensor (a plug-in).
+
+    A subclass sets ``name`` in its body (the KIND of ``KIND:AT_S:ARG``; that registers it in
+    `SONAR_FAULT_PLUGINS`), ``arg_name`` and ``arg_rule`` (what ARG is, for messages), may narrow
+    `arg_ok`, and implements `reading`. The `FaultSchedule` builds one instance per scheduled fault of
+    the kind (so it may keep state) and, for every reading at or after AT_S, asks it for the reading the
+    sensor gives instead; the fault has fired (and acted once more) at every reading it returns.
+
+    What the suite and the brick demand of one (``docs/howto/fault.md`` shows one that passes):
+
+    - ``name`` differs from the built-in kinds (`FAULT_KINDS`) and has no colon;
+    - `reading` returns a whole number of cm in 0..255 (255: no echo) or None (left alone), and draws
+      every random number from the `rng` it is given (the schedule's seeded stream), so that a seed
+      gives the same readings every time;
+    - a bad ARG is refused by `arg_ok`, so ``parse_fault`` says ``ARG_NAME must be ARG_RULE``.
+
+    Parameters
+    ----------
+    fault : Fault
+        The scheduled fault (its ``at_s`` and ``arg``).
+    """
+
+    name: ClassVar[str]
+    arg_name: ClassVar[str] = "ARG"
+    """What ARG is, as messages name it (``DUR_S``, ``P``, ``CM``, ...)."""
+    arg_rule: ClassVar[str] = "a finite number"
+    """The rule `arg_ok` applies, in words (``"a probability in (0, 1]"``)."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__:
+            if cls.name in FAULT_KINDS or ":" in cls.name:
+                raise ConfigError(f"sonar fault kind {cls.name!r} is a built-in kind's name or has a colon")
+            SONAR_FAULT_PLUGINS.add(cls.name, cls)
+
+    def __init__(self, fault: Fault) -> None:
+        self.fault = fault
+
+    @classmethod
+    def arg_ok(cls, arg: float) -> bool:
+        """Whether `arg` is an allowed ARG (default: any finite number)."""
+        return math.isfinite(arg)
+
+    @abstractmethod
+    def reading(self, value: int, time_s: float, rng: np.random.Generator) -> int | None:
+        """The reading (whole cm, 0..255) the sensor gives instead of `value` at brick time `time_s` (s, at
+        or after the fault's AT_S), or None when the fault leaves this reading alone."""
+
+
+SONAR_FAULT_PLUGINS: Registry[SonarFault] = Registry("sonar fault kind")
+"""Sensor fault kinds of one's own (`SonarFault` subclasses), by name."""
+
+
+def _known_kinds() -> list[str]:
+    return [*FAULT_KINDS, *SONAR_FAULT_PLUGINS.names()]
+
+
+def _arg_name(kind: str) -> str:
+    return _ARG_NAMES[kind] if kind in _ARG_NAMES else SONAR_FAULT_PLUGINS.get(kind).arg_name
 
 
 @dataclass(frozen=True)
@@ -79,13 +149,16 @@ class Fault:
     arg: float
 
     def __post_init__(self) -> None:
-        if self.kind not in FAULT_KINDS:
-            raise ConfigError(f"unknown fault kind {self.kind!r}; known: {', '.join(FAULT_KINDS)}")
+        if self.kind not in FAULT_KINDS and self.kind not in SONAR_FAULT_PLUGINS:
+            raise ConfigError(f"unknown fault kind {self.kind!r}; known: {', '.join(_known_kinds())}")
         if not (math.isfinite(self.at_s) and self.at_s >= 0):
             raise ConfigError(f"fault {self.kind}: AT_S must be a time >= 0 s, got {self.at_s!r}")
-        name = _ARG_NAMES[self.kind]
+        name = _arg_name(self.kind)
         a = self.arg
-        if self.kind in ("drop-link", "stall"):
+        if self.kind in SONAR_FAULT_PLUGINS:
+            plugin = SONAR_FAULT_PLUGINS.get(self.kind)
+            ok, rule = plugin.arg_ok(a), plugin.arg_rule
+        elif self.kind in ("drop-link", "stall"):
             ok, rule = math.isfinite(a) and 0 < a <= _MAX_WAIT_S, f"in (0, {_MAX_WAIT_S:g}] wall-clock seconds"
         elif self.kind == "sonar-stuck":
             ok, rule = math.isfinite(a) and a > 0, "> 0 brick seconds"
@@ -109,17 +182,17 @@ def parse_fault(text: str) -> Fault:
     """A `Fault` from ``KIND:AT_S[:ARG]`` (see the module docstring); `ConfigError` says what is wrong."""
     parts = [p.strip() for p in str(text).split(":")]
     kind = parts[0]
-    if kind not in FAULT_KINDS:
-        raise ConfigError(f"fault {text!r}: unknown kind {kind!r}; known: {', '.join(FAULT_KINDS)}")
+    if kind not in FAULT_KINDS and kind not in SONAR_FAULT_PLUGINS:
+        raise ConfigError(f"fault {text!r}: unknown kind {kind!r}; known: {', '.join(_known_kinds())}")
     numbers = parts[1:]
-    shape = f"{kind}:AT_S:{_ARG_NAMES[kind]}"
+    shape = f"{kind}:AT_S:{_arg_name(kind)}"
     if kind == "sonar-garbage" and len(numbers) == 1:
         numbers = ["0", numbers[0]]
         shape = "sonar-garbage:[AT_S:]P"
     if len(numbers) != 2:
         raise ConfigError(f"fault {text!r}: expected {shape}")
     values = []
-    for name, v in zip(("AT_S", _ARG_NAMES[kind]), numbers, strict=True):
+    for name, v in zip(("AT_S", _arg_name(kind)), numbers, strict=True):
         try:
             values.append(float(v))
         except ValueError:
@@ -163,6 +236,8 @@ class FaultSchedule:
         self._last_reading: int | None = None
         self._stuck_value: dict[int, int | None] = {}
         self._slipped: dict[int, set[int]] = {}
+        self._plugins = {i: SONAR_FAULT_PLUGINS.get(f.kind)(f) for i, f in enumerate(self.faults)
+                         if f.kind in SONAR_FAULT_PLUGINS}
 
     def __bool__(self) -> bool:
         return bool(self.faults)
@@ -207,6 +282,12 @@ class FaultSchedule:
                     self._fire(i, time_s)
                     self.acted[i] += 1
                     out = int(self._rng.integers(0, 256))
+                elif i in self._plugins and time_s >= f.at_s:
+                    changed = self._plugins[i].reading(out, time_s, self._rng)
+                    if changed is not None:
+                        self._fire(i, time_s)
+                        self.acted[i] += 1
+                        out = int(min(max(round(changed), 0), 255))
             self._last_reading = out
             return out
 

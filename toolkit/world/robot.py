@@ -181,7 +181,17 @@ class Resumption:
 
 @runtime_checkable
 class Robot(Protocol):
-    """What every robot (simulated or NXT) offers the localisation procedure and the mission."""
+    """What every robot (simulated or NXT) offers the localisation procedure and the mission.
+
+    A backend of one's own needs no base class and no registry: any object with these members is a
+    `Robot` (``isinstance`` checks them). What the mission demands of one: lengths in cm, angles in
+    rad (counter-clockwise), times in s; `move` returns what the robot *believes* it drove (its
+    odometry, never the truth) and stops a forward move when the sonar reads closer than the watchdog
+    distance; `ultrascan` takes angles relative to the heading and marks the echoes in its `Scan`;
+    `robot_time_s` only grows. The optional capabilities below (`WatchdogDistance`, `BackoffDistance`,
+    `RobotCounters`, `Reconnectable`, `TruthSource`) are separate protocols the mission checks with
+    ``isinstance``. ``docs/howto/robot-backend.md`` writes one and runs a mission on it.
+    """
 
     geometry: RobotGeometry
 

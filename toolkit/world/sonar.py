@@ -60,7 +60,15 @@ def _flatten(origins: ArrayLike, angles: ArrayLike) -> tuple[FloatArray, FloatAr
 class SonarModel(ABC):
     """A sonar: `measure(walls, origins, angles, rng)` returns readings in cm.
 
-    Subclasses set ``name`` (their registry key) and ``no_echo`` (the reading that means no echo).
+    Subclasses set ``name`` (their registry key, in the class body) and ``no_echo`` (the reading that
+    means no echo: `to_scan` marks readings at or above it invalid). What the suite and the toolkit
+    demand of a registered model: ``make_sonar(name)`` builds it with no arguments (every parameter has
+    a default); `measure` takes the shapes of `toolkit.world.geometry.ray_cast` and gives the same
+    readings for the same `rng` (``tests/test_world_sonar.py`` measures every registered model twice);
+    a model with a lobe has ``beam_width_deg``, ``critical_incidence_deg`` and ``beam_rays``, one with
+    a range limit ``max_range_cm``, and one with noise ``noise_sd`` (cm): `RobotModel` reads these
+    attributes to tell the localisers the lobe, the limit and the sigma. ``docs/howto/sonar-model.md``
+    writes one.
     """
 
     name: ClassVar[str]

@@ -1,0 +1,182 @@
+"""What the test suite demands of a localiser plug-in, as a check its author can run: `check_localiser`.
+
+``nxtnav localisers check MODULE:CLASS`` runs it on a class in the user's own module. Each problem is
+one line that says what is missing or wrong; an empty list means the class passes the checks below,
+which mirror the suite's tests parametrised over `LOCALISERS` (``tests/test_localisation_options.py``):
+
+- the class subclasses `Localiser`, sets ``name``, is registered under it and implements ``reset``,
+  ``predict``, ``update`` and ``estimate``;
+- it declares its options (``params``), among them ``converged_xy_cm`` (>= 0) and ``motion_inflation``;
+- ``robot_options`` names every facet of `toolkit.world.RobotModel` (`toolkit.world.FACETS`): each
+  becomes declared options marked ``robot=True``, or a sentence says why the localiser does not use it;
+  motion and the range sigma are always taken, and, as the suite expects of every localiser but the two
+  Kalman filters, so are the lobe, the range limit, the beam mixture and the clearance;
+- a localiser built with the declared defaults tracks exactly as one built with no options, one with
+  ``motion_inflation=4`` differently, and the same seed gives the same estimate;
+- the tracking run of those tests (from a prior on ``map1``: two noiseless 72-reading scans, one move
+  of 8 cm) runs without an error (how close it ends to the truth is the benchmarks' business:
+  ``nxtnav bench localisers``);
+- a global start (``reset(None)``) works, or raises `LocalisationError` when ``needs_prior`` is set.
+"""
+
+from __future__ import annotations
+
+import math
+import traceback
+from typing import Any
+
+import numpy as np
+
+from toolkit.world import FACETS, ConfigError, LocalisationError, Params, Pose, Scan, load_map, ray_cast
+
+from .base import LOCALISERS, Localiser, Motion, Prior
+
+__all__ = ["check_localiser"]
+
+_REQUIRED = ("converged_xy_cm", "motion_inflation")
+_ALWAYS_MAPPED = ("motion", "sensor_sigma")
+_KALMAN = ("ekf", "ukf")
+"""The localisers the suite lets refuse the lobe, the range limit, the beam mixture and the clearance."""
+
+
+def _call(what: str, problems: list[str], fn: Any, *args: Any, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)``, or None with a problem line naming the exception and where it arose."""
+    try:
+        return fn(*args, **kwargs)
+    except Exception as exc:
+        frame = traceback.extract_tb(exc.__traceback__)[-1]
+        problems.append(f"{what} raised {type(exc).__name__}: {exc} ({frame.filename}:{frame.lineno})")
+        return None
+
+
+def _class_problems(cls: Any) -> list[str]:
+    if not (isinstance(cls, type) and issubclass(cls, Localiser)):
+        return [f"{cls!r} is not a subclass of localisation.Localiser"]
+    problems = []
+    name = cls.__dict__.get("name")
+    if not isinstance(name, str) or not name:
+        problems.append(f"{cls.__qualname__} sets no `name` (a class attribute: its registry name)")
+    elif name not in LOCALISERS or LOCALISERS.get(name) is not cls:
+        problems.append(f"{cls.__qualname__} is not registered as {name!r} (set `name` in the class body)")
+    if getattr(cls, "__abstractmethods__", None):
+        problems.append(f"{cls.__qualname__} does not implement {', '.join(sorted(cls.__abstractmethods__))}")
+    return problems
+
+
+def _params_problems(cls: type[Localiser]) -> list[str]:
+    params = cls.params
+    if not isinstance(params, Params) or len(params) == 0:
+        return [f"{cls.__qualname__} declares no options: set `params = Params(Param(...), ...)` (toolkit.world) "
+                "with each constructor keyword's type, default, range and description"]
+    problems = [f"{cls.__qualname__}.params lacks {key!r} (the suite sets it on every localiser)"
+                for key in _REQUIRED if key not in params]
+    if "converged_xy_cm" in params:
+        try:
+            params.check({"converged_xy_cm": -1.0})
+            problems.append("converged_xy_cm accepts -1: declare it with low=0.0")
+        except ConfigError:
+            pass
+    return problems
+
+
+def _robot_problems(cls: type[Localiser]) -> list[str]:
+    mapping = cls.robot_options
+    if mapping is None:
+        return [f"{cls.__qualname__} sets no `robot_options`: map every facet of the robot model "
+                f"({', '.join(FACETS)}) to options or to a sentence saying why it is not used"]
+    params = cls.params if isinstance(cls.params, Params) else Params()
+    problems = []
+    if set(mapping) != set(FACETS):
+        missing, extra = sorted(set(FACETS) - set(mapping)), sorted(set(mapping) - set(FACETS))
+        problems.append(f"robot_options must name exactly the facets {', '.join(FACETS)}"
+                        + (f"; missing: {', '.join(missing)}" if missing else "")
+                        + (f"; unknown: {', '.join(extra)}" if extra else ""))
+    for facet, how in mapping.items():
+        if isinstance(how, str):
+            if len(how) <= 20:
+                problems.append(f"robot_options[{facet!r}] = {how!r}: say in a sentence why the facet is not used")
+            if facet in _ALWAYS_MAPPED:
+                problems.append(f"robot_options[{facet!r}] is refused: every localiser takes the motion noise "
+                                "and the range sigma")
+            elif cls.__dict__.get("name") not in _KALMAN:
+                problems.append(f"robot_options[{facet!r}] is refused, but the suite expects every localiser "
+                                "except ekf and ukf to take it (map it to options declared with robot=True)")
+            continue
+        problems += [f"robot_options[{facet!r}] names {own!r}, which params does not declare with robot=True"
+                     for own in how if own not in params or not params.get(own).robot]
+    return problems
+
+
+def _track(cls: type[Localiser], options: dict[str, Any]) -> tuple[np.ndarray, Pose, bool]:
+    """A short tracking run on map1 from a known prior, as the suite's: the final estimate as a vector
+    (pose in cm and rad, and covariance), the true pose, and whether the localiser called itself converged."""
+    m = load_map("map1")
+    loc = cls(m, rng=3, **options)
+    truth = Pose(60.0, 50.0, 0.4)
+    loc.reset(Prior(truth, np.diag([4.0, 4.0, 0.01])))
+    angles = np.radians(np.arange(0.0, 360.0, 5.0))
+    for turn, move in ((0.0, 0.0), (0.3, 8.0)):
+        if move:
+            loc.predict(Motion(turn_rad=turn, distance_cm=move))
+            truth = Pose(truth.x + move * math.cos(truth.theta + turn), truth.y + move * math.sin(truth.theta + turn),
+                         truth.theta + turn)
+        loc.update(Scan.from_readings(angles, ray_cast(m.walls, truth.xy, truth.theta + angles)))
+    est = loc.estimate()
+    return np.concatenate([[est.pose.x, est.pose.y, est.pose.theta], np.ravel(est.cov)]), truth, bool(est.converged)
+
+
+def _behaviour_problems(cls: type[Localiser]) -> list[str]:
+    problems: list[str] = []
+    base = _call("tracking on map1", problems, _track, cls, {})
+    if base is None:
+        return problems
+    vector = base[0]
+    if not np.all(np.isfinite(vector)):
+        problems.append(f"the estimate after tracking on map1 is not finite: {vector[:3].tolist()}")
+    again = _call("tracking on map1 (same seed)", problems, _track, cls, {})
+    if again is not None and not np.array_equal(vector, again[0]):
+        problems.append("the same seed gave two different estimates: draw every random number from self.rng")
+    params = cls.params
+    if isinstance(params, Params) and all(key in params for key in _REQUIRED):
+        declared = {k: v for k, v in params.defaults().items() if k != "cache_dir"}
+        with_defaults = _call("tracking with the declared defaults", problems, _track, cls, declared)
+        if with_defaults is not None and not np.array_equal(vector, with_defaults[0]):
+            problems.append("the declared defaults (params) differ from the constructor's: the two localisers "
+                            "give different estimates")
+        inflated = _call("tracking with motion_inflation=4", problems, _track, cls, {"motion_inflation": 4.0})
+        if inflated is not None and np.array_equal(vector, inflated[0]):
+            problems.append("motion_inflation=4 changes nothing: the option does not reach the motion model")
+    return problems
+
+
+def _global_start_problems(cls: type[Localiser]) -> list[str]:
+    loc = cls(load_map("map1"), rng=0)
+    try:
+        loc.reset(None)
+    except LocalisationError:
+        return [] if cls.needs_prior else [f"{cls.__qualname__}.reset(None) raised LocalisationError: set "
+                                           "needs_prior = True for a pose tracker"]
+    return [f"{cls.__qualname__} has needs_prior = True but reset(None) did not raise LocalisationError"] \
+        if cls.needs_prior else []
+
+
+def check_localiser(cls: Any) -> list[str]:
+    """The problems that keep localiser class `cls` from passing the suite's localiser tests (none: it
+    passes).
+
+    Parameters
+    ----------
+    cls : type
+        A `Localiser` subclass (imported, hence registered).
+
+    Returns
+    -------
+    list of str
+        One sentence per problem, saying what is missing or wrong.
+    """
+    problems = _class_problems(cls)
+    if problems:
+        return problems
+    problems = _params_problems(cls) + _robot_problems(cls)
+    problems += _call("a global start", problems, _global_start_problems, cls) or []
+    return problems + _behaviour_problems(cls)
