@@ -22,7 +22,7 @@ import dataclasses
 import json
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -553,11 +553,19 @@ class ReplayReport:
                      for s in self.steps if s.call == "update" and s.truth is not None and s.truth_heading
                      and s.estimates.get(name) is not None]
             if not pairs:
-                cache[name] = TrajectoryScores(math.nan, math.nan, math.nan, 0)
+                cache[name] = TrajectoryScores.unscored(0, "no estimate after an update has a true pose with a heading")
             else:
                 truth, est = (np.array(x) for x in zip(*pairs, strict=True))
                 cache[name] = score_trajectory(truth, est)
         return cache[name]
+
+    def score_notes(self, name: str) -> dict[str, str | None]:
+        """Why `name`'s APE (``ape_note``) or RPE (``rpe_note``) is missing (None where it is there); empty
+        without true poses."""
+        if not self.has_truth:
+            return {}
+        scores = self.trajectory_scores(name)
+        return {"ape_note": scores.ape_note, "rpe_note": scores.rpe_note}
 
     def to_dict(self) -> dict[str, Any]:
         ref = self.localisers[0]
@@ -567,7 +575,8 @@ class ReplayReport:
                 "live_localiser": None if self.recording.localiser is None else self.recording.localiser.name,
                 "reproduced": self.reproduced, "live_estimates_compared": self.compared,
                 "diverged_at_line": self.diverged, "failures": self.failures,
-                "summary": {k: {kk: _nan_none(vv) for kk, vv in v.items()} for k, v in self.summary().items()},
+                "summary": {k: {**{kk: _nan_none(vv) for kk, vv in v.items()}, **self.score_notes(k)}
+                            for k, v in self.summary().items()},
                 "steps": [s.to_dict(ref) for s in self.steps]}
 
 
@@ -631,8 +640,8 @@ def _build(rec: Recording, name: str, seed: int, extra: Mapping[str, Any]) -> tu
 
 
 def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Prior | None = None,
-           heading: HeadingPrior | None = None,
-           options: Mapping[str, Mapping[str, Any]] | None = None) -> ReplayReport:
+           heading: HeadingPrior | None = None, options: Mapping[str, Mapping[str, Any]] | None = None,
+           on_step: Callable[[], None] | None = None) -> ReplayReport:
     """Run `localisers` (registry names) over the recorded localiser calls; see the module docstring.
 
     `initial` replaces the prior of the recording's first ``reset`` (a pose to start tracking from, for
@@ -641,7 +650,8 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Pri
     sweep set is one). `options` gives, per localiser name, constructor
     options that go on top of the ones it would get (a live localiser given any is a new run, not a
     reproduction; options its constructor refuses raise `NxtnavError`). Each localiser's CPU time
-    (process time of its construction and its calls) is in `ReplayReport.cpu_s`.
+    (process time of its construction and its calls) is in `ReplayReport.cpu_s`. `on_step` is called
+    after each of the recording's localiser calls (`Recording.calls` in all), for a progress bar.
     """
     if not localisers:
         raise NxtnavError("replay: no localiser given")
@@ -730,6 +740,8 @@ def replay(rec: Recording, localisers: list[str], *, seed: int = 0, initial: Pri
             steps.append(ReplayStep(len(steps), line, kind, None if truth is None else truth[0], ests, None,
                                     truth_heading=truth is None or truth[1], label=label))
             pending = (len(steps) - 1, kind)
+            if on_step is not None:
+                on_step()
     compared = sum(1 for s in steps if s.live is not None)
     out_reproduced: dict[str, bool | None] = {
         n: reproduced[n] if n in reproduced and compared else None
