@@ -72,7 +72,7 @@ class BagImport:
     bag : str
     map : str
     scans_in_bag, scans, skipped : int
-        Scan messages in the bag, written, and skipped (no odometry at their stamp).
+        Scan messages in the bag, written, and skipped (no odometry at their stamp, or no reading).
     readings, echoes : int
         Readings written, and how many of them are echoes.
     predicts, truths : int
@@ -150,10 +150,15 @@ def _wrap_array(a: Any) -> np.ndarray:
     return np.asarray((np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi)
 
 
-def _beam_pick(n: int, beams: int) -> np.ndarray:
+def _beam_pick(ranges: np.ndarray, beams: int) -> np.ndarray:
+    """The readings kept of a message: `beams` evenly spread (all for 0) over those taken; a NaN slot
+    holds no measurement (REP 117: erroneous or not taken, as between the windows of a sweep), so
+    it is no reading at all."""
+    taken = np.flatnonzero(~np.isnan(ranges))
+    n = taken.size
     if beams <= 0 or beams >= n:
-        return np.arange(n)
-    return np.unique(np.linspace(0, n - 1, beams).round().astype(np.int64))
+        return taken
+    return taken[np.unique(np.linspace(0, n - 1, beams).round().astype(np.int64))]
 
 
 BASE_FRAMES = ("base_footprint", "base_link")
@@ -323,7 +328,9 @@ def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScann
             sensor, ok = _sensor_pose(data, odo.base, msg.frame, int(stamps[k]))
             if not ok:
                 continue
-            pick = _beam_pick(msg.ranges.size, beams)
+            pick = _beam_pick(msg.ranges, beams)
+            if not pick.size:  # nothing measured (every slot NaN)
+                continue
             motion = np.zeros((pick.size, 3))
             if deskew:
                 at, ok_i = odo.at(msg.times_ns[pick] - scan_delay)

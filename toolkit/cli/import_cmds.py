@@ -101,8 +101,8 @@ def import_bag_cmd(
                         noise=OdometryNoise("botsim", drive, turn), deskew=deskew,
                         scan_delay_s=scan_delay, truth_delay_s=truth_delay, truth_offset=(ox, oy, math.radians(oh)))
     share = result.echoes / result.readings if result.readings else 0.0
-    typer.echo(f"{bag}: {result.scans} of {result.scans_in_bag} scans ({result.skipped} skipped without "
-               f"odometry), {result.readings} readings ({share:.0%} echoes), {result.predicts} motions, "
+    typer.echo(f"{bag}: {result.scans} of {result.scans_in_bag} scans ({result.skipped} skipped: no "
+               f"odometry or no reading), {result.readings} readings ({share:.0%} echoes), {result.predicts} motions, "
                f"{result.truths} true poses, {result.duration_s:.1f} s, {result.odometry_m:.2f} m by odometry")
     typer.echo(f"wrote {output} ({result.lines} lines); score it with: nxtnav replay {output} --localisers A,B "
                f"--initial-pose X,Y,H")

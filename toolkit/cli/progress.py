@@ -93,9 +93,9 @@ PROGRESS_AFTER_S = 2.0
 
 
 @contextmanager
-def progress_after(label: str, total: int, after_s: float = PROGRESS_AFTER_S) -> Iterator[Advance]:
-    """`progress` (transient) that appears only once the work has run `after_s` seconds, counting the
-    tasks finished so far: a command that ends sooner prints nothing.
+def progress_after(label: str, total: int, after_s: float | None = None) -> Iterator[Advance]:
+    """`progress` (transient) that appears only once the work has run `after_s` seconds (default
+    `PROGRESS_AFTER_S`), counting the tasks finished so far: a command that ends sooner prints nothing.
 
     >>> import io, contextlib
     >>> err = io.StringIO()
@@ -105,6 +105,7 @@ def progress_after(label: str, total: int, after_s: float = PROGRESS_AFTER_S) ->
     >>> err.getvalue().splitlines()[-1].startswith("steps: 3/3 (100 %)")
     True
     """
+    wait_s = PROGRESS_AFTER_S if after_s is None else after_s
     started = time.monotonic()
     done = 0
     with ExitStack() as stack:
@@ -115,7 +116,7 @@ def progress_after(label: str, total: int, after_s: float = PROGRESS_AFTER_S) ->
             done += 1
             if shown:
                 shown[0]()
-            elif time.monotonic() - started >= after_s:
+            elif time.monotonic() - started >= wait_s:
                 shown.append(stack.enter_context(progress(label, total, transient=True, done=done - 1)))
                 shown[0]()
 
