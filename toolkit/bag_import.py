@@ -298,10 +298,21 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
     return result
 
 
+def _truth_at(series: PoseSeries | None, t_ns: int, frames_m: tuple[np.ndarray, np.ndarray]) -> Pose | None:
+    """The true pose of the base at `t_ns` (cm, rad) from the truth's `series`, placed by `frames_m` (the
+    truth's frame in the map, the base in the body the truth tracks; m, m, rad); None when unknown."""
+    if series is None:
+        return None
+    pose, known = series.at(np.array([t_ns], dtype=np.int64))
+    if not known[0]:
+        return None
+    g = se2_compose(se2_compose(frames_m[0], pose[0]), frames_m[1])
+    return Pose(float(g[0] * M_TO_CM), float(g[1] * M_TO_CM), float(g[2]))
+
+
 def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScanner, truth_topic: str | None,
            truth_frames_m: tuple[np.ndarray, np.ndarray], every: int, beams: int, deskew: bool,
            noise: OdometryNoise, source: dict[str, Any], delays: tuple[int, int]) -> BagImport:
-    truth_frame_m, truth_offset_m = truth_frames_m  # the truth's frame in the map, the base in the truth's body
     kept = [(i, m) for i, m in enumerate(data.scans) if i % every == 0]
     scan_delay, truth_delay = delays
     stamps = np.array([m.stamp for _, m in kept], dtype=np.int64) - scan_delay  # on the odometry's clock
@@ -345,13 +356,8 @@ def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScann
                     rec.event("predict", turn_rad=float(turn), distance_cm=float(dist))
                     counts["predicts"] += 1
             prev = ref[k]
-            truth = None
-            if truth_series is not None:
-                tp, tok = truth_series.at(np.array([stamps[k] + truth_delay], dtype=np.int64))
-                if tok[0]:
-                    g = se2_compose(se2_compose(truth_frame_m, tp[0]), truth_offset_m)
-                    truth = Pose(float(g[0] * M_TO_CM), float(g[1] * M_TO_CM), float(g[2]))
-                    counts["truths"] += 1
+            truth = _truth_at(truth_series, int(stamps[k]) + truth_delay, truth_frames_m)
+            counts["truths"] += truth is not None
             t_rel = (times - t0) / 1e9
             rec.stamped_scan(scan, (stamps[k] - t0) / 1e9, float(t_rel.max()), truth, times_s=t_rel)
             rec.update_event(scan)
