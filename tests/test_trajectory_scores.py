@@ -91,3 +91,5 @@ def test_missing_scores_say_why() -> None:
     two = score_trajectory(_loop()[:2], _loop()[:2])
     assert two.ape_note == two.rpe_note == "2 true poses; the scores need three or more"
     assert two.to_dict()["rpe_per_m_cm"] is None
+    still = np.tile([20.0, 20.0, 0.5], (5, 1))  # a robot that never moved: nothing to align
+    assert score_trajectory(still, still + 0.3).ape_note == "the true positions are one point: no unique alignment"

@@ -119,7 +119,9 @@ def score_trajectory(truth: ArrayLike, estimate: ArrayLike, stamps: ArrayLike | 
     try:
         aligned.align(ref, correct_scale=False)
     except GeometryException:  # every position on one line: no unique alignment
-        return TrajectoryScores.unscored(n, "the true positions lie on one line: no unique alignment")
+        xy = np.asarray(truth, dtype=float).reshape(-1, 3)[:, :2]
+        where = "are one point" if np.ptp(xy, axis=0).max() < 1e-6 else "lie on one line"
+        return TrajectoryScores.unscored(n, f"the true positions {where}: no unique alignment")
     rpe, rpe_note = _rpe(ref, est, RPE_DELTA_M)
     ape_t = metrics.APE(metrics.PoseRelation.translation_part)
     ape_t.process_data((ref, aligned))

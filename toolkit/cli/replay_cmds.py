@@ -93,7 +93,8 @@ def replay_cmd(
                        f"{cell(r['final_error_cm'])} | {cell(r['final_heading_error_deg'])} | "
                        f"{cell(r['median_spread_cm'])} | {cell(r['ape_rmse_cm'])} | "
                        f"{cell(r['ape_heading_rmse_deg'])} | {cell(r['rpe_per_m_cm'])} | {cell(r['cpu_s'])} |")
-        _explain_missing_scores(report)
+        if report.truth_heading:  # else the line above says why the scores are missing
+            _explain_missing_scores(report)
     else:
         typer.echo(f"| localiser | updates | median distance to {names[0]} (cm) | largest (cm) | median spread (cm) "
                    "| CPU (s) |")
