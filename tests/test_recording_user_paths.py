@@ -156,6 +156,17 @@ def _scans_of(bag: Path) -> list[Any]:
         return [store.deserialize_cdr(raw, c.msgtype) for c, _, raw in reader.messages() if c.topic == "/scan"]
 
 
+def _mcap_scans_of(bag: Path) -> list[Any]:
+    """The same, decoded by the mcap package's reader and its ROS 2 decoder (mcap-ros2-support)."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    (file,) = bag.glob("*.mcap")
+    with file.open("rb") as fh:
+        return [decoded for _, channel, _, decoded in make_reader(fh, decoder_factories=[DecoderFactory()])
+                .iter_decoded_messages(log_time_order=True) if channel.topic == "/scan"]
+
+
 def test_nxt_scans_obey_their_limits_as_rep_117_says(work: Path) -> None:
     """Every finite /scan range lies within [range_min, range_max], the NXT model's 6 and 255 cm; a
     reading under 6 cm (the NXT's noise there) is -inf, no echo +inf, one for one with the recording."""
@@ -166,10 +177,10 @@ def test_nxt_scans_obey_their_limits_as_rep_117_says(work: Path) -> None:
     assert _nxtnav("export", "nxt.jsonl", "--mcap", "nxt-bag", cwd=work).returncode == 0
     model = NxtSonar()
     scans = [scan_from_fields(e) for _, e in read_recording(work / "nxt.jsonl").events if e["type"] == "scan"]
-    messages = _scans_of(work / "nxt-bag")
-    assert len(messages) == len(scans) > 0
+    readers = [_scans_of(work / "nxt-bag"), _mcap_scans_of(work / "nxt-bag")]
+    assert len(readers[0]) == len(readers[1]) == len(scans) > 0
     close = 0
-    for scan, msg in zip(scans, messages, strict=True):
+    for scan, msg in ((s, m) for messages in readers for s, m in zip(scans, messages, strict=True)):
         assert (msg.range_min, msg.range_max) == pytest.approx((model.min_range_cm / 100, model.max_range_cm / 100),
                                                                rel=F32)
         ranges = np.asarray(msg.ranges, dtype=np.float64)
