@@ -154,17 +154,47 @@ def test_estimates_and_clouds_equal_the_recording(recording: Path,
             assert np.array_equal(w, decode_floats(rec["weights"])) and w.sum() == pytest.approx(1.0)
 
 
+def _expected_truth_and_odometry(recording: Path) -> tuple[list[tuple[float, Any]], list[tuple[float, Any]]]:
+    """(robot time s, pose) of every true pose and odometry pose the export publishes, in time order.
+
+    Truth: after each robot event, and a sweep's also at its first reading (the robot stands while it
+    sweeps). Odometry: the motions the localiser was told, added up (turn, then drive) from the
+    origin, after each, and the pose of the moment at each sweep's first and last reading."""
+    truths: list[tuple[float, Any]] = []
+    odometry: list[tuple[float, Any]] = []
+    t = x = y = th = 0.0
+    for _, e in read_recording(recording).events:
+        if e["type"] in ("turn", "move", "turnback"):
+            t = e["t"]
+            if e.get("true_pose") is not None:
+                truths.append((t, e["true_pose"]))
+        elif e["type"] == "scan":
+            times = decode_floats(e["times_s"])
+            first, last = float(times.min()), float(times.max())
+            for when in sorted({first, last}):
+                odometry.append((when, (x, y, th)))
+            if e.get("true_pose") is not None:
+                truths += [(first, e["true_pose"]), (e["t"], e["true_pose"])]
+            t = e["t"]
+        elif e["type"] == "predict":
+            th += e["turn_rad"]
+            x, y = x + e["distance_cm"] * math.cos(th), y + e["distance_cm"] * math.sin(th)
+            odometry.append((t, (x, y, th)))
+    return sorted(truths, key=lambda p: p[0]), sorted(odometry, key=lambda p: p[0])
+
+
 def test_truth_plan_and_odometry_equal_the_recording(recording: Path,
                                                      both: list[dict[str, list[tuple[int, Any]]]]) -> None:
-    rec = read_recording(recording)
-    truths = [e["true_pose"] for _, e in rec.events if e["type"] in ("turn", "move", "turnback", "scan")
-              and e.get("true_pose") is not None]
+    truths, odometry = _expected_truth_and_odometry(recording)
     plans = _events(recording, "plan")
-    predicts = _events(recording, "predict")
+    assert len(odometry) == len(_events(recording, "predict")) + 2 * len(_events(recording, "scan"))
     for topics in both:
-        got = [m.pose.pose for _, m in topics["/ground_truth"]]
+        start = topics["/map"][0][0]
+        got = topics["/ground_truth"]
         assert len(got) == len(truths)
-        for (x, y, th), p in zip(truths, got, strict=True):
+        for (when, (x, y, th)), (ns, m) in zip(truths, got, strict=True):
+            p = m.pose.pose
+            assert ns - start == round(when * 1e9)
             assert (p.position.x * 100.0, p.position.y * 100.0) == pytest.approx((x, y), rel=1e-15, abs=1e-12)
             assert abs(float(angle_diff(_yaw(p.orientation), th))) < 1e-12
         paths = [m for _, m in topics["/plan"]]
@@ -172,14 +202,11 @@ def test_truth_plan_and_odometry_equal_the_recording(recording: Path,
         for e, path in zip(plans, paths, strict=True):
             xy = np.array([[q.pose.position.x * 100.0, q.pose.position.y * 100.0] for q in path.poses])
             assert np.allclose(xy, np.array(e["path"], dtype=float), rtol=1e-15, atol=1e-12)
-        # odometry: the motions the localiser was told, added up (turn, then drive) from the origin
-        x = y = th = 0.0
-        odo = [m for _, m in topics["/odom"]]
-        assert len(odo) == len(predicts)
-        for e, m in zip(predicts, odo, strict=True):
-            th += e["turn_rad"]
-            x, y = x + e["distance_cm"] * math.cos(th), y + e["distance_cm"] * math.sin(th)
+        odo = topics["/odom"]
+        assert len(odo) == len(odometry)
+        for (when, (x, y, th)), (ns, m) in zip(odometry, odo, strict=True):
             p = m.pose.pose
+            assert ns - start == round(when * 1e9)
             assert (p.position.x * 100.0, p.position.y * 100.0) == pytest.approx((x, y), abs=1e-9)
             assert abs(float(angle_diff(_yaw(p.orientation), th))) < 1e-9
             assert (m.header.frame_id, m.child_frame_id) == ("odom", "base_link")

@@ -75,3 +75,21 @@ def test_a_constant_heading_offset_shows_over_every_pair() -> None:
         assert translation == pytest.approx(2 * math.sin(math.radians(0.25)) * 100 * delta_m, rel=0.02)
         assert rotation == pytest.approx(0.0, abs=1e-6)
     assert score_trajectory(truth, est).rpe_per_m_cm == pytest.approx(relative_pose_error(truth, est)[0])
+
+
+def test_missing_scores_say_why() -> None:
+    """Every NaN comes with its reason: a path shorter than a metre, poses too sparse to hold a pair a
+    metre apart (evo raises for those), fewer than three poses."""
+    short = _loop()[:5] * np.array([0.01, 0.01, 1.0])
+    scores = score_trajectory(short, short)
+    assert math.isnan(scores.rpe_per_m_cm) and "shorter than the 1 m" in (scores.rpe_note or "")
+    assert scores.ape_note is None and math.isfinite(scores.ape_rmse_cm)
+    sparse = _loop(5)  # five poses round a loop of about 16 m: no two 1 m apart within 10 %
+    scores = score_trajectory(sparse, sparse)
+    assert math.isnan(scores.rpe_per_m_cm) and "no two of the 5 true poses lie 1 m apart" in (scores.rpe_note or "")
+    assert score_trajectory(_loop(), _loop()).rpe_note is None
+    two = score_trajectory(_loop()[:2], _loop()[:2])
+    assert two.ape_note == two.rpe_note == "2 true poses; the scores need three or more"
+    assert two.to_dict()["rpe_per_m_cm"] is None
+    still = np.tile([20.0, 20.0, 0.5], (5, 1))  # a robot that never moved: nothing to align
+    assert score_trajectory(still, still + 0.3).ape_note == "the true positions are one point: no unique alignment"

@@ -37,13 +37,16 @@ from typing import Any
 
 import numpy as np
 
-from .bag_reader import BagData, BagError, LaserScanMsg, read_bag, se2_compose, se2_inverse
+from .bag_reader import BagData, BagError, LaserScanMsg, PoseSeries, read_bag, se2_compose, se2_inverse
 from .recording import Recorder
 from .world import LaserScanner, Map, Pose, Scan
 
 __all__ = ["BagImport", "OdometryNoise", "import_bag", "odometry_motions", "rebase_scan"]
 
 M_TO_CM = 100.0
+MAX_GAP_S = PoseSeries.max_gap_ns / 1e9
+"""Longest gap between two odometry samples that a pose is interpolated across (s), unless both are the
+same pose (`toolkit.bag_reader.PoseSeries`)."""
 
 
 @dataclass(frozen=True)
@@ -69,7 +72,7 @@ class BagImport:
     bag : str
     map : str
     scans_in_bag, scans, skipped : int
-        Scan messages in the bag, written, and skipped (no odometry at their stamp).
+        Scan messages in the bag, written, and skipped (no odometry at their stamp, or no reading).
     readings, echoes : int
         Readings written, and how many of them are echoes.
     predicts, truths : int
@@ -147,32 +150,64 @@ def _wrap_array(a: Any) -> np.ndarray:
     return np.asarray((np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi)
 
 
-def _beam_pick(n: int, beams: int) -> np.ndarray:
+def _beam_pick(ranges: np.ndarray, beams: int) -> np.ndarray:
+    """The readings kept of a message: `beams` evenly spread (all for 0) over those taken; a NaN slot
+    holds no measurement (REP 117: erroneous or not taken, as between the windows of a sweep), so
+    it is no reading at all."""
+    taken = np.flatnonzero(~np.isnan(ranges))
+    n = taken.size
     if beams <= 0 or beams >= n:
-        return np.arange(n)
-    return np.unique(np.linspace(0, n - 1, beams).round().astype(np.int64))
+        return taken
+    return taken[np.unique(np.linspace(0, n - 1, beams).round().astype(np.int64))]
+
+
+BASE_FRAMES = ("base_footprint", "base_link")
+"""The robot's frame when none is named, in this order of preference: REP 105's two names for it."""
+
+
+def _base_frame(data: BagData, odom_frame: str) -> str:
+    """The first of `BASE_FRAMES` that ``/tf`` links to `odom_frame`; an error listing the frames there
+    when none is."""
+    for name in BASE_FRAMES:
+        if data.tf.chain(odom_frame, name) is not None:
+            return name
+    names = " or ".join(map(repr, BASE_FRAMES))
+    raise BagError(f"{data.path}: no transform chain in /tf from {odom_frame!r} to {names}; frames there: "
+                   f"{', '.join(data.tf.frames) or 'none'} (name the robot's with --base-frame)")
 
 
 class _Odometry:
-    """Base poses in the odometry frame (m, rad) at any time: from a topic or from /tf."""
+    """Base poses in the odometry frame (m, rad) at any time: from a topic or from /tf. `label` says
+    which in words; `source` is the same for the recording's header."""
 
-    def __init__(self, data: BagData, topic: str | None, odom_frame: str, base_frame: str) -> None:
+    def __init__(self, data: BagData, topic: str | None, odom_frame: str, base_frame: str | None) -> None:
+        self._series: list[PoseSeries]
         if topic is not None:
             series = data.poses[topic]
-            self.frame, self.base = series.frame or odom_frame, series.child or base_frame
+            self.frame, self.base = series.frame or odom_frame, series.child or base_frame or BASE_FRAMES[0]
             self._at: Callable[[Any], tuple[np.ndarray, np.ndarray]] = series.at
             self.source: dict[str, Any] = {"topic": topic, "frame": self.frame, "base_frame": self.base}
+            self.label = f"topic {topic} ({self.frame} -> {self.base})"
+            self._series = [series]
         else:
-            self.frame, self.base = odom_frame, base_frame
             if not data.tf.edges:
-                raise BagError(f"{data.path}: no /tf or /tf_static messages for odometry from {odom_frame!r} to "
-                               f"{base_frame!r}; give --odom-topic")
-            data.tf.lookup(odom_frame, base_frame, np.zeros(0, dtype=np.int64))  # the chain must exist
-            self._at = lambda t: data.tf.lookup(odom_frame, base_frame, t)
-            self.source = {"tf": f"{odom_frame} -> {base_frame}", "frame": odom_frame, "base_frame": base_frame}
+                raise BagError(f"{data.path}: no /tf or /tf_static messages for odometry from {odom_frame!r}; "
+                               f"give --odom-topic")
+            base = base_frame if base_frame is not None else _base_frame(data, odom_frame)
+            self.frame, self.base = odom_frame, base
+            data.tf.lookup(odom_frame, base, np.zeros(0, dtype=np.int64))  # the chain must exist
+            self._at = lambda t: data.tf.lookup(odom_frame, base, t)
+            self.source = {"tf": f"{odom_frame} -> {base}", "frame": odom_frame, "base_frame": base}
+            self.label = f"/tf {odom_frame} -> {base}"
+            self._series = [data.tf.edges[e] for e in data.tf.chain(odom_frame, base) or []
+                            if e not in data.tf.static]
 
     def at(self, t_ns: Any) -> tuple[np.ndarray, np.ndarray]:
         return self._at(t_ns)
+
+    def describe(self) -> str:
+        """Its samples in words (count, span, largest gap), for an error."""
+        return "; ".join(s.describe() for s in self._series) or "static transforms only"
 
 
 def _sensor_pose(data: BagData, base: str, frame: str, t_ns: int) -> tuple[np.ndarray, bool]:
@@ -193,7 +228,7 @@ def _degrees(pose: tuple[float, float, float]) -> list[float]:
 
 
 def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, odom_topic: str | None = None,
-               odom_frame: str = "odom", base_frame: str = "base_footprint", truth_topic: str | None = None,
+               odom_frame: str = "odom", base_frame: str | None = None, truth_topic: str | None = None,
                every: int = 1, beams: int = 0, truth_frame: tuple[float, float, float] = (0.0, 0.0, 0.0),
                range_noise_cm: float = 2.0, noise: OdometryNoise | None = None, deskew: bool = True,
                scan_delay_s: float = 0.0, truth_delay_s: float = 0.0,
@@ -204,6 +239,8 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
     ----------
     scan_topic, odom_topic, truth_topic : str
         Topics of the scans, the odometry (None: ``/tf`` from `odom_frame` to `base_frame`), the truth.
+    base_frame : str or None
+        The robot's frame; None: the first of `BASE_FRAMES` in ``/tf`` (an odometry topic names its own).
     every : int
         Keep every `every`-th scan message.
     beams : int
@@ -252,23 +289,38 @@ def import_bag(bag: str | Path, map: Map, out: str | Path, *, scan_topic: str, o
         result = _write(data, map, tmp, odo, laser, truth_topic, truth_frames_m, every, beams, deskew,
                         noise or OdometryNoise(), source, delays)
         os.replace(tmp, target)
+    except OSError as exc:  # named by the user's path, not the temporary file's
+        tmp.unlink(missing_ok=True)
+        raise BagError(f"cannot write the recording {target}: {exc.strerror or exc}") from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     return result
 
 
+def _truth_at(series: PoseSeries | None, t_ns: int, frames_m: tuple[np.ndarray, np.ndarray]) -> Pose | None:
+    """The true pose of the base at `t_ns` (cm, rad) from the truth's `series`, placed by `frames_m` (the
+    truth's frame in the map, the base in the body the truth tracks; m, m, rad); None when unknown."""
+    if series is None:
+        return None
+    pose, known = series.at(np.array([t_ns], dtype=np.int64))
+    if not known[0]:
+        return None
+    g = se2_compose(se2_compose(frames_m[0], pose[0]), frames_m[1])
+    return Pose(float(g[0] * M_TO_CM), float(g[1] * M_TO_CM), float(g[2]))
+
+
 def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScanner, truth_topic: str | None,
            truth_frames_m: tuple[np.ndarray, np.ndarray], every: int, beams: int, deskew: bool,
            noise: OdometryNoise, source: dict[str, Any], delays: tuple[int, int]) -> BagImport:
-    truth_frame_m, truth_offset_m = truth_frames_m  # the truth's frame in the map, the base in the truth's body
     kept = [(i, m) for i, m in enumerate(data.scans) if i % every == 0]
     scan_delay, truth_delay = delays
     stamps = np.array([m.stamp for _, m in kept], dtype=np.int64) - scan_delay  # on the odometry's clock
     ref, known = odo.at(stamps)
     if not known.any():
-        raise BagError(f"{data.path}: no odometry ({odo.source}) at the stamps of the scans on "
-                       f"{source['scan_topic']!r}")
+        raise BagError(f"{data.path}: no odometry from {odo.label} at the stamps of the scans on "
+                       f"{source['scan_topic']!r} ({odo.describe()}; a scan needs two samples around its stamp at "
+                       f"most {MAX_GAP_S:g} s apart)")
     t0 = int(stamps[known][0])
     source = {**source, "time_origin_ns": t0}
     rec = Recorder(tmp, map=map, robot={"kind": "ros", "imported": "ros-bag", "base_frame": odo.base},
@@ -287,7 +339,9 @@ def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScann
             sensor, ok = _sensor_pose(data, odo.base, msg.frame, int(stamps[k]))
             if not ok:
                 continue
-            pick = _beam_pick(msg.ranges.size, beams)
+            pick = _beam_pick(msg.ranges, beams)
+            if not pick.size:  # nothing measured (every slot NaN)
+                continue
             motion = np.zeros((pick.size, 3))
             if deskew:
                 at, ok_i = odo.at(msg.times_ns[pick] - scan_delay)
@@ -302,13 +356,8 @@ def _write(data: BagData, map: Map, tmp: Path, odo: _Odometry, laser: LaserScann
                     rec.event("predict", turn_rad=float(turn), distance_cm=float(dist))
                     counts["predicts"] += 1
             prev = ref[k]
-            truth = None
-            if truth_series is not None:
-                tp, tok = truth_series.at(np.array([stamps[k] + truth_delay], dtype=np.int64))
-                if tok[0]:
-                    g = se2_compose(se2_compose(truth_frame_m, tp[0]), truth_offset_m)
-                    truth = Pose(float(g[0] * M_TO_CM), float(g[1] * M_TO_CM), float(g[2]))
-                    counts["truths"] += 1
+            truth = _truth_at(truth_series, int(stamps[k]) + truth_delay, truth_frames_m)
+            counts["truths"] += truth is not None
             t_rel = (times - t0) / 1e9
             rec.stamped_scan(scan, (stamps[k] - t0) / 1e9, float(t_rel.max()), truth, times_s=t_rel)
             rec.update_event(scan)

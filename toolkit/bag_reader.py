@@ -79,7 +79,9 @@ class PoseSeries:
     """Planar poses over time: `stamps` (ns, ascending), `poses` (n, 3: x m, y m, yaw rad).
 
     `at` interpolates linearly (the yaw along the shorter way) between the two samples around a time;
-    a time outside the samples, or between two samples more than `max_gap_ns` apart, has no pose.
+    a time outside the samples, or between two samples more than `max_gap_ns` apart, has no pose,
+    unless those two samples are the same pose: the robot stood still between them (a driver that
+    publishes only on motion, or a robot that stands while its sensor sweeps), however long.
     """
 
     frame: str
@@ -102,6 +104,14 @@ class PoseSeries:
     def __len__(self) -> int:
         return int(self.stamps.size)
 
+    def describe(self) -> str:
+        """Its time span and largest gap between samples, in words (s from its first sample)."""
+        if self.stamps.size == 0:
+            return "no samples"
+        span = (self.stamps[-1] - self.stamps[0]) / 1e9
+        gap = float(np.diff(self.stamps).max()) / 1e9 if self.stamps.size > 1 else 0.0
+        return f"{self.stamps.size} samples over {span:.1f} s, gaps up to {gap:.2f} s"
+
     def at(self, t_ns: Any) -> tuple[FloatArray, NDArray[np.bool_]]:
         """Poses (m, m, rad) at times `t_ns` (ns), shape (..., 3), and whether each is known."""
         t = np.asarray(t_ns, dtype=np.int64)
@@ -113,9 +123,10 @@ class PoseSeries:
             return np.broadcast_to(self.poses[0], (*t.shape, 3)).copy(), same
         j = np.clip(np.searchsorted(self.stamps, t, side="right"), 1, n - 1)
         t0, t1 = self.stamps[j - 1], self.stamps[j]
-        known = (t >= self.stamps[0]) & (t <= self.stamps[-1]) & ((t1 - t0) <= self.max_gap_ns)
-        f = ((t - t0) / np.maximum(t1 - t0, 1)).astype(float)[..., None]
         p0, p1 = self.poses[j - 1], self.poses[j]
+        still = np.all(p0 == p1, axis=-1)
+        known = (t >= self.stamps[0]) & (t <= self.stamps[-1]) & (((t1 - t0) <= self.max_gap_ns) | still)
+        f = ((t - t0) / np.maximum(t1 - t0, 1)).astype(float)[..., None]
         d = p1 - p0
         d[..., 2] = _wrap(d[..., 2])
         out = p0 + f * d

@@ -7,13 +7,15 @@ from pathlib import Path
 import typer
 
 from .app import app
+from .options import shipped
 
 __all__: list[str] = []
 
 
 @app.command("export")
 def export_cmd(
-    recording: Path = typer.Argument(..., metavar="REC.jsonl", help="A recording (nxtnav run --record)."),
+    recording: Path = typer.Argument(..., metavar="REC.jsonl", callback=shipped,
+                                     help="A recording (nxtnav run --record)."),
     mcap: Path = typer.Option(..., "--mcap", metavar="DIR",
                               help="The rosbag2 folder to write (new or empty): MCAP storage, CDR messages."),
     grid_cm: float = typer.Option(1.0, "--grid-cm", min=0.1, metavar="CM", help="Cell size of the /map grid (cm)."),
@@ -22,8 +24,10 @@ def export_cmd(
 ) -> None:
     """Write a recording as a ROS 2 bag with nav2's topics and REP-105 frames (docs/recording.md)."""
     from ..ros2_export import export_mcap
+    from .replay_cmds import warn_cut_short
 
     summary = export_mcap(recording, mcap, resolution_cm=grid_cm, particles=particles)
+    warn_cut_short(summary.truncated)
     for topic, (kind, n) in summary.topics.items():
         typer.echo(f"{topic:16s} {kind:45s} {n:6d}")
     if summary.moved_scans:

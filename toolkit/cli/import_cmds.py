@@ -40,7 +40,8 @@ def import_sweeps(
 
 @import_app.command("bag")
 def import_bag_cmd(
-    bag: Path = typer.Argument(..., metavar="BAG", help="A ROS 1 .bag, or a ROS 2 bag (.db3 or .mcap, or its folder)."),
+    bag: Path = typer.Argument(..., metavar="BAG", callback=shipped,
+                               help="A ROS 1 .bag, or a ROS 2 bag (.db3 or .mcap, or its folder)."),
     map_file: str = typer.Option(..., "--map", metavar="MAP.yaml",
                                  help="The map the robot drove in (a ROS map_server YAML, or any nxtnav map)."),
     scan_topic: str = typer.Option(..., "--scan-topic", metavar="TOPIC",
@@ -49,8 +50,9 @@ def import_bag_cmd(
                                           help="nav_msgs/Odometry messages (default: /tf from --odom-frame to "
                                                "--base-frame)."),
     odom_frame: str = typer.Option("odom", "--odom-frame", metavar="FRAME", help="Odometry frame in /tf."),
-    base_frame: str = typer.Option("base_footprint", "--base-frame", metavar="FRAME",
-                                   help="The robot's frame in /tf: the pose the localisers track."),
+    base_frame: str | None = typer.Option(None, "--base-frame", metavar="FRAME",
+                                          help="The robot's frame in /tf: the pose the localisers track (default: "
+                                               "base_footprint, or base_link when /tf has no base_footprint)."),
     truth_topic: str | None = typer.Option(None, "--truth-topic", metavar="TOPIC",
                                            help="Ground-truth poses (geometry_msgs/PoseStamped, "
                                                 "PoseWithCovarianceStamped or nav_msgs/Odometry)."),
@@ -99,8 +101,8 @@ def import_bag_cmd(
                         noise=OdometryNoise("botsim", drive, turn), deskew=deskew,
                         scan_delay_s=scan_delay, truth_delay_s=truth_delay, truth_offset=(ox, oy, math.radians(oh)))
     share = result.echoes / result.readings if result.readings else 0.0
-    typer.echo(f"{bag}: {result.scans} of {result.scans_in_bag} scans ({result.skipped} skipped without "
-               f"odometry), {result.readings} readings ({share:.0%} echoes), {result.predicts} motions, "
+    typer.echo(f"{bag}: {result.scans} of {result.scans_in_bag} scans ({result.skipped} skipped: no "
+               f"odometry or no reading), {result.readings} readings ({share:.0%} echoes), {result.predicts} motions, "
                f"{result.truths} true poses, {result.duration_s:.1f} s, {result.odometry_m:.2f} m by odometry")
     typer.echo(f"wrote {output} ({result.lines} lines); score it with: nxtnav replay {output} --localisers A,B "
                f"--initial-pose X,Y,H")

@@ -11,10 +11,10 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from typing import TextIO
 
-__all__ = ["LineProgress", "progress"]
+__all__ = ["LineProgress", "progress", "progress_after"]
 
 Advance = Callable[..., None]
 """Called once per finished task (any arguments are ignored, so it can be an ``on_done`` callback)."""
@@ -35,9 +35,9 @@ class LineProgress:
         Longest quiet spell between two lines while tasks finish (s).
     """
 
-    def __init__(self, label: str, total: int, stream: TextIO, every_s: float = 30.0) -> None:
+    def __init__(self, label: str, total: int, stream: TextIO, every_s: float = 30.0, done: int = 0) -> None:
         self.label, self.total, self.stream, self.every_s = label, total, stream, every_s
-        self.done = 0
+        self.done = done
         self._t0 = self._last_t = time.monotonic()
         self._last_tenth = -1
 
@@ -53,8 +53,9 @@ class LineProgress:
 
 
 @contextmanager
-def progress(label: str, total: int, *, transient: bool = False) -> Iterator[Advance]:
-    """Report the progress of `total` tasks on stderr; yields the function to call as each finishes.
+def progress(label: str, total: int, *, transient: bool = False, done: int = 0) -> Iterator[Advance]:
+    """Report the progress of `total` tasks on stderr, `done` of them already finished; yields the
+    function to call as each finishes.
 
     On a terminal a live bar (removed at the end when `transient`); otherwise `LineProgress`.
 
@@ -70,7 +71,7 @@ def progress(label: str, total: int, *, transient: bool = False) -> Iterator[Adv
 
     console = Console(file=sys.stderr)
     if not console.is_terminal:
-        yield LineProgress(label, total, sys.stderr).advance
+        yield LineProgress(label, total, sys.stderr, done=done).advance
         return
     from rich.progress import (
         BarColumn,
@@ -83,5 +84,40 @@ def progress(label: str, total: int, *, transient: bool = False) -> Iterator[Adv
 
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TextColumn("eta"), TimeRemainingColumn(), console=console, transient=transient) as bar:
-        task = bar.add_task(label, total=total)
+        task = bar.add_task(label, total=total, completed=done)
         yield lambda *_: bar.advance(task)
+
+
+PROGRESS_AFTER_S = 2.0
+"""How long work runs before `progress_after` shows its progress (s)."""
+
+
+@contextmanager
+def progress_after(label: str, total: int, after_s: float | None = None) -> Iterator[Advance]:
+    """`progress` (transient) that appears only once the work has run `after_s` seconds (default
+    `PROGRESS_AFTER_S`), counting the tasks finished so far: a command that ends sooner prints nothing.
+
+    >>> import io, contextlib
+    >>> err = io.StringIO()
+    >>> with contextlib.redirect_stderr(err), progress_after("steps", 3, after_s=0.0) as advance:
+    ...     for _ in range(3):
+    ...         advance()
+    >>> err.getvalue().splitlines()[-1].startswith("steps: 3/3 (100 %)")
+    True
+    """
+    wait_s = PROGRESS_AFTER_S if after_s is None else after_s
+    started = time.monotonic()
+    done = 0
+    with ExitStack() as stack:
+        shown: list[Advance] = []
+
+        def advance(*_: object) -> None:
+            nonlocal done
+            done += 1
+            if shown:
+                shown[0]()
+            elif time.monotonic() - started >= wait_s:
+                shown.append(stack.enter_context(progress(label, total, transient=True, done=done - 1)))
+                shown[0]()
+
+        yield advance

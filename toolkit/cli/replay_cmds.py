@@ -10,13 +10,23 @@ import typer
 
 from ..formats import cell
 from .app import app
-from .options import parse_floats, parse_heading_prior, parse_list
+from .options import parse_floats, parse_heading_prior, parse_list, shipped
+from .progress import progress_after
 from .set_options import localiser_sets
 
 if TYPE_CHECKING:
     from localisation.base import Prior
 
-__all__: list[str] = []
+    from ..replay import ReplayReport
+
+__all__ = ["warn_cut_short"]
+
+
+def warn_cut_short(truncated: str | None) -> None:
+    """The one warning of every command that reads a recording cut short (`Recording.truncated`: where it
+    breaks): the command goes on with what was read up to there."""
+    if truncated:
+        typer.echo(f"nxtnav: warning: {truncated}; only what comes before is used", err=True)
 
 
 def _localiser_names() -> list[str]:
@@ -27,7 +37,7 @@ def _localiser_names() -> list[str]:
 
 @app.command("replay")
 def replay_cmd(
-    recording: Path = typer.Argument(..., metavar="FILE.jsonl",
+    recording: Path = typer.Argument(..., metavar="FILE.jsonl", callback=shipped,
                                      help="A recording (nxtnav run --record, nxtnav import)."),
     localisers_text: str = typer.Option("", "--localisers", metavar="A,B,...",
                                         help="Localisers to compare (default: the one used live)."),
@@ -58,15 +68,15 @@ def replay_cmd(
     prior = _initial_prior(initial_pose) if initial_pose is not None else None
     heading = parse_heading_prior(initial_heading, "--initial-heading")
     rec = read_recording(recording)
-    if rec.truncated:
-        typer.echo(f"nxtnav: warning: {rec.truncated}", err=True)
+    warn_cut_short(rec.truncated)
     names = parse_list(localisers_text, "--localisers", _localiser_names()) if localisers_text.strip() else []
     if not names:
         if rec.localiser is None:
             raise typer.BadParameter(f"{recording} names no localiser; give --localisers", param_hint="--localisers")
         names = [rec.localiser.name]
     options = localiser_sets(sets, names)
-    report = replay(rec, names, seed=seed, initial=prior, heading=heading, options=options)
+    with progress_after("replay", rec.calls) as advance:
+        report = replay(rec, names, seed=seed, initial=prior, heading=heading, options=options, on_step=advance)
     live = rec.localiser.name if rec.localiser else "none"
     typer.echo(f"{recording}: map {rec.map.name}, robot {rec.header['robot'].get('kind')}, sonar "
                f"{rec.header['sonar'].get('model')}, live localiser {live}, {rec.calls} localiser calls, "
@@ -83,6 +93,8 @@ def replay_cmd(
                        f"{cell(r['final_error_cm'])} | {cell(r['final_heading_error_deg'])} | "
                        f"{cell(r['median_spread_cm'])} | {cell(r['ape_rmse_cm'])} | "
                        f"{cell(r['ape_heading_rmse_deg'])} | {cell(r['rpe_per_m_cm'])} | {cell(r['cpu_s'])} |")
+        if report.truth_heading:  # else the line above says why the scores are missing
+            _explain_missing_scores(report)
     else:
         typer.echo(f"| localiser | updates | median distance to {names[0]} (cm) | largest (cm) | median spread (cm) "
                    "| CPU (s) |")
@@ -112,6 +124,24 @@ def replay_cmd(
 
         save_figure(draw_replay(report), output)
         typer.echo(f"wrote {output}")
+
+
+def _explain_missing_scores(report: ReplayReport) -> None:
+    """One line per reason a score of the table is "–"; the reasons are the truth's, so usually the same
+    for every localiser: said once, naming the localisers."""
+    reasons: dict[tuple[str, str], list[str]] = {}
+    for name in report.localisers:
+        notes = report.score_notes(name)
+        ape, rpe = notes.get("ape_note"), notes.get("rpe_note")
+        if ape and ape == rpe:
+            reasons.setdefault(("APE and RPE", ape), []).append(name)
+            continue
+        for column, note in (("APE", ape), ("RPE", rpe)):
+            if note:
+                reasons.setdefault((column, note), []).append(name)
+    for (column, note), names in reasons.items():
+        who = "every localiser" if len(names) == len(report.localisers) > 1 else ", ".join(names)
+        typer.echo(f"{column} – for {who}: {note}")
 
 
 def _initial_prior(text: str) -> Prior:

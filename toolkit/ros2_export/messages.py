@@ -19,7 +19,8 @@ from .grid import OccupancyGrid
 from .typestore import PARTICLE, PARTICLE_CLOUD, typestore
 
 __all__ = ["ANGLE_TOLERANCE_RAD", "FRAMES", "ExportError", "covariance_6x6", "header", "laser_scan", "occupancy_grid",
-           "particle_cloud", "path_msg", "pose_msg", "pose_with_covariance", "quaternion", "transform", "yaw_of"]
+           "particle_cloud", "path_msg", "pose_msg", "pose_with_covariance", "quaternion", "rep117_ranges", "transform",
+           "yaw_of"]
 
 FloatArray = NDArray[np.float64]
 
@@ -172,17 +173,19 @@ def laser_scan(ns: int, scan: Scan, times: FloatArray, duration_s: float, offset
     """``sensor_msgs/LaserScan`` of one sweep in the sonar frame.
 
     The readings sit in slots ``angle_min + k * angle_increment``: a sweep with windows (readings
-    only near some directions) leaves the slots between them at NaN (no reading taken); a reading
-    without an echo is +inf (REP 117); a range is the reading plus the sensor's offset from the
-    turret axis, in metres. `ns` is the time of the first reading; ``time_increment`` the median
-    time between readings in neighbouring slots; ``scan_time`` the sweep's whole duration. Returns
-    the message and how far a reading was moved to its slot (rad; `_slots`).
+    only near some directions) leaves the slots between them at NaN (no reading taken); a range is
+    the reading plus the sensor's offset from the turret axis, in metres. ``range_min`` and
+    ``range_max`` are the sensor's limits `range_min_cm` and `range_max_cm` (measured from the sensor)
+    moved by the same offset, and every finite range lies within them (REP 117): a reading without an
+    echo, or beyond the limit, is +inf; an echo closer than the sensor can measure (the NXT's readings
+    under its ``min_range_cm`` are noise) is -inf. `ns` is the time of the first reading;
+    ``time_increment`` the median time between readings in neighbouring slots; ``scan_time`` the
+    sweep's whole duration. Returns the message and how far a reading was moved to its slot (rad; `_slots`).
     """
     angles = np.asarray(scan.angles, dtype=float)
     a0, inc, k, moved = _slots(angles, where)
     slots = np.full(int(k[-1]) + 1, np.nan)
-    valid = np.asarray(scan.valid, dtype=bool) & np.isfinite(scan.ranges)
-    slots[k] = np.where(valid, (np.asarray(scan.ranges, dtype=float) + offset_cm) / 100.0, np.inf)
+    slots[k] = rep117_ranges(scan, offset_cm, range_min_cm, range_max_cm)
     t = np.asarray(times, dtype=float)
     dk = np.diff(k)
     # time per slot: from readings in neighbouring slots, or (a subdivided grid has none) from all of them
@@ -190,9 +193,32 @@ def laser_scan(ns: int, scan: Scan, times: FloatArray, duration_s: float, offset
     dt = float(np.median(np.diff(t)[pairs] / dk[pairs])) if pairs.any() else 0.0
     message = _t("sensor_msgs/msg/LaserScan")(
         header=header(ns, FRAMES["sonar"]), angle_min=a0, angle_max=a0 + float(k[-1]) * inc, angle_increment=inc,
-        time_increment=dt, scan_time=float(duration_s), range_min=range_min_cm / 100.0,
-        range_max=range_max_cm / 100.0, ranges=slots.astype(np.float32), intensities=np.zeros(0, dtype=np.float32))
+        time_increment=dt, scan_time=float(duration_s), range_min=(range_min_cm + offset_cm) / 100.0,
+        range_max=(range_max_cm + offset_cm) / 100.0, ranges=slots.astype(np.float32),
+        intensities=np.zeros(0, dtype=np.float32))
     return message, moved
+
+
+def rep117_ranges(scan: Scan, offset_cm: float, range_min_cm: float, range_max_cm: float) -> FloatArray:
+    """A sweep's ranges (m) as a LaserScan holds them (REP 117): a finite value only for an echo
+    within [`range_min_cm`, `range_max_cm`] of the sensor (cm), -inf for one closer, +inf for no echo
+    or one beyond; measured from the turret axis (the reading plus `offset_cm`). Rounding to the
+    message's float32 keeps order, so a range within the limits stays within the float32 limits.
+
+    >>> from toolkit.world import Scan
+    >>> s = Scan(np.zeros(4), np.array([3.0, 40.0, 300.0, np.inf]), np.array([True, True, True, False]))
+    >>> rep117_ranges(s, 0.0, 6.0, 255.0).tolist()
+    [-inf, 0.4, inf, inf]
+    """
+    r = np.asarray(scan.ranges, dtype=float)
+    echo = np.asarray(scan.valid, dtype=bool) & np.isfinite(r)
+    with np.errstate(invalid="ignore"):
+        close = echo & (r < range_min_cm)
+        far = echo & (r > range_max_cm)
+    out = np.where(echo, (r + offset_cm) / 100.0, np.inf)
+    out[close] = -np.inf
+    out[far] = np.inf
+    return out
 
 
 def map_extent_cm(m: Map) -> float:

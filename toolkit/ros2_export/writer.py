@@ -12,16 +12,19 @@ import os
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from ..recording import thin_cloud
-from ..timeline import EstimateItem, OdometryItem, PlanItem, RunInfo, SweepItem, TruthItem, timeline_of
+from ..timeline import EstimateItem, Item, OdometryItem, PlanItem, RunInfo, SweepItem, Timeline, TruthItem
 from ..world import Pose, wrap_angle
 from . import messages as msg
 from .grid import rasterise
 from .typestore import PARTICLE_CLOUD, typestore
+
+if TYPE_CHECKING:
+    from ..replay import Recording
 
 __all__ = ["HEADER_KEY", "ROSBAG2_VERSION", "TOPICS", "ExportSummary", "export_mcap"]
 
@@ -58,6 +61,8 @@ class ExportSummary:
     """Sweeps whose angles lie off any regular grid (deskewed), put on a finer one (`messages._slots`)."""
     moved_rad: float = 0.0
     """How far the furthest of their readings was moved to its slot (rad)."""
+    truncated: str | None = None
+    """Where the recording was cut short (`toolkit.replay.Recording.truncated`); None when it is whole."""
 
     @property
     def messages(self) -> int:
@@ -87,35 +92,72 @@ def _map_to_odom(estimate: Pose, odom: Pose) -> Pose:
     return Pose(estimate.x - (c * odom.x - s * odom.y), estimate.y - (s * odom.x + c * odom.y), theta)
 
 
-def _messages(info: RunInfo, items: list[Any], header: dict[str, Any], resolution_cm: float,
+def _range_limits(rec: Recording, info: RunInfo) -> tuple[float, float]:
+    """The recording's sensor's range limits (cm from the sensor): its model's ``min_range_cm`` and
+    ``max_range_cm``; for a model without them (the ideal sonar), 0 and the longest distance in the map."""
+    from ..replay import robot_model_of
+
+    sonar = robot_model_of(rec).sonar
+    rmin = float(getattr(sonar, "min_range_cm", 0.0))
+    rmax = float(getattr(sonar, "max_range_cm", msg.map_extent_cm(info.map)))
+    return rmin, max(rmax, rmin)
+
+
+def _truth_message(ns: int, pose: Pose, heading_known: bool) -> tuple[str, int, Any]:
+    """``/ground_truth`` at `ns`; an unknown heading has an infinite yaw variance."""
+    var_yaw = 0.0 if heading_known else math.inf
+    return "/ground_truth", ns, msg.pose_with_covariance(ns, msg.FRAMES["map"], pose, np.diag([0.0, 0.0, var_yaw]))
+
+
+def _timeline(rec: Recording) -> tuple[RunInfo, list[Item]]:
+    """The run's `RunInfo` and time-line items (`toolkit.timeline`) of a recording already read."""
+    tl = Timeline()
+    tl.feed(rec.header, rec.map)
+    items: list[Item] = [it for _, e in rec.events for it in tl.feed(e)]
+    assert tl.info is not None
+    return tl.info, items
+
+
+def _odometry_messages(ns: int, pose: Pose) -> list[tuple[str, int, Any]]:
+    """``/odom`` and the ``odom -> base_link`` transform of `pose` at `ns`."""
+    return [("/odom", ns, msg.odometry(ns, pose)),
+            ("/tf", ns, msg.tf_message([msg.transform(ns, msg.FRAMES["odom"], msg.FRAMES["base"], pose)]))]
+
+
+def _messages(info: RunInfo, items: list[Any], limits: tuple[float, float], resolution_cm: float,
               particles: int | None) -> tuple[list[tuple[str, int, Any]], list[float]]:
     """(topic, log time ns, message) of the whole run, in time order, and, per sweep put on a finer grid
-    than its own, how far its furthest reading moved (rad)."""
+    than its own, how far its furthest reading moved (rad).
+
+    Odometry is published after each motion the localiser was told, and again at the first and the
+    last reading of each sweep with the pose it was told for that sweep: the robot stands while it
+    sweeps, and a reader that interpolates odometry (tf2, `nxtnav import bag`) finds the pose of
+    every reading between two samples of it. For the same reason a sweep's true pose is published at
+    its first reading as well as at its end."""
     out: list[tuple[str, int, Any]] = []
     snapped: list[float] = []
     t0 = info.stamp_ns(0.0)
     out.append(("/map", t0, msg.occupancy_grid(t0, rasterise(info.map, resolution_cm))))
-    ident = Pose(0.0, 0.0, 0.0)
+    odom = Pose(0.0, 0.0, 0.0)
     out.append(("/tf_static", t0, msg.tf_message([msg.transform(t0, msg.FRAMES["base"], msg.FRAMES["sonar"],
-                                                                 ident)])))
-    out.append(("/tf", t0, msg.tf_message([msg.transform(t0, msg.FRAMES["odom"], msg.FRAMES["base"], ident)])))
-    params = (header.get("sonar") or {}).get("params") or {}
-    rmin = float(params.get("min_range_cm", 0.0))
-    rmax = float(params.get("max_range_cm", msg.map_extent_cm(info.map)))
+                                                                 odom)])))
+    out.append(("/tf", t0, msg.tf_message([msg.transform(t0, msg.FRAMES["odom"], msg.FRAMES["base"], odom)])))
     for it in items:
         ns = info.stamp_ns(it.t)
         if isinstance(it, TruthItem):
-            var_yaw = 0.0 if it.heading_known else math.inf
-            out.append(("/ground_truth", ns, msg.pose_with_covariance(ns, msg.FRAMES["map"], it.pose,
-                                                                       np.diag([0.0, 0.0, var_yaw]))))
+            out.append(_truth_message(ns, it.pose, it.heading_known))
         elif isinstance(it, OdometryItem):
-            out.append(("/odom", ns, msg.odometry(ns, it.pose)))
-            out.append(("/tf", ns, msg.tf_message([msg.transform(ns, msg.FRAMES["odom"], msg.FRAMES["base"],
-                                                                 it.pose)])))
+            odom = it.pose
+            out.extend(_odometry_messages(ns, odom))
         elif isinstance(it, SweepItem):
             first = info.stamp_ns(float(np.min(it.times))) if it.times.size else ns
-            laser, moved = msg.laser_scan(first, it.scan, it.times, it.t - it.t_start, info.sensor_offset_cm, rmin,
-                                          rmax, f"scan {it.id}")
+            last = info.stamp_ns(float(np.max(it.times))) if it.times.size else ns
+            for stamp in sorted({first, last}):
+                out.extend(_odometry_messages(stamp, odom))
+            if it.truth is not None and first != ns:  # the sweep's truth at its end comes as a TruthItem
+                out.append(_truth_message(first, it.truth, it.heading_known))
+            laser, moved = msg.laser_scan(first, it.scan, it.times, it.t - it.t_start, info.sensor_offset_cm,
+                                          *limits, f"scan {it.id}")
             out.append(("/scan", ns, laser))
             if moved > msg.ANGLE_TOLERANCE_RAD:
                 snapped.append(moved)
@@ -158,8 +200,8 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
     from ..replay import read_recording
 
     rec = read_recording(recording)
-    info, items = timeline_of(recording)
-    messages, snapped = _messages(info, items, rec.header, resolution_cm, particles)
+    info, items = _timeline(rec)
+    messages, snapped = _messages(info, items, _range_limits(rec, info), resolution_cm, particles)
     messages.sort(key=lambda m: m[1])  # stable: same-time messages keep the run's order
     store = typestore()
     # the bag is written as TMP/NAME (its MCAP file is named after NAME), then moved to `dest`
@@ -168,7 +210,7 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
         shutil.rmtree(tmp)
     counts: dict[str, int] = {}
     try:
-        tmp.mkdir(parents=True)
+        _make_folder(tmp, dest)
         writer = Writer(tmp / dest.name, version=ROSBAG2_VERSION, storage_plugin=StoragePlugin.MCAP)
         # the recording's map, robot and sonar, so that `nxtnav view DIR` can draw the walls again
         writer.set_custom_data(HEADER_KEY, json.dumps({k: rec.header.get(k) for k in ("created", "map", "robot",
@@ -187,8 +229,25 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
             dest.rmdir()  # empty (checked above): the finished bag takes its place
         (tmp / dest.name).rename(dest)
         tmp.rmdir()
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise msg.ExportError(f"cannot write the bag {dest}: {exc.strerror or exc}") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return ExportSummary(dest, {t: (TOPICS[t], counts[t]) for t in TOPICS if t in counts}, len(snapped),
-                         max(snapped, default=0.0))
+                         max(snapped, default=0.0), rec.truncated)
+
+
+def _make_folder(tmp: Path, dest: Path) -> None:
+    """Create the temporary folder `tmp` the bag `dest` is written in; an error names `dest`, the
+    user's path, not the temporary one."""
+    if dest.parent.exists() and not dest.parent.is_dir():
+        raise msg.ExportError(f"cannot write the bag {dest}: {dest.parent} is a file, not a folder")
+    try:
+        dest.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise msg.ExportError(f"cannot create the folder of the bag {dest}: {exc.strerror or exc}") from None
+    if not os.access(dest.parent, os.W_OK | os.X_OK):
+        raise msg.ExportError(f"cannot write the bag {dest}: its folder {dest.parent} is not writable")
+    tmp.mkdir()
