@@ -269,15 +269,25 @@ def stuck_mask(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = N
 def drop_stuck(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = None,
                position: ArrayLike | None = None) -> tuple[Scan, int]:
     """`scan` without its stuck readings (`stuck_mask`, same arguments) and how many were dropped; says
-    so once in the log."""
+    so in the log, once per sweep (every localiser of a replay weighs the same sweep)."""
     stuck = stuck_mask(scan, map, sonar=sonar, position=position)
     k = int(stuck.sum())
-    if k:
-        log.warning("stuck sonar: %d readings repeat %s cm over %.0f degrees or more, which the map's walls "
-                    "do not explain; not used", k, "/".join(f"{v:g}" for v in np.unique(scan.ranges[stuck])),
-                    STUCK_ARC_DEG)
-        return scan.subset(~stuck), k
-    return scan, 0
+    if not k:
+        return scan, 0
+    key = hash((scan.angles.tobytes(), scan.ranges.tobytes(), k))
+    if key not in _WARNED:
+        _WARNED[key] = None
+        if len(_WARNED) > 256:
+            _WARNED.pop(next(iter(_WARNED)))
+        why = "which the map's walls do not explain at the sweep's pose" if map is not None else "without a map"
+        log.warning("stuck sonar: %d readings repeat %s cm over %.0f degrees or more, %s; not used", k,
+                    "/".join(f"{v:g}" for v in np.unique(scan.ranges[stuck])),
+                    STUCK_ARC_DEG if map is not None else NO_MAP_STUCK_ARC_DEG, why)
+    return scan.subset(~stuck), k
+
+
+_WARNED: dict[int, None] = {}
+"""Sweeps `drop_stuck` has warned about (their hashes, the last 256)."""
 
 
 def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0,
@@ -340,8 +350,9 @@ def sweep_fault(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = 
     stuck = stuck_mask(scan, map, sonar=sonar, position=position)
     if stuck.any():
         values = "/".join(f"{v:g}" for v in np.unique(scan.ranges[stuck]))
-        return (f"stuck: the sonar repeated {values} cm over {int(stuck.sum())} readings "
-                f"({STUCK_ARC_DEG:.0f} degrees or more{' that the walls do not explain' if map is not None else ''})")
+        detail = (f"{STUCK_ARC_DEG:.0f} degrees or more that the walls do not explain" if map is not None
+                  else f"{NO_MAP_STUCK_ARC_DEG:.0f} degrees or more")
+        return f"stuck: the sonar repeated {values} cm over {int(stuck.sum())} readings ({detail})"
     share = garbage_share(scan)
     if share > GARBAGE_SHARE:
         return (f"garbage: {100 * share:.0f} % of the readings differ by more than {GARBAGE_JUMP_CM:g} cm "

@@ -1,43 +1,45 @@
 """A stuck sonar told from a wall: runs of equal readings judged against what the map's walls echo.
 
-A LEGO NXT sensor that stops refreshing repeats its last reading over a long arc of the turret. So
-does a healthy sensor near walls: its 40-degree lobe hears the nearest wall square enough, and at
-(180, 30) of the CO333 arena, 30 cm from two walls, that nearest echo stays at 30-35 cm for well over
-100 degrees (the shipped real sweeps hold runs of one value over 103, 109 and 137 degrees). Run length
-alone cannot tell the two apart: the stuck sweeps of the real data repeat one value over 85 to 250
-degrees. The map can. A run of equal readings is stuck only when the map's noise-free nearest echo of
-the lobe (`toolkit.world.NxtSonar.echo_distance`) does not stay near the repeated value over the run's
-arc at a pose the sweep could have been taken from.
+A LEGO NXT sensor that stops refreshing repeats its last reading over a long arc of the turret. A
+healthy sensor near a wall also reads one value over a while: its 40-degree lobe hears the nearest
+wall square enough, and 30 cm from the two walls of a corner that nearest echo stays within a few cm
+over a wide arc. Run length alone cannot tell the two apart, so a run is judged against the map: it is
+stuck only when the lobe's noise-free echo at the sweep's pose does not stay near the repeated value
+over the run's arc.
 
 How a sweep is judged (`judge_runs`):
 
 1. Its runs: consecutive readings (sweep order) equal to each other, echoes only, spanning at least
    `STUCK_ARC_DEG` of turret angle. Shorter runs are never stuck; a long silent arc (no echo) is a
    real answer, never stuck.
-2. The candidate poses: a grid of free positions (`EchoTable`, every `GRID_CM` cm, within a stated
-   budget) x every heading (1 degree). Where a position is known (a sweep at a documented waypoint,
-   a fault check at a believed pose), the positions within `POSITION_RADIUS_CM` of it; otherwise the
-   whole map. Headings are always all searched: the real sweeps' headings were never measured, and
-   a believed heading may be the wrong one.
-3. A reading is explained at a pose where the lobe's echo lies within `ECHO_TOLERANCE_CM` of it, and
-   a run where less than `STUCK_ARC_DEG` of it is left unexplained.
-4. One sweep, one pose: the candidate that explains the most runs (then the most of their readings)
-   judges them all. The runs it leaves unexplained are stuck.
+2. What the map says, noise-free, at a grid of free positions (`EchoTable`, every `GRID_CM` cm within
+   a stated budget) along every whole degree: the lobe's nearest surface at any incidence, and the
+   sonar model's echo (`toolkit.world.NxtSonar.echo_distance`: the nearest surface square enough).
+   A reading is explained where it lies within `ECHO_TOLERANCE_CM` of either.
+3. One sweep, one pose. The candidates: the positions within `POSITION_RADIUS_CM` of a known position
+   (a documented waypoint), else every position of the map, each at every heading (1 degree; a real
+   sweep's heading was never measured). The sweep's pose is the candidate that explains the most of
+   its fresh readings: every echo reading outside the runs, and the first reading of each run (a
+   sensor that stops refreshing repeats a value it did measure; its repeats are what is in question,
+   so they do not choose the pose they are judged at).
+4. A run is stuck when that pose leaves at least `STUCK_ARC_DEG` of it unexplained.
 
-Without a known position the check is made over every pose of the map. That is the honest answer to
-"could this run be a wall?" when nothing says where the robot is: it drops runs that no pose of the
-map can produce (the stuck sensor the virtual brick makes repeats one value over the whole turn; a
-real one repeated 55 cm over 250 degrees), and keeps a run the map could produce somewhere, as
-evidence the localiser weighs: the beam model caps what one wrong reading costs and counts a dense
-run as ``arc / correlation_deg`` readings, so a kept stuck run cannot outvote the rest of the sweep.
-Such a run (a stuck 22 cm where a corner 22 cm from two walls exists) is caught only once a position
-is known. Without a map at all, only the run length is left: `NO_MAP_STUCK_ARC_DEG`, longer than any
-run a wall can hold.
+Choosing the pose by the runs themselves would explain any run somewhere: a stuck 20 cm over 172
+degrees (the virtual brick's fault, at map1's start) fits a pose in map1's small room, 20 cm from
+three walls, better than the pose the rest of its sweep shows. Without a known position the check is
+global localisation by counting, over every pose of the map: it finds the pose the fresh readings
+point to, or a near-twin of it, and a run that pose does not explain is stuck. Without a map, only the
+run length is left: `NO_MAP_STUCK_ARC_DEG`, longer than any run a wall can hold, so a physical run is
+never dropped and only the longest stuck runs are caught.
 
-Measured on the real sweeps (``/work/shared`` development set; not read by the tests): the three
-shipped sweeps keep every reading, with or without their waypoint; the four stuck sweeps of its
-``dropped/`` folder are all caught at their waypoints, and the one stuck over 250 degrees also
-without one.
+Measured on the real sweeps of the project's development set (not read by the tests): the four stuck
+sweeps of its ``dropped/`` folder (runs of 250, 160, 117 + 88 and 85 + 66 degrees) are caught, with
+or without their waypoints. So are the long runs of the three shipped sweeps (109 readings of 33 cm,
+103 of 44, 137 of 36): at their waypoints, over most of those arcs, the map has no wall within reach
+or only far ones (115-170 cm), where most of the other teams' sensors at the same waypoints read no
+echo (255) or those far walls. That sensor never reads 255 after its first echo (none in the 1,722
+readings after it in its five sweeps; the other sensors: 14-43 % no echo): it repeats its last echo
+while no new one arrives.
 """
 
 from __future__ import annotations
@@ -46,11 +48,13 @@ import math
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import Map, NxtSonar, Scan, angle_diff
+from toolkit.world import NO_ECHO, Map, NxtSonar, Scan, angle_diff
 
 __all__ = [
     "ECHO_TOLERANCE_CM",
@@ -73,10 +77,11 @@ STUCK_ARC_DEG = 45.0
 is stuck when the map leaves at least this much of it unexplained. A sensor that stops refreshing
 repeats its last value over 50-250 degrees (the real stuck sweeps, the virtual brick's fault)."""
 NO_MAP_STUCK_ARC_DEG = 200.0
-"""Without a map, a run of equal echo readings is stuck from this arc (degrees) on. One flat wall echoes
-into a lobe over at most about 100 degrees of turret (its normal within the critical incidence, 30
-degrees, plus half the 40-degree lobe, either side), a corner of two walls at one distance over about
-190; the real sweeps of healthy sensors hold runs up to 137 degrees."""
+"""Without a map, a run of equal echo readings is stuck from this arc (degrees) on: more than any wall
+can hold. One flat wall echoes into the lobe over at most about 100 degrees of turret (its normal within
+the critical incidence, 30 degrees, plus half the 40-degree lobe, either side), a corner of two walls
+at one distance over about 190; the longest run of the real development set that its map explains
+spans 51 degrees. Of the real stuck runs (85-250 degrees) only the longest is caught this way."""
 ECHO_TOLERANCE_CM = 4.0
 """A reading is explained where the lobe's noise-free echo lies within this (cm) of it: about twice the
 fitted reading spread at 30-60 cm (1.2 cm + 0.9 cm per metre) plus the rounding to whole cm."""
@@ -87,6 +92,13 @@ GRID_CM = 3.0
 """Spacing (cm) of the candidate positions (finer never; coarser on a map too large for the budget)."""
 MAX_GRID_POSITIONS = 6000
 """Budget of the candidate positions: at most this many, x 360 directions x 4 bytes (8.6 MB) a table."""
+MAX_SCORED_READINGS = 180
+"""A sweep's pose is chosen by at most this many of its echo readings (evenly picked): a bounded cost."""
+FRESH_SLACK_SHARE = 0.05
+FRESH_SLACK_MIN = 2
+"""A candidate is one of the sweep's poses when it explains as many of the fresh readings as the best
+candidate, but for max(`FRESH_SLACK_MIN`, `FRESH_SLACK_SHARE` of them): a real sweep has wrong
+readings, and few fresh readings fit many poses equally."""
 CLEARANCE_CM = 5.0
 """Candidate positions lie at least this far (cm) from every wall (the sensor sits on the robot)."""
 
@@ -139,12 +151,15 @@ def equal_runs(scan: Scan, min_arc_deg: float = STUCK_ARC_DEG) -> list[EqualRun]
 
 @dataclass(frozen=True, eq=False)
 class EchoTable:
-    """The nearest echo of a lobe at a grid of free positions, along 360 absolute directions (noise-free).
+    """What a lobe can hear at a grid of free positions, along 360 absolute directions (noise-free).
 
     Attributes
     ----------
     xy : (P, 2) ndarray
         Candidate positions (cm), `spacing_cm` apart, at least `CLEARANCE_CM` from every wall.
+    nearest_cm : (P, 360) float32 ndarray
+        The nearest surface any ray of the lobe meets (cm; inf: none), at any incidence: no echo comes
+        from nearer.
     echo_cm : (P, 360) float32 ndarray
         The nearest echo of the sonar model (`NxtSonar.echo_distance`: rays that meet a wall beyond the
         critical incidence are lost; inf where every ray is lost).
@@ -153,6 +168,7 @@ class EchoTable:
     """
 
     xy: NDArray[np.float64]
+    nearest_cm: NDArray[np.float32]
     echo_cm: NDArray[np.float32]
     spacing_cm: float
 
@@ -196,7 +212,8 @@ def echo_table(map: Map, sonar: NxtSonar | None = None) -> EchoTable:
         table = _TABLES.get(key)
         if table is None:
             xy, spacing = _grid_positions(map)
-            table = EchoTable(xy, _lobe(map, xy, s.beam_width_deg, s.critical_incidence_deg), spacing)
+            table = EchoTable(xy, _lobe(map, xy, s.beam_width_deg, 90.0),
+                              _lobe(map, xy, s.beam_width_deg, s.critical_incidence_deg), spacing)
             if len(_TABLES) >= _MAX_TABLES:
                 _TABLES.pop(next(iter(_TABLES)))
             _TABLES[key] = table
@@ -212,13 +229,58 @@ def _candidate_rows(table: EchoTable, position: ArrayLike | None) -> NDArray[np.
     return near if near.size else np.argsort(dist)[:1]
 
 
-def _run_counts(echo: NDArray[np.float32], directions: NDArray[np.int64], value_cm: float) -> NDArray[np.int64]:
-    """For every candidate position (rows of `echo`) and heading h (degrees, columns), how many of the
-    run's readings (relative `directions`, whole degrees) have an echo within `ECHO_TOLERANCE_CM` at
-    ``h + direction`` (a circular correlation, by FFT)."""
-    near = (np.abs(echo - value_cm) <= ECHO_TOLERANCE_CM).astype(np.float64)
-    weights = np.bincount(np.mod(directions, 360), minlength=360).astype(np.float64)
-    spectrum = np.fft.rfft(near, axis=1) * np.conj(np.fft.rfft(weights))[None, :]
+def _explains(nearest: Any, echo: Any, value_cm: Any) -> Any:
+    """Whether a lobe whose nearest surface is `nearest` and whose model echo is `echo` (cm) can read
+    `value_cm`: within `ECHO_TOLERANCE_CM` of the model's echo (the nearest surface square enough), or of
+    the nearest surface (heard at a steeper incidence than the model's critical one, as near walls are)."""
+    return (np.abs(echo - value_cm) <= ECHO_TOLERANCE_CM) | (np.abs(nearest - value_cm) <= ECHO_TOLERANCE_CM)
+
+
+@njit("void(float32[:, ::1], float32[:, ::1], int64[::1], float64[::1], float64, int32[:, ::1])", cache=True)
+def _explained_by_pose(nearest: Any, echo: Any, dirs: Any, values: Any, tol: float,
+                       out: Any) -> None:  # pragma: no cover
+    """``out[p, h]``: how many readings (`values`, cm, at relative `dirs`, whole degrees in [0, 360))
+    position p explains at heading h (degrees), as `_explains` says."""
+    n_pos, n_ang = echo.shape
+    for p in range(n_pos):
+        for h in range(n_ang):
+            out[p, h] = 0
+        for j in range(dirs.size):
+            shift, value = dirs[j], values[j]
+            for h in range(n_ang):
+                k = h + shift
+                if k >= n_ang:
+                    k -= n_ang
+                if abs(echo[p, k] - value) <= tol or abs(nearest[p, k] - value) <= tol:
+                    out[p, h] += 1
+
+
+def _fresh_scores(scan: Scan, runs: Sequence[EqualRun], nearest: NDArray[np.float32], echo: NDArray[np.float32],
+                  rel_deg: NDArray[np.int64]) -> tuple[NDArray[np.int32], int]:
+    """How many fresh readings of the sweep (echoes outside the runs, and each run's first reading; at
+    most `MAX_SCORED_READINGS`, evenly picked) every candidate (row, heading) explains, and how many
+    were scored."""
+    r = np.asarray(scan.ranges, dtype=float)
+    fresh = scan.valid & np.isfinite(r) & (r < NO_ECHO)
+    for run in runs:  # a run's repeats may not be measurements: its first reading is
+        fresh[run.start + 1:run.start + run.length] = False
+    scored = np.flatnonzero(fresh)
+    if scored.size > MAX_SCORED_READINGS:
+        scored = scored[np.linspace(0, scored.size - 1, MAX_SCORED_READINGS).round().astype(np.int64)]
+    score = np.empty(echo.shape, dtype=np.int32)
+    _explained_by_pose(nearest, echo, np.ascontiguousarray(rel_deg[scored]), np.ascontiguousarray(r[scored]),
+                       ECHO_TOLERANCE_CM, score)
+    return score, int(scored.size)
+
+
+def _run_counts(nearest: NDArray[np.float32], echo: NDArray[np.float32], directions: NDArray[np.int64],
+                value_cm: float) -> NDArray[np.int64]:
+    """For every candidate (row, heading h in whole degrees), how many readings of a run (`value_cm` at
+    the relative `directions`, whole degrees) the lobe can read at ``h + direction`` (a circular
+    correlation, by FFT)."""
+    ok = np.asarray(_explains(nearest, echo, value_cm), dtype=np.float64)
+    weights = np.bincount(directions, minlength=360).astype(np.float64)
+    spectrum = np.fft.rfft(ok, axis=1) * np.conj(np.fft.rfft(weights))[None, :]
     return np.rint(np.fft.irfft(spectrum, n=360, axis=1)).astype(np.int64)
 
 
@@ -252,15 +314,20 @@ def judge_runs(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = N
         return ([r for r in runs if r.arc_deg >= NO_MAP_STUCK_ARC_DEG],
                 [r for r in runs if r.arc_deg < NO_MAP_STUCK_ARC_DEG])
     table = echo_table(map, sonar)
-    echo = table.echo_cm[_candidate_rows(table, position)]
+    rows = _candidate_rows(table, position)
+    nearest = np.ascontiguousarray(table.nearest_cm[rows])
+    echo = np.ascontiguousarray(table.echo_cm[rows])
     rel_deg = np.mod(np.rint(np.degrees(np.asarray(scan.angles, dtype=float))), 360).astype(np.int64)
+    score, n_scored = _fresh_scores(scan, runs, nearest, echo, rel_deg)
+    # the sweep's poses: those its fresh readings fit as well as the best one, up to the slack
+    plausible = score >= int(score.max()) - max(FRESH_SLACK_MIN, math.ceil(FRESH_SLACK_SHARE * n_scored))
     step_deg = runs[0].arc_deg / runs[0].length
-    counts = [_run_counts(echo, rel_deg[r.start:r.start + r.length], r.value_cm) for r in runs]
-    # a run is explained at a pose that leaves less than min_arc_deg of it over; the pose that explains
-    # the most runs, then the most of their readings, judges them all
+    counts = [_run_counts(nearest, echo, rel_deg[r.start:r.start + r.length], r.value_cm) for r in runs]
     explained = [(r.length - c) * step_deg < min_arc_deg for r, c in zip(runs, counts, strict=True)]
-    score = np.sum(explained, axis=0) * (sum(r.length for r in runs) + 1) + np.sum(counts, axis=0)
-    best = np.unravel_index(int(np.argmax(score)), score.shape)
+    # of those, the one that explains the most runs, then the most of their readings, judges them all
+    judge = np.where(plausible, np.sum(explained, axis=0) * (sum(r.length for r in runs) + 1)
+                     + np.sum(counts, axis=0), -1)
+    best = np.unravel_index(int(np.argmax(judge)), judge.shape)
     stuck = [r for r, ok in zip(runs, explained, strict=True) if not ok[best]]
     return stuck, [r for r in runs if r not in stuck]
 
