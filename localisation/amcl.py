@@ -381,7 +381,7 @@ class Amcl(Localiser):
             return
         self._driven_cm = self._turned_rad = 0.0
         if self._beam is not None:
-            rel, meas, self._lik = scan_readings(scan, self._beam)
+            rel, meas, self._lik = scan_readings(scan, self._beam, self.map)
         else:
             ok = scan.valid & np.isfinite(scan.ranges) & (scan.ranges < self.laser_max_range)
             rel = np.asarray(scan.angles[ok], dtype=float)

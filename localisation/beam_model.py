@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from toolkit.world import NO_ECHO, NxtSonar, Scan
+from toolkit.world import NO_ECHO, Map, NxtSonar, Scan
 
 from .range_table import RangeLattice, quantise_ranges
 from .scan import drop_stuck, sweep_step
@@ -167,18 +167,19 @@ def lattice_costs(lattice: RangeLattice, rel: Any, measured: Any, model: Any, ma
     return out * (model.weight * scale)
 
 
-def scan_readings(scan: Scan, model: Any) -> tuple[FloatArray, FloatArray, Any]:
+def scan_readings(scan: Scan, model: Any, map: Map | None = None) -> tuple[FloatArray, FloatArray, Any]:
     """The angles (rad) and readings (cm) of `scan` a measurement model uses, and the model to use for it.
 
     A `BeamLikelihood` takes the echoes and the no-echo readings (255), after stuck runs are dropped
-    (`localisation.scan.drop_stuck`), and is returned weighted for the sweep's step; any other model
-    takes the valid finite readings only.
+    (`localisation.scan.drop_stuck`: runs of equal readings that no pose of `map` explains with the
+    model's lobe; without a map, by run length alone), and is returned weighted for the sweep's step;
+    any other model takes the valid finite readings only.
     """
     if not isinstance(model, BeamLikelihood):
         ok = scan.valid & np.isfinite(scan.ranges)
         return np.asarray(scan.angles[ok], dtype=float), np.asarray(scan.ranges[ok], dtype=float), model
     step = sweep_step(scan)
-    kept, _ = drop_stuck(scan)
+    kept, _ = drop_stuck(scan, map, sonar=model.sonar)
     silent = ~kept.valid & ((kept.ranges >= NO_ECHO) | ~np.isfinite(kept.ranges))
     ok = (kept.valid & np.isfinite(kept.ranges)) | silent
     meas = np.where(silent, NO_ECHO, kept.ranges)[ok]

@@ -86,7 +86,7 @@ def check_heading(map: Map, pose: Pose, scan: Scan, sonar: NxtSonar | None = Non
     offsets = np.radians(np.arange(-MAX_OFFSET_DEG, MAX_OFFSET_DEG + 1e-9, OFFSET_STEP_DEG))
     model: BeamLikelihood | RangeLikelihood = (BeamLikelihood(sonar) if sonar is not None
                                                else RangeLikelihood(GAUSSIAN_SIGMA_CM))
-    rel, meas, model = scan_readings(scan, model)
+    rel, meas, model = scan_readings(scan, model, map)
     if rel.size == 0:
         return HeadingCheck(0.0, 0.0, 0)
     poses = np.column_stack([np.full(offsets.size, pose.x), np.full(offsets.size, pose.y), pose.theta + offsets])

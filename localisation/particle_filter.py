@@ -370,7 +370,7 @@ class ParticleFilter(Localiser):
         self._estimate = self._make_estimate()
 
     def update(self, scan: Scan) -> None:
-        rel, meas, self.likelihood = scan_readings(scan, self._likelihood)
+        rel, meas, self.likelihood = scan_readings(scan, self._likelihood, self.map)
         if not np.any(echo_mask(meas, self.likelihood)):
             log.warning("scan without usable readings: belief unchanged")
             return

@@ -209,7 +209,7 @@ def look(
         for attempt in range(1, STUCK_SWEEPS + 1):
             scan = robot.ultrascan(scan_angles)
             scans += 1
-            fault = sweep_fault(scan) or ""
+            fault = sweep_fault(scan, localiser.map) or ""
             if not fault:
                 return scan
             if on_sweep_fault is not None:

@@ -7,7 +7,8 @@ dropping those out of range (the sensor's own range: a scan's `valid` mask; opti
 processing). Readings without an echo (255 on the NXT, ``inf`` in the simulator) in the windows stay
 in the processed scan marked invalid: a localiser with a model of the sensor's silence
 (`localisation.beam_model`) uses them, the others skip invalid readings. `stuck_mask` finds a
-sensor that stopped refreshing, `garbage_share` one that answers at random; `sweep_fault` says either.
+sensor that stopped refreshing (a run of equal readings the map's walls do not explain:
+`localisation.stuck`), `garbage_share` one that answers at random; `sweep_fault` says either.
 
 `process_scan` does the selection on a scan already aligned (the robot has turned), or aligns
 virtually (``reference="min"``: the windows are centred on the minimum reading's direction), which is
@@ -29,13 +30,16 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import NO_ECHO, ConfigError, Scan, angle_diff
+from toolkit.world import NO_ECHO, ConfigError, Map, NxtSonar, Scan, angle_diff
+
+from .stuck import NO_MAP_STUCK_ARC_DEG, STUCK_ARC_DEG, judge_runs, runs_mask, sweep_step
 
 __all__ = [
     "GARBAGE_JUMP_CM",
     "GARBAGE_SHARE",
+    "NO_MAP_STUCK_ARC_DEG",
     "PAPER_CENTRES_DEG",
     "PAPER_WINDOW_DEG",
     "STUCK_ARC_DEG",
@@ -252,47 +256,38 @@ def raw_scan(scan: Scan, min_range_cm: float = 0.0, max_range_cm: float = math.i
 
 
 
-STUCK_ARC_DEG = 45.0
-"""A run of one repeated echo reading spanning at least this turret arc (degrees) is a stuck sensor: a
-flat wall keeps a lobe's rounded reading constant over at most about 40 degrees (real sweeps: 40 at
-most), while a sensor that stops refreshing repeats its last value over 50-250 degrees."""
+def stuck_mask(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = None,
+               position: ArrayLike | None = None, min_arc_deg: float = STUCK_ARC_DEG) -> NDArray[np.bool_]:
+    """Readings that belong to a stuck run: a run of equal echo readings spanning at least `min_arc_deg`
+    of turret angle that the map's walls do not explain (`localisation.stuck.judge_runs`: `map`, the
+    `sonar` whose lobe echoes, the sweep's `position` where known). Without a map, runs of at least
+    `NO_MAP_STUCK_ARC_DEG`. No-echo readings are never stuck (a long silent arc is a real answer)."""
+    stuck, _ = judge_runs(scan, map, sonar=sonar, position=position, min_arc_deg=min_arc_deg)
+    return runs_mask(len(scan), stuck)
 
 
-def sweep_step(scan: Scan) -> float:
-    """The turret angle between consecutive readings of a sweep (rad; the median; 2 pi for one reading)."""
-    if len(scan) < 2:
-        return 2.0 * math.pi
-    return float(np.median(np.abs(angle_diff(scan.angles[1:], scan.angles[:-1]))))
-
-
-def stuck_mask(scan: Scan, min_arc_deg: float = STUCK_ARC_DEG) -> NDArray[np.bool_]:
-    """Readings that belong to a stuck run: consecutive (in sweep order) identical echo readings whose
-    run spans at least `min_arc_deg` of turret angle (run length x the sweep's step). No-echo readings
-    are never stuck (a long silent arc is a real answer)."""
-    n = len(scan)
-    out = np.zeros(n, dtype=bool)
-    step_deg = math.degrees(sweep_step(scan))
-    if n < 2 or not min_arc_deg > 0 or step_deg <= 0:
-        return out
-    r = np.where(scan.valid, scan.ranges, np.nan)
-    start = 0
-    for i in range(1, n + 1):
-        if i == n or not (r[i] == r[start]):
-            if math.isfinite(r[start]) and (i - start) * step_deg >= min_arc_deg:
-                out[start:i] = True
-            start = i
-    return out
-
-
-def drop_stuck(scan: Scan, min_arc_deg: float = STUCK_ARC_DEG) -> tuple[Scan, int]:
-    """`scan` without its stuck readings (`stuck_mask`) and how many were dropped; says so once in the log."""
-    stuck = stuck_mask(scan, min_arc_deg)
+def drop_stuck(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = None,
+               position: ArrayLike | None = None) -> tuple[Scan, int]:
+    """`scan` without its stuck readings (`stuck_mask`, same arguments) and how many were dropped; says
+    so in the log, once per sweep (every localiser of a replay weighs the same sweep)."""
+    stuck = stuck_mask(scan, map, sonar=sonar, position=position)
     k = int(stuck.sum())
-    if k:
-        log.warning("stuck sonar: %d readings repeat %s cm over %.0f degrees or more; not used", k,
-                    "/".join(f"{v:g}" for v in np.unique(scan.ranges[stuck])), min_arc_deg)
-        return scan.subset(~stuck), k
-    return scan, 0
+    if not k:
+        return scan, 0
+    key = hash((scan.angles.tobytes(), scan.ranges.tobytes(), k))
+    if key not in _WARNED:
+        _WARNED[key] = None
+        if len(_WARNED) > 256:
+            _WARNED.pop(next(iter(_WARNED)))
+        why = "which the map's walls do not explain at the sweep's pose" if map is not None else "without a map"
+        log.warning("stuck sonar: %d readings repeat %s cm over %.0f degrees or more, %s; not used", k,
+                    "/".join(f"{v:g}" for v in np.unique(scan.ranges[stuck])),
+                    STUCK_ARC_DEG if map is not None else NO_MAP_STUCK_ARC_DEG, why)
+    return scan.subset(~stuck), k
+
+
+_WARNED: dict[int, None] = {}
+"""Sweeps `drop_stuck` has warned about (their hashes, the last 256)."""
 
 
 def sweep_angles(step_deg: float = 1.0, window_deg: float = 180.0,
@@ -347,14 +342,17 @@ def garbage_share(scan: Scan, jump_cm: float = GARBAGE_JUMP_CM) -> float:
     return float(np.mean((jump[:-1] & jump[1:])[inner]))
 
 
-def sweep_fault(scan: Scan) -> str | None:
-    """What is wrong with the sensor by this sweep alone: a stuck run (`stuck_mask`) or garbage
-    (`garbage_share` above `GARBAGE_SHARE`), in words; None for a sweep that looks sane."""
-    stuck = stuck_mask(scan)
+def sweep_fault(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = None,
+                position: ArrayLike | None = None) -> str | None:
+    """What is wrong with the sensor by this sweep: a stuck run (`stuck_mask`, judged against `map` with
+    the `sonar`'s lobe, at `position` where known) or garbage (`garbage_share` above `GARBAGE_SHARE`),
+    in words; None for a sweep that looks sane."""
+    stuck = stuck_mask(scan, map, sonar=sonar, position=position)
     if stuck.any():
         values = "/".join(f"{v:g}" for v in np.unique(scan.ranges[stuck]))
-        return (f"stuck: the sonar repeated {values} cm over {int(stuck.sum())} readings "
-                f"({STUCK_ARC_DEG:.0f} degrees or more)")
+        detail = (f"{STUCK_ARC_DEG:.0f} degrees or more that the walls do not explain" if map is not None
+                  else f"{NO_MAP_STUCK_ARC_DEG:.0f} degrees or more")
+        return f"stuck: the sonar repeated {values} cm over {int(stuck.sum())} readings ({detail})"
     share = garbage_share(scan)
     if share > GARBAGE_SHARE:
         return (f"garbage: {100 * share:.0f} % of the readings differ by more than {GARBAGE_JUMP_CM:g} cm "

@@ -109,16 +109,26 @@ def test_fit_recovers_a_known_model() -> None:
     assert abs(fitted.no_echo_model - fitted.no_echo_real) < 0.02
 
 
+def _map1_sweep(n: int) -> np.ndarray:
+    """`n` readings of the `nxt` lobe's noise-free echo at (80, 80) of map1, heading -130 degrees, each
+    moved by -1, 0 or +1 cm in turn (varying readings: no run of one value), 255 where nothing echoes."""
+    angles = math.radians(-130.0) + default_scan_angles(n)
+    echo = np.asarray(NxtSonar().echo_distance(load_map("map1").walls, np.array([80.0, 80.0]), angles))
+    return np.where(np.isfinite(echo), np.rint(echo) + np.arange(n) % 3 - 1, NO_ECHO)
+
+
 def test_stuck_runs_found_and_no_echo_runs_kept() -> None:
+    m = load_map("map1")
     ang = default_scan_angles(360)
-    r = np.full(360, 40.0) + (np.arange(360) % 3)  # varying readings: nothing stuck
-    r[100:160] = 33.0  # a 60-degree stuck run
-    r[200:230] = 50.0  # a 30-degree flat wall: not stuck
-    r[250:350] = NO_ECHO  # a long silent arc: not stuck
-    stuck = stuck_mask(Scan.from_readings(ang, r))
+    r = _map1_sweep(360)
+    r[100:160] = 33.0  # a 60-degree stuck run, facing a wall 26 cm away
+    r[200:230] = 50.0  # a 30-degree run: too short to judge
+    stuck = stuck_mask(Scan.from_readings(ang, r), m)
     assert stuck[100:160].all() and stuck.sum() == 60
-    coarse = Scan.from_readings(default_scan_angles(72), np.r_[np.full(10, 60.0), 40.0 + np.arange(62) % 4])
-    assert stuck_mask(coarse).sum() == 10  # ten 5-degree readings: 50 degrees
+    r[250:350] = NO_ECHO  # a long silent arc: never stuck
+    assert not stuck_mask(Scan.from_readings(ang, r), m)[250:350].any()
+    coarse = Scan.from_readings(default_scan_angles(72), np.r_[np.full(10, 60.0), _map1_sweep(72)[10:]])
+    assert stuck_mask(coarse, m).sum() == 10  # ten 5-degree readings: 50 degrees, facing a wall 21 cm away
 
 
 def test_beam_costs_use_no_echo_as_evidence() -> None:
@@ -157,11 +167,12 @@ def test_lattice_gather_equals_table_lookups() -> None:
 
 def test_scan_readings_keep_no_echo_and_drop_stuck() -> None:
     lik = BeamLikelihood(NxtSonar())
-    r = 40.0 + np.arange(360) % 3
+    r = _map1_sweep(360)
+    silent = int(np.sum(r[50:] == NO_ECHO))
     r[0:50] = NO_ECHO
     r[100:170] = 33.0
-    _, meas, weighted = scan_readings(Scan.from_readings(default_scan_angles(), r), lik)
-    assert meas.size == 290 and np.sum(meas == NO_ECHO) == 50
+    _, meas, weighted = scan_readings(Scan.from_readings(default_scan_angles(), r), lik, load_map("map1"))
+    assert meas.size == 290 and np.sum(meas == NO_ECHO) == 50 + silent
     assert weighted.weight == pytest.approx(NxtSonar().reading_weight(math.radians(1.0)))
 
 

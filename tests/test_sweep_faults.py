@@ -25,7 +25,7 @@ from toolkit.mission.recovery import (
 )
 from toolkit.robots.sim import SimRobot
 from toolkit.sweeps import load_sweep_set
-from toolkit.world import LocalisationError, MoveOutcome, Pose, Scan, load_map
+from toolkit.world import NO_ECHO, LocalisationError, MoveOutcome, NxtSonar, Pose, Scan, load_map
 
 
 def _garbage(scan: Scan, p: float, rng: np.random.Generator) -> Scan:
@@ -64,10 +64,12 @@ def test_clean_simulated_sweeps_pass_and_mostly_random_ones_are_garbage(sonar: s
 
 
 def test_a_stuck_run_is_named_with_its_value() -> None:
+    m = load_map("map1")
     angles = np.radians(np.arange(0.0, 360.0, 2.0))
-    ranges = 40.0 + 10.0 * np.sin(angles)
-    ranges[30:60] = 37.0  # 60 degrees of one value
-    fault = sweep_fault(Scan.from_readings(angles, ranges))
+    echo = np.asarray(NxtSonar().echo_distance(m.walls, np.array([80.0, 80.0]), angles - math.pi / 2))
+    ranges = np.where(np.isfinite(echo), np.rint(echo) + np.arange(180) % 3 - 1, NO_ECHO)  # the walls, varying
+    ranges[30:60] = 37.0  # 60 degrees of one value, facing a wall 26 cm away
+    fault = sweep_fault(Scan.from_readings(angles, ranges), m)
     assert fault is not None and fault.startswith("stuck: the sonar repeated 37 cm over 30 readings")
 
 

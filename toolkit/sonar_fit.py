@@ -78,10 +78,10 @@ class _Sweep:
     readings: FloatArray
 
 
-def _prepare(sweeps: Sequence[Sweep]) -> list[_Sweep]:
+def _prepare(sweeps: Sequence[Sweep], m: Map) -> list[_Sweep]:
     out = []
     for s in sweeps:
-        scan, _ = drop_stuck(s.scan())
+        scan, _ = drop_stuck(s.scan(), m, position=(s.x_cm, s.y_cm))  # judged at the documented waypoint
         readings = np.where(scan.valid, scan.ranges, NO_ECHO)
         out.append(_Sweep(s, scan.angles, readings))
     return out
@@ -228,7 +228,7 @@ def fit_sonar(sets: Sequence[SweepSet], *, widths: Sequence[float] = DEFAULT_WID
     progress : callable, optional
         Called with (lobes done, lobes in all).
     """
-    items = [(s.map, sw) for s in sets for sw in _prepare(list(s))]
+    items = [(s.map, sw) for s in sets for sw in _prepare(list(s), s.map)]
     if not items:
         raise ConfigError("no sweeps to fit")
     base = start or NxtSonar(noise_sd=2.0, noise_per_m=1.0, dropout_prob=0.02, far_dropout_prob=0.5, reach_cm=100.0,
@@ -444,7 +444,7 @@ class AlignedSweep:
 def align_sweeps(model: NxtSonar, sweeps: SweepSet) -> list[AlignedSweep]:
     """Every sweep of `sweeps` (stuck runs dropped) where `model` finds it most likely: a heading and a
     position within `POSITION_OFFSETS_CM` of its waypoint."""
-    prepared = _prepare(list(sweeps))
+    prepared = _prepare(list(sweeps), sweeps.map)
     echoes = [_echo_by_pose(model, sweeps.map, sw) for sw in prepared]
     out = []
     for sw, e, i in zip(prepared, echoes, _best_poses(model, echoes, prepared), strict=True):

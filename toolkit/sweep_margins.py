@@ -43,7 +43,7 @@ def place_costs(model: NxtSonar, sweeps: SweepSet, heading_prior: HeadingPrior |
 
     def each() -> Iterator[NDArray[np.float64]]:
         for s in sweeps:
-            rel, meas, weighed = scan_readings(s.scan(), likelihood)
+            rel, meas, weighed = scan_readings(s.scan(), likelihood, sweeps.map)
             costs = lattice_costs(lattice, rel, meas, weighed, max_beams=0)
             if heading_prior is not None:
                 costs = costs + heading_prior.direction_costs(costs.shape[1])[None, :]

@@ -82,10 +82,10 @@ def _stuck_noted(sets: Sequence[Any]) -> Iterator[None]:
     for s in sets:
         for sw in s:
             scan = sw.scan()
-            k = int(stuck_mask(scan).sum())
+            k = int(stuck_mask(scan, s.map, position=(sw.x_cm, sw.y_cm)).sum())
             if k:
                 typer.echo(f"{sw.label}: {k} of {len(scan)} readings are a stuck sonar (one value repeated over "
-                           "a long arc); left out", err=True)
+                           "a long arc the walls do not explain at its waypoint); left out", err=True)
     logger = logging.getLogger("localisation.scan")
     level = logger.level
     logger.setLevel(logging.ERROR)

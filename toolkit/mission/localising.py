@@ -120,7 +120,7 @@ class Fixes:
         mission = self.mission
         assert mission.estimate is not None
         scan = mission.robot.ultrascan(self.policy.sweeps.heading_check_angles())
-        fault = sweep_fault(scan)
+        fault = sweep_fault(scan, mission.map)
         if fault is not None:
             if mission.on_sweep_fault is not None:
                 mission.on_sweep_fault(fault)
