@@ -4,15 +4,19 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install run test test-fast lint typecheck bench figures view-check dist-check docs clean
+.PHONY: install run test test-fast docs-commands lint typecheck bench figures view-check dist-check docs clean
 
 $(BIN)/python:
+	@echo "make: creating the virtual environment $(VENV)"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# pip's own progress (one line per package) instead of --quiet: the first install takes minutes
 $(STAMP): pyproject.toml setup.py | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[dev,nxt,cluster,viz,docs]"
+	@echo "make: installing nxtnav and its dependencies into $(VENV) (about 2 minutes the first time)"
+	$(BIN)/python -m pip install --progress-bar off -e ".[dev,nxt,cluster,viz,docs]"
 	touch $(STAMP)
+	@echo "make: nxtnav installed: $(BIN)/nxtnav"
 
 install: $(STAMP)
 
@@ -26,13 +30,19 @@ PYTEST := $(BIN)/python -m pytest -q -n auto --dist loadgroup
 test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
-	$(PYTEST)
+	$(PYTEST) -m "not docs"
+
+# every shell block of README.md and docs/ run in a temporary folder outside the repository, at the sizes
+# its docs-run marker gives CI, and every stated figure checked (tools/docs_commands.py; --list: what runs)
+docs-commands: $(STAMP)
+	$(BIN)/python tools/docs_commands.py --summary
+	$(PYTEST) -m docs tests/test_docs_commands.py
 
 # the same without the slow end-to-end checks (pytest -m "not slow"), for a quick loop while editing
 test-fast: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
-	$(PYTEST) -m "not slow"
+	$(PYTEST) -m "not slow and not docs"
 
 bench: $(STAMP)
 	$(BIN)/nxtnav bench world --map map1
