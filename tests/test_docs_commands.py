@@ -45,16 +45,16 @@ def test_documented_block_runs(block: Any) -> None:
     if block.skip_reason is not None:
         pytest.skip(f"{block.where}: {block.skip_reason}")
     outcome = docs_commands.run_block(block)
-    tail = "\n".join(outcome.output.rstrip().splitlines()[-40:])
-    assert outcome.failure is None, f"{block.where}: {outcome.failure}\n{docs_commands.ci_script(block)}\n---\n{tail}"
+    excerpt = docs_commands.output_excerpt(outcome.output)
+    assert outcome.failure is None, f"{block.where}: {outcome.failure}\n{docs_commands.ci_script(block)}\n---\n{excerpt}"
 
 
 @pytest.mark.docs
 @pytest.mark.parametrize("check", CHECKS, ids=[check.where for check in CHECKS])
 def test_stated_figure_holds(check: Any) -> None:
     outcome = docs_commands.run_check(check)
-    tail = "\n".join(outcome.output.rstrip().splitlines()[-20:])
-    assert outcome.failure is None, f"{check.status}: {outcome.failure}\n---\n{tail}"
+    excerpt = docs_commands.output_excerpt(outcome.output)
+    assert outcome.failure is None, f"{check.status}: {outcome.failure}\n---\n{excerpt}"
 
 
 def test_every_block_is_counted_and_the_readme_has_blocks_and_a_check() -> None:

@@ -379,6 +379,13 @@ def _stop_group(pgid: int) -> None:
         pass
 
 
+def output_excerpt(output: str, lines: int = 40) -> str:
+    """The part of a failed command's output to show: from its first traceback on, else its last lines."""
+    text = output.rstrip().splitlines()
+    start = next((i for i, line in enumerate(text) if TRACEBACK in line), max(0, len(text) - lines))
+    return "\n".join(text[start : start + lines])
+
+
 def run_block(block: Block, timeout_s: float = DEFAULT_TIMEOUT_S) -> Outcome:
     """Run one block (its CI form) in a fresh temporary folder outside the repository."""
     script = ci_script(block)
@@ -478,7 +485,7 @@ def run_all(blocks: list[Block], checks: list[Check], prefix: str, timeout_s: fl
         print(f"{item.where}: {verdict} ({outcome.seconds:.1f} s)", flush=True)
         if outcome.failure is not None:
             failures += 1
-            print("    " + "\n    ".join(outcome.output.rstrip().splitlines()[-30:]), flush=True)
+            print("    " + output_excerpt(outcome.output).replace("\n", "\n    "), flush=True)
     print(f"{failures} failed; {total_s:.0f} s running commands")
     return 1 if failures else 0
 
