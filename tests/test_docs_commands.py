@@ -45,8 +45,9 @@ def test_documented_block_runs(block: Any) -> None:
     if block.skip_reason is not None:
         pytest.skip(f"{block.where}: {block.skip_reason}")
     outcome = docs_commands.run_block(block)
+    script = docs_commands.ci_script(block)
     excerpt = docs_commands.output_excerpt(outcome.output)
-    assert outcome.failure is None, f"{block.where}: {outcome.failure}\n{docs_commands.ci_script(block)}\n---\n{excerpt}"
+    assert outcome.failure is None, f"{block.where}: {outcome.failure}\n{script}\n---\n{excerpt}"
 
 
 @pytest.mark.docs
