@@ -5,15 +5,15 @@
     python tools/docs_commands.py --run README.md:  # only those whose file:line starts with this
     python tools/docs_commands.py --summary         # the counts: blocks run in CI, skipped, checks
 
-A block is a fenced ```bash, ```sh or ```console block (of ```console, only the ``$ `` lines run). Each
+A block is a fenced ```bash, ```sh, ```shell or ```console block (of ```console, only the ``$ `` lines run). Each
 runs on its own, in a fresh temporary folder outside the repository, under ``bash -e -o pipefail``,
 with the ``nxtnav`` of the Python that runs this file first on PATH, ``$DOCS_REPO`` naming the
 repository (for its ``tools/``) and ``MPLBACKEND=Agg``. It fails on a nonzero exit or a Python
 traceback in its output. A block is self-contained: a file it reads is one it made earlier, or one
 shipped with nxtnav (``maps/...``). Processes it leaves in the background are stopped when it ends.
 
-Markers are HTML comments (the site does not show them) on the line just before the fence, one or
-more, each on a line of its own:
+Markers are HTML comments (the site does not show them) directly above the fence (no blank line
+between), one or more, each on a line of its own:
 
     <!-- docs-run: skip: REASON -->
         The block does not run in CI: REASON says what it needs (a real NXT, a display, a cluster,
@@ -24,7 +24,8 @@ more, each on a line of its own:
         Literal substitutions made before CI runs the block, in order, each replacing every
         occurrence: smaller sizes (``--runs 50 => --runs 2``), or a line that cannot run in CI made a
         comment that says why (``nxtnav nxt check => # needs a real NXT``). A substitution that
-        matches nothing is an error, so a marker cannot outlive the command it changes.
+        matches nothing is an error, so a marker cannot outlive the command it changes. OLD and NEW
+        hold neither ``;`` nor ``=>``.
 
 A check anywhere in a page (typically next to the figure or sentence it backs):
 
