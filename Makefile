@@ -24,19 +24,20 @@ run: $(STAMP)
 	mkdir -p out
 	$(BIN)/nxtnav run --plot out/mission.png --json out/mission.json
 
-# pytest runs on every core (pytest-xdist); tests marked with one xdist_group share a worker (one Dask cluster)
+# pytest runs on every core (pytest-xdist); tests marked with one xdist_group share a worker (one Dask cluster);
+# --durations: each run lists its slowest tests (the candidates for the slow tier)
 PYTEST := $(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
-	$(PYTEST) -m "not docs"
+	$(PYTEST) -m "not docs" --durations=30
 
 # every shell block of README.md and docs/ run in a temporary folder outside the repository, at the sizes
 # its docs-run marker gives CI, and every stated figure checked (tools/docs_commands.py; --list: what runs)
 docs-commands: $(STAMP)
 	$(BIN)/python tools/docs_commands.py --summary
-	$(PYTEST) -m docs tests/test_docs_commands.py
+	$(PYTEST) -m docs tests/test_docs_commands.py --durations=40
 
 # the same without the slow end-to-end checks (pytest -m "not slow"), for a quick loop while editing
 test-fast: $(STAMP)
