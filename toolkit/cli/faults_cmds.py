@@ -11,6 +11,7 @@ import typer
 
 from ..formats import json_safe
 from .app import Interrupted, bench_app
+from .choices import one_of
 from .options import check_writable, count, non_negative, parse_list, positive
 from .options import seed as seed_ok
 from .options import workers as workers_ok
@@ -26,7 +27,7 @@ def bench_faults(
     seed: int = typer.Option(0, "--seed", help="Seed of the campaign (missions, faults, bricks).", callback=seed_ok),
     kinds_text: str | None = typer.Option(
         None, "--faults", metavar="KIND[,KIND]",
-        help="Fault kinds to draw from (default all: drop-link, stall, sonar-stuck, sonar-garbage, motor-slip)."),
+        help="Fault kinds to draw from " + one_of("fault kind") + " (default all)."),
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Maps, taken in turn."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",

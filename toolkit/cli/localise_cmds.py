@@ -14,7 +14,9 @@ import typer
 from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
 
 from .app import Interrupted, app, bench_app
+from .choices import one_of
 from .options import (
+    NOISE_MODEL_HELP,
     SENSOR_NOISE_HELP,
     SONAR_PROFILE_HELP,
     check_out_folder,
@@ -68,12 +70,12 @@ def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
 def localise_cmd(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="True start pose (cm, cm, deg)."),
-    localiser: str = typer.Option("paper-pf", "--localiser", help="Registered localiser."),
-    sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
+    localiser: str = typer.Option("paper-pf", "--localiser", help="Localiser " + one_of("localiser") + "."),
+    sonar: str = typer.Option("ideal", help="Simulated sonar " + one_of("sonar") + "."),
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
-    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf."),
+    noise_model: str = typer.Option("botsim", help=NOISE_MODEL_HELP),
+    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior") + "."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
     radius: float | None = typer.Option(None, "--radius", min=0.1,
@@ -139,21 +141,24 @@ def _scenarios(text: str) -> list[str]:
 @bench_app.command("localisers")
 def bench_localisers(
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps."),
-    localisers_text: str = typer.Option("all", "--localisers", help="Comma-separated localisers, or all."),
+    localisers_text: str = typer.Option("all", "--localisers",
+                                        help="Comma-separated localisers " + one_of("localiser") + ", or all."),
     trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser.", callback=count),
-    sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
+    sonar: str = typer.Option("ideal", help="Simulated sonar " + one_of("sonar") + "."),
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
-    scenario: str = typer.Option("global", help="global, tracking, kidnapped, a comma list, or all."),
-    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf (paper-pf's "
+    noise_model: str = typer.Option("botsim", help=NOISE_MODEL_HELP),
+    scenario: str = typer.Option("global", help="Scenarios " + one_of("scenario") + ": one, a comma list, or all."),
+    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior")
+                                      + " (pf: paper-pf's "
                                                           "first estimate)."),
     tracking_steps: int = typer.Option(12, help="Actions of the tracking drive.", callback=count),
     recovery_rounds: int = typer.Option(3, help="Runs of the procedure (localiser not reset) allowed to recover "
                                                 "from a kidnapping.", callback=count),
     scan_processing: str = typer.Option("paper", help="Scans for the localisers: paper (processed) or raw."),
     exploration: str = typer.Option("modes", help="Exploration rule of the global strategy while the belief is "
-                                                  "ambiguous: modes (a mission's: safe from every candidate pose) "
+                                                  "ambiguous " + one_of("exploration")
+                                                  + ": modes (a mission's: safe from every candidate pose) "
                                                   "or scan (toward the longest free run of the last sweep)."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
     radius: float | None = typer.Option(None, "--radius", min=0.1,

@@ -13,8 +13,10 @@ import typer
 from ..formats import json_safe
 from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, RobotModel, load_map, make_checker
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
+from .choices import one_of
 from .options import (
     COLLISION_HELP,
+    NOISE_MODEL_HELP,
     SONAR_PROFILE_HELP,
     check_writable,
     count,
@@ -34,6 +36,9 @@ from .options import workers as workers_ok
 from .progress import progress
 
 __all__: list[str] = []
+
+_PAPER_NOISE_HELP = "Noise model(s) " + one_of("noise model") + " (default all; with --pareto botsim)."
+_SETTINGS_HELP = "Mission settings for --pareto " + one_of("mission setting") + " (default all)."
 
 
 def _planner_names() -> list[str]:
@@ -88,14 +93,14 @@ def run(
         None, "--start-heading", metavar="H:SD",
         help="The robot's heading at the start is H degrees, give or take SD (its position unknown): the first "
              "global localisation knows it. Default: nothing known."),
-    planner: str = typer.Option("min-turn", help="Planner (registry name or ompl:NAME)."),
-    localiser: str = typer.Option("paper-pf", help="Localiser (registry name)."),
+    planner: str = typer.Option("min-turn", help="Planner " + one_of("planner") + "."),
+    localiser: str = typer.Option("paper-pf", help="Localiser " + one_of("localiser") + "."),
     robot_kind: str = typer.Option("sim", "--robot", help="sim or nxt."),
-    sonar: str = typer.Option("ideal", help=f"Sonar model of the simulator: {', '.join(SONAR_MODELS.names())}."),
+    sonar: str = typer.Option("ideal", help="Sonar model of the simulator " + one_of("sonar") + "."),
     sonar_profile_path: Path | None = typer.Option(
         None, "--sonar-profile", metavar="FILE",
         help=SONAR_PROFILE_HELP + " With --robot nxt: the real sensor's model, for the localiser."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="botsim (proportional) or absolute."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="Noise of the ideal sonar (cm; the nxt sonar's comes from its model), "
                                         "motion noise, turn noise (the paper's by default)."),
@@ -107,7 +112,7 @@ def run(
     json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the report as JSON."),
     plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png", help="Draw the mission."),
     animate: Path | None = typer.Option(None, "--animate", metavar="FILE.gif", help="Animate the mission (GIF)."),
-    nxt_backend: str = typer.Option("usb", "--nxt-backend", help="NXT link: usb, bluetooth or socket."),
+    nxt_backend: str = typer.Option("usb", "--nxt-backend", help="NXT link " + one_of("nxt backend") + "."),
     server_host: str = typer.Option("localhost", "--server-host", help="nxt-server / virtual brick host (socket)."),
     server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket).",
                                      callback=port),
@@ -393,11 +398,11 @@ def paper(
                                            help="Stack(s) to run (repeatable; default min-turn/paper-pf)."),
     sonar: str | None = typer.Option(
         None, metavar="NAME[,NAME]",
-        help=f"Sonar model(s): {', '.join(SONAR_MODELS.names())} (default ideal; with --pareto both)."),
+        help="Sonar model(s) " + one_of("sonar") + " (default ideal; with --pareto ideal and nxt)."),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE",
                                                    help=SONAR_PROFILE_HELP + " For the nxt tables."),
     noise_model: list[str] | None = typer.Option(
-        None, "--noise-model", help="Noise model(s) (default both: botsim and absolute; with --pareto botsim)."),
+        None, "--noise-model", help=_PAPER_NOISE_HELP),
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
@@ -412,7 +417,7 @@ def paper(
                                        help="Run every mission setting instead and draw mean final error "
                                             "against median robot time (the Pareto front)."),
     settings: str | None = typer.Option(None, "--settings", metavar="NAME[,NAME]",
-                                        help="Mission settings for --pareto (default all)."),
+                                        help=_SETTINGS_HELP),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),
 ) -> None:

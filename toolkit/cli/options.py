@@ -16,6 +16,7 @@ import typer
 
 from ..world import CHECKER_BACKENDS, COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
 from ..world.bundled import data_path
+from .choices import one_of
 
 if TYPE_CHECKING:
     from localisation.base import HeadingPrior
@@ -24,6 +25,7 @@ __all__ = [
     "COLLISION_HELP",
     "MAX_COUNT",
     "MAX_SWEEP_READINGS",
+    "NOISE_MODEL_HELP",
     "SENSOR_NOISE_HELP",
     "SONAR_PROFILE_HELP",
     "check_writable",
@@ -97,8 +99,11 @@ port = in_range(1, 65535, what="a TCP port")
 port_or_zero = in_range(0, 65535, what="a TCP port (0 = any free one)")
 """A TCP port to listen on: 0-65535 (0 picks a free one)."""
 
-COLLISION_HELP = ("Collision checks of the robot disc: index (exact distances over a grid of the walls, compiled) "
-                  "or fcl (python-fcl's BVH); a point robot (radius 0) has its own exact checker.")
+COLLISION_HELP = ("Collision checks of the robot disc " + one_of("collision") + ": index (exact distances over a grid "
+                  "of the walls, compiled) or fcl (python-fcl's BVH); a point robot (radius 0) has its own exact "
+                  "checker.")
+NOISE_MODEL_HELP = ("Motion noise model " + one_of("noise model") + ": botsim (proportional to each drive and turn) or "
+                    "absolute.")
 
 
 def collision(value: str) -> str:

@@ -13,7 +13,17 @@ import typer
 from ..formats import json_safe
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import Interrupted, app, bench_app, fail
-from .options import COLLISION_HELP, check_writable, count, non_negative, parse_list, parse_xy, positive
+from .choices import one_of
+from .options import (
+    COLLISION_HELP,
+    NOISE_MODEL_HELP,
+    check_writable,
+    count,
+    non_negative,
+    parse_list,
+    parse_xy,
+    positive,
+)
 from .options import collision as collision_ok
 from .options import repeats as repeats_ok
 from .options import seed as seed_ok
@@ -49,7 +59,7 @@ def _to_builtin(obj: Any) -> Any:
 @app.command("plan")
 def plan(
     map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
-    planner: str = typer.Option("min-turn", "--planner", help="Planner: a registry name or ompl:NAME."),
+    planner: str = typer.Option("min-turn", "--planner", help="Planner " + one_of("planner") + "."),
     start_text: str | None = typer.Option(None, "--start", metavar="X,Y", help="Start in cm (default: preset)."),
     goal_text: str | None = typer.Option(None, "--goal", metavar="X,Y", help="Goal in cm (default: preset)."),
     seed: int = typer.Option(0, "--seed", help="Random seed of the planner and of the execution error.",
@@ -62,7 +72,7 @@ def plan(
                                   callback=collision_ok),
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives for the execution error (0 skips it)."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
@@ -188,15 +198,16 @@ def _parse_budgets(text: str) -> tuple[float, ...]:
 def bench_planners(
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
     planners: str = typer.Option(",".join(DEFAULT_PLANNERS), "--planners",
-                                 help="Comma-separated planners (registry names or ompl:NAME)."),
+                                 help="Comma-separated planners " + one_of("planner") + "."),
     runs: int = typer.Option(50, "--runs", help="Runs per planner and map.", callback=count),
     time_limit: float | None = typer.Option(None, "--time-limit", metavar="SECONDS",
                                             help="Planning budget per run (s; default 1).", callback=time_limit_ok),
     budgets: str | None = typer.Option(None, "--budgets", metavar="S1,S2,...",
                                        help="Budget sweep: run the benchmark at each budget (s) instead of "
                                             "--time-limit; budgets.md, budgets.csv, budget_sweep.png."),
-    simplify: str = typer.Option("ompl", "--simplify", help="Simplify each path before measuring it again: "
-                                 "none, shortcut (greedy waypoint shortcuts) or ompl (OMPL's PathSimplifier)."),
+    simplify: str = typer.Option("ompl", "--simplify", help="Simplify each path before measuring it again "
+                                 + one_of("simplify") + ": none, shortcut (greedy waypoint shortcuts) or ompl "
+                                 "(OMPL's PathSimplifier)."),
     progress_interval: float = typer.Option(0.01, "--progress-interval", metavar="SECONDS", callback=positive,
                                             help="Budget (s) between two best-cost samples of the anytime "
                                                  "planners (also sampled at every improvement)."),
@@ -213,7 +224,7 @@ def bench_planners(
                                  callback=non_negative),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",

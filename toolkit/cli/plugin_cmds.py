@@ -9,6 +9,7 @@ from rich.table import Table
 from toolkit.world import NxtnavError, Params
 
 from .app import localisers_app, planners_app
+from .choices import one_of
 
 __all__: list[str] = []
 
@@ -35,7 +36,7 @@ def planners_list() -> None:
 
 
 @planners_app.command("show")
-def planners_show(name: str = typer.Argument(..., help="A planner: min-turn, astar, rrtstar, ompl:NAME...")) -> None:
+def planners_show(name: str = typer.Argument(..., help="A planner " + one_of("planner") + ".")) -> None:
     """A planner's declared options: name, type, default, range, unit, description (`--set NAME.KEY=VALUE`)."""
     from planners import PLANNERS
     from planners.declarations import planner_params
@@ -59,7 +60,7 @@ def localisers_list() -> None:
 
 
 @localisers_app.command("show")
-def localisers_show(name: str = typer.Argument(..., help="A localiser: paper-pf, amcl, ekf, ...")) -> None:
+def localisers_show(name: str = typer.Argument(..., help="A localiser " + one_of("localiser") + ".")) -> None:
     """A localiser's declared options and how it takes each facet of the robot model."""
     from localisation import LOCALISERS
 

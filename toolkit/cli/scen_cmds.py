@@ -10,6 +10,7 @@ import yaml
 
 from ..world import NxtnavError, import_map
 from .app import bench_app, maps_app
+from .choices import one_of
 from .options import COLLISION_HELP, parse_list, shipped
 from .options import collision as collision_ok
 from .progress import progress
@@ -85,10 +86,11 @@ def bench_scen(
     scen: Path = typer.Argument(..., metavar="FILE.scen", callback=shipped, help="Moving AI / GPPC scenario file."),
     map_path: Path | None = typer.Option(None, "--map", metavar="FILE.map", callback=shipped,
                                          help="The map (default: the file the scenarios name, next to FILE.scen)."),
-    kind: str = typer.Option(..., "--kind", help="octile (cells, 8-connected) or any-angle (cell corners)."),
+    kind: str = typer.Option(..., "--kind", help="Kind " + one_of("scen kind")
+                             + ": octile (cells, 8-connected) or any-angle (cell corners)."),
     planners_text: str = typer.Option("astar,shortest", "--planners",
-                                      help="Comma-separated planner names; peers (benchmark extra 'peers'): "
-                                           "peer:pyastar2d, peer:extremitypathfinder."),
+                                      help="Comma-separated planners " + one_of("planner")
+                                           + ", or peers (benchmark extra 'peers') " + one_of("peer") + "."),
     radius: float = typer.Option(0.0, "--radius", help="Robot radius in cm (0: a point, as the benchmarks assume)."),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),

@@ -25,6 +25,7 @@ from rich.table import Table
 from ..formats import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import Interrupted, sonar_app
+from .choices import one_of
 from .options import check_writable, parse_heading_prior, parse_list, shipped
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
@@ -190,7 +191,8 @@ def sonar_score(
     map_file: Path | None = _MAP,
     sonar_profile: Path | None = _MODEL,
     baseline_text: str | None = typer.Option(None, "--baseline", metavar="NAME[,NAME]",
-                                             help="Also score these beside it: hardware (the model from the "
+                                             help="Also score these beside it " + one_of("sonar baseline")
+                                                  + ": hardware (the model from the "
                                                   "published hardware facts), default (the toolkit's nxt model)."),
     heading_prior_text: str | None = typer.Option(
         None, "--heading-prior", metavar="H:SD",

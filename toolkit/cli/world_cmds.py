@@ -20,6 +20,7 @@ from ..world import (
     load_map,
 )
 from .app import app, bench_app, maps_app
+from .choices import one_of
 from .options import (
     COLLISION_HELP,
     SENSOR_NOISE_HELP,
@@ -74,7 +75,7 @@ def maps_show(
 def scan(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="Robot pose (cm, cm, deg)."),
-    sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
+    sonar: str = typer.Option("ideal", help="Sonar model " + one_of("sonar") + "."),
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
@@ -174,7 +175,7 @@ def bench_world(
     range_memory_mb: float | None = typer.Option(None, "--range-memory-mb",
                                                  help="Range model memory budget (MB; default 1024 or "
                                                       "$NXTNAV_RANGE_MEMORY_MB)."),
-    sonar: str = typer.Option("ideal", help="Sonar of the range model: ideal (thin ray) or nxt (lobe, 255 cm)."),
+    sonar: str = typer.Option("ideal", help="Sonar of the range model " + one_of("sonar") + "."),
     peer: bool = typer.Option(True, "--peer/--no-peer", help="Measure raycast2d (optional extra) in the same run."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     json_out: Path | None = typer.Option(None, "--json", help="Write the figures as JSON."),
