@@ -155,6 +155,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     except (OSError, OverflowError) as exc:  # unreadable or unwritable files, numbers beyond a float
         typer.echo(f"nxtnav: error: {' '.join(str(exc).split())}", err=True)
         code = EXIT_BAD_INPUT
+    from .options import remove_created_folders
+
+    # on bad input, the folders made for outputs that were never written go again: nothing is left behind
+    remove_created_folders(keep=code != EXIT_BAD_INPUT)
     if argv is not None:  # called from Python (tests): return normally
         if code:
             raise SystemExit(code)

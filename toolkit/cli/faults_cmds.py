@@ -12,7 +12,7 @@ import typer
 from ..formats import json_safe
 from .app import Interrupted, bench_app
 from .choices import one_of
-from .options import check_writable, count, non_negative, parse_list, positive
+from .options import check_writable, count, non_negative, parse_list, positive, writable_file, writable_folder
 from .options import seed as seed_ok
 from .options import workers as workers_ok
 from .progress import progress
@@ -37,8 +37,9 @@ def bench_faults(
                                             help="How long a mission tries to reach its brick again (s)."),
     reply_timeout: float = typer.Option(3.0, "--reply-timeout", metavar="S", callback=positive,
                                         help="A reply later than this counts as a lost link (s)."),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the summary and every mission."),
-    recordings: Path | None = typer.Option(None, "--recordings", metavar="DIR",
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write the summary and every mission."),
+    recordings: Path | None = typer.Option(None, "--recordings", callback=writable_folder, metavar="DIR",
                                            help="Keep each faulty mission's recording here (default: checked, "
                                                 "then deleted)."),
 ) -> None:

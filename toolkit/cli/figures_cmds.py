@@ -23,7 +23,7 @@ import typer
 from ..world import NxtnavError
 from .app import app, main
 from .choices import one_of
-from .options import parse_list
+from .options import parse_list, writable_folder
 
 __all__ = ["FIGURE_JOBS", "SCREENSHOTS", "FigureJob", "figure_names", "run_job", "shrink_png"]
 
@@ -233,7 +233,8 @@ def _index(jobs: Sequence[FigureJob], quick: bool) -> str:
 
 @app.command("figures")
 def figures(
-    out: Path = typer.Option(Path("docs/img"), "--out", metavar="DIR", help="Folder of the figures."),
+    out: Path = typer.Option(Path("docs/img"), "--out", callback=writable_folder,
+                             metavar="DIR", help="Folder of the figures."),
     quick: bool = typer.Option(False, "--quick", help="Reduced setting (fewer runs and trials): for tests."),
     only: str | None = typer.Option(None, "--only", metavar="NAMES",
                                     help="Comma-separated jobs " + one_of("figure job") + "."),

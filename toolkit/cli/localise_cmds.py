@@ -26,6 +26,8 @@ from .options import (
     parse_list,
     parse_pose,
     sonar_profile,
+    writable_file,
+    writable_folder,
 )
 from .options import seed as seed_ok
 from .options import workers as workers_ok
@@ -82,9 +84,9 @@ def localise_cmd(
                                         help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     sets: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="Localiser option (repeatable)."),
-    output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
+    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
                                        help="Draw the particles per iteration."),
-    json_out: Path | None = typer.Option(None, "--json", help="Write the result as JSON."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the result as JSON."),
 ) -> None:
     """Localise once in the simulator from a known true pose; print the result, draw it with -o."""
     from localisation import candidate_poses, describe_candidates
@@ -166,7 +168,8 @@ def bench_localisers(
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
                                    help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
-    out: Path = typer.Option(..., "--out", help="Output folder (must be empty or new, unless --force)."),
+    out: Path = typer.Option(..., "--out", callback=writable_folder,
+                             help="Output folder (must be empty or new, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
     workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),

@@ -29,6 +29,7 @@ from .options import (
     port,
     positive,
     sonar_profile,
+    writable_file,
 )
 from .options import collision as collision_ok
 from .options import seed as seed_ok
@@ -109,9 +110,12 @@ def run(
                                         help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the report as JSON."),
-    plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png", help="Draw the mission."),
-    animate: Path | None = typer.Option(None, "--animate", metavar="FILE.gif", help="Animate the mission (GIF)."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write the report as JSON."),
+    plot: Path | None = typer.Option(None, "--plot", callback=writable_file,
+                                     metavar="FILE.png", help="Draw the mission."),
+    animate: Path | None = typer.Option(None, "--animate", callback=writable_file,
+                                        metavar="FILE.gif", help="Animate the mission (GIF)."),
     nxt_backend: str = typer.Option("usb", "--nxt-backend", help="NXT link " + one_of("nxt backend") + "."),
     server_host: str = typer.Option("localhost", "--server-host", help="nxt-server / virtual brick host (socket)."),
     server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket).",
@@ -123,13 +127,13 @@ def run(
     reply_timeout: float = typer.Option(
         3.0, "--reply-timeout", metavar="S", callback=positive,
         help="NXT (socket, Bluetooth): a reply that takes longer than this counts as a lost link."),
-    record: Path | None = typer.Option(None, "--record", metavar="FILE.jsonl",
+    record: Path | None = typer.Option(None, "--record", callback=writable_file, metavar="FILE.jsonl",
                                        help="Record every command, scan and localiser call (docs/recording.md)."),
     record_particles: int = typer.Option(
         100, "--record-particles", min=0, metavar="N",
         help="With --record or a view: keep at most N particles of the cloud with each estimate (0: none)."),
     view: bool = typer.Option(False, "--view", help="Watch the mission live in a Rerun viewer (extra 'viz')."),
-    view_save: Path | None = typer.Option(None, "--view-save", metavar="FILE.rrd",
+    view_save: Path | None = typer.Option(None, "--view-save", callback=writable_file, metavar="FILE.rrd",
                                           help="Stream the live view into a Rerun file instead of a viewer."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
@@ -390,9 +394,11 @@ def _parse_stacks(stacks: list[str] | None) -> list[tuple[str, str]]:
 def paper(
     trials: int = typer.Option(20, "--trials", help="Missions per map and noise model.", callback=count),
     seed: int = typer.Option(0, help="Seed of the table (each trial's seed derives from it).", callback=seed_ok),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the tables as JSON."),
-    markdown: Path | None = typer.Option(None, "--markdown", metavar="FILE", help="Write the tables as Markdown."),
-    plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png",
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write the tables as JSON."),
+    markdown: Path | None = typer.Option(None, "--markdown", callback=writable_file,
+                                         metavar="FILE", help="Write the tables as Markdown."),
+    plot: Path | None = typer.Option(None, "--plot", callback=writable_file, metavar="FILE.png",
                                      help="Draw final errors and path lengths beside the paper's means."),
     stack: list[str] | None = typer.Option(None, "--stack", metavar="PLANNER/LOCALISER",
                                            help="Stack(s) to run (repeatable; default min-turn/paper-pf)."),
@@ -413,7 +419,7 @@ def paper(
     option: list[str] | None = typer.Option(None, "--option", metavar="KEY=VALUE",
                                             help="A MissionConfig option for every mission (repeatable), "
                                                  "group.field or a field name, e.g. sweeps.track_scan_step_deg=2."),
-    pareto: Path | None = typer.Option(None, "--pareto", metavar="FILE.png",
+    pareto: Path | None = typer.Option(None, "--pareto", callback=writable_file, metavar="FILE.png",
                                        help="Run every mission setting instead and draw mean final error "
                                             "against median robot time (the Pareto front)."),
     settings: str | None = typer.Option(None, "--settings", metavar="NAME[,NAME]",

@@ -29,6 +29,7 @@ from .options import (
     port_or_zero,
     positive,
     sonar_profile,
+    writable_file,
 )
 from .options import seed as seed_ok
 
@@ -88,7 +89,8 @@ def brick_serve(
         help="A sonar profile (nxtnav sonar fit) for the nxt sonar: the brick's readings are drawn from its model. "
              "Default: the nxt model's own parameters."),
     seed: int | None = typer.Option(None, "--seed", help="Random seed (sonar noise, wheel slip).", callback=seed_ok),
-    log: Path | None = typer.Option(None, "--log", help="Truth log: one JSON line (t, pose, collisions) per motion."),
+    log: Path | None = typer.Option(None, "--log", callback=writable_file,
+                                    help="Truth log: one JSON line (t, pose, collisions) per motion."),
     wheel_diameter: float = typer.Option(RobotGeometry().wheel_diameter_cm, "--wheel-diameter",
                                          help="True wheel diameter of the simulated robot (cm).", callback=positive),
     track_width: float = typer.Option(RobotGeometry().track_width_cm, "--track-width",
@@ -209,7 +211,7 @@ def nxt_calibrate(
     server_port: int = _PORT_OPT,
     bt_address: str | None = _ADDRESS_OPT,
     brick_name: str | None = _NAME_OPT,
-    profile: Path = typer.Option(Path("nxt-profile.yaml"), "--profile",
+    profile: Path = typer.Option(Path("nxt-profile.yaml"), "--profile", callback=writable_file,
                                  help="Profile YAML to update (read if it exists, then written)."),
     distance: float = typer.Option(50.0, "--distance", help="Distance to drive (cm)."),
     angle: float = typer.Option(360.0, "--angle", help="Angle to spin (deg)."),

@@ -23,6 +23,8 @@ from .options import (
     parse_list,
     parse_xy,
     positive,
+    writable_file,
+    writable_folder,
 )
 from .options import collision as collision_ok
 from .options import repeats as repeats_ok
@@ -77,8 +79,10 @@ def plan(
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
                                      callback=non_negative),
-    output: Path = typer.Option(..., "-o", "--output", metavar="FILE.png", help="Figure to write."),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write path, metrics and status."),
+    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
+                                metavar="FILE.png", help="Figure to write."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write path, metrics and status."),
     sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
                                    help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
 ) -> None:
@@ -212,7 +216,8 @@ def bench_planners(
                                             help="Budget (s) between two best-cost samples of the anytime "
                                                  "planners (also sampled at every improvement)."),
     seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it).", callback=seed_ok),
-    out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder (must be new or empty)."),
+    out: Path = typer.Option(..., "--out", callback=writable_folder,
+                             metavar="DIR", help="Output folder (must be new or empty)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",

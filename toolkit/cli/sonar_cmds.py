@@ -26,7 +26,7 @@ from ..formats import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import Interrupted, sonar_app
 from .choices import one_of
-from .options import check_writable, parse_heading_prior, parse_list, shipped
+from .options import check_writable, parse_heading_prior, parse_list, shipped, writable_file, writable_folder
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
@@ -43,7 +43,7 @@ _CRITICALS = typer.Option("20,30,40,50,60", "--criticals", metavar="DEG[,DEG]",
                           help="Specular incidence limits tried (degrees, > 0 and <= 90).")
 _MODEL = typer.Option(None, "--sonar-profile", metavar="FILE",
                       help="The model (default: the toolkit's nxt model, fitted to real sweeps).")
-_JSON = typer.Option(None, "--json", metavar="FILE", help="Write the results as JSON.")
+_JSON = typer.Option(None, "--json", callback=writable_file, metavar="FILE", help="Write the results as JSON.")
 
 _UNITS = {"noise_sd": "cm", "noise_per_m": "cm/m", "bias_cm": "cm", "beam_width_deg": "deg", "beam_rays": "",
           "critical_incidence_deg": "deg", "min_range_cm": "cm", "max_range_cm": "cm", "reach_cm": "cm",
@@ -136,7 +136,8 @@ def _params_table(model: NxtSonar, title: str) -> Table:
 def sonar_fit(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
-    output: Path = typer.Option(..., "-o", "--output", metavar="PROFILE.yaml", help="The sonar profile to write."),
+    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
+                                metavar="PROFILE.yaml", help="The sonar profile to write."),
     widths_text: str = _WIDTHS,
     criticals_text: str = _CRITICALS,
     json_out: Path | None = _JSON,
@@ -330,7 +331,7 @@ def sonar_plot(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
     sonar_profile: Path | None = _MODEL,
-    out: Path = typer.Option(Path("out"), "--out", help="Folder of the PNG figures."),
+    out: Path = typer.Option(Path("out"), "--out", callback=writable_folder, help="Folder of the PNG figures."),
     seed: int = typer.Option(0, help="Seed of the model's drawn sweeps."),
     heading_prior_text: str | None = typer.Option(
         None, "--heading-prior", metavar="H:SD",

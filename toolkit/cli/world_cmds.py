@@ -31,6 +31,7 @@ from .options import (
     parse_pose,
     parse_sweep,
     sonar_profile,
+    writable_file,
 )
 from .options import collision as collision_ok
 from .options import seed as seed_ok
@@ -52,7 +53,7 @@ def maps_list() -> None:
 @maps_app.command("show")
 def maps_show(
     map_name: str = typer.Argument(..., metavar="NAME|PATH", help="Map name (map1) or YAML file."),
-    output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
+    output: Path = typer.Option(..., "-o", "--output", callback=writable_file, help="PNG file to write."),
     radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the c-space (cm; 0 = a point).",
                                  callback=non_negative),
 ) -> None:
@@ -82,9 +83,9 @@ def scan(
     radius: float | None = typer.Option(None, "--radius", min=0.1,
                                         help="Robot's radius (cm; default 8): a robot scaled to the map; the "
                                              "disc must fit at the pose."),
-    output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
+    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
                                        help="Draw the scan (rays on the map, radar chart)."),
-    json_out: Path | None = typer.Option(None, "--json", help="Write the scan as JSON."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the scan as JSON."),
     angles_text: str | None = typer.Option(None, "--angles", metavar="START:STEP:COUNT",
                                            help="The sensor angles (degrees, relative to the heading): COUNT "
                                                 "readings STEP apart from START (default 0:1:360)."),
@@ -178,7 +179,7 @@ def bench_world(
     sonar: str = typer.Option("ideal", help="Sonar of the range model " + one_of("sonar") + "."),
     peer: bool = typer.Option(True, "--peer/--no-peer", help="Measure raycast2d (optional extra) in the same run."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
-    json_out: Path | None = typer.Option(None, "--json", help="Write the figures as JSON."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the figures as JSON."),
 ) -> None:
     """Throughput of ray casting and collision checks, c-space and range-model build; medians of repeats.
 
