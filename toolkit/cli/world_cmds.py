@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -35,19 +36,33 @@ from .options import (
 )
 from .options import collision as collision_ok
 from .options import seed as seed_ok
+from .tables import NEVER_CUT, print_json, print_table
 
 __all__: list[str] = []
 
 
 @maps_app.command("list")
-def maps_list() -> None:
+def maps_list(as_json: bool = typer.Option(False, "--json", help="Print the list as JSON (for scripts).")) -> None:
     """List the map names that resolve, with their files and presets."""
-    table = Table("name", "file", "walls", "free area (cm²)", "start", "target")
+    rows: list[dict[str, Any]] = []
     for name, path in list_maps().items():
         m = load_map(path)
-        fmt = lambda p: "-" if p is None else f"({p[0]:g}, {p[1]:g})"  # noqa: E731
-        table.add_row(name, str(path), str(len(m.walls)), f"{m.area:.0f}", fmt(m.start), fmt(m.target))
-    Console().print(table)
+        rows.append({"name": name, "file": str(path), "walls": len(m.walls), "free_area_cm2": round(m.area, 1),
+                     "start": None if m.start is None else list(m.start),
+                     "target": None if m.target is None else list(m.target)})
+    if as_json:
+        print_json(rows)
+        return
+    table = Table()
+    for column in ("name", "file"):
+        table.add_column(column, **NEVER_CUT)  # type: ignore[arg-type]
+    for column in ("walls", "free area (cm²)", "start", "target"):
+        table.add_column(column)
+    fmt = lambda p: "-" if p is None else f"({p[0]:g}, {p[1]:g})"  # noqa: E731
+    for row in rows:
+        table.add_row(row["name"], row["file"], str(row["walls"]), f"{row['free_area_cm2']:.0f}", fmt(row["start"]),
+                      fmt(row["target"]))
+    print_table(table)
 
 
 @maps_app.command("show")
