@@ -217,8 +217,11 @@ def sonar_score(
     check_writable(json_out, "--json")
     models = _score_models(sonar_profile, baselines)
     sets = _load_sets(dirs, map_file)
-    with _stuck_noted(sets):
-        scores = {label: score_sonar(model, sets, heading_prior=heading) for label, (model, _) in models.items()}
+    sweeps = len(models) * sum(len(s) for s in sets)
+    with _stuck_noted(sets), progress("sweeps scored", sweeps,
+                                      transient=True, announce=True) as advance:
+        scores = {label: score_sonar(model, sets, heading_prior=heading, on_sweep=advance)
+                  for label, (model, _) in models.items()}
     console = Console()
     table = Table("model", "readings", "log-lik", "no echo real", "no echo model", "median |Δ|", "waypoint best",
                   title="sonar models against real sweeps (log-lik: nats per reading, higher is better; |Δ|: "
@@ -347,6 +350,6 @@ def sonar_plot(
     if out.exists() and not out.is_dir():
         raise NxtnavError(f"--out: {out} exists and is not a folder")
     sets = _load_sets(dirs, map_file)
-    with _stuck_noted(sets):
-        written = real_sonar_figures(sets, model, out, rng=seed, heading_prior=heading)
+    with _stuck_noted(sets), progress("figures", 3, transient=True, announce=True) as advance:
+        written = real_sonar_figures(sets, model, out, rng=seed, heading_prior=heading, on_figure=advance)
     typer.echo(f"wrote {', '.join(str(p) for p in written)}")
