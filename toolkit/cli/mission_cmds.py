@@ -14,6 +14,7 @@ from ..formats import json_safe
 from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, RobotModel, load_map, make_checker
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
 from .choices import one_of
+from .compiling import compile_note
 from .options import (
     COLLISION_HELP,
     NOISE_MODEL_HELP,
@@ -214,12 +215,14 @@ def run(
             {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles, collision, stream)
         report = None
         try:
-            report = run_sim_mission(
-                m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
-                localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
-                turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar, recorder=recorder, robot_radius_cm=radius,
-                config=MissionConfig.for_sonar(sonar, collision=collision), start_heading=start_heading,
-            )
+            with compile_note("the collision checks, localisers and planners"):  # a first run's long wait
+                report = run_sim_mission(
+                    m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
+                    localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise,
+                    motion_noise=motion_noise, turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar,
+                    recorder=recorder, robot_radius_cm=radius, start_heading=start_heading,
+                    config=MissionConfig.for_sonar(sonar, collision=collision),
+                )
         finally:
             _finish(recorder, report, stream)
     typer.echo(report.summary())
