@@ -100,13 +100,14 @@ def _quiet_exit(code: int) -> None:
     os._exit(code)
 
 
-def click_command(with_choices: bool = True) -> Any:
+def click_command(with_choices: bool = True, args: Sequence[str] | None = None) -> Any:
     """The application as a click command; with `with_choices`, its help texts list the names of the
-    registries they name (`toolkit.cli.choices`), as ``--help`` prints them."""
+    registries they name (`toolkit.cli.choices`), as ``--help`` prints them (with `args`, those of the
+    commands the command line names only)."""
     from .choices import fill_choices
 
     command = typer.main.get_command(app)
-    return fill_choices(command) if with_choices else command
+    return fill_choices(command, args) if with_choices else command
 
 
 def _asks_for_help(args: Sequence[str]) -> bool:
@@ -122,7 +123,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     """
     args = list(argv) if argv is not None else sys.argv[1:]
     # the registries behind the help texts' choice lists load only when help is printed
-    command = click_command(with_choices=_asks_for_help(args))
+    command = click_command(with_choices=_asks_for_help(args), args=args)
     code = EXIT_OK
     try:
         # in this mode click returns the code of a `typer.Exit` (and 130 for a Ctrl-C it caught)

@@ -9,7 +9,7 @@ for, not on every command.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 __all__ = ["CHOICE_SETS", "choice_names", "fill_choices", "one_of"]
@@ -156,13 +156,23 @@ def _filled(text: str | None) -> str | None:
     return _PLACEHOLDER.sub(lambda m: "{" + ", ".join(choice_names(m.group(1))) + "}", text)
 
 
-def fill_choices(command: Any) -> Any:
+def fill_choices(command: Any, args: Sequence[str] | None = None) -> Any:
     """Replace every placeholder in the help of `command` (a click command of the application) and of
-    its sub-commands, arguments and options by the names it stands for; returns `command`."""
+    its sub-commands, arguments and options by the names it stands for; returns `command`.
+
+    With `args` (the command line), only the commands it names are filled, so that ``nxtnav --help``
+    loads no plug-in registry.
+    """
     command.help = _filled(command.help)
     for param in command.params:
         if getattr(param, "help", None):
             param.help = _filled(param.help)
-    for sub in getattr(command, "commands", {}).values():
-        fill_choices(sub)
+    subs = getattr(command, "commands", {})
+    if args is None:
+        for sub in subs.values():
+            fill_choices(sub)
+        return command
+    named = next((i for i, a in enumerate(args) if a in subs), None)
+    if named is not None:
+        fill_choices(subs[args[named]], args[named + 1:])
     return command
