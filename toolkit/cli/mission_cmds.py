@@ -82,6 +82,32 @@ def _connect_nxt(backend: str, host: str, port: int, profile: Path | None, reply
     return connect_robot(backend, host=host, port=port, profile=profile, reply_timeout_s=reply_timeout_s)
 
 
+def _noise_models(chosen: list[str] | None, pareto: bool) -> list[str]:
+    """The motion noise models of `paper` (default all, botsim alone for the Pareto front), each checked."""
+    from localisation.models import NOISE_MODELS
+
+    models = chosen or (["botsim"] if pareto else list(NOISE_MODELS))
+    for nm in models:
+        if nm not in NOISE_MODELS:
+            raise typer.BadParameter(f"unknown noise model {nm!r}; known: {', '.join(NOISE_MODELS)}",
+                                     param_hint="--noise-model")
+    return models
+
+
+def _check_kinds(robot_kind: str, sonar: str, noise_model: str, nxt_backend: str) -> None:
+    """A usage error naming the option whose value is none of the names its registry knows."""
+    from localisation.models import NOISE_MODELS
+
+    from ..robots.nxt import BACKENDS
+
+    checks = (("--robot", robot_kind, ("sim", "nxt")), ("--sonar", sonar, SONAR_MODELS.names()),
+              ("--noise-model", noise_model, NOISE_MODELS), ("--nxt-backend", nxt_backend, BACKENDS))
+    for option, value, known in checks:
+        if value not in known:
+            raise typer.BadParameter(f"unknown {option.lstrip('-').replace('-', ' ')} {value!r}; known: {', '.join(known)}",
+                                     param_hint=option)
+
+
 @app.command("run")
 def run(
     map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
@@ -144,16 +170,7 @@ def run(
     m = load_map(map_name)
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
     localiser = _check_name(localiser, "--localiser", _localiser_names())
-    if robot_kind not in ("sim", "nxt"):
-        raise typer.BadParameter(f"expected sim or nxt, got {robot_kind!r}", param_hint="--robot")
-    if sonar not in SONAR_MODELS:
-        raise typer.BadParameter(f"unknown sonar {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
-                                 param_hint="--sonar")
-    if noise_model not in ("botsim", "absolute"):
-        raise typer.BadParameter(f"expected botsim or absolute, got {noise_model!r}", param_hint="--noise-model")
-    if nxt_backend not in ("usb", "bluetooth", "socket"):
-        raise typer.BadParameter(f"expected usb, bluetooth or socket, got {nxt_backend!r}",
-                                 param_hint="--nxt-backend")
+    _check_kinds(robot_kind, sonar, noise_model, nxt_backend)
     sensor_noise, motion_noise, turn_noise = _noise(noise_text)
     start_heading = parse_heading_prior(start_heading_text, "--start-heading")
     fitted_sonar = sonar_profile(sonar_profile_path, "nxt" if robot_kind == "nxt" else sonar)
@@ -436,10 +453,7 @@ def paper(
 
     sonars = _names(sonar or ("ideal,nxt" if pareto is not None else "ideal"), "--sonar", SONAR_MODELS.names())
     profile = sonar_profile(sonar_profile_path, sonars)
-    models = noise_model or (["botsim"] if pareto is not None else ["botsim", "absolute"])
-    for nm in models:
-        if nm not in ("botsim", "absolute"):
-            raise typer.BadParameter(f"expected botsim or absolute, got {nm!r}", param_hint="--noise-model")
+    models = _noise_models(noise_model, pareto is not None)
     map_names = parse_list(maps, "--maps")
     for name in map_names:
         load_map(name)

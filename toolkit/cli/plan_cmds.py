@@ -95,7 +95,7 @@ def plan(
     from planners.metrics import path_metrics
 
     from ..bench.execution import execution_error
-    from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, check_planner_names, planner_for
+    from ..bench.planners import check_planner_names, planner_for
     from ..plotting import draw_cspace, draw_map, draw_path, new_axes, save_figure
 
     if not (math.isfinite(time_limit) and time_limit > 0):
@@ -130,18 +130,7 @@ def plan(
     with compile_note(_KERNELS):  # before the timer: planning time never holds compilation
         warm_up_s = warm_up_planner(planner, options, checker, radius, collision, start, goal)
     result = built.plan(problem)
-    refs: dict[str, Any] = {}
-    for name in REFERENCE_PLANNERS:
-        ref_planner = planner_for(name, m)
-        if ref_planner is None:
-            continue
-        try:
-            ref = ref_planner.plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
-                                                   np.random.default_rng(0)))
-        except NxtnavError:
-            continue
-        if ref.success:
-            refs[name] = ref.path
+    refs = _reference_paths(m, checker, start, goal)
     doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
                            "robot_radius_cm": radius, "collision": checker.backend, "start": start.tolist(),
                            "goal": goal.tolist(), "warm_up_s": warm_up_s,
@@ -186,6 +175,27 @@ def plan(
         typer.echo(line)
     if not result.success:
         raise fail(f"{planner} found no path on {m.name}: {result.message}", code=1)
+
+
+def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray) -> dict[str, np.ndarray]:
+    """The paths of the reference planners that solve the query (shortest, min-link), by name."""
+    from planners import PlanningProblem
+
+    from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, planner_for
+
+    refs: dict[str, np.ndarray] = {}
+    for name in REFERENCE_PLANNERS:
+        ref_planner = planner_for(name, m)
+        if ref_planner is None:
+            continue
+        try:
+            ref = ref_planner.plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
+                                                   np.random.default_rng(0)))
+        except NxtnavError:
+            continue
+        if ref.success:
+            refs[name] = ref.path
+    return refs
 
 
 def _parse_budgets(text: str) -> tuple[float, ...]:
