@@ -104,8 +104,8 @@ def _check_kinds(robot_kind: str, sonar: str, noise_model: str, nxt_backend: str
               ("--noise-model", noise_model, NOISE_MODELS), ("--nxt-backend", nxt_backend, BACKENDS))
     for option, value, known in checks:
         if value not in known:
-            raise typer.BadParameter(f"unknown {option.lstrip('-').replace('-', ' ')} {value!r}; known: {', '.join(known)}",
-                                     param_hint=option)
+            what = option.lstrip("-").replace("-", " ")
+            raise typer.BadParameter(f"unknown {what} {value!r}; known: {', '.join(known)}", param_hint=option)
 
 
 @app.command("run")
