@@ -4,6 +4,11 @@ from __future__ import annotations
 
 import io
 import re
+import subprocess
+from pathlib import Path
+
+import pytest
+from conftest import nxtnav_exe
 
 from toolkit.cli.progress import LineProgress
 
@@ -36,3 +41,28 @@ def test_fewer_tasks_than_tenths() -> None:
     for _ in range(3):
         bar.advance()
     assert _counts(out.getvalue(), 3) == [1, 2, 3]
+
+
+def test_announce_writes_a_line_before_the_first_task_ends() -> None:
+    out = io.StringIO()
+    bar = LineProgress("missions", 3, out, announce=True)
+    assert _counts(out.getvalue(), 3) == [0]
+    for _ in range(3):
+        bar.advance()
+    assert _counts(out.getvalue(), 3) == [0, 1, 2, 3]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("argv", "label"), [
+    (["sonar", "score", "maps/real-nxt"], "sweeps scored"),
+    (["sonar", "plot", "maps/real-nxt", "--out", "figures"], "figures"),
+])
+def test_long_sonar_commands_say_how_far_they_are(argv: list[str], label: str, tmp_path: Path) -> None:
+    # stderr is a pipe here, as in a log or CI: plain lines, the first at once, one per finished step
+    proc = subprocess.run([nxtnav_exe(), *argv], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    steps = [ln for ln in proc.stderr.splitlines() if ln.startswith(label + ":")]
+    assert steps, proc.stderr
+    total = int(steps[0].split("/")[1].split()[0])
+    assert total >= 3
+    assert [int(ln.split(": ")[1].split("/")[0]) for ln in steps] == list(range(total + 1))

@@ -28,11 +28,12 @@ def test_page_equals_the_generated_reference() -> None:
 
 def test_every_command_and_option_is_on_the_page() -> None:
     text = cli_markdown()
-    root = typer.main.get_command(_load().app)
+    root = _load().click_command()
     commands = _leaf_commands(root)
     assert len(commands) > 20
     for name in commands:
         assert f"## `{name}`" in text, name
+    assert "<<" not in text, "a help text's choice list was not filled in"
     plan = root.commands["plan"]
     for param in plan.params:
         for opt in param.opts:

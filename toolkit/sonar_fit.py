@@ -285,18 +285,19 @@ class SweepScore:
 
 
 def score_sonar(model: NxtSonar, sets: Sequence[SweepSet], margins: bool = True,
-                heading_prior: HeadingPrior | None = None) -> SweepScore:
+                heading_prior: HeadingPrior | None = None, on_sweep: Callable[[], None] | None = None) -> SweepScore:
     """Mean log-probability per reading, no-echo share real against model, and the median |real - model|
     of the readings where both answer (the model's noise-free reading ``d + bias``), each sweep where
     the model finds it most likely (`align_sweeps`); and, with `margins` (a search of the whole map's
     lattice per sweep, the costly part), per sweep the margin (nats) by which the model prefers the
     waypoint to any place further than 20 cm (`toolkit.sweep_margins`, weighed by `heading_prior` when
-    given); NaN without."""
+    given); NaN without. With `margins`, `on_sweep` is called as each sweep's margin is done (a progress
+    display)."""
     aligned = [a for s in sets for a in align_sweeps(model, s)]
     if not aligned:
         raise ConfigError("no sweeps to score")
-    margin = ([m for s in sets for m in sweep_margins(model, s, heading_prior=heading_prior)] if margins
-              else [math.nan] * len(aligned))
+    margin = ([m for s in sets for m in sweep_margins(model, s, heading_prior=heading_prior, on_sweep=on_sweep)]
+              if margins else [math.nan] * len(aligned))
     per: list[dict[str, Any]] = []
     lps, silents, diffs, reals = [], [], [], []
     for a in aligned:

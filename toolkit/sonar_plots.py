@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -122,11 +122,14 @@ def draw_places(ax: Any, m: Map, xy: FloatArray, costs: FloatArray, sweep: Sweep
 
 
 def real_sonar_figures(sets: Sequence[SweepSet], model: NxtSonar, out: Path, *, radar_sweeps: int = 3,
-                       rng: int = 0, heading_prior: HeadingPrior | None = None) -> list[Path]:
+                       rng: int = 0, heading_prior: HeadingPrior | None = None,
+                       on_figure: Callable[[Path], None] | None = None) -> list[Path]:
     """``real_sonar_radar.png`` (the first `radar_sweeps` sweeps at distinct waypoints, real against
     model), ``real_sonar_no_echo.png`` (no-echo share against incidence and range) and
     ``real_sonar_places.png`` (where the first sweep puts the robot, alone and, with `heading_prior`,
-    with the heading known roughly) in `out`."""
+    with the heading known roughly) in `out`; `on_figure` is called with each file as it is written
+    (a progress display)."""
+    done = on_figure or (lambda path: None)
     out.mkdir(parents=True, exist_ok=True)
     aligned = [x for s in sets for x in align_sweeps(model, s)]
     seen: set[tuple[float, float]] = set()
@@ -147,12 +150,16 @@ def real_sonar_figures(sets: Sequence[SweepSet], model: NxtSonar, out: Path, *, 
                  "grey: noise-free echo), map frame; x on the rim: no echo", fontsize=9)
     radar = out / "real_sonar_radar.png"
     fig.savefig(radar, dpi=110, bbox_inches="tight")
+    done(radar)
     fig2 = Figure(figsize=(10, 4))
     draw_incidence_curves(fig2.add_subplot(1, 2, 1), fig2.add_subplot(1, 2, 2), aligned, model)
     fig2.suptitle(f"no-echo readings of {len(aligned)} real sweeps against the model", fontsize=10)
     curves = out / "real_sonar_no_echo.png"
     fig2.savefig(curves, dpi=110, bbox_inches="tight")
-    return [radar, curves, _places_figure(sets[0], model, out / "real_sonar_places.png", heading_prior)]
+    done(curves)
+    places = _places_figure(sets[0], model, out / "real_sonar_places.png", heading_prior)
+    done(places)
+    return [radar, curves, places]
 
 
 def _places_figure(sweeps: SweepSet, model: NxtSonar, path: Path, heading_prior: HeadingPrior | None) -> Path:

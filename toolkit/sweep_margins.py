@@ -13,7 +13,7 @@ bound for a localiser that knows the heading roughly).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,15 +53,19 @@ def place_costs(model: NxtSonar, sweeps: SweepSet, heading_prior: HeadingPrior |
 
 
 def sweep_margins(model: NxtSonar, sweeps: SweepSet, *, near_cm: float = 6.0, far_cm: float = 20.0,
-                  heading_prior: HeadingPrior | None = None) -> list[float]:
+                  heading_prior: HeadingPrior | None = None,
+                  on_sweep: Callable[[], None] | None = None) -> list[float]:
     """Per sweep, ``log L(best pose within near_cm of the waypoint) - log L(best pose beyond far_cm)`` (nats),
     with every usable reading (stuck runs left out) weighed as the localisers weigh it, and with
-    `heading_prior` the log prior of each lattice heading added."""
+    `heading_prior` the log prior of each lattice heading added; `on_sweep` is called as each sweep is
+    done (a progress display)."""
     if not 0.0 < near_cm < far_cm:
         raise ValueError(f"need 0 < near_cm < far_cm, got {near_cm} and {far_cm}")
     xy, per_sweep = place_costs(model, sweeps, heading_prior)
     out = []
     for s, costs in zip(sweeps, per_sweep, strict=True):
+        if on_sweep is not None:
+            on_sweep()
         dist = np.hypot(xy[:, 0] - s.x_cm, xy[:, 1] - s.y_cm)
         near, far = dist <= near_cm, dist > far_cm
         if not near.any() or not far.any():

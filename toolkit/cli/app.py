@@ -6,6 +6,7 @@ import logging
 import os
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 import typer
 from typer.exceptions import TyperException
@@ -13,7 +14,7 @@ from typer.exceptions import TyperException
 from ..world import NxtnavError
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "Interrupted", "app", "bench_app",
-           "brick_app", "fail", "import_app", "main", "maps_app", "nxt_app", "sonar_app"]
+           "brick_app", "click_command", "fail", "import_app", "main", "maps_app", "nxt_app", "sonar_app"]
 
 EXIT_OK = 0
 """The command did what was asked."""
@@ -99,6 +100,20 @@ def _quiet_exit(code: int) -> None:
     os._exit(code)
 
 
+def click_command(with_choices: bool = True, args: Sequence[str] | None = None) -> Any:
+    """The application as a click command; with `with_choices`, its help texts list the names of the
+    registries they name (`toolkit.cli.choices`), as ``--help`` prints them (with `args`, those of the
+    commands the command line names only)."""
+    from .choices import fill_choices
+
+    command = typer.main.get_command(app)
+    return fill_choices(command, args) if with_choices else command
+
+
+def _asks_for_help(args: Sequence[str]) -> bool:
+    return any(a in _SETTINGS["help_option_names"] for a in args)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Entry point of the console script: every failure becomes one line on stderr and an exit code.
 
@@ -106,11 +121,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     an option value, usage errors, unreadable or unwritable files, memory exhausted); 130 interrupted.
     Any other exception is a bug and keeps its traceback.
     """
-    command = typer.main.get_command(app)
+    args = list(argv) if argv is not None else sys.argv[1:]
+    # the registries behind the help texts' choice lists load only when help is printed
+    command = click_command(with_choices=_asks_for_help(args), args=args)
     code = EXIT_OK
     try:
         # in this mode click returns the code of a `typer.Exit` (and 130 for a Ctrl-C it caught)
-        rv = command.main(args=list(argv) if argv is not None else None, prog_name="nxtnav", standalone_mode=False)
+        rv = command.main(args=args, prog_name="nxtnav", standalone_mode=False)
         code = rv if isinstance(rv, int) else EXIT_OK
         if code == EXIT_INTERRUPTED:
             typer.echo("nxtnav: interrupted", err=True)
@@ -139,6 +156,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     except (OSError, OverflowError) as exc:  # unreadable or unwritable files, numbers beyond a float
         typer.echo(f"nxtnav: error: {' '.join(str(exc).split())}", err=True)
         code = EXIT_BAD_INPUT
+    from .options import remove_created_folders
+
+    # on bad input, the folders made for outputs that were never written go again: nothing is left behind
+    remove_created_folders(keep=code != EXIT_BAD_INPUT)
     if argv is not None:  # called from Python (tests): return normally
         if code:
             raise SystemExit(code)

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from .app import app
-from .options import shipped
+from .options import shipped, writable_folder
 
 __all__: list[str] = []
 
@@ -16,7 +16,7 @@ __all__: list[str] = []
 def export_cmd(
     recording: Path = typer.Argument(..., metavar="REC.jsonl", callback=shipped,
                                      help="A recording (nxtnav run --record)."),
-    mcap: Path = typer.Option(..., "--mcap", metavar="DIR",
+    mcap: Path = typer.Option(..., "--mcap", callback=writable_folder, metavar="DIR",
                               help="The rosbag2 folder to write (new or empty): MCAP storage, CDR messages."),
     grid_cm: float = typer.Option(1.0, "--grid-cm", min=0.1, metavar="CM", help="Cell size of the /map grid (cm)."),
     particles: int | None = typer.Option(None, "--particles", min=1, metavar="N",

@@ -11,7 +11,8 @@ import typer
 
 from ..formats import json_safe
 from .app import Interrupted, bench_app
-from .options import check_writable, count, non_negative, parse_list, positive
+from .choices import one_of
+from .options import check_writable, count, non_negative, parse_list, positive, writable_file, writable_folder
 from .options import seed as seed_ok
 from .options import workers as workers_ok
 from .progress import progress
@@ -26,7 +27,7 @@ def bench_faults(
     seed: int = typer.Option(0, "--seed", help="Seed of the campaign (missions, faults, bricks).", callback=seed_ok),
     kinds_text: str | None = typer.Option(
         None, "--faults", metavar="KIND[,KIND]",
-        help="Fault kinds to draw from (default all: drop-link, stall, sonar-stuck, sonar-garbage, motor-slip)."),
+        help="Fault kinds to draw from " + one_of("fault kind") + " (default all)."),
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Maps, taken in turn."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
@@ -36,8 +37,9 @@ def bench_faults(
                                             help="How long a mission tries to reach its brick again (s)."),
     reply_timeout: float = typer.Option(3.0, "--reply-timeout", metavar="S", callback=positive,
                                         help="A reply later than this counts as a lost link (s)."),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the summary and every mission."),
-    recordings: Path | None = typer.Option(None, "--recordings", metavar="DIR",
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write the summary and every mission."),
+    recordings: Path | None = typer.Option(None, "--recordings", callback=writable_folder, metavar="DIR",
                                            help="Keep each faulty mission's recording here (default: checked, "
                                                 "then deleted)."),
 ) -> None:

@@ -22,7 +22,8 @@ import typer
 
 from ..world import NxtnavError
 from .app import app, main
-from .options import parse_list
+from .choices import one_of
+from .options import parse_list, writable_folder
 
 __all__ = ["FIGURE_JOBS", "SCREENSHOTS", "FigureJob", "figure_names", "run_job", "shrink_png"]
 
@@ -232,10 +233,11 @@ def _index(jobs: Sequence[FigureJob], quick: bool) -> str:
 
 @app.command("figures")
 def figures(
-    out: Path = typer.Option(Path("docs/img"), "--out", metavar="DIR", help="Folder of the figures."),
+    out: Path = typer.Option(Path("docs/img"), "--out", callback=writable_folder,
+                             metavar="DIR", help="Folder of the figures."),
     quick: bool = typer.Option(False, "--quick", help="Reduced setting (fewer runs and trials): for tests."),
     only: str | None = typer.Option(None, "--only", metavar="NAMES",
-                                    help=f"Comma-separated jobs: {', '.join(j.name for j in FIGURE_JOBS)}."),
+                                    help="Comma-separated jobs " + one_of("figure job") + "."),
 ) -> None:
     """Regenerate the figures of the README and docs from seeded commands."""
     names = [j.name for j in FIGURE_JOBS]

@@ -14,7 +14,9 @@ import typer
 from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
 
 from .app import Interrupted, app, bench_app
+from .choices import one_of
 from .options import (
+    NOISE_MODEL_HELP,
     SENSOR_NOISE_HELP,
     SONAR_PROFILE_HELP,
     check_out_folder,
@@ -24,6 +26,8 @@ from .options import (
     parse_list,
     parse_pose,
     sonar_profile,
+    writable_file,
+    writable_folder,
 )
 from .options import seed as seed_ok
 from .options import workers as workers_ok
@@ -68,21 +72,21 @@ def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
 def localise_cmd(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="True start pose (cm, cm, deg)."),
-    localiser: str = typer.Option("paper-pf", "--localiser", help="Registered localiser."),
-    sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
+    localiser: str = typer.Option("paper-pf", "--localiser", help="Localiser " + one_of("localiser") + "."),
+    sonar: str = typer.Option("ideal", help="Simulated sonar " + one_of("sonar") + "."),
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
-    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf."),
+    noise_model: str = typer.Option("botsim", help=NOISE_MODEL_HELP),
+    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior") + "."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
     radius: float | None = typer.Option(None, "--radius", min=0.1,
                                         help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     sets: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="Localiser option (repeatable)."),
-    output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
+    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
                                        help="Draw the particles per iteration."),
-    json_out: Path | None = typer.Option(None, "--json", help="Write the result as JSON."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the result as JSON."),
 ) -> None:
     """Localise once in the simulator from a known true pose; print the result, draw it with -o."""
     from localisation import candidate_poses, describe_candidates
@@ -139,21 +143,24 @@ def _scenarios(text: str) -> list[str]:
 @bench_app.command("localisers")
 def bench_localisers(
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps."),
-    localisers_text: str = typer.Option("all", "--localisers", help="Comma-separated localisers, or all."),
+    localisers_text: str = typer.Option("all", "--localisers",
+                                        help="Comma-separated localisers " + one_of("localiser") + ", or all."),
     trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser.", callback=count),
-    sonar: str = typer.Option("ideal", help="Simulated sonar: ideal or nxt."),
+    sonar: str = typer.Option("ideal", help="Simulated sonar " + one_of("sonar") + "."),
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    noise_model: str = typer.Option("botsim", help="Motion noise model: botsim (proportional) or absolute."),
-    scenario: str = typer.Option("global", help="global, tracking, kidnapped, a comma list, or all."),
-    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF: noisy-truth or pf (paper-pf's "
+    noise_model: str = typer.Option("botsim", help=NOISE_MODEL_HELP),
+    scenario: str = typer.Option("global", help="Scenarios " + one_of("scenario") + ": one, a comma list, or all."),
+    tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior")
+                                      + " (pf: paper-pf's "
                                                           "first estimate)."),
     tracking_steps: int = typer.Option(12, help="Actions of the tracking drive.", callback=count),
     recovery_rounds: int = typer.Option(3, help="Runs of the procedure (localiser not reset) allowed to recover "
                                                 "from a kidnapping.", callback=count),
     scan_processing: str = typer.Option("paper", help="Scans for the localisers: paper (processed) or raw."),
     exploration: str = typer.Option("modes", help="Exploration rule of the global strategy while the belief is "
-                                                  "ambiguous: modes (a mission's: safe from every candidate pose) "
+                                                  "ambiguous " + one_of("exploration")
+                                                  + ": modes (a mission's: safe from every candidate pose) "
                                                   "or scan (toward the longest free run of the last sweep)."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
     radius: float | None = typer.Option(None, "--radius", min=0.1,
@@ -161,7 +168,8 @@ def bench_localisers(
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
                                    help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
-    out: Path = typer.Option(..., "--out", help="Output folder (must be empty or new, unless --force)."),
+    out: Path = typer.Option(..., "--out", callback=writable_folder,
+                             help="Output folder (must be empty or new, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
     workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),

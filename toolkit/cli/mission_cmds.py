@@ -13,8 +13,11 @@ import typer
 from ..formats import json_safe
 from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, RobotModel, load_map, make_checker
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
+from .choices import one_of
+from .compiling import compile_note
 from .options import (
     COLLISION_HELP,
+    NOISE_MODEL_HELP,
     SONAR_PROFILE_HELP,
     check_writable,
     count,
@@ -27,6 +30,7 @@ from .options import (
     port,
     positive,
     sonar_profile,
+    writable_file,
 )
 from .options import collision as collision_ok
 from .options import seed as seed_ok
@@ -34,6 +38,9 @@ from .options import workers as workers_ok
 from .progress import progress
 
 __all__: list[str] = []
+
+_PAPER_NOISE_HELP = "Noise model(s) " + one_of("noise model") + " (default all; with --pareto botsim)."
+_SETTINGS_HELP = "Mission settings for --pareto " + one_of("mission setting") + " (default all)."
 
 
 def _planner_names() -> list[str]:
@@ -75,6 +82,32 @@ def _connect_nxt(backend: str, host: str, port: int, profile: Path | None, reply
     return connect_robot(backend, host=host, port=port, profile=profile, reply_timeout_s=reply_timeout_s)
 
 
+def _noise_models(chosen: list[str] | None, pareto: bool) -> list[str]:
+    """The motion noise models of `paper` (default all, botsim alone for the Pareto front), each checked."""
+    from localisation.models import NOISE_MODELS
+
+    models = chosen or (["botsim"] if pareto else list(NOISE_MODELS))
+    for nm in models:
+        if nm not in NOISE_MODELS:
+            raise typer.BadParameter(f"unknown noise model {nm!r}; known: {', '.join(NOISE_MODELS)}",
+                                     param_hint="--noise-model")
+    return models
+
+
+def _check_kinds(robot_kind: str, sonar: str, noise_model: str, nxt_backend: str) -> None:
+    """A usage error naming the option whose value is none of the names its registry knows."""
+    from localisation.models import NOISE_MODELS
+
+    from ..robots.nxt import BACKENDS
+
+    checks = (("--robot", robot_kind, ("sim", "nxt")), ("--sonar", sonar, SONAR_MODELS.names()),
+              ("--noise-model", noise_model, NOISE_MODELS), ("--nxt-backend", nxt_backend, BACKENDS))
+    for option, value, known in checks:
+        if value not in known:
+            what = option.lstrip("-").replace("-", " ")
+            raise typer.BadParameter(f"unknown {what} {value!r}; known: {', '.join(known)}", param_hint=option)
+
+
 @app.command("run")
 def run(
     map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
@@ -88,14 +121,14 @@ def run(
         None, "--start-heading", metavar="H:SD",
         help="The robot's heading at the start is H degrees, give or take SD (its position unknown): the first "
              "global localisation knows it. Default: nothing known."),
-    planner: str = typer.Option("min-turn", help="Planner (registry name or ompl:NAME)."),
-    localiser: str = typer.Option("paper-pf", help="Localiser (registry name)."),
+    planner: str = typer.Option("min-turn", help="Planner " + one_of("planner") + "."),
+    localiser: str = typer.Option("paper-pf", help="Localiser " + one_of("localiser") + "."),
     robot_kind: str = typer.Option("sim", "--robot", help="sim or nxt."),
-    sonar: str = typer.Option("ideal", help=f"Sonar model of the simulator: {', '.join(SONAR_MODELS.names())}."),
+    sonar: str = typer.Option("ideal", help="Sonar model of the simulator " + one_of("sonar") + "."),
     sonar_profile_path: Path | None = typer.Option(
         None, "--sonar-profile", metavar="FILE",
         help=SONAR_PROFILE_HELP + " With --robot nxt: the real sensor's model, for the localiser."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="botsim (proportional) or absolute."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="Noise of the ideal sonar (cm; the nxt sonar's comes from its model), "
                                         "motion noise, turn noise (the paper's by default)."),
@@ -104,10 +137,13 @@ def run(
                                         help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the report as JSON."),
-    plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png", help="Draw the mission."),
-    animate: Path | None = typer.Option(None, "--animate", metavar="FILE.gif", help="Animate the mission (GIF)."),
-    nxt_backend: str = typer.Option("usb", "--nxt-backend", help="NXT link: usb, bluetooth or socket."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write the report as JSON."),
+    plot: Path | None = typer.Option(None, "--plot", callback=writable_file,
+                                     metavar="FILE.png", help="Draw the mission."),
+    animate: Path | None = typer.Option(None, "--animate", callback=writable_file,
+                                        metavar="FILE.gif", help="Animate the mission (GIF)."),
+    nxt_backend: str = typer.Option("usb", "--nxt-backend", help="NXT link " + one_of("nxt backend") + "."),
     server_host: str = typer.Option("localhost", "--server-host", help="nxt-server / virtual brick host (socket)."),
     server_port: int = typer.Option(2727, "--server-port", help="nxt-server / virtual brick port (socket).",
                                      callback=port),
@@ -118,7 +154,7 @@ def run(
     reply_timeout: float = typer.Option(
         3.0, "--reply-timeout", metavar="S", callback=positive,
         help="NXT (socket, Bluetooth): a reply that takes longer than this counts as a lost link."),
-    record: Path | None = typer.Option(None, "--record", metavar="FILE.jsonl",
+    record: Path | None = typer.Option(None, "--record", callback=writable_file, metavar="FILE.jsonl",
                                        help="Record every command, scan and localiser call (docs/recording.md)."),
     record_particles: int = typer.Option(
         100, "--record-particles", min=0, metavar="N",
@@ -126,7 +162,7 @@ def run(
     view: bool = typer.Option(
         False, "--view", help="Watch the mission live in a Rerun viewer (extra 'viz'; needs a display, "
                               "else use --view-save)."),
-    view_save: Path | None = typer.Option(None, "--view-save", metavar="FILE.rrd",
+    view_save: Path | None = typer.Option(None, "--view-save", callback=writable_file, metavar="FILE.rrd",
                                           help="Stream the live view into a Rerun file instead of a viewer."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
@@ -136,16 +172,7 @@ def run(
     m = load_map(map_name)
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
     localiser = _check_name(localiser, "--localiser", _localiser_names())
-    if robot_kind not in ("sim", "nxt"):
-        raise typer.BadParameter(f"expected sim or nxt, got {robot_kind!r}", param_hint="--robot")
-    if sonar not in SONAR_MODELS:
-        raise typer.BadParameter(f"unknown sonar {sonar!r}; known: {', '.join(SONAR_MODELS.names())}",
-                                 param_hint="--sonar")
-    if noise_model not in ("botsim", "absolute"):
-        raise typer.BadParameter(f"expected botsim or absolute, got {noise_model!r}", param_hint="--noise-model")
-    if nxt_backend not in ("usb", "bluetooth", "socket"):
-        raise typer.BadParameter(f"expected usb, bluetooth or socket, got {nxt_backend!r}",
-                                 param_hint="--nxt-backend")
+    _check_kinds(robot_kind, sonar, noise_model, nxt_backend)
     sensor_noise, motion_noise, turn_noise = _noise(noise_text)
     start_heading = parse_heading_prior(start_heading_text, "--start-heading")
     fitted_sonar = sonar_profile(sonar_profile_path, "nxt" if robot_kind == "nxt" else sonar)
@@ -211,12 +238,14 @@ def run(
                 {"model": sonar, "sensor_noise": sensor_noise, "params": sonar_model.to_dict()}, seed,
                 {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles, collision,
                 stream)
-            report = run_sim_mission(
-                m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
-                localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise, motion_noise=motion_noise,
-                turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar, recorder=recorder, robot_radius_cm=radius,
-                config=MissionConfig.for_sonar(sonar, collision=collision), start_heading=start_heading,
-            )
+            with compile_note("the collision checks, localisers and planners"):  # a first run's long wait
+                report = run_sim_mission(
+                    m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
+                    localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise,
+                    motion_noise=motion_noise, turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar,
+                    recorder=recorder, robot_radius_cm=radius, start_heading=start_heading,
+                    config=MissionConfig.for_sonar(sonar, collision=collision),
+                )
         finally:
             _finish(recorder, report, stream)
     typer.echo(report.summary())
@@ -401,19 +430,21 @@ def _parse_stacks(stacks: list[str] | None) -> list[tuple[str, str]]:
 def paper(
     trials: int = typer.Option(20, "--trials", help="Missions per map and noise model.", callback=count),
     seed: int = typer.Option(0, help="Seed of the table (each trial's seed derives from it).", callback=seed_ok),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write the tables as JSON."),
-    markdown: Path | None = typer.Option(None, "--markdown", metavar="FILE", help="Write the tables as Markdown."),
-    plot: Path | None = typer.Option(None, "--plot", metavar="FILE.png",
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write the tables as JSON."),
+    markdown: Path | None = typer.Option(None, "--markdown", callback=writable_file,
+                                         metavar="FILE", help="Write the tables as Markdown."),
+    plot: Path | None = typer.Option(None, "--plot", callback=writable_file, metavar="FILE.png",
                                      help="Draw final errors and path lengths beside the paper's means."),
     stack: list[str] | None = typer.Option(None, "--stack", metavar="PLANNER/LOCALISER",
                                            help="Stack(s) to run (repeatable; default min-turn/paper-pf)."),
     sonar: str | None = typer.Option(
         None, metavar="NAME[,NAME]",
-        help=f"Sonar model(s): {', '.join(SONAR_MODELS.names())} (default ideal; with --pareto both)."),
+        help="Sonar model(s) " + one_of("sonar") + " (default ideal; with --pareto ideal and nxt)."),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE",
                                                    help=SONAR_PROFILE_HELP + " For the nxt tables."),
     noise_model: list[str] | None = typer.Option(
-        None, "--noise-model", help="Noise model(s) (default both: botsim and absolute; with --pareto botsim)."),
+        None, "--noise-model", help=_PAPER_NOISE_HELP),
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
@@ -424,11 +455,11 @@ def paper(
     option: list[str] | None = typer.Option(None, "--option", metavar="KEY=VALUE",
                                             help="A MissionConfig option for every mission (repeatable), "
                                                  "group.field or a field name, e.g. sweeps.track_scan_step_deg=2."),
-    pareto: Path | None = typer.Option(None, "--pareto", metavar="FILE.png",
+    pareto: Path | None = typer.Option(None, "--pareto", callback=writable_file, metavar="FILE.png",
                                        help="Run every mission setting instead and draw mean final error "
                                             "against median robot time (the Pareto front)."),
     settings: str | None = typer.Option(None, "--settings", metavar="NAME[,NAME]",
-                                        help="Mission settings for --pareto (default all)."),
+                                        help=_SETTINGS_HELP),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),
 ) -> None:
@@ -438,10 +469,7 @@ def paper(
 
     sonars = _names(sonar or ("ideal,nxt" if pareto is not None else "ideal"), "--sonar", SONAR_MODELS.names())
     profile = sonar_profile(sonar_profile_path, sonars)
-    models = noise_model or (["botsim"] if pareto is not None else ["botsim", "absolute"])
-    for nm in models:
-        if nm not in ("botsim", "absolute"):
-            raise typer.BadParameter(f"expected botsim or absolute, got {nm!r}", param_hint="--noise-model")
+    models = _noise_models(noise_model, pareto is not None)
     map_names = parse_list(maps, "--maps")
     for name in map_names:
         load_map(name)

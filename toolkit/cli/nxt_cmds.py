@@ -18,6 +18,7 @@ from ..robots.virtual_brick_world import BrickConfig, BrickWorld
 from ..seeds import derive_seed
 from ..world import SONAR_MODELS, ConfigError, Pose, RobotGeometry, load_map
 from .app import brick_app, nxt_app
+from .choices import one_of
 from .options import (
     SENSOR_NOISE_HELP,
     check_writable,
@@ -28,10 +29,15 @@ from .options import (
     port_or_zero,
     positive,
     sonar_profile,
+    writable_file,
 )
 from .options import seed as seed_ok
 
 __all__: list[str] = []
+
+_FAULT_HELP = ("A scheduled fault (repeatable) of a KIND " + one_of("fault kind") + ": drop-link:AT_S:DOWN_S, "
+               "stall:AT_S:DUR_S, sonar-stuck:AT_S:DUR_S, sonar-garbage:[AT_S:]P, motor-slip:AT_S:FRACTION. AT_S in "
+               "brick time; link down and stall times in wall-clock seconds (docs/hardware.md).")
 
 
 def _echo(text: str) -> None:
@@ -45,7 +51,7 @@ def _backend(value: str) -> str:
     return value
 
 
-_BACKEND_OPT = typer.Option("usb", "--nxt-backend", help=f"How to reach the brick: {', '.join(BACKENDS)}.",
+_BACKEND_OPT = typer.Option("usb", "--nxt-backend", help="How to reach the brick " + one_of("nxt backend") + ".",
                             callback=_backend)
 _HOST_OPT = typer.Option("127.0.0.1", "--server-host", help="Brick server host (socket backend).")
 _PORT_OPT = typer.Option(2727, "--server-port", help="Brick server port (socket backend).", callback=port)
@@ -75,7 +81,7 @@ def brick_serve(
     max_step: float | None = typer.Option(
         None, "--max-step", help="Largest brick-time step per exchange (s); default 0.25 in real time, "
                                  "0.02 when faster.", callback=positive),
-    sonar: str = typer.Option("nxt", "--sonar", help=f"Sonar model: {', '.join(SONAR_MODELS.names())} (default: nxt, "
+    sonar: str = typer.Option("nxt", "--sonar", help="Sonar model " + one_of("sonar") + " (default: nxt, "
                                                      "the sensor an NXT client's localisers are told of)."),
     sensor_noise: float = typer.Option(1.0, "--sensor-noise", help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(
@@ -83,7 +89,8 @@ def brick_serve(
         help="A sonar profile (nxtnav sonar fit) for the nxt sonar: the brick's readings are drawn from its model. "
              "Default: the nxt model's own parameters."),
     seed: int | None = typer.Option(None, "--seed", help="Random seed (sonar noise, wheel slip).", callback=seed_ok),
-    log: Path | None = typer.Option(None, "--log", help="Truth log: one JSON line (t, pose, collisions) per motion."),
+    log: Path | None = typer.Option(None, "--log", callback=writable_file,
+                                    help="Truth log: one JSON line (t, pose, collisions) per motion."),
     wheel_diameter: float = typer.Option(RobotGeometry().wheel_diameter_cm, "--wheel-diameter",
                                          help="True wheel diameter of the simulated robot (cm).", callback=positive),
     track_width: float = typer.Option(RobotGeometry().track_width_cm, "--track-width",
@@ -102,9 +109,7 @@ def brick_serve(
                                      "(default: brake the motors that client started)."),
     fault_texts: list[str] | None = typer.Option(
         None, "--fault", metavar="KIND:AT_S[:ARG]",
-        help="A scheduled fault (repeatable): drop-link:AT_S:DOWN_S, stall:AT_S:DUR_S, sonar-stuck:AT_S:DUR_S, "
-             "sonar-garbage:[AT_S:]P, motor-slip:AT_S:FRACTION. AT_S in brick time; link down and stall times "
-             "in wall-clock seconds (docs/hardware.md)."),
+        help=_FAULT_HELP),
     reassembly: float = typer.Option(
         0.25, "--reassembly-window", metavar="S", callback=positive,
         help="Seconds to wait for the rest of a telegram TCP delivered in pieces before refusing the piece."),
@@ -206,7 +211,7 @@ def nxt_calibrate(
     server_port: int = _PORT_OPT,
     bt_address: str | None = _ADDRESS_OPT,
     brick_name: str | None = _NAME_OPT,
-    profile: Path = typer.Option(Path("nxt-profile.yaml"), "--profile",
+    profile: Path = typer.Option(Path("nxt-profile.yaml"), "--profile", callback=writable_file,
                                  help="Profile YAML to update (read if it exists, then written)."),
     distance: float = typer.Option(50.0, "--distance", help="Distance to drive (cm)."),
     angle: float = typer.Option(360.0, "--angle", help="Angle to spin (deg)."),

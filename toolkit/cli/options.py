@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -16,6 +17,7 @@ import typer
 
 from ..world import CHECKER_BACKENDS, COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
 from ..world.bundled import data_path
+from .choices import one_of
 
 if TYPE_CHECKING:
     from localisation.base import HeadingPrior
@@ -24,6 +26,7 @@ __all__ = [
     "COLLISION_HELP",
     "MAX_COUNT",
     "MAX_SWEEP_READINGS",
+    "NOISE_MODEL_HELP",
     "SENSOR_NOISE_HELP",
     "SONAR_PROFILE_HELP",
     "check_writable",
@@ -31,6 +34,7 @@ __all__ = [
     "count",
     "in_range",
     "non_negative",
+    "output_problem",
     "parse_floats",
     "parse_list",
     "parse_pose",
@@ -39,12 +43,15 @@ __all__ = [
     "port",
     "port_or_zero",
     "positive",
+    "remove_created_folders",
     "repeats",
     "seed",
     "shipped",
     "sonar_profile",
     "time_limit",
     "workers",
+    "writable_file",
+    "writable_folder",
 ]
 
 MAX_COUNT = 1_000_000
@@ -97,8 +104,11 @@ port = in_range(1, 65535, what="a TCP port")
 port_or_zero = in_range(0, 65535, what="a TCP port (0 = any free one)")
 """A TCP port to listen on: 0-65535 (0 picks a free one)."""
 
-COLLISION_HELP = ("Collision checks of the robot disc: index (exact distances over a grid of the walls, compiled) "
-                  "or fcl (python-fcl's BVH); a point robot (radius 0) has its own exact checker.")
+COLLISION_HELP = ("Collision checks of the robot disc " + one_of("collision") + ": index (exact distances over a grid "
+                  "of the walls, compiled) or fcl (python-fcl's BVH); a point robot (radius 0) has its own exact "
+                  "checker.")
+NOISE_MODEL_HELP = ("Motion noise model " + one_of("noise model") + ": botsim (proportional to each drive and turn) or "
+                    "absolute.")
 
 
 def collision(value: str) -> str:
@@ -119,35 +129,117 @@ def shipped(value: Any) -> Any:
     return data_path(value)
 
 
+def _nearest_existing(path: Path) -> Path:
+    """`path` itself when it exists, else its nearest ancestor that does (the folder a write creates
+    the missing ones in)."""
+    here = path.absolute()
+    while not here.exists() and here != here.parent:
+        here = here.parent
+    return here
+
+
+def _probe_folder(folder: Path) -> str | None:
+    """Why a file cannot be created in the existing folder `folder` (None: it can).
+
+    Permission bits do not tell (root passes them, /proc refuses every new file), so a probe file of
+    nxtnav's own, with a unique name, is created and removed again at once.
+    """
+    try:
+        fd, name = tempfile.mkstemp(prefix=".nxtnav-write-check-", dir=folder)
+    except OSError as exc:
+        return f"cannot write into {folder} ({exc.strerror or exc})"
+    os.close(fd)
+    os.unlink(name)
+    return None
+
+
+def output_problem(path: Path, folder: bool = False) -> str | None:
+    """Why the output `path` (a file, or with `folder` a folder) could not be written later; None when it can.
+
+    Nothing of the user's is created or changed: the path's missing folders must be creatable in its
+    nearest existing ancestor, an existing file must open for appending (nothing is written to it).
+    """
+    if not folder and path.is_dir():
+        return f"{path} is a folder, not a file"
+    if folder and path.exists() and not path.is_dir():
+        return f"{path} exists and is not a folder"
+    if not folder and path.exists():
+        try:
+            with open(path, "ab"):
+                return None
+        except OSError as exc:
+            return f"{path} is not writable ({exc.strerror or exc})"
+    ancestor = _nearest_existing(path if folder else path.parent)
+    if not ancestor.is_dir():
+        return f"cannot create the folder of {path}: {ancestor} is not a folder"
+    return _probe_folder(ancestor)
+
+
+def writable_file(param: typer.CallbackParam, value: Any) -> Any:
+    """A typer callback for an output file option: an output that could not be written is a usage error
+    naming the option and the path now, before any work (nothing is created); None passes."""
+    if value is not None:
+        problem = output_problem(Path(value))
+        if problem:
+            raise typer.BadParameter(problem)
+    return value
+
+
+def writable_folder(param: typer.CallbackParam, value: Any) -> Any:
+    """A typer callback for an output folder option (`writable_file` for a folder); None passes."""
+    if value is not None:
+        problem = output_problem(Path(value), folder=True)
+        if problem:
+            raise typer.BadParameter(problem)
+    return value
+
+
 def check_out_folder(out: Path, force: bool, option: str = "--out") -> None:
-    """Fail now when the output folder `out` is a file, or holds files and `force` is not given."""
-    if out.exists() and not out.is_dir():
-        raise NxtnavError(f"{option}: {out} exists and is not a folder")
+    """Fail now when the output folder `out` is a file, cannot be written, or holds files and `force` is
+    not given."""
+    problem = output_problem(out, folder=True)
+    if problem:
+        raise NxtnavError(f"{option}: {problem}")
     if out.is_dir() and any(out.iterdir()) and not force:
         raise NxtnavError(f"{option}: {out} is not empty (use --force to write into it)")
 
 
 def check_writable(path: Path | None, option: str) -> None:
-    """Fail now, before any work, when the output file `path` could not be written later.
-
-    The file's folder is created (as writing would), an existing folder in its place or a folder
-    that cannot be written is an error naming the option and the path.
-    """
+    """Fail now, before any work, when the output file `path` could not be written later; then create
+    its missing folders, as writing it would (None passes). If the command ends on bad input before it
+    writes, `toolkit.cli.app.main` removes them again (`remove_created_folders`)."""
     if path is None:
         return
-    if path.is_dir():
-        raise NxtnavError(f"{option}: {path} is a folder, not a file")
-    parent = path.parent if str(path.parent) else Path(".")
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise NxtnavError(f"{option}: cannot create the folder of {path}: {exc.strerror or exc}") from None
-    if not parent.is_dir():
-        raise NxtnavError(f"{option}: {parent} is not a folder")
-    if path.exists() and not os.access(path, os.W_OK):
-        raise NxtnavError(f"{option}: {path} is not writable")
-    if not path.exists() and not os.access(parent, os.W_OK | os.X_OK):
-        raise NxtnavError(f"{option}: cannot write into {parent}")
+    problem = output_problem(path)
+    if problem:
+        raise NxtnavError(f"{option}: {problem}")
+    missing = []
+    folder = path.absolute().parent
+    while not folder.exists():
+        missing.append(folder)
+        folder = folder.parent
+    for folder in reversed(missing):
+        try:
+            folder.mkdir()
+        except OSError as exc:
+            raise NxtnavError(f"{option}: cannot create the folder of {path}: {exc.strerror or exc}") from None
+        _CREATED.append(folder)
+
+
+_CREATED: list[Path] = []
+"""Folders `check_writable` made for outputs in this process, outermost first."""
+
+
+def remove_created_folders(keep: bool = False) -> None:
+    """Remove the folders `check_writable` made that are still empty (the command ended on bad input
+    before writing into them); anything else stays. With `keep`, only forget them (the command ran)."""
+    if keep:
+        _CREATED.clear()
+    while _CREATED:
+        try:
+            _CREATED.pop().rmdir()
+        except OSError:  # something was written into it: it stays
+            pass
 
 
 def parse_floats(text: str, option: str, count: tuple[int, ...]) -> list[float]:

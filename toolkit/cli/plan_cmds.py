@@ -13,7 +13,20 @@ import typer
 from ..formats import json_safe
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import Interrupted, app, bench_app, fail
-from .options import COLLISION_HELP, check_writable, count, non_negative, parse_list, parse_xy, positive
+from .choices import one_of
+from .compiling import compile_note, warm_up_planner
+from .options import (
+    COLLISION_HELP,
+    NOISE_MODEL_HELP,
+    check_writable,
+    count,
+    non_negative,
+    parse_list,
+    parse_xy,
+    positive,
+    writable_file,
+    writable_folder,
+)
 from .options import collision as collision_ok
 from .options import repeats as repeats_ok
 from .options import seed as seed_ok
@@ -24,6 +37,8 @@ from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
 
+_KERNELS = "the collision checks and planners"
+"""What `compile_note` says compiles on the first run."""
 DEFAULT_PLANNERS = ("min-turn", "astar", "rrtstar", "prm", "ompl:RRTConnect", "ompl:InformedRRTstar", "ompl:BITstar")
 """`bench planners`' default set: the paper's planner, grid A*, and OMPL's optimising planners (RRT*, PRM,
 Informed RRT*, BIT*) with RRTConnect as the fast feasible one (OMPL 2.0.1's Python wheel has no AIT*,
@@ -49,7 +64,7 @@ def _to_builtin(obj: Any) -> Any:
 @app.command("plan")
 def plan(
     map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
-    planner: str = typer.Option("min-turn", "--planner", help="Planner: a registry name or ompl:NAME."),
+    planner: str = typer.Option("min-turn", "--planner", help="Planner " + one_of("planner") + "."),
     start_text: str | None = typer.Option(None, "--start", metavar="X,Y", help="Start in cm (default: preset)."),
     goal_text: str | None = typer.Option(None, "--goal", metavar="X,Y", help="Goal in cm (default: preset)."),
     seed: int = typer.Option(0, "--seed", help="Random seed of the planner and of the execution error.",
@@ -62,13 +77,15 @@ def plan(
                                   callback=collision_ok),
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives for the execution error (0 skips it)."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
                                      callback=non_negative),
-    output: Path = typer.Option(..., "-o", "--output", metavar="FILE.png", help="Figure to write."),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write path, metrics and status."),
+    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
+                                metavar="FILE.png", help="Figure to write."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write path, metrics and status."),
     sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
                                    help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
 ) -> None:
@@ -78,7 +95,7 @@ def plan(
     from planners.metrics import path_metrics
 
     from ..bench.execution import execution_error
-    from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, check_planner_names, planner_for
+    from ..bench.planners import check_planner_names, planner_for
     from ..plotting import draw_cspace, draw_map, draw_path, new_axes, save_figure
 
     if not (math.isfinite(time_limit) and time_limit > 0):
@@ -89,7 +106,8 @@ def plan(
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
-    checker = make_checker(m, radius, collision)
+    with compile_note(_KERNELS):
+        checker = make_checker(m, radius, collision)
 
     def point(text: str | None, option: str, preset: Any) -> np.ndarray:
         if text is None:
@@ -109,22 +127,13 @@ def plan(
     goal = point(goal_text, "--goal", m.target)
     problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed))
     built = planner_for(planner, m, options) or make_planner(planner, **planner_kwargs(planner, options))
+    with compile_note(_KERNELS):  # before the timer: planning time never holds compilation
+        warm_up_s = warm_up_planner(planner, options, checker, radius, collision, start, goal)
     result = built.plan(problem)
-    refs: dict[str, Any] = {}
-    for name in REFERENCE_PLANNERS:
-        ref_planner = planner_for(name, m)
-        if ref_planner is None:
-            continue
-        try:
-            ref = ref_planner.plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
-                                                   np.random.default_rng(0)))
-        except NxtnavError:
-            continue
-        if ref.success:
-            refs[name] = ref.path
+    refs = _reference_paths(m, checker, start, goal)
     doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
                            "robot_radius_cm": radius, "collision": checker.backend, "start": start.tolist(),
-                           "goal": goal.tolist(),
+                           "goal": goal.tolist(), "warm_up_s": warm_up_s,
                            **{k: v for k, v in result.to_dict().items() if k != "planner"}}
     fig, ax = new_axes(size=6.0)
     draw_map(m, ax, presets=False, title=False)
@@ -168,6 +177,27 @@ def plan(
         raise fail(f"{planner} found no path on {m.name}: {result.message}", code=1)
 
 
+def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray) -> dict[str, np.ndarray]:
+    """The paths of the reference planners that solve the query (shortest, min-link), by name."""
+    from planners import PlanningProblem
+
+    from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, planner_for
+
+    refs: dict[str, np.ndarray] = {}
+    for name in REFERENCE_PLANNERS:
+        ref_planner = planner_for(name, m)
+        if ref_planner is None:
+            continue
+        try:
+            ref = ref_planner.plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
+                                                   np.random.default_rng(0)))
+        except NxtnavError:
+            continue
+        if ref.success:
+            refs[name] = ref.path
+    return refs
+
+
 def _parse_budgets(text: str) -> tuple[float, ...]:
     """``--budgets``: comma-separated positive numbers of seconds, none repeated."""
     from ..bench.planners import check_budgets
@@ -188,20 +218,22 @@ def _parse_budgets(text: str) -> tuple[float, ...]:
 def bench_planners(
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
     planners: str = typer.Option(",".join(DEFAULT_PLANNERS), "--planners",
-                                 help="Comma-separated planners (registry names or ompl:NAME)."),
+                                 help="Comma-separated planners " + one_of("planner") + "."),
     runs: int = typer.Option(50, "--runs", help="Runs per planner and map.", callback=count),
     time_limit: float | None = typer.Option(None, "--time-limit", metavar="SECONDS",
                                             help="Planning budget per run (s; default 1).", callback=time_limit_ok),
     budgets: str | None = typer.Option(None, "--budgets", metavar="S1,S2,...",
                                        help="Budget sweep: run the benchmark at each budget (s) instead of "
                                             "--time-limit; budgets.md, budgets.csv, budget_sweep.png."),
-    simplify: str = typer.Option("ompl", "--simplify", help="Simplify each path before measuring it again: "
-                                 "none, shortcut (greedy waypoint shortcuts) or ompl (OMPL's PathSimplifier)."),
+    simplify: str = typer.Option("ompl", "--simplify", help="Simplify each path before measuring it again "
+                                 + one_of("simplify") + ": none, shortcut (greedy waypoint shortcuts) or ompl "
+                                 "(OMPL's PathSimplifier)."),
     progress_interval: float = typer.Option(0.01, "--progress-interval", metavar="SECONDS", callback=positive,
                                             help="Budget (s) between two best-cost samples of the anytime "
                                                  "planners (also sampled at every improvement)."),
     seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it).", callback=seed_ok),
-    out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder (must be new or empty)."),
+    out: Path = typer.Option(..., "--out", callback=writable_folder,
+                             metavar="DIR", help="Output folder (must be new or empty)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),
     workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
@@ -213,7 +245,7 @@ def bench_planners(
                                  callback=non_negative),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise: botsim or absolute."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",

@@ -4,21 +4,37 @@ options, and a check of a plug-in of your own against what the test suite demand
 from __future__ import annotations
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from toolkit.world import NxtnavError, Params
 
 from .app import localisers_app, planners_app
+from .choices import one_of
+from .tables import NEVER_CUT, print_json, print_table
 
 __all__: list[str] = []
 
 
+_JSON_HELP = "Print the declared options as JSON (every field whole, for scripts)."
+
+
+def _default_text(default: object) -> str:
+    return "null" if default is None else str(default).lower() if isinstance(default, bool) else str(default)
+
+
+def _params_doc(params: Params | None) -> list[dict[str, object]]:
+    """The declared options as JSON-ready dicts: name, type, default, range, unit, description, robot."""
+    return [{"name": p.name, "type": p.type_name, "default": p.default, "range": p.range_text, "unit": p.unit,
+             "description": p.description, "robot": p.robot} for p in params or ()]
+
+
 def _table(title: str, params: Params) -> Table:
-    table = Table("option", "type", "default", "range", "unit", "description", title=title)
+    table = Table(title=title)
+    table.add_column("option", **NEVER_CUT)  # type: ignore[arg-type]
+    for column in ("type", "default", "range", "unit", "description"):
+        table.add_column(column)
     for p in params:
-        default = "null" if p.default is None else str(p.default).lower() if isinstance(p.default, bool) else str(
-            p.default)
+        default = _default_text(p.default)
         table.add_row(p.name, p.type_name, default, p.range_text, p.unit,
                       p.description + (" [dim](from the robot model)[/dim]" if p.robot else ""))
     return table
@@ -36,7 +52,8 @@ def planners_list() -> None:
 
 
 @planners_app.command("show")
-def planners_show(name: str = typer.Argument(..., help="A planner: min-turn, astar, rrtstar, ompl:NAME...")) -> None:
+def planners_show(name: str = typer.Argument(..., help="A planner " + one_of("planner") + "."),
+                  as_json: bool = typer.Option(False, "--json", help=_JSON_HELP)) -> None:
     """A planner's declared options: name, type, default, range, unit, description (`--set NAME.KEY=VALUE`)."""
     from planners import PLANNERS
     from planners.declarations import planner_params
@@ -44,10 +61,13 @@ def planners_show(name: str = typer.Argument(..., help="A planner: min-turn, ast
     if name not in PLANNERS:
         raise NxtnavError(f"unknown planner {name!r}; known: {', '.join(PLANNERS.names())} and ompl:NAME")
     params = planner_params(name)
+    if as_json:
+        print_json({"planner": name, "options": _params_doc(params)})
+        return
     if not params:
         typer.echo(f"{name} declares no options")
         return
-    Console().print(_table(f"{name}: options (--set {name}.KEY=VALUE)", params))
+    print_table(_table(f"{name}: options (--set {name}.KEY=VALUE)", params))
 
 
 @localisers_app.command("list")
@@ -60,25 +80,32 @@ def localisers_list() -> None:
 
 
 @localisers_app.command("show")
-def localisers_show(name: str = typer.Argument(..., help="A localiser: paper-pf, amcl, ekf, ...")) -> None:
+def localisers_show(name: str = typer.Argument(..., help="A localiser " + one_of("localiser") + "."),
+                    as_json: bool = typer.Option(False, "--json", help=_JSON_HELP)) -> None:
     """A localiser's declared options and how it takes each facet of the robot model."""
     from localisation import LOCALISERS
 
     if name not in LOCALISERS:
         raise NxtnavError(f"unknown localiser {name!r}; known: {', '.join(LOCALISERS.names())}")
     cls = LOCALISERS.get(name)
+    mapping = cls.robot_options
+    if as_json:
+        robot = None if mapping is None else {k: v if isinstance(v, str) else list(v) for k, v in mapping.items()}
+        print_json({"localiser": name, "options": _params_doc(cls.params), "robot_model": robot})
+        return
     if cls.params:
-        Console().print(_table(f"{name}: options (--set {name}.KEY=VALUE)", cls.params))
+        print_table(_table(f"{name}: options (--set {name}.KEY=VALUE)", cls.params))
     else:
         typer.echo(f"{name} declares no options")
-    mapping = cls.robot_options
     if mapping is None:
         typer.echo(f"{name} cannot be told a robot model")
         return
-    robot = Table("robot model facet", "becomes", title=f"{name}: the robot model (the same for every localiser)")
+    robot_table = Table(title=f"{name}: the robot model (the same for every localiser)")
+    robot_table.add_column("robot model facet", **NEVER_CUT)  # type: ignore[arg-type]
+    robot_table.add_column("becomes")
     for facet, how in mapping.items():
-        robot.add_row(facet, how if isinstance(how, str) else ", ".join(how))
-    Console().print(robot)
+        robot_table.add_row(facet, how if isinstance(how, str) else ", ".join(how))
+    print_table(robot_table)
 
 
 def _load_plugin_class(spec: str, base: type, kind: str) -> type:

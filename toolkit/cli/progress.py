@@ -33,13 +33,20 @@ class LineProgress:
         Where the lines go.
     every_s : float
         Longest quiet spell between two lines while tasks finish (s).
+    done : int
+        Tasks already finished when the count starts.
+    announce : bool
+        Also write a line when the work starts (for a few long tasks: the first may take a while).
     """
 
-    def __init__(self, label: str, total: int, stream: TextIO, every_s: float = 30.0, done: int = 0) -> None:
+    def __init__(self, label: str, total: int, stream: TextIO, every_s: float = 30.0, done: int = 0,
+                 announce: bool = False) -> None:
         self.label, self.total, self.stream, self.every_s = label, total, stream, every_s
         self.done = done
         self._t0 = self._last_t = time.monotonic()
         self._last_tenth = -1
+        if announce:  # a line at once, before the first task ends
+            print(f"{self.label}: 0/{self.total} (0 %), 0 s", file=self.stream, flush=True)
 
     def advance(self, *_: object) -> None:
         self.done += 1
@@ -53,11 +60,13 @@ class LineProgress:
 
 
 @contextmanager
-def progress(label: str, total: int, *, transient: bool = False, done: int = 0) -> Iterator[Advance]:
+def progress(label: str, total: int, *, transient: bool = False, done: int = 0,
+             announce: bool = False) -> Iterator[Advance]:
     """Report the progress of `total` tasks on stderr, `done` of them already finished; yields the
     function to call as each finishes.
 
-    On a terminal a live bar (removed at the end when `transient`); otherwise `LineProgress`.
+    On a terminal a live bar (removed at the end when `transient`); otherwise `LineProgress` (with
+    `announce`, its first line comes at once).
 
     >>> import io, contextlib
     >>> err = io.StringIO()
@@ -71,7 +80,7 @@ def progress(label: str, total: int, *, transient: bool = False, done: int = 0) 
 
     console = Console(file=sys.stderr)
     if not console.is_terminal:
-        yield LineProgress(label, total, sys.stderr, done=done).advance
+        yield LineProgress(label, total, sys.stderr, done=done, announce=announce).advance
         return
     from rich.progress import (
         BarColumn,

@@ -66,7 +66,7 @@ def _walk(path: str, command: Any) -> list[str]:
 
 def cli_markdown() -> str:
     """The reference page of every `nxtnav` command, as Markdown."""
-    from . import _load  # the application with every command module registered
+    from . import _load
 
-    command = typer.main.get_command(_load().app)
+    command = _load().click_command()  # every command registered, help texts with the registries' names
     return _HEADER + "\n" + "\n".join(_walk("nxtnav", command)).rstrip() + "\n"

@@ -10,7 +10,7 @@ import typer
 
 from ..formats import cell
 from .app import app
-from .options import parse_floats, parse_heading_prior, parse_list, shipped
+from .options import parse_floats, parse_heading_prior, parse_list, shipped, writable_file
 from .progress import progress_after
 from .set_options import localiser_sets
 
@@ -42,8 +42,9 @@ def replay_cmd(
     localisers_text: str = typer.Option("", "--localisers", metavar="A,B,...",
                                         help="Localisers to compare (default: the one used live)."),
     seed: int = typer.Option(0, help="Seed of the localisers other than the live one."),
-    json_out: Path | None = typer.Option(None, "--json", metavar="FILE", help="Write every step as JSON."),
-    output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
+                                         metavar="FILE", help="Write every step as JSON."),
+    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
                                        help="Draw the estimates and their error (or agreement)."),
     initial_pose: str | None = typer.Option(
         None, "--initial-pose", metavar="X,Y,H[,SD_CM,SD_DEG]",

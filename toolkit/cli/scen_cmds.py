@@ -10,7 +10,8 @@ import yaml
 
 from ..world import NxtnavError, import_map
 from .app import bench_app, maps_app
-from .options import COLLISION_HELP, parse_list, shipped
+from .choices import one_of
+from .options import COLLISION_HELP, parse_list, shipped, writable_file, writable_folder
 from .options import collision as collision_ok
 from .progress import progress
 
@@ -21,7 +22,8 @@ __all__: list[str] = []
 def maps_import(
     src: Path = typer.Argument(..., metavar="SRC", callback=shipped,
                                help="A Moving AI .map file or a ROS map_server .yaml."),
-    output: Path = typer.Option(..., "-o", "--output", metavar="OUT.yaml", help="Map YAML to write."),
+    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
+                                metavar="OUT.yaml", help="Map YAML to write."),
     cell_cm: float | None = typer.Option(None, "--cell-cm", help="Moving AI cell size in cm (default 1)."),
     unknown: str = typer.Option("occupied", "--unknown", help="ROS cells of unknown occupancy: occupied or free."),
     simplify: float = typer.Option(0.0, "--simplify", metavar="CM",
@@ -56,7 +58,8 @@ def maps_import(
 @maps_app.command("random")
 def maps_random(
     size: int = typer.Argument(..., metavar="SIZE", help="Cells along each side."),
-    output: Path = typer.Option(..., "-o", "--output", metavar="OUT.map", help="Moving AI .map file to write."),
+    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
+                                metavar="OUT.map", help="Moving AI .map file to write."),
     density: float = typer.Option(0.2, "--density", help="Probability that each cell is blocked."),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
     force: bool = typer.Option(False, "--force", help="Overwrite OUT.map if it exists."),
@@ -85,10 +88,11 @@ def bench_scen(
     scen: Path = typer.Argument(..., metavar="FILE.scen", callback=shipped, help="Moving AI / GPPC scenario file."),
     map_path: Path | None = typer.Option(None, "--map", metavar="FILE.map", callback=shipped,
                                          help="The map (default: the file the scenarios name, next to FILE.scen)."),
-    kind: str = typer.Option(..., "--kind", help="octile (cells, 8-connected) or any-angle (cell corners)."),
+    kind: str = typer.Option(..., "--kind", help="Kind " + one_of("scen kind")
+                             + ": octile (cells, 8-connected) or any-angle (cell corners)."),
     planners_text: str = typer.Option("astar,shortest", "--planners",
-                                      help="Comma-separated planner names; peers (benchmark extra 'peers'): "
-                                           "peer:pyastar2d, peer:extremitypathfinder."),
+                                      help="Comma-separated planners " + one_of("planner")
+                                           + ", or peers (benchmark extra 'peers') " + one_of("peer") + "."),
     radius: float = typer.Option(0.0, "--radius", help="Robot radius in cm (0: a point, as the benchmarks assume)."),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),
@@ -96,7 +100,7 @@ def bench_scen(
     limit: int | None = typer.Option(None, "--limit", help="Run N queries spread evenly over the file."),
     time_limit: float = typer.Option(10.0, "--time-limit", help="Planning budget per query (s)."),
     seed: int = typer.Option(0, "--seed", min=0, help="Random seed (for sampling planners)."),
-    out: Path = typer.Option(Path("out/scen"), "--out", help="Output folder."),
+    out: Path = typer.Option(Path("out/scen"), "--out", callback=writable_folder, help="Output folder."),
     workers: int = typer.Option(1, "--workers", min=1, help="Worker processes (1 = in this process)."),
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
     check: bool = typer.Option(False, "--check", help="Exit 1 when an exact planner mismatches the published optimum "

@@ -25,7 +25,8 @@ from rich.table import Table
 from ..formats import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import Interrupted, sonar_app
-from .options import check_writable, parse_heading_prior, parse_list, shipped
+from .choices import one_of
+from .options import check_writable, parse_heading_prior, parse_list, shipped, writable_file, writable_folder
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
@@ -42,7 +43,7 @@ _CRITICALS = typer.Option("20,30,40,50,60", "--criticals", metavar="DEG[,DEG]",
                           help="Specular incidence limits tried (degrees, > 0 and <= 90).")
 _MODEL = typer.Option(None, "--sonar-profile", metavar="FILE",
                       help="The model (default: the toolkit's nxt model, fitted to real sweeps).")
-_JSON = typer.Option(None, "--json", metavar="FILE", help="Write the results as JSON.")
+_JSON = typer.Option(None, "--json", callback=writable_file, metavar="FILE", help="Write the results as JSON.")
 
 _UNITS = {"noise_sd": "cm", "noise_per_m": "cm/m", "bias_cm": "cm", "beam_width_deg": "deg", "beam_rays": "",
           "critical_incidence_deg": "deg", "min_range_cm": "cm", "max_range_cm": "cm", "reach_cm": "cm",
@@ -135,7 +136,8 @@ def _params_table(model: NxtSonar, title: str) -> Table:
 def sonar_fit(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
-    output: Path = typer.Option(..., "-o", "--output", metavar="PROFILE.yaml", help="The sonar profile to write."),
+    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
+                                metavar="PROFILE.yaml", help="The sonar profile to write."),
     widths_text: str = _WIDTHS,
     criticals_text: str = _CRITICALS,
     json_out: Path | None = _JSON,
@@ -190,7 +192,8 @@ def sonar_score(
     map_file: Path | None = _MAP,
     sonar_profile: Path | None = _MODEL,
     baseline_text: str | None = typer.Option(None, "--baseline", metavar="NAME[,NAME]",
-                                             help="Also score these beside it: hardware (the model from the "
+                                             help="Also score these beside it " + one_of("sonar baseline")
+                                                  + ": hardware (the model from the "
                                                   "published hardware facts), default (the toolkit's nxt model)."),
     heading_prior_text: str | None = typer.Option(
         None, "--heading-prior", metavar="H:SD",
@@ -214,8 +217,11 @@ def sonar_score(
     check_writable(json_out, "--json")
     models = _score_models(sonar_profile, baselines)
     sets = _load_sets(dirs, map_file)
-    with _stuck_noted(sets):
-        scores = {label: score_sonar(model, sets, heading_prior=heading) for label, (model, _) in models.items()}
+    sweeps = len(models) * sum(len(s) for s in sets)
+    with _stuck_noted(sets), progress("sweeps scored", sweeps,
+                                      transient=True, announce=True) as advance:
+        scores = {label: score_sonar(model, sets, heading_prior=heading, on_sweep=advance)
+                  for label, (model, _) in models.items()}
     console = Console()
     table = Table("model", "readings", "log-lik", "no echo real", "no echo model", "median |Δ|", "waypoint best",
                   title="sonar models against real sweeps (log-lik: nats per reading, higher is better; |Δ|: "
@@ -328,7 +334,7 @@ def sonar_plot(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
     sonar_profile: Path | None = _MODEL,
-    out: Path = typer.Option(Path("out"), "--out", help="Folder of the PNG figures."),
+    out: Path = typer.Option(Path("out"), "--out", callback=writable_folder, help="Folder of the PNG figures."),
     seed: int = typer.Option(0, help="Seed of the model's drawn sweeps."),
     heading_prior_text: str | None = typer.Option(
         None, "--heading-prior", metavar="H:SD",
@@ -344,6 +350,6 @@ def sonar_plot(
     if out.exists() and not out.is_dir():
         raise NxtnavError(f"--out: {out} exists and is not a folder")
     sets = _load_sets(dirs, map_file)
-    with _stuck_noted(sets):
-        written = real_sonar_figures(sets, model, out, rng=seed, heading_prior=heading)
+    with _stuck_noted(sets), progress("figures", 3, transient=True, announce=True) as advance:
+        written = real_sonar_figures(sets, model, out, rng=seed, heading_prior=heading, on_figure=advance)
     typer.echo(f"wrote {', '.join(str(p) for p in written)}")

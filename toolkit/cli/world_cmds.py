@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -20,6 +21,7 @@ from ..world import (
     load_map,
 )
 from .app import app, bench_app, maps_app
+from .choices import one_of
 from .options import (
     COLLISION_HELP,
     SENSOR_NOISE_HELP,
@@ -30,28 +32,43 @@ from .options import (
     parse_pose,
     parse_sweep,
     sonar_profile,
+    writable_file,
 )
 from .options import collision as collision_ok
 from .options import seed as seed_ok
+from .tables import NEVER_CUT, print_json, print_table
 
 __all__: list[str] = []
 
 
 @maps_app.command("list")
-def maps_list() -> None:
+def maps_list(as_json: bool = typer.Option(False, "--json", help="Print the list as JSON (for scripts).")) -> None:
     """List the map names that resolve, with their files and presets."""
-    table = Table("name", "file", "walls", "free area (cm²)", "start", "target")
+    rows: list[dict[str, Any]] = []
     for name, path in list_maps().items():
         m = load_map(path)
-        fmt = lambda p: "-" if p is None else f"({p[0]:g}, {p[1]:g})"  # noqa: E731
-        table.add_row(name, str(path), str(len(m.walls)), f"{m.area:.0f}", fmt(m.start), fmt(m.target))
-    Console().print(table)
+        rows.append({"name": name, "file": str(path), "walls": len(m.walls), "free_area_cm2": round(m.area, 1),
+                     "start": None if m.start is None else list(m.start),
+                     "target": None if m.target is None else list(m.target)})
+    if as_json:
+        print_json(rows)
+        return
+    table = Table()
+    for column in ("name", "file"):
+        table.add_column(column, **NEVER_CUT)  # type: ignore[arg-type]
+    for column in ("walls", "free area (cm²)", "start", "target"):
+        table.add_column(column)
+    fmt = lambda p: "-" if p is None else f"({p[0]:g}, {p[1]:g})"  # noqa: E731
+    for row in rows:
+        table.add_row(row["name"], row["file"], str(row["walls"]), f"{row['free_area_cm2']:.0f}", fmt(row["start"]),
+                      fmt(row["target"]))
+    print_table(table)
 
 
 @maps_app.command("show")
 def maps_show(
     map_name: str = typer.Argument(..., metavar="NAME|PATH", help="Map name (map1) or YAML file."),
-    output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
+    output: Path = typer.Option(..., "-o", "--output", callback=writable_file, help="PNG file to write."),
     radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the c-space (cm; 0 = a point).",
                                  callback=non_negative),
 ) -> None:
@@ -74,16 +91,16 @@ def maps_show(
 def scan(
     map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="Robot pose (cm, cm, deg)."),
-    sonar: str = typer.Option("ideal", help=f"Sonar model: {', '.join(SONAR_MODELS.names())}."),
+    sonar: str = typer.Option("ideal", help="Sonar model " + one_of("sonar") + "."),
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
     radius: float | None = typer.Option(None, "--radius", min=0.1,
                                         help="Robot's radius (cm; default 8): a robot scaled to the map; the "
                                              "disc must fit at the pose."),
-    output: Path | None = typer.Option(None, "-o", "--output", metavar="FILE.png",
+    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
                                        help="Draw the scan (rays on the map, radar chart)."),
-    json_out: Path | None = typer.Option(None, "--json", help="Write the scan as JSON."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the scan as JSON."),
     angles_text: str | None = typer.Option(None, "--angles", metavar="START:STEP:COUNT",
                                            help="The sensor angles (degrees, relative to the heading): COUNT "
                                                 "readings STEP apart from START (default 0:1:360)."),
@@ -174,10 +191,10 @@ def bench_world(
     range_memory_mb: float | None = typer.Option(None, "--range-memory-mb",
                                                  help="Range model memory budget (MB; default 1024 or "
                                                       "$NXTNAV_RANGE_MEMORY_MB)."),
-    sonar: str = typer.Option("ideal", help="Sonar of the range model: ideal (thin ray) or nxt (lobe, 255 cm)."),
+    sonar: str = typer.Option("ideal", help="Sonar of the range model " + one_of("sonar") + "."),
     peer: bool = typer.Option(True, "--peer/--no-peer", help="Measure raycast2d (optional extra) in the same run."),
     seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
-    json_out: Path | None = typer.Option(None, "--json", help="Write the figures as JSON."),
+    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the figures as JSON."),
 ) -> None:
     """Throughput of ray casting and collision checks, c-space and range-model build; medians of repeats.
 

@@ -121,6 +121,10 @@ class Registry(Generic[T]):
         """Registered names, sorted."""
         return sorted(self._classes)
 
+    def family_prefixes(self) -> list[str]:
+        """The prefixes of the registered families (``ompl`` for ``ompl:NAME``), sorted."""
+        return sorted(self._families)
+
     def __contains__(self, name: object) -> bool:
         if not isinstance(name, str):
             return False
