@@ -4,15 +4,19 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install run test test-fast lint typecheck bench figures view-check dist-check docs clean
+.PHONY: install run test test-fast docs-commands lint typecheck bench figures view-check dist-check docs clean
 
 $(BIN)/python:
+	@echo "make: creating the virtual environment $(VENV)"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# pip's own progress (one line per package) instead of --quiet: the first install takes minutes
 $(STAMP): pyproject.toml setup.py | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[dev,nxt,cluster,viz,docs]"
+	@echo "make: installing nxtnav and its dependencies into $(VENV) (about 2 minutes the first time)"
+	$(BIN)/python -m pip install --progress-bar off -e ".[dev,nxt,cluster,viz,docs]"
 	touch $(STAMP)
+	@echo "make: nxtnav installed: $(BIN)/nxtnav"
 
 install: $(STAMP)
 
@@ -20,19 +24,26 @@ run: $(STAMP)
 	mkdir -p out
 	$(BIN)/nxtnav run --plot out/mission.png --json out/mission.json
 
-# pytest runs on every core (pytest-xdist); tests marked with one xdist_group share a worker (one Dask cluster)
+# pytest runs on every core (pytest-xdist); tests marked with one xdist_group share a worker (one Dask cluster);
+# --durations: each run lists its slowest tests (the candidates for the slow tier)
 PYTEST := $(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
-	$(PYTEST)
+	$(PYTEST) -m "not docs" --durations=30
+
+# every shell block of README.md and docs/ run in a temporary folder outside the repository, at the sizes
+# its docs-run marker gives CI, and every stated figure checked (tools/docs_commands.py; --list: what runs)
+docs-commands: $(STAMP)
+	$(BIN)/python tools/docs_commands.py --summary
+	$(PYTEST) -m docs tests/test_docs_commands.py --durations=40
 
 # the same without the slow end-to-end checks (pytest -m "not slow"), for a quick loop while editing
 test-fast: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
-	$(PYTEST) -m "not slow"
+	$(PYTEST) -m "not slow and not docs"
 
 bench: $(STAMP)
 	$(BIN)/nxtnav bench world --map map1

@@ -1,0 +1,162 @@
+"""Documented commands are tests: every shell block of README.md and docs/ runs, or its marker says why not.
+
+The blocks and checks (tests marked ``docs``, ``make docs-commands``) run the real ``nxtnav`` console
+script in a temporary folder outside the repository (tools/docs_commands.py says how); the tests
+of the runner itself (the marker syntax, the substitutions, what counts as a failure) run with the
+rest of the suite.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _load_runner() -> ModuleType:
+    """tools/docs_commands.py as a module (tools/ is not a package)."""
+    spec = importlib.util.spec_from_file_location("docs_commands", REPO / "tools" / "docs_commands.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["docs_commands"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+docs_commands = _load_runner()
+BLOCKS, CHECKS = docs_commands.collect(REPO)
+
+
+def _page(tmp_path: Path, text: str) -> Path:
+    page = tmp_path / "page.md"
+    page.write_text(text, encoding="utf-8")
+    return page
+
+
+@pytest.mark.docs
+@pytest.mark.parametrize("block", BLOCKS, ids=[block.where for block in BLOCKS])
+def test_documented_block_runs(block: Any) -> None:
+    if block.skip_reason is not None:
+        pytest.skip(f"{block.where}: {block.skip_reason}")
+    outcome = docs_commands.run_block(block)
+    script = docs_commands.ci_script(block)
+    excerpt = docs_commands.output_excerpt(outcome.output)
+    assert outcome.failure is None, f"{block.where}: {outcome.failure}\n{script}\n---\n{excerpt}"
+
+
+@pytest.mark.docs
+@pytest.mark.parametrize("check", CHECKS, ids=[check.where for check in CHECKS])
+def test_stated_figure_holds(check: Any) -> None:
+    outcome = docs_commands.run_check(check)
+    excerpt = docs_commands.output_excerpt(outcome.output)
+    assert outcome.failure is None, f"{check.status}: {outcome.failure}\n---\n{excerpt}"
+
+
+def test_every_block_is_counted_and_the_readme_has_blocks_and_a_check() -> None:
+    readme_blocks = [block for block in BLOCKS if block.path == "README.md"]
+    assert readme_blocks, "no shell block found in README.md"
+    assert any(check.path == "README.md" for check in CHECKS), "the README's caption check is gone"
+    summary = docs_commands.summary(BLOCKS, CHECKS)
+    assert summary.startswith(f"{len(BLOCKS)} shell blocks: ")
+
+
+def test_markers_attach_to_the_block_below(tmp_path: Path) -> None:
+    page = _page(
+        tmp_path,
+        "text\n\n<!-- docs-run: skip: needs a real NXT -->\n```bash\nnxtnav nxt check\n```\n\n"
+        "<!-- docs-run: ci: --runs 50 => --runs 2; # slow => -->\n```sh\nnxtnav bench planners --runs 50 # slow\n```\n"
+        "\n```python\nprint('not a shell block')\n```\n\n```console\n$ nxtnav --version\nnxtnav 0.1.0\n```\n",
+    )
+    blocks, checks = docs_commands.parse_page(page, tmp_path)
+    assert [block.line for block in blocks] == [4, 9, 17]
+    assert blocks[0].skip_reason == "needs a real NXT"
+    assert blocks[1].substitutions == (("--runs 50", "--runs 2"), ("# slow", ""))
+    assert docs_commands.ci_script(blocks[1]) == "nxtnav bench planners --runs 2 "
+    assert docs_commands.ci_script(blocks[2]) == "nxtnav --version"
+    assert checks == []
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("<!-- docs-run: skip: a display -->\n\n```bash\nnxtnav view x\n```\n", "not directly above a shell block"),
+        ("<!-- docs-run: skip:  -->\n```bash\nnxtnav view x\n```\n", "skip needs a reason"),
+        ("<!-- docs-run: later: soon -->\n```bash\nnxtnav run\n```\n", "unknown docs-run marker 'later'"),
+        ("<!-- docs-run skip: no colon -->\n```bash\nnxtnav run\n```\n", "malformed docs-run marker"),
+        ("<!-- docs-run: ci: --runs 50 -->\n```bash\nnxtnav run\n```\n", "has no '=>'"),
+        ("<!-- docs-run: skip: why -->\n```python\nprint(1)\n```\n", "not a shell block"),
+        ("```bash\nmake test\n```\n", "needs a skip marker"),
+        ("<!-- docs-run: check: nxtnav run => m.json -->\n", "check needs"),
+        ("<!-- docs-run: check: nxtnav run --json m.json => m.json: error about 1 -->\n", "is not 'FIELD == VALUE'"),
+    ],
+)
+def test_a_malformed_or_stray_marker_is_an_error(tmp_path: Path, text: str, message: str) -> None:
+    with pytest.raises(docs_commands.DocsMarkerError, match=message):
+        docs_commands.parse_page(_page(tmp_path, text), tmp_path)
+
+
+def test_a_substitution_that_no_longer_matches_is_an_error(tmp_path: Path) -> None:
+    page = _page(
+        tmp_path, "<!-- docs-run: ci: --runs 50 => --runs 2 -->\n```bash\nnxtnav bench planners --runs 20\n```\n"
+    )
+    with pytest.raises(docs_commands.DocsMarkerError, match=r"page.md:2: ci substitution '--runs 50' matches nothing"):
+        docs_commands.parse_page(page, tmp_path)
+
+
+def test_a_nonzero_exit_a_traceback_and_a_timeout_fail_a_block(tmp_path: Path) -> None:
+    assert docs_commands.run_script("echo fine", tmp_path).failure is None
+    assert docs_commands.run_script("false; echo not reached", tmp_path).failure == "exit status 1"
+    assert docs_commands.run_script("false | cat", tmp_path).failure == "exit status 1"  # pipefail
+    crash = docs_commands.run_script("python -c 'import json; json.loads(\"{\")' || true", tmp_path)
+    assert crash.returncode == 0 and crash.failure == "a Python traceback in the output"
+    slow = docs_commands.run_script("sleep 30", tmp_path, timeout_s=0.5)
+    assert slow.failure == "still running after 0.5 s" and slow.seconds < 10
+
+
+def test_a_block_runs_outside_the_repository_with_this_nxtnav_first_on_path(tmp_path: Path) -> None:
+    outcome = docs_commands.run_script('pwd; command -v nxtnav; echo "repo=$DOCS_REPO"', tmp_path)
+    folder, nxtnav, repo = outcome.output.split()
+    assert Path(folder).resolve() == tmp_path.resolve()
+    assert Path(nxtnav) == Path(sys.executable).parent / "nxtnav"
+    assert repo == f"repo={REPO}"
+
+
+def test_a_background_job_is_stopped_when_its_block_ends(tmp_path: Path) -> None:
+    outcome = docs_commands.run_script("sleep 300 & echo $! > pid", tmp_path)
+    assert outcome.failure is None and outcome.seconds < 10
+    pid = int((tmp_path / "pid").read_text())
+    assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()
+
+
+@pytest.mark.parametrize(
+    ("actual", "condition", "holds"),
+    [
+        (0.10790, ("final_error_cm", "==", "0.11"), True),
+        (0.10790, ("final_error_cm", "==", "0.5"), False),
+        (0.10790, ("final_error_cm", "==", "0.1"), True),
+        (0.3, ("final_error_cm", "<=", "0.5"), True),
+        (0.7, ("final_error_cm", "<", "0.5"), False),
+        ("reached", ("outcome", "==", "reached"), True),
+        ("stuck", ("outcome", "==", "reached"), False),
+    ],
+)
+def test_a_check_compares_at_the_rounding_the_text_uses(actual: object, condition: tuple, holds: bool) -> None:
+    difference = docs_commands.compare(actual, docs_commands.Condition(*condition))
+    assert (difference is None) == holds, difference
+
+
+def test_a_check_reads_a_dotted_field_of_the_json(tmp_path: Path) -> None:
+    page = _page(
+        tmp_path,
+        '<!-- docs-run: check: echo \'{"rows": [{"e": 0.108}], "ok": true}\' > r.json => r.json: rows.0.e == 0.11;'
+        " rows.0.e < 0.2 -->\n<!-- docs-run: check: echo '{}' > r.json => r.json: rows.0.e == 0.11 -->\n",
+    )
+    _, (good, missing) = docs_commands.parse_page(page, tmp_path)
+    assert docs_commands.run_check(good).failure is None
+    assert docs_commands.run_check(missing).failure == "r.json: \"no field 'rows' (of 'rows.0.e')\""
