@@ -139,9 +139,13 @@ def test_simulated_sweeps_at_the_same_poses_are_found(tmp_path: Path) -> None:
 
 
 def test_no_echo_readings_travel_as_invalid_255s(tmp_path: Path) -> None:
+    """loc_04's 78 no-echo readings of the file, then the repeats of its held 36 cm (readings 224-359; the
+    set's ``held_runs`` is ``no-echo``): all invalid 255s in the recording."""
     rec = read_recording(_import(tmp_path))
     loc04 = [e for _, e in rec.events if e["type"] == "scan"][2]
-    assert len(loc04["invalid"]) == 78 and all(loc04["ranges_cm"][i] == NO_ECHO for i in loc04["invalid"])
+    assert loc04["invalid"] == [*range(78), *range(224, 360)]
+    assert all(loc04["ranges_cm"][i] == NO_ECHO for i in loc04["invalid"])
+    assert loc04["ranges_cm"][223] == 36.0  # the held run's first reading is a measured echo
 
 
 def _write(tmp_path: Path, version: int, scan_fields: str) -> Path:
@@ -188,11 +192,16 @@ def test_a_null_clock_is_only_for_scans(tmp_path: Path) -> None:
     (["import", "sweeps", str(REAL_NXT), "--map", "nomap", "-o", "r.jsonl"], "unknown map 'nomap'"),
     (["import", "sweeps", str(REAL_NXT), "--map", "map1", "-o", "r.jsonl"], "outside the free space of map 'map1'"),
     (["import", "sweeps", str(REAL_NXT), "--map", "map1", "-o", "blocker/r.jsonl"], "--output"),
+    (["import", "sweeps", "held", "-o", "r.jsonl"], "sweeps.csv:2: field 'held_runs' must be 'stuck' or 'no-echo', "
+                                                     "got 'maybe'"),
 ])
 def test_import_bad_input_is_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                       capsys: pytest.CaptureFixture[str], args: list[str], needle: str) -> None:
     monkeypatch.chdir(tmp_path)
     (tmp_path / "blocker").write_text("a file where a folder is expected")
+    shutil.copytree(REAL_NXT, tmp_path / "held")  # the shipped set, its first sweep's held_runs unknown
+    table = tmp_path / "held" / "sweeps.csv"
+    table.write_text(table.read_text().replace(",no-echo,", ",maybe,", 1))
     assert run_cli(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("nxtnav: error:") and needle in err[0], err

@@ -5,6 +5,7 @@ and `nxtnav replay` as a user runs them."""
 from __future__ import annotations
 
 import csv
+import json
 import math
 import shutil
 import subprocess
@@ -106,19 +107,56 @@ def test_real_stuck_sweeps_are_caught(file: str, waypoint: tuple[float, float], 
         assert stuck[0].start + stuck[0].length == 360  # the sweep's last readings
 
 
-def test_the_shipped_sweeps_long_runs_are_not_what_the_walls_echo() -> None:
-    """The three shipped sweeps hold runs of one value over 103-137 degrees. At their waypoints the pose
-    their other readings point to leaves most of each run facing no wall within reach, or only far ones:
-    the sensor repeated its last echo. It never reads no-echo after its first echo."""
+def test_the_shipped_sweeps_hold_their_last_echo_and_read_it_as_no_echo() -> None:
+    """The three shipped sweeps hold runs of one value over 103-137 degrees, which the walls do not
+    explain at their waypoints, and never read no echo after their first echo: the sensor repeated its
+    last echo. Their source says so (``held_runs`` ``no-echo``): each run's repeats are read as no echo,
+    its first reading stays an echo, and nothing is left for the stuck check to drop."""
     sweeps = load_sweep_set(REAL_NXT)
     for sw in sweeps:
+        assert sw.held_runs == "no-echo"
+        raw = Scan(sw.angles, sw.readings, sw.readings < NO_ECHO)  # the file as it is
+        (run,) = equal_runs(raw)
+        assert run.length == {"loc_01.dat": 109, "loc_03.dat": 103, "loc_04.dat": 137}[sw.file]
+        first_echo = int(np.argmax(raw.valid))
+        assert raw.valid[first_echo:].all()  # no 255 after the first echo
+        stuck, _ = judge_runs(raw, sweeps.map, position=(sw.x_cm, sw.y_cm))
+        assert stuck == [run]
+        assert sw.held is not None and np.flatnonzero(sw.held).tolist() == list(
+            range(run.start + 1, run.start + run.length))
         scan = sw.scan()
-        runs = equal_runs(scan)
-        assert [r.length for r in runs] == [{"loc_01.dat": 109, "loc_03.dat": 103, "loc_04.dat": 137}[sw.file]]
-        first_echo = int(np.argmax(scan.valid))
-        assert scan.valid[first_echo:].all()  # no 255 after the first echo
-        stuck, _ = judge_runs(scan, sweeps.map, position=(sw.x_cm, sw.y_cm))
-        assert stuck == runs
+        assert len(scan) == 360 and scan.valid[run.start] and scan.ranges[run.start] == run.value_cm
+        assert not scan.valid[run.start + 1:run.start + run.length].any()
+        assert np.all(scan.ranges[run.start + 1:run.start + run.length] == NO_ECHO)
+        assert equal_runs(scan) == [] and drop_stuck(scan, sweeps.map)[1] == 0
+
+
+def _without_held_runs(folder: Path, value: str | None = None) -> Path:
+    """A copy of the shipped set in `folder` whose sweeps.csv has no ``held_runs`` column (or `value` in it)."""
+    shutil.copytree(REAL_NXT, folder)
+    with (folder / "sweeps.csv").open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    k = rows[0].index("held_runs")
+    for row in rows:
+        if value is None:
+            del row[k]
+        elif row is not rows[0]:
+            row[k] = value
+    with (folder / "sweeps.csv").open("w", newline="") as fh:
+        csv.writer(fh).writerows(rows)
+    return folder
+
+
+def test_a_set_without_the_column_reads_the_runs_as_before(tmp_path: Path) -> None:
+    """No ``held_runs`` (or ``stuck``): the files are read as they are, and the runs are stuck."""
+    for folder in (_without_held_runs(tmp_path / "none"), _without_held_runs(tmp_path / "stuck", "stuck")):
+        sweeps = load_sweep_set(folder)
+        for sw in sweeps:
+            assert sw.held_runs == "stuck" and sw.held is None and sw.held_count == 0
+            scan = sw.scan()
+            assert np.array_equal(scan.ranges, sw.readings)
+            stuck, _ = judge_runs(scan, sweeps.map, position=(sw.x_cm, sw.y_cm))
+            assert [r.length for r in stuck] == [{"loc_01.dat": 109, "loc_03.dat": 103, "loc_04.dat": 137}[sw.file]]
 
 
 def test_the_echo_table_is_the_sonar_models_lobe() -> None:
@@ -174,15 +212,61 @@ def test_import_and_replay_keep_a_physical_run_and_drop_a_stuck_one(tmp_path: Pa
     assert (tmp_path / "replay.json").is_file()
 
 
-@pytest.mark.slow
-def test_import_and_replay_of_the_shipped_sweeps_name_each_held_run_once(tmp_path: Path) -> None:
-    """The trial's commands on the shipped set: each sweep's held run is said once (not once per
-    localiser), with the reason, and the replay completes."""
-    imported = _nxtnav("import", "sweeps", str(REAL_NXT), "-o", "real.jsonl", cwd=tmp_path)
+def _replay(folder: Path, cwd: Path) -> tuple[subprocess.CompletedProcess[str], subprocess.CompletedProcess[str]]:
+    """The trial's commands on a sweep set: `nxtnav import sweeps`, then `nxtnav replay` with paper-pf and amcl."""
+    imported = _nxtnav("import", "sweeps", str(folder), "-o", "real.jsonl", cwd=cwd)
     assert imported.returncode == 0, imported.stderr
-    replayed = _nxtnav("replay", "real.jsonl", "--localisers", "paper-pf,amcl", "--json", "replay.json", cwd=tmp_path)
+    replayed = _nxtnav("replay", "real.jsonl", "--localisers", "paper-pf,amcl", "--json", "replay.json", cwd=cwd)
     assert replayed.returncode == 0, replayed.stderr
+    assert "Traceback" not in replayed.stderr
+    return imported, replayed
+
+
+@pytest.mark.slow
+def test_import_and_replay_of_the_shipped_sweeps_keep_every_reading(tmp_path: Path) -> None:
+    """The trial's commands on the shipped set: the held repeats travel as no echo (said by the import),
+    no reading is dropped as stuck and no warning is given; the two sweeps that are not at a twin of
+    their place are found, and the one at (180, 30) is not claimed as converged."""
+    imported, replayed = _replay(REAL_NXT, tmp_path)
+    assert "(424 no-echo, 39%; 346 of them repeat a held echo: held_runs = no-echo)" in imported.stdout
+    scans = [json.loads(line) for line in (tmp_path / "real.jsonl").read_text().splitlines()]
+    scans = [e for e in scans if e.get("type") == "scan"]
+    assert [len(e["ranges_cm"]) for e in scans] == [360] * 3
+    assert [len(e["invalid"]) for e in scans] == [108, 102, 78 + 136]
+    assert "stuck" not in replayed.stderr, replayed.stderr
+    doc = json.loads((tmp_path / "replay.json").read_text())
+    ups = {s["label"].rsplit("/", 1)[1]: s["estimates"] for s in doc["steps"] if s["call"] == "update"}
+    for name in ("paper-pf", "amcl"):
+        assert ups["loc_03.dat"][name]["error_cm"] < 10.0 and ups["loc_04.dat"][name]["error_cm"] < 10.0
+        assert ups["loc_01.dat"][name]["converged"] is False
+
+
+@pytest.mark.slow
+def test_import_and_replay_of_a_set_without_the_column_name_each_stuck_run_once(tmp_path: Path) -> None:
+    """The same sweeps without ``held_runs``: each sweep's run is said once (not once per localiser),
+    with the reason, and the replay completes."""
+    _, replayed = _replay(_without_held_runs(tmp_path / "set"), tmp_path)
     warnings = [line for line in replayed.stderr.splitlines() if "stuck sonar" in line]
     assert [w.split("stuck sonar: ")[1].split(" over")[0] for w in warnings] == [
         "109 readings repeat 33 cm", "103 readings repeat 44 cm", "137 readings repeat 36 cm"]
     assert all("the map's walls do not explain" in w for w in warnings)
+
+
+@pytest.mark.slow
+def test_import_and_replay_catch_the_real_stuck_sweeps(tmp_path: Path) -> None:
+    """The two real sweeps whose sensor stopped refreshing, as a sweep set of their own (no ``held_runs``):
+    imported as they are, and their stuck runs dropped by the replay, each said once."""
+    folder = tmp_path / "stuck"
+    folder.mkdir()
+    shutil.copy(REAL_NXT / "arena.yaml", folder / "arena.yaml")
+    with (folder / "sweeps.csv").open("w", newline="") as fh:
+        out = csv.writer(fh)
+        out.writerow(["repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg"])
+        for name, (x, y) in (("loc_00.dat", (84, 30)), ("loc_02.dat", (126, 54))):
+            shutil.copy(STUCK_DATA / name, folder / name)
+            out.writerow(["andrei-alpha/robotics", name, name, x, y, 360, 1.0, "cw", 0.0])
+    imported, replayed = _replay(folder, tmp_path)
+    assert "held echo" not in imported.stdout
+    warnings = [line for line in replayed.stderr.splitlines() if "stuck sonar" in line]
+    assert [w.split("stuck sonar: ")[1].split(" over")[0] for w in warnings] == [
+        "160 readings repeat 88 cm", "250 readings repeat 55 cm"]

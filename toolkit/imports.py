@@ -3,7 +3,8 @@
 `import_sweep_set` writes a sweep set (`toolkit.sweeps`: real sweeps at known waypoints) as one
 ``nxtnav-recording`` (``docs/recording.md``) in which each sweep is a global-localisation episode:
 
-* a ``scan`` (the sweep as a `Scan`: no-echo readings kept as invalid 255s; no robot clock, so
+* a ``scan`` (the sweep as a `Scan`: no-echo readings kept as invalid 255s, among them the repeats
+  of a held echo where the source says so, ``held_runs``; no robot clock, so
   ``t_start`` and ``t`` are null; ``label`` is ``repo/file``) whose ``true_pose`` is the waypoint with
   a null heading, since the heading of a real sweep was not measured;
 * a ``reset`` with a null prior (the localiser forgets everything: global localisation);
@@ -45,6 +46,8 @@ class SweepImport:
         Readings written (all sweeps).
     no_echo : int
         Of those, the no-echo readings (kept as invalid readings of 255 cm).
+    held_no_echo : int
+        Of those, the repeats of a held echo read as no echo (`toolkit.sweeps`, ``held_runs`` ``no-echo``).
     lines : int
         Lines of the recording.
     """
@@ -55,10 +58,11 @@ class SweepImport:
     readings: int
     no_echo: int
     lines: int
+    held_no_echo: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return {"folder": self.folder, "map": self.map, "episodes": self.episodes, "readings": self.readings,
-                "no_echo": self.no_echo, "lines": self.lines}
+                "no_echo": self.no_echo, "held_no_echo": self.held_no_echo, "lines": self.lines}
 
 
 def _provenance(s: Sweep) -> dict[str, Any]:
@@ -86,4 +90,5 @@ def import_sweep_set(sweeps: SweepSet, out: str | Path | IO[str]) -> SweepImport
         rec.close(end=False)
         raise
     rec.close("imported", None)
-    return SweepImport(str(sweeps.folder), sweeps.map.name, len(sweeps), readings, no_echo, rec.lines)
+    return SweepImport(str(sweeps.folder), sweeps.map.name, len(sweeps), readings, no_echo, rec.lines,
+                       sum(s.held_count for s in sweeps))

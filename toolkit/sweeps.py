@@ -19,12 +19,28 @@ are skipped; a row with more or fewer fields than the header is an error naming 
 ``start_deg``       turret angle of the first reading relative to the robot heading (degrees)
 ``heading_deg``     optional: a heading aligned with the map (not a measurement; empty when unknown)
 ``invalid_values``  optional: readings that mean "no reading", separated by ``;`` or spaces (default 255)
+``held_runs``       optional: what a long run of one reading that the map does not explain is, for this
+                    source's sensor (`HELD_RUNS`): ``stuck`` (the default, also when empty) or ``no-echo``
 ==================  =========================================================================================
 
 Reading ``k`` was taken at ``start_deg + s * k * step_deg`` relative to the heading (``s`` = +1 for
 ``ccw``, -1 for ``cw``). A 255 is the sensor's no-echo reading and stays in the scan as an invalid
 reading with range 255 (evidence: nothing echoed); any other invalid value (0 where a source marks bins
 it never visited) is no reading at all and is left out of the scan.
+
+Runs of equal readings. Some sensors (or the code that read them) give no echo as the last echo again:
+after its first echo such a sensor never reads 255, and where nothing echoes it repeats one value over
+a long arc. `localisation.stuck.judge_runs` finds those runs: equal echo readings over at least
+`localisation.stuck.STUCK_ARC_DEG` (45) degrees of turret that the map's walls do not explain at the
+sweep's waypoint. The ``held_runs`` column says what such a run is for the source's sensor:
+
+* ``stuck`` (the default): a sensor that stopped refreshing. The sweep is read as it is; the localisers
+  and the sonar fit drop the run's readings, with a warning (`localisation.scan.drop_stuck`).
+* ``no-echo``: the sensor repeats its last echo while no new one arrives. The run's first reading (a
+  measured echo) is kept and its repeats are read as no echo (invalid, 255) when the set is loaded
+  (`Sweep.held`), so every use of the sweep (import, replay, bench, sonar fit) reads them so.
+
+Either way a run the map explains is an echo and is kept, and the raw file is never changed.
 """
 
 from __future__ import annotations
@@ -32,7 +48,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -41,10 +57,12 @@ from numpy.typing import NDArray
 
 from .world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
 
-__all__ = ["REQUIRED_COLUMNS", "Sweep", "SweepSet", "SweepSetError", "load_sweep_set", "sweep_angles"]
+__all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepSet", "SweepSetError", "load_sweep_set", "sweep_angles"]
 
 REQUIRED_COLUMNS = ("repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg")
 DEFAULT_MAP = "arena.yaml"
+HELD_RUNS = ("stuck", "no-echo")
+"""Values of the ``held_runs`` column, the default first (module docstring)."""
 
 
 class SweepSetError(NxtnavError, ValueError):
@@ -78,6 +96,10 @@ class Sweep:
         Readings that mean "no reading"; 255 among them is the no-echo reading.
     heading_deg : float
         A heading aligned with the map, or nan (unknown: the real heading was not measured).
+    held_runs : str
+        What the source's long runs of one reading that the map does not explain are (`HELD_RUNS`).
+    held : (n,) bool ndarray or None
+        Readings read as no echo: the repeats of such runs when `held_runs` is ``no-echo``; None: none.
     """
 
     repo: str
@@ -92,6 +114,8 @@ class Sweep:
     direction: str = "ccw"
     raw: str = ""
     extra: dict[str, str] = field(default_factory=dict)
+    held_runs: str = HELD_RUNS[0]
+    held: NDArray[np.bool_] | None = None
 
     @property
     def label(self) -> str:
@@ -105,11 +129,19 @@ class Sweep:
         return np.isin(self.readings, others) if others else np.zeros(self.readings.size, dtype=bool)
 
     def scan(self) -> Scan:
-        """The sweep as a `Scan`: no-echo readings kept (invalid, 255), missing ones left out."""
+        """The sweep as a `Scan`: no-echo readings kept (invalid, 255), the `held` ones among them, missing
+        ones left out."""
         keep = ~self.missing
         r = self.readings[keep]
         valid = ~np.isin(r, self.invalid_values) & (r >= 0)
+        if self.held is not None:
+            valid &= ~self.held[keep]
         return Scan(self.angles[keep].copy(), np.where(valid, r, NO_ECHO), valid)
+
+    @property
+    def held_count(self) -> int:
+        """How many readings are read as no echo because the source's sensor held its last echo."""
+        return 0 if self.held is None else int(self.held.sum())
 
     @property
     def no_echo_share(self) -> float:
@@ -120,7 +152,8 @@ class Sweep:
     def to_dict(self) -> dict[str, Any]:
         return {"repo": self.repo, "file": self.file, "x_cm": self.x_cm, "y_cm": self.y_cm,
                 "n_bins": int(self.readings.size), "step_deg": self.step_deg, "direction": self.direction,
-                "heading_deg": None if math.isnan(self.heading_deg) else self.heading_deg}
+                "heading_deg": None if math.isnan(self.heading_deg) else self.heading_deg,
+                "held_runs": self.held_runs, "held_as_no_echo": self.held_count}
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,6 +197,30 @@ def _invalid_values(row: dict[str, str | None], where: str) -> tuple[float, ...]
     except ValueError:
         raise SweepSetError(f"{where}: field 'invalid_values' is not a list of numbers: "
                             f"{row.get('invalid_values')!r}") from None
+
+
+def _held_runs(row: dict[str, str | None], where: str) -> str:
+    text = (row.get("held_runs") or "").strip().lower()
+    if not text:
+        return HELD_RUNS[0]
+    if text not in HELD_RUNS:
+        raise SweepSetError(f"{where}: field 'held_runs' must be {' or '.join(repr(v) for v in HELD_RUNS)}, "
+                            f"got {row.get('held_runs')!r}")
+    return text
+
+
+def _held_repeats(sweep: Sweep, m: Map) -> NDArray[np.bool_]:
+    """The readings of `sweep` that repeat a held echo: every reading but the first of each run of equal
+    readings the walls of `m` do not explain at the waypoint (`localisation.stuck.judge_runs`)."""
+    from localisation.stuck import judge_runs
+
+    scan = sweep.scan()
+    unexplained, _ = judge_runs(scan, m, position=(sweep.x_cm, sweep.y_cm))
+    at = np.flatnonzero(~sweep.missing)  # scan index -> reading index
+    held = np.zeros(sweep.readings.size, dtype=bool)
+    for run in unexplained:
+        held[at[run.start + 1:run.start + run.length]] = True
+    return held
 
 
 def read_readings(path: Path, n_bins: int) -> NDArray[np.float64]:
@@ -215,12 +272,16 @@ def _sweep(folder: Path, row: dict[str, str | None], where: str, m: Map) -> Swee
     heading_text = (row.get("heading_deg") or "").strip()
     heading = _number(row, "heading_deg", where) if heading_text else math.nan
     invalid = _invalid_values(row, where)
+    held_runs = _held_runs(row, where)
     readings = read_readings((folder / raw_text).resolve(), n)  # checks the count before any n-sized array
-    known = set(REQUIRED_COLUMNS) | {"heading_deg", "invalid_values"}
-    return Sweep(repo=repo, file=file, x_cm=x, y_cm=y, angles=sweep_angles(n, step, direction, start),
-                 readings=readings, invalid_values=invalid, heading_deg=heading, step_deg=step,
-                 direction=direction, raw=raw_text,
-                 extra={k: v for k, v in row.items() if k not in known and v is not None})
+    known = set(REQUIRED_COLUMNS) | {"heading_deg", "invalid_values", "held_runs"}
+    sweep = Sweep(repo=repo, file=file, x_cm=x, y_cm=y, angles=sweep_angles(n, step, direction, start),
+                  readings=readings, invalid_values=invalid, heading_deg=heading, step_deg=step,
+                  direction=direction, raw=raw_text, held_runs=held_runs,
+                  extra={k: v for k, v in row.items() if k not in known and v is not None})
+    if held_runs != "no-echo":
+        return sweep
+    return replace(sweep, held=_held_repeats(sweep, m))
 
 
 def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> SweepSet:

@@ -34,8 +34,9 @@ def import_sweeps(
     sweeps = load_sweep_set(folder, map=map_file)
     result = import_sweep_set(sweeps, output)
     share = result.no_echo / result.readings if result.readings else 0.0
+    held = f"; {result.held_no_echo} of them repeat a held echo: held_runs = no-echo" if result.held_no_echo else ""
     typer.echo(f"{folder}: {result.episodes} sweeps on map {result.map}, {result.readings} readings "
-               f"({result.no_echo} no-echo, {share:.0%}); sources: {', '.join(sweeps.repos)}")
+               f"({result.no_echo} no-echo, {share:.0%}{held}); sources: {', '.join(sweeps.repos)}")
     typer.echo(f"wrote {output} ({result.lines} lines); score it with: nxtnav replay {output} --localisers A,B")
 
 
