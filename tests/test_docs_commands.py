@@ -9,6 +9,8 @@ rest of the suite.
 from __future__ import annotations
 
 import importlib.util
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -99,6 +101,42 @@ def test_markers_attach_to_the_block_below(tmp_path: Path) -> None:
 def test_a_malformed_or_stray_marker_is_an_error(tmp_path: Path, text: str, message: str) -> None:
     with pytest.raises(docs_commands.DocsMarkerError, match=message):
         docs_commands.parse_page(_page(tmp_path, text), tmp_path)
+
+
+def test_a_fence_without_a_language_is_an_error_naming_its_line(tmp_path: Path) -> None:
+    page = _page(tmp_path, "# Page\n\n```text\nnxtnav: error: output\n```\n\n```\nnxtnav bench planners\n```\n")
+    with pytest.raises(docs_commands.DocsMarkerError, match=r"page.md:7: a fence without a language"):
+        docs_commands.parse_page(page, tmp_path)
+    indented = _page(tmp_path, "1. Run it:\n\n   ~~~\n   nxtnav run\n   ~~~\n")
+    with pytest.raises(docs_commands.DocsMarkerError, match=r"page.md:3: a fence without a language"):
+        docs_commands.parse_page(indented, tmp_path)
+
+
+def test_the_runner_refuses_an_unlabelled_fence_with_one_line_and_exit_2(tmp_path: Path) -> None:
+    (tmp_path / "tools").mkdir()
+    shutil.copy(REPO / "tools" / "docs_commands.py", tmp_path / "tools")  # its repository is the one it sits in
+    (tmp_path / "docs" / "guide").mkdir(parents=True)
+    (tmp_path / "README.md").write_text("```bash\nnxtnav --version\n```\n", encoding="utf-8")
+    deep = tmp_path / "docs" / "guide" / "deep.md"
+    deep.write_text("text\n\n```\nnxtnav run\n```\n", encoding="utf-8")
+    command = [sys.executable, str(tmp_path / "tools" / "docs_commands.py"), "--summary"]
+    refused = subprocess.run(command, capture_output=True, text=True, check=False, cwd=tmp_path)
+    assert refused.returncode == 2 and refused.stdout == ""
+    assert refused.stderr.splitlines() == [
+        "docs_commands: error: docs/guide/deep.md:3: a fence without a language"
+        " (```bash for commands, ```text for output)"
+    ]
+    deep.write_text("text\n\n```bash\nnxtnav run\n```\n", encoding="utf-8")
+    accepted = subprocess.run(command, capture_output=True, text=True, check=False, cwd=tmp_path)
+    assert accepted.returncode == 0, accepted.stderr
+    assert accepted.stdout.startswith("2 shell blocks: 2 run in CI")
+
+
+def test_every_fence_of_readme_and_docs_has_a_language_generated_pages_included() -> None:
+    pages = docs_commands.doc_pages(REPO)
+    assert {REPO / "docs" / "reference" / "cli.md", REPO / "docs" / "parameters.md"} <= set(pages)
+    for page in pages:
+        docs_commands.parse_page(page, REPO)  # raises DocsMarkerError naming file:line of an unlabelled fence
 
 
 def test_a_substitution_that_no_longer_matches_is_an_error(tmp_path: Path) -> None:

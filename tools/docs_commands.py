@@ -36,7 +36,9 @@ A check anywhere in a page (typically next to the figure or sentence it backs):
         figure the text states; ``<=``, ``>=``, ``<``, ``>`` compare as they are; a non-number VALUE
         is compared as text.
 
-Any other ``docs-run`` comment, or a skip/ci marker not followed by a shell block, is an error.
+Any other ``docs-run`` comment, or a skip/ci marker not followed by a shell block, is an error. So is
+a fence without a language: every block says what it holds (```bash for commands, ```text for output,
+```yaml, ```ini, ...), so no command escapes the runner unlabelled.
 """
 
 from __future__ import annotations
@@ -238,7 +240,8 @@ def parse_page(page: Path, root: Path = REPO) -> tuple[list[Block], list[Check]]
     Raises
     ------
     DocsMarkerError
-        A marker is malformed, of an unknown kind, or a skip/ci marker stands above no shell block.
+        A marker is malformed, of an unknown kind, or a skip/ci marker stands above no shell block;
+        or a fence has no language.
     """
     path = page.relative_to(root).as_posix() if page.is_relative_to(root) else str(page)
     lines = page.read_text(encoding="utf-8").splitlines()
@@ -265,10 +268,14 @@ def parse_page(page: Path, root: Path = REPO) -> tuple[list[Block], list[Check]]
         if fence is not None:
             end = _closing_fence(lines, index, fence["fence"])
             language = fence["info"].lower()
+            if not language:
+                raise DocsMarkerError(
+                    f"{path}:{index + 1}: a fence without a language (```bash for commands, ```text for output)"
+                )
             indent = len(fence["indent"])
             text = "\n".join(body_line[indent:] for body_line in lines[index + 1 : end])
             if language in SHELL_LANGUAGES or pending:
-                blocks.append(_block_from_markers(pending, path, index + 1, language or "(none)", text))
+                blocks.append(_block_from_markers(pending, path, index + 1, language, text))
             pending = []
             index = end + 1
             continue
