@@ -5,10 +5,10 @@ For each page: its ```python blocks run in order in a fresh process (the first i
 named by its first line ``# MODULE.py``, the others run in a fresh module after it), and in that same
 process the suite's own tests that are parametrised over the registries run with the plug-in
 registered (``pytest -p`` a plug-in that executes the page before collection). Running in a subprocess
-keeps the plug-in out of every other test's registries. The ```bash blocks run in a fresh temporary
-folder outside the repository with the `nxtnav` command on the PATH (a block after a
-``<!-- docs-run: skip: REASON -->`` line is left out), and the module a bash block writes with
-``cat > FILE <<'EOF'`` is the page's python block of that name, character for character.
+keeps the plug-in out of every other test's registries. The ```bash blocks are documented commands,
+run like every other by `tools/docs_commands.py` (the pytest tier ``docs``, `make docs-commands`): a
+`nxtnav planners check` there exits 1 on any problem. Here, the module a bash block writes with
+``cat > FILE <<'EOF'`` must be the page's python block of that name, character for character.
 """
 
 from __future__ import annotations
@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from conftest import nxtnav_exe
 
 REPO = Path(__file__).resolve().parents[1]
 HOWTO = REPO / "docs" / "howto"
@@ -116,16 +115,3 @@ def test_a_pages_plugin_passes_the_suites_tests(page: Page, tmp_path: Path) -> N
         passed = re.search(r"(\d+) passed", done.stdout)
         assert passed and int(passed.group(1)) >= page.least_passed, done.stdout[-2000:]
         assert " failed" not in done.stdout and " error" not in done.stdout
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("page", [p.file for p in PAGES])
-def test_a_pages_shell_blocks_run_from_an_empty_folder(page: str, tmp_path: Path) -> None:
-    env = {**os.environ, "PATH": os.pathsep.join([str(Path(nxtnav_exe()).parent), os.environ.get("PATH", "")])}
-    for i, block in enumerate(blocks(page, "bash")):
-        done = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", block], cwd=tmp_path, env=env,
-                              capture_output=True, text=True, timeout=600)
-        assert done.returncode == 0, f"{page} block {i}: exit {done.returncode}\n{done.stdout}\n{done.stderr}"
-        assert "Traceback" not in done.stderr, done.stderr
-        if "nxtnav planners check" in block or "nxtnav localisers check" in block:
-            assert "passes the" in done.stdout, done.stdout
