@@ -33,21 +33,11 @@ A new fix is refined (resample-move)
     proposal of the cloud's own covariance (scaled by 2.38^2 / 3) plus a floor shrinking from 2 cm /
     2 degrees to 0.1 cm / 0.1 degrees, so the cloud samples the likelihood around its mode and its
     spread tells how well the scan pins the pose. While tracking (a motion history) nothing changes.
-Two measurement models (`model`)
-    ``beam``: Thrun's beam model, the mixture ``z_hit N(r; e, sigma_hit) + z_short lambda_short
-    exp(-lambda_short r) [r < e] + z_rand / laser_max_range`` around the expected range ``e`` of a
-    precomputed `RangeTable` (which can model the NXT's lobe and specular loss), interpolated
-    trilinearly between the table's 1 cm cells and 1-degree directions (`beam_interpolation`) so the
-    likelihood does not step at every cell edge. With a lobe, where the 8 table nodes around a pose
-    differ by more than a smooth reading can (a wall entering the lobe at its edge, a corner), the
-    lobe is cast exactly instead (`lobe_rays` rays): interpolation would smear the reading's step
-    that the sensor takes where the geometry puts it. ``field``: the
-    likelihood field, ``z_hit N(d; 0, sigma_hit) + z_rand / laser_max_range`` of the distance ``d``
-    from each beam's end point to the nearest wall, read from a distance transform of the walls
-    (exact distances at the nodes of a `field_resolution_cm` grid, bilinear in between): O(1) per
-    beam whatever the map's size, no ray casting. It knows nothing of a lobe: a wide sonar's
-    nearest echo, taken off-axis, puts the end point in front of the wall (measured in
-    docs/localisers.md).
+Measurement models, registered by name (`model`, nav2's ``laser_model_type``)
+    ``beam`` (Thrun's beam model around a precomputed `RangeTable`, which can model the NXT's lobe and
+    specular loss), ``nxt-beam`` (the same expected ranges weighed by the sonar's own beam mixture, for a
+    `sonar_model`) and ``field`` (the likelihood field of the beams' end points): classes of
+    `localisation.amcl_models`, chosen once at construction; ``auto`` picks for the sensor.
 
 A global start (``reset(None)``) draws `max_particles` particles from the first scan (the paper-pf
 lattice of poses scored against the scan, tempered to keep about `scan_sample_ess` distinct
@@ -63,7 +53,7 @@ import logging
 import math
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -78,29 +68,54 @@ from toolkit.world import (
     RngLike,
     Scan,
     angle_diff,
-    circular_mean,
     wrap_angle,
 )
 
 from .adaptive import kld_bound, log_blend, log_mean_exp
 from .ambiguity import lattice_candidates
+from .amcl_models import MEASUREMENT_MODELS, MeasurementModel, model_class
+from .amcl_sampling import kld_resample, refine, scan_poses, uniform_poses
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
-from .beam_model import BeamLikelihood, echo_mask, lattice_costs, scan_readings
+from .beam_model import lattice_costs
 from .clusters import cloud_stats, cluster
 from .declarations import AMCL_PARAMS, AMCL_ROBOT
 from .likelihood_field import DistanceField
-from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
-from .resampling import log_normalise, systematic_resample
+from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, range_lattice, range_table
+from .resampling import log_normalise
 
-__all__ = ["AMCL_MODELS", "Amcl", "DistanceField", "kld_bound"]
+__all__ = ["MEASUREMENT_MODELS", "Amcl", "DistanceField", "kld_bound"]
 
 log = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
-AMCL_MODELS = ("auto", "beam", "field")
 ESTIMATE_CLUSTERS = 8
 """Clusters the estimate of a spread cloud looks among for the heaviest (`mode_radius_cm`, `mode_heading_deg`)."""
-_SQRT_2PI = math.sqrt(2.0 * math.pi)
+
+
+def _check_options(*, min_particles: int, max_particles: int, pf_err: float, pf_z: float, recovery_alpha_slow: float,
+                   recovery_alpha_fast: float, recovery_sampler: str, global_init: str, sigma_hit: float,
+                   laser_max_range: float, z: tuple[float, float, float], resample_interval: int,
+                   kld_bin: tuple[float, float], ambiguity_injection: float, lobe_rays: int, refine_steps: int,
+                   refine_particles: int) -> None:
+    """`ConfigError` for the first of amcl's options out of its range (`Amcl` says what each is)."""
+    if not 1 <= min_particles <= max_particles:
+        raise ConfigError(f"need 1 <= min_particles <= max_particles, got {min_particles}, {max_particles}")
+    if not (0 < pf_err < 1 and pf_z > 0):
+        raise ConfigError(f"need 0 < pf_err < 1 and pf_z > 0, got {pf_err}, {pf_z}")
+    if not (0 <= recovery_alpha_slow <= 1 and 0 <= recovery_alpha_fast <= 1):
+        raise ConfigError("recovery_alpha_slow and recovery_alpha_fast must be in [0, 1]")
+    if recovery_sampler not in ("scan", "uniform") or global_init not in ("scan", "uniform"):
+        raise ConfigError("recovery_sampler and global_init must be 'scan' or 'uniform'")
+    if sigma_hit <= 0 or laser_max_range <= 0 or min(z) < 0 or sum(z) <= 0:
+        raise ConfigError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
+    if resample_interval < 1 or kld_bin[0] <= 0 or kld_bin[1] <= 0:
+        raise ConfigError("resample_interval must be >= 1 and the KLD bins positive")
+    if not 0 <= ambiguity_injection <= 1:
+        raise ConfigError(f"ambiguity_injection must be in [0, 1], got {ambiguity_injection}")
+    if lobe_rays < 0 or lobe_rays == 1:
+        raise ConfigError(f"lobe_rays must be 0 (off) or >= 2 (the lobe's edges and inside), got {lobe_rays}")
+    if refine_steps < 0 or refine_particles < 1:
+        raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, {refine_particles}")
 
 
 class Amcl(Localiser):
@@ -110,10 +125,11 @@ class Amcl(Localiser):
     ----------
     map : Map
     rng : None, int or Generator
-    model : {"auto", "beam", "field"}
-        Measurement model (module docstring); ``auto``: the likelihood field (nav2's default) for a thin
-        ray, the beam model when a sonar lobe is given (`beam_width_deg` > 0), which the field cannot
-        represent.
+    model : {"auto", "beam", "field", "nxt-beam"} or the name of a registered model
+        Measurement model (`localisation.amcl_models`, `MEASUREMENT_MODELS`); ``auto``: the NXT beam model
+        with a `sonar_model`, else the likelihood field (nav2's default) for a thin ray and the beam model
+        when a sonar lobe is given (`beam_width_deg` > 0), which the field cannot represent; ``beam``
+        with a `sonar_model` is the NXT beam model.
     min_particles, max_particles : int
         Bounds of the KLD particle count (nav2: 500, 2000). The default minimum is 150: while tracking,
         one sonar scan leaves the particles in a few KLD bins, so the bound asks fewer than any minimum
@@ -243,36 +259,19 @@ class Amcl(Localiser):
         sonar_model: NxtSonar | None = None,
     ) -> None:
         super().__init__(map, rng=rng)
-        if model not in AMCL_MODELS:
-            raise ConfigError(f"amcl model must be one of {', '.join(AMCL_MODELS)}, got {model!r}")
-        if not 1 <= min_particles <= max_particles:
-            raise ConfigError(f"need 1 <= min_particles <= max_particles, got {min_particles}, {max_particles}")
-        if not (0 < pf_err < 1 and pf_z > 0):
-            raise ConfigError(f"need 0 < pf_err < 1 and pf_z > 0, got {pf_err}, {pf_z}")
-        if not (0 <= recovery_alpha_slow <= 1 and 0 <= recovery_alpha_fast <= 1):
-            raise ConfigError("recovery_alpha_slow and recovery_alpha_fast must be in [0, 1]")
-        if recovery_sampler not in ("scan", "uniform") or global_init not in ("scan", "uniform"):
-            raise ConfigError("recovery_sampler and global_init must be 'scan' or 'uniform'")
-        if sigma_hit <= 0 or laser_max_range <= 0 or min(z_hit, z_short, z_rand) < 0 or z_hit + z_short + z_rand <= 0:
-            raise ConfigError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
-        if resample_interval < 1 or kld_bin_cm <= 0 or kld_bin_deg <= 0:
-            raise ConfigError("resample_interval must be >= 1 and the KLD bins positive")
-        if not 0 <= ambiguity_injection <= 1:
-            raise ConfigError(f"ambiguity_injection must be in [0, 1], got {ambiguity_injection}")
-        if lobe_rays < 0 or lobe_rays == 1:
-            raise ConfigError(f"lobe_rays must be 0 (off) or >= 2 (the lobe's edges and inside), got {lobe_rays}")
-        if refine_steps < 0 or refine_particles < 1:
-            raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, "
-                              f"{refine_particles}")
+        _check_options(min_particles=min_particles, max_particles=max_particles, pf_err=pf_err, pf_z=pf_z,
+                       recovery_alpha_slow=recovery_alpha_slow, recovery_alpha_fast=recovery_alpha_fast,
+                       recovery_sampler=recovery_sampler, global_init=global_init, sigma_hit=sigma_hit,
+                       laser_max_range=laser_max_range, z=(z_hit, z_short, z_rand),
+                       resample_interval=resample_interval, kld_bin=(kld_bin_cm, kld_bin_deg),
+                       ambiguity_injection=ambiguity_injection, lobe_rays=lobe_rays, refine_steps=refine_steps,
+                       refine_particles=refine_particles)
+        model_cls = model_class(model, sonar_model, beam_width_deg if sonar_model is None
+                                else sonar_model.beam_width_deg)
         max_range_cm: float | None = None
         if sonar_model is not None:
-            if model == "field":
-                raise ConfigError("amcl: the likelihood field cannot use a sonar_model (its lobe); use model='beam'")
             beam_width_deg, critical_incidence_deg = sonar_model.beam_width_deg, sonar_model.critical_incidence_deg
             max_range_cm = sonar_model.max_range_cm
-        self._beam = BeamLikelihood(sonar_model) if sonar_model is not None else None
-        self._lik: Any = self._beam
-        self.model = model if model != "auto" else ("beam" if beam_width_deg > 0 else "field")
         self.min_particles, self.max_particles = int(min_particles), int(max_particles)
         self.pf_err, self.pf_z = float(pf_err), float(pf_z)
         self.kld_bin = np.array([kld_bin_cm, kld_bin_cm, math.radians(kld_bin_deg)])
@@ -287,6 +286,8 @@ class Amcl(Localiser):
         self.sigma_hit = float(sigma_hit)
         self.lambda_short = float(lambda_short)
         self.laser_max_range = float(laser_max_range)
+        self.laser_likelihood_max_dist = float(laser_likelihood_max_dist)
+        self.field_resolution_cm = float(field_resolution_cm)
         self.max_beams = int(max_beams)
         self.motion_model = MotionModel(noise_model, motion_noise, turn_noise, motion_inflation)
         self.clearance_cm = float(clearance_cm)
@@ -299,28 +300,26 @@ class Amcl(Localiser):
         self.mode_heading_rad = math.radians(mode_heading_deg)
         # the range table (and its lattice) is built on first use: the likelihood field needs neither
         # while tracking, and a building-size map's table takes minutes to cast
-        self._table_args = (float(beam_width_deg), critical_incidence_deg, max_range_cm)
+        self.beam_width_deg = float(beam_width_deg)
+        self._table_args = (self.beam_width_deg, critical_incidence_deg, max_range_cm)
         self.cast_exact = bool(cast_exact)
         self._table: RangeTable | None = None
         self._lattice: RangeLattice | None = None
         self._lattice_step = int(lattice_step)
-        self._gaussian = RangeLikelihood(self.sigma_hit)
+        self.gaussian = RangeLikelihood(self.sigma_hit)
+        """The Gaussian of `sigma_hit` that scores the lattice for a model without a mixture of its own."""
         self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
         self.beam_interpolation = bool(beam_interpolation)
-        self._lobe: dict[str, Any] | None = None
-        half = round(max(float(beam_width_deg), 0.0) / 2.0)  # lobe half-width in the table's whole degrees
-        if lobe_rays > 0 and half >= 1:
-            crit = self.table.critical_incidence_deg
-            self._lobe = {"beam_width_deg": 2.0 * half * 360.0 / self.table.n_angles, "beam_rays": int(lobe_rays),
-                          "critical_incidence_deg": crit}
-            cos_crit = max(math.cos(math.radians(90.0 if crit is None else crit)), 0.1)
-            # how far a smooth lobe reading can change across one table cell and one direction
-            self._step_cm = math.sqrt(2.0) * self.table.resolution_cm / cos_crit
-            self._step_per_cm = math.sqrt(1.0 / cos_crit**2 - 1.0) * 2.0 * math.pi / self.table.n_angles
+        self.lobe_rays = int(lobe_rays)
         self.ambiguity_injection = float(ambiguity_injection)
+        self.measurement: MeasurementModel = model_cls(self, sonar_model)
+        """The measurement model, chosen once (`localisation.amcl_models`)."""
+        self.model = model_cls.name
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        """The belief's bookkeeping before its first `reset`."""
         self._ambiguous_fix = False
-        self.field: DistanceField | None = (
-            DistanceField(map, field_resolution_cm, laser_likelihood_max_dist) if self.model == "field" else None)
         self.particles: FloatArray = np.zeros((0, 3))
         self.log_weights: FloatArray = np.zeros(0)
         self.particle_counts: list[int] = []
@@ -347,7 +346,7 @@ class Amcl(Localiser):
         self._heading_prior = prior if isinstance(prior, HeadingPrior) else None
         self._fixing = prior is None or self._heading_prior is not None
         if prior is None or isinstance(prior, HeadingPrior):
-            self.particles = self._uniform_poses(n)
+            self.particles = uniform_poses(self, n)
             self._uniform = True
         else:
             cov = np.asarray(prior.cov, dtype=float)
@@ -380,13 +379,8 @@ class Amcl(Localiser):
         if self._still():
             return
         self._driven_cm = self._turned_rad = 0.0
-        if self._beam is not None:
-            rel, meas, self._lik = scan_readings(scan, self._beam, self.map)
-        else:
-            ok = scan.valid & np.isfinite(scan.ranges) & (scan.ranges < self.laser_max_range)
-            rel = np.asarray(scan.angles[ok], dtype=float)
-            meas = np.asarray(scan.ranges[ok], dtype=float)
-        if not np.any(echo_mask(meas, self._lik)):
+        rel, meas = self.measurement.readings(scan)
+        if not np.any(self.measurement.echoes(meas)):
             log.warning("scan without usable readings: belief unchanged")
             return
         self._ssd = None
@@ -394,31 +388,7 @@ class Amcl(Localiser):
         if 0 < self.max_beams < meas.size:
             pick = np.linspace(0, meas.size - 1, self.max_beams).round().astype(np.int64)
             rel, meas = rel[pick], meas[pick]
-        # particles drawn uniformly carry a heading prior already (they are drawn from it); those drawn
-        # from the scan's lattice are weighed by it
-        from_prior = False
-        if self._uniform:
-            n = self.max_particles
-            from_prior = self.global_init != "scan"
-            self.particles = self._uniform_poses(n) if from_prior else self._scan_poses(n, rel, meas)
-            self.log_weights = np.full(n, -math.log(n))
-            self._weighed = np.ones(n, dtype=bool)
-            self._uniform = False
-        lik = self.log_likelihood(self.particles, rel, meas)
-        if not np.isfinite(lik).any():  # every particle left the free space: nothing to weigh
-            log.info("no particle inside the free space: drawing the belief from the scan")
-            n = self.max_particles
-            self.particles = self._scan_poses(n, rel, meas)
-            self.log_weights = np.full(n, -math.log(n))
-            lik = self.log_likelihood(self.particles, rel, meas)
-            self._fixing = True
-            from_prior = False
-        post = lik + self._log_heading_prior(self.particles)  # the posterior the refinement targets
-        ll = lik if from_prior else post
-        self.iterations += 1
-        self._updates += 1
-        self.log_weights = self.log_weights + ll
-        self._weighed = np.ones(self.particles.shape[0], dtype=bool)
+        lik, post = self._weigh(rel, meas)
         # augmented MCL: short- and long-term averages of the per-beam likelihood (log domain)
         per_beam = np.where(np.isfinite(lik), lik / meas.size, -np.inf)
         log_w_avg = log_mean_exp(per_beam)
@@ -432,9 +402,47 @@ class Amcl(Localiser):
         if (after.distance_to(before) > self.mode_radius_cm
                 or abs(float(angle_diff(after.theta, before.theta))) > self.mode_heading_rad):
             self._fixing = True  # the belief jumped (fresh particles took over): a new fix, to be checked
+        self._check_fix(rel, meas, post)
+        if self._updates % self.resample_interval == 0:
+            kld_resample(self, rel, meas)
+        self.particle_counts.append(int(self.particles.shape[0]))
+        self._heading_prior = None  # a heading prior weighs the first fix only
+
+    def _weigh(self, rel: FloatArray, meas: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Weigh the particles by the scan (drawn first when the belief is uniform, again from the scan
+        when none is inside the free space); the likelihood and the posterior a refinement targets."""
+        # particles drawn uniformly carry a heading prior already (they are drawn from it); those drawn
+        # from the scan's lattice are weighed by it
+        from_prior = False
+        if self._uniform:
+            n = self.max_particles
+            from_prior = self.global_init != "scan"
+            self.particles = uniform_poses(self, n) if from_prior else scan_poses(self, n, rel, meas)
+            self.log_weights = np.full(n, -math.log(n))
+            self._weighed = np.ones(n, dtype=bool)
+            self._uniform = False
+        lik = self.log_likelihood(self.particles, rel, meas)
+        if not np.isfinite(lik).any():  # every particle left the free space: nothing to weigh
+            log.info("no particle inside the free space: drawing the belief from the scan")
+            n = self.max_particles
+            self.particles = scan_poses(self, n, rel, meas)
+            self.log_weights = np.full(n, -math.log(n))
+            lik = self.log_likelihood(self.particles, rel, meas)
+            self._fixing = True
+            from_prior = False
+        post = lik + self._log_heading_prior(self.particles)  # the posterior the refinement targets
+        self.iterations += 1
+        self._updates += 1
+        self.log_weights = self.log_weights + (lik if from_prior else post)
+        self._weighed = np.ones(self.particles.shape[0], dtype=bool)
+        return lik, post
+
+    def _check_fix(self, rel: FloatArray, meas: FloatArray, post: FloatArray) -> None:
+        """A new fix refined, checked for a twin explaining the scan as well, and its modes listed."""
         if self._fixing and self.refine_steps > 0:
-            self._refine(rel, meas, post)
+            refine(self, rel, meas, post)
             self._estimate = self._make_estimate()
+        assert self._estimate is not None
         self._ambiguous_fix = False
         self._modes = []
         if self._fixing and self._estimate.converged and self.ambiguity_nats > 0:
@@ -445,10 +453,6 @@ class Amcl(Localiser):
                 self._fixing = False  # a fix the scan singles out; from here on the motion history does
         if self._fixing and self.ambiguity_nats > 0:
             self._modes = self._candidates(rel, meas)
-        if self._updates % self.resample_interval == 0:
-            self._resample(rel, meas)
-        self.particle_counts.append(int(self.particles.shape[0]))
-        self._heading_prior = None  # a heading prior weighs the first fix only
 
     def estimate(self) -> PoseEstimate:
         if self._estimate is None:
@@ -464,32 +468,9 @@ class Amcl(Localiser):
         return max(0.0, 1.0 - math.exp(self._log_w_fast - self._log_w_slow))
 
     def log_likelihood(self, poses: FloatArray, rel: FloatArray, meas: FloatArray) -> FloatArray:
-        """Log-likelihood (N,) of the readings `meas` (B,) at angles `rel` (B,) from each pose (N, 3);
-        ``-inf`` for poses outside the free area."""
-        p = np.asarray(poses, dtype=float).reshape(-1, 3)
-        if self._lik is not None:
-            e, inside = self._expected_ranges(p, rel)
-            return np.where(inside, self._lik.log_likelihood(e, meas), -np.inf)
-        rand = self.z_rand / self.laser_max_range
-        norm = self.z_hit / (_SQRT_2PI * self.sigma_hit)
-        if self.field is None:
-            e, inside = self._expected_ranges(p, rel)
-            with np.errstate(invalid="ignore", over="ignore"):
-                r = (meas[None, :] - e) / self.sigma_hit
-                dens = norm * np.exp(-0.5 * np.where(np.isfinite(r), r * r, np.inf)) + rand
-                if self.z_short > 0:
-                    short = meas[None, :] < e
-                    lam = self.lambda_short
-                    eta = 1.0 / np.maximum(1.0 - np.exp(-lam * np.minimum(e, 1e6)), 1e-12)
-                    dens += np.where(short, self.z_short * eta * lam * np.exp(-lam * meas[None, :]), 0.0)
-        else:
-            inside = self._free(p[:, :2], 0.0)
-            ang = p[:, 2:3] + rel[None, :]
-            ends = np.stack([p[:, 0:1] + meas * np.cos(ang), p[:, 1:2] + meas * np.sin(ang)], axis=-1)
-            d = self.field(ends) / self.sigma_hit
-            dens = norm * np.exp(-0.5 * d * d) + rand
-        ll = np.log(dens).sum(axis=1)
-        return np.where(inside, ll, -np.inf)
+        """Log-likelihood (N,) of the readings `meas` (B,) at angles `rel` (B,) from each pose (N, 3) under
+        the measurement model; ``-inf`` for poses outside the free area."""
+        return self.measurement.log_likelihood(np.asarray(poses, dtype=float).reshape(-1, 3), rel, meas)
 
     # -- internals ----------------------------------------------------------------------------------
     @property
@@ -508,72 +489,16 @@ class Amcl(Localiser):
         return self._lattice
 
     def _free(self, xy: FloatArray, clearance: float) -> NDArray[np.bool_]:
-        """Positions inside the free area at least `clearance` cm from the walls: from the map itself for
-        the likelihood field (no range table), from the table's cells for the beam model."""
-        if self.field is None and not self.cast_exact:
-            return self.table.free(xy, clearance)
-        ok = np.asarray(self.map.contains(xy), dtype=bool)
-        if clearance > 0 and ok.any():
-            ok[ok] = np.asarray(self.map.wall_distance(xy[ok]), dtype=float) >= clearance
-        return ok
-
-    def _expected_ranges(self, p: FloatArray, rel: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
-        """Expected ranges (N, B) of the beam model and the poses inside the table: with
-        `beam_interpolation`, trilinear between the 8 surrounding table nodes (cell centres x table
-        directions) where all 8 are free and see a wall, the nearest node elsewhere; with `cast_exact`,
-        exact ray casting."""
-        if self.cast_exact:
-            cast = exact_ranges(self.map, p, rel, max_range_cm=self.laser_max_range)
-            return cast, self._free(p[:, :2], 0.0)
-        near, inside = self.table.lookup(p, rel)
-        if not self.beam_interpolation:
-            return near.astype(float), inside
-        t = self.table
-        u = (p[:, :2] - t.origin) / t.resolution_cm - 0.5
-        g = np.floor(u)
-        f = u - g
-        k = t.n_angles / (2.0 * math.pi)
-        h = np.floor(p[:, 2] * k)
-        fh = p[:, 2] * k - h
-        total = np.zeros(near.shape)
-        ok = np.ones(near.shape, dtype=bool)
-        lo, hi = np.full(near.shape, np.inf), np.full(near.shape, -np.inf)
-        for di, dj, dh in np.ndindex(2, 2, 2):
-            node = np.column_stack([t.origin + (g + (di, dj) + 0.5) * t.resolution_cm, (h + dh) / k])
-            e, ins = t.lookup(node, rel)
-            w = (f[:, 0] if di else 1 - f[:, 0]) * (f[:, 1] if dj else 1 - f[:, 1]) * (fh if dh else 1 - fh)
-            ok &= ins[:, None] & np.isfinite(e)
-            total += w[:, None] * np.where(np.isfinite(e), e, 0.0)
-            lo, hi = np.minimum(lo, e), np.maximum(hi, e)
-        expected = np.where(ok, total, near)
-        if self._lobe is not None:
-            with np.errstate(invalid="ignore"):
-                smooth = hi - lo <= self._step_cm + self._step_per_cm * lo
-            self._lobe_ranges(p, rel, expected, inside[:, None] & ~(ok & smooth))
-        return expected, inside
-
-    def _lobe_ranges(self, p: FloatArray, rel: FloatArray, out: FloatArray, where: NDArray[np.bool_]) -> None:
-        """Cast the lobe exactly (`exact_ranges` with `lobe_rays` rays and the specular loss) for the
-        beams `where` (N, B) of poses `p` and write the nearest echoes into `out`.
-
-        Used where the table's nodes around a pose disagree by more than a smooth reading can change
-        across one cell and one direction: there a wall enters the lobe at its edge or a corner passes
-        through it, and interpolating the table would smear the reading's step over a whole cell and
-        direction, while the sensor's reading steps where the geometry does (the likelihood would then
-        prefer a pose where no step falls between the beams).
-        """
-        i, j = np.nonzero(where)
-        if i.size == 0:
-            return
-        assert self._lobe is not None
-        along = np.column_stack([p[i, :2], p[i, 2] + rel[j]])  # each beam as a pose facing its axis
-        out[i, j] = exact_ranges(self.map, along, np.zeros(1), **self._lobe)[:, 0]
+        """Positions inside the free area at least `clearance` cm from the walls, as the measurement model
+        sees them (from the map for the likelihood field, from the range table's cells for the beam model)."""
+        return self.measurement.free(xy, clearance)
 
     def _lattice_costs(self, rel: FloatArray, meas: FloatArray) -> FloatArray:
-        """``-2 log-likelihood`` of every lattice pose for this update's scan (computed once per update):
-        the beam mixture of a `sonar_model`, else the Gaussian of `sigma_hit` (`lattice_costs`)."""
+        """``-2 log-likelihood`` of every lattice pose for this update's scan (computed once per update) by
+        the measurement model's lattice likelihood: the beam mixture of a `sonar_model`, else the Gaussian
+        of `sigma_hit` (`lattice_costs`)."""
         if self._ssd is None:
-            self._ssd = lattice_costs(self.lattice, rel, meas, self._lik if self._lik is not None else self._gaussian)
+            self._ssd = lattice_costs(self.lattice, rel, meas, self.measurement.lattice_model())
             if self._heading_prior is not None:
                 self._ssd += self._heading_prior.direction_costs(self._ssd.shape[1])[None, :]
         return self._ssd
@@ -610,95 +535,6 @@ class Amcl(Localiser):
                                    within_nats=self.ambiguity_nats, radius_cm=self.mode_radius_cm,
                                    heading_rad=self.mode_heading_rad)
         return [Mode(pose, 0.0, ll, 0) for pose, ll in found] if len(found) > 1 else []
-
-    def _refine(self, rel: FloatArray, meas: FloatArray, ll: FloatArray) -> None:
-        """Resample-move on a new fix: `refine_particles` draws from the weights, then `refine_steps`
-        Metropolis moves targeting this scan's likelihood (times a first fix's heading prior; `ll` is that
-        target at the particles), with step sizes shrinking from 2 cm / 2 degrees to 0.1 cm / 0.1 degrees.
-
-        A new fix's particles came from the scan (a global start, or fresh particles that took over), so
-        the prior is flat at the scale of the likelihood: the moves then sample the posterior of the fix
-        instead of one lucky particle, and its spread tells how well the scan pins the pose.
-        """
-        w = log_normalise(np.where(self._weighed, self.log_weights, -np.inf))
-        k = min(self.refine_particles, self.max_particles)
-        idx = systematic_resample(w, k, self.rng)
-        p, cur = self.particles[idx].copy(), ll[idx].copy()
-        scales = np.geomspace(2.0, 0.1, self.refine_steps) if self.refine_steps > 1 else np.array([0.5])
-        for sc in scales:
-            d = np.column_stack([p[:, :2] - p[:, :2].mean(axis=0), angle_diff(p[:, 2], circular_mean(p[:, 2]))])
-            cov = (2.38**2 / 3.0) * (d.T @ d) / k + np.diag([sc, sc, math.radians(sc)]) ** 2
-            q = p + self.rng.standard_normal(p.shape) @ np.linalg.cholesky(cov).T
-            q[:, 2] = wrap_angle(q[:, 2])
-            new = self.log_likelihood(q, rel, meas) + self._log_heading_prior(q)
-            with np.errstate(invalid="ignore"):
-                accept = np.log(self.rng.random(k)) < new - cur
-            p[accept], cur[accept] = q[accept], new[accept]
-        self.particles = p
-        self.log_weights = np.full(k, -math.log(k))
-        self._weighed = np.ones(k, dtype=bool)
-
-    def _resample(self, rel: FloatArray, meas: FloatArray) -> None:
-        """KLD-sampling with augmented-MCL injection, vectorised over the `max_particles` candidates."""
-        w = log_normalise(self.log_weights)
-        m = self.max_particles
-        cdf = np.cumsum(w)
-        cdf[-1] = max(cdf[-1], 1.0)
-        cand = self.particles[np.searchsorted(cdf, self.rng.random(m), side="right").clip(0, w.size - 1)]
-        p_inject = max(self.injection_probability, self.ambiguity_injection if self._ambiguous_fix else 0.0)
-        fresh = self.rng.random(m) < p_inject if p_inject > 0 else np.zeros(m, dtype=bool)
-        if fresh.any():
-            k = int(fresh.sum())
-            cand[fresh] = (self._scan_poses(k, rel, meas) if self.recovery_sampler == "scan"
-                           else self._uniform_poses(k))
-        bins = np.floor(cand / self.kld_bin).astype(np.int64)
-        _, first = np.unique(bins, axis=0, return_index=True)
-        is_new = np.zeros(m, dtype=np.int64)
-        is_new[first] = 1
-        occupied = np.cumsum(is_new)  # bins occupied by the first n+1 candidates
-        count = np.arange(1, m + 1)
-        enough = (count >= kld_bound(occupied, self.pf_err, self.pf_z)) & (count >= self.min_particles)
-        n = int(np.argmax(enough)) + 1 if enough.any() else m
-        self.particles = cand[:n]
-        self._weighed = ~fresh[:n]
-        self.log_weights = np.full(n, -math.log(n))
-        self.injected += int(fresh[:n].sum())
-
-    def _uniform_poses(self, n: int) -> FloatArray:
-        xmin, ymin, xmax, ymax = self.map.bounds
-        out: list[FloatArray] = []
-        have = 0
-        while have < n:
-            cand = self.rng.uniform([xmin, ymin], [xmax, ymax], size=(2 * (n - have) + 64, 2))
-            keep = cand[self._free(cand, self.clearance_cm)]
-            out.append(keep)
-            have += len(keep)
-        xy = np.vstack(out)[:n]
-        hp = self._heading_prior
-        return np.column_stack([xy, self.rng.uniform(-math.pi, math.pi, n) if hp is None else hp.sample(n, self.rng)])
-
-    def _scan_poses(self, n: int, rel: FloatArray, meas: FloatArray) -> FloatArray:
-        """`n` poses drawn from the lattice scored against the scan, tempered to about `scan_sample_ess`
-        effective candidates, jittered within their lattice cell and direction."""
-        ssd = self._lattice_costs(rel, meas).ravel()
-        top = min(20000, ssd.size)
-        cand = np.argpartition(ssd, top - 1)[:top]
-        s = ssd[cand] - ssd[cand].min()
-        lo, hi = 1e-6, 1.0  # bisection on the temperature: the ESS falls as beta grows
-        target = min(self.scan_sample_ess, top / 2)
-        for _ in range(40):
-            mid = math.sqrt(lo * hi)
-            w = np.exp(-0.5 * mid * s)
-            ess = w.sum() ** 2 / (w * w).sum()
-            lo, hi = (mid, hi) if ess >= target else (lo, mid)
-        w = np.exp(-0.5 * lo * s)
-        idx = cand[systematic_resample(w / w.sum(), n, self.rng)]
-        cell, head = np.divmod(idx, self.table.n_angles)
-        half = 0.5 * self.lattice.step * self.table.resolution_cm
-        xy = self.lattice.xy[cell] + self.rng.uniform(-half, half, size=(n, 2))
-        dth = math.pi / self.table.n_angles
-        theta = wrap_angle(head * (2.0 * math.pi / self.table.n_angles) + self.rng.uniform(-dth, dth, size=n))
-        return np.column_stack([xy, theta])
 
     def cloud(self) -> tuple[FloatArray, FloatArray] | None:
         """The particles and the weights the estimate uses (particles not yet weighed by a scan weigh 0)."""

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from toolkit.world import Param, Params
 
+from .amcl_models import model_names
+
 __all__ = ["AMCL_PARAMS", "AMCL_ROBOT", "EKF_PARAMS", "KALMAN_ROBOT", "PF_PARAMS", "PF_ROBOT", "UKF_PARAMS"]
 
 _MOTION = (
@@ -96,8 +98,8 @@ PF_ROBOT: dict[str, tuple[str, ...] | str] = {
 }
 
 AMCL_PARAMS = Params(
-    Param("model", str, "auto", "Measurement model: beam, likelihood field, or auto (beam with a lobe)",
-          choices=("auto", "beam", "field")),
+    Param("model", str, "auto", "Measurement model (localisation.amcl_models), or auto: nxt-beam with a "
+          "sonar model, else beam with a lobe, field for a thin ray", choices=model_names()),
     Param("min_particles", int, 150, "Least KLD particle count (nav2: 500)", low=1),
     Param("max_particles", int, 2000, "Largest KLD particle count (nav2: 2000)", low=1),
     Param("pf_err", float, 0.05, "KLD error bound (nav2: 0.05)", low=1e-6, high=0.999999),

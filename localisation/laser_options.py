@@ -22,17 +22,30 @@ of precise readings over a building. What changes, per family:
 
 The robot model (motion noise, the laser's sigma and range limit) is not set here: `localisation.robot_options`
 gives it, and these options go on top of it.
+
+Each family's options are a function registered for its class (`laser_options_for`): a subclass gets its
+nearest registered base's. A localiser with none registered is an error that lists those that have
+them, never another family's options nor none at all: register a function for its class (or, for a
+script or a test, for the length of a ``with`` block, `laser_options_added`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
+from localisation.amcl import Amcl
 from localisation.base import LOCALISERS
-from toolkit.world import LaserScanner
+from localisation.filterpy_variants import KalmanLocaliser
+from localisation.particle_filter import ParticleFilter
+from toolkit.world import ConfigError, LaserScanner, RegistryError
 
 __all__ = ["FIELD_RESOLUTION_CM", "KALMAN_BEAMS", "KALMAN_GATE_MIN_CM", "KALMAN_GATE_SD", "NAV2_LASER", "PF_PARTICLES",
-           "SHARP_LASER", "laser_localiser_options"]
+           "SHARP_LASER", "LaserOptions", "laser_localiser_options", "laser_options_added", "laser_options_for"]
+
+LaserOptions = Callable[[LaserScanner], dict[str, Any]]
+"""A function giving the constructor options that fit a localiser family to a laser."""
 
 FIELD_RESOLUTION_CM = 2.0
 """Node spacing of amcl's distance field for a laser (cm): 1.5 M free cm^2 (a 20 x 7 m room) in 2 s."""
@@ -49,23 +62,65 @@ KALMAN_GATE_SD = 5.0
 KALMAN_GATE_MIN_CM = 10.0
 
 
-def laser_localiser_options(localiser: str, laser: LaserScanner) -> dict[str, Any]:
-    """Constructor options that fit `localiser` (a registry name) to `laser` (module docstring); {} for a
-    localiser this module does not know."""
-    from .amcl import Amcl
-    from .filterpy_variants import KalmanLocaliser
-    from .particle_filter import ParticleFilter
+_BY_CLASS: dict[type, LaserOptions] = {}
 
-    cls = LOCALISERS.get(localiser)
+
+def laser_options_for(cls: type) -> Callable[[LaserOptions], LaserOptions]:
+    """Register the decorated function as the laser options of localiser class `cls` and its subclasses
+    (a second function for the same class is an error)."""
+    def register(options: LaserOptions) -> LaserOptions:
+        if cls in _BY_CLASS:
+            raise RegistryError(f"laser options for {cls.__qualname__} are registered already")
+        _BY_CLASS[cls] = options
+        return options
+    return register
+
+
+@contextmanager
+def laser_options_added(cls: type, options: LaserOptions) -> Iterator[None]:
+    """`options` registered for `cls` for the length of a ``with`` block, then removed again."""
+    laser_options_for(cls)(options)
+    try:
+        yield
+    finally:
+        _BY_CLASS.pop(cls, None)
+
+
+def _options_of(cls: type) -> LaserOptions | None:
+    return next((_BY_CLASS[c] for c in cls.__mro__ if c in _BY_CLASS), None)
+
+
+def laser_localiser_options(localiser: str, laser: LaserScanner) -> dict[str, Any]:
+    """Constructor options that fit `localiser` (a registry name) to `laser` (module docstring).
+
+    Raises
+    ------
+    ConfigError
+        For a localiser whose class (or a base of it) has no laser options registered; the message
+        lists the localisers that have them.
+    """
+    options = _options_of(LOCALISERS.get(localiser))
+    if options is None:
+        known = [name for name in LOCALISERS.names() if _options_of(LOCALISERS.get(name)) is not None]
+        raise ConfigError(f"localiser {localiser!r} has no options for a laser (localisation.laser_options); "
+                          f"known: {', '.join(known) or 'none'}")
+    return options(laser)
+
+
+@laser_options_for(Amcl)
+def _amcl(laser: LaserScanner) -> dict[str, Any]:
+    return {**NAV2_LASER, **SHARP_LASER, "laser_max_range": float(laser.max_range_cm),
+            "field_resolution_cm": FIELD_RESOLUTION_CM, "recovery_sampler": "uniform", "ambiguity_nats": 0.0,
+            "clearance_cm": 0.0}
+
+
+@laser_options_for(ParticleFilter)
+def _particle_filter(laser: LaserScanner) -> dict[str, Any]:
+    return {"sensor_sigma_cm": float(laser.noise_sd), "use_table": False, "global_init": "uniform",
+            "n_particles": PF_PARTICLES, "max_range_cm": float(laser.max_range_cm), "clearance_cm": 0.0}
+
+
+@laser_options_for(KalmanLocaliser)
+def _kalman(laser: LaserScanner) -> dict[str, Any]:
     sd = float(laser.noise_sd)
-    if issubclass(cls, Amcl):
-        return {**NAV2_LASER, **SHARP_LASER, "laser_max_range": float(laser.max_range_cm),
-                "field_resolution_cm": FIELD_RESOLUTION_CM, "recovery_sampler": "uniform", "ambiguity_nats": 0.0,
-                "clearance_cm": 0.0}
-    if issubclass(cls, ParticleFilter):
-        return {"sensor_sigma_cm": sd, "use_table": False, "global_init": "uniform", "n_particles": PF_PARTICLES,
-                "max_range_cm": float(laser.max_range_cm), "clearance_cm": 0.0}
-    if issubclass(cls, KalmanLocaliser):
-        return {"sensor_sigma_cm": sd, "max_beams": KALMAN_BEAMS,
-                "gate_cm": max(KALMAN_GATE_SD * sd, KALMAN_GATE_MIN_CM)}
-    return {}
+    return {"sensor_sigma_cm": sd, "max_beams": KALMAN_BEAMS, "gate_cm": max(KALMAN_GATE_SD * sd, KALMAN_GATE_MIN_CM)}

@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -95,6 +97,7 @@ class AStarPlanner(Planner):
 
     name = "astar"
     params = ASTAR_PARAMS
+    grid_map_options: ClassVar[Mapping[str, Any]] = {"resolution": None}
 
     def __init__(self, resolution: float | None = 2.0, connect_radius: float | None = None,
                  corner_cutting: bool | None = None) -> None:

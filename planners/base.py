@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, ClassVar
@@ -210,6 +211,14 @@ class Planner(ABC):
     name: ClassVar[str]
     params: ClassVar[Params | None] = None
     """The declared options (`planners.declarations.planner_params` answers for every name, OMPL's too)."""
+    grid_map_options: ClassVar[Mapping[str, Any]] = {}
+    """Options the benchmarks give it on a map imported from a grid (astar: plan on the map's own cells)."""
+    large_map_options: ClassVar[Mapping[str, Any] | None] = {}
+    """Options the benchmarks give it on a map of more than ``LARGE_MAP_WALLS`` walls (an imported real
+    map; `toolkit.bench.planners`); None: it is skipped there (too slow to be a reference)."""
+    reports_progress: ClassVar[bool] = False
+    """Whether it takes ``progress_interval`` (seconds of budget between best-cost samples): the benchmarks
+    then pass theirs (OMPL's planners)."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

@@ -271,6 +271,8 @@ class OmplPlanner(Planner):
     ``length_after_simplify_cm`` and ``simplify_time_s`` (when simplifying), and the OMPL ``seed`` used.
     """
 
+    reports_progress = True
+
     def __init__(
         self,
         planner: str = "RRTstar",
@@ -520,4 +522,4 @@ def _ompl_member(planner: str) -> Callable[..., OmplPlanner]:
     return partial(OmplPlanner, planner=planner)
 
 
-PLANNERS.add_family("ompl", _ompl_member, ompl_planner_names)
+PLANNERS.add_family("ompl", _ompl_member, ompl_planner_names, cls=OmplPlanner)

@@ -52,8 +52,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import scipy.ndimage
@@ -355,6 +356,7 @@ class ShortestPathPlanner(_ReferencePlanner):
 
     name = "shortest"
     params = SHORTEST_PARAMS
+    large_map_options: ClassVar[Mapping[str, Any] | None] = {"n_sides": 16}  # length tolerance stays < ~1 cm
 
     def _build(self, problem: PlanningProblem) -> _Graph:
         from .visibility_search import VisibilityGraph  # compiled: loaded when first needed
@@ -448,6 +450,7 @@ class MinLinkPlanner(_ReferencePlanner):
 
     name = "min-link"
     params = MIN_LINK_PARAMS
+    large_map_options = None  # its dense graph grows with the map's area squared
 
     def __init__(self, boundary_spacing: float = 3.0, grid_spacing: float | None = 10.0, refine: bool = True,
                  n_sides: int = 64, eps: float = 1e-4) -> None:

@@ -8,16 +8,27 @@ import math
 import sqlite3
 import subprocess
 import sys
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
 import shapely
 from conftest import built_once, nxtnav_exe, run_cli
 
-from toolkit.bench.planners import RUN_COLUMNS, BenchmarkConfig, known_planners, make_queries
+from planners import PLANNERS, Planner, PlanningProblem, PlanStatus
+from planners.base import Solution
+from toolkit.bench.planners import (
+    LARGE_MAP_WALLS,
+    RUN_COLUMNS,
+    BenchmarkConfig,
+    known_planners,
+    make_queries,
+    planner_for,
+)
 from toolkit.seeds import derive_seed
-from toolkit.world import CollisionChecker, load_map
+from toolkit.world import CollisionChecker, RegistryError, load_map
 
 MAPS = ("map1", "map2", "map3")
 WANTED = ("min-turn", "rrtstar", "prm", "astar")
@@ -369,3 +380,35 @@ def test_point_robot_on_a_grid_map_file(tmp_path: Path) -> None:
         assert length >= best[run_no] - 1e-9, planner
     assert len(best) == 4
     assert run_cli(["bench", "planners", "--maps", str(grid), "--radius", "-1", "--out", str(tmp_path / "c")]) == 2
+
+
+# -- what the bench gives a planner is the planner class's declaration ---------------------------------------
+class _Declared(Planner):
+    """A planner of one's own that declares what the bench gives it (it plans nothing)."""
+
+    grid_map_options: ClassVar[Mapping[str, Any]] = {"cells": True}
+    large_map_options = None
+    reports_progress = True
+
+    def __init__(self, cells: bool = False, progress_interval: float | None = None) -> None:
+        self.cells, self.progress_interval = cells, progress_interval
+
+    def _solve(self, problem: PlanningProblem) -> Solution:
+        return Solution(None, PlanStatus.TIMEOUT)
+
+
+def test_the_bench_gives_a_planner_what_its_class_declares() -> None:
+    small, grid, large = load_map("map1"), load_map("i-108_10mm"), load_map("turtlebot3_world")
+    assert grid.grid is not None and len(grid.walls) <= LARGE_MAP_WALLS < len(large.walls)
+    with PLANNERS.added({"declared": _Declared}):
+        built = planner_for("declared", small, progress_interval=0.5)
+        assert (built.cells, built.progress_interval) == (False, 0.5)
+        assert planner_for("declared", grid, {"cells": False}).cells is False  # the user's option wins
+        assert planner_for("declared", grid).cells is True and planner_for("declared", large) is None
+    assert planner_for("astar", grid).resolution is None and planner_for("astar", small).resolution == 2.0
+    assert planner_for("shortest", large).n_sides == 16 and planner_for("shortest", grid).n_sides == 64
+    assert planner_for("min-link", large) is None and planner_for("min-link", grid) is not None
+    assert planner_for("ompl:RRTConnect", small, progress_interval=0.5).progress_interval == 0.5
+    assert planner_for("min-turn", small, progress_interval=0.5) is not None  # declares none: given none
+    with pytest.raises(RegistryError, match=r"unknown planner 'declared'; known: astar, min-link, .*ompl:NAME"):
+        planner_for("declared", small)  # gone with its block

@@ -10,7 +10,23 @@ import struct
 import numpy as np
 import pytest
 
-from toolkit.robots.brick_faults import FAULT_KINDS, SONAR_FAULT_PLUGINS, Fault, FaultSchedule, SonarFault, parse_fault
+from toolkit.bench.faults import draw_faults as draw_bench_faults
+from toolkit.bench.faults import fault_tasks
+from toolkit.robots.brick_faults import (
+    FAULT_CLASSES,
+    FAULT_KINDS,
+    SONAR_FAULT_PLUGINS,
+    Fault,
+    FaultKind,
+    FaultSchedule,
+    LinkControl,
+    LinkFault,
+    SonarFault,
+    WheelFault,
+    fault_class,
+    known_fault_kinds,
+    parse_fault,
+)
 from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld, MotorMode, RunState
 from toolkit.world import ConfigError, Pose, load_map
@@ -245,3 +261,81 @@ def test_a_sensor_fault_kind_of_ones_own_is_scheduled_like_the_builtin_ones() ->
 def test_a_sensor_fault_kind_may_not_take_a_builtin_name() -> None:
     with pytest.raises(ConfigError, match="'stall' is a built-in kind's name"):
         type("Stall", (SonarFault,), {"name": "stall", "reading": lambda self, v, t, rng: None})
+
+
+# -- every kind a registered class with its own rules ------------------------------------------------------
+class _Hiccup(LinkFault):
+    """The brick answers nothing for ARG wall-clock seconds, twice over (a link fault of one's own)."""
+
+    arg_name = "DUR_S"
+
+    def carry_out(self, link: LinkControl) -> bool:
+        link.stall(2.0 * self.fault.arg)
+        return False
+
+
+class _Skid(WheelFault):
+    """Every motion of the wheels from AT_S on drives ARG of its tacho travel (a wheel fault of one's own)."""
+
+    arg_name = "FRACTION"
+    arg_rule = "a fraction in (0, 1]"
+    draw_range = (0.2, 0.3)
+
+    @classmethod
+    def arg_ok(cls, arg: float) -> bool:
+        return 0 < arg <= 1
+
+    def take(self, port: int, wheels: tuple[int, int], time_s: float) -> tuple[float, bool] | None:
+        return self.fault.arg, True
+
+
+_Hiccup.name = "hiccup"
+_Skid.name = "skid"
+
+
+def test_an_unknown_kind_is_an_error_listing_the_known_ones_never_another_kinds_rule() -> None:
+    known = "known: drop-link, stall, sonar-stuck, sonar-garbage, motor-slip$"
+    with pytest.raises(ConfigError, match=r"unknown fault kind 'skid'; " + known):
+        Fault("skid", 1.0, 0.5)  # before: checked as a motor-slip fraction
+    with pytest.raises(ConfigError, match=r"unknown fault kind 'skid'; " + known):
+        fault_class("skid")
+    assert known_fault_kinds() == list(FAULT_KINDS)
+    assert FAULT_CLASSES.get("motor-slip").draw_range == (0.5, 0.9)
+
+
+def test_a_link_fault_kind_of_ones_own_is_carried_out_by_the_server() -> None:
+    with FAULT_CLASSES.added({"hiccup": _Hiccup}):
+        assert "hiccup" in known_fault_kinds()
+        with pytest.raises(ConfigError, match=r"DUR_S must be in \(0, 3600\] wall-clock seconds"):
+            parse_fault("hiccup:1:0")  # the rule of its family
+        world = _world(["hiccup:0.3:1"])
+        with BrickServer(world, port=0) as srv, _raw(srv.port, timeout=1.5) as s:
+            with pytest.raises(TimeoutError):  # stalled for 2 s: no reply within 1.5 s, nor a cut link
+                for _ in range(200):
+                    s.sendall(BATTERY)
+                    assert s.recv(64) == BATTERY_REPLY
+            assert srv.live_connections == 1 and world.faults.to_dict()[0]["acted"] == 1
+    assert "hiccup" not in known_fault_kinds()
+
+
+def test_a_wheel_fault_kind_of_ones_own_slips_every_motion_and_the_bench_draws_it_in_its_range() -> None:
+    with FAULT_CLASSES.added({"skid": _Skid}):
+        schedule = FaultSchedule(["skid:2:0.25"])
+        assert schedule.slip(1, (1, 0), 1.0) is None  # before its time
+        assert [schedule.slip(p, (1, 0), 3.0) for p in (1, 0, 1)] == [0.25, 0.25, 0.25]
+        assert schedule.to_dict()[0]["acted"] == 3 and schedule.sonar(40, 3.0) == 40  # the wheels only
+        rng = np.random.default_rng(0)
+        drawn = [f for _ in range(50) for f in draw_bench_faults(rng, ("skid",), 100.0)]
+        assert all(f.kind == "skid" and 0.2 <= f.arg <= 0.3 and 10.0 <= f.at_s <= 85.0 for f in drawn)
+    with FAULT_CLASSES.added({"hiccup": _Hiccup}):  # no draw range: the bench refuses it by name
+        with pytest.raises(ConfigError, match="'hiccup' has no draw range"):
+            draw_bench_faults(np.random.default_rng(0), ("hiccup",), 100.0)
+        with pytest.raises(ConfigError, match="fault kinds must be some of drop-link, stall, sonar-stuck, "
+                           "sonar-garbage, motor-slip, got hiccup"):
+            fault_tasks(1, 0, ("hiccup",))
+
+
+def test_a_fault_kind_must_say_what_it_acts_on() -> None:
+    with pytest.raises(ConfigError, match="'odd' must subclass LinkFault, SonarFault or WheelFault"):
+        type("Odd", (FaultKind,), {"name": "odd"})
+    assert "odd" not in FAULT_CLASSES

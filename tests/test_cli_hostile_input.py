@@ -146,6 +146,15 @@ def test_localise_set_is_typed_too(capsys: pytest.CaptureFixture[str]) -> None:
                    "--set paper-pf.n_particles")
 
 
+@pytest.mark.parametrize(("value", "needle"), [
+    ("model=sonar", "--set amcl.model: 'sonar' is not one of auto, beam, field, nxt-beam"),
+    ("model=nxt-beam", "amcl: the NXT beam model needs a sonar_model"),
+])
+def test_an_amcl_model_is_a_registered_one_that_fits_the_sonar(value: str, needle: str,
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    _fails_cleanly(["localise", "--pose", "20,20,0", "--localiser", "amcl", "--set", value], capsys, needle)
+
+
 def test_an_integer_where_a_float_is_annotated_is_accepted(tmp_path: Path) -> None:
     js = tmp_path / "l.json"
     assert run_cli(["localise", "--pose", "20,20,0", "--set", "sensor_sigma_cm=2", "--json", str(js)]) == 0

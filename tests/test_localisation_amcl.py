@@ -10,10 +10,17 @@ import shapely
 
 from localisation import LOCALISERS, Motion, Prior, localise, make_localiser
 from localisation.amcl import Amcl, DistanceField, kld_bound
+from localisation.amcl_models import MEASUREMENT_MODELS, BeamModel, LikelihoodFieldModel, MeasurementModel
 from localisation.models import exact_ranges
 from localisation.scan import process_scan
 from toolkit.robots.sim import SimRobot
-from toolkit.world import NxtSonar, Pose, angle_diff, load_map
+from toolkit.world import ConfigError, NxtSonar, Pose, angle_diff, load_map
+
+
+def _expected(a: Amcl, poses: np.ndarray, rel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The beam model's expected ranges of amcl `a` (N, B) and the poses inside its table."""
+    assert isinstance(a.measurement, BeamModel)
+    return a.measurement.expected_ranges(poses, rel)
 
 
 def _scan(m, pose: Pose, seed: int = 0):  # type: ignore[no-untyped-def]
@@ -135,7 +142,7 @@ def test_beam_interpolation_follows_exact_ranges() -> None:
     exact = exact_ranges(m, poses, rel)
     errors = []
     for interpolate in (True, False):
-        expected, inside = Amcl(m, rng=0, model="beam", beam_interpolation=interpolate)._expected_ranges(poses, rel)
+        expected, inside = _expected(Amcl(m, rng=0, model="beam", beam_interpolation=interpolate), poses, rel)
         assert inside.all()
         errors.append(np.median(np.abs(expected - exact)[np.isfinite(exact)]))
     # the nearest 1 cm cell and 1-degree direction are off by ~0.3 cm; trilinear interpolation far less
@@ -152,7 +159,7 @@ def test_lobe_readings_follow_the_nxt_sonar() -> None:
     off = {}
     for edges in (True, False):
         a = Amcl(m, rng=0, beam_width_deg=20.0, critical_incidence_deg=40.0, lobe_rays=21 if edges else 0)
-        expected, inside = a._expected_ranges(poses, rel)
+        expected, inside = _expected(a, poses, rel)
         assert inside.all()
         with np.errstate(invalid="ignore"):
             agree = (np.abs(expected - sensor) <= 1.0) | (np.isinf(expected) & np.isinf(sensor))
@@ -168,8 +175,8 @@ def test_a_wall_entering_the_lobe_edge_steps_the_reading() -> None:
     rel = np.radians([345.0, 346.0, 347.0, 348.0, 349.0, 350.0])
     sensor = NxtSonar.hardware_facts(beam_rays=161).echo_distance(m.walls, pose[:, :2], pose[:, 2:3] + rel[None, :])[0]
     kw = {"beam_width_deg": 20.0, "critical_incidence_deg": 40.0}
-    edges = Amcl(m, rng=0, **kw)._expected_ranges(pose, rel)[0][0]  # type: ignore[arg-type]
-    smeared = Amcl(m, rng=0, lobe_rays=0, **kw)._expected_ranges(pose, rel)[0][0]  # type: ignore[arg-type]
+    edges = _expected(Amcl(m, rng=0, **kw), pose, rel)[0][0]  # type: ignore[arg-type]
+    smeared = _expected(Amcl(m, rng=0, lobe_rays=0, **kw), pose, rel)[0][0]  # type: ignore[arg-type]
     assert np.all(sensor[1:] < 12.5)
     assert np.allclose(edges, sensor, atol=0.1)
     assert np.max(np.abs(smeared - sensor)) > 2.0
@@ -220,3 +227,48 @@ def _after(pose: Pose, turn: float, distance: float) -> tuple[float, float, floa
     """Where a noise-free turn and drive take `pose`."""
     th = pose.theta + turn
     return pose.x + distance * math.cos(th), pose.y + distance * math.sin(th), th
+
+
+# -- measurement models, registered by name and chosen once ------------------------------------------------
+def test_the_model_is_chosen_once_by_name_and_an_unknown_one_lists_the_known() -> None:
+    m = load_map("map1")
+    assert type(Amcl(m, rng=0).measurement) is LikelihoodFieldModel
+    nxt = Amcl(m, rng=0, sonar_model=NxtSonar())
+    assert nxt.model == "nxt-beam" and nxt.model == Amcl(m, rng=0, model="beam", sonar_model=NxtSonar()).model
+    with pytest.raises(ConfigError, match=r"amcl model must be one of auto, beam, field, nxt-beam, got 'sonar'$"):
+        Amcl(m, rng=0, model="sonar")
+    with pytest.raises(ConfigError, match="the likelihood field cannot use a sonar_model"):
+        Amcl(m, rng=0, model="field", sonar_model=NxtSonar())
+    with pytest.raises(ConfigError, match="the NXT beam model needs a sonar_model"):
+        Amcl(m, rng=0, model="nxt-beam")
+
+
+class _Flat(MeasurementModel):
+    """A model of one's own: every free pose explains every scan alike (the belief follows the odometry)."""
+
+    title = "flat model"
+
+    def log_likelihood(self, poses: np.ndarray, rel: np.ndarray, meas: np.ndarray) -> np.ndarray:
+        return np.where(self.free(poses[:, :2], 0.0), 0.0, -np.inf)
+
+
+_Flat.name = "flat"  # set after the body: registered only inside `added`
+
+
+def test_a_registered_model_of_ones_own_weighs_the_scans() -> None:
+    m = load_map("map1")
+    start = Pose(20.0, 20.0, 0.0)
+    prior = Prior(start, np.diag([9.0, 9.0, 0.01]))
+    with MEASUREMENT_MODELS.added({"flat": _Flat}):
+        flat = Amcl(m, rng=0, model="flat", recovery_alpha_slow=0.0, refine_steps=0, ambiguity_nats=0.0)
+        flat.reset(prior)
+        flat.update(_scan(m, start))
+        assert flat.model == "flat" and flat.iterations == 1
+        spread = float(np.sqrt(np.trace(np.cov(flat.particles[:, :2].T))))
+        assert spread > 2.0  # the scan did not narrow the cloud, as the field model would
+        field = Amcl(m, rng=0, recovery_alpha_slow=0.0, refine_steps=0, ambiguity_nats=0.0)
+        field.reset(prior)
+        field.update(_scan(m, start))
+        assert float(np.sqrt(np.trace(np.cov(field.particles[:, :2].T)))) < spread
+    with pytest.raises(ConfigError, match="must be one of auto, beam, field, nxt-beam, got 'flat'"):
+        Amcl(m, rng=0, model="flat")  # gone with its block

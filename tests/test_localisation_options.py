@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from localisation import LOCALISERS, Motion, Prior, make_localiser
+from localisation.base import HeadingPrior, Localiser, PoseEstimate
+from localisation.laser_options import laser_localiser_options, laser_options_added, laser_options_for
 from localisation.robot_options import THIN_RAY, localiser_options
-from toolkit.world import FACETS, ConfigError, NxtSonar, Pose, RobotModel, Scan, load_map
+from toolkit.world import FACETS, ConfigError, LaserScanner, NxtSonar, Pose, RegistryError, RobotModel, Scan, load_map
 from toolkit.world.geometry import ray_cast
 
 MAP1 = load_map("map1")
@@ -124,3 +126,45 @@ def test_replace_keeps_a_model_frozen() -> None:
     with pytest.raises(AttributeError):
         robot.readings = "real"  # type: ignore[misc]
     assert replace(robot, readings="real").readings == "real"
+
+
+# -- laser options, registered per localiser class ---------------------------------------------------------
+class _DeadReckoning(Localiser):
+    """A localiser of one's own that no laser options know (the belief follows the odometry alone)."""
+
+    def reset(self, prior: Prior | HeadingPrior | None = None) -> None:
+        self._pose = Pose(0.0, 0.0, 0.0)
+
+    def predict(self, motion: Motion) -> None:
+        pass
+
+    def update(self, scan: Scan) -> None:
+        pass
+
+    def estimate(self) -> PoseEstimate:
+        return PoseEstimate(self._pose, np.eye(3), False, 0)
+
+
+def test_every_bundled_localiser_has_its_familys_laser_options() -> None:
+    laser = LaserScanner(noise_sd=2.0, max_range_cm=800.0)
+    for name in LOCALISERS.names():
+        options = laser_localiser_options(name, laser)
+        assert options, name
+        make_localiser(name, load_map("map1"), rng=0, **options)  # each option one its constructor takes
+    assert laser_localiser_options("pf-residual", laser) == laser_localiser_options("paper-pf", laser)  # its base's
+
+
+def test_a_localiser_without_laser_options_is_an_error_until_its_class_registers_them() -> None:
+    laser = LaserScanner(max_range_cm=800.0)
+    known = "known: amcl, ekf, paper-pf, pf-multinomial, pf-residual, pf-stratified, pf-systematic, ukf$"
+    with LOCALISERS.added({"dead-reckoning": _DeadReckoning}):
+        with pytest.raises(ConfigError, match=r"localiser 'dead-reckoning' has no options for a laser .*" + known):
+            laser_localiser_options("dead-reckoning", laser)  # before: {} without a word
+        with laser_options_added(_DeadReckoning, lambda scanner: {"reach_cm": scanner.max_range_cm}):
+            assert laser_localiser_options("dead-reckoning", laser) == {"reach_cm": 800.0}
+            with pytest.raises(RegistryError, match="registered already"):
+                laser_options_for(_DeadReckoning)(lambda scanner: {})
+        with pytest.raises(ConfigError, match="has no options for a laser"):
+            laser_localiser_options("dead-reckoning", laser)  # gone with its block
+    with pytest.raises(RegistryError, match="unknown localiser 'dead-reckoning'"):
+        laser_localiser_options("dead-reckoning", laser)

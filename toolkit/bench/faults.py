@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ..robots.brick_faults import FAULT_KINDS, Fault
+from ..robots.brick_faults import FAULT_KINDS, Fault, fault_class, known_fault_kinds
 from ..seeds import derive_seeds
 from ..world import ConfigError, Pose, load_map
 
@@ -67,9 +67,10 @@ def fault_tasks(missions: int, seed: int, kinds: Sequence[str] = FAULT_KINDS, ma
                 reconnect_timeout_s: float = 30.0, reply_timeout_s: float = 3.0,
                 recordings: str | Path | None = None) -> list[FaultTask]:
     """`missions` tasks, cycling through `maps`, each from the map's start with a seeded heading."""
-    unknown = [k for k in kinds if k not in FAULT_KINDS]
+    drawable = [k for k in known_fault_kinds() if fault_class(k).draw_range is not None]
+    unknown = [k for k in kinds if k not in drawable]
     if unknown or not kinds:
-        raise ConfigError(f"fault kinds must be some of {', '.join(FAULT_KINDS)}, got {', '.join(kinds) or 'none'}")
+        raise ConfigError(f"fault kinds must be some of {', '.join(drawable)}, got {', '.join(kinds) or 'none'}")
     out = []
     for i in range(missions):
         name = maps[i % len(maps)]
@@ -87,27 +88,24 @@ def fault_tasks(missions: int, seed: int, kinds: Sequence[str] = FAULT_KINDS, ma
 def draw_faults(rng: np.random.Generator, kinds: Sequence[str], duration_s: float) -> list[Fault]:
     """One or two faults of `kinds`, each at a brick time inside a run of `duration_s` (s).
 
-    Arguments: a link down for 0.5-10 s (Bluetooth coming back, a cable plugged in again); a stall of
-    0.5-6 s (shorter or longer than the robot's 3 s reply timeout); a sensor stuck for 1-7 brick s
-    (the stuck arcs of real sweeps span 50 to 250 degrees: 1.4 to 6.9 s at the robot-time model's
-    27 ms a degree); garbage with probability 0.02-0.3 from the start; a motion slipping to 50-90 %
-    of its tacho travel.
+    Each kind draws its ARG uniformly from its own `FaultKind.draw_range` (and a kind
+    `FaultKind.drawn_from_start` is scheduled at 0 instead): a link down for 0.5-10 s (Bluetooth coming
+    back, a cable plugged in again); a stall of 0.5-6 s (shorter or longer than the robot's 3 s reply
+    timeout); a sensor stuck for 1-7 brick s (the stuck arcs of real sweeps span 50 to 250 degrees: 1.4
+    to 6.9 s at the robot-time model's 27 ms a degree); garbage with probability 0.02-0.3 from the
+    start; a motion slipping to 50-90 % of its tacho travel. A kind without a draw range is an error.
     """
     n = 1 + int(rng.random() < 0.3)
     out = []
     for _ in range(n):
         kind = str(rng.choice(list(kinds)))
+        cls = fault_class(kind)
+        if cls.draw_range is None:
+            raise ConfigError(f"fault kind {kind!r} has no draw range for bench faults (FaultKind.draw_range)")
         at = float(np.round(rng.uniform(0.1, 0.85) * duration_s, 2))
-        if kind == "drop-link":
-            arg = rng.uniform(0.5, 10.0)
-        elif kind == "stall":
-            arg = rng.uniform(0.5, 6.0)
-        elif kind == "sonar-stuck":
-            arg = rng.uniform(1.0, 7.0)
-        elif kind == "sonar-garbage":
-            at, arg = 0.0, rng.uniform(0.02, 0.3)
-        else:
-            arg = rng.uniform(0.5, 0.9)
+        if cls.drawn_from_start:
+            at = 0.0
+        arg = rng.uniform(*cls.draw_range)
         out.append(Fault(kind, at, float(np.round(arg, 2))))
     return out
 

@@ -38,14 +38,17 @@ class Registry(Generic[T]):
         self.kind = kind
         self._classes: dict[str, type[T]] = {}
         self._families: dict[str, tuple[Callable[[str], Callable[..., T]], Callable[[], list[str]]]] = {}
+        self._family_classes: dict[str, type[T]] = {}
 
     def add_family(self, prefix: str, factory: Callable[[str], Callable[..., T]],
-                   members: Callable[[], list[str]]) -> None:
+                   members: Callable[[], list[str]], cls: type[T] | None = None) -> None:
         """Names ``prefix:NAME`` resolve to ``factory(NAME)`` (a callable building the plug-in) for every
-        NAME in ``members()``."""
+        NAME in ``members()``; `cls` is the class the factory builds (`class_of` answers it)."""
         if not prefix or ":" in prefix or prefix in self._families:
             raise RegistryError(f"{self.kind} family prefix {prefix!r} is empty, has a colon or is taken")
         self._families[prefix] = (factory, members)
+        if cls is not None:
+            self._family_classes[prefix] = cls
 
     def _family(self, name: str) -> tuple[str, str] | None:
         prefix, sep, member = name.partition(":")
@@ -93,6 +96,18 @@ class Registry(Generic[T]):
             return self._classes[name]
         self.check(name)
         raise RegistryError(f"{self.kind} {name!r} has no class of its own; build it with create()")
+
+    def class_of(self, name: str) -> type[T]:
+        """The class of plug-in `name`: the registered class, or the class a family builds its members
+        from (given to `add_family`); other names raise `RegistryError` listing the known ones."""
+        if name in self._classes:
+            return self._classes[name]
+        self.check(name)
+        family = self._family(name)
+        assert family is not None
+        if family[0] not in self._family_classes:
+            raise RegistryError(f"{self.kind} family {family[0]!r} declared no class")
+        return self._family_classes[family[0]]
 
     def check(self, name: str) -> None:
         """Raise `RegistryError` (listing the known names) unless `name` is registered or a family member."""

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from planners import PLANNERS, OmplPlanner, PlanningProblem, PlanStatus, make_planner
+from planners import PLANNERS, PlanningProblem, PlanStatus, make_planner
 from planners.declarations import planner_kwargs
 from planners.metrics import count_turns, path_length, path_metrics
 
@@ -123,24 +123,23 @@ def planner_for(name: str, m: Map, options: dict[str, Any] | None = None,
                 progress_interval: float | None = None) -> Any:
     """The planner `name` as the benchmarks configure it for map `m` (None: skipped on this map), with
     `options` (checked against its declarations, `planners.declarations`) over the benchmark's own and,
-    for an OMPL planner, best-cost samples every `progress_interval` seconds of budget.
+    for a planner that reports progress, best-cost samples every `progress_interval` seconds of budget.
 
-    On a map imported from a grid, `astar` plans on the map's own cells; on a map of more than
-    `LARGE_MAP_WALLS` walls the references adapt (see there). OMPL's planners sample their best
-    cost every `progress_interval` seconds of budget (None: their default).
+    What the benchmark gives a planner is its class's declaration (`planners.Planner`): its
+    ``grid_map_options`` on a map imported from a grid (`astar` plans on the map's own cells), its
+    ``large_map_options`` on a map of more than `LARGE_MAP_WALLS` walls (the references adapt, see
+    there; None skips it), and `progress_interval` when it ``reports_progress`` (OMPL's planners sample
+    their best cost every `progress_interval` seconds of budget; None: their default).
     """
+    cls = PLANNERS.class_of(name)
     large = len(m.walls) > LARGE_MAP_WALLS
-    own = planner_kwargs(name, options or {})
-    if name == "astar" and m.grid is not None:
-        return make_planner(name, **{"resolution": None, **own})
-    if name == "shortest" and large:
-        return make_planner(name, **{"n_sides": 16, **own})
-    if name == "min-link" and large:
+    if large and cls.large_map_options is None:
         return None
-    planner = make_planner(name, **own)
-    if progress_interval is not None and isinstance(planner, OmplPlanner) and "progress_interval" not in own:
-        return make_planner(name, **{"progress_interval": progress_interval, **own})
-    return planner
+    bench: dict[str, Any] = {**(cls.grid_map_options if m.grid is not None else {}),
+                             **((cls.large_map_options or {}) if large else {})}
+    if progress_interval is not None and cls.reports_progress:
+        bench["progress_interval"] = progress_interval
+    return make_planner(name, **{**bench, **planner_kwargs(name, options or {})})
 
 
 @lru_cache(maxsize=64)
