@@ -17,7 +17,11 @@ from toolkit.world import Pose, angle_diff, wrap_angle
 
 from .base import Localiser
 
-__all__ = ["candidate_poses", "describe_candidates", "lattice_candidates"]
+__all__ = ["CANDIDATE_RADIUS_CM", "candidate_poses", "confidently_wrong", "describe_candidates", "lattice_candidates",
+           "truth_among"]
+
+CANDIDATE_RADIUS_CM = 20.0
+"""A candidate (or estimate) this close (cm) to the true position finds it."""
 
 
 def candidate_poses(localiser: Localiser | None) -> list[Pose]:
@@ -44,6 +48,18 @@ def describe_candidates(poses: list[Pose], shown: int = 4) -> str:
     listed = ", ".join(f"({p.x:.1f}, {p.y:.1f}, {p.heading_deg:.0f} deg)" for p in poses[:shown])
     more = f" and {len(poses) - shown} more" if len(poses) > shown else ""
     return f"ambiguous: {len(poses)} candidate poses {listed}{more}"
+
+
+def truth_among(poses: list[Pose], x_cm: float, y_cm: float, radius_cm: float = CANDIDATE_RADIUS_CM) -> bool:
+    """Whether a candidate of `poses` lies within `radius_cm` (cm) of the true position (`x_cm`, `y_cm`);
+    positions only (the truth's heading may be unknown)."""
+    return any(math.hypot(p.x - x_cm, p.y - y_cm) <= radius_cm for p in poses)
+
+
+def confidently_wrong(converged: bool, ambiguous: bool, error_cm: float,
+                      radius_cm: float = CANDIDATE_RADIUS_CM) -> bool:
+    """A converged, unambiguous estimate more than `radius_cm` (cm) from the true position."""
+    return converged and not ambiguous and error_cm > radius_cm
 
 
 def lattice_candidates(xy: Any, n_angles: int, costs: Any, *, within_nats: float, radius_cm: float,

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from localisation.ambiguity import candidate_poses
 from localisation.base import LOCALISERS, HeadingPrior, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from localisation.robot_options import localiser_options
 
@@ -152,6 +153,7 @@ class _Replayer:
         self.failures: dict[str, str] = {}
         self.cpu: dict[str, float] = {}
         self.scans: dict[int, Scan] = {}
+        self.candidates: dict[str, list[Pose]] = {}  # after the last call, per localiser
         self.truth: tuple[Pose, bool] | None = None
         self.label: str | None = None
         self.steps: list[ReplayStep] = []
@@ -191,7 +193,8 @@ class _Replayer:
             ests = {name: self._call(name, kind, arg, line) for name in self.locs}
             truth = self.truth
             self.steps.append(ReplayStep(len(self.steps), line, kind, None if truth is None else truth[0], ests, None,
-                                         truth_heading=truth is None or truth[1], label=self.label))
+                                         truth_heading=truth is None or truth[1], label=self.label,
+                                         candidates={n: self.candidates.get(n, []) for n in self.locs}))
             self.pending = len(self.steps) - 1
             return True
         return False
@@ -239,9 +242,11 @@ class _Replayer:
             return None
         started = time.process_time()
         estimate: PoseEstimate | None = None
+        self.candidates[name] = []
         try:
             getattr(loc, kind)(arg)
             estimate = loc.estimate()
+            self.candidates[name] = candidate_poses(loc)
         except (NxtnavError, ValueError, np.linalg.LinAlgError) as exc:
             self.failures[name] = f"line {line}: {' '.join(str(exc).split())}"
             self.locs[name] = None

@@ -1,6 +1,12 @@
 """What `toolkit.replay.replay` reports: each localiser call's estimates (`ReplayStep`) and the whole
 run's (`ReplayReport`): errors against the truth or agreement without one, evo's trajectory scores
 (with the reason when one is missing), CPU time, and whether the live localiser was reproduced.
+
+Every estimate with a true pose also gets its `Verdict`, judged as ``nxtnav bench sweeps`` judges a
+run (`localisation.ambiguity`): converged or not, ambiguous (the candidate poses of the belief's
+modes) or not, the truth among the candidates (within `CANDIDATE_RADIUS_CM`) or not. An estimate
+further than that from the truth is explained in one line (`ReplayReport.explanations`): ambiguous,
+not converged, or confidently wrong.
 """
 
 from __future__ import annotations
@@ -11,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from localisation.ambiguity import CANDIDATE_RADIUS_CM, confidently_wrong, describe_candidates, truth_among
 from localisation.base import PoseEstimate
 
 from .trajectory_scores import TrajectoryScores, score_trajectory
@@ -19,7 +26,64 @@ from .world import Pose, angle_diff
 if TYPE_CHECKING:
     from .replay import Recording
 
-__all__ = ["ReplayReport", "ReplayStep"]
+__all__ = ["CANDIDATE_RADIUS_CM", "ReplayReport", "ReplayStep", "Verdict"]
+
+WITHIN_CM = 10.0
+"""The summary counts the estimates this close (cm) to the truth."""
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Why an estimate is where it is, against a true position.
+
+    Attributes
+    ----------
+    error_cm : float
+        Distance (cm) from the estimate to the true position.
+    converged : bool
+        The localiser's own converged flag.
+    spread_cm : float
+        The estimate's position spread (cm).
+    candidates : list of Pose
+        The candidate poses of an ambiguous belief (cm, cm, rad), heaviest first; empty when not ambiguous.
+    truth_in_candidates : bool
+        Whether a candidate lies within `CANDIDATE_RADIUS_CM` of the true position.
+    """
+
+    error_cm: float
+    converged: bool
+    spread_cm: float
+    candidates: list[Pose]
+    truth_in_candidates: bool
+
+    @property
+    def ambiguous(self) -> bool:
+        return len(self.candidates) > 1
+
+    @property
+    def large(self) -> bool:
+        """More than `CANDIDATE_RADIUS_CM` from the truth: an error that needs its reason."""
+        return self.error_cm > CANDIDATE_RADIUS_CM
+
+    @property
+    def confidently_wrong(self) -> bool:
+        return confidently_wrong(self.converged, self.ambiguous, self.error_cm)
+
+    def reason(self) -> str:
+        """The one-phrase why: ambiguous (and whether the truth is among the candidates), not converged
+        (with the spread), or confidently wrong."""
+        if self.ambiguous:
+            among = "among" if self.truth_in_candidates else "not among"
+            return f"{describe_candidates(self.candidates)}, the truth {among} them"
+        if not self.converged:
+            return f"not converged (spread {self.spread_cm:.1f} cm)"
+        return f"confidently wrong (converged, not ambiguous, spread {self.spread_cm:.1f} cm)"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"ambiguous": self.ambiguous, "candidates": [p.to_list_deg() for p in self.candidates],
+                "candidates_text": describe_candidates(self.candidates) or None,
+                "truth_in_candidates": self.truth_in_candidates, "confidently_wrong": self.confidently_wrong,
+                "reason": self.reason() if self.large else None}
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,6 +108,8 @@ class ReplayStep:
         position is scored.
     label : str or None
         Where the last scan came from, when the recording says (an imported sweep's ``repo/file``).
+    candidates : dict
+        Per localiser, the candidate poses of its belief after the call when ambiguous (else empty).
     """
 
     index: int
@@ -54,6 +120,7 @@ class ReplayStep:
     live: PoseEstimate | None
     truth_heading: bool = True
     label: str | None = None
+    candidates: dict[str, list[Pose]] = field(default_factory=dict)
 
     def error_cm(self, name: str) -> float:
         """Distance (cm) from the estimate of `name` to the true position (NaN without either)."""
@@ -67,6 +134,15 @@ class ReplayStep:
             return math.nan
         return abs(math.degrees(float(angle_diff(e.pose.theta, self.truth.theta))))
 
+    def verdict(self, name: str) -> Verdict | None:
+        """`name`'s estimate judged against the true position (`Verdict`); None without either."""
+        e = self.estimates.get(name)
+        if e is None or self.truth is None:
+            return None
+        cands = self.candidates.get(name, [])
+        return Verdict(self.error_cm(name), bool(e.converged), e.std_xy_cm, cands,
+                       truth_among(cands, self.truth.x, self.truth.y))
+
     def agreement_cm(self, name: str, reference: str) -> float:
         a, b = self.estimates.get(name), self.estimates.get(reference)
         return math.nan if a is None or b is None else a.pose.distance_to(b.pose)
@@ -78,12 +154,21 @@ class ReplayStep:
         out: dict[str, Any] = {"index": self.index, "line": self.line, "call": self.call, "truth": truth,
                                "label": self.label, "estimates": {}}
         for name, e in self.estimates.items():
-            out["estimates"][name] = None if e is None else {
+            if e is None:
+                out["estimates"][name] = None
+                continue
+            verdict = self.verdict(name)
+            cands = self.candidates.get(name, [])
+            out["estimates"][name] = {
                 "pose": e.pose.to_list_deg(), "spread_cm": e.std_xy_cm,
                 "spread_deg": math.degrees(e.std_heading_rad), "converged": e.converged,
                 "error_cm": _nan_none(self.error_cm(name)),
                 "heading_error_deg": _nan_none(self.heading_error_deg(name)),
-                "agreement_cm": _nan_none(self.agreement_cm(name, reference))}
+                "agreement_cm": _nan_none(self.agreement_cm(name, reference)),
+                "ambiguous": len(cands) > 1, "candidates": [p.to_list_deg() for p in cands],
+                "candidates_text": describe_candidates(cands) or None,
+                "truth_in_candidates": None, "confidently_wrong": None, "reason": None,
+                **({} if verdict is None else verdict.to_dict())}
         return out
 
 
@@ -148,6 +233,7 @@ class ReplayReport:
                             "median_error_cm": _fin_median(err),
                             "final_error_cm": float(err[-1]) if err.size else math.nan,
                             "final_heading_error_deg": ups[-1].heading_error_deg(name) if ups else math.nan})
+                row.update(self.verdict_counts(name))
                 scores = self.trajectory_scores(name)
                 row.update({"ape_rmse_cm": scores.ape_rmse_cm, "ape_heading_rmse_deg": scores.ape_heading_rmse_deg,
                             "rpe_per_m_cm": scores.rpe_per_m_cm, "scored_updates": float(scores.poses)})
@@ -158,6 +244,34 @@ class ReplayReport:
             row["cpu_s"] = self.cpu_s.get(name, math.nan)
             out[name] = row
         return out
+
+    def verdict_counts(self, name: str) -> dict[str, float]:
+        """Over `name`'s estimates after the updates that have a true pose: how many (``judged_updates``),
+        within `WITHIN_CM` of the truth, ambiguous with the truth among the candidates, confidently wrong."""
+        verdicts = [v for s in self.steps if s.call == "update" and (v := s.verdict(name)) is not None]
+        return {"judged_updates": float(len(verdicts)),
+                "within_10cm": float(sum(v.error_cm <= WITHIN_CM for v in verdicts)),
+                "ambiguous_truth_among": float(sum(v.ambiguous and v.truth_in_candidates for v in verdicts)),
+                "confidently_wrong": float(sum(v.confidently_wrong for v in verdicts))}
+
+    def explanations(self) -> list[str]:
+        """One line per estimate after an update further than `CANDIDATE_RADIUS_CM` from the truth, saying
+        why (`Verdict.reason`), then one line per localiser counting the verdicts; empty without truth."""
+        if not self.has_truth:
+            return []
+        lines = []
+        for s in self.steps:
+            for name in self.localisers:
+                v = s.verdict(name) if s.call == "update" else None
+                if v is not None and v.large:
+                    where = f"step {s.index} (line {s.line}{', ' + s.label if s.label else ''})"
+                    lines.append(f"{where}: {name} {v.error_cm:.1f} cm off: {v.reason()}")
+        for name in self.localisers:
+            c = self.verdict_counts(name)
+            lines.append(f"{name}: {c['judged_updates']:.0f} updates with a true pose, {c['within_10cm']:.0f} within "
+                         f"{WITHIN_CM:g} cm, {c['ambiguous_truth_among']:.0f} ambiguous with the truth among the "
+                         f"candidates, {c['confidently_wrong']:.0f} confidently wrong")
+        return lines
 
     def trajectory_scores(self, name: str) -> TrajectoryScores:
         """evo's APE (after rigid alignment) and RPE per metre of `name`'s estimates after the updates,

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from localisation.ambiguity import candidate_poses
+from localisation.ambiguity import CANDIDATE_RADIUS_CM, candidate_poses, confidently_wrong, truth_among
 from localisation.base import HeadingPrior, make_localiser
 from localisation.robot_options import localiser_options
 from toolkit.seeds import derive_seed
@@ -32,10 +32,6 @@ from toolkit.world import NxtSonar, RobotModel
 
 __all__ = ["CANDIDATE_RADIUS_CM", "COLUMNS", "SweepRun", "SweepTask", "make_sweep_tasks", "run_sweep",
            "summarise", "write_sweeps_csv", "write_sweeps_summary"]
-
-CANDIDATE_RADIUS_CM = 20.0
-"""A candidate (or estimate) this close to the waypoint finds it."""
-
 
 @dataclass(frozen=True)
 class SweepTask:
@@ -73,7 +69,7 @@ class SweepRun:
 
     @property
     def confidently_wrong(self) -> bool:
-        return self.converged and not self.ambiguous and self.error_cm > CANDIDATE_RADIUS_CM
+        return confidently_wrong(self.converged, self.ambiguous, self.error_cm)
 
     @property
     def honest(self) -> bool:
@@ -118,7 +114,7 @@ def run_sweep(task: SweepTask) -> SweepRun:
     est = loc.estimate()
     cands = candidate_poses(loc)
     elapsed = time.perf_counter() - t0
-    found = any(math.hypot(c.x - sw.x_cm, c.y - sw.y_cm) <= CANDIDATE_RADIUS_CM for c in cands)
+    found = truth_among(cands, sw.x_cm, sw.y_cm)
     return SweepRun(sw.repo, sw.file, sw.x_cm, sw.y_cm, task.localiser, task.seed, round(est.pose.x, 3),
                     round(est.pose.y, 3), round(est.pose.heading_deg, 3),
                     round(math.hypot(est.pose.x - sw.x_cm, est.pose.y - sw.y_cm), 3), bool(est.converged),

@@ -82,27 +82,7 @@ def replay_cmd(
     typer.echo(f"{recording}: map {rec.map.name}, robot {rec.header['robot'].get('kind')}, sonar "
                f"{rec.header['sonar'].get('model')}, live localiser {live}, {rec.calls} localiser calls, "
                f"{'with' if report.has_truth else 'without'} true poses")
-    summary = report.summary()
-    if report.has_truth and not report.truth_heading:
-        typer.echo("the true poses have no heading (real sweeps at known waypoints): errors are of position only")
-    if report.has_truth:
-        typer.echo("| localiser | updates | RMSE (cm) | median error (cm) | final error (cm) | final heading error "
-                   "(deg) | median spread (cm) | APE aligned (cm) | APE heading (deg) | RPE (cm/m) | CPU (s) |")
-        typer.echo("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-        for n, r in summary.items():
-            typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['rmse_cm'])} | {cell(r['median_error_cm'])} | "
-                       f"{cell(r['final_error_cm'])} | {cell(r['final_heading_error_deg'])} | "
-                       f"{cell(r['median_spread_cm'])} | {cell(r['ape_rmse_cm'])} | "
-                       f"{cell(r['ape_heading_rmse_deg'])} | {cell(r['rpe_per_m_cm'])} | {cell(r['cpu_s'])} |")
-        if report.truth_heading:  # else the line above says why the scores are missing
-            _explain_missing_scores(report)
-    else:
-        typer.echo(f"| localiser | updates | median distance to {names[0]} (cm) | largest (cm) | median spread (cm) "
-                   "| CPU (s) |")
-        typer.echo("|---|---:|---:|---:|---:|---:|")
-        for n, r in summary.items():
-            typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['median_agreement_cm'])} | "
-                       f"{cell(r['max_agreement_cm'])} | {cell(r['median_spread_cm'])} | {cell(r['cpu_s'])} |")
+    _print_scores(report, names)
     for n, ok in report.reproduced.items():
         if ok is None and n in options:
             typer.echo(f"{n}: given --set options, a new run; not compared with the live estimates")
@@ -125,6 +105,34 @@ def replay_cmd(
 
         save_figure(draw_replay(report), output)
         typer.echo(f"wrote {output}")
+
+
+def _print_scores(report: ReplayReport, names: list[str]) -> None:
+    """The table of scores (against the truth, or agreement without one); with a truth, the reason for each
+    large error and the verdicts per localiser (`ReplayReport.explanations`)."""
+    summary = report.summary()
+    if report.has_truth and not report.truth_heading:
+        typer.echo("the true poses have no heading (real sweeps at known waypoints): errors are of position only")
+    if report.has_truth:
+        typer.echo("| localiser | updates | RMSE (cm) | median error (cm) | final error (cm) | final heading error "
+                   "(deg) | median spread (cm) | APE aligned (cm) | APE heading (deg) | RPE (cm/m) | CPU (s) |")
+        typer.echo("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for n, r in summary.items():
+            typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['rmse_cm'])} | {cell(r['median_error_cm'])} | "
+                       f"{cell(r['final_error_cm'])} | {cell(r['final_heading_error_deg'])} | "
+                       f"{cell(r['median_spread_cm'])} | {cell(r['ape_rmse_cm'])} | "
+                       f"{cell(r['ape_heading_rmse_deg'])} | {cell(r['rpe_per_m_cm'])} | {cell(r['cpu_s'])} |")
+        if report.truth_heading:  # else the line above says why the scores are missing
+            _explain_missing_scores(report)
+        for line in report.explanations():
+            typer.echo(line)
+    else:
+        typer.echo(f"| localiser | updates | median distance to {names[0]} (cm) | largest (cm) | median spread (cm) "
+                   "| CPU (s) |")
+        typer.echo("|---|---:|---:|---:|---:|---:|")
+        for n, r in summary.items():
+            typer.echo(f"| {n} | {r['updates']:.0f} | {cell(r['median_agreement_cm'])} | "
+                       f"{cell(r['max_agreement_cm'])} | {cell(r['median_spread_cm'])} | {cell(r['cpu_s'])} |")
 
 
 def _explain_missing_scores(report: ReplayReport) -> None:
