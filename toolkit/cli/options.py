@@ -139,7 +139,7 @@ def _nearest_existing(path: Path) -> Path:
 
 
 def _probe_folder(folder: Path) -> str | None:
-    """Why a file cannot be created in the existing folder `folder` (None: it can).
+    """Why a file cannot be created in the existing folder `folder`, as the system says it (None: it can).
 
     Permission bits do not tell (root passes them, /proc refuses every new file), so a probe file of
     nxtnav's own, with a unique name, is created and removed again at once.
@@ -147,7 +147,7 @@ def _probe_folder(folder: Path) -> str | None:
     try:
         fd, name = tempfile.mkstemp(prefix=".nxtnav-write-check-", dir=folder)
     except OSError as exc:
-        return f"cannot write into {folder} ({exc.strerror or exc})"
+        return exc.strerror or str(exc)
     os.close(fd)
     os.unlink(name)
     return None
@@ -172,7 +172,8 @@ def output_problem(path: Path, folder: bool = False) -> str | None:
     ancestor = _nearest_existing(path if folder else path.parent)
     if not ancestor.is_dir():
         return f"cannot create the folder of {path}: {ancestor} is not a folder"
-    return _probe_folder(ancestor)
+    reason = _probe_folder(ancestor)
+    return None if reason is None else f"cannot write {path}: no file can be made in {ancestor} ({reason})"
 
 
 def writable_file(param: typer.CallbackParam, value: Any) -> Any:
