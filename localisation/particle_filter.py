@@ -32,7 +32,6 @@ from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
 
 from toolkit.world import (
     NO_ECHO,
@@ -46,6 +45,7 @@ from toolkit.world import (
     Scan,
     wrap_angle,
 )
+from toolkit.world.arrays import FloatArray, IntArray
 
 from .annealing import GaussianPrior, best_lattice_poses, heading_gaussian, log_prior, next_beta, predicted_prior
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
@@ -58,9 +58,6 @@ from .resampling import log_normalise, systematic_resample
 __all__ = ["Mode", "ParticleFilter", "Snapshot"]
 
 log = logging.getLogger(__name__)
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 class ParticleFilter(Localiser):

@@ -47,13 +47,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, ConfigError
+from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import MIN_TURN_PARAMS
 
 __all__ = ["MinTurnPlanner", "fewest_points_path", "hop_shortest_path"]
 
-FloatArray = NDArray[np.float64]
 
 _UNKNOWN, _FREE, _BLOCKED = 0, 1, -1
 _WINDOW = 512  # candidates examined at a time

@@ -53,6 +53,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry.base import BaseGeometry
 
+from .arrays import FloatArray
 from .bundled import data_path, data_root
 from .edge_index import edge_index
 from .errors import MapError
@@ -68,8 +69,6 @@ _BUNDLED_FOLDERS = (".", "external", "real-nxt", "jarvis")
 _MAP_GLOBS = ("*.yaml", "*.yml", "*.map")
 _SWEEP_SET_MAP = "arena.yaml"
 """File name of a sweep set's map: such a file is listed under its ``name`` field, not its stem."""
-
-FloatArray = NDArray[np.float64]
 
 
 def map_search_path() -> list[Path]:
