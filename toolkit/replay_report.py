@@ -18,7 +18,7 @@ from .world import Pose, angle_diff
 from .world.arrays import finite_median
 
 if TYPE_CHECKING:
-    from .replay import Recording
+    from .replay_reading import Recording
 
 __all__ = ["ReplayReport", "ReplayStep"]
 

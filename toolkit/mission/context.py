@@ -15,8 +15,8 @@ from localisation.global_localisation import DriveAction
 from ..world import CollisionChecker, Map, MoveOutcome, Pose, Robot, TruthSource
 from ..world.arrays import FloatArray
 from .config import MissionConfig
-from .recovery import backoff_cm
 from .report import Action, Outcome, TraceStep
+from .robot_distances import backoff_cm
 from .states import MissionEnded
 
 TURN_EPS = math.radians(0.5)

@@ -16,7 +16,7 @@ from ..world import (
 from ..world.arrays import FloatArray
 
 if TYPE_CHECKING:
-    from .recovery import FaultNote
+    from .fault_log import FaultNote
 
 
 class Outcome(Enum):

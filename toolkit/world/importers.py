@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import MapError
 from .grids import OccupancyGrid, grid_to_map
-from .maps import Map
+from .map_model import Map
 from .yaml_text import YAMLError, load_yaml
 
 __all__ = ["MOVINGAI_BLOCKED", "MOVINGAI_PASSABLE", "import_map", "read_movingai_map", "read_ros_map",
