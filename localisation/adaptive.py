@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["kld_bound", "log_blend", "log_mean_exp"]
+from toolkit.world.arrays import FloatArray
 
-FloatArray = NDArray[np.float64]
+__all__ = ["kld_bound", "log_blend", "log_mean_exp"]
 
 
 def kld_bound(k: Any, pf_err: float, pf_z: float) -> NDArray[np.int64]:

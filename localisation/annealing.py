@@ -10,9 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
 from toolkit.world import angle_diff, wrap_angle
+from toolkit.world.arrays import FloatArray, IntArray
 
 from .base import HeadingPrior
 from .clusters import cloud_stats, cluster
@@ -21,8 +21,6 @@ from .resampling import effective_sample_size, log_normalise
 
 __all__ = ["GaussianPrior", "best_lattice_poses", "heading_gaussian", "log_prior", "next_beta", "predicted_prior"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 GaussianPrior = list[tuple[FloatArray, FloatArray, float]]
 """A mixture of Gaussians over poses: (mean, inverse covariance, log coefficient) per component."""

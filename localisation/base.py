@@ -18,9 +18,9 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
 
 from toolkit.world import ConfigError, Map, Params, Pose, Registry, RngLike, Scan, angle_diff, as_rng, wrap_angle
+from toolkit.world.arrays import FloatArray
 
 __all__ = [
     "LOCALISERS",
@@ -34,7 +34,6 @@ __all__ = [
     "make_localiser",
 ]
 
-FloatArray = NDArray[np.float64]
 
 LOCALISERS: Registry[Localiser] = Registry("localiser")
 

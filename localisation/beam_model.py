@@ -31,13 +31,13 @@ from numba import njit
 from numpy.typing import NDArray
 
 from toolkit.world import NO_ECHO, Map, NxtSonar, Scan
+from toolkit.world.arrays import FloatArray
 
 from .range_table import RangeLattice, quantise_ranges
 from .scan import drop_stuck, sweep_step
 
 __all__ = ["BeamLikelihood", "MeasurementModel", "echo_mask", "lattice_costs", "scan_readings"]
 
-FloatArray = NDArray[np.float64]
 
 STEP_CM = 0.25
 """Echo-distance step of the tabulated costs (cm)."""

@@ -5,16 +5,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
 from toolkit.world import Pose, angle_diff, circular_mean
+from toolkit.world.arrays import FloatArray, IntArray
 
 from .base import Mode
 
 __all__ = ["cloud_stats", "cluster", "describe_modes", "mode_stds"]
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 def cloud_stats(p: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:

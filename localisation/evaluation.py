@@ -27,7 +27,6 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from toolkit.world import (
     Map,
@@ -41,6 +40,7 @@ from toolkit.world import (
     make_sonar,
     ray_cast,
 )
+from toolkit.world.arrays import FloatArray
 
 from .base import make_localiser
 from .scan import ScanProcessing, min_reading, process_scan, raw_scan
@@ -53,8 +53,6 @@ __all__ = [
     "compare_scan_processing",
     "single_scan_benchmark",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

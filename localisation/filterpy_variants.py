@@ -48,9 +48,10 @@ import numpy as np
 import scipy.linalg
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 from filterpy.monte_carlo import resampling as fp_resampling
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from toolkit.world import ConfigError, LocalisationError, Map, Params, Pose, RngLike, Scan, angle_diff, wrap_angle
+from toolkit.world.arrays import FloatArray, IntArray
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 from .declarations import EKF_PARAMS, KALMAN_ROBOT, UKF_PARAMS
@@ -76,8 +77,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 _RNG_LOCK = threading.RLock()
 

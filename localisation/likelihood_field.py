@@ -6,13 +6,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
 from toolkit.world import ConfigError, Map
+from toolkit.world.arrays import FloatArray
 
 __all__ = ["DistanceField"]
-
-FloatArray = NDArray[np.float64]
 
 
 class DistanceField:

@@ -27,9 +27,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from toolkit.world import ConfigError, Map, RngLike, as_rng, ray_cast, wrap_angle
+from toolkit.world.arrays import FloatArray
 
 from .base import Motion
 from .range_table import (
@@ -68,7 +69,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
 NOISE_MODELS = ("botsim", "absolute")
 
 

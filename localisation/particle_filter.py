@@ -32,7 +32,6 @@ from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
 
 from toolkit.world import (
     NO_ECHO,
@@ -46,21 +45,21 @@ from toolkit.world import (
     Scan,
     wrap_angle,
 )
+from toolkit.world.arrays import FloatArray, IntArray
 
 from .annealing import GaussianPrior, best_lattice_poses, heading_gaussian, log_prior, next_beta, predicted_prior
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .beam_model import BeamLikelihood, MeasurementModel, echo_mask, lattice_costs, scan_readings
-from .clusters import cloud_stats, cluster, describe_modes, mode_stds
+from .clusters import cloud_stats, describe_modes, mode_stds
 from .declarations import PF_PARAMS, PF_ROBOT
-from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges, range_lattice, range_table
+from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges
+from .pf_ranges import outlier_fraction, range_setup
+from .pf_steps import ModeSplit, MoveKernel, metropolis_move, resample_modes, split_modes
 from .resampling import log_normalise, systematic_resample
 
 __all__ = ["Mode", "ParticleFilter", "Snapshot"]
 
 log = logging.getLogger(__name__)
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 class ParticleFilter(Localiser):
@@ -261,32 +260,19 @@ class ParticleFilter(Localiser):
         self.use_table = bool(use_table)
         self.tracking_prior = bool(tracking_prior)
         self.snapshot_size = int(snapshot_size)
-        self.table: RangeTable | None = (
-            range_table(map, table_resolution_cm, table_angles, cache_dir, beam_width_deg, critical_incidence_deg,
-                        range_memory_mb, lattice_step if global_init == "lattice" else None, max_range_cm)
-            if use_table else None
-        )
-        if beam_rays < 1:
-            raise ConfigError(f"beam_rays must be >= 1, got {beam_rays}")
-        # exact casts may stop a cap beyond the range limit: a wall farther than that costs a reading
-        # below the limit the capped residual anyway
-        reach = None if max_range_cm is None else float(max_range_cm) + residual_cap * sensor_sigma_cm
-        self.lobe: dict[str, Any] = {"beam_width_deg": max(float(beam_width_deg), 0.0), "beam_rays": int(beam_rays),
-                                     "critical_incidence_deg": critical_incidence_deg, "max_range_cm": reach}
-        if tracking_exact is None:
-            tracking_exact = self.table is not None and self.table.resolution_cm > 1.0
-        self.tracking_exact = bool(tracking_exact)
+        ranges = range_setup(map, use_table=self.use_table, global_init=global_init, clearance_cm=self.clearance_cm,
+                             table_resolution_cm=table_resolution_cm, table_angles=table_angles, cache_dir=cache_dir,
+                             beam_width_deg=beam_width_deg, critical_incidence_deg=critical_incidence_deg,
+                             range_memory_mb=range_memory_mb, lattice_step=lattice_step, max_range_cm=max_range_cm,
+                             beam_rays=beam_rays, reach_margin_cm=residual_cap * sensor_sigma_cm,
+                             tracking_exact=tracking_exact)
+        self.table: RangeTable | None = ranges.table
+        self.lobe: dict[str, Any] = ranges.lobe
+        self.tracking_exact = ranges.tracking_exact
         self.tracking_prior_modes = self.tracking_exact if tracking_prior_modes is None else bool(tracking_prior_modes)
         self._exact = False
-        if global_init not in ("lattice", "uniform"):
-            raise ConfigError(f"global_init must be 'lattice' or 'uniform', got {global_init!r}")
-        if global_init == "lattice" and self.table is None:
-            raise ConfigError("global_init='lattice' needs use_table=True")
         self.global_init = global_init
-        self.lattice: RangeLattice | None = (
-            range_lattice(self.table, lattice_step, max(self.clearance_cm - 1.0, 0.0))
-            if self.table is not None and global_init == "lattice" else None
-        )
+        self.lattice: RangeLattice | None = ranges.lattice
         self.particles: FloatArray = np.zeros((0, 3))
         self.log_weights: FloatArray = np.zeros(0)
         self.snapshots: list[Snapshot] = []
@@ -470,13 +456,44 @@ class ParticleFilter(Localiser):
         `rank_by_prior` (a first fix weighed by a `HeadingPrior`) the modes' best fits, by which the
         estimate picks one, include the log prior too.
         """
+        p, log_w = self.particles, self.log_weights
+        s, subset = self._start_residuals(p, rel, meas)
+        kernel = self._move_kernel(meas)
+        beta = 0.0
+        self._converged = False
+        self._modes = []
+        groups: IntArray | None = None
+        for _ in range(self.max_iterations):
+            new_beta = next_beta(log_w, s, beta, self.ess_target, groups if self.per_mode_ess else None)
+            log_w = log_w - 0.5 * (new_beta - beta) * s
+            beta = new_beta
+            log_w = log_w - np.max(log_w)
+            self.iterations += 1
+            split = split_modes(p, log_w, s, beta, prior, radius_cm=self.mode_radius_cm,
+                                heading_rad=self.mode_heading_rad, max_modes=self.max_modes,
+                                coverage=self.cluster_coverage, ambiguity_nats=self.ambiguity_nats)
+            w = log_normalise(split.log_w)
+            mean, cov = cloud_stats(p, w)
+            self.particles, self.log_weights = p, np.log(np.maximum(w, 1e-300))
+            s_kept = s  # residuals of the particles kept (p and s are resampled below)
+            stds = mode_stds(p, w, split.labels, split.keep) if split.clustered else np.zeros((0, 2))
+            if beta >= 1.0 and split.clustered and self._judge_modes(p, w, s, prior, rank_by_prior, split, stds):
+                self._record(p, w, beta, mean, cov)
+                break
+            self._record(p, w, beta, mean, cov)
+            idx, log_w, j_std, groups = self._resample_step(w, split, stds, cov)
+            p, s = p[idx], s[idx]
+            if subset:
+                s = self._sq_residuals(p, rel, meas)
+                subset = False
+            p, s = metropolis_move(p, s, kernel.scale(beta, j_std), beta, prior,
+                                   lambda q: self._proposal_residuals(q, rel, meas), self.rng)
+        self._finish_scan(rel, meas, s_kept)
 
-        p = self.particles
-        log_w = self.log_weights
+    def _start_residuals(self, p: FloatArray, rel: FloatArray, meas: FloatArray) -> tuple[FloatArray, bool]:
+        """The particles' residuals on the scan, and whether they come from a subset of its beams (the
+        first iterations of a global start use `global_beams` of them, scaled to the whole scan)."""
         n_beams = meas.size
-        near = meas[meas < NO_ECHO]  # a laser's readings may all lie beyond the sonar's 255 cm
-        typical_range = float(np.median(near if near.size else meas[echo_mask(meas, self.likelihood)]))
-        clear = max(self.clearance_cm - 1.0, 0.0)
         if self._global and n_beams > self.global_beams:
             sub = np.linspace(0, n_beams - 1, self.global_beams).round().astype(np.int64)
             s = self._sq_residuals(p, rel[sub], meas[sub]) * (n_beams / sub.size)
@@ -486,86 +503,52 @@ class ParticleFilter(Localiser):
             subset = False
         if not np.isfinite(s).any():
             raise LocalisationError("every particle lies outside the free space of the map")
-        beta = 0.0
-        self._converged = False
-        self._modes = []
-        groups: IntArray | None = None
+        return s, subset
+
+    def _move_kernel(self, meas: FloatArray) -> MoveKernel:
+        """The Metropolis jitter's bounds on the scan `meas` (cm)."""
+        near = meas[meas < NO_ECHO]  # a laser's readings may all lie beyond the sonar's 255 cm
+        typical_range = float(np.median(near if near.size else meas[echo_mask(meas, self.likelihood)]))
         # after a lattice start the particles sit next to the lattice's optima: keep the moves local
         # (within a lattice cell and a table direction) so that narrow optima are not diffused away
         cap_xy, cap_th = self._move_cap
-        for _ in range(self.max_iterations):
-            new_beta = next_beta(log_w, s, beta, self.ess_target, groups if self.per_mode_ess else None)
-            log_w = log_w - 0.5 * (new_beta - beta) * s
-            beta = new_beta
-            log_w = log_w - np.max(log_w)
-            self.iterations += 1
-            labels, log_masses = cluster(p, log_w, self.mode_radius_cm, self.mode_heading_rad, self.max_modes)
-            total = math.log(float(np.exp(log_w).sum()))
-            clustered = bool(np.exp(log_masses - total).sum() >= self.cluster_coverage)
-            keep = np.zeros(0, dtype=np.int64)
-            log_mode_w = np.zeros(0)
-            if clustered:
-                # a mode's fit: its best particle's log-likelihood (plus log prior when tracking,
-                # so that a mode far out in the predicted belief's tail does not count as a twin)
-                fit = -0.5 * s + log_prior(prior, p)
-                best_ll = np.array([float(np.max(fit[labels == k])) for k in range(log_masses.size)])
-                ok = np.isfinite(log_masses)
-                if beta >= 1.0:
-                    # judge the modes by their best fit: twins fit alike, and their weights are too
-                    # noisy to judge by; the plausible ones then get weights from the fit alone.
-                    ok &= best_ll >= np.max(best_ll[ok]) - self.ambiguity_nats
-                keep = np.flatnonzero(ok)
-                log_mode_w = best_ll[keep] if beta >= 1.0 else log_masses[keep]
-                inside = np.isin(labels, keep)
-                log_w = np.where(inside, log_w, -np.inf)
-                for lmk, k in zip(log_mode_w, keep, strict=True):
-                    mk = labels == k
-                    log_w[mk] += lmk - log_masses[k]
-            w = log_normalise(log_w)
-            mean, cov = cloud_stats(p, w)
-            self.particles, self.log_weights = p, np.log(np.maximum(w, 1e-300))
-            s_kept = s  # residuals of the particles kept (p and s are resampled below)
-            stds = mode_stds(p, w, labels, keep) if clustered else np.zeros((0, 2))
-            if beta >= 1.0 and clustered:
-                self._modes = describe_modes(p, w, s - 2.0 * log_prior(prior, p) if rank_by_prior else s, labels, keep)
-                narrow = bool(np.all(stds[:, 0] < self.converged_xy_cm)
-                              and np.all(stds[:, 1] < self.converged_heading_rad))
-                if narrow:
-                    self._converged = keep.size == 1
-                    self._record(p, w, beta, mean, cov)
-                    break
-            self._record(p, w, beta, mean, cov)
-            # resample (each mode on its own once the cloud has split into modes)
-            if clustered:
-                idx, log_w, j_std = self._resample_modes(w, labels, keep, log_mode_w, stds)
-                groups = labels[idx]
-            else:
-                groups = None
-                idx = self.resample(w, self.n_particles)
-                log_w = np.full(idx.size, -math.log(idx.size))
-                j_std = np.array([[math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))]])
-            p, s = p[idx], s[idx]
-            n = idx.size
-            if subset:
-                s = self._sq_residuals(p, rel, meas)
-                subset = False
-            # Metropolis move; the kernel shrinks with the mode's spread and the tempered likelihood
-            sigma_b = self.likelihood.sigma_cm / math.sqrt(beta)
-            local_xy = 2.0 * sigma_b / math.sqrt(n_beams)
-            j_xy = np.maximum(np.minimum(np.minimum(0.5 * j_std[:, 0] / math.sqrt(2.0), local_xy), cap_xy), 0.02)
-            j_th = np.maximum(np.minimum(np.minimum(0.5 * j_std[:, 1], 2.0 * local_xy / max(typical_range, 1.0)),
-                                         cap_th), math.radians(0.05))
-            scale = np.column_stack([j_xy, j_xy, j_th])
-            q = p + self.rng.standard_normal(p.shape) * scale
-            q[:, 2] = wrap_angle(q[:, 2])
-            s_q = self._sq_residuals(q, rel, meas)
-            if self.table is not None and clear > 0:
-                s_q = np.where(self.table.free(q[:, :2], clear), s_q, np.inf)
-            with np.errstate(invalid="ignore"):  # inf - inf: both outside, rejected below
-                log_ratio = -0.5 * beta * (s_q - s) + (log_prior(prior, q) - log_prior(prior, p))
-            accept = np.log(self.rng.random(n)) < log_ratio
-            p = np.where(accept[:, None], q, p)
-            s = np.where(accept, s_q, s)
+        return MoveKernel(self.likelihood.sigma_cm, meas.size, typical_range, cap_xy, cap_th)
+
+    def _proposal_residuals(self, q: FloatArray, rel: FloatArray, meas: FloatArray) -> FloatArray:
+        """Residuals of proposed poses `q`; inf for those closer than the clearance (less 1 cm) to a wall."""
+        clear = max(self.clearance_cm - 1.0, 0.0)
+        s_q = self._sq_residuals(q, rel, meas)
+        if self.table is not None and clear > 0:
+            s_q = np.where(self.table.free(q[:, :2], clear), s_q, np.inf)
+        return s_q
+
+    def _judge_modes(self, p: FloatArray, w: FloatArray, s: FloatArray, prior: GaussianPrior | None,
+                     rank_by_prior: bool, split: ModeSplit, stds: FloatArray) -> bool:
+        """At the full likelihood: describe the kept modes; whether every one is narrow enough to stop
+        (converged when only one is left)."""
+        self._modes = describe_modes(p, w, s - 2.0 * log_prior(prior, p) if rank_by_prior else s, split.labels,
+                                     split.keep)
+        narrow = bool(np.all(stds[:, 0] < self.converged_xy_cm) and np.all(stds[:, 1] < self.converged_heading_rad))
+        if narrow:
+            self._converged = split.keep.size == 1
+        return narrow
+
+    def _resample_step(self, w: FloatArray, split: ModeSplit, stds: FloatArray,
+                       cov: FloatArray) -> tuple[IntArray, FloatArray, FloatArray, IntArray | None]:
+        """Resample (each mode on its own once the cloud has split into modes): the indices, the new log
+        weights, each copy's spread for the jitter (cm, rad) and the copies' modes (None: no modes)."""
+        if split.clustered:
+            idx, log_w, j_std = resample_modes(w, split, stds, n_particles=self.n_particles,
+                                               mode_share=self.mode_share, resample=self.resample)
+            return idx, log_w, j_std, split.labels[idx]
+        idx = self.resample(w, self.n_particles)
+        log_w = np.full(idx.size, -math.log(idx.size))
+        j_std = np.array([[math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))]])
+        return idx, log_w, j_std, None
+
+    def _finish_scan(self, rel: FloatArray, meas: FloatArray, s_kept: FloatArray) -> None:
+        """After the iterations: drop the particles of no weight, note how well the best one explains
+        the scan (`recovery_threshold`), and form the estimate."""
         keep_p = self.log_weights > math.log(1e-300)
         if not keep_p.all():
             self.particles, self.log_weights = self.particles[keep_p], self.log_weights[keep_p]
@@ -583,44 +566,7 @@ class ParticleFilter(Localiser):
 
     def _outlier_fraction(self, pose: FloatArray, rel: FloatArray, meas: FloatArray) -> float:
         """Fraction of the beams more than 3 sigma off at `pose`."""
-        p = pose.reshape(1, 3)
-        if self.table is not None and not self._exact:
-            e, inside = self.table.lookup(p, rel)
-            if not inside[0]:
-                return 1.0
-            expected = e[0].astype(float)
-        else:
-            expected = exact_ranges(self.map, p, rel, **self.lobe)[0]
-        if isinstance(self.likelihood, BeamLikelihood):
-            return float(np.mean(self.likelihood.outliers(expected, meas)))
-        with np.errstate(invalid="ignore"):
-            off = ~(np.abs(expected - meas) <= 3.0 * self.likelihood.sigma_cm)
-        return float(np.mean(off))
-
-    def _resample_modes(self, w: FloatArray, labels: IntArray, keep: IntArray, log_mode_w: FloatArray,
-                        stds: FloatArray) -> tuple[IntArray, FloatArray, FloatArray]:
-        """Resample each kept mode on its own, keeping its weight (the mode survives resampling).
-
-        Each kept mode gets an equal part of `mode_share` of the budget plus a part of the rest in
-        proportion to its weight, so a symmetric twin is not lost to resampling noise. Returns the indices, the new
-        log weights (mode log weight - log copies) and each new particle's mode spread (for the jitter).
-        """
-        lm = log_mode_w - np.max(log_mode_w)
-        lm = lm - math.log(float(np.exp(lm).sum()))
-        floor = max(int(self.mode_share * self.n_particles) // keep.size, 10)
-        counts = np.maximum(np.rint(np.exp(lm) * self.n_particles * (1.0 - self.mode_share)).astype(np.int64), 0)
-        counts += floor
-        idx_parts: list[IntArray] = []
-        lw_parts: list[FloatArray] = []
-        std_parts: list[FloatArray] = []
-        for i, (k, ck) in enumerate(zip(keep, counts, strict=True)):
-            members = np.flatnonzero(labels == k)
-            wk = w[members]
-            sub = wk / wk.sum() if wk.sum() > 0 else np.full(members.size, 1.0 / members.size)
-            idx_parts.append(members[self.resample(sub, int(ck))])
-            lw_parts.append(np.full(int(ck), lm[i] - math.log(int(ck))))
-            std_parts.append(np.broadcast_to(stds[i], (int(ck), 2)))
-        return np.concatenate(idx_parts), np.concatenate(lw_parts), np.concatenate(std_parts)
+        return outlier_fraction(self.map, self.table, self.lobe, self._exact, self.likelihood, pose, rel, meas)
 
     def _record(self, p: FloatArray, w: FloatArray, beta: float, mean: FloatArray, cov: FloatArray) -> None:
         if self.snapshot_size <= 0:

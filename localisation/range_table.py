@@ -18,6 +18,7 @@ import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import ConfigError, Map, ray_cast
+from toolkit.world.arrays import FloatArray
 
 __all__ = [
     "DEFAULT_RANGE_MEMORY_MB",
@@ -36,7 +37,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
 
 

@@ -19,15 +19,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
 from toolkit.world import Map, Pose, RngLike, Scan, circular_mean, ray_wall_distances, wrap_angle
+from toolkit.world.arrays import FloatArray
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 
 __all__ = ["ReferenceParticleFilter"]
-
-FloatArray = NDArray[np.float64]
 
 
 class ReferenceParticleFilter(Localiser):

@@ -13,9 +13,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from toolkit.world import LocalisationError, RngLike, as_rng
+from toolkit.world.arrays import FloatArray, IntArray
 
 __all__ = [
     "RESAMPLERS",
@@ -29,8 +30,6 @@ __all__ = [
     "systematic_resample",
 ]
 
-IntArray = NDArray[np.int64]
-FloatArray = NDArray[np.float64]
 Resampler = Callable[[FloatArray, int, np.random.Generator], IntArray]
 
 

@@ -21,17 +21,16 @@ from enum import StrEnum
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from toolkit.world import CollisionChecker, Map, Params, PlanningError, Registry, RngLike, as_rng, make_checker
+from toolkit.world.arrays import FloatArray
 
 __all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "make_planner",
            "status_message"]
 
-FloatArray = NDArray[np.float64]
 
 PLANNERS: Registry[Planner] = Registry("planner")
-
 
 
 class PlanStatus(StrEnum):

@@ -20,13 +20,13 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from toolkit.world import CollisionChecker
+from toolkit.world import CollisionChecker, wrap_angle
+from toolkit.world.arrays import FloatArray
 
 __all__ = ["PathMetrics", "count_turns", "heading_changes", "path_length", "path_metrics", "turn_angle"]
 
-FloatArray = NDArray[np.float64]
 
 _DEFAULT_TURN_THRESHOLD = math.radians(1.0)
 _EPS_CM = 1e-9
@@ -60,7 +60,7 @@ def heading_changes(path: ArrayLike) -> FloatArray:
         return np.empty(0)
     h = np.arctan2(d[:, 1], d[:, 0])
     dh = np.diff(h)
-    return (dh + math.pi) % (2.0 * math.pi) - math.pi
+    return np.asarray(wrap_angle(dh))
 
 
 def turn_angle(path: ArrayLike) -> float:

@@ -47,13 +47,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, ConfigError
+from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import MIN_TURN_PARAMS
 
 __all__ = ["MinTurnPlanner", "fewest_points_path", "hop_shortest_path"]
 
-FloatArray = NDArray[np.float64]
 
 _UNKNOWN, _FREE, _BLOCKED = 0, 1, -1
 _WINDOW = 512  # candidates examined at a time
@@ -275,6 +275,31 @@ def _min_hops(status: NDArray[np.int8]) -> int:
     return len(status) + 1
 
 
+def _two_point_candidates(length: FloatArray, first: NDArray[np.intp], last: NDArray[np.intp]) -> NDArray[np.intp]:
+    """Paths start -> a -> c -> goal (a seen from the start, c from the goal), shortest first, as their
+    one unknown edge (a, c): shape (m, 1, 2)."""
+    cost = length[0, first][:, None] + length[np.ix_(first, last)] + length[last, 1][None, :]
+    ia, ic = np.nonzero(np.isfinite(cost) & (first[:, None] != last[None, :]))
+    order = np.argsort(cost[ia, ic], kind="stable")
+    a, c = first[ia[order]], last[ic[order]]
+    return np.stack([np.stack([a, c], axis=1)], axis=1)
+
+
+def _three_point_candidates(length: FloatArray, status: NDArray[np.int8], first: NDArray[np.intp],
+                            samples: NDArray[np.intp], last: NDArray[np.intp]) -> NDArray[np.intp]:
+    """Paths start -> a -> b -> c -> goal over distinct samples whose edges are not known to be
+    blocked, shortest first, as their two unknown edges ((a, b), (b, c)): shape (m, 2, 2)."""
+    cost = (length[0, first][:, None, None] + length[np.ix_(first, samples)][:, :, None]
+            + length[np.ix_(samples, last)][None, :, :] + length[last, 1][None, None, :])
+    fa, fb, fc = np.ix_(first, samples, last)
+    valid = (fa != fb) & (fb != fc) & (fa != fc)
+    valid &= (status[fa, fb] != _BLOCKED) & (status[fb, fc] != _BLOCKED)
+    ia, ib, ic = np.nonzero(valid)
+    order = np.argsort(cost[ia, ib, ic], kind="stable")
+    a, b, c = first[ia[order]], samples[ib[order]], last[ic[order]]
+    return np.stack([np.stack([a, b], axis=1), np.stack([b, c], axis=1)], axis=1)
+
+
 def _round(checker: CollisionChecker, nodes: FloatArray, max_intermediate: int, deadline: float,
            info: dict[str, Any]) -> FloatArray | None:
     """Search one set of samples; nodes[0] is the start, nodes[1] the goal (the direct edge is blocked).
@@ -316,25 +341,12 @@ def _round(checker: CollisionChecker, nodes: FloatArray, max_intermediate: int, 
         if k > max_intermediate:
             return None
         if k == 2:
-            cost = length[0, first][:, None] + length[np.ix_(first, last)] + length[last, 1][None, :]
-            ia, ic = np.nonzero(np.isfinite(cost) & (first[:, None] != last[None, :]))
-            order = np.argsort(cost[ia, ic], kind="stable")
-            a, c = first[ia[order]], last[ic[order]]
-            cand = np.stack([np.stack([a, c], axis=1)], axis=1)  # (m, 1, 2): the one unknown edge
-            seq = _walk(checker, nodes, status, cand, deadline, info)
+            seq = _walk(checker, nodes, status, _two_point_candidates(length, first, last), deadline, info)
             if seq is not None:
                 info["intermediate"] = 2
                 return nodes[[0, seq[0, 0], seq[0, 1], 1]]
         elif k == 3 and len(first) * len(samples) * len(last) <= _MAX_ENUMERATED:
-            cost = (length[0, first][:, None, None] + length[np.ix_(first, samples)][:, :, None]
-                    + length[np.ix_(samples, last)][None, :, :] + length[last, 1][None, None, :])
-            fa, fb, fc = np.ix_(first, samples, last)
-            valid = (fa != fb) & (fb != fc) & (fa != fc)
-            valid &= (status[fa, fb] != _BLOCKED) & (status[fb, fc] != _BLOCKED)
-            ia, ib, ic = np.nonzero(valid)
-            order = np.argsort(cost[ia, ib, ic], kind="stable")
-            a, b, c = first[ia[order]], samples[ib[order]], last[ic[order]]
-            cand = np.stack([np.stack([a, b], axis=1), np.stack([b, c], axis=1)], axis=1)
+            cand = _three_point_candidates(length, status, first, samples, last)
             seq = _walk(checker, nodes, status, cand, deadline, info)
             if seq is not None:
                 info["intermediate"] = 3

@@ -329,27 +329,9 @@ class OmplPlanner(Planner):
 
     def _solve_quiet(self, problem: PlanningProblem) -> Solution:
         t0 = time.perf_counter()
-        checker = problem.checker
         seed = int(problem.rng.integers(1, 2**31 - 1))
         ou.RNG.setSeed(seed)
-
-        space, si = _space(problem.map.bounds, checker)
-        setup = og.SimpleSetup(si)
-        start, goal = space.allocState(), space.allocState()
-        start[0], start[1] = float(problem.start[0]), float(problem.start[1])
-        goal[0], goal[1] = float(problem.goal[0]), float(problem.goal[1])
-        setup.setStartAndGoalStates(start, goal)
-        objective = ob.PathLengthOptimizationObjective(si)
-        if self.stop_at_first:  # any solution satisfies the objective, so optimising planners stop at it
-            objective.setCostThreshold(ob.Cost(math.inf))
-        setup.setOptimizationObjective(objective)
-        planner = getattr(og, self.planner)(si)
-        if self.range is not None and hasattr(planner, "setRange"):
-            planner.setRange(float(self.range))
-        for key, value in self.settings.items():
-            getattr(planner, f"set{key}")(value)
-        setup.setPlanner(planner)
-        setup.setup()
+        setup, planner = self._setup(problem)
         params = declared_params(planner)
 
         pdef = setup.getProblemDefinition()
@@ -362,30 +344,7 @@ class OmplPlanner(Planner):
             return self._grow_roadmap(setup, planner, problem, t0, budget, deadline, seed, progress, params)
         first: dict[str, float] = {}
         ended: dict[str, Any] = {"by": "time", "polls": 0}
-        if self.planner in _THREADED:
-            # the roadmap planners poll the condition from a second thread: a Python condition would
-            # deadlock on the interpreter lock, so use OMPL's own timed condition
-            ptc = ob.timedPlannerTerminationCondition(max(deadline - time.perf_counter(), 0.0))
-        else:
-            cost_now = self._cost_reader(planner, pdef)
-
-            def stop() -> bool:
-                now = time.perf_counter()
-                ended["polls"] += 1
-                cost = cost_now()
-                progress.poll(ended["polls"], now, cost)
-                if not first and math.isfinite(cost):
-                    first["time"], first["length"] = now - t0, cost
-                if first and self.stop_at_first:
-                    ended["by"] = "solution"
-                    return True
-                if budget is not None and ended["polls"] >= budget:
-                    ended["by"] = "iterations"
-                    return True
-                return now >= deadline
-
-            ptc = ob.PlannerTerminationCondition(stop)
-
+        ptc = self._termination(planner, pdef, t0, deadline, budget, progress, first, ended)
         status = setup.solve(ptc)
         key = status.getStatus().name
         info: dict[str, Any] = {"ompl_planner": self.planner, "ompl_status": status.asString(), "seed": seed,
@@ -404,6 +363,57 @@ class OmplPlanner(Planner):
         if not exact:
             return Solution(None, _STATUS.get(key, PlanStatus.ERROR), info, info["ompl_status"])
         return self._finish(setup, problem, info)
+
+    def _setup(self, problem: PlanningProblem) -> tuple[Any, Any]:
+        """OMPL's `SimpleSetup` for `problem` (start, goal, path-length objective) and its planner,
+        configured with `range` and `settings` and set up."""
+        space, si = _space(problem.map.bounds, problem.checker)
+        setup = og.SimpleSetup(si)
+        start, goal = space.allocState(), space.allocState()
+        start[0], start[1] = float(problem.start[0]), float(problem.start[1])
+        goal[0], goal[1] = float(problem.goal[0]), float(problem.goal[1])
+        setup.setStartAndGoalStates(start, goal)
+        objective = ob.PathLengthOptimizationObjective(si)
+        if self.stop_at_first:  # any solution satisfies the objective, so optimising planners stop at it
+            objective.setCostThreshold(ob.Cost(math.inf))
+        setup.setOptimizationObjective(objective)
+        planner = getattr(og, self.planner)(si)
+        if self.range is not None and hasattr(planner, "setRange"):
+            planner.setRange(float(self.range))
+        for key, value in self.settings.items():
+            getattr(planner, f"set{key}")(value)
+        setup.setPlanner(planner)
+        setup.setup()
+        return setup, planner
+
+    def _termination(self, planner: Any, pdef: Any, t0: float, deadline: float, budget: int | None,
+                     progress: _Progress, first: dict[str, float], ended: dict[str, Any]) -> Any:
+        """The condition that ends the solve: at `deadline` (``time.perf_counter`` s), after `budget`
+        polls, or at the first solution with `stop_at_first`. Each poll counts in ``ended["polls"]``
+        and says what stopped it in ``ended["by"]``; the first solution's time (s after `t0`) and
+        length (cm) go into `first`."""
+        if self.planner in _THREADED:
+            # the roadmap planners poll the condition from a second thread: a Python condition would
+            # deadlock on the interpreter lock, so use OMPL's own timed condition
+            return ob.timedPlannerTerminationCondition(max(deadline - time.perf_counter(), 0.0))
+        cost_now = self._cost_reader(planner, pdef)
+
+        def stop() -> bool:
+            now = time.perf_counter()
+            ended["polls"] += 1
+            cost = cost_now()
+            progress.poll(ended["polls"], now, cost)
+            if not first and math.isfinite(cost):
+                first["time"], first["length"] = now - t0, cost
+            if first and self.stop_at_first:
+                ended["by"] = "solution"
+                return True
+            if budget is not None and ended["polls"] >= budget:
+                ended["by"] = "iterations"
+                return True
+            return now >= deadline
+
+        return ob.PlannerTerminationCondition(stop)
 
     @staticmethod
     def _cost_reader(planner: Any, pdef: Any) -> Callable[[], float]:

@@ -64,6 +64,7 @@ from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
 from toolkit.world import CollisionChecker, ConfigError, Map, PointCollisionChecker
+from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import MIN_LINK_PARAMS, SHORTEST_PARAMS
@@ -81,8 +82,6 @@ __all__ = [
     "polygon_vertices",
     "shorten_bends",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 def circumradius(radius: float, n_sides: int = 64, eps: float = 1e-4) -> float:

@@ -22,12 +22,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from toolkit.world.arrays import FloatArray, IntArray
 from toolkit.world.grid_visibility import GridVisibility, tangent_corners
 
 __all__ = ["VisibilityGraph"]
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @njit(cache=True)

@@ -338,3 +338,33 @@ def test_pending_i2c_transactions_are_waited_for() -> None:
         assert r.robot.ultrascan(np.radians([90.0])).ranges.tolist() == [20.0]
     finally:
         r.close()
+
+
+# -- the link nxtnav holds under the brick -----------------------------------------------------------
+def test_the_robot_runs_on_a_socket_nxtnav_opened_and_closes_it_with_a_goodbye(rig: Rig) -> None:
+    from toolkit.robots.nxt_link import SocketLink, link_of
+
+    link = link_of(rig.robot.brick)
+    assert isinstance(link, SocketLink) and link.open
+    assert link.type == rig.robot.link == "ipvirtual"  # the server's answer to the connection-type query
+    assert rig.robot.move(5.0).distance_cm == pytest.approx(5.0, abs=0.1)  # nxt-python talks through it
+    rig.robot.close()
+    assert not link.open
+    assert rig.server.wait_departures(1, timeout=10)
+    assert rig.server.departures[0].cause == "closed" and not rig.server.departures[0].driven
+
+
+def test_a_server_that_accepts_and_never_answers_is_given_up_on_within_the_timeout() -> None:
+    import socket
+    import time
+
+    from toolkit.robots.nxt_link import find_brick
+
+    with socket.socket() as mute:  # listens, accepts into the backlog, says nothing
+        mute.bind(("127.0.0.1", 0))
+        mute.listen(1)
+        port = mute.getsockname()[1]
+        t0 = time.monotonic()
+        with pytest.raises(RobotError, match=rf"no brick server at 127.0.0.1:{port} \(TimeoutError"):
+            find_brick("socket", host="127.0.0.1", port=port, timeout_s=0.3)
+        assert time.monotonic() - t0 < 5.0

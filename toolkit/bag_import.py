@@ -39,7 +39,7 @@ import numpy as np
 
 from .bag_reader import BagData, BagError, LaserScanMsg, PoseSeries, read_bag, se2_compose, se2_inverse
 from .recording import Recorder
-from .world import LaserScanner, Map, Pose, Scan
+from .world import LaserScanner, Map, Pose, Scan, wrap_angle
 
 __all__ = ["BagImport", "OdometryNoise", "import_bag", "odometry_motions", "rebase_scan"]
 
@@ -115,14 +115,10 @@ def odometry_motions(delta: Any) -> list[tuple[float, float]]:
         return [(dth, 0.0)] if dth != 0.0 else []
     rot1 = math.atan2(dy, dx)
     if abs(rot1) > math.pi / 2.0:
-        rot1 = _wrap(rot1 - math.pi)
+        rot1 = wrap_angle(rot1 - math.pi)
         d = -d
-    rot2 = _wrap(dth - rot1)
+    rot2 = wrap_angle(dth - rot1)
     return [(rot1, d)] + ([(rot2, 0.0)] if rot2 != 0.0 else [])
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def rebase_scan(msg: LaserScanMsg, sensor: Any, motion: Any, pick: Any) -> tuple[Scan, np.ndarray]:
@@ -141,13 +137,9 @@ def rebase_scan(msg: LaserScanMsg, sensor: Any, motion: Any, pick: Any) -> tuple
     rr = np.where(echo, r, 0.0)
     ex = at[:, 0] + rr * np.cos(direction)
     ey = at[:, 1] + rr * np.sin(direction)
-    angles = np.where(echo, np.arctan2(ey, ex), _wrap_array(direction))
+    angles = np.where(echo, np.arctan2(ey, ex), np.asarray(wrap_angle(direction)))
     ranges = np.where(echo, np.hypot(ex, ey) * M_TO_CM, np.inf)
     return Scan(angles, ranges, echo), msg.times_ns[pick]
-
-
-def _wrap_array(a: Any) -> np.ndarray:
-    return np.asarray((np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi)
 
 
 def _beam_pick(ranges: np.ndarray, beams: int) -> np.ndarray:

@@ -22,13 +22,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .world import ConfigError
+from .world import ConfigError, wrap_angle
+from .world.arrays import FloatArray, IntArray
 
 __all__ = ["POSE_TYPES", "SCAN_TYPES", "BagData", "BagError", "LaserScanMsg", "PoseSeries", "TfTree", "check_topic",
            "read_bag", "se2_compose", "se2_inverse"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 RANGE = "sensor_msgs/msg/Range"
@@ -51,18 +50,14 @@ def se2_compose(a: FloatArray, b: FloatArray) -> FloatArray:
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
     x = a[..., 0] + c * b[..., 0] - s * b[..., 1]
     y = a[..., 1] + s * b[..., 0] + c * b[..., 1]
-    return np.stack([x, y, _wrap(a[..., 2] + b[..., 2])], axis=-1)
+    return np.stack([x, y, wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
 
 
 def se2_inverse(a: FloatArray) -> FloatArray:
     """The inverse of planar poses (..., 3)."""
     a = np.asarray(a, dtype=float)
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    return np.stack([-c * a[..., 0] - s * a[..., 1], s * a[..., 0] - c * a[..., 1], _wrap(-a[..., 2])], axis=-1)
-
-
-def _wrap(a: Any) -> Any:
-    return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi
+    return np.stack([-c * a[..., 0] - s * a[..., 1], s * a[..., 0] - c * a[..., 1], wrap_angle(-a[..., 2])], axis=-1)
 
 
 def _yaw(q: Any) -> float:
@@ -128,9 +123,9 @@ class PoseSeries:
         known = (t >= self.stamps[0]) & (t <= self.stamps[-1]) & (((t1 - t0) <= self.max_gap_ns) | still)
         f = ((t - t0) / np.maximum(t1 - t0, 1)).astype(float)[..., None]
         d = p1 - p0
-        d[..., 2] = _wrap(d[..., 2])
+        d[..., 2] = wrap_angle(d[..., 2])
         out = p0 + f * d
-        out[..., 2] = _wrap(out[..., 2])
+        out[..., 2] = wrap_angle(out[..., 2])
         return out, known
 
 

@@ -173,6 +173,8 @@ def _scan(e: dict[str, Any], where: str) -> Scan:
 
 
 def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: int) -> None:
+    """Check one event line `e` of a recording of format `version` (`where` names the file and line);
+    `scans` maps the ids of the scans read so far to their number of readings (a scan line adds its own)."""
     kind = e["type"]
     if kind in ("turn", "move", "turnback", "scan"):
         _need(e, "t", _NUM, where, nullable=kind == "scan" and version >= 2)
@@ -193,17 +195,7 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
             _floats(e, "times_s", where, n)
         scans[sid] = n
     elif kind == "localiser":
-        name = _need(e, "name", str, where)
-        if name not in LOCALISERS:
-            raise RecordingError(f"{where}: unknown localiser {name!r}; known: {', '.join(LOCALISERS.names())}")
-        _decoded(_need(e, "options", dict, where), where)
-        rng = _need(e, "rng", dict, where, nullable=True)
-        if rng is not None:
-            ent = rng.get("entropy")
-            key = rng.get("spawn_key")
-            if not (isinstance(ent, int) or (isinstance(ent, list) and all(isinstance(x, int) for x in ent))) \
-                    or not (isinstance(key, list) and all(isinstance(x, int) and x >= 0 for x in key)):
-                raise RecordingError(f"{where}: field 'rng' must hold an integer 'entropy' and a 'spawn_key' list")
+        _localiser_event(e, where)
     elif kind == "reset":
         prior = _need(e, "prior", dict, where, nullable=True)
         if prior is not None and "heading_deg" in prior:
@@ -216,15 +208,7 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
         _need(e, "turn_rad", _NUM, where)
         _need(e, "distance_cm", _NUM, where)
     elif kind == "update":
-        if "scan" in e:
-            sid = _need(e, "scan", int, where)
-            if sid not in scans:
-                raise RecordingError(f"{where}: update refers to scan {sid}, which no earlier line holds")
-            idx = _need(e, "index", list, where)
-            if not all(isinstance(i, int) and not isinstance(i, bool) and 0 <= i < scans[sid] for i in idx):
-                raise RecordingError(f"{where}: field 'index' must hold indices of scan {sid} (0..{scans[sid] - 1})")
-        else:
-            _scan(e, where)
+        _update_event(e, where, scans)
     elif kind == "estimate":
         if _pose_field(e, "pose", where) is None:
             raise RecordingError(f"{where}: field 'pose' must not be null")
@@ -247,6 +231,34 @@ def _check_event(e: dict[str, Any], where: str, scans: dict[int, int], version: 
         pass
     else:
         raise RecordingError(f"{where}: unknown event type {kind!r}")
+
+
+def _localiser_event(e: dict[str, Any], where: str) -> None:
+    """Check a ``localiser`` line: a known localiser, its options, and its random stream (or null)."""
+    name = _need(e, "name", str, where)
+    if name not in LOCALISERS:
+        raise RecordingError(f"{where}: unknown localiser {name!r}; known: {', '.join(LOCALISERS.names())}")
+    _decoded(_need(e, "options", dict, where), where)
+    rng = _need(e, "rng", dict, where, nullable=True)
+    if rng is not None:
+        ent = rng.get("entropy")
+        key = rng.get("spawn_key")
+        if not (isinstance(ent, int) or (isinstance(ent, list) and all(isinstance(x, int) for x in ent))) \
+                or not (isinstance(key, list) and all(isinstance(x, int) and x >= 0 for x in key)):
+            raise RecordingError(f"{where}: field 'rng' must hold an integer 'entropy' and a 'spawn_key' list")
+
+
+def _update_event(e: dict[str, Any], where: str, scans: dict[int, int]) -> None:
+    """Check an ``update`` line: readings of its own, or indices into an earlier scan line's."""
+    if "scan" in e:
+        sid = _need(e, "scan", int, where)
+        if sid not in scans:
+            raise RecordingError(f"{where}: update refers to scan {sid}, which no earlier line holds")
+        idx = _need(e, "index", list, where)
+        if not all(isinstance(i, int) and not isinstance(i, bool) and 0 <= i < scans[sid] for i in idx):
+            raise RecordingError(f"{where}: field 'index' must hold indices of scan {sid} (0..{scans[sid] - 1})")
+    else:
+        _scan(e, where)
 
 
 def heading_prior_of(prior: dict[str, Any], where: str) -> HeadingPrior:

@@ -22,9 +22,10 @@ from localisation.base import PoseEstimate
 
 from .trajectory_scores import TrajectoryScores, score_trajectory
 from .world import Pose, angle_diff
+from .world.arrays import finite_median
 
 if TYPE_CHECKING:
-    from .replay import Recording
+    from .replay_reading import Recording
 
 __all__ = ["CANDIDATE_RADIUS_CM", "ReplayReport", "ReplayStep", "Verdict"]
 
@@ -224,13 +225,13 @@ class ReplayReport:
         ref = self.localisers[0]
         for name in self.localisers:
             spread = np.array([_spread(s.estimates.get(name)) for s in ups])
-            row: dict[str, float] = {"updates": float(len(ups)), "median_spread_cm": _fin_median(spread),
+            row: dict[str, float] = {"updates": float(len(ups)), "median_spread_cm": finite_median(spread),
                                      "final_spread_cm": float(spread[-1]) if spread.size else math.nan}
             if self.has_truth:
                 err = np.array([s.error_cm(name) for s in ups])
                 fin = err[np.isfinite(err)]
                 row.update({"rmse_cm": float(np.sqrt(np.mean(fin**2))) if fin.size else math.nan,
-                            "median_error_cm": _fin_median(err),
+                            "median_error_cm": finite_median(err),
                             "final_error_cm": float(err[-1]) if err.size else math.nan,
                             "final_heading_error_deg": ups[-1].heading_error_deg(name) if ups else math.nan})
                 row.update(self.verdict_counts(name))
@@ -239,7 +240,7 @@ class ReplayReport:
                             "rpe_per_m_cm": scores.rpe_per_m_cm, "scored_updates": float(scores.poses)})
             else:
                 agr = np.array([s.agreement_cm(name, ref) for s in ups])
-                row.update({"median_agreement_cm": _fin_median(agr),
+                row.update({"median_agreement_cm": finite_median(agr),
                             "max_agreement_cm": float(np.nanmax(agr)) if np.isfinite(agr).any() else math.nan})
             row["cpu_s"] = self.cpu_s.get(name, math.nan)
             out[name] = row
@@ -312,7 +313,3 @@ class ReplayReport:
 def _spread(e: PoseEstimate | None) -> float:
     return math.nan if e is None else e.std_xy_cm
 
-
-def _fin_median(a: np.ndarray) -> float:
-    f = a[np.isfinite(a)]
-    return float(np.median(f)) if f.size else math.nan

@@ -27,7 +27,6 @@ from typing import Any
 
 import numpy as np
 import yaml
-from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from localisation.base import HeadingPrior
@@ -36,6 +35,7 @@ from localisation.scan import drop_stuck
 from .sweep_margins import sweep_margins
 from .sweeps import Sweep, SweepSet
 from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar, wrap_angle
+from .world.arrays import FloatArray, finite_median
 from .world.yaml_text import load_yaml
 
 __all__ = ["FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
@@ -44,7 +44,6 @@ __all__ = ["FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "Leave
 
 log = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
 
 FIT_PARAMETERS = ("noise_sd", "noise_per_m", "bias_cm", "dropout_prob", "far_dropout_prob", "reach_cm",
                   "reach_width_cm", "phantom_prob", "short_prob", "outlier_prob")
@@ -308,22 +307,17 @@ def score_sonar(model: NxtSonar, sets: Sequence[SweepSet], margins: bool = True,
         per.append({"sweep": a.sweep.label, "offset_cm": [a.x_cm - a.sweep.x_cm, a.y_cm - a.sweep.y_cm],
                     "heading_deg": math.degrees(a.heading_rad), "readings": int(a.readings.size),
                     "mean_log_likelihood": float(np.mean(lp)), "no_echo_real": float(np.mean(real_silent)),
-                    "no_echo_model": float(np.mean(p_silent)), "median_abs_diff_cm": _median(diff),
+                    "no_echo_model": float(np.mean(p_silent)), "median_abs_diff_cm": finite_median(diff),
                     "margin_nats": margin[len(per)]})
         lps.append(lp)
         silents.append(p_silent)
         diffs.append(diff)
         reals.append(real_silent)
     return SweepScore(float(np.mean(np.concatenate(lps))), float(np.mean(np.concatenate(reals))),
-                      float(np.mean(np.concatenate(silents))), _median(np.concatenate(diffs)),
+                      float(np.mean(np.concatenate(silents))), finite_median(np.concatenate(diffs)),
                       int(sum(x.size for x in lps)), len(aligned),
                       float(np.mean(np.asarray(margin) > 0.0)) if margins else math.nan, per)
 
-
-def _median(values: FloatArray) -> float:
-    """The median of the values that are not NaN; NaN when none is."""
-    v = values[~np.isnan(values)]
-    return float(np.median(v)) if v.size else math.nan
 
 
 # -- leave one repository out ----------------------------------------------------------------------

@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
 
 from localisation.base import HeadingPrior
 
@@ -24,13 +23,12 @@ from .sonar_fit import AlignedSweep, align_sweeps
 from .sweep_margins import LATTICE_STEP_CM, place_costs
 from .sweeps import Sweep, SweepSet
 from .world import NO_ECHO, Map, NxtSonar, ray_cast
+from .world.arrays import FloatArray
 
 __all__ = ["draw_incidence_curves", "draw_places", "draw_sweep_radar", "real_sonar_figures"]
 
 PLACES_FLOOR_NATS = 15.0
 """The place map's colour scale: from the best place down to this many nats below it."""
-
-FloatArray = NDArray[np.float64]
 
 
 def draw_sweep_radar(ax: Any, a: AlignedSweep, model: NxtSonar, *, rng: int = 0) -> None:

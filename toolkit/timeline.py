@@ -28,17 +28,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from localisation.base import PoseEstimate
 
 from .recording import decode_floats, scan_from_fields
 from .world import Map, Pose, RobotGeometry, Scan, map_from_dict, wrap_angle
+from .world.arrays import FloatArray
 
 __all__ = ["CLOCKLESS_STEP_S", "EstimateItem", "Item", "OdometryItem", "PlanItem", "RunInfo", "SweepItem",
            "Timeline", "TruthItem", "run_info", "timeline_of"]
 
-FloatArray = NDArray[np.float64]
 
 CLOCKLESS_STEP_S = 1.0
 """Seconds between scans that have no robot clock (imported sweeps) on the time line."""

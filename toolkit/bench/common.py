@@ -1,26 +1,14 @@
-"""Helpers the benchmarks share: the median of the finite values and a per-process map cache."""
+"""Helpers the benchmarks share: a per-process map cache, and the median of the finite values
+(`toolkit.world.arrays.finite_median`, re-exported here)."""
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterable
 from functools import lru_cache
 
-import numpy as np
-
 from ..world import Map, load_map
+from ..world.arrays import finite_median
 
 __all__ = ["cached_map", "finite_median"]
-
-
-def finite_median(values: Iterable[float | None]) -> float:
-    """Median of the finite values (None and NaN mark a failed run); NaN when there are none.
-
-    >>> finite_median([3.0, None, float("nan"), 1.0, 2.0]), math.isnan(finite_median([]))
-    (2.0, True)
-    """
-    a = np.array([v for v in values if v is not None and math.isfinite(v)], dtype=float)
-    return float(np.median(a)) if a.size else math.nan
 
 
 @lru_cache(maxsize=32)

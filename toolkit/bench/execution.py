@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..robots.sim import MotionNoise, SimRobot
 from ..world import CollisionChecker, ConfigError, Map, PlanningError, Pose, RobotGeometry, wrap_angle
+from ..world.arrays import FloatArray
 
 __all__ = [
     "ExecutionError",
@@ -36,7 +37,6 @@ __all__ = [
     "simulate_with_robot",
 ]
 
-FloatArray = NDArray[np.float64]
 
 _SeedLike = int | np.random.SeedSequence | None
 

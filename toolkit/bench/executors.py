@@ -24,7 +24,8 @@ import signal
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from typing import Any, Generic, TypeVar
+from multiprocessing.context import BaseContext
+from typing import Any, Generic, TypeVar, cast
 
 from toolkit.world import ConfigError, NxtnavError
 
@@ -124,7 +125,9 @@ def _run_pool(func: Callable[[T], R], tasks: Sequence[T], workers: int,
               on_done: Callable[[R], None] | None) -> Iterator[R]:
     """The tasks over a pool of `workers` processes, one task at a time each; a worker that dies
     raises `WorkerDied`, Ctrl-C or a task's exception ends every worker at once."""
-    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(), initializer=_ignore_sigint)
+    context = _TrackedContext(multiprocessing.get_context())
+    # the wrapper lends the wrapped context's every other attribute: a context in all but its class
+    pool = ProcessPoolExecutor(workers, mp_context=cast(BaseContext, context), initializer=_ignore_sigint)
     finished = False
     try:
         pending: set[Future[R]] = {pool.submit(func, t) for t in tasks}
@@ -138,21 +141,38 @@ def _run_pool(func: Callable[[T], R], tasks: Sequence[T], workers: int,
         finished = True
     except BrokenProcessPool:
         # the pool ends its other workers with SIGTERM once one has died: those codes say nothing
-        codes = sorted({p.exitcode for p in _processes(pool) if p.exitcode not in (None, 0, -signal.SIGTERM)})
+        codes = sorted({p.exitcode for p in context.processes if p.exitcode not in (None, 0, -signal.SIGTERM)})
         seen = ", ".join(f"killed by signal {-c}" if c < 0 else f"exit {c}" for c in codes)
         how = f" ({seen})" if seen else ""
         raise WorkerDied(f"a worker process died while running a task{how}; rerun with --workers 1 "
                          "to see which task and why") from None
     finally:
         if not finished:  # Ctrl-C, a task that raised, a dead worker, or the caller stopped early
-            for process in _processes(pool):
-                process.terminate()
+            for process in context.processes:
+                if process.exitcode is None:
+                    process.terminate()
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _processes(pool: ProcessPoolExecutor) -> list[Any]:
-    """The pool's worker processes (the executor keeps them in a private mapping; empty once shut down)."""
-    return list((getattr(pool, "_processes", None) or {}).values())
+class _TrackedContext:
+    """A multiprocessing context that keeps a handle on every worker process it starts.
+
+    `ProcessPoolExecutor` starts its workers with its ``mp_context``'s ``Process``; this context lends
+    everything else to the one it wraps. `processes` lets the caller end the workers at once (Ctrl-C)
+    and read the exit codes of those that died.
+    """
+
+    def __init__(self, base: Any) -> None:
+        self._base = base
+        self.processes: list[Any] = []
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._base, name)
+
+    def Process(self, *args: Any, **kwargs: Any) -> Any:
+        process = self._base.Process(*args, **kwargs)
+        self.processes.append(process)
+        return process
 
 
 def _run_dask(

@@ -92,6 +92,21 @@ LONG_STEP_RADII = 10.0
 """The same for the long segments (80 cm for 8 cm): motions across rooms rather than within reach."""
 
 
+def _range_model_figures(m: Map, sonar: str, range_memory_mb: float | None) -> dict[str, Any]:
+    """The particle filters' range table for `sonar` on `m`: its build time (wall and CPU s), size
+    (bytes), cell size (cm) and value type."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    facets = RobotModel.build(sonar).facets()  # the table's own lobe and range limit, as the localisers' are
+    lobe = facets.get("lobe", {})
+    table = range_table(m, memory_mb=range_memory_mb, lattice_step=2,
+                        beam_width_deg=lobe.get("beam_width_deg", 0.0),
+                        critical_incidence_deg=lobe.get("critical_incidence_deg"),
+                        max_range_cm=facets.get("max_range", {}).get("max_range_cm"))
+    return {"range_model_sonar": sonar, "range_model_build_s": time.perf_counter() - t0,
+            "range_model_build_cpu_s": time.process_time() - c0, "range_model_bytes": table.nbytes,
+            "range_model_resolution_cm": table.resolution_cm, "range_model_dtype": table.dtype}
+
+
 def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repeats: int = 5,
                         segments: int = 20000, range_model: bool = True, range_memory_mb: float | None = None,
                         sonar: str = "ideal", peer: bool = True, collision: str = "index",
@@ -155,17 +170,7 @@ def bench_world_figures(m: Map, *, radius: float = 8.0, poses: int = 1000, repea
         "range_model_bytes": None,
     }
     if range_model:
-        t0, c0 = time.perf_counter(), time.process_time()
-        facets = RobotModel.build(sonar).facets()  # the table's own lobe and range limit, as the localisers' are
-        lobe = facets.get("lobe", {})
-        table = range_table(m, memory_mb=range_memory_mb, lattice_step=2,
-                            beam_width_deg=lobe.get("beam_width_deg", 0.0),
-                            critical_incidence_deg=lobe.get("critical_incidence_deg"),
-                            max_range_cm=facets.get("max_range", {}).get("max_range_cm"))
-        fig.update(range_model_sonar=sonar, range_model_build_s=time.perf_counter() - t0,
-                   range_model_build_cpu_s=time.process_time() - c0,
-                   range_model_bytes=table.nbytes,
-                   range_model_resolution_cm=table.resolution_cm, range_model_dtype=table.dtype)
+        fig.update(_range_model_figures(m, sonar, range_memory_mb))
     if peer:
         sub = origins[: min(poses, 300)]
         res = peer_raycast2d(m, sub, angles, repeats)

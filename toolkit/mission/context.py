@@ -8,18 +8,16 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from localisation.base import HeadingPrior, Localiser, Motion, PoseEstimate
 from localisation.global_localisation import DriveAction
 
 from ..world import CollisionChecker, Map, MoveOutcome, Pose, Robot, TruthSource
+from ..world.arrays import FloatArray
 from .config import MissionConfig
-from .recovery import backoff_cm
 from .report import Action, Outcome, TraceStep
+from .robot_distances import backoff_cm
 from .states import MissionEnded
-
-FloatArray = NDArray[np.float64]
 
 TURN_EPS = math.radians(0.5)
 """Turns smaller than this (rad) are not counted as turns."""

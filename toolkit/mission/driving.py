@@ -8,19 +8,16 @@ from enum import Enum
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
 from localisation.base import PoseEstimate
 
 from ..world import angle_diff
+from ..world.arrays import FloatArray
 from .checkers import Checkers
 from .context import MissionContext
 from .fix_policy import FixPolicy
 from .recovery import off_course
 from .report import Action
-
-FloatArray = NDArray[np.float64]
-
 
 SLIP_SHARE = 0.5
 """The largest part of a turn a slip is taken to lose (wheels that skid on a smooth floor). The turns

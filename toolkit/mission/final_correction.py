@@ -6,13 +6,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from ..world import CollisionChecker, Pose, angle_diff
+from ..world.arrays import FloatArray
 from .config import FinalConfig
 from .report import Outcome
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

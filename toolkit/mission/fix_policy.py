@@ -6,16 +6,14 @@ import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from localisation.base import PoseEstimate, Prior
 from localisation.scan import sweep_angles
 
 from ..world import Pose
+from ..world.arrays import FloatArray
 from .checkers import Checkers
 from .config import TRACK_WINDOWS, FixConfig, SweepConfig
-
-FloatArray = NDArray[np.float64]
 
 SPREAD_LIMIT_CM = 10.0
 """A belief whose grown disc would need more than this (cm) is never clear to drive on."""

@@ -24,13 +24,13 @@ from collections.abc import Callable
 from functools import partial
 
 import numpy as np
-from numpy.typing import NDArray
 
 from localisation.base import HeadingPrior, Localiser
 from localisation.procedure import LocaliseProcedure, look
 from planners.base import Planner
 
 from ..world import LinkLostError, Map, Robot, TruthSource
+from ..world.arrays import FloatArray
 from .checkers import Checkers
 from .config import MissionConfig
 from .context import MissionContext
@@ -42,8 +42,6 @@ from .planning import PathPlanner
 from .recovery import WIDE_STD_CM, WIDE_STD_DEG, Recovery, StopCheck, widened_prior
 from .report import Action, Outcome
 from .states import MissionEnded, State
-
-FloatArray = NDArray[np.float64]
 
 
 class Mission:

@@ -7,18 +7,16 @@ from typing import Any
 
 import numpy as np
 import shapely
-from numpy.typing import NDArray
 from shapely.ops import nearest_points
 
 from planners.base import Planner, PlanningProblem, PlanResult
 
 from ..world import CollisionChecker
+from ..world.arrays import FloatArray
 from .checkers import Checkers
 from .context import MissionContext
 from .report import Action, Outcome
 from .states import MissionEnded
-
-FloatArray = NDArray[np.float64]
 
 
 class PathPlanner:

@@ -30,30 +30,27 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from localisation.base import Motion, PoseEstimate, Prior
 
 from ..world import (
-    BackoffDistance,
     LinkLostError,
     Reconnectable,
     Resumption,
     Robot,
     RobotError,
-    TruthSource,
-    WatchdogDistance,
     angle_diff,
     ray_cast,
 )
+from .fault_log import FaultLog, FaultNote
 from .report import Action, Outcome
+from .robot_distances import BACKOFF_CM, backoff_cm, watchdog_cm
 from .states import MissionEnded
 
 if TYPE_CHECKING:
-    from ..recording import Recorder
     from .context import MissionContext
     from .localising import Fixes
 
@@ -94,24 +91,6 @@ def widened_prior(est: PoseEstimate, floor_cm: float, floor_rad: float) -> Prior
     cov[1, 1] = max(cov[1, 1], floor_cm ** 2)
     cov[2, 2] = max(cov[2, 2], floor_rad ** 2)
     return Prior(est.pose, cov)
-
-
-BACKOFF_CM = 10.0
-"""How far (cm) a robot that does not say (`toolkit.world.BackoffDistance`) reverses in `turnback`."""
-
-
-def backoff_cm(robot: Robot) -> float:
-    """How far (cm) `robot`'s `turnback` reverses: its own when it says (`toolkit.world.BackoffDistance`),
-    else `BACKOFF_CM`."""
-    return float(robot.backoff_distance_cm) if isinstance(robot, BackoffDistance) else BACKOFF_CM
-
-
-def watchdog_cm(robot: Robot) -> float:
-    """The distance (cm) at which `robot`'s watchdog stops a move: its own when it says
-    (`toolkit.world.WatchdogDistance`), else the radius plus 4 cm."""
-    if isinstance(robot, WatchdogDistance):
-        return float(robot.watchdog_distance_cm)
-    return float(robot.geometry.radius_cm) + 4.0
 
 
 class StopCheck:
@@ -158,71 +137,6 @@ def off_course(predicted: PoseEstimate | None, fix: PoseEstimate) -> str | None:
         return None
     return (f"the fix is {d:.1f} cm and {turn:.0f} degrees from where the motions should have taken the robot "
             "(did a wheel slip?); planning again from the fix")
-
-
-@dataclass(frozen=True)
-class FaultNote:
-    """One fault the mission met and what came of it.
-
-    Attributes
-    ----------
-    kind : {"link-lost", "sonar", "motion"}
-        A lost link, a sweep taken again because the sensor looked stuck or gave garbage, or a fix far
-        from where the motions should have taken the robot.
-    robot_time_s : float
-        The robot's clock when the mission noticed it (s).
-    detail : str
-        What happened, in words.
-    recovered : bool
-        Whether the mission went on after it (the link came back and the robot was localised again;
-        a sonar fault: the procedure swept again; a motion fault: the mission planned again).
-    outage_s : float
-        Wall-clock seconds without a link (link faults).
-    recovery_robot_s : float
-        Robot time spent on the recovery: the reconnection and the re-localisation after it (s).
-    resumption : Resumption or None
-        What the interrupted motion did, by the tachometers (link faults that came back).
-    """
-
-    kind: str
-    robot_time_s: float
-    detail: str
-    recovered: bool = True
-    outage_s: float = 0.0
-    recovery_robot_s: float = 0.0
-    resumption: Resumption | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "robot_time_s": self.robot_time_s, "detail": self.detail,
-                "recovered": self.recovered, "outage_s": self.outage_s, "recovery_robot_s": self.recovery_robot_s,
-                "resumption": None if self.resumption is None else self.resumption.to_dict()}
-
-
-class FaultLog:
-    """The faults of one mission: kept for the report and written to the recording (when there is one)."""
-
-    def __init__(self, recorder: Recorder | None = None) -> None:
-        self.notes: list[FaultNote] = []
-        self._recorder = recorder
-        self._said: set[str] = set()
-
-    def fault(self, kind: str, robot_time_s: float, detail: str) -> None:
-        """A fault as it is noticed: a ``fault`` line in the recording."""
-        if self._recorder is not None:
-            self._recorder.event("fault", kind=kind, t=robot_time_s, detail=detail)
-
-    def add(self, note: FaultNote, truth: TruthSource | None = None) -> None:
-        """What came of a fault: kept for the report, a ``recovery`` line in the recording (with the
-        true pose from `truth`, else from the recording's own truth, when there is one)."""
-        self.notes.append(note)
-        if self._recorder is not None:
-            self._recorder.event("recovery", **note.to_dict(), true_pose=self._recorder.true_pose(truth))
-
-    def say_once(self, key: str, message: str) -> None:
-        """Log `message` as a warning the first time `key` comes up in this mission."""
-        if key not in self._said:
-            self._said.add(key)
-            log.warning("%s", message)
 
 
 class _Ended(Exception):

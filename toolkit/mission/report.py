@@ -9,16 +9,14 @@ from enum import Enum, StrEnum
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from ..world import (
     Pose,
 )
+from ..world.arrays import FloatArray
 
 if TYPE_CHECKING:
-    from .recovery import FaultNote
-
-FloatArray = NDArray[np.float64]
+    from .fault_log import FaultNote
 
 
 class Outcome(Enum):

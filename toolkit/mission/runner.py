@@ -9,7 +9,7 @@ from functools import partial
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from localisation.base import LOCALISERS, HeadingPrior, Localiser, make_localiser
 from localisation.procedure import LocaliseProcedure, look
@@ -27,6 +27,7 @@ from ..world import (
     as_rng,
     load_map,
 )
+from ..world.arrays import FloatArray
 from .config import MissionConfig
 from .machine import Mission
 from .recovery import DEFAULT_RECONNECT_TIMEOUT_S, FaultLog, Recovery
@@ -36,7 +37,6 @@ if TYPE_CHECKING:
     from ..recording import Recorder
 
 log = logging.getLogger(__name__)
-FloatArray = NDArray[np.float64]
 
 _COUNTERS = ("watchdog_stops", "odometry_cm", *_SPLIT_COUNTERS)
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ..world import (
     CollisionChecker,
@@ -42,10 +42,10 @@ from ..world import (
     make_sonar,
     wrap_angle,
 )
+from ..world.arrays import FloatArray
 
 __all__ = ["MotionNoise", "RobotTiming", "SimRobot", "simulated_sonar"]
 
-FloatArray = NDArray[np.float64]
 
 NoiseModelName = Literal["botsim", "absolute"]
 

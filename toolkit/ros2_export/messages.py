@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..world import Map, NxtnavError, Pose, Scan
+from ..world.arrays import FloatArray
 from .grid import OccupancyGrid
 from .typestore import PARTICLE, PARTICLE_CLOUD, typestore
 
@@ -22,7 +23,6 @@ __all__ = ["ANGLE_TOLERANCE_RAD", "FRAMES", "ExportError", "covariance_6x6", "he
            "particle_cloud", "path_msg", "pose_msg", "pose_with_covariance", "quaternion", "rep117_ranges", "transform",
            "yaw_of"]
 
-FloatArray = NDArray[np.float64]
 
 FRAMES = {"map": "map", "odom": "odom", "base": "base_link", "sonar": "sonar_link"}
 """REP-105 frame names: the map, the odometry frame, the robot body, the sonar (on the turret axis)."""

@@ -36,6 +36,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from .arrays import FloatArray
+
 __all__ = ["BLOCKED", "FREE", "UNKNOWN", "ClearanceRaster"]
 
 BLOCKED, FREE, UNKNOWN = 0, 1, 2
@@ -48,8 +50,6 @@ _MAX_CELLS = 16_000_000
 """Largest raster (cells, one byte each); a larger map gets coarser cells."""
 
 _jit = numba.njit(cache=True, nogil=True)
-
-FloatArray = NDArray[np.float64]
 
 
 @_jit

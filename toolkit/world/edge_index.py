@@ -28,10 +28,10 @@ import numpy as np
 import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
+from .arrays import FloatArray, IntArray
+
 __all__ = ["ALONG_CM", "EdgeIndex", "edge_index"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 _MARGIN = 1e-7
 """Relative growth of each cell (times the cell side) when listing walls: rounding can never drop a wall."""

@@ -11,8 +11,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from .arrays import FloatArray
 from .edge_index import ALONG_CM, edge_index
 from .errors import ConfigError
 
@@ -29,8 +30,6 @@ __all__ = [
 
 RngLike = None | int | np.random.Generator
 """Anything `as_rng` accepts: None (fresh entropy), an integer seed or a numpy Generator."""
-
-FloatArray = NDArray[np.float64]
 
 
 def as_rng(rng: RngLike = None) -> np.random.Generator:

@@ -27,12 +27,12 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from .arrays import IntArray
 from .grid_kernel import grid_pinches
 
 __all__ = ["GridVisibility", "grid_reflex_corners", "grid_visibility_edges", "grid_visible_points", "seen_from",
            "tangent_corners"]
 
-IntArray = NDArray[np.int64]
 
 # interval arrays: columns lo_dx, lo_dy, lo_open, hi_dx, hi_dy, hi_open ("lo" is the smaller angle
 # from +x, i.e. the right end of the interval on a row above u)

@@ -24,7 +24,8 @@ from numpy.typing import NDArray
 from shapely.geometry import polygon as shapely_polygon
 
 from .errors import MapError
-from .maps import GridSpec, Map, Region
+from .map_model import GridSpec, Map, Region
+from .map_parsing import map_from_dict
 
 __all__ = ["OccupancyGrid", "grid_to_map", "polygonise"]
 
@@ -117,8 +118,6 @@ def polygonise(grid: OccupancyGrid, simplify_cm: float = 0.0) -> list[shapely.Po
 def grid_to_map(grid: OccupancyGrid, name: str, description: str = "", simplify_cm: float = 0.0,
                 start: NDArray[np.float64] | None = None, target: NDArray[np.float64] | None = None) -> Map:
     """A `Map` whose free space is exactly the free cells of `grid` (see the module docstring)."""
-    from .maps import map_from_dict
-
     parts = polygonise(grid, simplify_cm)
     if not parts:
         raise MapError(f"map {name!r}: the grid has no free cell")

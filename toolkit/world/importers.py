@@ -28,9 +28,10 @@ from typing import Any, Literal
 
 import numpy as np
 
+from .arrays import FloatArray
 from .errors import MapError
 from .grids import OccupancyGrid, grid_to_map
-from .maps import Map
+from .map_model import Map
 from .yaml_text import YAMLError, load_yaml
 
 __all__ = ["MOVINGAI_BLOCKED", "MOVINGAI_PASSABLE", "import_map", "read_movingai_map", "read_ros_map",
@@ -95,10 +96,34 @@ def write_movingai_map(grid: OccupancyGrid, path: str | os.PathLike[str]) -> Non
     tmp.replace(p)
 
 
-def read_ros_map(path: str | os.PathLike[str], unknown: Unknown = "occupied") -> OccupancyGrid:
-    """Read a ROS map_server map: its YAML and the image it names (see the module docstring)."""
+def _ros_image_values(p: Path, name: Any) -> FloatArray:
+    """The pixel values (0..255, first channel) of the image `name` of the ROS map YAML `p` (a path
+    relative to the YAML's folder, or absolute)."""
     from PIL import Image, UnidentifiedImageError
 
+    if not isinstance(name, str) or not name:
+        raise MapError(f"{p}: image must be a file name, got {name!r}")
+    image = Path(name) if Path(name).is_absolute() else p.parent / name
+    if not image.is_file():
+        raise MapError(f"{p}: image {str(image)!r} not found")
+    try:
+        with Image.open(image) as im:
+            im.load()
+            pixels = np.asarray(im)
+    except (OSError, UnidentifiedImageError, ValueError, SyntaxError) as exc:
+        raise MapError(f"{image}: cannot read map image: {exc}") from None
+    if pixels.ndim == 3:
+        pixels = pixels[..., 0]
+    if pixels.ndim != 2 or pixels.size == 0:
+        raise MapError(f"{image}: expected a 2-D image, got shape {pixels.shape}")
+    v = pixels.astype(np.float64)
+    if pixels.dtype != np.uint8:  # 16-bit PGM: bring to 0..255
+        v = v * 255.0 / float(np.iinfo(pixels.dtype).max) if np.issubdtype(pixels.dtype, np.integer) else v
+    return v
+
+
+def read_ros_map(path: str | os.PathLike[str], unknown: Unknown = "occupied") -> OccupancyGrid:
+    """Read a ROS map_server map: its YAML and the image it names (see the module docstring)."""
     p = Path(path)
     if unknown not in ("occupied", "free"):
         raise MapError(f"unknown cells must be 'occupied' or 'free', got {unknown!r}")
@@ -133,24 +158,7 @@ def read_ros_map(path: str | os.PathLike[str], unknown: Unknown = "occupied") ->
     mode = data.get("mode", "trinary")
     if mode not in ("trinary", "scale", "raw"):
         raise MapError(f"{p}: mode must be trinary, scale or raw, got {mode!r}")
-    if not isinstance(data["image"], str) or not data["image"]:
-        raise MapError(f"{p}: image must be a file name, got {data['image']!r}")
-    image = Path(data["image"]) if Path(data["image"]).is_absolute() else p.parent / data["image"]
-    if not image.is_file():
-        raise MapError(f"{p}: image {str(image)!r} not found")
-    try:
-        with Image.open(image) as im:
-            im.load()
-            pixels = np.asarray(im)
-    except (OSError, UnidentifiedImageError, ValueError, SyntaxError) as exc:
-        raise MapError(f"{image}: cannot read map image: {exc}") from None
-    if pixels.ndim == 3:
-        pixels = pixels[..., 0]
-    if pixels.ndim != 2 or pixels.size == 0:
-        raise MapError(f"{image}: expected a 2-D image, got shape {pixels.shape}")
-    v = pixels.astype(np.float64)
-    if pixels.dtype != np.uint8:  # 16-bit PGM: bring to 0..255
-        v = v * 255.0 / float(np.iinfo(pixels.dtype).max) if np.issubdtype(pixels.dtype, np.integer) else v
+    v = _ros_image_values(p, data["image"])
     if mode == "raw":
         occupied = (v >= 1) & (v <= 100)
         free = v == 0

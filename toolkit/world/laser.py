@@ -22,14 +22,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtr
 
+from .arrays import FloatArray
 from .errors import ConfigError
 from .geometry import RngLike, as_rng, ray_cast
 from .robot import Scan
 from .sonar import SonarModel
 
 __all__ = ["LaserScanner"]
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass

@@ -30,9 +30,10 @@ from dataclasses import asdict, dataclass, is_dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.special import ndtr as _ndtr
 
+from .arrays import FloatArray
 from .edge_index import edge_index
 from .errors import ConfigError
 from .geometry import RngLike, as_rng
@@ -41,7 +42,6 @@ from .robot import NO_ECHO, Scan
 
 __all__ = ["SONAR_MODELS", "IdealSonar", "NxtSonar", "SonarModel", "make_sonar"]
 
-FloatArray = NDArray[np.float64]
 
 SONAR_MODELS: Registry[SonarModel] = Registry("sonar model")
 

@@ -15,15 +15,13 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
 
 from localisation.procedure import LocalisationResult
 from toolkit.plotting import draw_map, draw_particles, draw_pose, plain_log_axis, save_figure
 from toolkit.world import Map, Pose, RobotGeometry
 
+from ...world.arrays import FloatArray
 from .records import SUCCESS_CM, SUCCESS_DEG, GlobalRun, KidnappedRun, LocalisationOutcome, TrackingRun, TrialResult
-
-FloatArray = NDArray[np.float64]
 
 __all__ = [
     "draw_localisation",

@@ -191,20 +191,9 @@ def _strategy_note(config: BenchConfig) -> str:
             f"{g.explore_step_cm:g} cm (`{g.exploration}` rule) with a sweep after each; {g.attempts} attempts")
 
 
-def write_summary(
-    results: Sequence[TrialResult],
-    path: str | Path,
-    *,
-    config: BenchConfig,
-    maps: Sequence[str],
-    localisers: Sequence[str],
-    trials: int,
-    seed: int,
-    command: str = "",
-    wall_time_s: float | None = None,
-) -> Path:
-    """Write ``summary.md``: settings, then per scenario and map one table row per localiser."""
-    s = summarise(results)
+def _settings_lines(config: BenchConfig, maps: Sequence[str], localisers: Sequence[str], trials: int, seed: int,
+                    command: str, wall_time_s: float | None) -> list[str]:
+    """The summary's title and the settings of the run, as Markdown lines."""
     trackers = [n for n in localisers if getattr(LOCALISERS.get(n), "needs_prior", False)]
     lines = ["# Localiser benchmark", ""]
     if command:
@@ -241,6 +230,39 @@ def write_summary(
     if wall_time_s is not None:
         lines.append(f"- benchmark wall time: {wall_time_s:.1f} s")
     lines.append("")
+    return lines
+
+
+def _failure_lines(results: Sequence[TrialResult]) -> list[str]:
+    """The trials that raised (the first 20), as Markdown lines; none when no trial raised."""
+    lines: list[str] = []
+    failed = [r for r in results if r.failure]
+    if failed:
+        lines += ["## Trials that raised", "",
+                  f"{len(failed)} trial(s) raised an exception and count as failures (NaN errors in the CSV):", ""]
+        for r in failed[:20]:
+            lines.append(f"- {r.scenario} {r.map} {r.localiser} trial {r.trial} (seed {r.seed}): `{r.failure}`")
+        if len(failed) > 20:
+            lines.append(f"- ... and {len(failed) - 20} more")
+        lines.append("")
+    return lines
+
+
+def write_summary(
+    results: Sequence[TrialResult],
+    path: str | Path,
+    *,
+    config: BenchConfig,
+    maps: Sequence[str],
+    localisers: Sequence[str],
+    trials: int,
+    seed: int,
+    command: str = "",
+    wall_time_s: float | None = None,
+) -> Path:
+    """Write ``summary.md``: settings, then per scenario and map one table row per localiser."""
+    s = summarise(results)
+    lines = _settings_lines(config, maps, localisers, trials, seed, command, wall_time_s)
     if "global" in s:
         lines += ["## Global localisation", ""]
         lines += _map_tables(s["global"], maps, localisers, _GLOBAL_COLUMNS)
@@ -264,15 +286,7 @@ def write_summary(
                   "Recovered = a run ends converged within the success tolerance. The rate counts the trials "
                   "whose first localisation succeeded; scans to recover count from the teleport.", ""]
         lines += _map_tables(s["kidnapped"], maps, localisers, _KIDNAPPED_COLUMNS)
-    failed = [r for r in results if r.failure]
-    if failed:
-        lines += ["## Trials that raised", "",
-                  f"{len(failed)} trial(s) raised an exception and count as failures (NaN errors in the CSV):", ""]
-        for r in failed[:20]:
-            lines.append(f"- {r.scenario} {r.map} {r.localiser} trial {r.trial} (seed {r.seed}): `{r.failure}`")
-        if len(failed) > 20:
-            lines.append(f"- ... and {len(failed) - 20} more")
-        lines.append("")
+    lines += _failure_lines(results)
     p = Path(path)
     p.write_text("\n".join(lines))
     return p

@@ -12,8 +12,8 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ...world.arrays import FloatArray
 from ..common import finite_median
 from .records import BenchmarkResult, RunRecord
 
@@ -21,8 +21,6 @@ __all__ = ["WITHIN", "CurveBand", "cost_band", "has_curve", "reference_lengths",
 
 WITHIN = 0.05
 """The default target: a path at most 5 % longer than `shortest`."""
-
-FloatArray = NDArray[np.float64]
 
 
 def reference_lengths(result: BenchmarkResult) -> dict[tuple[str, int], float]:

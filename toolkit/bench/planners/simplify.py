@@ -18,18 +18,17 @@ import time
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from planners.ompl_planners import ompl_simplify
 
 from ...world import CollisionChecker, ConfigError
+from ...world.arrays import FloatArray
 
 __all__ = ["SIMPLIFY_METHODS", "SimplifyMethod", "check_simplify", "shortcut_path", "simplify_path"]
 
 SimplifyMethod = Literal["none", "shortcut", "ompl"]
 SIMPLIFY_METHODS: tuple[SimplifyMethod, ...] = ("none", "shortcut", "ompl")
-
-FloatArray = NDArray[np.float64]
 
 
 def check_simplify(method: str) -> SimplifyMethod:
