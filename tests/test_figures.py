@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 
 from toolkit.cli import main
-from toolkit.cli.figures_cmds import FIGURE_JOBS, SCREENSHOTS, WORK, FigureJob, figure_names
+from toolkit.cli.figure_jobs import FIGURE_JOBS, SCREENSHOTS, WORK, FigureJob, figure_names
 
 ROOT = Path(__file__).resolve().parents[1]
 IMG = ROOT / "docs" / "img"

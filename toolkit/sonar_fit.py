@@ -38,7 +38,7 @@ from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar, wrap_angle
 from .world.arrays import FloatArray, finite_median
 from .world.yaml_text import load_yaml
 
-__all__ = ["FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
+__all__ = ["BASELINES", "FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
            "SonarProfileError", "SweepScore", "align_sweeps", "fit_sonar", "load_sonar_profile", "repo_folds",
            "save_sonar_profile", "score_fold", "score_sonar"]
 
@@ -59,6 +59,10 @@ nuisance a fit widens the lobe to forgive the position error."""
 LOG_FLOOR = -700.0
 """Least log-probability a reading counts for in a score (a reading the model calls impossible, such as
 a wrong reading under a model without outliers, would otherwise make the mean -inf)."""
+BASELINES: dict[str, Callable[[], NxtSonar]] = {"default": NxtSonar, "hardware": NxtSonar.hardware_facts}
+"""Models a score is compared with (`nxtnav sonar score --baseline`): the toolkit's `nxt` default, and
+the model from the published hardware facts alone."""
+
 DEFAULT_WIDTHS = (10.0, 20.0, 30.0, 40.0, 60.0)
 DEFAULT_CRITICALS = (20.0, 30.0, 40.0, 50.0, 60.0)
 """The lobe grid of the shipped default model's fit (docs/real-sonar.md)."""

@@ -100,13 +100,13 @@ def _mission_settings() -> list[str]:
 
 
 def _figure_jobs() -> list[str]:
-    from .figures_cmds import FIGURE_JOBS
+    from .figure_jobs import FIGURE_JOBS
 
     return [job.name for job in FIGURE_JOBS]
 
 
 def _sonar_baselines() -> list[str]:
-    from .sonar_cmds import BASELINES
+    from ..sonar_fit import BASELINES
 
     return list(BASELINES)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict
 from functools import partial
@@ -48,9 +48,6 @@ _JSON = typer.Option(None, "--json", callback=writable_file, metavar="FILE", hel
 _UNITS = {"noise_sd": "cm", "noise_per_m": "cm/m", "bias_cm": "cm", "beam_width_deg": "deg", "beam_rays": "",
           "critical_incidence_deg": "deg", "min_range_cm": "cm", "max_range_cm": "cm", "reach_cm": "cm",
           "reach_width_cm": "cm", "correlation_deg": "deg"}
-BASELINES: dict[str, Callable[[], NxtSonar]] = {"default": NxtSonar, "hardware": NxtSonar.hardware_facts}
-"""Models `nxtnav sonar score --baseline` knows: the toolkit's `nxt` default, and the model from the
-published hardware facts alone."""
 
 
 def _grid(text: str, option: str, hi: float) -> list[float]:
@@ -174,6 +171,8 @@ def sonar_fit(
 def _score_models(profile: Path | None, baselines: list[str]) -> dict[str, tuple[NxtSonar, str]]:
     """The models to score by label, with where each comes from: the profile (or the default), then the
     baselines."""
+    from ..sonar_fit import BASELINES
+
     models: dict[str, tuple[NxtSonar, str]] = {}
     fitted = load_profile(profile, "nxt")
     if fitted is not None:
@@ -210,7 +209,7 @@ def sonar_score(
     then the same per sweep, with that margin in nats. Each sweep is taken at the heading the model finds
     most likely.
     """
-    from ..sonar_fit import score_sonar
+    from ..sonar_fit import BASELINES, score_sonar
 
     heading = parse_heading_prior(heading_prior_text, "--heading-prior")
     baselines = [] if baseline_text is None else parse_list(baseline_text, "--baseline", list(BASELINES))
