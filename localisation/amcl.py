@@ -70,11 +70,12 @@ from toolkit.world import (
     angle_diff,
     wrap_angle,
 )
+from toolkit.world.arrays import FloatArray
 
 from .adaptive import kld_bound, log_blend, log_mean_exp
 from .ambiguity import lattice_candidates
 from .amcl_models import MEASUREMENT_MODELS, MeasurementModel, model_class
-from .amcl_sampling import kld_resample, refine, scan_poses, uniform_poses
+from .amcl_sampling import ParticleDraws
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import lattice_costs
 from .clusters import cloud_stats, cluster
@@ -87,7 +88,6 @@ __all__ = ["MEASUREMENT_MODELS", "Amcl", "DistanceField", "kld_bound"]
 
 log = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
 ESTIMATE_CLUSTERS = 8
 """Clusters the estimate of a spread cloud looks among for the heaviest (`mode_radius_cm`, `mode_heading_deg`)."""
 
@@ -118,7 +118,7 @@ def _check_options(*, min_particles: int, max_particles: int, pf_err: float, pf_
         raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, {refine_particles}")
 
 
-class Amcl(Localiser):
+class Amcl(ParticleDraws, Localiser):
     """Adaptive MCL: KLD-sampling, augmented-MCL recovery, beam or likelihood-field model.
 
     Parameters
@@ -346,7 +346,7 @@ class Amcl(Localiser):
         self._heading_prior = prior if isinstance(prior, HeadingPrior) else None
         self._fixing = prior is None or self._heading_prior is not None
         if prior is None or isinstance(prior, HeadingPrior):
-            self.particles = uniform_poses(self, n)
+            self.particles = self.uniform_poses(n)
             self._uniform = True
         else:
             cov = np.asarray(prior.cov, dtype=float)
@@ -404,7 +404,7 @@ class Amcl(Localiser):
             self._fixing = True  # the belief jumped (fresh particles took over): a new fix, to be checked
         self._check_fix(rel, meas, post)
         if self._updates % self.resample_interval == 0:
-            kld_resample(self, rel, meas)
+            self.kld_resample(rel, meas)
         self.particle_counts.append(int(self.particles.shape[0]))
         self._heading_prior = None  # a heading prior weighs the first fix only
 
@@ -417,7 +417,7 @@ class Amcl(Localiser):
         if self._uniform:
             n = self.max_particles
             from_prior = self.global_init != "scan"
-            self.particles = uniform_poses(self, n) if from_prior else scan_poses(self, n, rel, meas)
+            self.particles = self.uniform_poses(n) if from_prior else self.scan_poses(n, rel, meas)
             self.log_weights = np.full(n, -math.log(n))
             self._weighed = np.ones(n, dtype=bool)
             self._uniform = False
@@ -425,7 +425,7 @@ class Amcl(Localiser):
         if not np.isfinite(lik).any():  # every particle left the free space: nothing to weigh
             log.info("no particle inside the free space: drawing the belief from the scan")
             n = self.max_particles
-            self.particles = scan_poses(self, n, rel, meas)
+            self.particles = self.scan_poses(n, rel, meas)
             self.log_weights = np.full(n, -math.log(n))
             lik = self.log_likelihood(self.particles, rel, meas)
             self._fixing = True
@@ -440,7 +440,7 @@ class Amcl(Localiser):
     def _check_fix(self, rel: FloatArray, meas: FloatArray, post: FloatArray) -> None:
         """A new fix refined, checked for a twin explaining the scan as well, and its modes listed."""
         if self._fixing and self.refine_steps > 0:
-            refine(self, rel, meas, post)
+            self.refine(rel, meas, post)
             self._estimate = self._make_estimate()
         assert self._estimate is not None
         self._ambiguous_fix = False

@@ -28,28 +28,49 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError, NxtSonar, Registry, Scan
+from toolkit.world import ConfigError, Map, NxtSonar, Registry, Scan
+from toolkit.world.arrays import FloatArray
 
 from .beam_model import BeamLikelihood, echo_mask, scan_readings
 from .likelihood_field import DistanceField
-from .models import exact_ranges
+from .models import RangeLikelihood, RangeTable, exact_ranges
 
-if TYPE_CHECKING:
-    from .amcl import Amcl
+__all__ = ["AUTO", "MEASUREMENT_MODELS", "AmclOptions", "BeamModel", "LikelihoodFieldModel", "MeasurementModel",
+           "NxtBeamModel", "model_class", "model_names"]
 
-__all__ = ["AUTO", "MEASUREMENT_MODELS", "BeamModel", "LikelihoodFieldModel", "MeasurementModel", "NxtBeamModel",
-           "model_class", "model_names"]
-
-FloatArray = NDArray[np.float64]
 AUTO = "auto"
 """The `model` that picks for the sensor: the NXT beam model with a `sonar_model`, else the beam model with
 a lobe, the likelihood field for a thin ray."""
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
+
+
+class AmclOptions(Protocol):
+    """What a measurement model reads of the filter it serves (`localisation.amcl.Amcl`): its map, range
+    table and options (lengths in cm, angles in degrees)."""
+
+    map: Map
+    laser_max_range: float
+    beam_width_deg: float
+    lobe_rays: int
+    cast_exact: bool
+    beam_interpolation: bool
+    z_hit: float
+    z_short: float
+    z_rand: float
+    sigma_hit: float
+    lambda_short: float
+    field_resolution_cm: float
+    laser_likelihood_max_dist: float
+    gaussian: RangeLikelihood
+
+    @property
+    def table(self) -> RangeTable:
+        """The range table of expected ranges (built on first use)."""
 
 
 class MeasurementModel(ABC):
@@ -60,7 +81,7 @@ class MeasurementModel(ABC):
 
     Parameters
     ----------
-    amcl : Amcl
+    amcl : AmclOptions
         The filter it serves (its map, range table, options).
     sonar_model : NxtSonar, optional
         The sonar's own beam mixture, for a model that `uses_sonar_model`.
@@ -77,7 +98,7 @@ class MeasurementModel(ABC):
         if "name" in cls.__dict__:
             MEASUREMENT_MODELS.add(cls.name, cls)
 
-    def __init__(self, amcl: Amcl, sonar_model: NxtSonar | None = None) -> None:
+    def __init__(self, amcl: AmclOptions, sonar_model: NxtSonar | None = None) -> None:
         self.amcl = amcl
 
     def readings(self, scan: Scan) -> tuple[FloatArray, FloatArray]:
@@ -148,7 +169,7 @@ class BeamModel(MeasurementModel):
     name = "beam"
     title = "beam model"
 
-    def __init__(self, amcl: Amcl, sonar_model: NxtSonar | None = None) -> None:
+    def __init__(self, amcl: AmclOptions, sonar_model: NxtSonar | None = None) -> None:
         super().__init__(amcl, sonar_model)
         self._lobe: dict[str, Any] | None = None
         half = round(max(amcl.beam_width_deg, 0.0) / 2.0)  # lobe half-width in the table's whole degrees
@@ -249,7 +270,7 @@ class NxtBeamModel(BeamModel):
     title = "NXT beam model"
     uses_sonar_model = True
 
-    def __init__(self, amcl: Amcl, sonar_model: NxtSonar | None = None) -> None:
+    def __init__(self, amcl: AmclOptions, sonar_model: NxtSonar | None = None) -> None:
         super().__init__(amcl, sonar_model)
         assert sonar_model is not None
         self.beam = BeamLikelihood(sonar_model)
@@ -278,7 +299,7 @@ class LikelihoodFieldModel(MeasurementModel):
     name = "field"
     title = "likelihood field"
 
-    def __init__(self, amcl: Amcl, sonar_model: NxtSonar | None = None) -> None:
+    def __init__(self, amcl: AmclOptions, sonar_model: NxtSonar | None = None) -> None:
         super().__init__(amcl, sonar_model)
         self.field = DistanceField(amcl.map, amcl.field_resolution_cm, amcl.laser_likelihood_max_dist)
 
