@@ -41,7 +41,7 @@ def assert_png(path: Path) -> None:
 
 def test_the_docs_show_figures_and_every_one_is_generated() -> None:
     refs = referenced_images()
-    for key in ("mission_map3.png", "planners_paths.png", "localise_map3.png"):
+    for key in ("mission_map3.png", "planners_exec_vs_turns.png", "real_sonar_radar.png"):
         assert "README.md" in refs.get(key, []), f"README.md does not show {key}"
     for doc in ("planners.md", "localisers.md", "missions.md"):
         assert any(doc in docs for docs in refs.values()), f"docs/{doc} shows no figure"

@@ -28,16 +28,22 @@ def test_the_shipped_mit_set() -> None:
         assert s.angles[0] == 0.0
         scan = s.scan()
         assert len(scan) == 360  # no reading is left out: 255 is evidence, not a gap
-        no_echo = s.readings == NO_ECHO
+        # the set declares held_runs = no-echo: the repeats of a held echo read as no echo as well
+        assert s.held_runs == "no-echo" and s.held is not None
+        no_echo = (s.readings == NO_ECHO) | s.held
         assert np.array_equal(~scan.valid, no_echo)
         assert np.all(scan.ranges[~scan.valid] == NO_ECHO)
         assert np.array_equal(scan.ranges[scan.valid], s.readings[~no_echo])
         assert s.no_echo_share == pytest.approx(no_echo.mean())
+        held = np.flatnonzero(s.held)
+        assert np.all(s.readings[held] == s.readings[held - 1])  # each held reading repeats the one before
         raw = (REAL_NXT / s.raw).read_text().split()
         assert [float(v) for v in raw] == s.readings.tolist()  # the file as it is, in the order taken
-    # guard against a vacuous check above: loc_04 has 78 no-echo readings (loc_01 and loc_03 none)
+    # guard against a vacuous check above: loc_04 has 78 no-echo readings in its file (loc_01 and loc_03
+    # none), and each sweep one long held run (its first reading stays an echo)
     assert [int(np.sum(s.readings == NO_ECHO)) for s in ss] == [0, 0, 78]
-    assert int(np.sum(~ss.sweeps[2].scan().valid)) == 78
+    assert [s.held_count for s in ss] == [108, 102, 136]
+    assert int(np.sum(~ss.sweeps[2].scan().valid)) == 78 + 136
 
 
 def test_sweep_angles_both_ways() -> None:
@@ -100,9 +106,9 @@ BROKEN: list[tuple[str, Callable[[Path], None], str, str]] = [
     ("two missing columns", lambda f: _edit_table(f, lambda r: (_drop_column(r, "x_cm"), _drop_column(r, "raw"))),
      "sweeps.csv:1", "missing columns raw, x_cm"),
     ("short row", lambda f: _edit_table(f, lambda r: r[2].__delitem__(slice(10, None))),
-     "sweeps.csv:3", "10 fields, but the header has 15 columns"),
+     "sweeps.csv:3", "10 fields, but the header has 16 columns"),
     ("long row", lambda f: _edit_table(f, lambda r: r[3].append("x")),
-     "sweeps.csv:4", "16 fields"),
+     "sweeps.csv:4", "17 fields"),
     ("non-numeric reading", _bad_line, "loc_03.dat:42", "not a number: '4O'"),
     ("wrong number of readings", _short_file, "loc_03.dat", "359 readings, but sweeps.csv says n_bins = 360"),
     ("raw file not text", _not_text, "loc_03.dat", "not UTF-8"),
