@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import nxtnav_exe
+from conftest import nxtnav_exe, run_cli
 
 from toolkit.cli import _load
 from toolkit.cli.app import click_command
@@ -79,16 +79,26 @@ def test_the_help_texts_that_list_choices_are_many() -> None:
 
 
 @pytest.mark.parametrize("path", sorted(LISTED), ids=" ".join)
-def test_help_lists_the_registry_names(path: tuple[str, ...], tmp_path: Path) -> None:
-    env = {**os.environ, "COLUMNS": "1000"}  # one line per option, as wide as it needs
-    proc = subprocess.run([nxtnav_exe(), *path, "--help"], cwd=tmp_path, env=env, capture_output=True, text=True,
-                          timeout=120)
-    assert proc.returncode == 0, proc.stderr
-    assert "<<" not in proc.stdout
-    lines = proc.stdout.splitlines()
+def test_help_lists_the_registry_names(path: tuple[str, ...], capsys: pytest.CaptureFixture[str],
+                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    # the command's own entry point, in this process (its help is filled in by `main` as for the console
+    # script; `test_the_installed_command_lists_them_too` runs the script itself once)
+    monkeypatch.setenv("COLUMNS", "1000")  # one line per option, as wide as it needs
+    assert run_cli([*path, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "<<" not in out
+    lines = out.splitlines()
     for label, kinds in LISTED[path]:
         # the option's own row: its names come first (`*` marks a required one)
         line = next((ln for ln in lines if ln.startswith("│") and label in ln.replace("│", " ").split()[:3]), None)
         assert line is not None, f"{label} not in the help of nxtnav {' '.join(path)}"
         listed = [group.split(", ") for group in re.findall(r"\{([^{}]*)\}", line)]
         assert listed == [_registry(kind) for kind in kinds], line
+
+
+def test_the_installed_command_lists_them_too(tmp_path: Path) -> None:
+    env = {**os.environ, "COLUMNS": "1000"}
+    proc = subprocess.run([nxtnav_exe(), "localise", "--help"], cwd=tmp_path, env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "{" + ", ".join(_registry("sonar")) + "}" in proc.stdout and "<<" not in proc.stdout
