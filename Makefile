@@ -28,10 +28,13 @@ run: $(STAMP)
 # --durations: each run lists its slowest tests (the candidates for the slow tier)
 PYTEST := $(BIN)/python -m pytest -q -n auto --dist loadgroup
 
+# every tier in one run, so the cores stay busy to the end: the quick tests, the slow end-to-end ones and
+# the documented commands (tier docs: every shell block of README.md and docs/, tools/docs_commands.py)
 test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/mypy
-	$(PYTEST) -m "not docs" --durations=30
+	$(BIN)/python tools/docs_commands.py --summary
+	$(PYTEST) --durations=30
 
 # every shell block of README.md and docs/ run in a temporary folder outside the repository, at the sizes
 # its docs-run marker gives CI, and every stated figure checked (tools/docs_commands.py; --list: what runs)
