@@ -371,8 +371,7 @@ class _Run:
                         self.compute_s += time.perf_counter() - t0
                         self.driver.estimate = est
                         return est
-                self.driver.note(f"global attempt {attempt}: two fixes disagree ({est.pose.x:.0f}, {est.pose.y:.0f}) "
-                                 f"vs ({est2.pose.x:.0f}, {est2.pose.y:.0f})")
+                self.driver.note(f"global attempt {attempt}: {_second_fix_verdict(est, est2, s.confirm_tolerance_cm)}")
                 est = est2
                 fresh = True
             if explores >= s.max_explore_moves:
@@ -458,3 +457,15 @@ def localise(robot: Robot, localiser: Localiser, *, prior: Prior | None = None, 
     """
     return (strategy or GlobalLocalisation()).run(robot, localiser, prior=prior, rng=rng, reset=reset,
                                                   look_options=look_options)
+
+
+def _second_fix_verdict(first: PoseEstimate, second: PoseEstimate, tolerance_cm: float) -> str:
+    """Why a second look did not confirm the first fix, in words: another place, or the same place
+    without a confident estimate (its heading, or its spread)."""
+    def pose(e: PoseEstimate) -> str:
+        return f"({e.pose.x:.0f}, {e.pose.y:.0f}, {math.degrees(e.pose.theta):.0f} deg)"
+
+    if second.pose.distance_to(first.pose) > tolerance_cm:
+        return f"two fixes disagree: {pose(first)} vs {pose(second)}"
+    return (f"the second fix, at the same place, is not confident: {pose(first)} vs {pose(second)}, "
+            f"spread {second.std_xy_cm:.1f} cm, {math.degrees(second.std_heading_rad):.1f} deg")
