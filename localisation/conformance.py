@@ -22,12 +22,12 @@ which mirror the suite's tests parametrised over `LOCALISERS` (``tests/test_loca
 from __future__ import annotations
 
 import math
-import traceback
 from typing import Any
 
 import numpy as np
 
 from toolkit.world import FACETS, ConfigError, LocalisationError, Params, Pose, Scan, load_map, ray_cast
+from toolkit.world.plugin_checks import call_noting, class_problems
 
 from .base import LOCALISERS, Localiser, Motion, Prior
 
@@ -39,28 +39,8 @@ _KALMAN = ("ekf", "ukf")
 """The localisers the suite lets refuse the lobe, the range limit, the beam mixture and the clearance."""
 
 
-def _call(what: str, problems: list[str], fn: Any, *args: Any, **kwargs: Any) -> Any:
-    """``fn(*args, **kwargs)``, or None with a problem line naming the exception and where it arose."""
-    try:
-        return fn(*args, **kwargs)
-    except Exception as exc:
-        frame = traceback.extract_tb(exc.__traceback__)[-1]
-        problems.append(f"{what} raised {type(exc).__name__}: {exc} ({frame.filename}:{frame.lineno})")
-        return None
-
-
 def _class_problems(cls: Any) -> list[str]:
-    if not (isinstance(cls, type) and issubclass(cls, Localiser)):
-        return [f"{cls!r} is not a subclass of localisation.Localiser"]
-    problems = []
-    name = cls.__dict__.get("name")
-    if not isinstance(name, str) or not name:
-        problems.append(f"{cls.__qualname__} sets no `name` (a class attribute: its registry name)")
-    elif name not in LOCALISERS or LOCALISERS.get(name) is not cls:
-        problems.append(f"{cls.__qualname__} is not registered as {name!r} (set `name` in the class body)")
-    if getattr(cls, "__abstractmethods__", None):
-        problems.append(f"{cls.__qualname__} does not implement {', '.join(sorted(cls.__abstractmethods__))}")
-    return problems
+    return class_problems(cls, Localiser, LOCALISERS, "localisation.Localiser")
 
 
 def _params_problems(cls: type[Localiser]) -> list[str]:
@@ -127,23 +107,23 @@ def _track(cls: type[Localiser], options: dict[str, Any]) -> tuple[np.ndarray, P
 
 def _behaviour_problems(cls: type[Localiser]) -> list[str]:
     problems: list[str] = []
-    base = _call("tracking on map1", problems, _track, cls, {})
+    base = call_noting("tracking on map1", problems, _track, cls, {})
     if base is None:
         return problems
     vector = base[0]
     if not np.all(np.isfinite(vector)):
         problems.append(f"the estimate after tracking on map1 is not finite: {vector[:3].tolist()}")
-    again = _call("tracking on map1 (same seed)", problems, _track, cls, {})
+    again = call_noting("tracking on map1 (same seed)", problems, _track, cls, {})
     if again is not None and not np.array_equal(vector, again[0]):
         problems.append("the same seed gave two different estimates: draw every random number from self.rng")
     params = cls.params
     if isinstance(params, Params) and all(key in params for key in _REQUIRED):
         declared = {k: v for k, v in params.defaults().items() if k != "cache_dir"}
-        with_defaults = _call("tracking with the declared defaults", problems, _track, cls, declared)
+        with_defaults = call_noting("tracking with the declared defaults", problems, _track, cls, declared)
         if with_defaults is not None and not np.array_equal(vector, with_defaults[0]):
             problems.append("the declared defaults (params) differ from the constructor's: the two localisers "
                             "give different estimates")
-        inflated = _call("tracking with motion_inflation=4", problems, _track, cls, {"motion_inflation": 4.0})
+        inflated = call_noting("tracking with motion_inflation=4", problems, _track, cls, {"motion_inflation": 4.0})
         if inflated is not None and np.array_equal(vector, inflated[0]):
             problems.append("motion_inflation=4 changes nothing: the option does not reach the motion model")
     return problems
@@ -178,5 +158,5 @@ def check_localiser(cls: Any) -> list[str]:
     if problems:
         return problems
     problems = _params_problems(cls) + _robot_problems(cls)
-    problems += _call("a global start", problems, _global_start_problems, cls) or []
+    problems += call_noting("a global start", problems, _global_start_problems, cls) or []
     return problems + _behaviour_problems(cls)

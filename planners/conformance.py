@@ -18,12 +18,12 @@ mirror the suite's tests parametrised over `PLANNERS` (``tests/test_planners.py`
 
 from __future__ import annotations
 
-import traceback
 from typing import Any
 
 import numpy as np
 
 from toolkit.world import CollisionChecker, Map, Params, load_map
+from toolkit.world.plugin_checks import call_noting, class_problems
 
 from .base import PLANNERS, Planner, PlanningProblem, PlanResult, PlanStatus
 
@@ -37,29 +37,10 @@ _GOAL_IN_WALL = (100.0, 0.0)
 """A goal on map1's bottom wall: every disc there overlaps the wall."""
 
 
-def _call(what: str, problems: list[str], fn: Any, *args: Any, **kwargs: Any) -> Any:
-    """``fn(*args, **kwargs)``, or None with a problem line naming the exception and where it arose."""
-    try:
-        return fn(*args, **kwargs)
-    except Exception as exc:
-        frame = traceback.extract_tb(exc.__traceback__)[-1]
-        problems.append(f"{what} raised {type(exc).__name__}: {exc} ({frame.filename}:{frame.lineno})")
-        return None
-
-
 def _class_problems(cls: Any) -> list[str]:
-    if not (isinstance(cls, type) and issubclass(cls, Planner)):
-        return [f"{cls!r} is not a subclass of planners.Planner"]
-    problems: list[str] = []
-    name = cls.__dict__.get("name")
-    if not isinstance(name, str) or not name:
-        problems.append(f"{cls.__qualname__} sets no `name` (a class attribute: its registry name)")
-    elif name not in PLANNERS or PLANNERS.get(name) is not cls:
-        problems.append(f"{cls.__qualname__} is not registered as {name!r} (set `name` in the class body)")
-    if getattr(cls, "__abstractmethods__", None):
-        problems.append(f"{cls.__qualname__} does not implement {', '.join(sorted(cls.__abstractmethods__))}")
+    problems = class_problems(cls, Planner, PLANNERS, "planners.Planner")
     params = getattr(cls, "params", None)
-    if not isinstance(params, Params) or len(params) == 0:
+    if isinstance(cls, type) and issubclass(cls, Planner) and (not isinstance(params, Params) or len(params) == 0):
         problems.append(f"{cls.__qualname__} declares no options: set `params = Params(Param(...), ...)` "
                         "(toolkit.world) with each constructor keyword's type, default, range and description")
     return problems
@@ -98,8 +79,8 @@ def _preset_problems(cls: type[Planner], planner: Planner, map_name: str) -> tup
     problems: list[str] = []
     m = load_map(map_name)
     checker = CollisionChecker(m, _RADIUS_CM)
-    shortest = _call("the shortest path (reference)", [], _plan, PLANNERS.create("shortest"), m, checker)
-    result = _call(f"plan ({map_name} preset query)", problems, _plan, planner, m, checker)
+    shortest = call_noting("the shortest path (reference)", [], _plan, PLANNERS.create("shortest"), m, checker)
+    result = call_noting(f"plan ({map_name} preset query)", problems, _plan, planner, m, checker)
     if result is not None:
         problems += _path_problems(result, m, checker, None if shortest is None else shortest.length -
                                    shortest.info.get("length_tolerance_cm", 0.0) - 1e-9)
@@ -111,12 +92,12 @@ def _declared_defaults_problems(cls: type[Planner], m: Map, checker: CollisionCh
     if not isinstance(params, Params) or len(params) == 0:
         return []  # told already
     problems: list[str] = []
-    plain = _call(f"{cls.__qualname__}()", problems, cls)
-    declared = _call(f"{cls.__qualname__}(**declared defaults)", problems, cls, **params.defaults())
+    plain = call_noting(f"{cls.__qualname__}()", problems, cls)
+    declared = call_noting(f"{cls.__qualname__}(**declared defaults)", problems, cls, **params.defaults())
     if plain is None or declared is None:
         return problems
-    a = _call("plan (no options)", problems, _plan, plain, m, checker)
-    b = _call("plan (declared defaults)", problems, _plan, declared, m, checker)
+    a = call_noting("plan (no options)", problems, _plan, plain, m, checker)
+    b = call_noting("plan (declared defaults)", problems, _plan, declared, m, checker)
     if a is not None and b is not None and not np.array_equal(a.path, b.path):
         problems.append("the declared defaults (params) differ from the constructor's: the two planners "
                         "plan different paths")
@@ -139,7 +120,7 @@ def check_planner(cls: Any) -> list[str]:
     problems = _class_problems(cls)
     if not (isinstance(cls, type) and issubclass(cls, Planner)) or getattr(cls, "__abstractmethods__", None):
         return problems
-    planner = _call(f"{cls.__qualname__}()", problems, cls)
+    planner = call_noting(f"{cls.__qualname__}()", problems, cls)
     if planner is None:
         return problems
     results = {}
@@ -149,11 +130,11 @@ def check_planner(cls: Any) -> list[str]:
     m = load_map("map1")
     checker = CollisionChecker(m, _RADIUS_CM)
     result = results["map1"]
-    again = _call("plan (same seed again)", problems, _plan, cls(), m, checker)
+    again = call_noting("plan (same seed again)", problems, _plan, cls(), m, checker)
     if result is not None and again is not None and not np.array_equal(result.path, again.path):
         problems.append(f"the same seed ({_SEED}) gave two different paths: draw every random number from "
                         "problem.rng")
-    blocked = _call("plan (goal in a wall)", problems, _plan, planner, m, checker, _GOAL_IN_WALL)
+    blocked = call_noting("plan (goal in a wall)", problems, _plan, planner, m, checker, _GOAL_IN_WALL)
     if blocked is not None and (blocked.success or blocked.status is not PlanStatus.GOAL_IN_COLLISION):
         problems.append(f"a goal inside a wall gave {blocked.message!r}, not a failed result with status "
                         "'goal in collision'")
