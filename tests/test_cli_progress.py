@@ -66,3 +66,17 @@ def test_long_sonar_commands_say_how_far_they_are(argv: list[str], label: str, t
     total = int(steps[0].split("/")[1].split()[0])
     assert total >= 3
     assert [int(ln.split(": ")[1].split("/")[0]) for ln in steps] == list(range(total + 1))
+
+
+def test_a_late_bar_counts_the_time_since_the_work_began() -> None:
+    # progress_after shows its lines only after a while: their clock starts when the work did, not then
+    import io
+    import time
+
+    from toolkit.cli.progress import LineProgress
+
+    out = io.StringIO()
+    bar = LineProgress("steps", 4, out, done=2, started=time.monotonic() - 10.0)
+    bar.advance()
+    seconds = int(out.getvalue().split(", ")[-1].split()[0])
+    assert out.getvalue().startswith("steps: 3/4 (75 %)") and seconds >= 10

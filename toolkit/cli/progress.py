@@ -35,15 +35,18 @@ class LineProgress:
         Longest quiet spell between two lines while tasks finish (s).
     done : int
         Tasks already finished when the count starts.
+    started : float, optional
+        When the work began (`time.monotonic`), if before the count starts: the lines give the time since.
     announce : bool
         Also write a line when the work starts (for a few long tasks: the first may take a while).
     """
 
     def __init__(self, label: str, total: int, stream: TextIO, every_s: float = 30.0, done: int = 0,
-                 announce: bool = False) -> None:
+                 announce: bool = False, started: float | None = None) -> None:
         self.label, self.total, self.stream, self.every_s = label, total, stream, every_s
         self.done = done
-        self._t0 = self._last_t = time.monotonic()
+        self._last_t = time.monotonic()
+        self._t0 = self._last_t if started is None else started
         self._last_tenth = -1
         if announce:  # a line at once, before the first task ends
             print(f"{self.label}: 0/{self.total} (0 %), 0 s", file=self.stream, flush=True)
@@ -61,7 +64,7 @@ class LineProgress:
 
 @contextmanager
 def progress(label: str, total: int, *, transient: bool = False, done: int = 0,
-             announce: bool = False) -> Iterator[Advance]:
+             announce: bool = False, started: float | None = None) -> Iterator[Advance]:
     """Report the progress of `total` tasks on stderr, `done` of them already finished; yields the
     function to call as each finishes.
 
@@ -80,7 +83,7 @@ def progress(label: str, total: int, *, transient: bool = False, done: int = 0,
 
     console = Console(file=sys.stderr)
     if not console.is_terminal:
-        yield LineProgress(label, total, sys.stderr, done=done, announce=announce).advance
+        yield LineProgress(label, total, sys.stderr, done=done, announce=announce, started=started).advance
         return
     from rich.progress import (
         BarColumn,
@@ -126,7 +129,8 @@ def progress_after(label: str, total: int, after_s: float | None = None) -> Iter
             if shown:
                 shown[0]()
             elif time.monotonic() - started >= wait_s:
-                shown.append(stack.enter_context(progress(label, total, transient=True, done=done - 1)))
+                shown.append(stack.enter_context(progress(label, total, transient=True, done=done - 1,
+                                                          started=started)))
                 shown[0]()
 
         yield advance
