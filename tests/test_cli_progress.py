@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import re
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -70,11 +71,6 @@ def test_long_sonar_commands_say_how_far_they_are(argv: list[str], label: str, t
 
 def test_a_late_bar_counts_the_time_since_the_work_began() -> None:
     # progress_after shows its lines only after a while: their clock starts when the work did, not then
-    import io
-    import time
-
-    from toolkit.cli.progress import LineProgress
-
     out = io.StringIO()
     bar = LineProgress("steps", 4, out, done=2, started=time.monotonic() - 10.0)
     bar.advance()
