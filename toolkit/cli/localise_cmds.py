@@ -140,6 +140,39 @@ def _scenarios(text: str) -> list[str]:
     return parse_list(text, "--scenario", list(SCENARIOS))
 
 
+def _check_bench_numbers(exploration: str, trials: int, workers: int, sensor_noise: float, out: Path,
+                         force: bool) -> None:
+    """The benchmark's exploration rule, counts, noise and output folder, checked before any work."""
+    from localisation.global_localisation import EXPLORATIONS
+
+    if exploration not in EXPLORATIONS:
+        raise NxtnavError(f"--exploration: unknown rule {exploration!r}; known: {', '.join(EXPLORATIONS)}")
+    if trials < 1:
+        raise NxtnavError(f"--trials must be >= 1, got {trials}")
+    if workers < 1:
+        raise NxtnavError(f"--workers must be >= 1, got {workers}")
+    check_out_folder(out, force)
+    if not math.isfinite(sensor_noise) or sensor_noise < 0:
+        raise NxtnavError(f"--sensor-noise must be a non-negative number, got {sensor_noise}")
+
+
+def _bench_command(maps: list[str], locs: list[str], trials: int, sonar: str, sonar_profile_path: Path | None,
+                   scenarios: list[str], seed: int, tracker_prior: str, scan_processing: str, exploration: str,
+                   lobe: str, radius: float | None, out: Path, workers: int, dask: str | None,
+                   sets: list[str]) -> str:
+    """The command line that reproduces a localiser benchmark, for its summary."""
+    return " ".join(shlex.quote(a) for a in [
+        "nxtnav", "bench", "localisers", "--maps", ",".join(maps), "--localisers", ",".join(locs),
+        "--trials", str(trials), "--sonar", sonar,
+        *(["--sonar-profile", str(sonar_profile_path)] if sonar_profile_path is not None else []),
+        "--scenario", ",".join(scenarios), "--seed", str(seed),
+        "--tracker-prior", tracker_prior, "--scan-processing", scan_processing,
+        *(["--exploration", exploration] if exploration != "modes" else []), "--lobe", lobe,
+        *(["--radius", f"{radius:g}"] if radius is not None else []), "--out", str(out),
+        "--workers", str(workers),
+        *(["--dask", dask] if dask else []), *[a for s in sets for a in ("--set", s)]])
+
+
 @bench_app.command("localisers")
 def bench_localisers(
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps."),
@@ -175,7 +208,6 @@ def bench_localisers(
     dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
 ) -> None:
     """Benchmark localisers on random true poses: runs.csv, summary.md and plots in --out."""
-    from localisation.global_localisation import EXPLORATIONS
 
     from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.localisers import FILES, BenchConfig, TrialResult, make_tasks, run_trial, write_csv, write_summary
@@ -189,15 +221,7 @@ def bench_localisers(
     _check_sonar(sonar)
     profile = sonar_profile(sonar_profile_path, sonar)
     scenarios = _scenarios(scenario)
-    if exploration not in EXPLORATIONS:
-        raise NxtnavError(f"--exploration: unknown rule {exploration!r}; known: {', '.join(EXPLORATIONS)}")
-    if trials < 1:
-        raise NxtnavError(f"--trials must be >= 1, got {trials}")
-    if workers < 1:
-        raise NxtnavError(f"--workers must be >= 1, got {workers}")
-    check_out_folder(out, force)
-    if not math.isfinite(sensor_noise) or sensor_noise < 0:
-        raise NxtnavError(f"--sensor-noise must be a non-negative number, got {sensor_noise}")
+    _check_bench_numbers(exploration, trials, workers, sensor_noise, out, force)
     options = localiser_sets(sets, locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
@@ -218,16 +242,8 @@ def bench_localisers(
                 raise Interrupted(f"no trial had finished (of {len(tasks)}); nothing written") from None
     wall = time.perf_counter() - t0
     written = [write_csv(results, out / FILES[s], s) for s in scenarios]
-    command = " ".join(shlex.quote(a) for a in [
-        "nxtnav", "bench", "localisers", "--maps", ",".join(maps), "--localisers", ",".join(locs),
-        "--trials", str(trials), "--sonar", sonar,
-        *(["--sonar-profile", str(sonar_profile_path)] if sonar_profile_path is not None else []),
-        "--scenario", ",".join(scenarios), "--seed", str(seed),
-        "--tracker-prior", tracker_prior, "--scan-processing", scan_processing,
-        *(["--exploration", exploration] if exploration != "modes" else []), "--lobe", lobe,
-        *(["--radius", f"{radius:g}"] if radius is not None else []), "--out", str(out),
-        "--workers", str(workers),
-        *(["--dask", dask] if dask else []), *[a for s in sets for a in ("--set", s)]])
+    command = _bench_command(maps, locs, trials, sonar, sonar_profile_path, scenarios, seed, tracker_prior,
+                             scan_processing, exploration, lobe, radius, out, workers, dask, sets)
     written.append(write_summary(results, out / "summary.md", config=cfg, maps=maps, localisers=locs,
                                  trials=trials, seed=seed, command=command, wall_time_s=wall))
     if not interrupted:  # the plots compare every localiser on every map: not for a partial run

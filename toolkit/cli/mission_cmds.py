@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Any
 
@@ -11,10 +10,9 @@ import numpy as np
 import typer
 
 from ..formats import json_safe
-from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, RobotModel, load_map, make_checker
+from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, load_map, make_checker
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
 from .choices import one_of
-from .compiling import compile_note
 from .options import (
     COLLISION_HELP,
     NOISE_MODEL_HELP,
@@ -36,6 +34,7 @@ from .options import collision as collision_ok
 from .options import seed as seed_ok
 from .options import workers as workers_ok
 from .progress import progress
+from .run_parts import RunOutputs, Stack, mission_on_nxt, mission_on_sim
 
 __all__: list[str] = []
 
@@ -166,7 +165,6 @@ def run(
                                           help="Stream the live view into a Rerun file instead of a viewer."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
-    from ..mission import MissionConfig, localiser_options, run_mission, run_sim_mission
     from ..robots.sim import simulated_sonar
 
     m = load_map(map_name)
@@ -176,11 +174,8 @@ def run(
     sensor_noise, motion_noise, turn_noise = _noise(noise_text)
     start_heading = parse_heading_prior(start_heading_text, "--start-heading")
     fitted_sonar = sonar_profile(sonar_profile_path, "nxt" if robot_kind == "nxt" else sonar)
-    check_writable(json_out, "--json")
-    check_writable(plot, "--plot")
-    check_writable(animate, "--animate")
-    check_writable(view_save, "--view-save")
-    _check_view(view, view_save)  # Rerun, a display, the viewer program: before any work
+    outputs = RunOutputs(record, record_particles, view, view_save, json_out, plot, animate)
+    outputs.check()
     if start_text is not None and random_start:
         raise typer.BadParameter("give either --start or --random-start", param_hint="--start")
     target = np.array(parse_xy(target_text, "--target")) if target_text is not None else m.target
@@ -189,153 +184,42 @@ def run(
     # the sonar model: the simulator's readings come from it; a real NXT's localiser is told it
     named = "nxt" if robot_kind == "nxt" else sonar
     sonar_model = simulated_sonar(named if fitted_sonar is None else fitted_sonar, sensor_noise)
+    stack = Stack(planner, localiser, seed, collision, start_heading)
+    doc: dict[str, Any] = {"robot": robot_kind, "sonar_model": sonar_model.to_dict()}
     if robot_kind == "nxt":
         if start_text is not None or random_start:
             raise typer.BadParameter("the start of a real robot is unknown; --start/--random-start are for the "
                                      "simulator", param_hint="--start")
-        from ..robots.model_clock import ModelClock
-
-        robot = ModelClock(_connect_nxt(nxt_backend, server_host, server_port, profile, reply_timeout))
-        recorder: Any = None
-        report: Any = None
-        stream: Any = None
-        robot_radius = float(robot.geometry.radius_cm)
-        try:
-            stream = _view_stream(view, view_save)
-            if record is not None or stream is not None:
-                recorder = _recorder(record, m, {"kind": "nxt", "link": robot.link, "virtual": robot.virtual,
-                                                 "profile": robot.profile.to_dict()},
-                                     {"model": "nxt", "params": sonar_model.to_dict()}, seed, None,
-                                     record_particles, collision, stream)
-            # the virtual brick draws every reading independently; a real sensor's readings share errors
-            robot_model = RobotModel(sonar_model, geometry=robot.geometry,
-                                     readings="simulated" if robot.virtual else "real")
-            opts = localiser_options(localiser, robot_model)
-            report = run_mission(robot, m, target, planner=planner, localiser=localiser, rng=seed,
-                                 config=MissionConfig.for_sonar("nxt", localiser_options=opts, collision=collision),
-                                 recorder=recorder, reconnect_timeout_s=reconnect_timeout,
-                                 start_heading=start_heading)
-        finally:
-            robot.close()
-            _finish(recorder, report, stream)
-        model_time = robot.model_time_s
+        robot = _connect_nxt(nxt_backend, server_host, server_port, profile, reply_timeout)
+        report, robot_radius, model_time = mission_on_nxt(robot, m, target, stack, sonar_model, outputs,
+                                                          reconnect_timeout)
+        doc["model_robot_time_s"] = model_time
     else:
-        model_time = math.nan
         robot_radius = radius if radius is not None else RobotGeometry().radius_cm  # the simulator's robot
-        start: Any = None
-        if start_text is not None:
-            start = parse_pose(start_text, "--start", heading_required=False)
-            xy = start.xy if isinstance(start, Pose) else np.array(start)
-            if not m.contains(xy):
-                raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
-                                         param_hint="--start")
-
-        stream = _view_stream(view, view_save)
-        recorder = report = None
-        try:
-            recorder = None if record is None and stream is None else _recorder(
-                record, m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
-                {"model": sonar, "sensor_noise": sensor_noise, "params": sonar_model.to_dict()}, seed,
-                {"model": noise_model, "motion": motion_noise, "turn": turn_noise}, record_particles, collision,
-                stream)
-            with compile_note("the collision checks, localisers and planners"):  # a first run's long wait
-                report = run_sim_mission(
-                    m, seed=seed, start=start, random_start_pose=random_start, target=target, planner=planner,
-                    localiser=localiser, noise_model=noise_model, sensor_noise=sensor_noise,
-                    motion_noise=motion_noise, turn_noise=turn_noise, sonar=sonar, sonar_model=fitted_sonar,
-                    recorder=recorder, robot_radius_cm=radius, start_heading=start_heading,
-                    config=MissionConfig.for_sonar(sonar, collision=collision),
-                )
-        finally:
-            _finish(recorder, report, stream)
+        simulator = {"sonar": sonar, "noise_model": noise_model, "sensor_noise": sensor_noise,
+                     "motion_noise": motion_noise, "turn_noise": turn_noise}
+        report = mission_on_sim(m, target, _sim_start(start_text, m), random_start, stack, simulator,
+                                fitted_sonar, sonar_model, radius, robot_radius, outputs)
+        doc["simulator"] = simulator
     typer.echo(report.summary())
-    if record is not None:
-        typer.echo(f"wrote {record}")
-    if view_save is not None:
-        typer.echo(f"wrote {view_save}")
-    if robot_kind == "nxt":
-        typer.echo(f"robot time by the simulator's time model for the same commands: {model_time:.1f} s")
-    if json_out is not None:
-        doc = report.to_dict()
-        doc["robot"] = robot_kind
-        doc["sonar_model"] = sonar_model.to_dict()
-        if robot_kind == "nxt":
-            doc["model_robot_time_s"] = model_time
-        if robot_kind == "sim":
-            doc["simulator"] = {"sonar": sonar, "noise_model": noise_model, "sensor_noise": sensor_noise,
-                                "motion_noise": motion_noise, "turn_noise": turn_noise}
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
-        typer.echo(f"wrote {json_out}")
-    if plot is not None or animate is not None:
-        from ..bench.paper_plots import animate_mission, draw_mission
-        from ..plotting import new_axes, save_figure
-
-        if plot is not None:
-            fig, ax = new_axes(size=6.0)
-            draw_mission(report, m, ax)
-            save_figure(fig, plot)
-            typer.echo(f"wrote {plot}")
-        if animate is not None:
-            animate_mission(report, m, animate)
-            typer.echo(f"wrote {animate}")
+    note = None if robot_kind != "nxt" else \
+        f"robot time by the simulator's time model for the same commands: {doc['model_robot_time_s']:.1f} s"
+    outputs.write(report, m, doc, note)
     if not report.success:  # a target no robot disc fits on is bad input (2); any other failure is 1
         reachable = bool(m.contains(target)) and bool(make_checker(m, robot_radius, collision).point_free(target))
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED if reachable else EXIT_BAD_INPUT)
 
 
-def _check_view(view: bool, save: Path | None) -> None:
-    """Fail at once, in one line, when the asked view cannot be: Rerun missing, or for a viewer, no
-    display or no viewer program."""
-    if not view and save is None:
-        return
-    from ..view.viewer import check_view
-
-    check_view("--view-save" if save is not None else "--view", "--view-save", spawn=save is None)
-
-
-def _view_stream(view: bool, save: Path | None) -> Any:
-    """The live view's Rerun stream (a viewer, or the file `save`), or None without a view."""
-    if not view and save is None:
+def _sim_start(text: str | None, m: Any) -> Any:
+    """The simulator's start from ``--start`` (a pose, or a position with a seeded heading), or None."""
+    if text is None:
         return None
-    from ..view.live import open_stream
-
-    return open_stream(save, what="--view-save" if save is not None else "--view", save_option="--view-save")
-
-
-def _recorder(path: Path | None, m: Any, robot: dict[str, Any], sonar: dict[str, Any], seed: int,
-              noise: dict[str, Any] | None, particles: int, collision: str, stream: Any = None) -> Any:
-    """The run's `Recorder`: writing `path` (None: no file) and feeding the live view on `stream`."""
-    from ..recording import Recorder
-
-    listeners = []
-    if stream is not None:
-        from ..view.live import LiveView
-
-        listeners.append(LiveView(stream))
-    try:
-        if path is not None:
-            path.parent.mkdir(parents=True, exist_ok=True)
-        extra: dict[str, Any] = {"collision": collision}
-        if noise is not None:
-            extra["noise"] = noise
-        recorder = Recorder(path, map=m, robot=robot, sonar=sonar, seed=seed, extra=extra, particles=particles,
-                            listeners=listeners)
-    except OSError as exc:
-        raise NxtnavError(f"--record: cannot write {path} ({exc.strerror or exc})") from None
-    return recorder
-
-
-def _finish(recorder: Any, report: Any, stream: Any) -> None:
-    """Close a recording: with its ``end`` line after a mission that ran, without one (cut short) after an error;
-    then the live view's stream."""
-    if recorder is not None:
-        recorder.close(None if report is None else report.status, None if report is None else report.success,
-                       end=report is not None)
-    if stream is not None:
-        from ..view.live import close_stream
-
-        close_stream(stream)
+    start = parse_pose(text, "--start", heading_required=False)
+    xy = start.xy if isinstance(start, Pose) else np.array(start)
+    if not m.contains(xy):
+        raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
+                                 param_hint="--start")
+    return start
 
 
 def _names(text: str, option: str, known: list[str]) -> list[str]:
@@ -465,7 +349,7 @@ def paper(
 ) -> None:
     """The paper's Table I regenerated: completion time, final error, path length, collisions, robot time."""
     from ..bench.executors import TasksInterrupted
-    from ..bench.paper import in_task_order, paper_tasks, run_paper, summarise, tables_to_markdown
+    from ..bench.paper import in_task_order, paper_tasks, run_paper, summarise
 
     sonars = _names(sonar or ("ideal,nxt" if pareto is not None else "ideal"), "--sonar", SONAR_MODELS.names())
     profile = sonar_profile(sonar_profile_path, sonars)
@@ -495,9 +379,19 @@ def paper(
     complete = done == len(tasks)
     if not complete and not tables:
         raise Interrupted(f"no mission had finished (of {len(tasks)}); nothing written")
+    _write_paper(tables, results, done, len(tasks), json_out, markdown, plot)
+
+
+def _write_paper(tables: list[Any], results: list[Any], done: int, planned: int, json_out: Path | None,
+                 markdown: Path | None, plot: Path | None) -> None:
+    """Print Table I (marked incomplete when only `done` of the `planned` missions finished) and the first
+    failures, write it as JSON, Markdown and a plot where asked; after an interrupt, say where it is."""
+    from ..bench.paper import tables_to_markdown
+
+    complete = done == planned
     text = tables_to_markdown(tables)
     if not complete:
-        text = (f"**INCOMPLETE**: interrupted after {done} of {len(tasks)} missions; the rows below cover only "
+        text = (f"**INCOMPLETE**: interrupted after {done} of {planned} missions; the rows below cover only "
                 f"the finished missions.\n\n{text}")
     typer.echo(text)
     for t in tables:
@@ -507,7 +401,7 @@ def paper(
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         doc = json_safe([{**t.to_dict(), "complete": complete, "missions_done": done,
-                        "missions_planned": len(tasks)} for t in tables])
+                        "missions_planned": planned} for t in tables])
         json_out.write_text(json.dumps(doc, indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
     if markdown is not None:
@@ -524,4 +418,4 @@ def paper(
         saved = [str(p) for p in (json_out, markdown) if p is not None]
         where = f"partial results (marked incomplete) in {' and '.join(saved)}" if saved else \
             "the partial table is printed above (give --json/--markdown to keep it in a file)"
-        raise Interrupted(f"{done} of {len(tasks)} missions done; {where}")
+        raise Interrupted(f"{done} of {planned} missions done; {where}")

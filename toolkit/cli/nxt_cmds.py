@@ -16,7 +16,7 @@ from ..robots.nxt_profile import calibrated_track_width, calibrated_wheel_diamet
 from ..robots.virtual_brick import BrickServer
 from ..robots.virtual_brick_world import BrickConfig, BrickWorld
 from ..seeds import derive_seed
-from ..world import SONAR_MODELS, ConfigError, Pose, RobotGeometry, load_map
+from ..world import SONAR_MODELS, ConfigError, Map, Pose, RobotGeometry, load_map
 from .app import brick_app, nxt_app
 from .choices import one_of
 from .options import (
@@ -66,6 +66,20 @@ def _connect(backend: str, host: str, port: int, address: str | None, name: str 
 
 def _say_fired(fault: Fault, fired: Fired) -> None:
     _echo(f"fault {fault.text} fired at brick time {fired.time_s:.2f} s")
+
+
+def _brick_pose(text: str | None, m: Map) -> Pose:
+    """The virtual brick's true pose from ``--pose`` (None: the map's start, facing +x), in the free area."""
+    if text is None:
+        if m.start is None:
+            raise typer.BadParameter(f"map {m.name} has no start preset; give --pose", param_hint="--pose")
+        return Pose(float(m.start[0]), float(m.start[1]), 0.0)
+    pose = parse_pose(text, "--pose")
+    assert isinstance(pose, Pose)
+    if not m.contains(pose.xy):
+        raise typer.BadParameter(f"({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
+                                 param_hint="--pose")
+    return pose
 
 
 @brick_app.command("serve")
@@ -121,17 +135,7 @@ def brick_serve(
     profile = sonar_profile(sonar_profile_path, sonar)
     check_writable(log, "--log")
     m = load_map(map_name)
-    if pose_text is None:
-        if m.start is None:
-            raise typer.BadParameter(f"map {m.name} has no start preset; give --pose", param_hint="--pose")
-        pose = Pose(float(m.start[0]), float(m.start[1]), 0.0)
-    else:
-        parsed = parse_pose(pose_text, "--pose")
-        assert isinstance(parsed, Pose)
-        pose = parsed
-        if not m.contains(pose.xy):
-            raise typer.BadParameter(f"({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
-                                     param_hint="--pose")
+    pose = _brick_pose(pose_text, m)
     if max_step is None:
         max_step = 0.25 if time_factor <= 1.0 else 0.02
     try:

@@ -92,11 +92,9 @@ def plan(
     """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
     from planners.declarations import planner_kwargs, planner_params
-    from planners.metrics import path_metrics
 
-    from ..bench.execution import execution_error
     from ..bench.planners import check_planner_names, planner_for
-    from ..plotting import draw_cspace, draw_map, draw_path, new_axes, save_figure
+    from ..plotting import draw_cspace, draw_map, new_axes, save_figure
 
     if not (math.isfinite(time_limit) and time_limit > 0):
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
@@ -109,22 +107,8 @@ def plan(
     with compile_note(_KERNELS):
         checker = make_checker(m, radius, collision)
 
-    def point(text: str | None, option: str, preset: Any) -> np.ndarray:
-        if text is None:
-            if preset is None:
-                raise NxtnavError(f"{option}: map {m.name!r} has no preset; give {option} X,Y")
-            p = np.asarray(preset, dtype=float)
-            where = f"{option} (the map's preset)"
-        else:
-            p = np.array(parse_xy(text, option))
-            where = option
-        if not checker.point_free(p):  # typed or preset: the robot does not fit there (bad input, not a failed plan)
-            raise PlanningError(f"{where} ({p[0]:g}, {p[1]:g}) puts the robot (radius {radius:g} cm) in a wall "
-                                f"or outside map {m.name!r}")
-        return p
-
-    start = point(start_text, "--start", m.start)
-    goal = point(goal_text, "--goal", m.target)
+    start = _query_point(start_text, "--start", m.start, m, checker, radius)
+    goal = _query_point(goal_text, "--goal", m.target, m, checker, radius)
     problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed))
     built = planner_for(planner, m, options) or make_planner(planner, **planner_kwargs(planner, options))
     with compile_note(_KERNELS):  # before the timer: planning time never holds compilation
@@ -142,26 +126,7 @@ def plan(
     ax.plot(*goal, "*", color="tab:red", ms=14, label="goal", zorder=6)
     lines = [f"{planner} on {m.name}: {result.message} in {1e3 * result.time_s:.2f} ms"]
     if result.success:
-        from planners.metrics import count_turns, path_length
-
-        sp, ml = refs.get("shortest"), refs.get("min-link")
-        met = path_metrics(result.path, checker,
-                           reference_length=path_length(sp) if sp is not None else None,
-                           reference_turns=count_turns(ml) if ml is not None else None)
-        doc["metrics"] = met.to_dict()
-        draw_path(result.path, ax, label=planner)
-        if sp is not None and planner != "shortest":
-            ax.plot(sp[:, 0], sp[:, 1], "--", color="0.25", lw=1.2, label="shortest", zorder=5)
-        ratio = f" (x{met.length_ratio:.3f} shortest)" if math.isfinite(met.length_ratio) else ""
-        lines.append(f"length {met.length_cm:.1f} cm{ratio}, {met.turns} turns "
-                     f"({math.degrees(met.turn_angle_rad):.0f} deg), min clearance {met.min_clearance_cm:.1f} cm")
-        if exec_repeats > 0 and len(result.path) >= 2:
-            ex = execution_error(result.path, checker, goal=goal, repeats=exec_repeats, noise=nz, rng=seed)
-            doc["execution"] = ex.to_dict()
-            lines.append(f"execution error {ex.mean_cm:.2f} cm mean, {ex.median_cm:.2f} cm median "
-                         f"({ex.repeats} drives, {nz.model} noise), touched a wall in "
-                         f"{100 * ex.collision_fraction:.0f}%")
-        lines.append(f"{result.collision_checks} collision checks ({checker.backend})")
+        lines += _found_path(result, planner, refs, checker, goal, (exec_repeats, nz, seed), ax, doc)
     doc["references"] = {k: {"path": v.tolist(), "length_cm": float(np.sum(np.hypot(*np.diff(v, axis=0).T)))}
                          for k, v in refs.items()}
     ax.set_title("\n".join(lines), fontsize=9)
@@ -175,6 +140,54 @@ def plan(
         typer.echo(line)
     if not result.success:
         raise fail(f"{planner} found no path on {m.name}: {result.message}", code=1)
+
+
+
+def _query_point(text: str | None, option: str, preset: Any, m: Any, checker: Any, radius: float) -> np.ndarray:
+    """The start or goal typed as `text` (None: the map's `preset`): a point where the robot fits, else a
+    `PlanningError` (bad input, not a failed plan)."""
+    if text is None:
+        if preset is None:
+            raise NxtnavError(f"{option}: map {m.name!r} has no preset; give {option} X,Y")
+        p = np.asarray(preset, dtype=float)
+        where = f"{option} (the map's preset)"
+    else:
+        p = np.array(parse_xy(text, option))
+        where = option
+    if not checker.point_free(p):
+        raise PlanningError(f"{where} ({p[0]:g}, {p[1]:g}) puts the robot (radius {radius:g} cm) in a wall "
+                            f"or outside map {m.name!r}")
+    return p
+
+
+def _found_path(result: Any, planner: str, refs: dict[str, np.ndarray], checker: Any, goal: np.ndarray,
+                execution: tuple[int, Any, int], ax: Any, doc: dict[str, Any]) -> list[str]:
+    """A found path's metrics against the references and its open-loop execution error (`execution`:
+    drives, noise, seed): drawn on `ax` with the shortest path, added to `doc`, and the lines saying so."""
+    from planners.metrics import count_turns, path_length, path_metrics
+
+    from ..bench.execution import execution_error
+    from ..plotting import draw_path
+
+    sp, ml = refs.get("shortest"), refs.get("min-link")
+    met = path_metrics(result.path, checker, reference_length=path_length(sp) if sp is not None else None,
+                       reference_turns=count_turns(ml) if ml is not None else None)
+    doc["metrics"] = met.to_dict()
+    draw_path(result.path, ax, label=planner)
+    if sp is not None and planner != "shortest":
+        ax.plot(sp[:, 0], sp[:, 1], "--", color="0.25", lw=1.2, label="shortest", zorder=5)
+    ratio = f" (x{met.length_ratio:.3f} shortest)" if math.isfinite(met.length_ratio) else ""
+    lines = [f"length {met.length_cm:.1f} cm{ratio}, {met.turns} turns "
+             f"({math.degrees(met.turn_angle_rad):.0f} deg), min clearance {met.min_clearance_cm:.1f} cm"]
+    repeats, nz, seed = execution
+    if repeats > 0 and len(result.path) >= 2:
+        ex = execution_error(result.path, checker, goal=goal, repeats=repeats, noise=nz, rng=seed)
+        doc["execution"] = ex.to_dict()
+        lines.append(f"execution error {ex.mean_cm:.2f} cm mean, {ex.median_cm:.2f} cm median "
+                     f"({ex.repeats} drives, {nz.model} noise), touched a wall in "
+                     f"{100 * ex.collision_fraction:.0f}%")
+    lines.append(f"{result.collision_checks} collision checks ({checker.backend})")
+    return lines
 
 
 def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray) -> dict[str, np.ndarray]:
