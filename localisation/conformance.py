@@ -31,7 +31,7 @@ from toolkit.world.plugin_checks import call_noting, class_problems
 
 from .base import LOCALISERS, Localiser, Motion, Prior
 
-__all__ = ["check_localiser"]
+__all__ = ["check_localiser", "tracking_run"]
 
 _REQUIRED = ("converged_xy_cm", "motion_inflation")
 _ALWAYS_MAPPED = ("motion", "sensor_sigma")
@@ -87,7 +87,7 @@ def _robot_problems(cls: type[Localiser]) -> list[str]:
     return problems
 
 
-def _track(cls: type[Localiser], options: dict[str, Any]) -> tuple[np.ndarray, Pose, bool]:
+def tracking_run(cls: type[Localiser], options: dict[str, Any]) -> tuple[np.ndarray, Pose, bool]:
     """A short tracking run on map1 from a known prior, as the suite's: the final estimate as a vector
     (pose in cm and rad, and covariance), the true pose, and whether the localiser called itself converged."""
     m = load_map("map1")
@@ -107,23 +107,24 @@ def _track(cls: type[Localiser], options: dict[str, Any]) -> tuple[np.ndarray, P
 
 def _behaviour_problems(cls: type[Localiser]) -> list[str]:
     problems: list[str] = []
-    base = call_noting("tracking on map1", problems, _track, cls, {})
+    base = call_noting("tracking on map1", problems, tracking_run, cls, {})
     if base is None:
         return problems
     vector = base[0]
     if not np.all(np.isfinite(vector)):
         problems.append(f"the estimate after tracking on map1 is not finite: {vector[:3].tolist()}")
-    again = call_noting("tracking on map1 (same seed)", problems, _track, cls, {})
+    again = call_noting("tracking on map1 (same seed)", problems, tracking_run, cls, {})
     if again is not None and not np.array_equal(vector, again[0]):
         problems.append("the same seed gave two different estimates: draw every random number from self.rng")
     params = cls.params
     if isinstance(params, Params) and all(key in params for key in _REQUIRED):
         declared = {k: v for k, v in params.defaults().items() if k != "cache_dir"}
-        with_defaults = call_noting("tracking with the declared defaults", problems, _track, cls, declared)
+        with_defaults = call_noting("tracking with the declared defaults", problems, tracking_run, cls, declared)
         if with_defaults is not None and not np.array_equal(vector, with_defaults[0]):
             problems.append("the declared defaults (params) differ from the constructor's: the two localisers "
                             "give different estimates")
-        inflated = call_noting("tracking with motion_inflation=4", problems, _track, cls, {"motion_inflation": 4.0})
+        inflated = call_noting("tracking with motion_inflation=4", problems, tracking_run, cls,
+                               {"motion_inflation": 4.0})
         if inflated is not None and np.array_equal(vector, inflated[0]):
             problems.append("motion_inflation=4 changes nothing: the option does not reach the motion model")
     return problems

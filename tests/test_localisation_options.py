@@ -11,10 +11,10 @@ import pytest
 
 from localisation import LOCALISERS, Motion, Prior, make_localiser
 from localisation.base import HeadingPrior, Localiser, PoseEstimate
+from localisation.conformance import tracking_run
 from localisation.laser_options import laser_localiser_options, laser_options_added, laser_options_for
 from localisation.robot_options import THIN_RAY, localiser_options
 from toolkit.world import FACETS, ConfigError, LaserScanner, NxtSonar, Pose, RegistryError, RobotModel, Scan, load_map
-from toolkit.world.geometry import ray_cast
 
 MAP1 = load_map("map1")
 MODELS = [RobotModel.build("ideal"), RobotModel.build("ideal", sensor_noise=2.5, noise_model="absolute",
@@ -88,20 +88,9 @@ def test_an_unmapped_facet_is_a_config_error(monkeypatch: pytest.MonkeyPatch) ->
 
 
 def _run(name: str, options: dict[str, Any]) -> np.ndarray:
-    """A short tracking run on map1 from a known prior: the final estimate's mean and covariance."""
-    loc = make_localiser(name, MAP1, rng=3, **options)
-    truth = Pose(60.0, 50.0, 0.4)
-    loc.reset(Prior(truth, np.diag([4.0, 4.0, 0.01])))
-    angles = np.radians(np.arange(0.0, 360.0, 5.0))
-    for turn, move in ((0.0, 0.0), (0.3, 8.0)):
-        if move:
-            loc.predict(Motion(turn_rad=turn, distance_cm=move))
-            truth = Pose(truth.x + move * np.cos(truth.theta + turn), truth.y + move * np.sin(truth.theta + turn),
-                         truth.theta + turn)
-        ranges = ray_cast(MAP1.walls, truth.xy, truth.theta + angles)
-        loc.update(Scan.from_readings(angles, ranges))
-    est = loc.estimate()
-    return np.concatenate([[est.pose.x, est.pose.y, est.pose.theta], np.ravel(est.cov)])
+    """A short tracking run on map1 from a known prior: the final estimate's mean and covariance (the run
+    the plug-in check makes, `localisation.conformance.tracking_run`)."""
+    return tracking_run(LOCALISERS.get(name), options)[0]
 
 
 @pytest.mark.parametrize("name", LOCALISERS.names())
