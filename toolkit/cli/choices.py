@@ -8,6 +8,8 @@ for, not on every command.
 
 from __future__ import annotations
 
+import functools
+import importlib
 import re
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -15,16 +17,30 @@ from typing import Any
 __all__ = ["CHOICE_SETS", "choice_names", "fill_choices", "one_of"]
 
 
-def _sonars() -> list[str]:
-    from ..world import SONAR_MODELS
+_TABLES: dict[str, tuple[str, str]] = {
+    "sonar": ("toolkit.world", "SONAR_MODELS"),
+    "noise model": ("localisation.models", "NOISE_MODELS"),
+    "localiser": ("localisation", "LOCALISERS"),
+    "collision": ("toolkit.world", "CHECKER_BACKENDS"),
+    "nxt backend": ("toolkit.robots.nxt", "BACKENDS"),
+    "tracker prior": ("toolkit.bench.localisers", "TRACKER_PRIORS"),
+    "scenario": ("toolkit.bench.localisers", "SCENARIOS"),
+    "simplify": ("toolkit.bench.planners.simplify", "SIMPLIFY_METHODS"),
+    "fault kind": ("toolkit.robots.brick_faults", "FAULT_KINDS"),
+    "exploration": ("localisation.global_localisation", "EXPLORATIONS"),
+    "scen kind": ("toolkit.bench.scen", "EXACT_PLANNER"),
+    "peer": ("toolkit.bench.peers", "PEERS"),
+    "mission setting": ("toolkit.bench.paper_pareto", "MISSION_SETTINGS"),
+    "sonar baseline": ("toolkit.sonar_fit", "BASELINES"),
+}
+"""Kind -> (module, name) of the registry or table whose names a help text lists (imported when help
+is printed)."""
 
-    return SONAR_MODELS.names()
 
-
-def _noise_models() -> list[str]:
-    from localisation.models import NOISE_MODELS
-
-    return list(NOISE_MODELS)
+def _table_names(module: str, name: str) -> list[str]:
+    """The names of a registry (its ``names()``) or of a table (its keys or items), imported now."""
+    table = getattr(importlib.import_module(module), name)
+    return list(table.names()) if hasattr(table, "names") else list(table)
 
 
 def _planners() -> list[str]:
@@ -33,101 +49,16 @@ def _planners() -> list[str]:
     return [*PLANNERS.names(), *(f"{prefix}:NAME" for prefix in PLANNERS.family_prefixes())]
 
 
-def _localisers() -> list[str]:
-    from localisation import LOCALISERS
-
-    return LOCALISERS.names()
-
-
-def _collision() -> list[str]:
-    from ..world import CHECKER_BACKENDS
-
-    return list(CHECKER_BACKENDS)
-
-
-def _nxt_backends() -> list[str]:
-    from ..robots.nxt import BACKENDS
-
-    return list(BACKENDS)
-
-
-def _tracker_priors() -> list[str]:
-    from ..bench.localisers import TRACKER_PRIORS
-
-    return list(TRACKER_PRIORS)
-
-
-def _scenarios() -> list[str]:
-    from ..bench.localisers import SCENARIOS
-
-    return list(SCENARIOS)
-
-
-def _simplify() -> list[str]:
-    from ..bench.planners.simplify import SIMPLIFY_METHODS
-
-    return list(SIMPLIFY_METHODS)
-
-
-def _fault_kinds() -> list[str]:
-    from ..robots.brick_faults import FAULT_KINDS
-
-    return list(FAULT_KINDS)
-
-
-def _explorations() -> list[str]:
-    from localisation.global_localisation import EXPLORATIONS
-
-    return list(EXPLORATIONS)
-
-
-def _scen_kinds() -> list[str]:
-    from ..bench.scen import EXACT_PLANNER
-
-    return list(EXACT_PLANNER)
-
-
-def _peers() -> list[str]:
-    from ..bench.peers import PEERS
-
-    return list(PEERS)
-
-
-def _mission_settings() -> list[str]:
-    from ..bench.paper_pareto import MISSION_SETTINGS
-
-    return list(MISSION_SETTINGS)
-
-
 def _figure_jobs() -> list[str]:
     from .figure_jobs import FIGURE_JOBS
 
     return [job.name for job in FIGURE_JOBS]
 
 
-def _sonar_baselines() -> list[str]:
-    from ..sonar_fit import BASELINES
-
-    return list(BASELINES)
-
-
 CHOICE_SETS: dict[str, Callable[[], list[str]]] = {
-    "sonar": _sonars,
-    "noise model": _noise_models,
+    **{kind: functools.partial(_table_names, *where) for kind, where in _TABLES.items()},
     "planner": _planners,
-    "localiser": _localisers,
-    "collision": _collision,
-    "nxt backend": _nxt_backends,
-    "tracker prior": _tracker_priors,
-    "scenario": _scenarios,
-    "simplify": _simplify,
-    "fault kind": _fault_kinds,
-    "exploration": _explorations,
-    "scen kind": _scen_kinds,
-    "peer": _peers,
-    "mission setting": _mission_settings,
     "figure job": _figure_jobs,
-    "sonar baseline": _sonar_baselines,
 }
 """Kind -> the names a help text lists for it, read from the registry or table that defines them."""
 
