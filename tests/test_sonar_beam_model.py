@@ -13,7 +13,7 @@ from conftest import real_nxt_arena
 from localisation.beam_model import BeamLikelihood, lattice_costs, scan_readings
 from localisation.models import exact_ranges, range_lattice, range_table
 from localisation.scan import stuck_mask
-from toolkit.sonar_fit import _sweep_log_pmf, fit_sonar, score_sonar
+from toolkit.sonar_fit import _EchoRows, _sweep_log_pmf, fit_sonar, score_sonar
 from toolkit.sweeps import Sweep, SweepSet, sweep_angles
 from toolkit.world import NO_ECHO, NxtSonar, Scan, default_scan_angles, load_map
 
@@ -79,7 +79,8 @@ def test_the_fit_tabulates_the_same_log_pmf_it_would_compute() -> None:
     echoes = rng.choice(distances, size=(300, 72))
     readings = np.where(rng.random(72) < 0.2, NO_ECHO, rng.integers(0, 120, 72)).astype(float)
     model = NxtSonar()
-    assert np.array_equal(_sweep_log_pmf(model, echoes, readings), model.log_pmf(echoes, readings[None, :]))
+    assert np.array_equal(_sweep_log_pmf(model, _EchoRows.of(echoes), readings),
+                          model.log_pmf(echoes, readings[None, :]))
 
 
 @pytest.mark.slow

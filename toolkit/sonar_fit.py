@@ -94,19 +94,36 @@ def _directions() -> FloatArray:
     return np.radians(np.arange(0.0, 360.0, HEADING_STEP_DEG))
 
 
-def _echo_by_pose(model: NxtSonar, m: Map, sw: _Sweep) -> FloatArray:
-    """Echo distances (K * H, n) of the sweep's readings for every position of `POSITION_OFFSETS_CM`
-    around the waypoint (K) and every candidate heading (H, HEADING_STEP_DEG apart); row ``k * H + h``."""
+@dataclass(frozen=True)
+class _EchoRows:
+    """Echo distances (K * H, n) of a sweep's readings for every candidate pose, stored as the distinct
+    distances (`values`, float32) and each entry's index among them (`at`): row ``r`` is
+    ``values[at[r]]``. The fit scores every row many times; a table over the distinct values is
+    several times smaller than the rows, and the indices are found once, not at every score."""
+
+    values: np.ndarray
+    at: np.ndarray
+
+    @classmethod
+    def of(cls, echoes: FloatArray) -> _EchoRows:
+        values, at = np.unique(echoes, return_inverse=True)
+        return cls(values, at.reshape(echoes.shape))
+
+    def __getitem__(self, row: int) -> np.ndarray:
+        return np.asarray(self.values[self.at[row]])
+
+
+def _echo_by_pose(model: NxtSonar, m: Map, sw: _Sweep) -> _EchoRows:
+    """Echo distances of the sweep's readings for every position of `POSITION_OFFSETS_CM` around the
+    waypoint (K) and every candidate heading (H, HEADING_STEP_DEG apart); row ``k * H + h``."""
     dirs = _directions()
     k = dirs.size
     rel = np.rint(np.degrees(sw.angles) / HEADING_STEP_DEG).astype(np.int64)
     idx = (np.arange(k)[:, None] + rel[None, :]) % k
-    out = []
-    for dx, dy in POSITION_OFFSETS_CM:
-        xy = np.array([sw.sweep.x_cm + dx, sw.sweep.y_cm + dy])
-        d = np.asarray(model.echo_distance(m.walls, xy, dirs), dtype=np.float32)
-        out.append(d[idx])
-    return np.concatenate(out)
+    ranges = [np.asarray(model.echo_distance(m.walls, np.array([sw.sweep.x_cm + dx, sw.sweep.y_cm + dy]), dirs),
+                         dtype=np.float32) for dx, dy in POSITION_OFFSETS_CM]
+    values, where = np.unique(np.concatenate(ranges), return_inverse=True)
+    return _EchoRows(values, np.concatenate([where[i * k + idx] for i in range(len(ranges))]))
 
 
 def _pose(sw: _Sweep, index: int) -> tuple[float, float, float]:
@@ -116,18 +133,15 @@ def _pose(sw: _Sweep, index: int) -> tuple[float, float, float]:
     return sw.sweep.x_cm + dx, sw.sweep.y_cm + dy, float(wrap_angle(_directions()[index % n_dir]))
 
 
-def _sweep_log_pmf(model: NxtSonar, echoes: FloatArray, readings: FloatArray) -> FloatArray:
+def _sweep_log_pmf(model: NxtSonar, echoes: _EchoRows, readings: FloatArray) -> FloatArray:
     """``model.log_pmf(echoes, readings[None, :])``, (rows, n), from a table over the distinct echo
-    distances x the distinct readings: the rows of `_echo_by_pose` repeat a few thousand distances
-    and a sweep a few dozen readings, so the table is several times smaller than the array and its
-    values are the same numbers."""
-    d, d_at = np.unique(echoes, return_inverse=True)
+    distances x the distinct readings: the same numbers, computed once for each distinct pair."""
     r, r_at = np.unique(readings, return_inverse=True)
-    table = model.log_pmf(d.astype(float)[:, None], r[None, :])
-    return np.asarray(table[d_at.reshape(echoes.shape), r_at.reshape(1, -1)])
+    table = model.log_pmf(echoes.values.astype(float)[:, None], r[None, :])
+    return np.asarray(table[echoes.at, r_at.reshape(1, -1)])
 
 
-def _best_poses(model: NxtSonar, echoes: list[FloatArray], sweeps: list[_Sweep]) -> list[int]:
+def _best_poses(model: NxtSonar, echoes: list[_EchoRows], sweeps: list[_Sweep]) -> list[int]:
     """The row of `_echo_by_pose` (position and heading) where each sweep is most likely."""
     return [int(np.argmax(_sweep_log_pmf(model, e, sw.readings).sum(axis=1)))
             for e, sw in zip(echoes, sweeps, strict=True)]
@@ -157,7 +171,7 @@ def _fit_mixture(model: NxtSonar, d: FloatArray, r: FloatArray) -> NxtSonar:
     return _with(model, names, np.asarray(res.x, dtype=float))
 
 
-def _gather(echoes: list[FloatArray], headings: list[int], sweeps: list[_Sweep]) -> tuple[FloatArray, FloatArray]:
+def _gather(echoes: list[_EchoRows], headings: list[int], sweeps: list[_Sweep]) -> tuple[FloatArray, FloatArray]:
     d = np.concatenate([e[h] for e, h in zip(echoes, headings, strict=True)])
     r = np.concatenate([sw.readings for sw in sweeps])
     return d, r
@@ -236,7 +250,7 @@ def fit_sonar(sets: Sequence[SweepSet], *, widths: Sequence[float] = DEFAULT_WID
         raise ConfigError("no sweeps to fit")
     base = start or NxtSonar(noise_sd=2.0, noise_per_m=1.0, dropout_prob=0.02, far_dropout_prob=0.5, reach_cm=100.0,
                              reach_width_cm=20.0, phantom_prob=0.5, short_prob=0.1, outlier_prob=0.05)
-    best: tuple[float, NxtSonar, list[int], list[FloatArray]] | None = None
+    best: tuple[float, NxtSonar, list[int], list[_EchoRows]] | None = None
     lobes: list[dict[str, float]] = []
     grid = [(w, c) for w in widths for c in criticals]
     sweeps = [sw for _, sw in items]
