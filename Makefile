@@ -30,10 +30,13 @@ PYTEST := $(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 # every tier in one run, so the cores stay busy to the end: the quick tests, the slow end-to-end ones and
 # the documented commands (tier docs: every shell block of README.md and docs/, tools/docs_commands.py)
+# mypy runs beside tools/compile_kernels.py (numba's cache filled once, not by every test process that
+# starts before it is), so both cores work before pytest takes them
 test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
-	$(BIN)/mypy
 	$(BIN)/python tools/docs_commands.py --summary
+	$(BIN)/mypy & mypy_pid=$$!; $(BIN)/python tools/compile_kernels.py; kernels_rc=$$?; \
+	    wait $$mypy_pid && test $$kernels_rc -eq 0
 	$(PYTEST) --durations=30
 
 # every shell block of README.md and docs/ run in a temporary folder outside the repository, at the sizes
