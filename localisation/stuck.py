@@ -41,7 +41,7 @@ echo (255) or those far walls. That sensor never reads 255 after its first echo 
 readings after it in its five sweeps, against 28 and 37 % no echo for two other teams' sensors): it
 repeats its last echo while no new one arrives, as `ellasurobot/ella`'s sensor does (2.4 % no echo;
 docs/real-sonar.md). A sweep set says so per source (``held_runs`` ``no-echo`` in ``sweeps.csv``,
-`toolkit.sweeps`): the repeats of such a run are then read as no echo, not dropped as stuck.
+`toolkit.real_sonar.sweeps`): the repeats of such a run are then read as no echo, not dropped as stuck.
 """
 
 from __future__ import annotations

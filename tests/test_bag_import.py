@@ -11,9 +11,9 @@ from rosbags.rosbag1 import Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from localisation.base import Prior
-from toolkit.bag_import import import_bag, odometry_motions
 from toolkit.cli import main
-from toolkit.replay import read_recording, replay
+from toolkit.recordings.replay import read_recording, replay
+from toolkit.ros.bag_import import import_bag, odometry_motions
 from toolkit.world import LaserScanner, Pose, load_map
 
 TS = get_typestore(Stores.ROS1_NOETIC)
@@ -136,7 +136,7 @@ def test_readings_in_the_base_frame_end_on_the_walls(small_bag: Path, tmp_path: 
     _import(small_bag, out)
     rec = read_recording(out)
     world = rec.map
-    from toolkit.recording import scan_from_fields
+    from toolkit.recordings.recorder import scan_from_fields
 
     for _, e in rec.events:
         if e["type"] != "scan":

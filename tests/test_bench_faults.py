@@ -10,7 +10,7 @@ import pytest
 from conftest import run_cli
 
 from toolkit.bench.faults import FAULT_KINDS, draw_faults, fault_tasks
-from toolkit.replay import read_recording
+from toolkit.recordings.replay import read_recording
 
 
 def test_every_mission_gets_one_or_two_faults_inside_its_run() -> None:

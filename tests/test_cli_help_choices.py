@@ -31,9 +31,9 @@ def _registry(kind: str) -> list[str]:
     from toolkit.bench.planners.simplify import SIMPLIFY_METHODS
     from toolkit.bench.scen import EXACT_PLANNER
     from toolkit.cli.figure_jobs import FIGURE_JOBS
+    from toolkit.real_sonar.fit import BASELINES
     from toolkit.robots.brick_faults import FAULT_KINDS
     from toolkit.robots.nxt import BACKENDS
-    from toolkit.sonar_fit import BASELINES
     from toolkit.world import CHECKER_BACKENDS, SONAR_MODELS
 
     assert "ompl:" + ompl_planner_names()[0] in PLANNERS  # the family the help writes as ompl:NAME

@@ -88,7 +88,7 @@ def test_scan_at_any_angles(tmp_path: Path, spec: str, direction: str, expected_
 def test_scan_mirrors_a_real_sweep_reading_for_reading(tmp_path: Path) -> None:
     from conftest import REAL_NXT, real_nxt_arena
 
-    from toolkit.sweeps import load_sweep_set
+    from toolkit.real_sonar.sweeps import load_sweep_set
 
     real = load_sweep_set(REAL_NXT, map=real_nxt_arena()).sweeps[0]  # 360 readings, 1 degree apart, cw
     js = tmp_path / "s.json"

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from toolkit.recording import Recorder
+from toolkit.recordings.recorder import Recorder
 from toolkit.world import Pose, Scan, load_map
 
 _TOOLS = Path(__file__).parents[1] / "tools"

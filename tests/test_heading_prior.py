@@ -17,10 +17,10 @@ from conftest import REAL_NXT, run_cli
 from localisation import HeadingPrior, Motion, candidate_poses, make_localiser
 from localisation.robot_options import localiser_options
 from toolkit.mission import Outcome, run_sim_mission
-from toolkit.recording import Recorder
-from toolkit.replay import read_recording, replay
-from toolkit.sweep_margins import sweep_margins
-from toolkit.sweeps import load_sweep_set
+from toolkit.real_sonar.margins import sweep_margins
+from toolkit.real_sonar.sweeps import load_sweep_set
+from toolkit.recordings.recorder import Recorder
+from toolkit.recordings.replay import read_recording, replay
 from toolkit.world import ConfigError, LocalisationError, NxtSonar, Pose, RobotModel, Scan, map_from_dict
 
 SQUARE = map_from_dict({"name": "square", "boundary": [[0, 0], [120, 0], [120, 120], [0, 120]]})

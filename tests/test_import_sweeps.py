@@ -16,11 +16,11 @@ from conftest import REAL_NXT, real_nxt_arena, run_cli
 
 import localisation  # noqa: F401  (registers every localiser)
 from localisation.base import make_localiser
-from toolkit.imports import import_sweep_set
 from toolkit.mission import localiser_options
-from toolkit.recording import FORMAT_VERSION, Recorder
-from toolkit.replay import RecordingError, read_recording, replay
-from toolkit.sweeps import load_sweep_set
+from toolkit.real_sonar.sweeps import load_sweep_set
+from toolkit.recordings.imported import import_sweep_set
+from toolkit.recordings.recorder import FORMAT_VERSION, Recorder
+from toolkit.recordings.replay import RecordingError, read_recording, replay
 from toolkit.world import NO_ECHO, Map, RobotModel, load_map, make_sonar
 
 

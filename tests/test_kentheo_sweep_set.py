@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from toolkit.sweeps import load_sweep_set
+from toolkit.real_sonar.sweeps import load_sweep_set
 
 _SPEC = importlib.util.spec_from_file_location("kentheo_sweep_set",
                                                Path(__file__).parents[1] / "tools" / "kentheo_sweep_set.py")

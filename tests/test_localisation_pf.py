@@ -154,7 +154,7 @@ def test_trackers_follow_a_scripted_drive(name: str) -> None:
 
 
 def test_single_scan_benchmark_small() -> None:
-    from localisation.evaluation import single_scan_benchmark
+    from localisation.scan_benchmark import single_scan_benchmark
 
     b = single_scan_benchmark(load_map("map1"), n_poses=5, rng=2)
     assert b.n_poses == 5 and len(b.times_s) == 5

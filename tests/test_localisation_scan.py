@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from localisation.evaluation import compare_scan_processing
 from localisation.scan import ScanProcessing, min_reading, process_scan, raw_scan, window_mask
+from localisation.scan_benchmark import compare_scan_processing
 from toolkit.world import NO_ECHO, Scan, default_scan_angles, load_map
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from conftest import run_cli
 
-from toolkit.replay import read_recording, replay
+from toolkit.recordings.replay import read_recording, replay
 from toolkit.robots.brick_faults import FaultSchedule
 from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld

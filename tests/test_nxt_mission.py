@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from toolkit.cli import main
-from toolkit.replay import read_recording, replay
+from toolkit.recordings.replay import read_recording, replay
 from toolkit.robots.virtual_brick import BrickServer
 from toolkit.robots.virtual_brick_world import BrickConfig, BrickWorld
 from toolkit.world import Pose, load_map

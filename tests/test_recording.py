@@ -17,8 +17,8 @@ import pytest
 
 from toolkit.cli import main
 from toolkit.mission import MissionConfig, localiser_options, run_mission, run_sim_mission
-from toolkit.recording import Recorder, scan_fields, scan_from_fields
-from toolkit.replay import RecordingError, read_recording, replay
+from toolkit.recordings.recorder import Recorder, scan_fields, scan_from_fields
+from toolkit.recordings.replay import RecordingError, read_recording, replay
 from toolkit.world import NxtnavError, Pose, RobotModel, Scan, load_map
 
 DATA = Path(__file__).parent / "data"

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from toolkit.recording import FORMAT_VERSION
-from toolkit.replay import RecordingError, read_recording, replay
+from toolkit.recordings.recorder import FORMAT_VERSION
+from toolkit.recordings.replay import RecordingError, read_recording, replay
 
 EXAMPLE = Path(__file__).parent / "data" / "recording_map1_nxt.jsonl"  # a version-1 recording
 

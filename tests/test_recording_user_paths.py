@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from conftest import nxtnav_exe, run_cli
 
-from toolkit.recording import scan_from_fields
-from toolkit.replay import read_recording
+from toolkit.recordings.recorder import scan_from_fields
+from toolkit.recordings.replay import read_recording
 
 EXE = nxtnav_exe()
 LOCALISERS = "amcl,paper-pf,pf-systematic"

@@ -17,8 +17,8 @@ import pytest
 import yaml
 from conftest import built_once, run_cli
 
-from toolkit.recording import decode_floats, scan_from_fields
-from toolkit.replay import read_recording
+from toolkit.recordings.recorder import decode_floats, scan_from_fields
+from toolkit.recordings.replay import read_recording
 from toolkit.robots.sim import RobotTiming
 from toolkit.world import angle_diff
 
@@ -303,8 +303,8 @@ def test_a_bad_recording_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtur
 def test_a_deskewed_laser_recording_exports(tmp_path: Path) -> None:
     """An imported real bag's sweeps are deskewed: their angles wrap at +-pi and lie off any regular
     grid. Each still becomes a LaserScan, every reading in a slot within 1 mrad of its angle."""
-    from toolkit.bag_import import import_bag
-    from toolkit.ros2_export.messages import SNAP_TOLERANCE_RAD
+    from toolkit.ros.bag_import import import_bag
+    from toolkit.ros.export.messages import SNAP_TOLERANCE_RAD
     from toolkit.world import load_map
 
     jarvis = Path(__file__).resolve().parents[1] / "maps" / "jarvis"

@@ -13,8 +13,8 @@ from conftest import real_nxt_arena
 from localisation.beam_model import BeamLikelihood, lattice_costs, scan_readings
 from localisation.models import exact_ranges, range_lattice, range_table
 from localisation.scan import stuck_mask
-from toolkit.sonar_fit import _EchoRows, _sweep_log_pmf, fit_sonar, score_sonar
-from toolkit.sweeps import Sweep, SweepSet, sweep_angles
+from toolkit.real_sonar.fit import _EchoRows, _sweep_log_pmf, fit_sonar, score_sonar
+from toolkit.real_sonar.sweeps import Sweep, SweepSet, sweep_angles
 from toolkit.world import NO_ECHO, NxtSonar, Scan, default_scan_angles, load_map
 
 HEAVY = NxtSonar(noise_sd=2.5, noise_per_m=2.0, bias_cm=-1.0, dropout_prob=0.01, far_dropout_prob=0.4, reach_cm=80.0,
@@ -192,7 +192,7 @@ def test_exact_ranges_match_table_on_the_arena() -> None:
 def test_default_is_the_shipped_fitted_profile() -> None:
     from conftest import REAL_NXT
 
-    from toolkit.sonar_fit import load_sonar_profile
+    from toolkit.real_sonar.fit import load_sonar_profile
 
     assert load_sonar_profile(REAL_NXT / "sonar-profiles" / "nxt-fitted.yaml") == NxtSonar()
     assert NxtSonar() != NxtSonar.hardware_facts()

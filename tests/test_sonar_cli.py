@@ -12,7 +12,7 @@ import pytest
 import yaml
 from conftest import REAL_NXT, built_once, real_nxt_arena, run_cli
 
-from toolkit.sonar_fit import load_sonar_profile
+from toolkit.real_sonar.fit import load_sonar_profile
 from toolkit.world import NxtSonar
 
 GRID = ["--widths", "20", "--criticals", "40"]

@@ -18,10 +18,10 @@ import yaml
 from conftest import run_cli
 
 from toolkit.bench.localisers import BenchConfig
-from toolkit.recording import decode_options, encode_options, sonar_from_dict
+from toolkit.real_sonar.fit import load_sonar_profile
+from toolkit.recordings.recorder import decode_options, encode_options, sonar_from_dict
 from toolkit.robots.sim import SimRobot, simulated_sonar
 from toolkit.robots.virtual_brick_world import BrickWorld
-from toolkit.sonar_fit import load_sonar_profile
 from toolkit.world import ConfigError, IdealSonar, NxtnavError, NxtSonar, Pose, load_map
 
 BIN = Path(sys.executable).parent

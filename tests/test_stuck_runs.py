@@ -17,7 +17,7 @@ from conftest import REAL_NXT, nxtnav_exe, real_nxt_arena
 
 from localisation.scan import drop_stuck, stuck_mask, sweep_fault
 from localisation.stuck import NO_MAP_STUCK_ARC_DEG, STUCK_ARC_DEG, echo_table, equal_runs, judge_runs
-from toolkit.sweeps import load_sweep_set, sweep_angles
+from toolkit.real_sonar.sweeps import load_sweep_set, sweep_angles
 from toolkit.world import NO_ECHO, Map, NxtSonar, Scan, load_map
 
 STUCK_DATA = Path(__file__).parent / "data" / "real-nxt-stuck"

@@ -23,8 +23,8 @@ from toolkit.mission.recovery import (
     watchdog_cm,
     widened_prior,
 )
+from toolkit.real_sonar.sweeps import load_sweep_set
 from toolkit.robots.sim import SimRobot
-from toolkit.sweeps import load_sweep_set
 from toolkit.world import NO_ECHO, LocalisationError, MoveOutcome, NxtSonar, Pose, Scan, load_map
 
 

@@ -1,4 +1,4 @@
-"""`toolkit.sweep_margins`: how far a sonar model prefers a sweep's waypoint to every other place, checked
+"""`toolkit.real_sonar.margins`: how far a sonar model prefers a sweep's waypoint to every other place, checked
 where the answer is known: a place with a twin (a point-symmetric room) and a place without one."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from conftest import real_nxt_arena
 
-from toolkit.sweep_margins import sweep_margins
-from toolkit.sweeps import Sweep, SweepSet, sweep_angles
+from toolkit.real_sonar.margins import sweep_margins
+from toolkit.real_sonar.sweeps import Sweep, SweepSet, sweep_angles
 from toolkit.world import Map, NxtSonar, map_from_dict
 
 MODEL = NxtSonar()

@@ -1,4 +1,4 @@
-"""Sweep sets (`toolkit.sweeps`): the shipped MIT sweeps read as they are; bad input is one line naming
+"""Sweep sets (`toolkit.real_sonar.sweeps`): the shipped MIT sweeps read as they are; bad input is one line naming
 the file and the line or field."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from conftest import REAL_NXT, real_nxt_arena
 
-from toolkit.sweeps import SweepSetError, load_sweep_set, sweep_angles
+from toolkit.real_sonar.sweeps import SweepSetError, load_sweep_set, sweep_angles
 from toolkit.world import NO_ECHO, ConfigError, NxtnavError
 
 

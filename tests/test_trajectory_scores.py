@@ -1,4 +1,4 @@
-"""evo's trajectory errors (`toolkit.trajectory_scores`) against trajectories whose errors are known."""
+"""evo's trajectory errors (`toolkit.recordings.trajectory_scores`) against trajectories whose errors are known."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from toolkit.trajectory_scores import relative_pose_error, score_trajectory
+from toolkit.recordings.trajectory_scores import relative_pose_error, score_trajectory
 
 
 def _loop(n: int = 200) -> np.ndarray:

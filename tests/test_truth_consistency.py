@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from toolkit.recording import Recorder
+from toolkit.recordings.recorder import Recorder
 from toolkit.world import Pose, Scan, load_map
 
 _SPEC = importlib.util.spec_from_file_location("truth_consistency",

@@ -53,8 +53,9 @@ def _rows(rrd: Path) -> Counter[str]:
 
 
 def test_core_packages_do_not_import_rerun() -> None:
-    code = ("import sys, toolkit, localisation, planners, toolkit.mission, toolkit.recording, toolkit.replay, "
-            "toolkit.timeline, toolkit.ros2_export, toolkit.cli; toolkit.cli._load(); "
+    code = ("import sys, toolkit, localisation, planners, toolkit.mission, toolkit.recordings.recorder, "
+            "toolkit.recordings.replay, "
+            "toolkit.recordings.timeline, toolkit.ros.export, toolkit.cli; toolkit.cli._load(); "
             "import toolkit.view; bad = sorted(m for m in sys.modules if m.split('.')[0] in ('rerun', "
             "'rerun_bindings')); print(bad); sys.exit(1 if bad else 0)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
@@ -70,7 +71,7 @@ def test_live_view_saves_every_entity(mission: Path) -> None:
 
 @pytest.mark.slow
 def test_recording_view_equals_the_live_view(mission: Path, tmp_path: Path) -> None:
-    from toolkit.replay import read_recording
+    from toolkit.recordings.replay import read_recording
 
     out = tmp_path / "rec.rrd"
     assert run_cli(["view", str(mission / "m1.jsonl"), "--save", str(out)]) == 0

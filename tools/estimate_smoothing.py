@@ -8,7 +8,7 @@ odometry, the map-to-odom transform a ROS localiser publishes). The correction i
 the estimates rebuilt from it: causally, each new correction moved into by a share GAIN (1 = the
 estimates as they are), and, looking ahead, as the mean of the corrections of the updates within
 WINDOW on either side (a fixed-lag smoother's best case). Each is scored by evo's relative pose error
-over 1 m (`toolkit.trajectory_scores`), as `nxtnav replay` scores it. Two more columns say where the
+over 1 m (`toolkit.recordings.trajectory_scores`), as `nxtnav replay` scores it. Two more columns say where the
 error lies: the estimates with the truth's headings put in (what is left is position error), and the
 scale of the best similarity alignment of the estimates onto the truth (1 when the two agree on
 lengths, above 1 when the estimates make the path shorter). Prints one markdown row per localiser.
@@ -28,8 +28,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from truth_consistency import odometry_and_truth
 
-from toolkit.bag_reader import se2_compose, se2_inverse
-from toolkit.trajectory_scores import relative_pose_error, similarity_scale
+from toolkit.recordings.trajectory_scores import relative_pose_error, similarity_scale
+from toolkit.ros.bag_reader import se2_compose, se2_inverse
 from toolkit.world import NxtnavError, angle_diff, circular_mean
 
 GAINS = (1.0, 0.5, 0.2)

@@ -4,7 +4,7 @@ Usage: ``python tools/truth_consistency.py REC.jsonl [REC.jsonl ...] [--deltas 0
 
 Dead reckoning from the recording's motions (its ``predict`` events, each a turn then a drive) is
 compared with its true poses at every scan that has one, by evo's relative pose error over pairs of
-poses DELTA metres apart (`toolkit.trajectory_scores.relative_pose_error`). Over 10 cm, wheel odometry
+poses DELTA metres apart (`toolkit.recordings.trajectory_scores.relative_pose_error`). Over 10 cm, wheel odometry
 drifts by a millimetre or so, so what the comparison finds there is mostly the truth's own jitter, or
 a time offset between the truth's stamps and the odometry's: the floor under any localiser's relative
 pose error against that truth. Run it on imports of one bag with different ``--truth-delay`` values to
@@ -19,8 +19,8 @@ import sys
 
 import numpy as np
 
-from toolkit.replay import read_recording
-from toolkit.trajectory_scores import relative_pose_error
+from toolkit.recordings.replay import read_recording
+from toolkit.recordings.trajectory_scores import relative_pose_error
 from toolkit.world import NxtnavError
 
 

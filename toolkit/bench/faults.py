@@ -17,7 +17,7 @@ and acting (the brick's count: readings spoiled, motions slipped, connections cu
 faults the mission noticed and recovered from (its report), the extra robot time against the
 baseline, motors left running (powered without a tacho limit when a connection ended, or still
 powered ten brick seconds after the mission's end, in either run), and whether both runs' recordings
-read back and replay bit for bit (`toolkit.replay`).
+read back and replay bit for bit (`toolkit.recordings.replay`).
 """
 
 from __future__ import annotations
@@ -186,7 +186,7 @@ def _mission(task: FaultTask, faults: list[Fault], record: Path | None) -> _Run:
     from localisation.robot_options import localiser_options
 
     from ..mission import MissionConfig, run_mission
-    from ..recording import Recorder
+    from ..recordings.recorder import Recorder
     from ..robots.nxt import connect_robot
     from ..robots.virtual_brick import BrickServer
     from ..world import NxtSonar, RobotModel
@@ -229,7 +229,7 @@ def _mission(task: FaultTask, faults: list[Fault], record: Path | None) -> _Run:
 
 def _checked(run: _Run, path: Path) -> _Run:
     """`run` with its recording read back and replayed (the live localiser, bit for bit)."""
-    from ..replay import read_recording, replay
+    from ..recordings.replay import read_recording, replay
     from ..world import NxtnavError
 
     try:

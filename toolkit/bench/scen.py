@@ -25,7 +25,7 @@ import numpy as np
 from planners import make_planner
 from planners.base import Planner, PlanningProblem, PlanStatus, status_message
 
-from ..formats import MISSING, cell, csv_cell
+from ..number_format import MISSING, cell, csv_cell
 from ..world import CollisionChecker, Map, MapError, NxtnavError, import_map, make_checker
 from .executors import run_tasks
 from .ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log

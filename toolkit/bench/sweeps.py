@@ -26,8 +26,8 @@ import numpy as np
 from localisation.ambiguity import CANDIDATE_RADIUS_CM, candidate_poses, confidently_wrong, truth_among
 from localisation.base import HeadingPrior, make_localiser
 from localisation.robot_options import localiser_options
+from toolkit.real_sonar.sweeps import SweepSet, load_sweep_set
 from toolkit.seeds import derive_seed
-from toolkit.sweeps import SweepSet, load_sweep_set
 from toolkit.world import NxtSonar, RobotModel
 
 __all__ = ["CANDIDATE_RADIUS_CM", "COLUMNS", "SweepRun", "SweepTask", "make_sweep_tasks", "run_sweep",

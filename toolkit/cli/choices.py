@@ -31,7 +31,7 @@ _TABLES: dict[str, tuple[str, str]] = {
     "scen kind": ("toolkit.bench.scen", "EXACT_PLANNER"),
     "peer": ("toolkit.bench.peers", "PEERS"),
     "mission setting": ("toolkit.bench.paper_pareto", "MISSION_SETTINGS"),
-    "sonar baseline": ("toolkit.sonar_fit", "BASELINES"),
+    "sonar baseline": ("toolkit.real_sonar.fit", "BASELINES"),
 }
 """Kind -> (module, name) of the registry or table whose names a help text lists (imported when help
 is printed)."""

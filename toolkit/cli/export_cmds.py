@@ -23,7 +23,7 @@ def export_cmd(
                                          help="At most N particles per /particle_cloud (default: all recorded)."),
 ) -> None:
     """Write a recording as a ROS 2 bag with nav2's topics and REP-105 frames (docs/recording.md)."""
-    from ..ros2_export import export_mcap
+    from ..ros.export import export_mcap
     from .replay_cmds import warn_cut_short
 
     summary = export_mcap(recording, mcap, resolution_cm=grid_cm, particles=particles)

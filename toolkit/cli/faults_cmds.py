@@ -9,7 +9,7 @@ from typing import Any
 
 import typer
 
-from ..formats import json_safe
+from ..number_format import json_safe
 from .app import Interrupted, bench_app
 from .choices import one_of
 from .options import check_writable, count, non_negative, parse_list, positive, writable_file, writable_folder

@@ -27,8 +27,8 @@ def import_sweeps(
     true position (without a heading: a real sweep's heading is not known). Then
     `nxtnav replay REC.jsonl --localisers A,B` scores the localisers' position after each sweep.
     """
-    from ..imports import import_sweep_set
-    from ..sweeps import load_sweep_set
+    from ..real_sonar.sweeps import load_sweep_set
+    from ..recordings.imported import import_sweep_set
 
     check_writable(output, "--output")
     sweeps = load_sweep_set(folder, map=map_file)
@@ -87,7 +87,7 @@ def import_bag_cmd(
     """
     import math
 
-    from ..bag_import import OdometryNoise, import_bag
+    from ..ros.bag_import import OdometryNoise, import_bag
     from ..world import load_map
     from .options import parse_floats
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import typer
 
-from ..formats import json_safe
+from ..number_format import json_safe
 from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, load_map, make_checker
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
 from .choices import one_of

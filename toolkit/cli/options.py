@@ -335,6 +335,6 @@ def sonar_profile(path: Path | None, sonars: str | Sequence[str], option: str = 
     if "nxt" not in chosen:
         raise NxtnavError(f"{option}: a sonar profile describes the nxt sonar; it cannot be used with --sonar "
                           f"{','.join(chosen)}")
-    from ..sonar_fit import load_sonar_profile
+    from ..real_sonar.fit import load_sonar_profile
 
     return load_sonar_profile(data_path(path))

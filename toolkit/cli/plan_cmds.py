@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import typer
 
-from ..formats import json_safe
+from ..number_format import json_safe
 from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
 from .app import Interrupted, app, bench_app, fail
 from .choices import one_of

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from ..formats import cell
+from ..number_format import cell
 from .app import app
 from .options import parse_floats, parse_heading_prior, parse_list, shipped, writable_file
 from .progress import progress_after
@@ -17,7 +17,7 @@ from .set_options import localiser_sets
 if TYPE_CHECKING:
     from localisation.base import Prior
 
-    from ..replay import ReplayReport
+    from ..recordings.replay import ReplayReport
 
 __all__ = ["warn_cut_short"]
 
@@ -64,7 +64,7 @@ def replay_cmd(
     (ape_rmse_cm, ape_heading_rmse_deg) and relative pose error per metre driven (rpe_per_m_cm), and
     every localiser's CPU time (cpu_s).
     """
-    from ..replay import read_recording, replay
+    from ..recordings.replay import read_recording, replay
 
     prior = _initial_prior(initial_pose) if initial_pose is not None else None
     heading = parse_heading_prior(initial_heading, "--initial-heading")
@@ -101,7 +101,7 @@ def replay_cmd(
         typer.echo(f"wrote {json_out}")
     if output is not None:
         from ..plotting import save_figure
-        from ..replay_plots import draw_replay
+        from ..recordings.replay_plots import draw_replay
 
         save_figure(draw_replay(report), output)
         typer.echo(f"wrote {output}")

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from ..formats import json_safe
+from ..number_format import json_safe
 from ..world import Map, NxtnavError, NxtSonar, RobotGeometry, RobotModel, SonarModel
 from .compiling import compile_note
 from .options import check_writable
@@ -75,7 +75,7 @@ class RunOutputs:
         """The run's `Recorder` (writing `record`, feeding the view on `stream`), or None for neither."""
         if self.record is None and stream is None:
             return None
-        from ..recording import Recorder
+        from ..recordings.recorder import Recorder
 
         listeners = []
         if stream is not None:

@@ -1,6 +1,6 @@
 """`nxtnav sonar fit|score|loo`: the `nxt` sonar model against real sweeps taken at known waypoints.
 
-``fit`` writes a sonar profile (`toolkit.sonar_fit.save_sonar_profile`) that ``--sonar-profile`` of
+``fit`` writes a sonar profile (`toolkit.real_sonar.fit.save_sonar_profile`) that ``--sonar-profile`` of
 ``scan``, ``localise``, ``run``, ``paper``, ``bench localisers`` and ``brick serve`` reads; ``score`` says
 how well a model explains sweeps; ``loo`` fits without each source of sweeps in turn and scores the
 held-out source, the honest test of a fitted model.
@@ -22,7 +22,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
-from ..formats import cell, json_safe, percent
+from ..number_format import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import Interrupted, sonar_app
 from .choices import one_of
@@ -34,7 +34,8 @@ from .progress import progress
 __all__: list[str] = []
 
 _DIRS = typer.Argument(..., metavar="DIR...", callback=shipped,
-                       help="Sweep sets: folders with a sweeps.csv (maps/real-nxt is one; format: toolkit/sweeps.py).")
+                       help="Sweep sets: folders with a sweeps.csv (maps/real-nxt is one; format: "
+                            "toolkit/real_sonar/sweeps.py).")
 _MAP = typer.Option(None, "--map", metavar="FILE", help="The map of every sweep set (default: each folder's "
                                                         "arena.yaml).")
 _WIDTHS = typer.Option("10,20,30,40,60", "--widths", metavar="DEG[,DEG]",
@@ -66,7 +67,7 @@ def _grid(text: str, option: str, hi: float) -> list[float]:
 
 
 def _load_sets(dirs: Sequence[Path], map_file: Path | None) -> list[Any]:
-    from ..sweeps import load_sweep_set
+    from ..real_sonar.sweeps import load_sweep_set
 
     return [load_sweep_set(d, map=map_file) for d in dirs]
 
@@ -117,7 +118,7 @@ def _rounded(value: Any) -> Any:
 
 def _params_table(model: NxtSonar, title: str) -> Table:
     """The fitted parameters beside the hardware facts."""
-    from ..sonar_fit import FIT_PARAMETERS
+    from ..real_sonar.fit import FIT_PARAMETERS
 
     hw = NxtSonar.hardware_facts()
     table = Table("parameter", "fitted", "hardware facts", "unit", title=title)
@@ -146,7 +147,7 @@ def sonar_fit(
     from (folders, sweeps, readings, likelihood, headings) and nothing else, so a rerun writes the same
     bytes.
     """
-    from ..sonar_fit import fit_sonar, save_sonar_profile
+    from ..real_sonar.fit import fit_sonar, save_sonar_profile
 
     widths = _grid(widths_text, "--widths", 120.0)
     criticals = _grid(criticals_text, "--criticals", 90.0)
@@ -171,7 +172,7 @@ def sonar_fit(
 def _score_models(profile: Path | None, baselines: list[str]) -> dict[str, tuple[NxtSonar, str]]:
     """The models to score by label, with where each comes from: the profile (or the default), then the
     baselines."""
-    from ..sonar_fit import BASELINES
+    from ..real_sonar.fit import BASELINES
 
     models: dict[str, tuple[NxtSonar, str]] = {}
     fitted = load_profile(profile, "nxt")
@@ -209,7 +210,7 @@ def sonar_score(
     then the same per sweep, with that margin in nats. Each sweep is taken at the heading the model finds
     most likely.
     """
-    from ..sonar_fit import BASELINES, score_sonar
+    from ..real_sonar.fit import BASELINES, score_sonar
 
     heading = parse_heading_prior(heading_prior_text, "--heading-prior")
     baselines = [] if baseline_text is None else parse_list(baseline_text, "--baseline", list(BASELINES))
@@ -276,7 +277,7 @@ def sonar_loo(
     the hardware facts, and whether they expect a no-echo share within 0.05 of the real one.
     """
     from ..bench.executors import TasksInterrupted, collect_tasks
-    from ..sonar_fit import LeaveOneOut, repo_folds, score_fold
+    from ..real_sonar.fit import LeaveOneOut, repo_folds, score_fold
 
     widths = _grid(widths_text, "--widths", 120.0)
     criticals = _grid(criticals_text, "--criticals", 90.0)
@@ -342,7 +343,7 @@ def sonar_plot(
     """Real sweeps against the model: real_sonar_radar.png (three waypoints, real and model on one radar
     chart each), real_sonar_no_echo.png (no-echo share against incidence and range, real and model) and
     real_sonar_places.png (where the first sweep puts the robot in the map)."""
-    from ..sonar_plots import real_sonar_figures
+    from ..real_sonar.plots import real_sonar_figures
 
     heading = parse_heading_prior(heading_prior_text, "--heading-prior")
     model = load_profile(sonar_profile, "nxt") or NxtSonar()

@@ -54,7 +54,7 @@ def bench_sweeps(
     from localisation.base import LOCALISERS
     from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.bench.sweeps import make_sweep_tasks, run_sweep, write_sweeps_csv, write_sweeps_summary
-    from toolkit.sweeps import load_sweep_set
+    from toolkit.real_sonar.sweeps import load_sweep_set
     from toolkit.world import NxtSonar
 
     names = LOCALISERS.names()

@@ -114,7 +114,7 @@ def scan(
     --angles and --direction (`--angles 0:1:360 --direction cw`).
     """
     from ..plotting import draw_map, draw_pose, draw_radar, draw_scan_rays, expected_ranges, new_axes, save_figure
-    from ..sweeps import sweep_angles
+    from ..real_sonar.sweeps import sweep_angles
 
     if direction not in ("cw", "ccw"):
         raise typer.BadParameter(f"must be cw or ccw, got {direction!r}", param_hint="--direction")

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 from ..world import Resumption, TruthSource
 
 if TYPE_CHECKING:
-    from ..recording import Recorder
+    from ..recordings.recorder import Recorder
 
 __all__ = ["FaultLog", "FaultNote"]
 

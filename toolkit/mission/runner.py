@@ -34,7 +34,7 @@ from .recovery import DEFAULT_RECONNECT_TIMEOUT_S, FaultLog, Recovery
 from .report import _SPLIT_COUNTERS, MissionReport, Outcome, _time_split
 
 if TYPE_CHECKING:
-    from ..recording import Recorder
+    from ..recordings.recorder import Recorder
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +70,7 @@ def run_mission(robot: Robot, map: Map | str, target: ArrayLike, *, planner: str
         Registry names (``min-turn``, ``ompl:BITstar``; ``paper-pf``) or a planner, a localiser built for `map`.
     rng, config : None, int or Generator; MissionConfig or None
         Seeds the planner's and the localiser's draws (the simulator has its own); how the mission runs.
-    recorder : toolkit.recording.Recorder, optional
+    recorder : toolkit.recordings.recorder.Recorder, optional
         Records every command, scan and localiser call; the caller closes it.
     procedure : callable
         One look, ``procedure(robot, localiser, prior=..., rng=..., reset=..., **options)`` returning a

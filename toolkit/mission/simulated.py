@@ -28,7 +28,7 @@ from .report import MissionReport
 from .runner import run_mission
 
 if TYPE_CHECKING:
-    from ..recording import Recorder
+    from ..recordings.recorder import Recorder
 
 
 def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | None = None,
@@ -61,7 +61,7 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
         localiser is told it (`localisation.robot_options`). None: the model's defaults.
     config : MissionConfig or None
         None: `MissionConfig.for_sonar(sonar)`.
-    recorder : toolkit.recording.Recorder, optional
+    recorder : toolkit.recordings.recorder.Recorder, optional
     robot_radius_cm : float, optional
         Radius of the robot disc (cm; default `RobotGeometry`'s 8 cm), a robot scaled to the map: the random
         start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm`` get it.

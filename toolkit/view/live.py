@@ -7,7 +7,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from ..timeline import Item, RunInfo, Timeline, timeline_of
+from ..recordings.timeline import Item, RunInfo, Timeline, timeline_of
 from .viewer import check_view, start_viewer
 
 __all__ = ["LiveView", "open_stream", "view_file"]
@@ -58,7 +58,7 @@ def close_stream(stream: Any, timeout_s: float = FLUSH_TIMEOUT_S) -> None:
 
 
 class LiveView:
-    """A `toolkit.recording.Recorder` listener that draws each line as it is written."""
+    """A `toolkit.recordings.recorder.Recorder` listener that draws each line as it is written."""
 
     def __init__(self, stream: Any) -> None:
         from .scene import RerunScene
@@ -77,7 +77,7 @@ class LiveView:
 
 def _load(path: Path) -> tuple[RunInfo, list[Item]]:
     if path.is_dir():
-        from ..ros2_export.reader import timeline_of_bag
+        from ..ros.export.reader import timeline_of_bag
 
         return timeline_of_bag(path)
     return timeline_of(path)

@@ -1,4 +1,4 @@
-"""Draw a run in Rerun: `RerunScene` logs the items of a `toolkit.timeline.Timeline` to a recording stream.
+"""Draw a run in Rerun: `RerunScene` logs the items of a `toolkit.recordings.timeline.Timeline` to a recording stream.
 
 Entities (all under ``world``, in map coordinates, cm):
 
@@ -24,7 +24,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 import shapely
 
-from ..timeline import EstimateItem, Item, OdometryItem, PlanItem, RunInfo, SweepItem, TruthItem
+from ..recordings.timeline import EstimateItem, Item, OdometryItem, PlanItem, RunInfo, SweepItem, TruthItem
 from ..world import Pose
 
 __all__ = ["ENTITIES", "RerunScene", "ellipse"]

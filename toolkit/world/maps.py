@@ -34,7 +34,7 @@ Names such as ``map1`` resolve to the files in the shipped data's ``maps/``, ``m
 ``maps/real-nxt/`` and ``maps/jarvis/`` folders (`toolkit.world.bundled`: the repository's ``maps/``, installed as the
 package ``toolkit.data``), and to files in the folders listed in the environment variable
 ``NXTNAV_MAPS`` (separated like ``PATH``). A file's name is its stem, except that the map of a sweep
-set (`toolkit.sweeps`), which is always called ``arena.yaml``, goes by its ``name`` field
+set (`toolkit.real_sonar.sweeps`), which is always called ``arena.yaml``, goes by its ``name`` field
 (``co333-arena`` for ``maps/real-nxt/arena.yaml``). Besides the YAML files above, a name may be a
 Moving AI ``.map`` file or a ROS map_server YAML, which are imported (`toolkit.world.importers`).
 """

@@ -18,7 +18,7 @@ Two models, both seeded through an ``rng`` argument:
     centimetres; or a reading nearer than the echo; or a random one; or no echo (255), whose probability
     rises from ``dropout_prob`` to ``far_dropout_prob`` around ``reach_cm``, and is ``1 - phantom_prob``
     where the lobe meets nothing. `NxtSonar.log_pmf` is that distribution and `NxtSonar.sample` draws from
-    it, so a model fitted to real sweeps (``toolkit.sonar_fit``) is the model the simulator uses. Its
+    it, so a model fitted to real sweeps (``toolkit.real_sonar.fit``) is the model the simulator uses. Its
     defaults are fitted to real sweeps; `NxtSonar.hardware_facts` is the model from the published facts.
 """
 

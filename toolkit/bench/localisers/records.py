@@ -113,7 +113,7 @@ class BenchConfig:
     localise_options : mapping
         Extra keyword arguments of every look (`localisation.procedure.look`).
     sonar_model : NxtSonar, optional
-        The ``nxt`` sonar's model (a fitted profile's, `toolkit.sonar_fit.load_sonar_profile`): the
+        The ``nxt`` sonar's model (a fitted profile's, `toolkit.real_sonar.fit.load_sonar_profile`): the
         simulator reads with it and the localisers get its lobe. None: `NxtSonar`'s defaults.
     """
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from localisation.base import LOCALISERS
 
-from ...formats import cell, csv_cell, percent
+from ...number_format import cell, csv_cell, percent
 from ..common import finite_median
 from .records import COLUMNS, SUCCESS_CM, SUCCESS_DEG, BenchConfig, TrialResult
 

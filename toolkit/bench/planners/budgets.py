@@ -22,7 +22,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from ...formats import cell, csv_cell, percent
+from ...number_format import cell, csv_cell, percent
 from ...plotting import save_figure
 from ...world import PlanningError
 from ..common import finite_median

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ...formats import cell, csv_cell, percent
+from ...number_format import cell, csv_cell, percent
 from ...world import NxtnavError
 from ..common import finite_median
 from ..ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log

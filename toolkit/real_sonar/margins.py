@@ -22,8 +22,8 @@ from localisation.base import HeadingPrior
 from localisation.beam_model import BeamLikelihood, lattice_costs, scan_readings
 from localisation.range_table import range_lattice, range_table
 
+from ..world import NxtSonar
 from .sweeps import SweepSet
-from .world import NxtSonar
 
 __all__ = ["LATTICE_STEP_CM", "place_costs", "sweep_margins"]
 

@@ -1,7 +1,7 @@
 """Figures of real sweeps against the `nxt` sonar model: radar charts, no-echo probability curves, and
 where in the map one sweep puts the robot.
 
-Every sweep is drawn where the model finds it most likely (`toolkit.sonar_fit.align_sweeps`: heading
+Every sweep is drawn where the model finds it most likely (`toolkit.real_sonar.fit.align_sweeps`: heading
 and a few cm of position around its waypoint), so real and model are compared reading for reading.
 """
 
@@ -18,12 +18,12 @@ from matplotlib.figure import Figure
 
 from localisation.base import HeadingPrior
 
-from .plotting import draw_map
-from .sonar_fit import AlignedSweep, align_sweeps
-from .sweep_margins import LATTICE_STEP_CM, place_costs
+from ..plotting import draw_map
+from ..world import NO_ECHO, Map, NxtSonar, ray_cast
+from ..world.arrays import FloatArray
+from .fit import AlignedSweep, align_sweeps
+from .margins import LATTICE_STEP_CM, place_costs
 from .sweeps import Sweep, SweepSet
-from .world import NO_ECHO, Map, NxtSonar, ray_cast
-from .world.arrays import FloatArray
 
 __all__ = ["draw_incidence_curves", "draw_places", "draw_sweep_radar", "real_sonar_figures"]
 

@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
+from ..world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
 
 __all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepSet", "SweepSetError", "load_sweep_set", "sweep_angles"]
 

@@ -16,15 +16,15 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from ..recording import thin_cloud
-from ..timeline import EstimateItem, Item, OdometryItem, PlanItem, RunInfo, SweepItem, Timeline, TruthItem
-from ..world import Pose, wrap_angle
+from ...recordings.recorder import thin_cloud
+from ...recordings.timeline import EstimateItem, Item, OdometryItem, PlanItem, RunInfo, SweepItem, Timeline, TruthItem
+from ...world import Pose, wrap_angle
 from . import messages as msg
 from .grid import rasterise
 from .typestore import PARTICLE_CLOUD, typestore
 
 if TYPE_CHECKING:
-    from ..replay import Recording
+    from ...recordings.replay import Recording
 
 __all__ = ["HEADER_KEY", "ROSBAG2_VERSION", "TOPICS", "ExportSummary", "export_mcap"]
 
@@ -62,7 +62,7 @@ class ExportSummary:
     moved_rad: float = 0.0
     """How far the furthest of their readings was moved to its slot (rad)."""
     truncated: str | None = None
-    """Where the recording was cut short (`toolkit.replay.Recording.truncated`); None when it is whole."""
+    """Where the recording was cut short (`toolkit.recordings.replay.Recording.truncated`); None when it is whole."""
 
     @property
     def messages(self) -> int:
@@ -95,7 +95,7 @@ def _map_to_odom(estimate: Pose, odom: Pose) -> Pose:
 def _range_limits(rec: Recording, info: RunInfo) -> tuple[float, float]:
     """The recording's sensor's range limits (cm from the sensor): its model's ``min_range_cm`` and
     ``max_range_cm``; for a model without them (the ideal sonar), 0 and the longest distance in the map."""
-    from ..replay import robot_model_of
+    from ...recordings.replay import robot_model_of
 
     sonar = robot_model_of(rec).sonar
     rmin = float(getattr(sonar, "min_range_cm", 0.0))
@@ -110,7 +110,7 @@ def _truth_message(ns: int, pose: Pose, heading_known: bool) -> tuple[str, int, 
 
 
 def _timeline(rec: Recording) -> tuple[RunInfo, list[Item]]:
-    """The run's `RunInfo` and time-line items (`toolkit.timeline`) of a recording already read."""
+    """The run's `RunInfo` and time-line items (`toolkit.recordings.timeline`) of a recording already read."""
     tl = Timeline()
     tl.feed(rec.header, rec.map)
     items: list[Item] = [it for _, e in rec.events for it in tl.feed(e)]
@@ -182,7 +182,7 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
     Parameters
     ----------
     recording : path
-        A recording (`toolkit.recording`); checked by `toolkit.replay.read_recording`.
+        A recording (`toolkit.recordings.recorder`); checked by `toolkit.recordings.replay.read_recording`.
     out : path
         A new or empty folder.
     resolution_cm : float
@@ -197,7 +197,7 @@ def export_mcap(recording: str | Path, out: str | Path, *, resolution_cm: float 
     _check_target(dest)
     if particles is not None and particles < 1:
         raise msg.ExportError(f"particles per cloud must be at least 1, got {particles}")
-    from ..replay import read_recording
+    from ...recordings.replay import read_recording
 
     rec = read_recording(recording)
     info, items = _timeline(rec)

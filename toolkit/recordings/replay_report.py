@@ -1,4 +1,4 @@
-"""What `toolkit.replay.replay` reports: each localiser call's estimates (`ReplayStep`) and the whole
+"""What `toolkit.recordings.replay.replay` reports: each localiser call's estimates (`ReplayStep`) and the whole
 run's (`ReplayReport`): errors against the truth or agreement without one, evo's trajectory scores
 (with the reason when one is missing), CPU time, and whether the live localiser was reproduced.
 
@@ -20,12 +20,12 @@ import numpy as np
 from localisation.ambiguity import CANDIDATE_RADIUS_CM, confidently_wrong, describe_candidates, truth_among
 from localisation.base import PoseEstimate
 
+from ..world import Pose, angle_diff
+from ..world.arrays import finite_median
 from .trajectory_scores import TrajectoryScores, score_trajectory
-from .world import Pose, angle_diff
-from .world.arrays import finite_median
 
 if TYPE_CHECKING:
-    from .replay_reading import Recording
+    from .reading import Recording
 
 __all__ = ["CANDIDATE_RADIUS_CM", "ReplayReport", "ReplayStep", "Verdict"]
 
@@ -276,7 +276,7 @@ class ReplayReport:
 
     def trajectory_scores(self, name: str) -> TrajectoryScores:
         """evo's APE (after rigid alignment) and RPE per metre of `name`'s estimates after the updates,
-        against the true poses (`toolkit.trajectory_scores`); NaN without true headings."""
+        against the true poses (`toolkit.recordings.trajectory_scores`); NaN without true headings."""
         cache: dict[str, TrajectoryScores] = self.__dict__.setdefault("_scores", {})
         if name not in cache:
             pairs = [(s.truth.as_array(), s.estimates[name].pose.as_array())  # type: ignore[union-attr]

@@ -1,6 +1,6 @@
 """Data taken elsewhere, as recordings that `nxtnav replay` scores like any run.
 
-`import_sweep_set` writes a sweep set (`toolkit.sweeps`: real sweeps at known waypoints) as one
+`import_sweep_set` writes a sweep set (`toolkit.real_sonar.sweeps`: real sweeps at known waypoints) as one
 ``nxtnav-recording`` (``docs/recording.md``) in which each sweep is a global-localisation episode:
 
 * a ``scan`` (the sweep as a `Scan`: no-echo readings kept as invalid 255s, among them the repeats
@@ -23,9 +23,9 @@ from typing import IO, Any
 
 import numpy as np
 
-from .recording import Recorder
-from .sweeps import Sweep, SweepSet
-from .world import NO_ECHO
+from ..real_sonar.sweeps import Sweep, SweepSet
+from ..world import NO_ECHO
+from .recorder import Recorder
 
 __all__ = ["SweepImport", "import_sweep_set"]
 
@@ -47,7 +47,7 @@ class SweepImport:
     no_echo : int
         Of those, the no-echo readings (kept as invalid readings of 255 cm).
     held_no_echo : int
-        Of those, the repeats of a held echo read as no echo (`toolkit.sweeps`, ``held_runs`` ``no-echo``).
+        Of those, the repeats of a held echo read as no echo (`toolkit.real_sonar.sweeps`, ``held_runs`` ``no-echo``).
     lines : int
         Lines of the recording.
     """

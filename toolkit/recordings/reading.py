@@ -1,4 +1,4 @@
-"""Reading a recording for `toolkit.replay`: `read_recording` parses and checks it.
+"""Reading a recording for `toolkit.recordings.replay`: `read_recording` parses and checks it.
 
 `read_recording` checks every line against the format of ``docs/recording.md`` and raises
 `RecordingError` naming the file, the line and the field at fault. A recording cut short (the last
@@ -18,15 +18,7 @@ import numpy as np
 
 from localisation.base import LOCALISERS, HeadingPrior
 
-from .recording import (
-    FORMAT_NAME,
-    FORMAT_VERSION,
-    decode_floats,
-    decode_options,
-    scan_from_fields,
-    sonar_from_dict,
-)
-from .world import (
+from ..world import (
     Map,
     MapError,
     NxtnavError,
@@ -34,6 +26,14 @@ from .world import (
     Scan,
     SonarModel,
     map_from_dict,
+)
+from .recorder import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    decode_floats,
+    decode_options,
+    scan_from_fields,
+    sonar_from_dict,
 )
 
 __all__ = ["CALLS", "ROBOT_EVENTS", "LocaliserSpec", "Recording", "RecordingError", "heading_prior_of",
@@ -363,7 +363,7 @@ def read_recording(path: str | Path) -> Recording:
 
 
 def _decoded(options: dict[str, Any], where: str) -> dict[str, Any]:
-    """A localiser event's options with its sonar model rebuilt (`toolkit.recording.decode_options`)."""
+    """A localiser event's options with its sonar model rebuilt (`toolkit.recordings.recorder.decode_options`)."""
     try:
         return decode_options(options)
     except NxtnavError as exc:

@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..world import Map, NxtnavError, Pose, Scan
-from ..world.arrays import FloatArray
+from ...world import Map, NxtnavError, Pose, Scan
+from ...world.arrays import FloatArray
 from .grid import OccupancyGrid
 from .typestore import PARTICLE, PARTICLE_CLOUD, typestore
 

@@ -16,9 +16,9 @@ import numpy as np
 
 from localisation.base import PoseEstimate
 
-from ..timeline import EstimateItem, Item, OdometryItem, PlanItem, RunInfo, SweepItem, TruthItem, run_info
-from ..world import Pose, Scan
-from ..world.yaml_text import YAMLError, load_yaml
+from ...recordings.timeline import EstimateItem, Item, OdometryItem, PlanItem, RunInfo, SweepItem, TruthItem, run_info
+from ...world import Pose, Scan
+from ...world.yaml_text import YAMLError, load_yaml
 from .messages import ExportError, yaw_of
 from .typestore import typestore
 from .writer import HEADER_KEY

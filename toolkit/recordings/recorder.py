@@ -25,10 +25,10 @@ the run); a recorder made with ``out=None`` writes no file and only feeds them.
 
 Data taken elsewhere is written with the same `Recorder`: `Recorder.known_scan` writes a scan taken
 without a robot clock at a known position, perhaps without a known heading (format version 2), as
-`toolkit.imports.import_sweep_set` does for each real sweep of a sweep set.
+`toolkit.recordings.imported.import_sweep_set` does for each real sweep of a sweep set.
 
 Floats are written with Python's shortest round-trip representation, so replaying the calls with the
-same localiser and seed (`toolkit.replay`) reproduces the live estimates bit for bit.
+same localiser and seed (`toolkit.recordings.replay`) reproduces the live estimates bit for bit.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ import numpy as np
 
 from localisation.base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 
-from .world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
+from ..world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
            "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "thin_cloud", "versions"]

@@ -32,11 +32,11 @@ from scipy.optimize import minimize
 from localisation.base import HeadingPrior
 from localisation.scan import drop_stuck
 
-from .sweep_margins import sweep_margins
+from ..world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar, wrap_angle
+from ..world.arrays import FloatArray, finite_median
+from ..world.yaml_text import load_yaml
+from .margins import sweep_margins
 from .sweeps import Sweep, SweepSet
-from .world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar, wrap_angle
-from .world.arrays import FloatArray, finite_median
-from .world.yaml_text import load_yaml
 
 __all__ = ["BASELINES", "FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
            "SonarProfileError", "SweepScore", "align_sweeps", "fit_sonar", "load_sonar_profile", "repo_folds",
@@ -293,7 +293,7 @@ class SweepScore:
     readings: int
     sweeps: int
     waypoint_most_likely: float = math.nan
-    """Share of sweeps the model explains best at their waypoint (`toolkit.sweep_margins`): an upper
+    """Share of sweeps the model explains best at their waypoint (`toolkit.real_sonar.margins`): an upper
     bound on the share of sweeps any localiser using the model places within 20 cm from that sweep alone."""
     per_sweep: list[dict[str, Any]] = field(default_factory=list)
 
@@ -307,7 +307,7 @@ def score_sonar(model: NxtSonar, sets: Sequence[SweepSet], margins: bool = True,
     of the readings where both answer (the model's noise-free reading ``d + bias``), each sweep where
     the model finds it most likely (`align_sweeps`); and, with `margins` (a search of the whole map's
     lattice per sweep, the costly part), per sweep the margin (nats) by which the model prefers the
-    waypoint to any place further than 20 cm (`toolkit.sweep_margins`, weighed by `heading_prior` when
+    waypoint to any place further than 20 cm (`toolkit.real_sonar.margins`, weighed by `heading_prior` when
     given); NaN without. With `margins`, `on_sweep` is called as each sweep's margin is done (a progress
     display)."""
     aligned = [a for s in sets for a in align_sweeps(model, s)]

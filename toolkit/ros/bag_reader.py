@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .world import ConfigError, wrap_angle
-from .world.arrays import FloatArray, IntArray
+from ..world import ConfigError, wrap_angle
+from ..world.arrays import FloatArray, IntArray
 
 __all__ = ["POSE_TYPES", "SCAN_TYPES", "BagData", "BagError", "LaserScanMsg", "PoseSeries", "TfTree", "check_topic",
            "read_bag", "se2_compose", "se2_inverse"]

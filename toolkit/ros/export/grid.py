@@ -9,7 +9,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from ..world import ConfigError, Map
+from ...world import ConfigError, Map
 
 __all__ = ["FREE", "OCCUPIED", "UNKNOWN", "OccupancyGrid", "rasterise"]
 

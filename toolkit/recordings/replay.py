@@ -1,5 +1,5 @@
-"""Compare localisers offline on a recording: read it (`read_recording`, `toolkit.replay_reading`),
-replay it (`replay`, its report in `toolkit.replay_report`).
+"""Compare localisers offline on a recording: read it (`read_recording`, `toolkit.recordings.reading`),
+replay it (`replay`, its report in `toolkit.recordings.replay_report`).
 
 `read_recording` checks every line against the format of ``docs/recording.md`` and raises
 `RecordingError` naming the file, the line and the field at fault. A recording cut short (the last
@@ -30,13 +30,16 @@ from localisation.ambiguity import candidate_poses
 from localisation.base import LOCALISERS, HeadingPrior, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from localisation.robot_options import localiser_options
 
-from .recording import (
-    _estimate,
-    decode_floats,
-    scan_from_fields,
-    sonar_from_dict,
+from ..world import (
+    LaserScanner,
+    NxtnavError,
+    NxtSonar,
+    Pose,
+    RobotModel,
+    Scan,
+    SonarModel,
 )
-from .replay_reading import (
+from .reading import (
     CALLS,
     ROBOT_EVENTS,
     LocaliserSpec,
@@ -46,16 +49,13 @@ from .replay_reading import (
     read_recording,
     truth_of,
 )
-from .replay_report import ReplayReport, ReplayStep
-from .world import (
-    LaserScanner,
-    NxtnavError,
-    NxtSonar,
-    Pose,
-    RobotModel,
-    Scan,
-    SonarModel,
+from .recorder import (
+    _estimate,
+    decode_floats,
+    scan_from_fields,
+    sonar_from_dict,
 )
+from .replay_report import ReplayReport, ReplayStep
 
 __all__ = ["LocaliserSpec", "Recording", "RecordingError", "ReplayReport", "ReplayStep", "read_recording", "replay",
            "robot_model_of"]

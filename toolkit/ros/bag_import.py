@@ -1,6 +1,6 @@
 """A ROS bag as a recording that `nxtnav replay` runs localisers over (``docs/recording.md``).
 
-`import_bag` reads a bag (`toolkit.bag_reader`) and writes one ``nxtnav-recording``:
+`import_bag` reads a bag (`toolkit.ros.bag_reader`) and writes one ``nxtnav-recording``:
 
 * a ``reset`` with a null prior (``nxtnav replay --initial-pose`` gives the localisers a prior instead);
 * per scan kept (every `every`-th message of the scan topic), the odometry since the previous one
@@ -37,16 +37,16 @@ from typing import Any
 
 import numpy as np
 
+from ..recordings.recorder import Recorder
+from ..world import LaserScanner, Map, Pose, Scan, wrap_angle
 from .bag_reader import BagData, BagError, LaserScanMsg, PoseSeries, read_bag, se2_compose, se2_inverse
-from .recording import Recorder
-from .world import LaserScanner, Map, Pose, Scan, wrap_angle
 
 __all__ = ["BagImport", "OdometryNoise", "import_bag", "odometry_motions", "rebase_scan"]
 
 M_TO_CM = 100.0
 MAX_GAP_S = PoseSeries.max_gap_ns / 1e9
 """Longest gap between two odometry samples that a pose is interpolated across (s), unless both are the
-same pose (`toolkit.bag_reader.PoseSeries`)."""
+same pose (`toolkit.ros.bag_reader.PoseSeries`)."""
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """A run as a time line: the events of a recording, or of a live `Recorder`, as typed items with times.
 
 `Timeline` is fed the recording's event dicts one at a time (``feed``), from a file
-(`timeline_of`, through `toolkit.replay.read_recording`) or as a `Recorder` writes them (a live
+(`timeline_of`, through `toolkit.recordings.replay.read_recording`) or as a `Recorder` writes them (a live
 view listens to the recorder), and turns them into what a viewer or an exporter draws or publishes:
 
 * `TruthItem`: the simulator's (or a truth source's) pose after a robot event;
@@ -31,9 +31,9 @@ import numpy as np
 
 from localisation.base import PoseEstimate
 
-from .recording import decode_floats, scan_from_fields
-from .world import Map, Pose, RobotGeometry, Scan, map_from_dict, wrap_angle
-from .world.arrays import FloatArray
+from ..world import Map, Pose, RobotGeometry, Scan, map_from_dict, wrap_angle
+from ..world.arrays import FloatArray
+from .recorder import decode_floats, scan_from_fields
 
 __all__ = ["CLOCKLESS_STEP_S", "EstimateItem", "Item", "OdometryItem", "PlanItem", "RunInfo", "SweepItem",
            "Timeline", "TruthItem", "run_info", "timeline_of"]
@@ -211,7 +211,7 @@ class Timeline:
 
 
 def timeline_of(path: str | Path) -> tuple[RunInfo, list[Item]]:
-    """A recording's `RunInfo` and items (`toolkit.replay.read_recording` checks it first)."""
+    """A recording's `RunInfo` and items (`toolkit.recordings.replay.read_recording` checks it first)."""
     from .replay import read_recording
 
     rec = read_recording(path)

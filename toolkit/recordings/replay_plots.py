@@ -1,4 +1,4 @@
-"""Drawing a replay (`toolkit.replay.ReplayReport`): estimates on the map, error or agreement per update."""
+"""Drawing a replay (`toolkit.recordings.replay.ReplayReport`): estimates on the map, error or agreement per update."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, MaxNLocator
 
-from .plotting import draw_map, new_axes
+from ..plotting import draw_map, new_axes
 
 if TYPE_CHECKING:
     from .replay import ReplayReport
