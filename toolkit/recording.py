@@ -47,20 +47,11 @@ import numpy as np
 
 from localisation.base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 
+from .recording_format import FORMAT_NAME, FORMAT_VERSION, Context, check_event, check_header
 from .world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
            "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "thin_cloud", "versions"]
-
-FORMAT_NAME = "nxtnav-recording"
-FORMAT_VERSION = 3
-"""Version 2 adds to version 1: a ``true_pose`` whose heading is null (the position is known, the
-heading is not), scans whose ``t_start`` and ``t`` are null (no robot clock) and a scan's ``label``.
-Version 3 adds the ``plan`` event, an estimate's optional ``particles``, the ``fault`` and ``recovery``
-events (a lost link, a sonar swept again) and an ``odometry`` whose ``tacho_after`` is null (the link
-broke right after the command). Readers read every version up to theirs and refuse later ones by
-their version."""
-
 
 def encode_floats(values: Any) -> list[float | str]:
     """Floats for JSON, exactly: finite values as numbers, non-finite ones as ``"inf"``, ``"-inf"``, ``"nan"``."""
@@ -237,6 +228,8 @@ class Recorder:
                   "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
                   "map": map.to_dict(), "robot": dict(robot), "sonar": dict(sonar), "seed": seed,
                   "versions": versions(), **dict(extra or {})}
+        check_header(header, "recording header")
+        self._context = Context(FORMAT_VERSION)
         self._write(header)
 
     # -- writing --------------------------------------------------------------------------------
@@ -249,15 +242,19 @@ class Recorder:
             listen(obj)
 
     def event(self, kind: str, /, **fields: Any) -> None:
-        """Write one event line ``{"type": kind, ...}``."""
-        self._write({"type": kind, **fields})
+        """Write one event line ``{"type": kind, ...}``, checked first against its model in
+        `toolkit.recording_format` (what the reader will check it against): a line that breaks the
+        format raises `toolkit.recording_format.RecordingError` and is not written."""
+        line = {"type": kind, **fields}
+        check_event(line, f"recording line {self.lines + 1}", self._context)
+        self._write(line)
 
     def close(self, status: str | None = None, success: bool | None = None, *, end: bool = True) -> None:
         """Write the ``end`` line (unless `end` is False: the run broke off) and close the file."""
         if self._closed or (self._fh is not None and self._fh.closed):
             return
         if end:
-            self._write({"type": "end", "status": status, "success": success})
+            self.event("end", status=status, success=success)
         self._closed = True
         if self._own and self._fh is not None:
             self._fh.close()
