@@ -26,7 +26,7 @@ from pydantic import BeforeValidator, ConfigDict, Field, TypeAdapter, Validation
 from pydantic_core import PydanticCustomError
 
 from .world import NxtnavError
-from .world.typed import Typed
+from .world.typed import Typed, worded
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Context", "End", "Estimate", "Event", "Fault", "Header", "Localiser",
            "Move", "Plan", "Predict", "RecordingError", "Recovery", "Reset", "Scan", "Turn", "Turnback", "Update",
@@ -58,7 +58,7 @@ class Context:
 # -- the messages -------------------------------------------------------------------------------------
 # Three kinds of error, told apart by their type: "field" (about the field being validated: the
 # message follows "field 'name'"), "line" (about the model being validated: the message follows the
-# path of a nested model, "particles: ") and "text" (the whole message).
+# path of a nested model, "particles: ") and `toolkit.world.typed.worded` (the whole message).
 
 def _field_error(text: str) -> PydanticCustomError:
     return PydanticCustomError("field", "{text}", {"text": text})
@@ -66,10 +66,6 @@ def _field_error(text: str) -> PydanticCustomError:
 
 def _line_error(text: str) -> PydanticCustomError:
     return PydanticCustomError("line", "{text}", {"text": text})
-
-
-def _text_error(text: str) -> PydanticCustomError:
-    return PydanticCustomError("text", "{text}", {"text": text})
 
 
 def _got(value: Any) -> str:
@@ -91,7 +87,7 @@ def _message(err: Any, tagged: bool) -> str:
     text = str((err.get("ctx") or {}).get("text", err.get("msg", "invalid")))
     if kind == "union_tag_invalid":
         return f"unknown event type {(err.get('ctx') or {}).get('tag')!r}"
-    if kind == "text":
+    if kind == "worded":
         return text
     nest = "".join(f"{p}: " for p in (loc[1:] if kind == "line" else loc[1:-1]))
     name = loc[-1] if loc else "?"
@@ -217,7 +213,7 @@ def _since(version: int, what: str, info: ValidationInfo) -> None:
     """Refuse `what` in a recording of a format version below `version`."""
     got = _context(info).version
     if got < version:
-        raise _text_error(f"{what} needs format version {version} (the header says {got})")
+        raise worded(f"{what} needs format version {version} (the header says {got})")
 
 
 class _Since3(_Line):
@@ -280,7 +276,7 @@ def _angles(value: Any) -> Any:
         n, step = value.get("n"), value.get("step")
         if not (isinstance(n, int) and not isinstance(n, bool) and n >= 2 and isinstance(step, int | float)
                 and not isinstance(step, bool)):
-            raise _text_error("bad scan: 'angles_rad' must be a list or {\"n\": integer >= 2, \"step\": number}")
+            raise worded("bad scan: 'angles_rad' must be a list or {\"n\": integer >= 2, \"step\": number}")
         return value
     if not isinstance(value, list):
         raise _field_error(f"must be a list or an object, got {_got(value)}")
@@ -377,11 +373,11 @@ class Localiser(_Line):
         from .recording import decode_options
 
         if self.name not in LOCALISERS:
-            raise _text_error(f"unknown localiser {self.name!r}; known: {', '.join(LOCALISERS.names())}")
+            raise worded(f"unknown localiser {self.name!r}; known: {', '.join(LOCALISERS.names())}")
         try:
             decode_options(self.options)
         except NxtnavError as exc:
-            raise _text_error(f"options.sonar_model: {exc}") from None
+            raise worded(f"options.sonar_model: {exc}") from None
         return self
 
 
@@ -407,9 +403,9 @@ def _prior(value: Any) -> Any:
     if "heading_deg" in value:
         for key in ("heading_deg", "sd_deg"):
             if key not in value:
-                raise _text_error(f"missing field '{key}'")
+                raise worded(f"missing field '{key}'")
             if isinstance(value[key], bool) or not isinstance(value[key], int | float):
-                raise _text_error(f"field '{key}' must be a number, got {_got(value[key])}")
+                raise worded(f"field '{key}' must be a number, got {_got(value[key])}")
         h, sd = float(value["heading_deg"]), float(value["sd_deg"])
         if not (math.isfinite(h) and math.isfinite(sd) and sd > 0.0):
             raise _field_error(f": a heading prior needs a finite heading_deg and sd_deg > 0, got {h!r} and {sd!r}")
@@ -417,7 +413,7 @@ def _prior(value: Any) -> Any:
     if value.get("mean") is None:
         raise _field_error("needs a 'mean'")
     if "cov" not in value:
-        raise _text_error("missing field 'cov'")
+        raise worded("missing field 'cov'")
     return value
 
 
@@ -454,22 +450,22 @@ class Update(_Line):
         if "scan" not in data:
             for key in ("angles_rad", "ranges_cm", "invalid"):
                 if key not in data:
-                    raise _text_error(f"missing field '{key}'")
+                    raise worded(f"missing field '{key}'")
                 if data[key] is None:
-                    raise _text_error(f"field '{key}' must be a list, got null")
+                    raise worded(f"field '{key}' must be a list, got null")
             return data
         sid = data["scan"]
         if isinstance(sid, bool) or not isinstance(sid, int):
-            raise _text_error(f"field 'scan' must be a number, got {_got(sid)}")
+            raise worded(f"field 'scan' must be a number, got {_got(sid)}")
         scans = _context(info).scans
         if sid not in scans:
-            raise _text_error(f"update refers to scan {sid}, which no earlier line holds")
+            raise worded(f"update refers to scan {sid}, which no earlier line holds")
         if "index" not in data:
-            raise _text_error("missing field 'index'")
+            raise worded("missing field 'index'")
         idx = data["index"]
         if not (isinstance(idx, list) and all(isinstance(i, int) and not isinstance(i, bool)
                                               and 0 <= i < scans[sid] for i in idx)):
-            raise _text_error(f"field 'index' must hold indices of scan {sid} (0..{scans[sid] - 1})")
+            raise worded(f"field 'index' must hold indices of scan {sid} (0..{scans[sid] - 1})")
         return data
 
     @model_validator(mode="after")
@@ -585,7 +581,7 @@ def _sonar_params(value: Any) -> Any:
     try:
         sonar_from_dict(value)
     except NxtnavError as exc:
-        raise _text_error(f"sonar.params: {exc}") from None
+        raise worded(f"sonar.params: {exc}") from None
     return value
 
 
@@ -600,7 +596,7 @@ class SonarInfo(Typed):
 def _version(value: Any) -> Any:
     _is((int,))(value)
     if value > FORMAT_VERSION or value < 1:
-        raise _text_error(f"format version {value} is not supported (this nxtnav reads {FORMAT_NAME} versions 1 "
+        raise worded(f"format version {value} is not supported (this nxtnav reads {FORMAT_NAME} versions 1 "
                           f"to {FORMAT_VERSION})")
     return value
 
@@ -623,7 +619,7 @@ class Header(Typed):
     @classmethod
     def _is_header(cls, data: Any) -> Any:
         if not isinstance(data, dict) or data.get("type") != "header" or data.get("format") != FORMAT_NAME:
-            raise _text_error(f"expected the header (type 'header', format '{FORMAT_NAME}')")
+            raise worded(f"expected the header (type 'header', format '{FORMAT_NAME}')")
         return data
 
 
