@@ -248,9 +248,9 @@ class SweepRow(Typed):
 
     model_config = ConfigDict(extra="allow")
 
-    n_bins: Annotated[int, BeforeValidator(_whole), Field(gt=0, description="readings per sweep")]
-    step_deg: Annotated[float, BeforeValidator(_positive),
-                        Field(gt=0, description="angle between consecutive readings (degrees)")]
+    n_bins: Annotated[int, Field(gt=0, description="readings per sweep"), BeforeValidator(_whole)]
+    step_deg: Annotated[float, Field(gt=0, description="angle between consecutive readings (degrees)"),
+                        BeforeValidator(_positive)]
     start_deg: Annotated[float, BeforeValidator(_finite),
                          Field(description="turret angle of the first reading relative to the heading (degrees)")]
     direction: Annotated[Literal["cw", "ccw"], BeforeValidator(_choice(("cw", "ccw"))),
