@@ -76,3 +76,28 @@ def test_the_writer_refuses_a_line_the_reader_would_refuse() -> None:
     with pytest.raises(RecordingError, match="unknown event type 'jump'"):
         rec.event("jump")
     assert out.getvalue() == written and rec.lines == 2  # nothing of the refused lines was written
+
+
+def test_shipped_maps_meet_the_published_map_schema() -> None:
+    """Every shipped map file (both forms: boundary with obstacles and walls, and regions with a grid as an
+    import writes them) meets map.json, and the schema refuses an unknown field as the reader does."""
+    jsonschema = pytest.importorskip("jsonschema")
+    from toolkit.world import MapError, list_maps, map_from_dict
+    from toolkit.world.yaml_text import load_yaml
+
+    schema = json.loads((REPO / "docs" / "reference" / "schemas" / "map.json").read_text())
+    files = [p for p in list_maps().values() if p.suffix in (".yaml", ".yml")]
+    docs = [d for d in (load_yaml(p.read_text(encoding="utf-8")) for p in files) if "image" not in d]
+    assert len(docs) >= 4 and any("walls" in d for d in docs)
+    recorded = json.loads(EXAMPLE.read_text().splitlines()[0])["map"]  # a recording's map, in its file form
+    grid = {"name": "g", "regions": [{"boundary": [[0, 0], [50, 0], [50, 40], [0, 40]],
+                                      "holes": [[[10, 10], [20, 10], [20, 20], [10, 20]]]}],
+            "grid": {"cell_cm": 1.0, "origin": [0, 0], "width": 50, "height": 40}, "start": [5, 5]}
+    for doc in [*docs, recorded, grid]:
+        jsonschema.validate(doc, schema)
+        map_from_dict(doc)
+    bad = {**docs[0], "colour": "red"}
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(bad, schema)
+    with pytest.raises(MapError, match=r"map: unknown field\(s\) colour; allowed: name"):
+        map_from_dict(bad)

@@ -4,8 +4,9 @@ Usage: ``python tools/schemas.py`` (or ``python tools/schemas.py FOLDER``); ``--
 and fails, naming the files, when the folder differs from the models (a test runs the same check).
 
 Each schema comes from the typed model the file's reader and writer share: a recording's header and
-event lines (`toolkit.recording_format`), a row of a sweep set's ``sweeps.csv`` (`toolkit.sweeps.SweepRow`).
-File names start with the kind of file (``recording-``, ``sweep-set``), so other schemas can share the
+event lines (`toolkit.recording_format`), a row of a sweep set's ``sweeps.csv`` (`toolkit.sweeps.SweepRow`),
+a map file (`toolkit.world.map_parsing.MapFile`). File names start with the kind of file
+(``recording-``, ``sweep-set``, ``map``), so other schemas can share the
 folder: this tool writes and checks only its own files.
 """
 
@@ -18,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 FOLDER = Path(__file__).resolve().parent.parent / "docs" / "reference" / "schemas"
-PREFIXES = ("recording-", "sweep-set")
+PREFIXES = ("recording-", "sweep-set", "map.")
 """The names this tool owns in the folder."""
 
 
@@ -33,6 +34,7 @@ def file_schemas() -> dict[str, str]:
     """The schema of each file kind, by file name, as the text written to the folder."""
     from toolkit.recording_format import FORMAT_NAME, FORMAT_VERSION, event_schema, header_schema
     from toolkit.sweeps import SweepRow
+    from toolkit.world.map_parsing import MapFile
 
     return {
         "recording-header.json": _text(header_schema(), f"{FORMAT_NAME} header (version {FORMAT_VERSION})",
@@ -43,6 +45,10 @@ def file_schemas() -> dict[str, str]:
         "sweep-set.json": _text(SweepRow.model_json_schema(), "nxtnav sweep set: a row of sweeps.csv",
                                 "The columns of one sweep (every value is CSV text, read as the types below; "
                                 "other columns are kept)."),
+        "map.json": _text(MapFile.model_json_schema(), "nxtnav map file",
+                          "A polygonal map (YAML, cm): boundary with obstacles, or regions; optional thin walls, "
+                          "grid, start and target. The geometric rules (simple polygons, obstacles strictly inside "
+                          "and apart, walls and presets in the free space) are checked by the reader."),
     }
 
 
