@@ -79,7 +79,8 @@ RANKS: dict[str, int] = {
     "planners": 1, "localisation": 1, "toolkit.robots": 1,
     # shared services: files, formats, data sets and the plots of them
     "toolkit.seeds": 2, "toolkit.formats": 2, "toolkit.plotting": 2, "toolkit.sweeps": 2,
-    "toolkit.recording": 2, "toolkit.replay": 2, "toolkit.replay_reading": 2, "toolkit.replay_report": 2,
+    "toolkit.recording": 2, "toolkit.recording_fields": 2, "toolkit.recording_format": 2,
+    "toolkit.replay": 2, "toolkit.replay_reading": 2, "toolkit.replay_report": 2,
     "toolkit.replay_plots": 2, "toolkit.trajectory_scores": 2,
     "toolkit.timeline": 2, "toolkit.ros2_export": 2, "toolkit.bag_reader": 2, "toolkit.bag_import": 2,
     "toolkit.imports": 2, "toolkit.sweep_margins": 2, "toolkit.sonar_fit": 2, "toolkit.sonar_plots": 2,

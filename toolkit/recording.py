@@ -33,7 +33,6 @@ same localiser and seed (`toolkit.replay`) reproduces the live estimates bit for
 
 from __future__ import annotations
 
-import dataclasses
 import datetime
 import json
 import math
@@ -47,8 +46,9 @@ import numpy as np
 
 from localisation.base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 
+from .recording_fields import decode_options, sonar_from_dict
 from .recording_format import FORMAT_NAME, FORMAT_VERSION, Context, check_event, check_header
-from .world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
+from .world import ConfigError, LinkLostError, Map, Pose, Scan, SonarModel
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
            "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "thin_cloud", "versions"]
@@ -75,33 +75,6 @@ def encode_options(options: dict[str, Any]) -> dict[str, Any]:
     """A localiser's constructor options for JSON: a sonar model (the ``sonar_model`` option) as its
     ``to_dict`` (name and parameters); everything else as it is."""
     return {k: (v.to_dict() if isinstance(v, SonarModel) else v) for k, v in options.items()}
-
-
-def sonar_from_dict(d: Any) -> SonarModel:
-    """The sonar model a ``to_dict`` describes (``{"name": "nxt", "noise_sd": 1.0, ...}``); `ConfigError`
-    says what is wrong with it."""
-    if not isinstance(d, dict) or not isinstance(d.get("name"), str):
-        raise ConfigError(f"a sonar model is a mapping with a 'name' and its parameters, got {d!r}")
-    params = {k: v for k, v in d.items() if k != "name"}
-    try:
-        cls = SONAR_MODELS.get(d["name"])
-    except NxtnavError as exc:  # an unknown name: the message lists the known ones
-        raise ConfigError(str(exc)) from None
-    known: set[str] = {f.name for f in dataclasses.fields(cls)} if dataclasses.is_dataclass(cls) else set()
-    unknown = sorted(set(params) - known)
-    if unknown:
-        raise ConfigError(f"sonar model {d['name']!r} has no parameter {', '.join(unknown)}")
-    try:
-        return cls(**params)
-    except NxtnavError as exc:
-        raise ConfigError(f"sonar model {d['name']!r}: {exc}") from None
-
-
-def decode_options(options: dict[str, Any]) -> dict[str, Any]:
-    """The inverse of `encode_options`: a ``sonar_model`` option rebuilt as its model."""
-    if isinstance(options.get("sonar_model"), dict):
-        return {**options, "sonar_model": sonar_from_dict(options["sonar_model"])}
-    return dict(options)
 
 
 def scan_fields(scan: Scan) -> dict[str, Any]:

@@ -9,6 +9,7 @@ the path of a nested model, "particles: ") and `toolkit.world.typed.worded` (the
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -17,13 +18,13 @@ from typing import Annotated, Any, Literal
 from pydantic import BeforeValidator, ConfigDict, Field, ValidationInfo, model_validator
 from pydantic_core import PydanticCustomError
 
-from .world import NxtnavError
+from .world import SONAR_MODELS, ConfigError, NxtnavError, SonarModel
 from .world.typed import Typed, worded
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Angles", "Clock", "Context", "Encoded", "Flag", "Floats", "Integer",
            "Invalid", "Line", "Matrix", "Number", "PoseList", "RecordingError", "RegularAngles", "Since3", "Text",
-           "TruePose", "angles_size", "context_of", "encoded", "field_error", "floats_of", "got", "is_of",
-           "line_error", "message", "points", "readings_agree", "since"]
+           "TruePose", "angles_size", "context_of", "decode_options", "encoded", "field_error", "floats_of", "got",
+           "is_of", "line_error", "message", "points", "readings_agree", "since", "sonar_from_dict"]
 
 FORMAT_NAME = "nxtnav-recording"
 FORMAT_VERSION = 3
@@ -46,6 +47,36 @@ class Context:
 
     version: int = FORMAT_VERSION
     scans: dict[int, int] = field(default_factory=dict)
+
+
+# -- a sonar model in a line -------------------------------------------------------------------------
+
+def sonar_from_dict(d: Any) -> SonarModel:
+    """The sonar model a ``to_dict`` describes (``{"name": "nxt", "noise_sd": 1.0, ...}``); `ConfigError`
+    says what is wrong with it."""
+    if not isinstance(d, dict) or not isinstance(d.get("name"), str):
+        raise ConfigError(f"a sonar model is a mapping with a 'name' and its parameters, got {d!r}")
+    params = {k: v for k, v in d.items() if k != "name"}
+    try:
+        cls = SONAR_MODELS.get(d["name"])
+    except NxtnavError as exc:  # an unknown name: the message lists the known ones
+        raise ConfigError(str(exc)) from None
+    known: set[str] = {f.name for f in dataclasses.fields(cls)} if dataclasses.is_dataclass(cls) else set()
+    unknown = sorted(set(params) - known)
+    if unknown:
+        raise ConfigError(f"sonar model {d['name']!r} has no parameter {', '.join(unknown)}")
+    try:
+        return cls(**params)
+    except NxtnavError as exc:
+        raise ConfigError(f"sonar model {d['name']!r}: {exc}") from None
+
+
+def decode_options(options: dict[str, Any]) -> dict[str, Any]:
+    """The inverse of `encode_options`: a ``sonar_model`` option rebuilt as its model."""
+    if isinstance(options.get("sonar_model"), dict):
+        return {**options, "sonar_model": sonar_from_dict(options["sonar_model"])}
+    return dict(options)
+
 
 
 # -- the messages -------------------------------------------------------------------------------------

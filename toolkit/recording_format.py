@@ -21,6 +21,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, ConfigDict, Field, TypeAdapter, ValidationError, ValidationInfo, model_validator
 
+from localisation.base import LOCALISERS
+
 from .recording_fields import (
     FORMAT_NAME,
     FORMAT_VERSION,
@@ -42,6 +44,7 @@ from .recording_fields import (
     TruePose,
     angles_size,
     context_of,
+    decode_options,
     encoded,
     field_error,
     floats_of,
@@ -52,6 +55,7 @@ from .recording_fields import (
     points,
     readings_agree,
     since,
+    sonar_from_dict,
 )
 from .world import NxtnavError
 from .world.typed import Typed, worded
@@ -165,10 +169,6 @@ class Localiser(Line):
 
     @model_validator(mode="after")
     def _known(self) -> Localiser:
-        from localisation.base import LOCALISERS
-
-        from .recording import decode_options
-
         if self.name not in LOCALISERS:
             raise worded(f"unknown localiser {self.name!r}; known: {', '.join(LOCALISERS.names())}")
         try:
@@ -373,8 +373,6 @@ class RobotInfo(Typed):
 
 
 def _sonar_params(value: Any) -> Any:
-    from .recording import sonar_from_dict
-
     try:
         sonar_from_dict(value)
     except NxtnavError as exc:
