@@ -50,14 +50,17 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, model_validator
 
 from ..world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
+from ..world.typed import Typed, one_line, worded
 
-__all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepSet", "SweepSetError", "load_sweep_set", "sweep_angles"]
+__all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepRow", "SweepSet", "SweepSetError", "load_sweep_set",
+           "sweep_angles"]
 
 REQUIRED_COLUMNS = ("repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg")
 DEFAULT_MAP = "arena.yaml"
@@ -176,37 +179,101 @@ class SweepSet:
         return list(dict.fromkeys(s.repo for s in self.sweeps))
 
 
-def _number(row: dict[str, str | None], key: str, where: str, *, positive: bool = False) -> float:
-    text = (row.get(key) or "").strip()
+def _number_text(value: Any, name: str, *, positive: bool = False, whole: bool = False) -> float:
+    """A column's text as a finite number (> 0 when `positive`, an integer when `whole`)."""
+    text = str(value if value is not None else "").strip()
     try:
         v = float(text)
     except ValueError:
-        raise SweepSetError(f"{where}: field {key!r} is not a number: {text!r}") from None
+        raise worded(f"field {name!r} is not a number: {text!r}") from None
     if not math.isfinite(v) or (positive and v <= 0):
-        raise SweepSetError(f"{where}: field {key!r} must be a {'positive' if positive else 'finite'} number, "
-                            f"got {text!r}")
+        raise worded(f"field {name!r} must be a {'positive' if positive else 'finite'} number, got {text!r}")
+    if whole and v != int(v):
+        raise worded(f"field {name!r} must be a whole number, got {value!r}")
     return v
 
 
-def _invalid_values(row: dict[str, str | None], where: str) -> tuple[float, ...]:
-    text = (row.get("invalid_values") or "").replace(";", " ").replace(",", " ").split()
-    if not text:
-        return (NO_ECHO,)
-    try:
-        return tuple(float(t) for t in text)
-    except ValueError:
-        raise SweepSetError(f"{where}: field 'invalid_values' is not a list of numbers: "
-                            f"{row.get('invalid_values')!r}") from None
+def _finite(value: Any, info: ValidationInfo) -> float:
+    return _number_text(value, str(info.field_name))
 
 
-def _held_runs(row: dict[str, str | None], where: str) -> str:
-    text = (row.get("held_runs") or "").strip().lower()
+def _positive(value: Any, info: ValidationInfo) -> float:
+    return _number_text(value, str(info.field_name), positive=True)
+
+
+def _whole(value: Any, info: ValidationInfo) -> int:
+    return int(_number_text(value, str(info.field_name), positive=True, whole=True))
+
+
+def _filled(value: Any, info: ValidationInfo) -> str:
+    text = str(value if value is not None else "").strip()
     if not text:
-        return HELD_RUNS[0]
-    if text not in HELD_RUNS:
-        raise SweepSetError(f"{where}: field 'held_runs' must be {' or '.join(repr(v) for v in HELD_RUNS)}, "
-                            f"got {row.get('held_runs')!r}")
+        raise worded(f"field {info.field_name!r} is empty")
     return text
+
+
+def _heading(value: Any, info: ValidationInfo) -> float | None:
+    text = str(value if value is not None else "").strip()
+    return _number_text(text, "heading_deg") if text else None
+
+
+def _invalid_values(value: Any) -> Any:
+    if isinstance(value, list | tuple):
+        return value
+    text = str(value if value is not None else "").replace(";", " ").replace(",", " ").split()
+    if not text:
+        return [NO_ECHO]
+    try:
+        return [float(t) for t in text]
+    except ValueError:
+        raise worded(f"field 'invalid_values' is not a list of numbers: {value!r}") from None
+
+
+def _choice(choices: tuple[str, ...], default: str | None = None) -> Any:
+    """A check that a column's text (blank: `default`, when given) is one of `choices`, in any case."""
+    def check(value: Any, info: ValidationInfo) -> str:
+        text = str(value if value is not None else "").strip().lower()
+        if not text and default is not None:
+            return default
+        if text not in choices:
+            raise worded(f"field {info.field_name!r} must be {' or '.join(repr(c) for c in choices)}, got {value!r}")
+        return text
+    return check
+
+
+class SweepRow(Typed):
+    """One row of ``sweeps.csv`` (module docstring): the columns as the file gives them (text), read as
+    numbers, choices and names; other columns are kept as they are. Validated with the map as its
+    context (``{"map": Map}``), the waypoint must lie in the map's free space."""
+
+    model_config = ConfigDict(extra="allow")
+
+    n_bins: Annotated[int, Field(gt=0, description="readings per sweep"), BeforeValidator(_whole)]
+    step_deg: Annotated[float, Field(gt=0, description="angle between consecutive readings (degrees)"),
+                        BeforeValidator(_positive)]
+    start_deg: Annotated[float, BeforeValidator(_finite),
+                         Field(description="turret angle of the first reading relative to the heading (degrees)")]
+    direction: Annotated[Literal["cw", "ccw"], BeforeValidator(_choice(("cw", "ccw"))),
+                         Field(description="the way the turret turned")]
+    x_cm: Annotated[float, BeforeValidator(_finite), Field(description="the waypoint (cm, map frame)")]
+    y_cm: Annotated[float, BeforeValidator(_finite), Field(description="the waypoint (cm, map frame)")]
+    repo: Annotated[str, BeforeValidator(_filled), Field(min_length=1, description="where the sweep comes from")]
+    file: Annotated[str, BeforeValidator(_filled), Field(min_length=1)]
+    raw: Annotated[str, BeforeValidator(_filled),
+                   Field(min_length=1, description="the readings file, relative to the folder")]
+    heading_deg: Annotated[float | None, BeforeValidator(_heading),
+                           Field(description="a heading aligned with the map (degrees); empty: unknown")] = None
+    invalid_values: Annotated[tuple[float, ...], BeforeValidator(_invalid_values),
+                              Field(description="readings that mean no reading (';' or spaces between)")] = (NO_ECHO,)
+    held_runs: Annotated[Literal["stuck", "no-echo"], BeforeValidator(_choice(HELD_RUNS, HELD_RUNS[0])),
+                         Field(description="what a long run of one reading the map does not explain is")] = "stuck"
+
+    @model_validator(mode="after")
+    def _in_free_space(self, info: ValidationInfo) -> SweepRow:
+        m = (info.context or {}).get("map")
+        if isinstance(m, Map) and not bool(m.contains(np.array([[self.x_cm, self.y_cm]]))[0]):
+            raise worded(f"waypoint ({self.x_cm:g}, {self.y_cm:g}) lies outside the free space of map {m.name!r}")
+        return self
 
 
 def _held_repeats(sweep: Sweep, m: Map) -> NDArray[np.bool_]:
@@ -248,38 +315,20 @@ def read_readings(path: Path, n_bins: int) -> NDArray[np.float64]:
     return np.array(values)
 
 
-def _text(row: dict[str, str | None], key: str, where: str) -> str:
-    text = (row.get(key) or "").strip()
-    if not text:
-        raise SweepSetError(f"{where}: field {key!r} is empty")
-    return text
-
-
 def _sweep(folder: Path, row: dict[str, str | None], where: str, m: Map) -> Sweep:
-    n_f = _number(row, "n_bins", where, positive=True)
-    if n_f != int(n_f):
-        raise SweepSetError(f"{where}: field 'n_bins' must be a whole number, got {row['n_bins']!r}")
-    n = int(n_f)
-    step = _number(row, "step_deg", where, positive=True)
-    start = _number(row, "start_deg", where)
-    direction = (row.get("direction") or "").strip().lower()
-    if direction not in ("cw", "ccw"):
-        raise SweepSetError(f"{where}: field 'direction' must be 'cw' or 'ccw', got {row.get('direction')!r}")
-    x, y = _number(row, "x_cm", where), _number(row, "y_cm", where)
-    if not bool(m.contains(np.array([[x, y]]))[0]):
-        raise SweepSetError(f"{where}: waypoint ({x:g}, {y:g}) lies outside the free space of map {m.name!r}")
-    repo, file, raw_text = _text(row, "repo", where), _text(row, "file", where), _text(row, "raw", where)
-    heading_text = (row.get("heading_deg") or "").strip()
-    heading = _number(row, "heading_deg", where) if heading_text else math.nan
-    invalid = _invalid_values(row, where)
-    held_runs = _held_runs(row, where)
-    readings = read_readings((folder / raw_text).resolve(), n)  # checks the count before any n-sized array
-    known = set(REQUIRED_COLUMNS) | {"heading_deg", "invalid_values", "held_runs"}
-    sweep = Sweep(repo=repo, file=file, x_cm=x, y_cm=y, angles=sweep_angles(n, step, direction, start),
-                  readings=readings, invalid_values=invalid, heading_deg=heading, step_deg=step,
-                  direction=direction, raw=raw_text, held_runs=held_runs,
+    try:
+        r = SweepRow.model_validate(row, context={"map": m})
+    except ValidationError as exc:
+        raise SweepSetError(one_line(exc, where)) from None
+    readings = read_readings((folder / r.raw).resolve(), r.n_bins)  # checks the count before any n-sized array
+    known = set(SweepRow.model_fields)
+    sweep = Sweep(repo=r.repo, file=r.file, x_cm=r.x_cm, y_cm=r.y_cm,
+                  angles=sweep_angles(r.n_bins, r.step_deg, r.direction, r.start_deg), readings=readings,
+                  invalid_values=r.invalid_values,
+                  heading_deg=math.nan if r.heading_deg is None else r.heading_deg,
+                  step_deg=r.step_deg, direction=r.direction, raw=r.raw, held_runs=r.held_runs,
                   extra={k: v for k, v in row.items() if k not in known and v is not None})
-    if held_runs != "no-echo":
+    if r.held_runs != "no-echo":
         return sweep
     return replace(sweep, held=_held_repeats(sweep, m))
 

@@ -33,7 +33,6 @@ same localiser and seed (`toolkit.recordings.replay`) reproduces the live estima
 
 from __future__ import annotations
 
-import dataclasses
 import datetime
 import json
 import math
@@ -47,20 +46,12 @@ import numpy as np
 
 from localisation.base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 
-from ..world import SONAR_MODELS, ConfigError, LinkLostError, Map, NxtnavError, Pose, Scan, SonarModel
+from ..world import ConfigError, LinkLostError, Map, Pose, Scan, SonarModel
+from .fields import decode_options, sonar_from_dict
+from .format import FORMAT_NAME, FORMAT_VERSION, Context, check_event, check_header
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Recorder", "decode_floats", "decode_options", "encode_floats",
            "encode_options", "scan_fields", "scan_from_fields", "sonar_from_dict", "thin_cloud", "versions"]
-
-FORMAT_NAME = "nxtnav-recording"
-FORMAT_VERSION = 3
-"""Version 2 adds to version 1: a ``true_pose`` whose heading is null (the position is known, the
-heading is not), scans whose ``t_start`` and ``t`` are null (no robot clock) and a scan's ``label``.
-Version 3 adds the ``plan`` event, an estimate's optional ``particles``, the ``fault`` and ``recovery``
-events (a lost link, a sonar swept again) and an ``odometry`` whose ``tacho_after`` is null (the link
-broke right after the command). Readers read every version up to theirs and refuse later ones by
-their version."""
-
 
 def encode_floats(values: Any) -> list[float | str]:
     """Floats for JSON, exactly: finite values as numbers, non-finite ones as ``"inf"``, ``"-inf"``, ``"nan"``."""
@@ -84,33 +75,6 @@ def encode_options(options: dict[str, Any]) -> dict[str, Any]:
     """A localiser's constructor options for JSON: a sonar model (the ``sonar_model`` option) as its
     ``to_dict`` (name and parameters); everything else as it is."""
     return {k: (v.to_dict() if isinstance(v, SonarModel) else v) for k, v in options.items()}
-
-
-def sonar_from_dict(d: Any) -> SonarModel:
-    """The sonar model a ``to_dict`` describes (``{"name": "nxt", "noise_sd": 1.0, ...}``); `ConfigError`
-    says what is wrong with it."""
-    if not isinstance(d, dict) or not isinstance(d.get("name"), str):
-        raise ConfigError(f"a sonar model is a mapping with a 'name' and its parameters, got {d!r}")
-    params = {k: v for k, v in d.items() if k != "name"}
-    try:
-        cls = SONAR_MODELS.get(d["name"])
-    except NxtnavError as exc:  # an unknown name: the message lists the known ones
-        raise ConfigError(str(exc)) from None
-    known: set[str] = {f.name for f in dataclasses.fields(cls)} if dataclasses.is_dataclass(cls) else set()
-    unknown = sorted(set(params) - known)
-    if unknown:
-        raise ConfigError(f"sonar model {d['name']!r} has no parameter {', '.join(unknown)}")
-    try:
-        return cls(**params)
-    except NxtnavError as exc:
-        raise ConfigError(f"sonar model {d['name']!r}: {exc}") from None
-
-
-def decode_options(options: dict[str, Any]) -> dict[str, Any]:
-    """The inverse of `encode_options`: a ``sonar_model`` option rebuilt as its model."""
-    if isinstance(options.get("sonar_model"), dict):
-        return {**options, "sonar_model": sonar_from_dict(options["sonar_model"])}
-    return dict(options)
 
 
 def scan_fields(scan: Scan) -> dict[str, Any]:
@@ -237,6 +201,8 @@ class Recorder:
                   "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
                   "map": map.to_dict(), "robot": dict(robot), "sonar": dict(sonar), "seed": seed,
                   "versions": versions(), **dict(extra or {})}
+        check_header(header, "recording header")
+        self._context = Context(FORMAT_VERSION)
         self._write(header)
 
     # -- writing --------------------------------------------------------------------------------
@@ -249,15 +215,19 @@ class Recorder:
             listen(obj)
 
     def event(self, kind: str, /, **fields: Any) -> None:
-        """Write one event line ``{"type": kind, ...}``."""
-        self._write({"type": kind, **fields})
+        """Write one event line ``{"type": kind, ...}``, checked first against its model in
+        `toolkit.recordings.format` (what the reader will check it against): a line that breaks the
+        format raises `toolkit.recordings.format.RecordingError` and is not written."""
+        line = {"type": kind, **fields}
+        check_event(line, f"recording line {self.lines + 1}", self._context)
+        self._write(line)
 
     def close(self, status: str | None = None, success: bool | None = None, *, end: bool = True) -> None:
         """Write the ``end`` line (unless `end` is False: the run broke off) and close the file."""
         if self._closed or (self._fh is not None and self._fh.closed):
             return
         if end:
-            self._write({"type": "end", "status": status, "success": success})
+            self.event("end", status=status, success=success)
         self._closed = True
         if self._own and self._fh is not None:
             self._fh.close()

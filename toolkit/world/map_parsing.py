@@ -1,51 +1,240 @@
-"""A `Map` built and validated from the parsed YAML structure of a map file (`map_from_dict`).
+"""A `Map` built and validated from the parsed YAML structure of a map file (`map_from_dict`), through
+its typed model `MapFile`.
 
-The fields and their rules are those of `toolkit.world.maps` (its docstring lists them).
+The fields and their rules are those of `toolkit.world.maps` (its docstring lists them). Each field's
+value is read and checked by `toolkit.world.map_rings` (the messages name the file, the field, the
+vertex and the value); the geometric rules that tie fields together (obstacles inside the boundary
+and apart, regions valid and disjoint, thin walls and presets in the free space) are `MapFile`'s
+validator, which keeps the geometry it built for `map_from_dict`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import shapely
+from pydantic import BeforeValidator, ConfigDict, Field, PrivateAttr, ValidationError, ValidationInfo, model_validator
 from shapely.geometry.base import BaseGeometry
 
 from .arrays import FloatArray
 from .errors import MapError
 from .map_model import GridSpec, Map, Region
 from .map_rings import check_obstacles, read_number, read_point, read_region_ring, read_ring, read_rings
+from .typed import Typed, worded
 
-__all__ = ["MAP_FIELDS", "map_from_dict"]
+__all__ = ["MAP_FIELDS", "MapFile", "map_from_dict"]
 
 MAP_FIELDS = ("name", "description", "boundary", "obstacles", "walls", "regions", "grid", "start", "target")
 
 
-def _regions(value: Any, label: str) -> tuple[Region, ...]:
-    """The ``regions`` form: polygons with holes (OGC-valid: holes may touch at points), disjoint."""
+def _label(info: ValidationInfo) -> str:
+    return str((info.context or {}).get("label", "map"))
+
+
+def _checked(read: Any, *args: Any) -> Any:
+    """`read(*args)` (a `toolkit.world.map_rings` reader), its `MapError` as a worded validation error."""
+    try:
+        return read(*args)
+    except MapError as exc:
+        raise worded(str(exc)) from None
+
+
+def _name(value: Any, info: ValidationInfo) -> Any:
+    if not isinstance(value, str) or not value:
+        raise worded(f"{_label(info)}: field 'name' must be a non-empty string, got {value!r}")
+    return value
+
+
+def _description(value: Any, info: ValidationInfo) -> Any:
+    if value is None:
+        return ""
+    if not isinstance(value, str):
+        raise worded(f"{_label(info)}: field 'description' must be a string, got {type(value).__name__}")
+    return value
+
+
+def _boundary(value: Any, info: ValidationInfo) -> Any:
+    return _checked(read_ring, value, f"{_label(info)}: boundary").tolist()
+
+
+def _obstacles(value: Any, info: ValidationInfo) -> Any:
+    return [o.tolist() for o in _checked(read_rings, value or [], _label(info), "obstacles")]
+
+
+def _regions(value: Any, info: ValidationInfo) -> Any:
+    """The ``regions`` form's rings read (their polygons are checked with the rest of the geometry)."""
+    label = _label(info)
     if not isinstance(value, list) or not value:
-        raise MapError(f"{label}: field 'regions' must be a non-empty list of {{boundary, holes}} mappings")
-    out: list[Region] = []
+        raise worded(f"{label}: field 'regions' must be a non-empty list of {{boundary, holes}} mappings")
+    out: list[dict[str, Any]] = []
     for k, item in enumerate(value):
         where = f"{label}: region {k}"
         if not isinstance(item, dict):
-            raise MapError(f"{where}: expected a mapping with 'boundary' and optional 'holes', got {item!r}")
+            raise worded(f"{where}: expected a mapping with 'boundary' and optional 'holes', got {item!r}")
         extra = sorted(str(x) for x in item if x not in ("boundary", "holes"))
         if extra:
-            raise MapError(f"{where}: unknown field(s) {', '.join(extra)}; allowed: boundary, holes")
+            raise worded(f"{where}: unknown field(s) {', '.join(extra)}; allowed: boundary, holes")
         if "boundary" not in item:
-            raise MapError(f"{where}: missing field 'boundary'")
+            raise worded(f"{where}: missing field 'boundary'")
         holes = item.get("holes") or []
         if not isinstance(holes, list):
-            raise MapError(f"{where}: field 'holes' must be a list of polygons, got {type(holes).__name__}")
-        region = Region(read_region_ring(item["boundary"], f"{where}: boundary"),
-                        tuple(read_region_ring(h, f"{where}: hole {k}") for k, h in enumerate(holes)))
+            raise worded(f"{where}: field 'holes' must be a list of polygons, got {type(holes).__name__}")
+        out.append({"boundary": _checked(read_region_ring, item["boundary"], f"{where}: boundary").tolist(),
+                     "holes": [_checked(read_region_ring, h, f"{where}: hole {j}").tolist()
+                               for j, h in enumerate(holes)]})
+    return out
+
+
+def _walls(value: Any, info: ValidationInfo) -> Any:
+    """The ``walls`` field's polylines read: >= 2 points, no zero-length segment (their place in the free
+    space is checked with the rest of the geometry)."""
+    if value is None:
+        return None
+    label = _label(info)
+    if not isinstance(value, list):
+        raise worded(f"{label}: field 'walls' must be a list of polylines [[x, y], [x, y], ...], "
+                     f"got {type(value).__name__}")
+    out: list[Any] = []
+    for k, item in enumerate(value):
+        where = f"{label}: wall {k}"
+        if not isinstance(item, list | tuple):
+            raise worded(f"{where}: expected a list of [x, y] points, got {type(item).__name__} {item!r}")
+        line = np.array([_checked(read_point, v, f"{where} vertex {i}") for i, v in enumerate(item)],
+                        dtype=np.float64).reshape(-1, 2)
+        if len(line) < 2:
+            raise worded(f"{where}: a wall needs at least 2 points, got {len(line)}")
+        same = np.flatnonzero((line[1:] == line[:-1]).all(axis=1))
+        if len(same):
+            i = int(same[0])
+            raise worded(f"{where} vertex {i + 1}: zero-length segment, the same point {line[i].tolist()} "
+                         f"as vertex {i}")
+        out.append(line.tolist())
+    return out
+
+
+def _grid(value: Any, info: ValidationInfo) -> Any:
+    if value is None:
+        return None
+    label = _label(info)
+    if not isinstance(value, dict) or set(value) != {"cell_cm", "origin", "width", "height"}:
+        raise worded(f"{label}: field 'grid' must be a mapping with cell_cm, origin, width and height, got {value!r}")
+    cell = _checked(read_number, value["cell_cm"], f"{label}: grid.cell_cm")
+    origin = _checked(read_point, value["origin"], f"{label}: grid.origin")
+    for key in ("width", "height"):
+        if isinstance(value[key], bool) or not isinstance(value[key], int) or value[key] <= 0:
+            raise worded(f"{label}: grid.{key} must be a positive integer, got {value[key]!r}")
+    if cell <= 0:
+        raise worded(f"{label}: grid.cell_cm must be positive, got {cell}")
+    return {"cell_cm": cell, "origin": origin.tolist(), "width": value["width"], "height": value["height"]}
+
+
+def _preset(value: Any, info: ValidationInfo) -> Any:
+    return None if value is None else _checked(read_point, value, f"{_label(info)}: {info.field_name}").tolist()
+
+
+Point = Annotated[tuple[float, float], Field(description="[x, y] (cm)")]
+Ring = Annotated[list[Point], Field(min_length=3, description="a simple polygon's vertices (cm)")]
+
+
+class RegionFile(Typed):
+    """One free region of the ``regions`` form: a polygon with holes (OGC-valid: holes may touch at points)."""
+
+    boundary: Ring
+    holes: list[Ring] = Field(default_factory=list)
+
+
+class GridFile(Typed):
+    """The cell grid an imported map was polygonised from (`toolkit.world.map_model.GridSpec`)."""
+
+    cell_cm: float = Field(gt=0)
+    origin: Point
+    width: int = Field(gt=0)
+    height: int = Field(gt=0)
+
+
+class MapFile(Typed):
+    """A map file (`toolkit.world.maps`): ``boundary`` with ``obstacles``, or ``regions``; optional thin
+    ``walls``, ``grid`` and ``start``/``target`` presets. Validated with ``{"label": file}`` as its
+    context (the messages' prefix); `map_from_dict` builds the `Map` from it."""
+
+    model_config = ConfigDict(validate_default=False)
+
+    name: Annotated[str, Field(min_length=1, description="defaults to the file's name"), BeforeValidator(_name)]
+    description: Annotated[str, BeforeValidator(_description)] = ""
+    regions: Annotated[list[RegionFile] | None, Field(description="disjoint free regions (instead of boundary)"),
+                       BeforeValidator(_regions)] = None
+    boundary: Annotated[Ring | None, Field(description="the outer wall: simple polygon, non-zero area"),
+                        BeforeValidator(_boundary)] = None
+    obstacles: Annotated[list[Ring], Field(default_factory=list, description="polygons strictly inside the "
+                                           "boundary, apart"), BeforeValidator(_obstacles)]
+    grid: Annotated[GridFile | None, BeforeValidator(_grid)] = None
+    walls: Annotated[list[Annotated[list[Point], Field(min_length=2)]] | None,
+                     Field(description="thin walls: polylines of >= 2 points in the free space"),
+                     BeforeValidator(_walls)] = None
+    start: Annotated[Point | None, Field(description="preset start, in the free space"),
+                     BeforeValidator(_preset)] = None
+    target: Annotated[Point | None, Field(description="preset target, in the free space"),
+                      BeforeValidator(_preset)] = None
+
+    _regions: tuple[Region, ...] = PrivateAttr(())
+    _thin: tuple[FloatArray, ...] = PrivateAttr(())
+
+    @model_validator(mode="before")
+    @classmethod
+    def _form(cls, data: Any, info: ValidationInfo) -> Any:
+        label = _label(info)
+        if not isinstance(data, dict):
+            raise worded(f"{label}: expected a mapping with fields {', '.join(MAP_FIELDS)}, got {type(data).__name__}")
+        unknown = sorted(str(k) for k in data if k not in MAP_FIELDS)
+        if unknown:
+            raise worded(f"{label}: unknown field(s) {', '.join(unknown)}; allowed: {', '.join(MAP_FIELDS)}")
+        if "regions" in data and ("boundary" in data or "obstacles" in data):
+            raise worded(f"{label}: give either 'regions' or 'boundary' (with 'obstacles'), not both")
+        if "regions" not in data and "boundary" not in data:
+            raise worded(f"{label}: missing field 'boundary'")
+        return data if "name" in data else {**data, "name": (info.context or {}).get("default_name", "map")}
+
+    @model_validator(mode="after")
+    def _geometry(self, info: ValidationInfo) -> MapFile:
+        """The geometric rules: obstacles inside the boundary and apart, regions valid and disjoint,
+        thin walls and presets in the free space (the `Map`'s geometry kept for `map_from_dict`)."""
+        label = _label(info)
+        if self.regions is not None:
+            regions = _checked(_valid_regions, self.regions, label)
+        else:
+            boundary = np.asarray(self.boundary, dtype=np.float64)
+            obstacles = tuple(np.asarray(o, dtype=np.float64) for o in self.obstacles)
+            _checked(check_obstacles, label, boundary, obstacles)
+            regions = (Region(boundary, obstacles),)
+        free = regions[0].polygon if len(regions) == 1 else shapely.MultiPolygon([r.polygon for r in regions])
+        shapely.prepare(free)
+        thin = _checked(_thin_walls, self.walls, label, free)
+        for key in ("start", "target"):
+            p = getattr(self, key)
+            if p is None:
+                continue
+            if not free.contains(shapely.Point(p)):
+                raise worded(f"{label}: {key} {list(p)} is outside the free space of the map")
+            on = [k for k, w in enumerate(thin) if shapely.intersects_xy(shapely.LineString(w), *p)]
+            if on:
+                raise worded(f"{label}: {key} {list(p)} lies on wall {on[0]}")
+        self._regions, self._thin = regions, thin
+        return self
+
+
+def _valid_regions(items: list[RegionFile], label: str) -> tuple[Region, ...]:
+    """The regions as `Region`s: each a valid polygon of non-zero area, no two overlapping or sharing an edge."""
+    out: list[Region] = []
+    for k, item in enumerate(items):
+        region = Region(np.asarray(item.boundary, dtype=np.float64),
+                        tuple(np.asarray(h, dtype=np.float64) for h in item.holes))
         reason = shapely.is_valid_reason(region.polygon)
         if reason != "Valid Geometry":
-            raise MapError(f"{where}: invalid polygon: {reason}")
+            raise MapError(f"{label}: region {k}: invalid polygon: {reason}")
         if not region.polygon.area > 0:
-            raise MapError(f"{where}: polygon has zero area")
+            raise MapError(f"{label}: region {k}: polygon has zero area")
         out.append(region)
     polys = [r.polygon for r in out]
     pairs = shapely.STRtree(polys).query(polys, predicate="intersects")
@@ -55,26 +244,12 @@ def _regions(value: Any, label: str) -> tuple[Region, ...]:
     return tuple(out)
 
 
-def _thin_walls(value: Any, label: str, free: BaseGeometry) -> tuple[FloatArray, ...]:
-    """The ``walls`` field: polylines of >= 2 points, segments of non-zero length in the closed free area."""
-    if value is None:
-        return ()
-    if not isinstance(value, list):
-        raise MapError(f"{label}: field 'walls' must be a list of polylines [[x, y], [x, y], ...], "
-                       f"got {type(value).__name__}")
+def _thin_walls(walls: list[Any] | None, label: str, free: BaseGeometry) -> tuple[FloatArray, ...]:
+    """The thin walls as arrays, each segment in the closed free area (`MapError` naming the wall)."""
     out: list[FloatArray] = []
-    for k, item in enumerate(value):
+    for k, points in enumerate(walls or []):
         where = f"{label}: wall {k}"
-        if not isinstance(item, list | tuple):
-            raise MapError(f"{where}: expected a list of [x, y] points, got {type(item).__name__} {item!r}")
-        line = np.array([read_point(v, f"{where} vertex {i}") for i, v in enumerate(item)], dtype=np.float64)
-        if len(line) < 2:
-            raise MapError(f"{where}: a wall needs at least 2 points, got {len(line)}")
-        same = np.flatnonzero((line[1:] == line[:-1]).all(axis=1))
-        if len(same):
-            i = int(same[0])
-            raise MapError(f"{where} vertex {i + 1}: zero-length segment, the same point {line[i].tolist()} "
-                           f"as vertex {i}")
+        line = np.asarray(points, dtype=np.float64)
         inside = shapely.intersects_xy(free, line[:, 0], line[:, 1])
         if not inside.all():
             i = int(np.flatnonzero(~inside)[0])
@@ -91,74 +266,25 @@ def _thin_walls(value: Any, label: str, free: BaseGeometry) -> tuple[FloatArray,
     return tuple(out)
 
 
-def _grid(value: Any, label: str) -> GridSpec | None:
-    if value is None:
-        return None
-    if not isinstance(value, dict) or set(value) != {"cell_cm", "origin", "width", "height"}:
-        raise MapError(f"{label}: field 'grid' must be a mapping with cell_cm, origin, width and height, got {value!r}")
-    cell = read_number(value["cell_cm"], f"{label}: grid.cell_cm")
-    origin = read_point(value["origin"], f"{label}: grid.origin")
-    for key in ("width", "height"):
-        if isinstance(value[key], bool) or not isinstance(value[key], int) or value[key] <= 0:
-            raise MapError(f"{label}: grid.{key} must be a positive integer, got {value[key]!r}")
-    if cell <= 0:
-        raise MapError(f"{label}: grid.cell_cm must be positive, got {cell}")
-    return GridSpec(cell, (float(origin[0]), float(origin[1])), int(value["width"]), int(value["height"]))
-
-
 def map_from_dict(
     data: Any, *, source: Path | None = None, default_name: str = "map"
 ) -> Map:
     """Build and validate a `Map` from the parsed YAML structure (see the module docstring)."""
     label = str(source) if source is not None else "map"
-    if not isinstance(data, dict):
-        raise MapError(f"{label}: expected a mapping with fields {', '.join(MAP_FIELDS)}, "
-                       f"got {type(data).__name__}")
-    unknown = sorted(str(k) for k in data if k not in MAP_FIELDS)
-    if unknown:
-        raise MapError(f"{label}: unknown field(s) {', '.join(unknown)}; allowed: {', '.join(MAP_FIELDS)}")
-    name = data.get("name", default_name)
-    if not isinstance(name, str) or not name:
-        raise MapError(f"{label}: field 'name' must be a non-empty string, got {name!r}")
-    description = data.get("description", "")
-    if description is None:
-        description = ""
-    if not isinstance(description, str):
-        raise MapError(f"{label}: field 'description' must be a string, got {type(description).__name__}")
-    if "regions" in data:
-        if "boundary" in data or "obstacles" in data:
-            raise MapError(f"{label}: give either 'regions' or 'boundary' (with 'obstacles'), not both")
-        regions = _regions(data["regions"], label)
-    else:
-        if "boundary" not in data:
-            raise MapError(f"{label}: missing field 'boundary'")
-        boundary = read_ring(data["boundary"], f"{label}: boundary")
-        obstacles = read_rings(data.get("obstacles") or [], label, "obstacles")
-        check_obstacles(label, boundary, obstacles)
-        regions = (Region(boundary, obstacles),)
-    grid = _grid(data.get("grid"), label)
-    free = regions[0].polygon if len(regions) == 1 else shapely.MultiPolygon([r.polygon for r in regions])
-    shapely.prepare(free)
-    thin = _thin_walls(data.get("walls"), label, free)
-    presets: dict[str, FloatArray | None] = {}
-    for key in ("start", "target"):
-        if data.get(key) is None:
-            presets[key] = None
-            continue
-        p = read_point(data[key], f"{label}: {key}")
-        if not free.contains(shapely.Point(p)):
-            raise MapError(f"{label}: {key} {p.tolist()} is outside the free space of the map")
-        on = [k for k, w in enumerate(thin) if shapely.intersects_xy(shapely.LineString(w), *p)]
-        if on:
-            raise MapError(f"{label}: {key} {p.tolist()} lies on wall {on[0]}")
-        presets[key] = p
+    try:
+        f = MapFile.model_validate(data, context={"label": label, "default_name": default_name})
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        text = (err.get("ctx") or {}).get("text") if err.get("type") == "worded" else None
+        raise MapError(str(text) if text else f"{label}: {' '.join(str(exc).split())}") from None
+    grid = None if f.grid is None else GridSpec(f.grid.cell_cm, f.grid.origin, f.grid.width, f.grid.height)
     return Map(
-        name=name,
-        description=description,
-        regions=regions,
-        start=presets["start"],
-        target=presets["target"],
+        name=f.name,
+        description=f.description,
+        regions=f._regions,
+        start=None if f.start is None else np.array(f.start, dtype=np.float64),
+        target=None if f.target is None else np.array(f.target, dtype=np.float64),
         grid=grid,
-        thin_walls=thin,
+        thin_walls=f._thin,
         source=source,
     )

@@ -39,11 +39,12 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 from pydantic.fields import FieldInfo
+from pydantic_core import PydanticCustomError
 
 from .errors import ConfigError
 from .yaml_text import YAMLError, load_yaml
 
-__all__ = ["Typed", "build", "fields_of", "one_line", "parse_value", "with_sets"]
+__all__ = ["Typed", "build", "fields_of", "one_line", "parse_value", "with_sets", "worded"]
 
 T = TypeVar("T", bound=BaseModel)
 
@@ -55,8 +56,32 @@ class Typed(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, validate_default=True)
 
 
+def worded(text: str) -> PydanticCustomError:
+    """An error for a validator to raise when it words the whole message itself (the field's name and
+    the value included, as a file's reader has always said it): `build` writes `text` as it is.
+
+    >>> from pydantic import field_validator
+    >>> class Row(Typed):
+    ...     n_bins: int
+    ...     @field_validator("n_bins", mode="before")
+    ...     @classmethod
+    ...     def _whole(cls, v: Any) -> Any:
+    ...         if str(v).strip() != str(v) or not str(v).isdigit():
+    ...             raise worded(f"field 'n_bins' must be a whole number, got {v!r}")
+    ...         return int(v)
+    >>> build(Row, {"n_bins": "3.5"}, "sweeps.csv:2")
+    Traceback (most recent call last):
+    ...
+    toolkit.world.errors.ConfigError: sweeps.csv:2: field 'n_bins' must be a whole number, got '3.5'
+    """
+    return PydanticCustomError("worded", "{text}", {"text": text})
+
+
 def _message(err: Mapping[str, Any]) -> str:
-    """One pydantic error as ``path: value message`` (pydantic's own wording, lower-cased first letter)."""
+    """One pydantic error as ``path: value message`` (pydantic's own wording, lower-cased first letter),
+    or the text of a `worded` error."""
+    if err.get("type") == "worded":
+        return str((err.get("ctx") or {}).get("text", err.get("msg", "")))
     path = ".".join(str(p) for p in err.get("loc", ()))
     text = str(err.get("msg", "invalid"))
     if text.startswith("Value error, "):
