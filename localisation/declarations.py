@@ -20,6 +20,7 @@ from typing import Annotated, Literal
 from pydantic import Field, InstanceOf, WithJsonSchema
 
 from toolkit.world import NxtSonar, Options, option
+from toolkit.world.params import Choices
 
 from .amcl_models import model_names
 
@@ -169,7 +170,7 @@ PF_ROBOT: dict[str, tuple[str, ...] | str] = {
 
 # -- amcl ---------------------------------------------------------------------------------------------
 
-AmclModel = Literal[tuple(model_names())]  # type: ignore[valid-type]
+AmclModel = Annotated[str, Choices(model_names)]
 """The registered measurement models of amcl (`localisation.amcl_models`), and ``auto``."""
 
 

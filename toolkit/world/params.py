@@ -39,7 +39,7 @@ from __future__ import annotations
 import json
 import types
 import typing
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, TypeVar, Union, get_args, get_origin
 
@@ -49,7 +49,7 @@ from pydantic.fields import FieldInfo
 from .errors import ConfigError
 from .typed import Typed, fields_of, parse_value
 
-__all__ = ["OptionInfo", "Options", "configure", "describe", "flat", "grouped_paths", "groups", "option_names", "json_schema", "markdown", "option",
+__all__ = ["Choices", "OptionInfo", "Options", "configure", "describe", "flat", "grouped_paths", "groups", "option_names", "json_schema", "markdown", "option",
            "parse_sets", "resolve", "robot_paths"]
 
 O = TypeVar("O", bound="Options")
@@ -65,6 +65,20 @@ def option(default: Any, description: str, *, unit: str = "", ge: float | None =
     if robot:
         extra["robot"] = True
     return Field(default, description=description, ge=ge, le=le, json_schema_extra=extra or None)
+
+
+class Choices:
+    """Metadata of a text option whose allowed values live in a registry (read when checked, so a name
+    registered later counts): ``Annotated[str, Choices(names)]``. ``--set`` refuses another text (the
+    plug-in's constructor checks it again against its registry); the JSON Schema lists them (``enum``)."""
+
+    def __init__(self, names: Callable[[], Sequence[str]]) -> None:
+        self.names = names
+
+    def __get_pydantic_json_schema__(self, core_schema: Any, handler: Any) -> Any:
+        schema = handler(core_schema)
+        schema["enum"] = list(self.names())
+        return schema
 
 
 class Options(Typed):
@@ -142,7 +156,10 @@ def _item_metadata(info: FieldInfo) -> list[Any]:
     return []
 
 
-def _choices(annotation: Any) -> tuple[str, ...]:
+def _choices(annotation: Any, metadata: Sequence[Any] = ()) -> tuple[str, ...]:
+    for item in metadata:
+        if isinstance(item, Choices):
+            return tuple(item.names())
     for arg in (annotation, *get_args(annotation)):
         if get_origin(arg) is Literal:
             return tuple(str(c) for c in get_args(arg))
@@ -151,7 +168,7 @@ def _choices(annotation: Any) -> tuple[str, ...]:
 
 def range_text(info: FieldInfo) -> str:
     """``[1, inf)``, ``one of a, b`` or empty."""
-    choices = _choices(info.annotation)
+    choices = _choices(info.annotation, info.metadata)
     if choices:
         return "one of " + ", ".join(choices)
     low, high = _bounds(_item_metadata(info))
@@ -302,8 +319,11 @@ def parse_sets(cls: type[BaseModel], texts: Mapping[str, str]) -> dict[str, Any]
     for key, text in texts.items():
         path = resolve(cls, key, bare=False)
         value = parse_value(text)
-        if _kinds(paths[path]) & {str} and value is not None and not isinstance(value, str):
+        if _kinds(paths[path].annotation) & {str} and value is not None and not isinstance(value, str):
             value = text.strip()
+        choices = _choices(None, paths[path].metadata)
+        if choices and value not in choices:
+            raise ConfigError(f"{path}: {value!r} is not one of {', '.join(choices)}")
         values[path] = value
     configure(cls, None, values)  # type: ignore[type-var]
     return values
