@@ -27,7 +27,7 @@ from .amcl_models import model_names
 __all__ = ["AMCL_ROBOT", "AmclGlobalStart", "AmclKld", "AmclLobe", "AmclOptions", "AmclRecovery", "AmclSensor",
            "AmclUpdate", "AnnealingOptions", "ConvergenceOptions", "EkfOptions", "KALMAN_ROBOT", "KalmanOptions",
            "KalmanSensor", "ModeOptions", "MotionOptions", "PF_ROBOT", "PfGlobalStart", "PfModes", "PfOptions",
-           "PfRanges", "PfSensor", "PfTracking", "SigmaPoints", "UkfOptions"]
+           "PfRanges", "PfSensor", "PfTracking", "SigmaPoints", "SonarModel", "UkfOptions"]
 
 SonarModel = Annotated[InstanceOf[NxtSonar] | None, WithJsonSchema(
     {"type": ["object", "null"], "description": "an NXT sonar model (set from the robot model's sonar profile)"})]
