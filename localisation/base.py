@@ -19,7 +19,19 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from toolkit.world import ConfigError, Map, Options, Pose, configure, Registry, RngLike, Scan, angle_diff, as_rng, wrap_angle
+from toolkit.world import (
+    ConfigError,
+    Map,
+    Options,
+    Pose,
+    Registry,
+    RngLike,
+    Scan,
+    angle_diff,
+    as_rng,
+    configure,
+    wrap_angle,
+)
 from toolkit.world.arrays import FloatArray
 
 __all__ = [

@@ -28,7 +28,6 @@ import math
 from typing import Any
 
 import numpy as np
-
 from pydantic import BaseModel
 
 from toolkit.world import FACETS, ConfigError, LocalisationError, Options, Pose, Scan, configure, load_map, ray_cast
@@ -111,7 +110,8 @@ def tracking_run(cls: type[Localiser], options: dict[str, Any], model: Any = Non
     options model or None, and the keyword overrides `options`): the final estimate as a vector (pose
     in cm and rad, and covariance), the true pose, and whether the localiser called itself converged."""
     m = load_map("map1")
-    loc = cls(m, model, rng=3, **options) if model is not None else cls(m, rng=3, **options)
+    build: Any = cls  # a plug-in's constructor takes (map, options, *, rng, **overrides)
+    loc = build(m, model, rng=3, **options) if model is not None else build(m, rng=3, **options)
     truth = Pose(60.0, 50.0, 0.4)
     loc.reset(Prior(truth, np.diag([4.0, 4.0, 0.01])))
     angles = np.radians(np.arange(0.0, 360.0, 5.0))

@@ -24,10 +24,34 @@ from toolkit.world.params import Choices
 
 from .amcl_models import model_names
 
-__all__ = ["AMCL_ROBOT", "AmclGlobalStart", "AmclKld", "AmclLobe", "AmclOptions", "AmclRecovery", "AmclSensor",
-           "AmclUpdate", "AnnealingOptions", "ConvergenceOptions", "EkfOptions", "KALMAN_ROBOT", "KalmanOptions",
-           "KalmanSensor", "ModeOptions", "MotionOptions", "PF_ROBOT", "PfGlobalStart", "PfModes", "PfOptions",
-           "PfRanges", "PfSensor", "PfTracking", "SigmaPoints", "SonarModel", "UkfOptions"]
+__all__ = [
+    "AMCL_ROBOT",
+    "KALMAN_ROBOT",
+    "PF_ROBOT",
+    "AmclGlobalStart",
+    "AmclKld",
+    "AmclLobe",
+    "AmclOptions",
+    "AmclRecovery",
+    "AmclSensor",
+    "AmclUpdate",
+    "AnnealingOptions",
+    "ConvergenceOptions",
+    "EkfOptions",
+    "KalmanOptions",
+    "KalmanSensor",
+    "ModeOptions",
+    "MotionOptions",
+    "PfGlobalStart",
+    "PfModes",
+    "PfOptions",
+    "PfRanges",
+    "PfSensor",
+    "PfTracking",
+    "SigmaPoints",
+    "SonarModel",
+    "UkfOptions",
+]
 
 SonarModel = Annotated[InstanceOf[NxtSonar] | None, WithJsonSchema(
     {"type": ["object", "null"], "description": "an NXT sonar model (set from the robot model's sonar profile)"})]

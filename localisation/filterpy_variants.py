@@ -50,7 +50,7 @@ from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, Unscen
 from filterpy.monte_carlo import resampling as fp_resampling
 from numpy.typing import ArrayLike
 
-from toolkit.world import ConfigError, LocalisationError, Map, Options, Pose, RngLike, Scan, angle_diff, wrap_angle
+from toolkit.world import LocalisationError, Map, Options, Pose, RngLike, Scan, angle_diff, wrap_angle
 from toolkit.world.arrays import FloatArray, IntArray
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
@@ -283,7 +283,8 @@ class KalmanLocaliser(Localiser):
         super().__init__(map, rng=rng)
         o: KalmanOptions = self.configure(options, overrides)
         self.options = o
-        self.sensor_sigma_cm, self.max_beams, self.gate_cm = o.sensor.sensor_sigma_cm, o.sensor.max_beams, o.sensor.gate_cm
+        sensor = o.sensor
+        self.sensor_sigma_cm, self.max_beams, self.gate_cm = sensor.sensor_sigma_cm, sensor.max_beams, sensor.gate_cm
         m = o.motion
         self.motion_model = MotionModel(m.noise_model, m.motion_noise, m.turn_noise, m.motion_inflation)
         self.min_process_var = np.asarray(o.min_process_var, dtype=float)

@@ -23,7 +23,18 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from toolkit.world import CollisionChecker, ConfigError, Map, Options, PlanningError, Registry, RngLike, as_rng, configure, make_checker
+from toolkit.world import (
+    CollisionChecker,
+    ConfigError,
+    Map,
+    Options,
+    PlanningError,
+    Registry,
+    RngLike,
+    as_rng,
+    configure,
+    make_checker,
+)
 from toolkit.world.arrays import FloatArray
 
 __all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "make_planner",

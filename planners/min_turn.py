@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import CollisionChecker, ConfigError
+from toolkit.world import CollisionChecker
 from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution

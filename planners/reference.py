@@ -63,7 +63,7 @@ from numpy.typing import NDArray
 from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
-from toolkit.world import CollisionChecker, ConfigError, Map, PointCollisionChecker
+from toolkit.world import CollisionChecker, Map, PointCollisionChecker
 from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution

@@ -49,8 +49,10 @@ def _models() -> list[tuple[str, str, type]]:
         if model is not None:
             out.append(("planner", name, model))
     out.append(("planner", "ompl:NAME", OmplOptions))
-    out += [("localiser", name, LOCALISERS.get(name).options_model) for name in LOCALISERS.names()
-            if LOCALISERS.get(name).options_model is not None]
+    for name in LOCALISERS.names():
+        model = LOCALISERS.get(name).options_model
+        if model is not None:
+            out.append(("localiser", name, model))
     return out
 
 

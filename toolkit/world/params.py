@@ -49,10 +49,25 @@ from pydantic.fields import FieldInfo
 from .errors import ConfigError
 from .typed import Typed, fields_of, parse_value
 
-__all__ = ["Choices", "OptionInfo", "Options", "configure", "describe", "flat", "grouped_paths", "groups", "option_names", "json_schema", "markdown", "option",
-           "parse_sets", "resolve", "robot_paths"]
+__all__ = [
+    "Choices",
+    "OptionInfo",
+    "Options",
+    "configure",
+    "describe",
+    "flat",
+    "grouped_paths",
+    "groups",
+    "json_schema",
+    "markdown",
+    "option",
+    "option_names",
+    "parse_sets",
+    "resolve",
+    "robot_paths",
+]
 
-O = TypeVar("O", bound="Options")
+OptionsT = TypeVar("OptionsT", bound="Options")
 
 
 def option(default: Any, description: str, *, unit: str = "", ge: float | None = None, le: float | None = None,
@@ -287,8 +302,8 @@ def _nest(model: BaseModel | None, cls: type[BaseModel]) -> dict[str, Any]:
     return out
 
 
-def configure(cls: type[O], options: O | None = None, overrides: Mapping[str, Any] | None = None,
-              where: str = "") -> O:
+def configure(cls: type[OptionsT], options: OptionsT | None = None, overrides: Mapping[str, Any] | None = None,
+              where: str = "") -> OptionsT:
     """`options` (None: the defaults) with `overrides` (dotted paths or field names, in order) on top,
     validated; a bad key or value is one `ConfigError` line naming the option, the value and the rule."""
     if options is not None and not isinstance(options, cls):
