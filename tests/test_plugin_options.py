@@ -91,6 +91,8 @@ def test_python_takes_a_model_or_overrides_by_path_or_by_name() -> None:
     assert by_model == configure(AmclOptions, None, {"sensor.z_hit": 0.9}) == configure(AmclOptions, None,
                                                                                        {"z_hit": 0.9})
     assert configure(AmclOptions, by_model, {"min_particles": 50}).sensor.z_hit == 0.9  # on top of the model
+    # a run's robot options come by path, a mission file's may name the option: the later one wins
+    assert configure(AmclOptions, None, {"lobe.beam_width_deg": 20.0, "beam_width_deg": 10.0}).lobe.beam_width_deg == 10
 
 
 @pytest.mark.parametrize("cls", [*(PLANNERS.get(n) for n in PLANNERS.names()),
