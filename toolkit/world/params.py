@@ -22,6 +22,8 @@ sets them from the one model every localiser is given, and ``--set`` may still o
 >>> class Planner(Options):
 ...     search: Search = Search()
 ...     mode: Literal["a", "b"] = option("a", "the mode")
+>>> Planner().search.n
+10
 >>> configure(Planner, None, {"n": 20}).search.n
 20
 >>> parse_sets(Planner, {"search.n": "0"})
@@ -55,7 +57,6 @@ __all__ = [
     "Options",
     "configure",
     "describe",
-    "flat",
     "grouped_paths",
     "groups",
     "json_schema",
@@ -243,17 +244,6 @@ def json_schema(cls: type[BaseModel], title: str) -> str:
     schema = cls.model_json_schema()
     schema["title"] = title
     return json.dumps(schema, indent=2, sort_keys=True) + "\n"
-
-
-def flat(model: BaseModel) -> dict[str, Any]:
-    """Every option of `model` by dotted name (objects kept as they are)."""
-    return {name: _get(model, name) for name, _ in fields_of(type(model))}
-
-
-def _get(model: Any, path: str) -> Any:
-    for part in path.split("."):
-        model = getattr(model, part)
-    return model
 
 
 def _leaves(cls: type[BaseModel]) -> dict[str, list[str]]:
