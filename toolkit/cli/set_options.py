@@ -20,15 +20,15 @@ __all__ = ["checked_sets", "localiser_sets", "parse_sets"]
 
 
 def parse_sets(values: list[str], option: str = "--set") -> dict[str, dict[str, str]]:
-    """``NAME.KEY=VALUE`` texts by plug-in name (``*`` for a bare ``KEY=VALUE``), values as given."""
+    """``NAME.PATH=VALUE`` texts by plug-in name (the text before the first dot; ``*`` for a bare
+    ``KEY=VALUE``), values as given."""
     out: dict[str, dict[str, str]] = {}
     for text in values:
         key, sep, raw = text.partition("=")
         if not sep or not key.strip():
             raise NxtnavError(f"{option}: expected KEY=VALUE or NAME.KEY=VALUE, got {text!r}")
-        name, dot, k = key.strip().partition(".")
-        name, k = (name, k) if dot else ("", name)
-        out.setdefault(name if dot else "*", {})[k] = raw
+        name, dot, path = key.strip().partition(".")
+        out.setdefault(name if dot else "*", {})[path if dot else name] = raw
     return out
 
 
@@ -81,7 +81,7 @@ def checked_sets(sets: dict[str, dict[str, str]], names: list[str], declared: Ca
             out[n] = opts
     for k in bare:
         if not any(_declares(m, k) for m in models.values()):
-            grouped = [f"{p}" for m in models.values() if m is not None for p in grouped_paths(m, k)]
+            grouped = [p for m in models.values() if m is not None for p in grouped_paths(m, k)]
             if grouped:
                 raise NxtnavError(f"{option} {k}: the options are grouped: use {' or '.join(sorted(set(grouped)))}")
             raise NxtnavError(f"{option}: no chosen {kind} has an option {k}")
@@ -89,7 +89,7 @@ def checked_sets(sets: dict[str, dict[str, str]], names: list[str], declared: Ca
 
 
 def localiser_sets(sets: list[str], names: list[str]) -> dict[str, dict[str, Any]]:
-    """Per chosen localiser (registry names), its ``--set`` options checked against its declarations."""
+    """Per chosen localiser (registry names), its ``--set`` options checked against its options model."""
     from localisation.base import LOCALISERS
 
     return checked_sets(parse_sets(sets), names, lambda n: LOCALISERS.get(n).options_model, "localiser")
