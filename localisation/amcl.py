@@ -53,7 +53,7 @@ import logging
 import math
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,8 +62,7 @@ from toolkit.world import (
     ConfigError,
     LocalisationError,
     Map,
-    NxtSonar,
-    Params,
+    Options,
     Pose,
     RngLike,
     Scan,
@@ -79,7 +78,7 @@ from .amcl_sampling import ParticleDraws
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import lattice_costs
 from .clusters import cloud_stats, cluster
-from .declarations import AMCL_PARAMS, AMCL_ROBOT
+from .declarations import AMCL_ROBOT, AmclOptions
 from .likelihood_field import DistanceField
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, range_lattice, range_table
 from .resampling import log_normalise
@@ -92,30 +91,14 @@ ESTIMATE_CLUSTERS = 8
 """Clusters the estimate of a spread cloud looks among for the heaviest (`mode_radius_cm`, `mode_heading_deg`)."""
 
 
-def _check_options(*, min_particles: int, max_particles: int, pf_err: float, pf_z: float, recovery_alpha_slow: float,
-                   recovery_alpha_fast: float, recovery_sampler: str, global_init: str, sigma_hit: float,
-                   laser_max_range: float, z: tuple[float, float, float], resample_interval: int,
-                   kld_bin: tuple[float, float], ambiguity_injection: float, lobe_rays: int, refine_steps: int,
-                   refine_particles: int) -> None:
-    """`ConfigError` for the first of amcl's options out of its range (`Amcl` says what each is)."""
-    if not 1 <= min_particles <= max_particles:
-        raise ConfigError(f"need 1 <= min_particles <= max_particles, got {min_particles}, {max_particles}")
-    if not (0 < pf_err < 1 and pf_z > 0):
-        raise ConfigError(f"need 0 < pf_err < 1 and pf_z > 0, got {pf_err}, {pf_z}")
-    if not (0 <= recovery_alpha_slow <= 1 and 0 <= recovery_alpha_fast <= 1):
-        raise ConfigError("recovery_alpha_slow and recovery_alpha_fast must be in [0, 1]")
-    if recovery_sampler not in ("scan", "uniform") or global_init not in ("scan", "uniform"):
-        raise ConfigError("recovery_sampler and global_init must be 'scan' or 'uniform'")
-    if sigma_hit <= 0 or laser_max_range <= 0 or min(z) < 0 or sum(z) <= 0:
+def _check_options(o: AmclOptions) -> None:
+    """`ConfigError` for amcl's options that do not fit together (each option's own range is the model's)."""
+    if o.min_particles > o.max_particles:
+        raise ConfigError(f"need 1 <= min_particles <= max_particles, got {o.min_particles}, {o.max_particles}")
+    if o.sensor.z_hit + o.sensor.z_short + o.sensor.z_rand <= 0:
         raise ConfigError("sigma_hit and laser_max_range must be > 0 and the z weights >= 0 with a positive sum")
-    if resample_interval < 1 or kld_bin[0] <= 0 or kld_bin[1] <= 0:
-        raise ConfigError("resample_interval must be >= 1 and the KLD bins positive")
-    if not 0 <= ambiguity_injection <= 1:
-        raise ConfigError(f"ambiguity_injection must be in [0, 1], got {ambiguity_injection}")
-    if lobe_rays < 0 or lobe_rays == 1:
-        raise ConfigError(f"lobe_rays must be 0 (off) or >= 2 (the lobe's edges and inside), got {lobe_rays}")
-    if refine_steps < 0 or refine_particles < 1:
-        raise ConfigError(f"need refine_steps >= 0 and refine_particles >= 1, got {refine_steps}, {refine_particles}")
+    if o.lobe.lobe_rays == 1:
+        raise ConfigError(f"lobe_rays must be 0 (off) or >= 2 (the lobe's edges and inside), got {o.lobe.lobe_rays}")
 
 
 class Amcl(ParticleDraws, Localiser):
@@ -124,7 +107,18 @@ class Amcl(ParticleDraws, Localiser):
     Parameters
     ----------
     map : Map
+    options : AmclOptions, optional
+        The options (`localisation.declarations.AmclOptions`, grouped as nav2 groups them; None: the
+        defaults), e.g. ``Amcl(m, AmclOptions(sensor=AmclSensor(z_hit=0.9)))``.
     rng : None, int or Generator
+    **overrides
+        Options on top of `options`, by dotted path (``**{"sensor.z_hit": 0.9}``) or by the name of one
+        field (``z_hit=0.9``).
+
+    Notes
+    -----
+    What the options mean beyond their one-line descriptions (``nxtnav localisers show amcl``):
+
     model : {"auto", "beam", "field", "nxt-beam"} or the name of a registered model
         Measurement model (`localisation.amcl_models`, `MEASUREMENT_MODELS`); ``auto``: the NXT beam model
         with a `sonar_model`, else the likelihood field (nav2's default) for a thin ray and the beam model
@@ -204,114 +198,60 @@ class Amcl(ParticleDraws, Localiser):
     """
 
     name: ClassVar[str] = "amcl"
-    params: ClassVar[Params | None] = AMCL_PARAMS
+    options_model: ClassVar[type[Options] | None] = AmclOptions
     _heading_prior: HeadingPrior | None = None
     robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = AMCL_ROBOT
 
-    def __init__(
-        self,
-        map: Map,
-        *,
-        rng: RngLike = None,
-        model: str = "auto",
-        min_particles: int = 150,
-        max_particles: int = 2000,
-        pf_err: float = 0.05,
-        pf_z: float = 0.99,
-        kld_bin_cm: float = 2.0,
-        kld_bin_deg: float = 5.0,
-        recovery_alpha_slow: float = 0.001,
-        recovery_alpha_fast: float = 0.1,
-        recovery_sampler: str = "scan",
-        resample_interval: int = 1,
-        update_min_d: float = 0.0,
-        update_min_a: float = 0.0,
-        sigma_hit: float = 1.0,
-        z_hit: float = 0.95,
-        z_short: float = 0.0,
-        z_rand: float = 0.05,
-        lambda_short: float = 0.1,
-        laser_max_range: float = 255.0,
-        laser_likelihood_max_dist: float = 20.0,
-        max_beams: int = 0,
-        field_resolution_cm: float = 0.5,
-        noise_model: str = "botsim",
-        motion_noise: float = 0.1,
-        turn_noise: float = 0.005,
-        motion_inflation: float = 1.5,
-        clearance_cm: float = 8.0,
-        global_init: str = "scan",
-        scan_sample_ess: float = 50.0,
-        converged_xy_cm: float = 1.5,
-        converged_heading_deg: float = 2.0,
-        ambiguity_nats: float = 15.0,
-        mode_radius_cm: float = 10.0,
-        mode_heading_deg: float = 20.0,
-        beam_width_deg: float = 0.0,
-        critical_incidence_deg: float | None = None,
-        lattice_step: int = 2,
-        refine_steps: int = 12,
-        refine_particles: int = 200,
-        beam_interpolation: bool = True,
-        ambiguity_injection: float = 0.1,
-        lobe_rays: int = 21,
-        cast_exact: bool = False,
-        sonar_model: NxtSonar | None = None,
-    ) -> None:
+    def __init__(self, map: Map, options: AmclOptions | None = None, *, rng: RngLike = None,
+                 **overrides: Any) -> None:
         super().__init__(map, rng=rng)
-        _check_options(min_particles=min_particles, max_particles=max_particles, pf_err=pf_err, pf_z=pf_z,
-                       recovery_alpha_slow=recovery_alpha_slow, recovery_alpha_fast=recovery_alpha_fast,
-                       recovery_sampler=recovery_sampler, global_init=global_init, sigma_hit=sigma_hit,
-                       laser_max_range=laser_max_range, z=(z_hit, z_short, z_rand),
-                       resample_interval=resample_interval, kld_bin=(kld_bin_cm, kld_bin_deg),
-                       ambiguity_injection=ambiguity_injection, lobe_rays=lobe_rays, refine_steps=refine_steps,
-                       refine_particles=refine_particles)
-        model_cls = model_class(model, sonar_model, beam_width_deg if sonar_model is None
+        o: AmclOptions = self.configure(options, overrides)
+        _check_options(o)
+        self.options = o
+        sensor, lobe, sonar_model = o.sensor, o.lobe, o.sensor.sonar_model
+        model_cls = model_class(o.model, sonar_model, lobe.beam_width_deg if sonar_model is None
                                 else sonar_model.beam_width_deg)
+        beam_width_deg, critical_incidence_deg = lobe.beam_width_deg, lobe.critical_incidence_deg
         max_range_cm: float | None = None
         if sonar_model is not None:
             beam_width_deg, critical_incidence_deg = sonar_model.beam_width_deg, sonar_model.critical_incidence_deg
             max_range_cm = sonar_model.max_range_cm
-        self.min_particles, self.max_particles = int(min_particles), int(max_particles)
-        self.pf_err, self.pf_z = float(pf_err), float(pf_z)
-        self.kld_bin = np.array([kld_bin_cm, kld_bin_cm, math.radians(kld_bin_deg)])
-        self.alpha_slow, self.alpha_fast = float(recovery_alpha_slow), float(recovery_alpha_fast)
-        self.recovery_sampler = recovery_sampler
-        self.resample_interval = int(resample_interval)
-        self.update_min_d = float(update_min_d)
-        self.update_min_a = float(update_min_a)
+        self.min_particles, self.max_particles = o.min_particles, o.max_particles
+        self.pf_err, self.pf_z = o.kld.pf_err, o.kld.pf_z
+        self.kld_bin = np.array([o.kld.kld_bin_cm, o.kld.kld_bin_cm, math.radians(o.kld.kld_bin_deg)])
+        self.alpha_slow, self.alpha_fast = o.recovery.recovery_alpha_slow, o.recovery.recovery_alpha_fast
+        self.recovery_sampler = o.recovery.recovery_sampler
+        self.resample_interval = o.update.resample_interval
+        self.update_min_d, self.update_min_a = o.update.update_min_d, o.update.update_min_a
         self._driven_cm = self._turned_rad = 0.0  # since the last update
-        z = z_hit + z_short + z_rand  # normalised so the mixture is a density
-        self.z_hit, self.z_short, self.z_rand = z_hit / z, z_short / z, z_rand / z
-        self.sigma_hit = float(sigma_hit)
-        self.lambda_short = float(lambda_short)
-        self.laser_max_range = float(laser_max_range)
-        self.laser_likelihood_max_dist = float(laser_likelihood_max_dist)
-        self.field_resolution_cm = float(field_resolution_cm)
-        self.max_beams = int(max_beams)
-        self.motion_model = MotionModel(noise_model, motion_noise, turn_noise, motion_inflation)
-        self.clearance_cm = float(clearance_cm)
-        self.global_init = global_init
-        self.scan_sample_ess = float(scan_sample_ess)
-        self.converged_xy_cm = float(converged_xy_cm)
-        self.converged_heading_rad = math.radians(converged_heading_deg)
-        self.ambiguity_nats = float(ambiguity_nats)
-        self.mode_radius_cm = float(mode_radius_cm)
-        self.mode_heading_rad = math.radians(mode_heading_deg)
+        z = sensor.z_hit + sensor.z_short + sensor.z_rand  # normalised so the mixture is a density
+        self.z_hit, self.z_short, self.z_rand = sensor.z_hit / z, sensor.z_short / z, sensor.z_rand / z
+        self.sigma_hit, self.lambda_short = sensor.sigma_hit, sensor.lambda_short
+        self.laser_max_range = sensor.laser_max_range
+        self.laser_likelihood_max_dist = sensor.laser_likelihood_max_dist
+        self.field_resolution_cm, self.max_beams = sensor.field_resolution_cm, sensor.max_beams
+        m = o.motion
+        self.motion_model = MotionModel(m.noise_model, m.motion_noise, m.turn_noise, m.motion_inflation)
+        start = o.global_start
+        self.clearance_cm, self.global_init, self.scan_sample_ess = (start.clearance_cm, start.global_init,
+                                                                     start.scan_sample_ess)
+        self.converged_xy_cm = o.convergence.converged_xy_cm
+        self.converged_heading_rad = math.radians(o.convergence.converged_heading_deg)
+        self.ambiguity_nats, self.mode_radius_cm = o.modes.ambiguity_nats, o.modes.mode_radius_cm
+        self.mode_heading_rad = math.radians(o.modes.mode_heading_deg)
         # the range table (and its lattice) is built on first use: the likelihood field needs neither
         # while tracking, and a building-size map's table takes minutes to cast
         self.beam_width_deg = float(beam_width_deg)
         self._table_args = (self.beam_width_deg, critical_incidence_deg, max_range_cm)
-        self.cast_exact = bool(cast_exact)
+        self.cast_exact = sensor.cast_exact
         self._table: RangeTable | None = None
         self._lattice: RangeLattice | None = None
-        self._lattice_step = int(lattice_step)
+        self._lattice_step = start.lattice_step
         self.gaussian = RangeLikelihood(self.sigma_hit)
         """The Gaussian of `sigma_hit` that scores the lattice for a model without a mixture of its own."""
-        self.refine_steps, self.refine_particles = int(refine_steps), int(refine_particles)
-        self.beam_interpolation = bool(beam_interpolation)
-        self.lobe_rays = int(lobe_rays)
-        self.ambiguity_injection = float(ambiguity_injection)
+        self.refine_steps, self.refine_particles = start.refine_steps, start.refine_particles
+        self.beam_interpolation, self.lobe_rays = sensor.beam_interpolation, lobe.lobe_rays
+        self.ambiguity_injection = o.recovery.ambiguity_injection
         self.measurement: MeasurementModel = model_cls(self, sonar_model)
         """The measurement model, chosen once (`localisation.amcl_models`)."""
         self.model = model_cls.name

@@ -19,7 +19,19 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from toolkit.world import ConfigError, Map, Params, Pose, Registry, RngLike, Scan, angle_diff, as_rng, wrap_angle
+from toolkit.world import (
+    ConfigError,
+    Map,
+    Options,
+    Pose,
+    Registry,
+    RngLike,
+    Scan,
+    angle_diff,
+    as_rng,
+    configure,
+    wrap_angle,
+)
 from toolkit.world.arrays import FloatArray
 
 __all__ = [
@@ -200,7 +212,7 @@ class Mode:
 
 
 class Localiser(ABC):
-    """Base class of localisers; subclasses set `name`, declare `params` and `robot_options` and
+    """Base class of localisers; subclasses set `name`, declare `options_model` and `robot_options` and
     implement the four methods.
 
     The suite's localiser tests are parametrised over `LOCALISERS`, so a registered localiser must:
@@ -208,12 +220,14 @@ class Localiser(ABC):
     - set ``name`` in the class body (that registers it) and implement `reset`, `predict`, `update`
       and `estimate`; a pose tracker sets ``needs_prior = True`` and raises `LocalisationError` from
       ``reset(None)``;
-    - declare its constructor options in ``params`` (a `toolkit.world.Params`) with the constructor's
-      own defaults (built with ``params.defaults()`` it gives the same estimates as built with none),
-      among them ``converged_xy_cm`` (cm, ``low=0.0``) and ``motion_inflation`` (a factor that reaches
-      the motion model: 4 gives other estimates than the default);
+    - declare its options once, as a `toolkit.world.Options` model in ``options_model``, and take them
+      as ``__init__(map, options=None, *, rng=None, **overrides)`` through `configure` (the model, or
+      None for its defaults, with keyword overrides on top); among them a ``converged_xy_cm`` (cm,
+      ``ge=0``) and a ``motion_inflation`` (a factor that reaches the motion model: 4 gives other
+      estimates than the default), at any depth of the model;
     - map in ``robot_options`` every facet of `toolkit.world.RobotModel` (`toolkit.world.FACETS`) to
-      options declared with ``robot=True`` (in the facet's order) or to a sentence why it is not used;
+      options declared with ``robot=True`` (dotted paths, in the facet's order) or to a sentence why it
+      is not used;
       motion and sensor sigma always, and, but for the Kalman filters ``ekf`` and ``ukf``, the lobe, the
       range limit, the beam mixture and the clearance too;
     - draw every random number from ``self.rng`` (the same seed gives the same estimate).
@@ -231,9 +245,9 @@ class Localiser(ABC):
 
     name: ClassVar[str]
     needs_prior: ClassVar[bool] = False
-    params: ClassVar[Params | None] = None
-    """The declared options (`toolkit.world.Params`); None for a plug-in that declares none (its
-    constructor then checks what it is given)."""
+    options_model: ClassVar[type[Options] | None] = None
+    """The options (a `toolkit.world.Options` model; `configure` builds one); None for a plug-in that
+    declares none (its constructor then checks what it is given)."""
     robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = None
     """For every facet of `toolkit.world.RobotModel`, the options it becomes (in the facet's order) or
     why the localiser does not use it (`localisation.robot_options.localiser_options`); None: the
@@ -249,6 +263,14 @@ class Localiser(ABC):
     def __init__(self, map: Map, *, rng: RngLike = None) -> None:
         self.map = map
         self.rng = as_rng(rng)
+
+    @classmethod
+    def configure(cls, options: Any = None, overrides: Mapping[str, Any] | None = None) -> Any:
+        """`options` (an instance of ``options_model``; None: its defaults) with `overrides` on top (dotted
+        paths, or the name of one field), validated (`toolkit.world.configure`)."""
+        if cls.options_model is None:
+            raise ConfigError(f"{cls.__qualname__} declares no options_model")
+        return configure(cls.options_model, options, overrides)
 
     @abstractmethod
     def reset(self, prior: Prior | HeadingPrior | None = None) -> None:
@@ -280,5 +302,6 @@ class Localiser(ABC):
 
 
 def make_localiser(name: str, map: Map, *, rng: RngLike = None, **options: Any) -> Localiser:
-    """A localiser by registry name for `map`, with its options."""
+    """A localiser by registry name for `map`, with its options (dotted paths, ``sensor.z_hit``, or the
+    name of one field, as its constructor takes them)."""
     return LOCALISERS.get(name)(map, rng=rng, **options)

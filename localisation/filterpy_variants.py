@@ -50,11 +50,11 @@ from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, Unscen
 from filterpy.monte_carlo import resampling as fp_resampling
 from numpy.typing import ArrayLike
 
-from toolkit.world import ConfigError, LocalisationError, Map, Params, Pose, RngLike, Scan, angle_diff, wrap_angle
+from toolkit.world import LocalisationError, Map, Options, Pose, RngLike, Scan, angle_diff, wrap_angle
 from toolkit.world.arrays import FloatArray, IntArray
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
-from .declarations import EKF_PARAMS, KALMAN_ROBOT, UKF_PARAMS
+from .declarations import KALMAN_ROBOT, EkfOptions, KalmanOptions, UkfOptions
 from .models import MotionModel, exact_ranges
 from .particle_filter import ParticleFilter
 from .resampling import normalise_weights
@@ -263,51 +263,33 @@ class KalmanLocaliser(Localiser):
     Parameters
     ----------
     map : Map
+    options : KalmanOptions, optional
+        The options of the subclass's model (`localisation.declarations.EkfOptions`, `UkfOptions`; None:
+        the defaults): ``sensor.sensor_sigma_cm`` (R), the motion model (Q, linearised), ``sensor.max_beams``
+        ranges per update (evenly chosen among the valid readings), ``sensor.gate_cm`` (readings further
+        than this from the predicted range are left out: corners, outliers), ``min_process_var`` (the
+        floor of Q on every predict: cm^2, cm^2, rad^2) and the convergence thresholds.
     rng : None, int or Generator
         Unused (the filters are deterministic); kept for the common constructor.
-    sensor_sigma_cm : float
-        Range noise (cm) in R.
-    noise_model, motion_noise, turn_noise, motion_inflation :
-        The `MotionModel` for Q (linearised).
-    max_beams : int
-        Ranges used per update (evenly chosen among the scan's valid readings).
-    gate_cm : float
-        Readings further than this from the predicted range are left out (corners, outliers).
-    min_process_var : (3,) float
-        Floor of Q on every predict (cm^2, cm^2, rad^2).
-    converged_xy_cm, converged_heading_deg : float
-        Convergence thresholds on the standard deviations.
+    **overrides
+        Options on top of `options`, by dotted path or by the name of one field.
     """
 
     needs_prior: ClassVar[bool] = True
     robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = KALMAN_ROBOT
 
-    def __init__(
-        self,
-        map: Map,
-        *,
-        rng: RngLike = None,
-        sensor_sigma_cm: float = 1.0,
-        noise_model: str = "botsim",
-        motion_noise: float = 0.1,
-        turn_noise: float = 0.005,
-        motion_inflation: float = 1.5,
-        max_beams: int = 24,
-        gate_cm: float = 10.0,
-        min_process_var: tuple[float, float, float] = (0.01, 0.01, 1e-6),
-        converged_xy_cm: float = 1.5,
-        converged_heading_deg: float = 2.0,
-    ) -> None:
+    def __init__(self, map: Map, options: KalmanOptions | None = None, *, rng: RngLike = None,
+                 **overrides: Any) -> None:
         super().__init__(map, rng=rng)
-        if not sensor_sigma_cm > 0:
-            raise ConfigError(f"sensor_sigma_cm must be > 0, got {sensor_sigma_cm}")
-        self.sensor_sigma_cm = float(sensor_sigma_cm)
-        self.motion_model = MotionModel(noise_model, motion_noise, turn_noise, motion_inflation)
-        self.max_beams = int(max_beams)
-        self.gate_cm = float(gate_cm)
-        self.min_process_var = np.asarray(min_process_var, dtype=float)
-        self.converged_xy_cm = float(converged_xy_cm)
-        self.converged_heading_rad = math.radians(converged_heading_deg)
+        o: KalmanOptions = self.configure(options, overrides)
+        self.options = o
+        sensor = o.sensor
+        self.sensor_sigma_cm, self.max_beams, self.gate_cm = sensor.sensor_sigma_cm, sensor.max_beams, sensor.gate_cm
+        m = o.motion
+        self.motion_model = MotionModel(m.noise_model, m.motion_noise, m.turn_noise, m.motion_inflation)
+        self.min_process_var = np.asarray(o.min_process_var, dtype=float)
+        self.converged_xy_cm = o.convergence.converged_xy_cm
+        self.converged_heading_rad = math.radians(o.convergence.converged_heading_deg)
         self.iterations = 0
         self._ready = False
 
@@ -370,12 +352,13 @@ class EkfLocaliser(KalmanLocaliser):
     """
 
     name: ClassVar[str] = "ekf"
-    params: ClassVar[Params | None] = EKF_PARAMS
+    options_model: ClassVar[type[Options] | None] = EkfOptions
 
-    def __init__(self, map: Map, *, rng: RngLike = None, jacobian_step: tuple[float, float, float] = (0.05, 0.05, 1e-3),
-                 **options: Any) -> None:
-        super().__init__(map, rng=rng, **options)
-        self.jacobian_step = np.asarray(jacobian_step, dtype=float)
+    def __init__(self, map: Map, options: EkfOptions | None = None, *, rng: RngLike = None,
+                 **overrides: Any) -> None:
+        super().__init__(map, options, rng=rng, **overrides)
+        o: EkfOptions = self.options  # type: ignore[assignment]
+        self.jacobian_step = np.asarray(o.jacobian_step, dtype=float)
         self.kf = _MotionEKF(self.motion_model)
 
     def _get(self) -> tuple[FloatArray, FloatArray]:
@@ -440,12 +423,13 @@ class UkfLocaliser(KalmanLocaliser):
     """
 
     name: ClassVar[str] = "ukf"
-    params: ClassVar[Params | None] = UKF_PARAMS
+    options_model: ClassVar[type[Options] | None] = UkfOptions
 
-    def __init__(self, map: Map, *, rng: RngLike = None, alpha: float = 0.3, beta: float = 2.0, kappa: float = 0.0,
-                 **options: Any) -> None:
-        super().__init__(map, rng=rng, **options)
-        points = MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa,
+    def __init__(self, map: Map, options: UkfOptions | None = None, *, rng: RngLike = None,
+                 **overrides: Any) -> None:
+        super().__init__(map, options, rng=rng, **overrides)
+        sp = self.options.sigma_points  # type: ignore[attr-defined]
+        points = MerweScaledSigmaPoints(3, alpha=sp.alpha, beta=sp.beta, kappa=sp.kappa,
                                         sqrt_method=symmetric_cholesky, subtract=_state_residual)
         self.kf = UnscentedKalmanFilter(dim_x=3, dim_z=1, dt=1.0, hx=None, fx=self._fx, points=points,
                                         sqrt_fn=symmetric_cholesky, x_mean_fn=_state_mean,

@@ -38,8 +38,7 @@ from toolkit.world import (
     ConfigError,
     LocalisationError,
     Map,
-    NxtSonar,
-    Params,
+    Options,
     Pose,
     RngLike,
     Scan,
@@ -51,7 +50,7 @@ from .annealing import GaussianPrior, best_lattice_poses, heading_gaussian, log_
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .beam_model import BeamLikelihood, MeasurementModel, echo_mask, lattice_costs, scan_readings
 from .clusters import cloud_stats, describe_modes, mode_stds
-from .declarations import PF_PARAMS, PF_ROBOT
+from .declarations import PF_ROBOT, PfOptions
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges
 from .pf_ranges import outlier_fraction, range_setup
 from .pf_steps import ModeSplit, MoveKernel, metropolis_move, resample_modes, split_modes
@@ -68,7 +67,18 @@ class ParticleFilter(Localiser):
     Parameters
     ----------
     map : Map
+    options : PfOptions, optional
+        The options (`localisation.declarations.PfOptions`, in groups; None: the defaults), e.g.
+        ``ParticleFilter(m, PfOptions(n_particles=2000, ranges=PfRanges(use_table=False)))``.
     rng : None, int or Generator
+    **overrides
+        Options on top of `options`, by dotted path (``**{"ranges.use_table": False}``) or by the name of
+        one field (``use_table=False``).
+
+    Notes
+    -----
+    What the options mean beyond their one-line descriptions (``nxtnav localisers show paper-pf``):
+
     n_particles : int
         Particles kept between scans and in the refining iterations.
     n_global : int
@@ -177,101 +187,57 @@ class ParticleFilter(Localiser):
     """
 
     name: ClassVar[str] = "paper-pf"
-    params: ClassVar[Params | None] = PF_PARAMS
+    options_model: ClassVar[type[Options] | None] = PfOptions
     robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = PF_ROBOT
 
-    def __init__(
-        self,
-        map: Map,
-        *,
-        rng: RngLike = None,
-        n_particles: int = 1000,
-        n_global: int = 20000,
-        clearance_cm: float = 8.0,
-        sensor_sigma_cm: float = 1.0,
-        residual_cap: float = 5.0,
-        noise_model: str = "botsim",
-        motion_noise: float = 0.1,
-        turn_noise: float = 0.005,
-        motion_inflation: float = 1.5,
-        ess_target: float = 0.3,
-        max_iterations: int = 40,
-        converged_xy_cm: float = 1.5,
-        converged_heading_deg: float = 2.0,
-        global_beams: int = 48,
-        max_modes: int = 8,
-        mode_radius_cm: float = 10.0,
-        mode_heading_deg: float = 20.0,
-        ambiguity_nats: float = 15.0,
-        cluster_coverage: float = 0.9,
-        per_mode_ess: bool = False,
-        mode_share: float = 0.5,
-        recovery_threshold: float | None = 0.5,
-        global_init: str = "lattice",
-        lattice_step: int = 2,
-        use_table: bool = True,
-        table_resolution_cm: float = 1.0,
-        table_angles: int = 360,
-        range_memory_mb: float | None = None,
-        max_range_cm: float | None = None,
-        beam_width_deg: float = 0.0,
-        critical_incidence_deg: float | None = None,
-        beam_rays: int = 9,
-        tracking_exact: bool | None = None,
-        sonar_model: NxtSonar | None = None,
-        tracking_prior: bool = True,
-        tracking_prior_modes: bool | None = None,
-        cache_dir: str | None = None,
-        snapshot_size: int = 300,
-    ) -> None:
+    def __init__(self, map: Map, options: PfOptions | None = None, *, rng: RngLike = None,
+                 **overrides: Any) -> None:
         super().__init__(map, rng=rng)
-        if n_particles < 10 or n_global < n_particles:
-            raise ConfigError(f"need 10 <= n_particles <= n_global, got {n_particles}, {n_global}")
-        if not 0.0 < ess_target < 1.0:
-            raise ConfigError(f"ess_target must be in (0, 1), got {ess_target}")
-        if max_iterations < 1:
-            raise ConfigError(f"max_iterations must be >= 1, got {max_iterations}")
-        self.n_particles = int(n_particles)
-        self.n_global = int(n_global)
-        self.clearance_cm = float(clearance_cm)
+        o: PfOptions = self.configure(options, overrides)
+        if o.n_global < o.n_particles:
+            raise ConfigError(f"need 10 <= n_particles <= n_global, got {o.n_particles}, {o.n_global}")
+        self.options = o
+        self.n_particles, self.n_global = o.n_particles, o.n_global
+        self.clearance_cm = o.global_start.clearance_cm
+        sonar_model, r = o.sensor.sonar_model, o.ranges
+        beam_width_deg, beam_rays, critical_incidence_deg, max_range_cm = (
+            r.beam_width_deg, r.beam_rays, r.critical_incidence_deg, r.max_range_cm)
         if sonar_model is not None:
             # the sonar's own beam mixture: its lobe, specular loss and range limit shape the table
             beam_width_deg, beam_rays = sonar_model.beam_width_deg, sonar_model.beam_rays
             critical_incidence_deg, max_range_cm = sonar_model.critical_incidence_deg, sonar_model.max_range_cm
         self.likelihood: MeasurementModel = (BeamLikelihood(sonar_model) if sonar_model is not None
-                                             else RangeLikelihood(sensor_sigma_cm, residual_cap))
+                                             else RangeLikelihood(o.sensor.sensor_sigma_cm, o.sensor.residual_cap))
         self._likelihood = self.likelihood
-        self.motion_model = MotionModel(noise_model, motion_noise, turn_noise, motion_inflation)
-        self.ess_target = float(ess_target)
-        self.max_iterations = int(max_iterations)
-        self.converged_xy_cm = float(converged_xy_cm)
-        self.converged_heading_rad = math.radians(converged_heading_deg)
-        self.global_beams = int(global_beams)
-        self.max_modes = int(max_modes)
-        self.mode_radius_cm = float(mode_radius_cm)
-        self.mode_heading_rad = math.radians(mode_heading_deg)
-        self.ambiguity_nats = float(ambiguity_nats)
-        self.cluster_coverage = float(cluster_coverage)
-        self.per_mode_ess = bool(per_mode_ess)
-        if not 0.0 <= mode_share <= 1.0:
-            raise ConfigError(f"mode_share must be in [0, 1], got {mode_share}")
-        self.mode_share = float(mode_share)
-        self.recovery_threshold = recovery_threshold
-        self.use_table = bool(use_table)
-        self.tracking_prior = bool(tracking_prior)
-        self.snapshot_size = int(snapshot_size)
-        ranges = range_setup(map, use_table=self.use_table, global_init=global_init, clearance_cm=self.clearance_cm,
-                             table_resolution_cm=table_resolution_cm, table_angles=table_angles, cache_dir=cache_dir,
-                             beam_width_deg=beam_width_deg, critical_incidence_deg=critical_incidence_deg,
-                             range_memory_mb=range_memory_mb, lattice_step=lattice_step, max_range_cm=max_range_cm,
-                             beam_rays=beam_rays, reach_margin_cm=residual_cap * sensor_sigma_cm,
-                             tracking_exact=tracking_exact)
+        m = o.motion
+        self.motion_model = MotionModel(m.noise_model, m.motion_noise, m.turn_noise, m.motion_inflation)
+        self.ess_target, self.max_iterations = o.annealing.ess_target, o.annealing.max_iterations
+        self.global_beams = o.annealing.global_beams
+        self.converged_xy_cm = o.convergence.converged_xy_cm
+        self.converged_heading_rad = math.radians(o.convergence.converged_heading_deg)
+        modes = o.modes
+        self.max_modes, self.mode_radius_cm = modes.max_modes, modes.mode_radius_cm
+        self.mode_heading_rad = math.radians(modes.mode_heading_deg)
+        self.ambiguity_nats, self.cluster_coverage = modes.ambiguity_nats, modes.cluster_coverage
+        self.per_mode_ess, self.mode_share = modes.per_mode_ess, modes.mode_share
+        self.recovery_threshold = o.global_start.recovery_threshold
+        self.use_table = r.use_table
+        self.tracking_prior = o.tracking.tracking_prior
+        self.snapshot_size = o.snapshot_size
+        ranges = range_setup(map, use_table=self.use_table, global_init=o.global_start.global_init,
+                             clearance_cm=self.clearance_cm, table_resolution_cm=r.table_resolution_cm,
+                             table_angles=r.table_angles, cache_dir=r.cache_dir, beam_width_deg=beam_width_deg,
+                             critical_incidence_deg=critical_incidence_deg, range_memory_mb=r.range_memory_mb,
+                             lattice_step=o.global_start.lattice_step, max_range_cm=max_range_cm, beam_rays=beam_rays,
+                             reach_margin_cm=o.sensor.residual_cap * o.sensor.sensor_sigma_cm,
+                             tracking_exact=o.tracking.tracking_exact)
         self.table: RangeTable | None = ranges.table
         self.lobe: dict[str, Any] = ranges.lobe
         self.tracking_exact = ranges.tracking_exact
-        self.tracking_prior_modes = self.tracking_exact if tracking_prior_modes is None else bool(tracking_prior_modes)
+        prior_modes = o.tracking.tracking_prior_modes
+        self.tracking_prior_modes = self.tracking_exact if prior_modes is None else prior_modes
         self._exact = False
-        self.global_init = global_init
+        self.global_init = o.global_start.global_init
         self.lattice: RangeLattice | None = ranges.lattice
         self.particles: FloatArray = np.zeros((0, 3))
         self.log_weights: FloatArray = np.zeros(0)

@@ -87,7 +87,8 @@ def range_memory_budget(memory_mb: float | None = None) -> int:
         mb = float("nan")
     if not (math.isfinite(mb) and mb > 0):
         raise ConfigError(f"range model memory budget must be a positive number of MB, got {memory_mb!r} "
-                                f"({source or 'range_memory_mb'}; CLI: --range-memory-mb or --set range_memory_mb=MB)")
+                          f"({source or 'range_memory_mb'}; CLI: --range-memory-mb or "
+                          "--set ranges.range_memory_mb=MB)")
     return int(mb * 2**20)
 
 

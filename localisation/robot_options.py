@@ -9,13 +9,14 @@ sigma, lobe, range limit, motion noise and size, whatever its own options are ca
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
-from toolkit.world import ConfigError, RobotModel
+from toolkit.world import ConfigError, NxtSonar, RobotModel
 
 from .base import LOCALISERS
 
-__all__ = ["THIN_RAY", "localiser_options"]
+__all__ = ["THIN_RAY", "localiser_options", "told_sonar_model"]
 
 THIN_RAY = ("lobe", "beam_mixture")
 """Facets left out for ``--lobe off`` (localisers model the sonar as a thin ray with a Gaussian)."""
@@ -42,3 +43,10 @@ def localiser_options(name: str, robot: RobotModel, *, leave_out: tuple[str, ...
                               f"not {len(values)}")
         out.update(zip(how, values.values(), strict=True))
     return out
+
+
+def told_sonar_model(options: Mapping[str, Any]) -> NxtSonar | None:
+    """The NXT sonar model among a localiser's options (its ``sonar_model``, at any depth of the groups:
+    ``sensor.sonar_model``), or None."""
+    found = [v for k, v in options.items() if k.rpartition(".")[2] == "sonar_model" and isinstance(v, NxtSonar)]
+    return found[-1] if found else None

@@ -35,7 +35,7 @@ from toolkit.world import CollisionChecker, ConfigError
 
 from .astar_search import MAX_STEPS, MOVES, Workspace, search, warm_up
 from .base import Planner, PlanningProblem, PlanStatus, Solution
-from .declarations import ASTAR_PARAMS
+from .declarations import AStarOptions
 
 __all__ = ["AStarPlanner"]
 
@@ -78,15 +78,14 @@ class AStarPlanner(Planner):
 
     Parameters
     ----------
-    resolution : float or None
-        Grid spacing in cm (default 2 cm); None puts the nodes at the centres of the map's own cells
-        (a map imported from a grid).
-    connect_radius : float or None
-        Start and goal connect to free grid nodes within this distance (cm); None means
-        ``2 * resolution`` (or two cells).
-    corner_cutting : bool or None
-        Whether a diagonal move may pass a blocked neighbour's corner; None means allowed on a
-        spaced grid and forbidden on the map's own cells.
+    options : AStarOptions, optional
+        The options (`planners.declarations.AStarOptions`; None: the defaults): the grid `resolution`
+        (cm; None puts the nodes at the centres of the map's own cells, for a map imported from a grid),
+        the `connect_radius` (cm) within which start and goal join free grid nodes (None: two spacings),
+        and `corner_cutting` (whether a diagonal move may pass a blocked neighbour's corner; None:
+        allowed on a spaced grid, forbidden on the map's own cells).
+    **overrides
+        Options on top of `options` by name (``resolution=1.0``).
 
     Notes
     -----
@@ -96,18 +95,13 @@ class AStarPlanner(Planner):
     """
 
     name = "astar"
-    params = ASTAR_PARAMS
+    options_model = AStarOptions
     grid_map_options: ClassVar[Mapping[str, Any]] = {"resolution": None}
 
-    def __init__(self, resolution: float | None = 2.0, connect_radius: float | None = None,
-                 corner_cutting: bool | None = None) -> None:
-        if resolution is not None and not (math.isfinite(resolution) and resolution > 0):
-            raise ConfigError(f"resolution must be a positive number of cm or None, got {resolution!r}")
-        if connect_radius is not None and not (math.isfinite(connect_radius) and connect_radius > 0):
-            raise ConfigError(f"connect_radius must be a positive number of cm, got {connect_radius!r}")
-        self.resolution = None if resolution is None else float(resolution)
-        self._connect = None if connect_radius is None else float(connect_radius)
-        self.corner_cutting = corner_cutting
+    def __init__(self, options: AStarOptions | None = None, **overrides: Any) -> None:
+        o: AStarOptions = self.configure(options, overrides)
+        self.options = o
+        self.resolution, self._connect, self.corner_cutting = o.resolution, o.connect_radius, o.corner_cutting
         self._lat: _Lattice | None = None  # one map at a time: a lattice can be large
 
     def spacing(self, problem: PlanningProblem) -> float:

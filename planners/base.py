@@ -23,7 +23,18 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from toolkit.world import CollisionChecker, Map, Params, PlanningError, Registry, RngLike, as_rng, make_checker
+from toolkit.world import (
+    CollisionChecker,
+    ConfigError,
+    Map,
+    Options,
+    PlanningError,
+    Registry,
+    RngLike,
+    as_rng,
+    configure,
+    make_checker,
+)
 from toolkit.world.arrays import FloatArray
 
 __all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "make_planner",
@@ -187,15 +198,16 @@ class PlanResult:
 
 
 class Planner(ABC):
-    """Base class of planners. Subclasses set `name`, declare `params` and implement `_solve`.
+    """Base class of planners. Subclasses set `name`, declare `options_model` and implement `_solve`.
 
     Subclasses with a `name` register themselves; `make_planner(name, **options)` builds one. The
     suite's planner tests are parametrised over `PLANNERS`, so a registered planner must:
 
     - set ``name`` in the class body (a string; that registers it) and implement `_solve`;
-    - declare its constructor keywords in ``params`` (a `toolkit.world.Params` with at least one
-      `toolkit.world.Param`: type, default, range, unit, description), with the constructor's own
-      defaults: a planner built with ``params.defaults()`` plans the same path as one built with none;
+    - declare its options once, as a `toolkit.world.Options` model in ``options_model`` (at least one
+      option: type, default, range, unit, description in its ``Field``), and take them as
+      ``__init__(options=None, **overrides)`` through `configure`: a planner given its model's defaults
+      plans the same path as one given none;
     - solve the preset queries of map1, map2, map3 and pillars for a disc of 8 cm with a path from the
       start to the goal that clears every wall by the radius (never shorter than ``shortest``), and
       route round a thin wall for a disc and for a point robot;
@@ -208,8 +220,8 @@ class Planner(ABC):
     """
 
     name: ClassVar[str]
-    params: ClassVar[Params | None] = None
-    """The declared options (`planners.declarations.planner_params` answers for every name, OMPL's too)."""
+    options_model: ClassVar[type[Options] | None] = None
+    """The options (`planners.declarations.planner_options` answers for every name, OMPL's too)."""
     grid_map_options: ClassVar[Mapping[str, Any]] = {}
     """Options the benchmarks give it on a map imported from a grid (astar: plan on the map's own cells)."""
     large_map_options: ClassVar[Mapping[str, Any] | None] = {}
@@ -223,6 +235,14 @@ class Planner(ABC):
         super().__init_subclass__(**kwargs)
         if "name" in cls.__dict__:
             PLANNERS.add(cls.name, cls)
+
+    @classmethod
+    def configure(cls, options: Any = None, overrides: Mapping[str, Any] | None = None) -> Any:
+        """`options` (an instance of ``options_model``; None: its defaults) with `overrides` on top (dotted
+        paths, or the name of one field), validated (`toolkit.world.configure`)."""
+        if cls.options_model is None:
+            raise ConfigError(f"{cls.__qualname__} declares no options_model")
+        return configure(cls.options_model, options, overrides)
 
     def plan(self, problem: PlanningProblem) -> PlanResult:
         """Solve `problem`; never raises for an unsolvable query (a failed result says why)."""

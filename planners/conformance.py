@@ -3,11 +3,12 @@
 ``nxtnav planners check MODULE:CLASS`` runs it on a class in the user's own module. Each problem is one
 line that says what is missing or wrong; an empty list means the class passes the checks below, which
 mirror the suite's tests parametrised over `PLANNERS` (``tests/test_planners.py``,
-``tests/test_declared_params.py``, ``tests/test_planners_reproducible.py``):
+``tests/test_plugin_options.py``, ``tests/test_planners_reproducible.py``):
 
 - the class subclasses `Planner`, sets ``name`` and is registered under it;
-- it declares its options (``params``: a `toolkit.world.Params` with at least one option), and a
-  planner built with the declared defaults plans the same path as one built with no options;
+- it declares its options once (``options_model``: a `toolkit.world.Options` model with at least one
+  option) and takes them as ``cls(options, **overrides)``: a planner given its model's defaults plans
+  the same path as one given none;
 - it solves the preset queries of ``map1``, ``map2``, ``map3`` and ``pillars`` (a disc of 8 cm, a 5 s
   budget) with an exact path from the start to the goal that the shared collision checker finds free,
   never shorter than the exact shortest path;
@@ -22,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from toolkit.world import CollisionChecker, Map, Params, load_map
+from toolkit.world import CollisionChecker, Map, Options, load_map
 from toolkit.world.plugin_checks import call_noting, class_problems
 
 from .base import PLANNERS, Planner, PlanningProblem, PlanResult, PlanStatus
@@ -39,11 +40,16 @@ _GOAL_IN_WALL = (100.0, 0.0)
 
 def _class_problems(cls: Any) -> list[str]:
     problems = class_problems(cls, Planner, PLANNERS, "planners.Planner")
-    params = getattr(cls, "params", None)
-    if isinstance(cls, type) and issubclass(cls, Planner) and (not isinstance(params, Params) or len(params) == 0):
-        problems.append(f"{cls.__qualname__} declares no options: set `params = Params(Param(...), ...)` "
-                        "(toolkit.world) with each constructor keyword's type, default, range and description")
+    if isinstance(cls, type) and issubclass(cls, Planner) and _model_of(cls) is None:
+        problems.append(f"{cls.__qualname__} declares no options: set `options_model` to a `toolkit.world.Options` "
+                        "model with each option's type, default, range and description (Field(...) through `option`)")
     return problems
+
+
+def _model_of(cls: type[Planner]) -> type[Options] | None:
+    model = getattr(cls, "options_model", None)
+    ok = isinstance(model, type) and issubclass(model, Options) and bool(model.model_fields)
+    return model if ok else None
 
 
 def _plan(planner: Planner, m: Map, checker: CollisionChecker, goal: Any = None, seed: int = _SEED) -> PlanResult:
@@ -88,19 +94,20 @@ def _preset_problems(cls: type[Planner], planner: Planner, map_name: str) -> tup
 
 
 def _declared_defaults_problems(cls: type[Planner], m: Map, checker: CollisionChecker) -> list[str]:
-    params = cls.params
-    if not isinstance(params, Params) or len(params) == 0:
+    model = _model_of(cls)
+    if model is None:
         return []  # told already
     problems: list[str] = []
     plain = call_noting(f"{cls.__qualname__}()", problems, cls)
-    declared = call_noting(f"{cls.__qualname__}(**declared defaults)", problems, cls, **params.defaults())
+    defaults = call_noting(f"{model.__name__}() (its defaults)", problems, model)
+    declared = call_noting(f"{cls.__qualname__}({model.__name__}())", problems, cls, defaults)
     if plain is None or declared is None:
         return problems
     a = call_noting("plan (no options)", problems, _plan, plain, m, checker)
-    b = call_noting("plan (declared defaults)", problems, _plan, declared, m, checker)
+    b = call_noting("plan (its model's defaults)", problems, _plan, declared, m, checker)
     if a is not None and b is not None and not np.array_equal(a.path, b.path):
-        problems.append("the declared defaults (params) differ from the constructor's: the two planners "
-                        "plan different paths")
+        problems.append("given its model's defaults as options it plans otherwise than given none: take the "
+                        "options through Planner.configure(options, overrides)")
     return problems
 
 

@@ -46,11 +46,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import CollisionChecker, ConfigError
+from toolkit.world import CollisionChecker
 from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
-from .declarations import MIN_TURN_PARAMS
+from .declarations import MinTurnOptions
 
 __all__ = ["MinTurnPlanner", "fewest_points_path", "hop_shortest_path"]
 
@@ -109,18 +109,15 @@ class MinTurnPlanner(Planner):
 
     Parameters
     ----------
-    n_samples : int
-        Random configuration-space points per round (the paper uses 30).
-    max_intermediate : int or None
-        Most intermediate points tried per round before drawing new samples (None: up to all the
-        samples, as in the paper's loop ``i = 1 .. N``).
-    max_rounds : int or None
-        Stop after this many rounds of samples even if budget remains (None: until the budget ends).
-    deterministic : bool
-        Count the budget in rounds (`rounds_per_s` per second of the time limit) rather than in
-        wall-clock seconds, so that the result does not depend on the machine's speed.
-    rounds_per_s : float
-        Rounds per second of budget in deterministic mode.
+    options : MinTurnOptions, optional
+        The options (`planners.declarations.MinTurnOptions`; None: the defaults): `n_samples` random
+        configuration-space points per round (the paper's 30); `max_intermediate` points tried per round
+        before drawing new samples (None: up to all the samples, as in the paper's loop ``i = 1 .. N``);
+        `max_rounds` of samples even if budget remains; with `deterministic` the budget is counted in
+        rounds (`rounds_per_s` per second of the time limit), so the result does not depend on the
+        machine's speed.
+    **overrides
+        Options on top of `options` by name (``n_samples=60``).
 
     Notes
     -----
@@ -132,23 +129,13 @@ class MinTurnPlanner(Planner):
     """
 
     name = "min-turn"
-    params = MIN_TURN_PARAMS
+    options_model = MinTurnOptions
 
-    def __init__(self, n_samples: int = 30, max_intermediate: int | None = None,
-                 max_rounds: int | None = None, deterministic: bool = True, rounds_per_s: float = 50.0) -> None:
-        if int(n_samples) < 1:
-            raise ConfigError(f"n_samples must be >= 1, got {n_samples!r}")
-        if max_intermediate is not None and int(max_intermediate) < 1:
-            raise ConfigError(f"max_intermediate must be >= 1, got {max_intermediate!r}")
-        if max_rounds is not None and int(max_rounds) < 1:
-            raise ConfigError(f"max_rounds must be >= 1 or None, got {max_rounds!r}")
-        if not (math.isfinite(rounds_per_s) and rounds_per_s > 0):
-            raise ConfigError(f"rounds_per_s must be a positive number, got {rounds_per_s!r}")
-        self.n_samples = int(n_samples)
-        self.max_intermediate = None if max_intermediate is None else int(max_intermediate)
-        self.max_rounds = None if max_rounds is None else int(max_rounds)
-        self.deterministic = bool(deterministic)
-        self.rounds_per_s = float(rounds_per_s)
+    def __init__(self, options: MinTurnOptions | None = None, **overrides: Any) -> None:
+        o: MinTurnOptions = self.configure(options, overrides)
+        self.options = o
+        self.n_samples, self.max_intermediate, self.max_rounds = o.n_samples, o.max_intermediate, o.max_rounds
+        self.deterministic, self.rounds_per_s = o.deterministic, o.rounds_per_s
 
     def _limits(self, time_limit: float) -> tuple[int | None, float]:
         """Most rounds (None: no count) and the wall-clock seconds the call may take."""

@@ -72,6 +72,7 @@ from numpy.typing import ArrayLike, NDArray
 from toolkit.world import CollisionChecker, ConfigError, RegistryError
 
 from .base import PLANNERS, Planner, PlanningProblem, PlanStatus, Solution
+from .declarations import OmplOptions
 
 __all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "declared_params", "ompl_planner_names", "ompl_simplify"]
 
@@ -241,6 +242,18 @@ class OmplPlanner(Planner):
     ----------
     planner : str
         OMPL class name in `ompl.geometric` ("RRTstar", "PRM", "BITstar", "RRTConnect", ...).
+    options : OmplOptions, optional
+        The wrapper's options (`planners.declarations.OmplOptions`; None: the defaults), below.
+    settings : dict, optional
+        OMPL's own settings by setter name without ``set``, e.g. ``{"GoalBias": 0.1}`` calls
+        ``setGoalBias(0.1)``.
+    **overrides
+        Options on top of `options` by name (``simplify=True``).
+
+    Notes
+    -----
+    What the options mean beyond their one-line descriptions (``nxtnav planners show rrtstar``):
+
     simplify : bool
         Run OMPL's path simplifier (shortcutting, vertex reduction) on the solution; the length before
         and after is reported in ``info``. Simplification time counts in the planning time.
@@ -248,9 +261,6 @@ class OmplPlanner(Planner):
         Maximum edge length (cm) for planners with ``setRange`` (RRT family); None keeps OMPL's default.
     stop_at_first : bool
         Stop at the first exact solution even for asymptotically optimal planners.
-    settings : dict, optional
-        Extra planner settings by OMPL setter name without ``set``, e.g. ``{"GoalBias": 0.1}`` calls
-        ``setGoalBias(0.1)``.
     log_level : str
         OMPL's console log level while planning: "none", "error", "warn", "info" or "debug".
     deterministic : bool
@@ -263,8 +273,6 @@ class OmplPlanner(Planner):
         Seconds of budget between two progress samples (besides one at every improvement); in
         deterministic mode counted as ``iterations_per_s * progress_interval`` iterations.
 
-    Notes
-    -----
     ``info`` holds ``ompl_status`` (OMPL's own words), ``first_solution_s``,
     ``first_solution_length_cm``, ``progress`` (``[time_s, iterations, best_cost]`` samples),
     ``params`` (the planner's declared parameters), ``length_before_simplify_cm`` /
@@ -273,45 +281,26 @@ class OmplPlanner(Planner):
 
     reports_progress = True
 
-    def __init__(
-        self,
-        planner: str = "RRTstar",
-        simplify: bool = False,
-        range: float | None = None,
-        stop_at_first: bool = False,
-        settings: dict[str, Any] | None = None,
-        log_level: str = "none",
-        deterministic: bool = True,
-        iterations_per_s: float | None = None,
-        progress_interval: float = 0.01,
-    ) -> None:
+    options_model = OmplOptions
+
+    def __init__(self, planner: str = "RRTstar", options: OmplOptions | None = None, *,
+                 settings: dict[str, Any] | None = None, **overrides: Any) -> None:
         known = ompl_planner_names()
         if planner not in known:
             raise RegistryError(f"unknown OMPL planner {planner!r}; known: {', '.join(known)}")
-        if log_level not in _LOG_LEVELS:
-            raise ConfigError(f"log_level must be one of {', '.join(_LOG_LEVELS)}, got {log_level!r}")
-        if range is not None and not (math.isfinite(range) and range > 0):
-            raise ConfigError(f"range must be a positive number of cm, got {range!r}")
-        if iterations_per_s is None:
-            iterations_per_s = _ITERATIONS_PER_S.get(planner, _DEFAULT_ITERATIONS_PER_S)
-        if not (math.isfinite(iterations_per_s) and iterations_per_s > 0):
-            raise ConfigError(f"iterations_per_s must be a positive number, got {iterations_per_s!r}")
-        if not (isinstance(progress_interval, int | float) and math.isfinite(progress_interval)
-                and progress_interval > 0):
-            raise ConfigError(f"progress_interval must be a positive number of seconds, got {progress_interval!r}")
+        o: OmplOptions = self.configure(options, overrides)
         cls = getattr(og, planner)
         for key in settings or {}:
             if not hasattr(cls, f"set{key}"):
                 raise ConfigError(f"OMPL planner {planner} has no setting {key!r} (no method set{key})")
+        self.options = o
         self.planner = planner
-        self.simplify = bool(simplify)
-        self.range = range
-        self.stop_at_first = bool(stop_at_first)
+        self.simplify, self.range, self.stop_at_first = o.simplify, o.range, o.stop_at_first
         self.settings = dict(settings or {})
-        self.log_level = log_level
-        self.deterministic = bool(deterministic)
-        self.iterations_per_s = float(iterations_per_s)
-        self.progress_interval = float(progress_interval)
+        self.log_level, self.deterministic = o.log_level, o.deterministic
+        self.iterations_per_s = (_ITERATIONS_PER_S.get(planner, _DEFAULT_ITERATIONS_PER_S)
+                                 if o.iterations_per_s is None else o.iterations_per_s)
+        self.progress_interval = o.progress_interval
         if type(self) is OmplPlanner:
             setattr(self, "name", f"ompl:{planner}")  # noqa: B010 (an instance name, not the registry's)
 
@@ -515,8 +504,8 @@ class RrtStarPlanner(OmplPlanner):
 
     name = "rrtstar"
 
-    def __init__(self, **options: Any) -> None:
-        super().__init__(planner="RRTstar", **options)
+    def __init__(self, options: OmplOptions | None = None, **overrides: Any) -> None:
+        super().__init__("RRTstar", options, **overrides)
 
 
 class PrmPlanner(OmplPlanner):
@@ -524,8 +513,8 @@ class PrmPlanner(OmplPlanner):
 
     name = "prm"
 
-    def __init__(self, **options: Any) -> None:
-        super().__init__(planner="PRM", **options)
+    def __init__(self, options: OmplOptions | None = None, **overrides: Any) -> None:
+        super().__init__("PRM", options, **overrides)
 
 
 def _ompl_member(planner: str) -> Callable[..., OmplPlanner]:

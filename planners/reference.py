@@ -63,11 +63,11 @@ from numpy.typing import NDArray
 from shapely.geometry import polygon as shapely_polygon
 from shapely.geometry.base import BaseGeometry
 
-from toolkit.world import CollisionChecker, ConfigError, Map, PointCollisionChecker
+from toolkit.world import CollisionChecker, Map, PointCollisionChecker
 from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
-from .declarations import MIN_LINK_PARAMS, SHORTEST_PARAMS
+from .declarations import MinLinkOptions, ShortestOptions
 from .metrics import turn_angle
 from .min_turn import hop_shortest_path
 
@@ -217,13 +217,10 @@ def shorten_bends(checker: CollisionChecker, path: FloatArray, step: float = 5.0
 class _ReferencePlanner(Planner):
     """Shared machinery: the polygonal configuration space and a per-(map, radius, backend) graph cache."""
 
-    def __init__(self, n_sides: int = 64, eps: float = 1e-4) -> None:
-        if int(n_sides) < 8:
-            raise ConfigError(f"n_sides must be >= 8, got {n_sides!r}")
-        if not (math.isfinite(eps) and eps >= 0):
-            raise ConfigError(f"eps must be a non-negative number of cm, got {eps!r}")
-        self.n_sides = int(n_sides)
-        self.eps = float(eps)
+    def __init__(self, options: ShortestOptions | None = None, **overrides: Any) -> None:
+        o: ShortestOptions = self.configure(options, overrides)
+        self.options = o
+        self.n_sides, self.eps = o.n_sides, o.eps
         self._cache: dict[tuple[int, float, str], _Graph] = {}
 
     @staticmethod
@@ -328,10 +325,12 @@ class ShortestPathPlanner(_ReferencePlanner):
 
     Parameters
     ----------
-    n_sides : int
-        Sides of the circumscribed polygon that stands in for the robot disc when growing the walls.
-    eps : float
-        Extra clearance (cm) so that boundary edges pass the checker despite rounding.
+    options : ShortestOptions, optional
+        The options (`planners.declarations.ShortestOptions`; None: the defaults): `n_sides` of the
+        circumscribed polygon that stands in for the robot disc when growing the walls, and `eps`, an
+        extra clearance (cm) so that boundary edges pass the checker despite rounding.
+    **overrides
+        Options on top of `options` by name (``n_sides=16``).
 
     Notes
     -----
@@ -354,7 +353,7 @@ class ShortestPathPlanner(_ReferencePlanner):
     """
 
     name = "shortest"
-    params = SHORTEST_PARAMS
+    options_model = ShortestOptions
     large_map_options: ClassVar[Mapping[str, Any] | None] = {"n_sides": 16}  # length tolerance stays < ~1 cm
 
     def _build(self, problem: PlanningProblem) -> _Graph:
@@ -431,14 +430,14 @@ class MinLinkPlanner(_ReferencePlanner):
 
     Parameters
     ----------
-    boundary_spacing : float
-        Spacing (cm) of the nodes placed along the boundary of the polygonal configuration space.
-    grid_spacing : float or None
-        Spacing (cm) of an interior grid of nodes (None: no interior nodes).
-    refine : bool
-        Shorten the graph's path by moving its bends (`shorten_bends`), keeping the number of links.
-    n_sides, eps
-        As for `ShortestPathPlanner`.
+    options : MinLinkOptions, optional
+        The options (`planners.declarations.MinLinkOptions`; None: the defaults): the spacing (cm) of the
+        nodes along the boundary of the polygonal configuration space (`boundary_spacing`) and of an
+        interior grid (`grid_spacing`; None: no interior nodes), `refine` (shorten the graph's path by
+        moving its bends, `shorten_bends`, keeping the number of links), and `n_sides` and `eps` as for
+        `ShortestPathPlanner`.
+    **overrides
+        Options on top of `options` by name.
 
     Notes
     -----
@@ -448,19 +447,13 @@ class MinLinkPlanner(_ReferencePlanner):
     """
 
     name = "min-link"
-    params = MIN_LINK_PARAMS
+    options_model = MinLinkOptions
     large_map_options = None  # its dense graph grows with the map's area squared
 
-    def __init__(self, boundary_spacing: float = 3.0, grid_spacing: float | None = 10.0, refine: bool = True,
-                 n_sides: int = 64, eps: float = 1e-4) -> None:
-        super().__init__(n_sides, eps)
-        self.refine = bool(refine)
-        if not (math.isfinite(boundary_spacing) and boundary_spacing > 0):
-            raise ConfigError(f"boundary_spacing must be a positive number of cm, got {boundary_spacing!r}")
-        if grid_spacing is not None and not (math.isfinite(grid_spacing) and grid_spacing > 0):
-            raise ConfigError(f"grid_spacing must be a positive number of cm or None, got {grid_spacing!r}")
-        self.boundary_spacing = float(boundary_spacing)
-        self.grid_spacing = None if grid_spacing is None else float(grid_spacing)
+    def __init__(self, options: MinLinkOptions | None = None, **overrides: Any) -> None:
+        super().__init__(options, **overrides)
+        o: MinLinkOptions = self.options  # type: ignore[assignment]
+        self.refine, self.boundary_spacing, self.grid_spacing = o.refine, o.boundary_spacing, o.grid_spacing
 
     def _build(self, problem: PlanningProblem) -> _Graph:
         cs = cspace_polygon(problem.map, problem.robot_radius, self.n_sides, self.eps)

@@ -130,7 +130,7 @@ def cases() -> list[Case]:
         f"{lo} --scan-processing x", f"{lo} --lobe x", f"{lo} --seed -1", f"{lo} --set n_particles",
         f"{lo} --set =3", f"{lo} --set nope=1", f"{lo} --set n_particles=abc", f"{lo} --set n_particles=100.5",
         f"{lo} --set n_particles=5", f"{lo} --set n_particles=true", f"{lo} --set ekf.n_particles=100",
-        f"{lo} --set sensor_sigma_cm=.nan", f"{lo} -o full", f"{lo} -o blocker/l.png",
+        f"{lo} --set sensor.sensor_sigma_cm=.nan", f"{lo} -o full", f"{lo} -o blocker/l.png",
         f"{lo} --json blocker/l.json", "localise --map huge.yaml --pose 50,50,0", "localise --map nomap --pose 1,1,0")
     add("localise", 0, lo, "localise --map sym.yaml --pose 20,15,30")
     # scan

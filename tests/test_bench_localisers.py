@@ -477,8 +477,9 @@ def test_radius_scales_the_robot_of_every_scenario(tmp_path: Path, capsys: pytes
     localisers' clearance follow it."""
     cfg = bench.BenchConfig(robot_radius_cm=5.0)
     assert cfg.geometry.radius_cm == 5.0 and cfg.pose_clearance_cm == 7.0
-    assert bench.localiser_options(cfg, "paper-pf")["clearance_cm"] == 5.0
-    assert bench.localiser_options(bench.BenchConfig(), "paper-pf")["clearance_cm"] == 8.0  # the default robot
+    assert bench.localiser_options(cfg, "paper-pf")["global_start.clearance_cm"] == 5.0
+    default_robot = bench.localiser_options(bench.BenchConfig(), "paper-pf")
+    assert default_robot["global_start.clearance_cm"] == 8.0
     out = tmp_path / "r"
     assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "2",
                 "--scenario", "tracking", "--tracking-steps", "3", "--radius", "5", "--out", str(out)]) == 0

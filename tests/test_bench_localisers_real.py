@@ -102,18 +102,21 @@ def test_the_bench_tells_every_localiser_its_robot_model() -> None:
     model = NxtSonar()
     for name in ("paper-pf", "pf-systematic"):
         opts = bench.localiser_options(nxt, name)
-        assert (opts["beam_width_deg"], opts["beam_rays"], opts["critical_incidence_deg"], opts["max_range_cm"]) == (
-            model.beam_width_deg, model.beam_rays, model.critical_incidence_deg, model.max_range_cm)
-        assert opts["sonar_model"] == model.simulated() and opts["noise_model"] == "absolute"
-        assert "beam_width_deg" not in bench.localiser_options(bench.BenchConfig(sonar="ideal"), name)
+        assert (opts["ranges.beam_width_deg"], opts["ranges.beam_rays"], opts["ranges.critical_incidence_deg"],
+                opts["ranges.max_range_cm"]) == (model.beam_width_deg, model.beam_rays, model.critical_incidence_deg,
+                                                  model.max_range_cm)
+        assert opts["sensor.sonar_model"] == model.simulated() and opts["motion.noise_model"] == "absolute"
+        assert "ranges.beam_width_deg" not in bench.localiser_options(bench.BenchConfig(sonar="ideal"), name)
         off = bench.localiser_options(bench.BenchConfig(sonar="nxt", lobe="off"), name)
-        assert "beam_width_deg" not in off and "sonar_model" not in off and off["sensor_sigma_cm"] == 3.0
+        assert "ranges.beam_width_deg" not in off and "sensor.sonar_model" not in off
+        assert off["sensor.sensor_sigma_cm"] == 3.0
     # explicit options win over the model
-    cfg = bench.BenchConfig(sonar="nxt", localiser_options={"paper-pf": {"beam_width_deg": 10.0}})
-    assert bench.localiser_options(cfg, "paper-pf")["beam_width_deg"] == 10.0
+    cfg = bench.BenchConfig(sonar="nxt", localiser_options={"paper-pf": {"ranges.beam_width_deg": 10.0}})
+    assert bench.localiser_options(cfg, "paper-pf")["ranges.beam_width_deg"] == 10.0
     for name in ("ekf", "ukf"):
         opts = bench.localiser_options(nxt, name)
-        assert "beam_width_deg" not in opts and opts["sensor_sigma_cm"] == 3.0 and opts["motion_noise"] == 0.4
+        assert not any("beam_width_deg" in k for k in opts)
+        assert opts["sensor.sensor_sigma_cm"] == 3.0 and opts["motion.motion_noise"] == 0.4
 
 
 def test_kidnapped_recovery_does_not_raise() -> None:

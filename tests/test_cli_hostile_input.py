@@ -129,8 +129,8 @@ def test_scan_direction_is_cw_or_ccw(capsys: pytest.CaptureFixture[str]) -> None
 @pytest.mark.parametrize(("value", "needle"), [
     ("n_particles=abc", "expected an integer, got 'abc'"),
     ("n_particles=100.5", "expected an integer, got 100.5"),
-    ("sensor_sigma_cm=wide", "expected a finite number"),
-    ("use_table=maybe", "expected true or false"),
+    ("sensor.sensor_sigma_cm=wide", "expected a finite number"),
+    ("ranges.use_table=maybe", "expected true or false"),
     ("n_particles=5", "out of its range [10, inf)"),
 ])
 def test_set_values_are_checked_against_the_declarations(value: str, needle: str, tmp_path: Path,
@@ -157,7 +157,7 @@ def test_an_amcl_model_is_a_registered_one_that_fits_the_sonar(value: str, needl
 
 def test_an_integer_where_a_float_is_annotated_is_accepted(tmp_path: Path) -> None:
     js = tmp_path / "l.json"
-    assert run_cli(["localise", "--pose", "20,20,0", "--set", "sensor_sigma_cm=2", "--json", str(js)]) == 0
+    assert run_cli(["localise", "--pose", "20,20,0", "--set", "sensor.sensor_sigma_cm=2", "--json", str(js)]) == 0
     assert json.loads(js.read_text())["localiser"] == "paper-pf"
 
 

@@ -13,8 +13,9 @@ from conftest import nxtnav_exe
 
 from localisation import LOCALISERS
 from planners import PLANNERS
-from planners.declarations import planner_params
+from planners.declarations import planner_options
 from toolkit.world import list_maps
+from toolkit.world.params import OptionInfo, describe
 
 
 def _piped(tmp_path: Path, *args: str) -> str:
@@ -45,9 +46,14 @@ def test_maps_list_json_lists_every_map(tmp_path: Path) -> None:
     assert map1["start"] == [20, 20] and map1["walls"] == 8 and map1["file"].endswith("map1.yaml")
 
 
+def _options(model: type | None) -> list[OptionInfo]:
+    """The options of a plug-in's model as `show` lists them (none without a model)."""
+    return describe(model) if model is not None else []
+
+
 def test_planners_show_piped_keeps_the_option_names(tmp_path: Path) -> None:
     cells = _cells(_piped(tmp_path, "planners", "show", "ompl:BITstar"))
-    names = [p.name for p in planner_params("ompl:BITstar") or ()]
+    names = [p.name for p in _options(planner_options("ompl:BITstar"))]
     assert "DelayRewiringUntilInitialSolution" in names
     assert set(names) <= cells
 
@@ -56,7 +62,7 @@ def test_planners_show_piped_keeps_the_option_names(tmp_path: Path) -> None:
 @pytest.mark.parametrize("name", [*PLANNERS.names(), "ompl:InformedRRTstar"])
 def test_planners_show_json_lists_every_option(name: str, tmp_path: Path) -> None:
     doc = json.loads(_piped(tmp_path, "planners", "show", name, "--json"))
-    declared = planner_params(name) or ()
+    declared = _options(planner_options(name))
     assert doc["planner"] == name
     assert [o["name"] for o in doc["options"]] == [p.name for p in declared]
     assert [o["default"] for o in doc["options"]] == [p.default for p in declared]
@@ -65,7 +71,7 @@ def test_planners_show_json_lists_every_option(name: str, tmp_path: Path) -> Non
 def test_localisers_show_piped_keeps_the_option_names(tmp_path: Path) -> None:
     cells = _cells(_piped(tmp_path, "localisers", "show", "amcl"))
     cls = LOCALISERS.get("amcl")
-    assert {p.name for p in cls.params or ()} <= cells
+    assert {p.name for p in _options(cls.options_model)} <= cells
     assert set(cls.robot_options or {}) <= cells
 
 
@@ -75,7 +81,7 @@ def test_localisers_show_json_lists_every_option_and_facet(name: str, tmp_path: 
     doc = json.loads(_piped(tmp_path, "localisers", "show", name, "--json"))
     cls = LOCALISERS.get(name)
     assert doc["localiser"] == name
-    assert [o["name"] for o in doc["options"]] == [p.name for p in cls.params or ()]
+    assert [o["name"] for o in doc["options"]] == [p.name for p in _options(cls.options_model)]
     robot = cls.robot_options
     assert doc["robot_model"] == (None if robot is None else {k: v if isinstance(v, str) else list(v)
                                                               for k, v in robot.items()})

@@ -53,14 +53,14 @@ class Page:
 
 
 PAGES = [
-    Page("planner.md", ("tests/test_planners.py", "tests/test_declared_params.py",
+    Page("planner.md", ("tests/test_planners.py", "tests/test_plugin_options.py",
                         "tests/test_planners_reproducible.py", "-k", "roadmap"), 14),
     Page("localiser.md", ("tests/test_localisation_options.py::test_every_localiser_is_told_the_same_robot",
                           "tests/test_localisation_options.py::test_every_facet_is_mapped_or_refused_with_a_reason"
                           "[simple-mcl]",
-                          "tests/test_localisation_options.py::test_declared_defaults_are_the_constructor_defaults"
+                          "tests/test_localisation_options.py::test_options_as_a_model_or_as_overrides_are_one_localiser"
                           "[simple-mcl]",
-                          "tests/test_localisation_options.py::test_a_changed_declared_option_reaches_the_constructor"
+                          "tests/test_localisation_options.py::test_a_changed_option_reaches_the_constructor"
                           "[simple-mcl]"), 8),
     Page("sonar-model.md", ("tests/test_world_sonar.py::test_seeded",), 1),
     Page("fault.md", ("tests/test_brick_faults.py", "-k", "spec or garbage or stuck"), 10),

@@ -1,5 +1,5 @@
-"""One robot model, told to every localiser alike (`localisation.robot_options`), and the declared options
-of every localiser (`toolkit.world.Params`) against what its constructor does."""
+"""One robot model, told to every localiser alike (`localisation.robot_options`), and the options model
+of every localiser (`toolkit.world.Options`) against what its constructor does."""
 
 from __future__ import annotations
 
@@ -14,7 +14,19 @@ from localisation.base import HeadingPrior, Localiser, PoseEstimate
 from localisation.conformance import tracking_run
 from localisation.laser_options import laser_localiser_options, laser_options_added, laser_options_for
 from localisation.robot_options import THIN_RAY, localiser_options
-from toolkit.world import FACETS, ConfigError, LaserScanner, NxtSonar, Pose, RegistryError, RobotModel, Scan, load_map
+from toolkit.world import (
+    FACETS,
+    ConfigError,
+    LaserScanner,
+    NxtSonar,
+    Pose,
+    RegistryError,
+    RobotModel,
+    Scan,
+    configure,
+    load_map,
+)
+from toolkit.world.params import robot_paths
 
 MAP1 = load_map("map1")
 MODELS = [RobotModel.build("ideal"), RobotModel.build("ideal", sensor_noise=2.5, noise_model="absolute",
@@ -55,28 +67,29 @@ def test_the_nxt_model_carries_its_own_numbers() -> None:
     robot = RobotModel.build(NxtSonar(beam_width_deg=20.0, critical_incidence_deg=50.0, beam_rays=9),
                              radius_cm=7.0)
     amcl, pf = localiser_options("amcl", robot), localiser_options("paper-pf", robot)
-    assert amcl["sigma_hit"] == pf["sensor_sigma_cm"] == 3.0
-    assert amcl["lobe_rays"] == pf["beam_rays"] == 9
-    assert amcl["beam_width_deg"] == pf["beam_width_deg"] == 20.0
-    assert amcl["laser_max_range"] == pf["max_range_cm"] == 255.0
-    assert amcl["clearance_cm"] == pf["clearance_cm"] == 7.0
-    assert amcl["sonar_model"] == pf["sonar_model"] == robot.sonar.simulated()
-    assert localiser_options("paper-pf", robot.with_readings("real"))["sonar_model"] is robot.sonar
+    assert amcl["sensor.sigma_hit"] == pf["sensor.sensor_sigma_cm"] == 3.0
+    assert amcl["lobe.lobe_rays"] == pf["ranges.beam_rays"] == 9
+    assert amcl["lobe.beam_width_deg"] == pf["ranges.beam_width_deg"] == 20.0
+    assert amcl["sensor.laser_max_range"] == pf["ranges.max_range_cm"] == 255.0
+    assert amcl["global_start.clearance_cm"] == pf["global_start.clearance_cm"] == 7.0
+    assert amcl["sensor.sonar_model"] == pf["sensor.sonar_model"] == robot.sonar.simulated()
+    assert localiser_options("paper-pf", robot.with_readings("real"))["sensor.sonar_model"] is robot.sonar
     thin = localiser_options("paper-pf", robot, leave_out=THIN_RAY)
-    assert "beam_width_deg" not in thin and "sonar_model" not in thin
+    assert "ranges.beam_width_deg" not in thin and "sensor.sonar_model" not in thin
 
 
 @pytest.mark.parametrize("name", LOCALISERS.names())
 def test_every_facet_is_mapped_or_refused_with_a_reason(name: str) -> None:
     mapping = LOCALISERS.get(name).robot_options
     assert mapping is not None and set(mapping) == set(FACETS)
-    params = LOCALISERS.get(name).params
-    assert params is not None
+    model = LOCALISERS.get(name).options_model
+    assert model is not None
+    robot = robot_paths(model)
     for how in mapping.values():
         if isinstance(how, str):
             assert len(how) > 20  # a sentence, not a placeholder
         else:
-            assert all(own in params and params.get(own).robot for own in how)
+            assert all(own in robot for own in how)
 
 
 def test_an_unmapped_facet_is_a_config_error(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -94,20 +107,23 @@ def _run(name: str, options: dict[str, Any]) -> np.ndarray:
 
 
 @pytest.mark.parametrize("name", LOCALISERS.names())
-def test_declared_defaults_are_the_constructor_defaults(name: str) -> None:
-    params = LOCALISERS.get(name).params
-    assert params is not None
-    declared = {k: v for k, v in params.defaults().items() if k != "cache_dir"}
-    np.testing.assert_array_equal(_run(name, {}), _run(name, declared))
+def test_options_as_a_model_or_as_overrides_are_one_localiser(name: str) -> None:
+    cls = LOCALISERS.get(name)
+    model = cls.options_model
+    assert model is not None
+    np.testing.assert_array_equal(_run(name, {}), tracking_run(cls, {}, model())[0])
+    given = configure(model, None, {"converged_xy_cm": 2.5, "motion_inflation": 2.0})
+    np.testing.assert_array_equal(tracking_run(cls, {}, given)[0],
+                                  _run(name, {"convergence.converged_xy_cm": 2.5, "motion.motion_inflation": 2.0}))
 
 
 @pytest.mark.parametrize("name", LOCALISERS.names())
-def test_a_changed_declared_option_reaches_the_constructor(name: str) -> None:
-    params = LOCALISERS.get(name).params
-    assert params is not None
-    with pytest.raises(ConfigError, match="converged_xy_cm"):
-        params.check({"converged_xy_cm": -1.0})
-    assert not np.array_equal(_run(name, {}), _run(name, {"motion_inflation": 4.0}))
+def test_a_changed_option_reaches_the_constructor(name: str) -> None:
+    model = LOCALISERS.get(name).options_model
+    assert model is not None
+    with pytest.raises(ConfigError, match=r"convergence\.converged_xy_cm: -1\.0 is out of its range \[0, inf\)"):
+        configure(model, None, {"converged_xy_cm": -1.0})
+    assert not np.array_equal(_run(name, {}), _run(name, {"motion.motion_inflation": 4.0}))
 
 
 def test_replace_keeps_a_model_frozen() -> None:

@@ -121,14 +121,14 @@ def test_nxt_sonar_localisers_are_told_the_lobe() -> None:
 
     nxt = localiser_options("paper-pf", RobotModel.build("nxt"))
     model = NxtSonar()
-    assert nxt["beam_width_deg"] == model.beam_width_deg
-    assert nxt["critical_incidence_deg"] == model.critical_incidence_deg
-    assert nxt["sonar_model"] == model.simulated()  # the whole model, for the localisers that use its beam mixture
-    assert nxt["sensor_sigma_cm"] == NXT_SONAR_SIGMA_CM
+    assert nxt["ranges.beam_width_deg"] == model.beam_width_deg
+    assert nxt["ranges.critical_incidence_deg"] == model.critical_incidence_deg
+    assert nxt["sensor.sonar_model"] == model.simulated()  # the whole model, for those that use its beam mixture
+    assert nxt["sensor.sensor_sigma_cm"] == NXT_SONAR_SIGMA_CM
     ideal = localiser_options("paper-pf", RobotModel.build("ideal", sensor_noise=1.5))
-    assert "beam_width_deg" not in ideal and ideal["sensor_sigma_cm"] == 1.5
+    assert "ranges.beam_width_deg" not in ideal and ideal["sensor.sensor_sigma_cm"] == 1.5
     assert "ekf" in localisation.LOCALISERS
-    assert "beam_width_deg" not in localiser_options("ekf", RobotModel.build("nxt"))
+    assert not any("beam_width_deg" in k for k in localiser_options("ekf", RobotModel.build("nxt")))
 
 
 def test_nxt_sonar_mission_among_the_slanted_walls_of_map2() -> None:
@@ -388,7 +388,7 @@ def test_the_heading_check_sees_a_slip_the_tracking_windows_miss() -> None:
     # the situation: sweeps of the three windows, simulated from the true pose, leave the heading unsure
     windows = sweep_angles(cfg.sweeps.track_scan_step_deg, cfg.sweeps.track_window_deg, TRACK_WINDOWS["sides"])
     for _ in range(5):
-        check = check_heading(m, belief, robot.ultrascan(windows), cfg.localiser_options["sonar_model"])
+        check = check_heading(m, belief, robot.ultrascan(windows), cfg.localiser_options["sensor.sonar_model"])
         assert not check.off and check.unsure
     assert mission._check_heading() is State.REPLAN
     steps = mission.context.trace

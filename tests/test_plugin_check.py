@@ -18,7 +18,7 @@ import numpy as np
 
 from planners import Planner, PlanStatus
 from planners.base import Solution
-from toolkit.world import Param, Params
+from toolkit.world import Options, option
 '''
 
 UNDECLARED = HEADER + '''
@@ -46,14 +46,18 @@ class DetourPlanner(Planner):
 
 CARELESS = HEADER + '''
 
+class CarelessOptions(Options):
+    wobble: float = option(1.0, "Random sideways wobble of the midpoint", unit="cm", ge=0.0)
+
+
 class Careless(Planner):
     """Declares its options, but goes straight through the walls and draws from numpy's global stream."""
 
     name = "careless"
-    params = Params(Param("wobble", float, 1.0, "Random sideways wobble of the midpoint", unit="cm", low=0.0))
+    options_model = CarelessOptions
 
-    def __init__(self, wobble: float = 1.0) -> None:
-        self.wobble = wobble
+    def __init__(self, options=None, **overrides) -> None:
+        self.wobble = self.configure(options, overrides).wobble
 
     def _solve(self, problem):
         mid = (problem.start + problem.goal) / 2 + np.random.uniform(-self.wobble, self.wobble, 2)
@@ -65,19 +69,24 @@ HALF_LOCALISER = '''from __future__ import annotations
 import numpy as np
 
 from localisation import Localiser, PoseEstimate
-from toolkit.world import Param, Params, Pose
+from toolkit.world import Options, Pose, option
+
+
+class StubbornOptions(Options):
+    sensor_sigma_cm: float = option(1.0, "Range sigma", unit="cm", ge=1e-6, robot=True)
 
 
 class Stubborn(Localiser):
     """Believes the robot never moves: declares little and refuses the lobe without a reason."""
 
     name = "stubborn"
-    params = Params(Param("sensor_sigma_cm", float, 1.0, "Range sigma", unit="cm", low=1e-6, robot=True))
+    options_model = StubbornOptions
     robot_options = {"motion": "ignores every motion, always", "sensor_sigma": ("sensor_sigma_cm",),
                      "lobe": "no"}
 
-    def __init__(self, map, *, rng=None, sensor_sigma_cm: float = 1.0) -> None:
+    def __init__(self, map, options=None, *, rng=None, **overrides) -> None:
         super().__init__(map, rng=rng)
+        self.options = self.configure(options, overrides)
         self.pose = Pose(0.0, 0.0, 0.0)
 
     def reset(self, prior=None) -> None:
@@ -104,7 +113,7 @@ def test_the_former_guides_planner_is_told_to_declare_its_options(tmp_path: Path
     assert done.returncode == 1, done.stdout + done.stderr
     lines = done.stdout.splitlines()
     assert lines and all(line.startswith("detour:DetourPlanner: ") for line in lines)
-    assert any("declares no options" in line and "params = Params(" in line for line in lines)
+    assert any("declares no options" in line and "options_model" in line for line in lines)
     assert "the preset query of map2 failed: no path (no detour found)" in done.stdout  # one detour is not enough
     assert len(done.stderr.splitlines()) == 1 and "docs/howto/planner.md" in done.stderr
     assert "Traceback" not in done.stdout + done.stderr
@@ -120,7 +129,7 @@ def test_a_planner_through_walls_and_off_its_seed_gets_one_line_per_problem(tmp_
         assert f"the path on {map_name} is" in out and "shorter than the shortest possible" in out
     assert "the same seed (7) gave two different paths" in out
     assert "a goal inside a wall" not in out  # the base class answers that one
-    assert len(out.splitlines()) == 10  # ... and the declared defaults plan different (random) paths
+    assert len(out.splitlines()) == 10  # ... and its model's defaults plan a different (random) path
 
 
 def test_a_builtin_planner_passes(tmp_path: Path) -> None:

@@ -130,10 +130,11 @@ def test_bench_config_hands_the_model_to_simulator_and_localisers(tmp_path: Path
     cfg = BenchConfig(sonar="nxt", sonar_model=fitted)
     assert cfg.simulated_sonar is fitted
     lobe = cfg.robot_options("paper-pf")
-    assert (lobe["beam_width_deg"], lobe["beam_rays"], lobe["critical_incidence_deg"]) == (30.0, 13, 55.0)
-    assert lobe["sonar_model"] == fitted.simulated()
+    assert (lobe["ranges.beam_width_deg"], lobe["ranges.beam_rays"], lobe["ranges.critical_incidence_deg"]) == (
+        30.0, 13, 55.0)
+    assert lobe["sensor.sonar_model"] == fitted.simulated()
     assert cfg.to_dict()["sonar_model"] == fitted.to_dict()
-    assert BenchConfig(sonar="nxt").robot_options("paper-pf")["beam_width_deg"] == NxtSonar().beam_width_deg
+    assert BenchConfig(sonar="nxt").robot_options("paper-pf")["ranges.beam_width_deg"] == NxtSonar().beam_width_deg
     with pytest.raises(NxtnavError, match="nxt"):
         BenchConfig(sonar="ideal", sonar_model=fitted)
 
@@ -163,8 +164,8 @@ def test_run_with_a_profile_records_it_and_replays_bit_for_bit(tmp_path: Path,
     assert lines[0]["sonar"]["params"] == model.to_dict()
     (event,) = [e for e in lines if e["type"] == "localiser"]
     # paper-pf is told the profile's model, as the simulator draws it (each reading independent)
-    assert event["options"]["sonar_model"] == model.simulated().to_dict()
-    assert event["options"]["beam_width_deg"] == 25.0
+    assert event["options"]["sensor.sonar_model"] == model.simulated().to_dict()
+    assert event["options"]["ranges.beam_width_deg"] == 25.0
     capsys.readouterr()
     assert run_cli(["replay", str(record), "--localisers", "paper-pf,pf-systematic"]) == 0
     assert "paper-pf: replayed estimates equal the" in capsys.readouterr().out

@@ -91,7 +91,7 @@ def plan(
 ) -> None:
     """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
-    from planners.declarations import planner_kwargs, planner_params
+    from planners.declarations import planner_kwargs, planner_options
 
     from ..bench.planners import check_planner_names, planner_for
     from ..plotting import draw_cspace, draw_map, new_axes, save_figure
@@ -100,7 +100,7 @@ def plan(
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
     nz = _noise(noise_model, motion_noise, turn_noise)
     check_planner_names([planner])
-    options = checked_sets(parse_sets(sets), [planner], planner_params, "planner").get(planner, {})
+    options = checked_sets(parse_sets(sets), [planner], planner_options, "planner").get(planner, {})
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -287,9 +287,9 @@ def bench_planners(
     map_list = parse_list(maps, "--maps")
     planner_list = parse_list(planners, "--planners")
     check_planner_names(planner_list)
-    from planners.declarations import planner_params
+    from planners.declarations import planner_options
 
-    options = checked_sets(parse_sets(sets), planner_list, planner_params, "planner")
+    options = checked_sets(parse_sets(sets), planner_list, planner_options, "planner")
     for name in map_list:
         load_map(name)  # a bad map name fails before any work
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs,

@@ -6,7 +6,8 @@ from __future__ import annotations
 import typer
 from rich.table import Table
 
-from toolkit.world import NxtnavError, Params
+from toolkit.world import NxtnavError, Options
+from toolkit.world.params import describe
 
 from .app import localisers_app, planners_app
 from .choices import one_of
@@ -22,18 +23,17 @@ def _default_text(default: object) -> str:
     return "null" if default is None else str(default).lower() if isinstance(default, bool) else str(default)
 
 
-def _params_doc(params: Params | None) -> list[dict[str, object]]:
-    """The declared options as JSON-ready dicts: name, type, default, range, unit, description, robot."""
-    return [{"name": p.name, "type": p.type_name, "default": p.default, "range": p.range_text, "unit": p.unit,
-             "description": p.description, "robot": p.robot} for p in params or ()]
+def _params_doc(model: type[Options] | None) -> list[dict[str, object]]:
+    """The options as JSON-ready dicts: dotted name, type, default, range, unit, description, robot."""
+    return [o.to_dict() for o in describe(model)] if model is not None else []
 
 
-def _table(title: str, params: Params) -> Table:
+def _table(title: str, model: type[Options]) -> Table:
     table = Table(title=title)
     table.add_column("option", **NEVER_CUT)  # type: ignore[arg-type]
     for column in ("type", "default", "range", "unit", "description"):
         table.add_column(column)
-    for p in params:
+    for p in describe(model):
         default = _default_text(p.default)
         table.add_row(p.name, p.type_name, default, p.range_text, p.unit,
                       p.description + (" [dim](from the robot model)[/dim]" if p.robot else ""))
@@ -56,18 +56,18 @@ def planners_show(name: str = typer.Argument(..., help="A planner " + one_of("pl
                   as_json: bool = typer.Option(False, "--json", help=_JSON_HELP)) -> None:
     """A planner's declared options: name, type, default, range, unit, description (`--set NAME.KEY=VALUE`)."""
     from planners import PLANNERS
-    from planners.declarations import planner_params
+    from planners.declarations import planner_options
 
     if name not in PLANNERS:
         raise NxtnavError(f"unknown planner {name!r}; known: {', '.join(PLANNERS.names())} and ompl:NAME")
-    params = planner_params(name)
+    params = planner_options(name)
     if as_json:
         print_json({"planner": name, "options": _params_doc(params)})
         return
-    if not params:
+    if params is None or not params.model_fields:
         typer.echo(f"{name} declares no options")
         return
-    print_table(_table(f"{name}: options (--set {name}.KEY=VALUE)", params))
+    print_table(_table(f"{name}: options (--set {name}.PATH=VALUE)", params))
 
 
 @localisers_app.command("list")
@@ -91,10 +91,10 @@ def localisers_show(name: str = typer.Argument(..., help="A localiser " + one_of
     mapping = cls.robot_options
     if as_json:
         robot = None if mapping is None else {k: v if isinstance(v, str) else list(v) for k, v in mapping.items()}
-        print_json({"localiser": name, "options": _params_doc(cls.params), "robot_model": robot})
+        print_json({"localiser": name, "options": _params_doc(cls.options_model), "robot_model": robot})
         return
-    if cls.params:
-        print_table(_table(f"{name}: options (--set {name}.KEY=VALUE)", cls.params))
+    if cls.options_model is not None and cls.options_model.model_fields:
+        print_table(_table(f"{name}: options (--set {name}.PATH=VALUE)", cls.options_model))
     else:
         typer.echo(f"{name} declares no options")
     if mapping is None:

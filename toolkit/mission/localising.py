@@ -8,9 +8,9 @@ from localisation.ambiguity import candidate_poses, describe_candidates
 from localisation.base import PoseEstimate, Prior
 from localisation.heading_check import HeadingCheck, check_heading
 from localisation.procedure import LocaliseProcedure
+from localisation.robot_options import told_sonar_model
 from localisation.scan import sweep_fault
 
-from ..world import NxtSonar
 from .checkers import Checkers
 from .context import MissionContext
 from .fix_policy import FixPolicy
@@ -115,7 +115,8 @@ class Fixes:
     def heading_check(self) -> HeadingCheck | None:
         """One sweep of the front half (`SweepConfig.heading_check_angles`), read against the believed heading
         (`localisation.heading_check`) with the sonar model the localiser was told
-        (``localiser_options["sonar_model"]``; none: ideal readings); the belief is left as it was.
+        (its ``sonar_model`` option, `localisation.robot_options.told_sonar_model`; none: ideal readings); the
+        belief is left as it was.
         None when the sensor was stuck or gave garbage (said through `on_sweep_fault`)."""
         mission = self.mission
         assert mission.estimate is not None
@@ -125,5 +126,4 @@ class Fixes:
             if mission.on_sweep_fault is not None:
                 mission.on_sweep_fault(fault)
             return None
-        sonar = mission.cfg.localiser_options.get("sonar_model")
-        return check_heading(mission.map, mission.estimate.pose, scan, sonar if isinstance(sonar, NxtSonar) else None)
+        return check_heading(mission.map, mission.estimate.pose, scan, told_sonar_model(mission.cfg.localiser_options))

@@ -72,10 +72,10 @@ def sonar_from_dict(d: Any) -> SonarModel:
 
 
 def decode_options(options: dict[str, Any]) -> dict[str, Any]:
-    """The inverse of `encode_options`: a ``sonar_model`` option rebuilt as its model."""
-    if isinstance(options.get("sonar_model"), dict):
-        return {**options, "sonar_model": sonar_from_dict(options["sonar_model"])}
-    return dict(options)
+    """The inverse of `encode_options`: a ``sonar_model`` option (at any depth of the options' groups,
+    ``sensor.sonar_model``) rebuilt as its model."""
+    return {k: sonar_from_dict(v) if k.rpartition(".")[2] == "sonar_model" and isinstance(v, dict) else v
+            for k, v in options.items()}
 
 
 

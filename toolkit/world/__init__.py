@@ -28,7 +28,7 @@ from .grids import OccupancyGrid, grid_to_map, polygonise
 from .importers import import_map
 from .laser import LaserScanner
 from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_map, map_from_dict
-from .params import Param, Params
+from .params import OptionInfo, Options, configure, option
 from .point_collision import CHECKER_BACKENDS, PointCollisionChecker, make_checker
 from .registry import Registry
 from .robot import (
@@ -70,8 +70,8 @@ __all__ = [
     "NxtSonar",
     "NxtnavError",
     "OccupancyGrid",
-    "Param",
-    "Params",
+    "OptionInfo",
+    "Options",
     "PlanningError",
     "PointCollisionChecker",
     "Pose",
@@ -93,6 +93,7 @@ __all__ = [
     "angle_diff",
     "as_rng",
     "circular_mean",
+    "configure",
     "default_scan_angles",
     "grid_to_map",
     "import_map",
@@ -101,6 +102,7 @@ __all__ = [
     "make_checker",
     "make_sonar",
     "map_from_dict",
+    "option",
     "polygonise",
     "ray_cast",
     "ray_wall_distances",
