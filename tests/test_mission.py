@@ -271,7 +271,9 @@ def _nxt_slip_mission(seed: int, check_turn_deg: float | None) -> tuple[MissionR
 
 
 def test_a_heading_check_after_a_large_turn_sees_a_slipped_turn_before_the_leg() -> None:
-    seed = 0
+    # a mission whose slipped turn meets a wall without the check (with the nxt tuning's allowances of
+    # 15 degrees, 2 cm and 4 degrees seed 0 was one; with 10, 1 and 2 seeds 3 and 7 of 0-7 are)
+    seed = 3
     checking, robot = _nxt_slip_mission(seed, 20.0)
     blind, blind_robot = _nxt_slip_mission(seed, None)
     assert robot.slipped is not None and blind_robot.slipped is not None

@@ -161,3 +161,25 @@ def test_paper_pareto_draws_the_front(tmp_path: Path, capsys: pytest.CaptureFixt
     assert points["default"]["robot_time_median_s"] < points["paper-habit"]["robot_time_median_s"]
     assert any(p["on_front"] for p in doc["points"])
     assert "| default | ideal | map1 |" in capsys.readouterr().out
+
+
+def test_an_nxt_mission_drives_map3s_corridor_in_legs_not_steps(tmp_path: Path) -> None:
+    # map3, nxt sonar, seed 2044382579: the path runs along the lower corridor. With the nxt tuning's
+    # allowances of 15 degrees, 2 cm and 4 degrees the robot crept along it in 6-9 cm legs, each ended
+    # by a tracking sweep (17 fixes along segments, 10 after legs under 10 cm); the fixes err up to
+    # 3 degrees, and the allowances that follow them leave only the short first leg after the global fix
+    out = tmp_path / "m.json"
+    assert run_cli(["run", "--map", "map3", "--sonar", "nxt", "--seed", "2044382579", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["success"] is True and doc["collisions"] == 0 and doc["final_error_cm"] <= 1.0
+    legs, driven = [], 0.0
+    for step in doc["trace"]:
+        if step["action"] == "move":
+            driven += step["distance_cm"]
+        elif step["action"] in ("localise", "relocalise", "skip-fix", "check-heading"):
+            if step["action"] == "relocalise" and step["note"].startswith("along segment"):
+                legs.append(driven)
+            driven = 0.0
+    assert legs, "the corridor still needs fixes along it"
+    assert sum(leg < 10.0 for leg in legs) <= 1, legs
+    assert len(legs) <= 8, legs

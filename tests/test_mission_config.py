@@ -46,13 +46,13 @@ def test_a_bad_value_names_group_and_field() -> None:
 def test_the_nxt_tuning_lives_in_for_sonar_and_options_override_it() -> None:
     ideal, nxt = MissionConfig.for_sonar("ideal"), MissionConfig.for_sonar("nxt")
     assert ideal == MissionConfig()
-    assert (nxt.drive.heading_tolerance_deg, nxt.drive.leg_margin_cm) == (15.0, 2.0)
-    assert nxt.fix.spread_min_heading_deg == 4.0 and nxt.sweeps.track_windows == "axes"
+    assert (nxt.drive.heading_tolerance_deg, nxt.drive.leg_margin_cm) == (10.0, 1.0)
+    assert nxt.fix.spread_min_heading_deg == 2.0 and nxt.sweeps.track_windows == "axes"
     assert MissionConfig.for_sonar("nxt", track_windows="sides").sweeps.track_windows == "sides"
 
 
 def test_to_dict_nests_the_groups() -> None:
     d = MissionConfig.for_sonar("nxt", localiser_options={"n": 5}).to_dict()
-    assert d["fix"]["rule"] == "spread" and d["drive"]["heading_tolerance_deg"] == 15.0
+    assert d["fix"]["rule"] == "spread" and d["drive"]["heading_tolerance_deg"] == 10.0
     assert d["global_localisation"]["attempts"] == GlobalLocalisation().attempts
     assert d["localiser_options"] == {"n": 5} and d["collision"] == "index"
