@@ -34,8 +34,9 @@ def _copy(tmp_path: Path, rows: slice | None = None, edit: dict[str, str] | None
     table = table[rows] if rows is not None else table
     for row in table:
         row.update(edit or {})
-    for row in table[relabel[0]:] if relabel else []:
-        row["repo"] = relabel[1]
+    if relabel is not None:
+        for row in table[relabel[0]:]:
+            row["repo"] = relabel[1]
     with (dst / "sweeps.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(table[0]))
         w.writeheader()
@@ -70,14 +71,14 @@ def test_odometry_without_noise_is_the_true_motion() -> None:
 
 def test_bench_routes_writes_every_step(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "out"
-    assert run_cli(["bench", "routes", str(REAL_NXT), *FEW, "--orders", "1", "--out", str(out)]) == 0
+    assert run_cli(["bench", "routes", str(REAL_NXT), *FEW, "--out", str(out)]) == 0
     with (out / "routes.csv").open(newline="") as fh:
         reader = csv.DictReader(fh)
         assert tuple(reader.fieldnames or ()) == COLUMNS
         rows = list(reader)
-    assert len(rows) == 4 * 3  # (3 course orders + 1 random) x 3 waypoints, one localiser, one seed
+    assert len(rows) == 3 * 3  # 3 course orders x 3 waypoints, one localiser, one seed
     assert [r["step"] for r in rows[:3]] == ["1", "2", "3"]
-    for route in ("course-0", "course-1", "course-2", "random-0"):
+    for route in ("course-0", "course-1", "course-2"):
         mine = [r for r in rows if r["route"] == route]
         assert len({(r["waypoint_x_cm"], r["waypoint_y_cm"]) for r in mine}) == 3
     for r in rows:
@@ -85,9 +86,9 @@ def test_bench_routes_writes_every_step(tmp_path: Path, capsys: pytest.CaptureFi
         assert (r["ambiguous"] == "True") == (int(r["candidates"]) > 1)
     doc = json.loads((out / "summary.json").read_text())
     steps = doc["localisers"]["paper-pf"]["steps"]
-    assert sorted(steps) == ["1", "2", "3"] and all(s["runs"] == 4 for s in steps.values())
+    assert sorted(steps) == ["1", "2", "3"] and all(s["runs"] == 3 for s in steps.values())
     step2 = [float(r["error_cm"]) <= 10.0 for r in rows if r["step"] == "2"]
-    assert doc["localisers"]["paper-pf"]["within_10cm_after_second"] == pytest.approx(sum(step2) / 4)
+    assert doc["localisers"]["paper-pf"]["within_10cm_after_second"] == pytest.approx(sum(step2) / 3)
     assert (out / "route.png").stat().st_size > 10_000
     assert "within 10 cm after the second sweep" in capsys.readouterr().out
 
@@ -124,6 +125,7 @@ def test_bad_sweep_sets_exit_2_and_write_nothing(tmp_path: Path, copy: dict[str,
         plan_routes(load_sweep_set(folder))
 
 
+@pytest.mark.slow
 def test_per_source_profiles_are_fitted_on_each_source_alone(tmp_path: Path) -> None:
     folder = _copy(tmp_path, relabel=(2, "someone/else"))
     profiles = tmp_path / "profiles"
