@@ -15,7 +15,7 @@ import yaml
 from conftest import REAL_NXT, run_cli
 
 from localisation.models import MotionModel
-from toolkit.bench.routes import COLUMNS, odometry, plan_routes
+from toolkit.bench.routes import COLUMNS, model_headings, odometry, plan_routes
 from toolkit.sonar_fit import load_sonar_profile, save_sonar_profile, source_profile_name
 from toolkit.sweeps import SweepSetError, load_sweep_set
 from toolkit.world import MotionNoise, NxtSonar, Pose
@@ -99,6 +99,7 @@ def test_bench_routes_writes_every_step(tmp_path: Path, capsys: pytest.CaptureFi
     (["--order", "180:30,30:54"], "is not in the order"),
     (["--localisers", "ekf"], "cannot localise globally"),
     (["--noise", "1,-0.1,0"], "--noise"),
+    (["--headings", "sideways"], "--headings"),
 ])
 def test_bad_options_exit_2_and_write_nothing(tmp_path: Path, args: list[str], message: str,
                                              capsys: pytest.CaptureFixture[str]) -> None:
@@ -123,6 +124,17 @@ def test_bad_sweep_sets_exit_2_and_write_nothing(tmp_path: Path, copy: dict[str,
     assert not out.exists()
     with pytest.raises(SweepSetError, match=message):
         plan_routes(load_sweep_set(folder))
+
+
+def test_model_headings_stand_in_for_a_missing_column(tmp_path: Path) -> None:
+    sweeps = load_sweep_set(_copy(tmp_path, edit={"heading_deg": ""}))
+    assert len(plan_routes(sweeps, need_headings=False)) == 3
+    headings = model_headings(sweeps, {"andrei-alpha/robotics": NxtSonar()}, ["andrei-alpha/robotics"])
+    assert sorted(headings) == sorted(sw.label for sw in sweeps)
+    shipped = {sw.label: sw.heading_deg for sw in load_sweep_set(REAL_NXT)}
+    # the model's heading of the sweep at (180, 30) is the column's within a few degrees
+    label = "andrei-alpha/robotics/loc_01.dat"
+    assert abs(headings[label] - shipped[label]) < 10.0
 
 
 @pytest.mark.slow

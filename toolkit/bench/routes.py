@@ -8,7 +8,8 @@ visits all its waypoints once:
   starting from its K-th waypoint (0-based) and wrapping round;
 * ``random-J``: the J-th seeded random order (the same orders on every run and for every seed).
 
-The truth at a sweep is its waypoint with the sweep's aligned heading (``heading_deg``). Between two
+The truth at a sweep is its waypoint with the sweep's aligned heading (``heading_deg``; with
+``--headings model``, the heading at which the sonar model finds the sweep most likely). Between two
 sweeps the robot turns to face the next waypoint, drives there and turns to the next sweep's heading;
 the localiser is told those two motions as the robot's odometry would report them: the truth's
 relative motion with the robot model's motion noise (`odometry`). Where a source has several sweeps at
@@ -45,7 +46,7 @@ from toolkit.sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set
 from toolkit.world import MotionNoise, NxtSonar, Pose, RobotModel, angle_diff, wrap_angle
 
 __all__ = ["COLUMNS", "WITHIN_CM", "Route", "RouteStep", "RouteTask", "course_order", "make_route_tasks",
-           "odometry", "plan_routes", "run_route", "summarise_steps", "write_routes_csv"]
+           "model_headings", "odometry", "plan_routes", "run_route", "summarise_steps", "write_routes_csv"]
 
 COLUMNS = ("repo", "route", "step", "waypoint_x_cm", "waypoint_y_cm", "file", "localiser", "seed", "error_cm",
            "heading_error_deg", "converged", "ambiguous", "candidates", "truth_in_candidates", "time_s")
@@ -78,20 +79,23 @@ def course_order(sweeps: SweepSet, repo: str, order: Sequence[Waypoint] | None =
     return [w for w in order if w in listed]
 
 
-def plan_routes(sweeps: SweepSet, orders: int = 0, order: Sequence[Waypoint] | None = None) -> list[Route]:
+def plan_routes(sweeps: SweepSet, orders: int = 0, order: Sequence[Waypoint] | None = None, *,
+                need_headings: bool = True) -> list[Route]:
     """Every route of the module docstring for every source with sweeps at two or more waypoints.
 
-    Raises `SweepSetError` when no source has two waypoints, or a sweep of a route has no heading."""
+    Raises `SweepSetError` when no source has two waypoints, or (with `need_headings`) a sweep of a route
+    has no heading."""
     routes: list[Route] = []
     for repo in sweeps.repos:
         course = course_order(sweeps, repo, order)
         if len(course) < 2:
             continue
-        for w in course:
+        for w in course if need_headings else []:
             for sw in sweeps.at(*w, repo=repo):
                 if math.isnan(sw.heading_deg):
                     raise SweepSetError(f"{sweeps.folder / 'sweeps.csv'}: sweep {sw.label} has no heading_deg; "
-                                        "a route's truth is the waypoint at the sweep's aligned heading")
+                                        "a route's truth is the waypoint at the sweep's aligned heading "
+                                        "(or give --headings model)")
         routes += [Route(repo, f"course-{k}", tuple(course[k:] + course[:k])) for k in range(len(course))]
         for j in range(orders):
             perm = np.random.default_rng(derive_seed(0, "routes-order", repo, j)).permutation(len(course))
@@ -132,6 +136,8 @@ class RouteTask:
     noise: dict[str, Any]
     options: dict[str, Any] = field(default_factory=dict)
     keep_belief: bool = False
+    headings: dict[str, float] | None = None
+    """The truth's heading (degrees) by sweep label, in place of each sweep's ``heading_deg``."""
 
 
 @dataclass(frozen=True)
@@ -181,16 +187,35 @@ def _sweep_set(folder: str, map: str | None) -> SweepSet:
 
 def make_route_tasks(sweeps: SweepSet, map: str | None, routes: Sequence[Route], localisers: Sequence[str],
                      seeds: Sequence[int], sonars: Mapping[str, NxtSonar], noise: MotionNoise,
-                     options: Mapping[str, dict[str, Any]] | None = None) -> list[RouteTask]:
-    """Every localiser x seed x route; `sonars` holds each source's model. The first task keeps its
-    beliefs for the figure. The folder is named by its absolute path (a worker may run elsewhere)."""
+                     options: Mapping[str, dict[str, Any]] | None = None,
+                     headings: Mapping[str, float] | None = None) -> list[RouteTask]:
+    """Every localiser x seed x route; `sonars` holds each source's model, `headings` (optional) the
+    truth's heading (degrees) by sweep label. The first task keeps its beliefs for the figure. The folder
+    is named by its absolute path (a worker may run elsewhere)."""
     folder = str(Path(sweeps.folder).absolute())
     opts = options or {}
+
+    def mine(r: Route) -> dict[str, float] | None:
+        return None if headings is None else {k: v for k, v in headings.items() if k.startswith(r.repo + "/")}
+
     tasks = [RouteTask(folder, map, r, name, int(s), asdict(sonars[r.repo]), noise.to_dict(),
-                       dict(opts.get(name, {}))) for name in localisers for s in seeds for r in routes]
+                       dict(opts.get(name, {})), headings=mine(r))
+             for name in localisers for s in seeds for r in routes]
     if tasks:
         tasks[0] = RouteTask(**{**tasks[0].__dict__, "keep_belief": True})
     return tasks
+
+
+def model_headings(sweeps: SweepSet, sonars: Mapping[str, NxtSonar], repos: Sequence[str]) -> dict[str, float]:
+    """The heading (degrees) at which each source's model finds each of its sweeps most likely
+    (`toolkit.sonar_fit.align_sweeps`, position within 3 cm of the waypoint), by sweep label."""
+    from toolkit.sonar_fit import align_sweeps
+
+    out: dict[str, float] = {}
+    for repo in repos:
+        mine = SweepSet(sweeps.folder, sweeps.map, tuple(sw for sw in sweeps if sw.repo == repo))
+        out.update({a.sweep.label: round(math.degrees(a.heading_rad), 2) for a in align_sweeps(sonars[repo], mine)})
+    return out
 
 
 def _draws(sweeps: SweepSet, task: RouteTask) -> tuple[list[Sweep], list[list[Motion]]]:
@@ -202,13 +227,15 @@ def _draws(sweeps: SweepSet, task: RouteTask) -> tuple[list[Sweep], list[list[Mo
     for w in task.route.waypoints:
         here = sweeps.at(*w, repo=task.route.repo)
         drawn.append(here[int(rng.integers(len(here)))])
-    truths = [_truth(sw) for sw in drawn]
+    truths = [_truth(sw, task.headings) for sw in drawn]
     moves = [odometry(a, b, noise, rng) for a, b in itertools.pairwise(truths)]
     return drawn, moves
 
 
-def _truth(sw: Sweep) -> Pose:
-    return Pose(sw.x_cm, sw.y_cm, math.radians(sw.heading_deg))
+def _truth(sw: Sweep, headings: Mapping[str, float] | None = None) -> Pose:
+    """The waypoint at the sweep's heading (from `headings` by label when given, else ``heading_deg``)."""
+    heading = sw.heading_deg if headings is None else headings[sw.label]
+    return Pose(sw.x_cm, sw.y_cm, math.radians(heading))
 
 
 def run_route(task: RouteTask) -> list[RouteStep]:
@@ -233,7 +260,7 @@ def run_route(task: RouteTask) -> list[RouteStep]:
         est = loc.estimate()
         cands = candidate_poses(loc)
         elapsed = time.perf_counter() - t0
-        truth = _truth(sw)
+        truth = _truth(sw, task.headings)
         cloud = loc.cloud() if task.keep_belief else None
         steps.append(RouteStep(
             task.route.repo, task.route.name, k + 1, sw.x_cm, sw.y_cm, sw.file, task.localiser, task.seed,

@@ -95,6 +95,9 @@ def bench_routes(
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="As `nxtnav run` takes it; the odometry gets the motion and turn noise "
                                         "(the sensor's noise is the real sweeps')."),
+    headings: str = typer.Option("column", "--headings", metavar="column|model",
+                                 help="The truth's heading at a sweep: column (sweeps.csv's heading_deg) or model "
+                                      "(where the sonar model finds the sweep most likely)."),
     sonar_profile: Path | None = typer.Option(
         None, "--sonar-profile", metavar="FILE|DIR",
         help="nxt sonar model: a profile for every source, or a folder of per-source profiles "
@@ -114,7 +117,7 @@ def bench_routes(
     candidates, truth among the candidates.
     """
     from localisation.base import LOCALISERS
-    from toolkit.bench.routes import make_route_tasks, plan_routes
+    from toolkit.bench.routes import make_route_tasks, model_headings, plan_routes
     from toolkit.sonar_fit import profiles_by_source
     from toolkit.sweeps import load_sweep_set
     from toolkit.world import NxtSonar
@@ -132,21 +135,26 @@ def bench_routes(
     noise = _noise(noise_model, noise_text)
     options = localiser_sets(sets, locs)
     sweeps = load_sweep_set(folder, map_file)
-    routes = plan_routes(sweeps, orders, order)
+    if headings not in ("column", "model"):
+        raise NxtnavError(f"--headings: must be column or model, got {headings!r}")
+    routes = plan_routes(sweeps, orders, order, need_headings=headings == "column")
     repos = list(dict.fromkeys(r.repo for r in routes))
     sonars = (profiles_by_source(data_path(sonar_profile), repos) if sonar_profile is not None
               else dict.fromkeys(repos, NxtSonar()))
     check_out_folder(out, force)
-    tasks = make_route_tasks(sweeps, map_file, routes, locs, seeds, sonars, noise, options)
+    truth_headings = model_headings(sweeps, sonars, repos) if headings == "model" else None
+    tasks = make_route_tasks(sweeps, map_file, routes, locs, seeds, sonars, noise, options, truth_headings)
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "routes", str(folder), *(["--map", map_file] if map_file else []),
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)), "--orders", str(orders),
         *(["--order", order_text] if order is not None else []), "--noise-model", noise_model, "--noise", noise_text,
+        *(["--headings", headings] if headings != "column" else []),
         *(["--sonar-profile", str(sonar_profile)] if sonar_profile else []),
         *[a for s in sets for a in ("--set", s)], "--out", str(out), "--workers", str(workers)])
     _run_and_write(tasks, out, locs, command=command, config={
         "folder": str(folder), "map": map_file, "localisers": locs, "seeds": seeds, "orders": orders,
-        "order": order, "noise": noise.to_dict(), "options": options,
+        "order": order, "noise": noise.to_dict(), "options": options, "headings": headings,
+        "truth_headings_deg": truth_headings,
         "routes": [{"repo": r.repo, "route": r.name, "waypoints": r.waypoints} for r in routes],
         "sonar": {repo: m.to_dict() for repo, m in sonars.items()}}, workers=workers)
 
