@@ -47,10 +47,11 @@ def route_figure(steps: Sequence[RouteStep], task: RouteTask, path: Path) -> Pat
             ax.plot(c.x, c.y, "x", color="tab:purple", ms=8, mew=2, zorder=9)
         draw_pose(st.truth, ax, color="tab:green", label="truth", length=14)
         draw_pose(st.estimate, ax, color="tab:blue", label="estimate", length=14)
-        verdict = (f"ambiguous, {st.candidates} candidates" if st.ambiguous else
+        verdict = (f"ambiguous, {st.candidates} candidates; truth among them: "
+                   f"{'yes' if st.truth_in_candidates else 'no'}" if st.ambiguous else
                    "converged" if st.converged else "not converged")
         ax.set_title(f"step {st.step} at ({st.waypoint_x_cm:g}, {st.waypoint_y_cm:g}): {st.error_cm:.1f} cm off\n"
-                     f"{verdict}; truth among them: {'yes' if st.truth_in_candidates else 'no'}", fontsize=9)
+                     f"{verdict}", fontsize=9)
         ax.set_aspect("equal")
         ax.tick_params(labelsize=7)
     axes.ravel()[0].legend(loc="upper right", fontsize=7)
