@@ -15,7 +15,7 @@ from __future__ import annotations
 import csv
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from functools import lru_cache
 from pathlib import Path
@@ -88,16 +88,18 @@ def _sweep_set(folder: str, map: str | None) -> SweepSet:
 
 
 def make_sweep_tasks(sweeps: SweepSet, map: str | None, localisers: Sequence[str], seeds: Sequence[int],
-                     sonar: NxtSonar, options: dict[str, dict[str, Any]] | None = None,
+                     sonar: NxtSonar | Mapping[str, NxtSonar], options: dict[str, dict[str, Any]] | None = None,
                      heading_prior: HeadingPrior | None = None) -> list[SweepTask]:
     """Every localiser x seed x sweep of `sweeps` (the slowest loop innermost, so progress is even);
-    every reset global, or with `heading_prior` the heading known roughly.
+    every reset global, or with `heading_prior` the heading known roughly. `sonar` is the model of every
+    sweep, or each source's model by its name (``repo``).
 
     The tasks name the folder by its absolute path: a worker process may run in another folder."""
-    params = asdict(sonar)
+    params = {sw.repo: asdict(sonar if isinstance(sonar, NxtSonar) else sonar[sw.repo]) for sw in sweeps}
     opts = options or {}
     folder = str(Path(sweeps.folder).absolute())
-    return [SweepTask(folder, map, i, name, int(s), params, dict(opts.get(name, {})), heading_prior)
+    return [SweepTask(folder, map, i, name, int(s), params[sweeps.sweeps[i].repo], dict(opts.get(name, {})),
+                      heading_prior)
             for name in localisers for s in seeds for i in range(len(sweeps))]
 
 
@@ -148,7 +150,8 @@ def summarise(runs: Sequence[SweepRun], localiser: str) -> dict[str, float]:
 
 
 def write_sweeps_summary(runs: Sequence[SweepRun], path: Path, *, localisers: Sequence[str], sweeps: SweepSet,
-                         seeds: Sequence[int], sonar: NxtSonar, command: str, wall_time_s: float,
+                         seeds: Sequence[int], sonar: NxtSonar | Mapping[str, NxtSonar], command: str,
+                         wall_time_s: float,
                          complete: bool = True, heading_prior: HeadingPrior | None = None) -> Path:
     """A Markdown summary: per localiser, the shares of the module docstring, and the sonar model used."""
     lines = [] if complete else [f"**INCOMPLETE**: {len(runs)} runs finished; the table covers only them.\n"]
@@ -169,8 +172,19 @@ def write_sweeps_summary(runs: Sequence[SweepRun], path: Path, *, localisers: Se
     lines += ["", "*Confidently wrong*: converged, not ambiguous, more than 20 cm off. *Honest*: within 20 cm, "
               "or ambiguous with a candidate within 20 cm of the waypoint. Positions only: the heading of a "
               "real sweep was not measured.", "",
-              f"Robot model given to every localiser: {RobotModel(sonar, readings='real').describe()}.", "",
-              "Sonar model (`nxt`): " + ", ".join(f"{k} {v:g}" for k, v in asdict(sonar).items()), "",
+              *_sonar_lines(sonar),
               f"Command: `{command}`  ", f"Wall time: {wall_time_s:.1f} s", ""]
     path.write_text("\n".join(lines))
     return path
+
+
+def _sonar_lines(sonar: NxtSonar | Mapping[str, NxtSonar]) -> list[str]:
+    """The summary's lines on the robot and sonar models: one model, or each source's."""
+    models = {"": sonar} if isinstance(sonar, NxtSonar) else dict(sonar)
+    lines: list[str] = []
+    for repo, model in models.items():
+        whose = f" of {repo}" if repo else ""
+        lines += [f"Robot model given to every localiser{whose}: {RobotModel(model, readings='real').describe()}.",
+                  "", f"Sonar model (`nxt`){whose}: " + ", ".join(f"{k} {v:g}" for k, v in asdict(model).items()),
+                  ""]
+    return lines

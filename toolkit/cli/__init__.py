@@ -26,7 +26,7 @@ def _load() -> ModuleType:
     app_module = importlib.import_module(".app", __name__)
     for name in ("export_cmds", "faults_cmds", "figures_cmds", "import_cmds", "localise_cmds", "mission_cmds",
                  "nxt_cmds", "plan_cmds", "plugin_cmds", "replay_cmds", "scen_cmds", "sonar_cmds", "sweeps_cmds",
-                 "world_cmds"):
+                 "world_cmds", "routes_cmds"):
         importlib.import_module(f".{name}", __name__)
     # importing the submodule `app` set this package's attribute `app` to the module: the name means
     # the Typer application here

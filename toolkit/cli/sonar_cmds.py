@@ -26,7 +26,15 @@ from ..number_format import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import Interrupted, sonar_app
 from .choices import one_of
-from .options import check_writable, parse_heading_prior, parse_list, shipped, writable_file, writable_folder
+from .options import (
+    check_writable,
+    output_problem,
+    parse_heading_prior,
+    parse_list,
+    shipped,
+    writable_file,
+    writable_folder,
+)
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
@@ -134,10 +142,14 @@ def _params_table(model: NxtSonar, title: str) -> Table:
 def sonar_fit(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
-    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
-                                metavar="PROFILE.yaml", help="The sonar profile to write."),
+    output: Path = typer.Option(..., "-o", "--output", metavar="PROFILE.yaml|DIR",
+                                help="The sonar profile to write (with --per-source: the folder of profiles)."),
     widths_text: str = _WIDTHS,
     criticals_text: str = _CRITICALS,
+    per_source: bool = typer.Option(False, "--per-source",
+                                    help="Fit each source (the repo column) on its own sweeps; write one profile "
+                                         "per source into the folder -o, named OWNER+NAME.yaml (what "
+                                         "--sonar-profile DIR of bench routes and bench sweeps reads)."),
     json_out: Path | None = _JSON,
 ) -> None:
     """Fit the nxt sonar model by maximum likelihood to real sweeps; write it as a sonar profile.
@@ -145,12 +157,19 @@ def sonar_fit(
     Every lobe of the grid (--widths x --criticals) gets its mixture fitted (noise, bias, losses, wrong
     readings) and each sweep its heading; the most likely lobe wins. The profile records where it came
     from (folders, sweeps, readings, likelihood, headings) and nothing else, so a rerun writes the same
-    bytes.
+    bytes. With --per-source, one such fit per source, each on that source's sweeps alone.
     """
     from ..real_sonar.fit import fit_sonar, save_sonar_profile
 
     widths = _grid(widths_text, "--widths", 120.0)
     criticals = _grid(criticals_text, "--criticals", 90.0)
+    problem = output_problem(output, folder=per_source)
+    if problem:
+        raise NxtnavError(f"--output: {problem}")
+    if per_source:
+        check_writable(json_out, "--json")
+        _fit_per_source(_load_sets(dirs, map_file), dirs, output, widths, criticals, json_out)
+        return
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     sets = _load_sets(dirs, map_file)
@@ -167,6 +186,39 @@ def sonar_fit(
     typer.echo(f"wrote {output}")
     if json_out is not None:
         _write_json(json_out, {"profile": str(output), "fit": provenance, **fit.to_dict()})
+
+
+def _fit_per_source(sets: Sequence[Any], dirs: Sequence[Path], folder: Path, widths: list[float],
+                    criticals: list[float], json_out: Path | None) -> None:
+    """`sonar fit --per-source`: one fit per source on its own sweeps, each written to `folder` as
+    `toolkit.real_sonar.fit.source_profile_name`; nothing is written until every fit is done."""
+    from ..real_sonar.fit import fit_sonar, save_sonar_profile, source_profile_name
+    from ..real_sonar.sweeps import SweepSet
+
+    if folder.exists() and not folder.is_dir():
+        raise NxtnavError(f"--output: {folder} exists and is not a folder (--per-source writes a folder of profiles)")
+    repos = list(dict.fromkeys(sw.repo for s in sets for sw in s))
+    fits = {}
+    with _stuck_noted(sets), progress("lobes", len(repos) * len(widths) * len(criticals)) as advance:
+        for repo in repos:
+            mine = [SweepSet(s.folder, s.map, tuple(sw for sw in s if sw.repo == repo)) for s in sets]
+            fits[repo] = fit_sonar([s for s in mine if len(s)], widths=widths, criticals=criticals,
+                                   progress=lambda done, total: advance())
+    folder.mkdir(parents=True, exist_ok=True)
+    doc = []
+    for repo, fit in fits.items():
+        provenance = _rounded({
+            "folders": [str(d) for d in dirs], "source": repo, "sweeps": fit.sweeps, "readings": fit.readings,
+            "mean_log_likelihood": fit.mean_log_likelihood, "widths_deg": widths, "criticals_deg": criticals,
+            "headings_deg": fit.headings_deg})
+        path = folder / source_profile_name(repo)
+        save_sonar_profile(fit.model, path, fit=provenance)
+        Console().print(_params_table(fit.model, f"{repo}: {fit.sweeps} sweeps, {fit.readings} readings: "
+                                                 f"{fit.mean_log_likelihood:.3f} nats per reading"))
+        typer.echo(f"wrote {path}")
+        doc.append({"source": repo, "profile": str(path), "fit": provenance, **fit.to_dict()})
+    if json_out is not None:
+        _write_json(json_out, {"profiles": doc})
 
 
 def _score_models(profile: Path | None, baselines: list[str]) -> dict[str, tuple[NxtSonar, str]]:

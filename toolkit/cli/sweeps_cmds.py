@@ -38,8 +38,10 @@ def bench_sweeps(
     map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
     localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated global localisers."),
     seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
-    sonar_profile: Path | None = typer.Option(None, "--sonar-profile",
-                                              help="nxt sonar model (YAML profile; default: the fitted default)."),
+    sonar_profile: Path | None = typer.Option(
+        None, "--sonar-profile", metavar="FILE|DIR",
+        help="nxt sonar model: a profile for every source, or a folder of per-source profiles "
+             "(OWNER+NAME.yaml, as `nxtnav sonar fit --per-source` writes them); default: the fitted default."),
     heading_prior_text: str | None = typer.Option(
         None, "--heading-prior", metavar="H:SD",
         help="The robot believes its heading is H degrees, give or take SD (the position stays unknown); "
@@ -54,8 +56,10 @@ def bench_sweeps(
     from localisation.base import LOCALISERS
     from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.bench.sweeps import make_sweep_tasks, run_sweep, write_sweeps_csv, write_sweeps_summary
+    from toolkit.real_sonar.fit import profiles_by_source
     from toolkit.real_sonar.sweeps import load_sweep_set
     from toolkit.world import NxtSonar
+    from toolkit.world.bundled import data_path
 
     names = LOCALISERS.names()
     locs = parse_list(localisers_text, "--localisers", list(names))
@@ -66,7 +70,11 @@ def bench_sweeps(
     seeds = _seeds(seeds_text)
     heading_prior = parse_heading_prior(heading_prior_text, "--heading-prior")
     sweeps = load_sweep_set(folder, map_file)
-    sonar = load_profile(sonar_profile, "nxt") or NxtSonar()
+    sonar: NxtSonar | dict[str, NxtSonar] = NxtSonar()
+    if sonar_profile is not None and data_path(sonar_profile).is_dir():
+        sonar = profiles_by_source(data_path(sonar_profile), sweeps.repos)
+    elif sonar_profile is not None:
+        sonar = load_profile(sonar_profile, "nxt") or sonar
     check_out_folder(out, force)
     tasks = make_sweep_tasks(sweeps, map_file, locs, seeds, sonar, heading_prior=heading_prior)
     out.mkdir(parents=True, exist_ok=True)
@@ -93,7 +101,9 @@ def bench_sweeps(
     md = write_sweeps_summary(runs, out / "summary.md", localisers=locs, sweeps=sweeps, seeds=seeds, sonar=sonar,
                               command=command, wall_time_s=wall, complete=complete, heading_prior=heading_prior)
     (out / "config.json").write_text(json.dumps({"folder": str(folder), "map": map_file, "localisers": locs,
-                                                 "seeds": seeds, "sonar": sonar.to_dict(),
+                                                 "seeds": seeds,
+                                                 "sonar": sonar.to_dict() if isinstance(sonar, NxtSonar) else
+                                                 {repo: m.to_dict() for repo, m in sonar.items()},
                                                  "heading_prior": heading_prior and heading_prior.to_dict(),
                                                  "complete": complete,
                                                  "runs_done": len(runs), "runs_planned": len(tasks),

@@ -39,8 +39,8 @@ from .margins import sweep_margins
 from .sweeps import Sweep, SweepSet
 
 __all__ = ["BASELINES", "FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
-           "SonarProfileError", "SweepScore", "align_sweeps", "fit_sonar", "load_sonar_profile", "repo_folds",
-           "save_sonar_profile", "score_fold", "score_sonar"]
+           "SonarProfileError", "SweepScore", "align_sweeps", "fit_sonar", "load_sonar_profile", "profiles_by_source",
+           "repo_folds", "save_sonar_profile", "score_fold", "score_sonar", "source_profile_name"]
 
 log = logging.getLogger(__name__)
 
@@ -530,3 +530,24 @@ def load_sonar_profile(path: str | Path) -> NxtSonar:
         return NxtSonar(**params)
     except ConfigError as e:
         raise SonarProfileError(f"{p}: params.{e}") from None
+
+
+def source_profile_name(repo: str) -> str:
+    """The file name of source `repo`'s profile in a folder of per-source profiles: the ``/`` of
+    ``owner/name`` as ``+`` (as a sweep set's ``raw/`` folders name sources), then ``.yaml``."""
+    return repo.replace("/", "+") + ".yaml"
+
+
+def profiles_by_source(path: str | Path, repos: Sequence[str]) -> dict[str, NxtSonar]:
+    """Each source's model from `path`: a profile file (one model for every source) or a folder of
+    per-source profiles (`source_profile_name`, as ``nxtnav sonar fit --per-source`` writes them), which
+    must hold one for every source of `repos`. Raises `SonarProfileError` naming the file missing."""
+    p = Path(path)
+    if not p.is_dir():
+        model = load_sonar_profile(p)
+        return {repo: model for repo in repos}
+    missing = [repo for repo in repos if not (p / source_profile_name(repo)).is_file()]
+    if missing:
+        raise SonarProfileError(f"{p}: no profile {source_profile_name(missing[0])} for source {missing[0]} "
+                                f"(a folder of per-source profiles needs one for each of {len(repos)} sources)")
+    return {repo: load_sonar_profile(p / source_profile_name(repo)) for repo in repos}

@@ -178,6 +178,16 @@ class SweepSet:
         """The sources, in order of first appearance."""
         return list(dict.fromkeys(s.repo for s in self.sweeps))
 
+    def waypoints(self, repo: str | None = None) -> list[tuple[float, float]]:
+        """The waypoints (cm) with sweeps of `repo` (None: of any source), in order of first appearance."""
+        return list(dict.fromkeys((s.x_cm, s.y_cm) for s in self.sweeps if repo is None or s.repo == repo))
+
+    def at(self, x_cm: float, y_cm: float, repo: str | None = None, radius_cm: float = 0.0) -> tuple[Sweep, ...]:
+        """The sweeps of `repo` (None: of any source) whose waypoint lies within `radius_cm` (cm) of
+        (`x_cm`, `y_cm`), in the set's order."""
+        return tuple(s for s in self.sweeps if (repo is None or s.repo == repo)
+                     and math.hypot(s.x_cm - x_cm, s.y_cm - y_cm) <= radius_cm)
+
 
 def _number_text(value: Any, name: str, *, positive: bool = False, whole: bool = False) -> float:
     """A column's text as a finite number (> 0 when `positive`, an integer when `whole`)."""
