@@ -78,7 +78,7 @@ RANKS: dict[str, int] = {
     "toolkit.world": 0,
     "planners": 1, "localisation": 1, "toolkit.robots": 1,
     # shared services: files, formats, data sets and the plots of them
-    "toolkit.seeds": 2, "toolkit.formats": 2, "toolkit.plotting": 2, "toolkit.sweeps": 2,
+    "toolkit.seeds": 2, "toolkit.formats": 2, "toolkit.plotting": 2, "toolkit.sweeps": 2, "toolkit.sweep_sonar": 2,
     "toolkit.recording": 2, "toolkit.replay": 2, "toolkit.replay_reading": 2, "toolkit.replay_report": 2,
     "toolkit.replay_plots": 2, "toolkit.trajectory_scores": 2,
     "toolkit.timeline": 2, "toolkit.ros2_export": 2, "toolkit.bag_reader": 2, "toolkit.bag_import": 2,
