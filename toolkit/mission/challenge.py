@@ -55,8 +55,8 @@ class ChallengeConfig:
     margin_cm: float = 2.0
     plan_time_s: float = 0.5
     start_match_cm: float = 20.0
-    prior_std_cm: float = 5.0
-    prior_std_deg: float = 10.0
+    prior_std_cm: float = 3.0
+    prior_std_deg: float = 2.0
     reach_cm: float = 10.0
     heading_span_deg: float = 30.0
 
@@ -162,14 +162,13 @@ class WaypointSweeps:
         heading); the belief is reset around that pose and given the sweep. Returns the waypoint."""
         scan = self.robot.ultrascan()
         pose = fit_pose(self.map, scan, course)
-        self._settle(pose, scan)
+        self._settle(pose)
         return (pose.x, pose.y)
 
-    def _settle(self, pose: Pose, scan: Scan) -> None:
-        """Reset the belief around `pose` (`ChallengeConfig.prior_std_cm`, `prior_std_deg`) and update it."""
+    def _settle(self, pose: Pose) -> None:
+        """Reset the belief to a narrow Gaussian around `pose` (`ChallengeConfig.prior_std_cm`, `prior_std_deg`)."""
         cov = np.diag([self.cfg.prior_std_cm ** 2] * 2 + [math.radians(self.cfg.prior_std_deg) ** 2])
         self.localiser.reset(Prior(pose, cov))
-        self.localiser.update(scan)
         self.estimate = self.localiser.estimate()
 
     # -- driving ----------------------------------------------------------------------------------------
@@ -221,7 +220,7 @@ class WaypointSweeps:
         fitted = fit_pose(self.map, scan, [(p.x, p.y)], heading=p.theta,
                           span_deg=self.cfg.heading_span_deg)
         if abs(math.degrees(float(angle_diff(fitted.theta, p.theta)))) > 1.0:
-            self._settle(fitted, scan)
+            self._settle(fitted)
 
     def sweep_and_correct(self, waypoint: XY) -> WaypointVisit:
         """Sweep, update and correct toward `waypoint` (module docstring); a refused sweep ends the visit."""
