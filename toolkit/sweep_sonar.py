@@ -114,7 +114,7 @@ def rotated(sweep: Sweep, heading_rad: float) -> Scan:
     """`sweep` as a robot whose true heading is `heading_rad` reads it: its ring of readings shifted by
     whole bins (module docstring), its own turret angles kept."""
     delta_deg = math.degrees(wrap_angle(math.radians(sweep.heading_deg) - heading_rad))
-    shift = int(round(delta_deg / sweep.step_deg))
+    shift = round(delta_deg / sweep.step_deg)
     sense = 1 if sweep.direction == "ccw" else -1
     readings = np.roll(sweep.readings, sense * shift)
     held = None if sweep.held is None else np.roll(sweep.held, sense * shift)

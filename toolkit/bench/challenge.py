@@ -102,7 +102,7 @@ def challenge_mission(sweeps: SweepSet, repo: str, start: int, seed: int, locali
     model = RobotModel(sonar or NxtSonar(), motion=motion, readings="real")
     loc = make_localiser(localiser, m, rng=loc_seed, **localiser_options(localiser, model))
     return run_challenge(robot, m, course, start, loc, make_planner(planner), np.random.default_rng(plan_seed),
-                         model.sonar, config)
+                         config)
 
 
 def run_challenge_task(task: ChallengeTask) -> ChallengeRun:
@@ -134,7 +134,8 @@ def summarise(runs: Sequence[ChallengeRun]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for name in dict.fromkeys(r.localiser for r in runs):
         mine = [r for r in runs if r.localiser == name]
-        rows = {"all": mine, **{repo: [r for r in mine if r.repo == repo] for repo in dict.fromkeys(r.repo for r in mine)}}
+        repos = dict.fromkeys(r.repo for r in mine)
+        rows = {"all": mine, **{repo: [r for r in mine if r.repo == repo] for repo in repos}}
         out[name] = {key: _figures(group) for key, group in rows.items()}
     return out
 

@@ -90,7 +90,7 @@ def bench_challenge(
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="As `run` takes it; the sensor's noise is the real sweeps' (unused)."),
     sonar_profile: Path | None = typer.Option(None, "--sonar-profile",
-                                              help="nxt sonar model for the localisers (YAML; default the fitted one)."),
+                                              help="nxt sonar model for the localisers (YAML; default: fitted)."),
     out: Path = typer.Option(Path("out/challenge"), "--out", callback=writable_folder,
                              help="Output folder (must be empty or new, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
@@ -100,8 +100,13 @@ def bench_challenge(
     summary.md and summary.json in --out."""
     from localisation.base import LOCALISERS
     from planners import PLANNERS
-    from toolkit.bench.challenge import challenge_tasks, run_challenge_task, summary_json, summary_markdown
-    from toolkit.bench.challenge import write_challenge_csv
+    from toolkit.bench.challenge import (
+        challenge_tasks,
+        run_challenge_task,
+        summary_json,
+        summary_markdown,
+        write_challenge_csv,
+    )
     from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.sweep_sonar import load_challenge_set
 

@@ -123,8 +123,8 @@ def run(
     planner: str = typer.Option("min-turn", help="Planner " + one_of("planner") + "."),
     localiser: str = typer.Option("paper-pf", help="Localiser " + one_of("localiser") + "."),
     robot_kind: str = typer.Option("sim", "--robot", help="sim or nxt."),
-    sonar: str = typer.Option("ideal", help="Sonar model of the simulator " + one_of("sonar") + ", or "
-                                            "sweeps:DIR: real sweeps at a sweep set's waypoints (the course's challenge)."),
+    sonar: str = typer.Option("ideal", help="Sonar model of the simulator " + one_of("sonar") + ", or sweeps:DIR: "
+                                            "real sweeps at a sweep set's waypoints (the course's challenge)."),
     sonar_profile_path: Path | None = typer.Option(
         None, "--sonar-profile", metavar="FILE",
         help=SONAR_PROFILE_HELP + " With --robot nxt: the real sensor's model, for the localiser."),

@@ -36,7 +36,7 @@ from localisation.base import Localiser, Motion, PoseEstimate, Prior
 from localisation.models import exact_ranges
 from planners.base import Planner, PlanningProblem
 
-from ..world import Map, NxtSonar, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
+from ..world import Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
 from ..world.arrays import FloatArray
 
 __all__ = ["ChallengeConfig", "ChallengeReport", "WaypointSweeps", "WaypointVisit", "course_from", "fit_pose",
@@ -109,7 +109,8 @@ class ChallengeReport:
                  + " -> ".join(f"({x:g}, {y:g})" for x, y in self.route) + f"; {self.localiser}, {self.planner}"]
         for v in self.visits:
             lines.append(f"  ({v.waypoint[0]:g}, {v.waypoint[1]:g}): ended {v.error_cm:.1f} cm from it "
-                         f"(believed {v.estimate_error_cm:.1f} cm), {v.sweeps} sweep(s){'; ' + v.note if v.note else ''}")
+                         f"(believed {v.estimate_error_cm:.1f} cm), {v.sweeps} sweep(s)"
+                         + (f"; {v.note}" if v.note else ""))
         lines.append(f"{'reached every waypoint' if self.reached else 'NOT reached'} within {self.reach_cm:g} cm: "
                      f"worst {self.worst_error_cm:.1f} cm, {self.collisions} collision(s), robot time "
                      f"{self.robot_time_s:.1f} s; {self.status}")
@@ -143,9 +144,8 @@ class WaypointSweeps:
     docstring). `robot` is a simulated robot with a truth (`true_pose`, `collisions`)."""
 
     def __init__(self, robot: Any, m: Map, localiser: Localiser, planner: Planner, rng: np.random.Generator,
-                 config: ChallengeConfig, sonar: NxtSonar) -> None:
+                 config: ChallengeConfig) -> None:
         self.robot = robot
-        self.sonar = sonar
         self.map = m
         self.localiser = localiser
         self.planner = planner
@@ -178,7 +178,7 @@ class WaypointSweeps:
         for checker in self.checkers:
             if not (checker.point_free(start) and checker.point_free(np.array(goal))):
                 continue
-            result = self.planner.plan(PlanningProblem(self.map, checker, start, goal, self.cfg.plan_time_s,
+            result = self.planner.plan(PlanningProblem(self.map, checker, start, np.array(goal), self.cfg.plan_time_s,
                                                        self.rng))
             if result.success:
                 return np.asarray(result.path, dtype=float)
@@ -245,12 +245,12 @@ class WaypointSweeps:
 
 
 def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: Localiser, planner: Planner,
-                  rng: np.random.Generator, sonar: NxtSonar, config: ChallengeConfig | None = None) -> ChallengeReport:
+                  rng: np.random.Generator, config: ChallengeConfig | None = None) -> ChallengeReport:
     """Run the challenge from waypoint `start` of `course` (module docstring) on a simulated `robot` that
     stands there; never raises for a refused sweep or a lost robot: the report says so."""
     cfg = config or ChallengeConfig()
     route = course_from(course, start)
-    policy = WaypointSweeps(robot, m, localiser, planner, rng, cfg, sonar)
+    policy = WaypointSweeps(robot, m, localiser, planner, rng, cfg)
     report = ChallengeReport(route[0], robot.true_pose, route, localiser.name, planner.name, reach_cm=cfg.reach_cm)
     t0 = float(robot.robot_time_s)
     report.start_match = policy.localise_start(course)
