@@ -6,19 +6,24 @@ after its own, round the list), sweeping at each and nowhere else. This is the m
 when its sonar only answers at waypoints (`toolkit.sweep_sonar`: real sweeps), and
 `WaypointSweeps` is its policy:
 
-1. **Start.** One full sweep and a global fix by the localiser. The robot knows it stands on a
-   waypoint: of the fix's candidate poses (the estimate alone when the belief is not ambiguous;
-   heaviest first when it is), the first within `ChallengeConfig.start_match_cm` of a waypoint is the
-   place it starts from (none: the estimate). The belief is then reset around that pose
-   (`ChallengeConfig.prior_std_cm`, `prior_std_deg`) and given the sweep again.
+1. **Start.** One full sweep. The robot knows it stands on a waypoint, so it tells which one and its
+   heading by trying them all (`fit_pose`: every waypoint, every heading a degree apart), as the
+   course's own place recognition does; the belief is reset to a narrow Gaussian there
+   (`ChallengeConfig.prior_std_cm`, `prior_std_deg`).
 2. **Drive.** A path from the estimate to the next waypoint (the planner, with the robot radius plus
    `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; a straight line when no
    path exists at all), driven leg by leg: turn toward the leg's end from the estimate, then moves of
    at most `ChallengeConfig.move_step_cm`, the localiser predicting after each. No sweep on the way.
-3. **At the waypoint.** A full sweep and an update; while the estimate is more than
+3. **At the waypoint.** A full sweep and the localiser's update; the heading is the one the sweep fits
+   best at the waypoint near the predicted heading (`WaypointSweeps.fitted_heading`), the position the
+   predicted one (`ChallengeConfig.position_from` ``prediction``, the default) or the localiser's
+   (``localiser``). A real sweep is evidence of its own waypoint, not of where within 10 cm of it the
+   robot stands: moving the belief to the localiser's position only adds the localiser's error on the
+   real sweep (2-5 cm) to the odometry's, and corrections toward the waypoint chase it (measured in
+   docs/real-sonar.md). With `ChallengeConfig.max_corrections` > 0, while the estimate is more than
    `ChallengeConfig.correction_cm` from the waypoint, a correction (turn and move toward it) and
-   another sweep, at most `ChallengeConfig.max_corrections` times. A sweep the sonar refuses (the robot
-   is too far from the waypoint for any real sweep) ends the mission there.
+   another sweep. A sweep the sonar refuses (the robot is too far from the waypoint for any real
+   sweep) ends the mission there.
 
 The report scores the truth: a waypoint is reached when the robot's true position ends within
 `ChallengeConfig.reach_cm` (10 cm) of it; the mission when every waypoint is.
@@ -36,13 +41,16 @@ from localisation.base import Localiser, Motion, PoseEstimate, Prior
 from localisation.models import exact_ranges
 from planners.base import Planner, PlanningProblem
 
-from ..world import Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
+from ..world import ConfigError, Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
 from ..world.arrays import FloatArray
 
 __all__ = ["ChallengeConfig", "ChallengeReport", "WaypointSweeps", "WaypointVisit", "course_from", "fit_pose",
            "run_challenge"]
 
 XY = tuple[float, float]
+
+POSITION_FROM = ("prediction", "localiser")
+"""Where the belief's position comes from after a waypoint's sweep (`ChallengeConfig.position_from`)."""
 
 
 @dataclass(frozen=True)
@@ -51,14 +59,19 @@ class ChallengeConfig:
 
     move_step_cm: float = 10.0
     correction_cm: float = 3.0
-    max_corrections: int = 2
+    max_corrections: int = 0
     margin_cm: float = 2.0
     plan_time_s: float = 0.5
-    start_match_cm: float = 20.0
     prior_std_cm: float = 3.0
     prior_std_deg: float = 2.0
     reach_cm: float = 10.0
     heading_span_deg: float = 30.0
+    position_from: str = "prediction"
+
+    def __post_init__(self) -> None:
+        if self.position_from not in POSITION_FROM:
+            raise ConfigError(f"ChallengeConfig.position_from must be one of {', '.join(POSITION_FROM)}, "
+                              f"got {self.position_from!r}")
 
 
 @dataclass(frozen=True)
@@ -211,25 +224,21 @@ class WaypointSweeps:
             self.go_to((float(corner[0]), float(corner[1])))
 
     # -- at a waypoint ------------------------------------------------------------------------------
-    def refine_heading(self, scan: Scan, predicted: float, waypoint: XY) -> None:
-        """Settle the belief (`_settle`) at the estimate's position and the heading the sweep fits best
-        at the `waypoint` the robot is visiting (`fit_pose`), within `ChallengeConfig.heading_span_deg`
-        of the `predicted` heading (rad).
+    def fitted_heading(self, scan: Scan, predicted: float, waypoint: XY) -> float:
+        """The heading (rad) the sweep fits best at the `waypoint` the robot is visiting (`fit_pose`),
+        within `ChallengeConfig.heading_span_deg` of the `predicted` heading (rad).
 
         The fit holds the position at the waypoint, where the real sweep was taken: a thin-ray fit's
         median is shallow in heading, and a position 2 cm off can move its minimum by 20 degrees on a
-        72-reading sweep.
-        The search is centred on the prediction, not on the update: odometry keeps the heading to a
-        degree or two over a leg, while a localiser's update from a real sweep can turn it by 10-30
-        degrees (its 40-degree lobe blurs the heading, and the real sweeps' headings are those that
-        align them with the map by a thin ray)."""
-        assert self.estimate is not None
-        p = self.estimate.pose
-        fitted = fit_pose(self.map, scan, [waypoint], heading=predicted, span_deg=self.cfg.heading_span_deg)
-        self._settle(Pose(p.x, p.y, fitted.theta))
+        72-reading sweep. The search is centred on the prediction, not on the update: odometry keeps
+        the heading to a degree or two over a leg, while a localiser's update from a real sweep can turn
+        it by 10-30 degrees (its 40-degree lobe blurs the heading, and the real sweeps' headings are
+        those that align them with the map by a thin ray)."""
+        return fit_pose(self.map, scan, [waypoint], heading=predicted, span_deg=self.cfg.heading_span_deg).theta
 
     def sweep_and_correct(self, waypoint: XY) -> WaypointVisit:
-        """Sweep, update and correct toward `waypoint` (module docstring); a refused sweep ends the visit."""
+        """Sweep, update, fit the heading and correct toward `waypoint` (module docstring); a refused
+        sweep ends the visit."""
         sweeps, note = 0, ""
         for attempt in range(self.cfg.max_corrections + 1):
             try:
@@ -239,10 +248,12 @@ class WaypointSweeps:
                 break
             sweeps += 1
             assert self.estimate is not None
-            predicted = self.estimate.pose.theta
+            predicted = self.estimate.pose
             self.localiser.update(scan)
-            self.estimate = self.localiser.estimate()
-            self.refine_heading(scan, predicted, waypoint)
+            updated = self.localiser.estimate().pose
+            heading = self.fitted_heading(scan, predicted.theta, waypoint)
+            keep = predicted if self.cfg.position_from == "prediction" else updated
+            self._settle(Pose(keep.x, keep.y, heading))
             if _distance(self.estimate.pose, waypoint) <= self.cfg.correction_cm or \
                     attempt == self.cfg.max_corrections:
                 break
