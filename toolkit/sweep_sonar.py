@@ -16,9 +16,9 @@ for 5-degree ones) of where a sensor on the robot would have taken them. A sweep
 ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it is loaded.
 
 `SweepSetRobot` is the simulator (`toolkit.robots.sim.SimRobot`: motion noise, exact collisions,
-robot time) with that sonar. Its forward watchdog has no real reading between waypoints, so it reads
-nothing (255, no echo) and never stops a move; collisions are still the exact contacts of the
-simulator and are counted.
+robot time) with that sonar for its sweeps. Its collision watchdog reads one reading straight ahead
+every centimetre of a move, which no sweep set holds: those single readings are drawn from the fitted
+`nxt` model (`toolkit.world.NxtSonar`) at the robot's true pose, as the simulator draws them.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 
 from .robots.sim import SimRobot
 from .sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set
-from .world import NO_ECHO, Map, Pose, RngLike, RobotError, Scan, as_rng, load_map, wrap_angle
+from .world import Map, Pose, RngLike, RobotError, Scan, as_rng, load_map, wrap_angle
 
 __all__ = ["SWEEPS_PREFIX", "SweepRefused", "SweepSetRobot", "SweepSetSonar", "course_waypoints",
            "load_challenge_set", "sweeps_folder"]
@@ -160,18 +160,15 @@ class SweepSetSonar:
 
 
 class SweepSetRobot(SimRobot):
-    """`SimRobot` whose sweeps are real ones (`SweepSetSonar`); its watchdog reads nothing (module docstring).
+    """`SimRobot` whose sweeps are real ones (`SweepSetSonar`); its watchdog's readings are simulated
+    (module docstring).
 
     `last_sweep` is the real sweep behind the last scan."""
 
     def __init__(self, map: Map, pose: Pose, sonar: SweepSetSonar, **kwargs: object) -> None:
-        super().__init__(map, pose, **kwargs)  # type: ignore[arg-type]
+        super().__init__(map, pose, sonar="nxt", **kwargs)  # type: ignore[arg-type]
         self.sweep_sonar = sonar
         self.last_sweep: Sweep | None = None
-
-    def read_forward(self) -> float:
-        """No real reading between waypoints: nothing echoes (255)."""
-        return float(NO_ECHO)
 
     def ultrascan(self, angles: ArrayLike | None = None) -> Scan:
         """A full real sweep at the robot's true pose (the requested `angles` are ignored: the sweep's own

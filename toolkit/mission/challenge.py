@@ -67,6 +67,7 @@ class ChallengeConfig:
     reach_cm: float = 10.0
     heading_span_deg: float = 30.0
     position_from: str = "prediction"
+    start_retries: int = 1
 
     def __post_init__(self) -> None:
         if self.position_from not in POSITION_FROM:
@@ -101,6 +102,7 @@ class ChallengeReport:
     planner: str
     visits: list[WaypointVisit] = field(default_factory=list)
     start_match: XY | None = None
+    notes: list[str] = field(default_factory=list)
     collisions: int = 0
     robot_time_s: float = 0.0
     status: str = ""
@@ -109,8 +111,9 @@ class ChallengeReport:
 
     @property
     def reached(self) -> bool:
-        """Every waypoint of the route visited and truly reached within `reach_cm`."""
-        return len(self.visits) == len(self.route) and all(v.error_cm <= self.reach_cm for v in self.visits)
+        """Every waypoint of the route visited, in its order, and truly reached within `reach_cm`."""
+        return [v.waypoint for v in self.visits] == list(self.route) and \
+            all(v.error_cm <= self.reach_cm for v in self.visits)
 
     @property
     def worst_error_cm(self) -> float:
@@ -124,6 +127,7 @@ class ChallengeReport:
             lines.append(f"  ({v.waypoint[0]:g}, {v.waypoint[1]:g}): ended {v.error_cm:.1f} cm from it "
                          f"(believed {v.estimate_error_cm:.1f} cm), {v.sweeps} sweep(s)"
                          + (f"; {v.note}" if v.note else ""))
+        lines += [f"  {note}" for note in self.notes]
         lines.append(f"{'reached every waypoint' if self.reached else 'NOT reached'} within {self.reach_cm:g} cm: "
                      f"worst {self.worst_error_cm:.1f} cm, {self.collisions} collision(s), robot time "
                      f"{self.robot_time_s:.1f} s; {self.status}")
@@ -133,7 +137,7 @@ class ChallengeReport:
         return {"start": list(self.start), "start_pose": self.start_pose.to_list_deg(),
                 "route": [list(p) for p in self.route], "localiser": self.localiser, "planner": self.planner,
                 "start_match": None if self.start_match is None else list(self.start_match),
-                "visits": [v.to_dict() for v in self.visits], "reached": self.reached,
+                "visits": [v.to_dict() for v in self.visits], "notes": list(self.notes), "reached": self.reached,
                 "worst_error_cm": self.worst_error_cm, "collisions": self.collisions,
                 "robot_time_s": self.robot_time_s, "status": self.status, "reach_cm": self.reach_cm}
 
@@ -170,13 +174,26 @@ class WaypointSweeps:
         self.trajectory: list[Pose] = [robot.true_pose]
 
     # -- the start ------------------------------------------------------------------------------------
-    def localise_start(self, course: list[XY]) -> XY:
-        """Which waypoint the robot stands on, and at which heading (`fit_pose` over every waypoint and
-        heading); the belief is reset around that pose and given the sweep. Returns the waypoint."""
+    def localise_start(self, course: list[XY]) -> list[Pose]:
+        """Which waypoint the robot stands on, and at which heading (`rank_places` over every waypoint
+        and heading); the belief is reset around the best. Returns every waypoint's pose, best first."""
         scan = self.robot.ultrascan()
-        pose = fit_pose(self.map, scan, course)
-        self._settle(pose)
-        return (pose.x, pose.y)
+        ranked = [pose for _, pose in rank_places(self.map, scan, course)]
+        self._settle(ranked[0])
+        return ranked
+
+    def restart_from(self, believed: Pose, instead: Pose) -> None:
+        """The robot started at `instead`, not at `believed`: the belief is moved as the robot's own
+        motion since then moves it (the current estimate seen from `believed`, put at `instead`)."""
+        assert self.estimate is not None
+        p = self.estimate.pose
+        c, s = math.cos(believed.theta), math.sin(believed.theta)
+        dx, dy = p.x - believed.x, p.y - believed.y
+        fwd, left = c * dx + s * dy, -s * dx + c * dy
+        c2, s2 = math.cos(instead.theta), math.sin(instead.theta)
+        turned = float(angle_diff(p.theta, believed.theta))
+        self._settle(Pose(instead.x + c2 * fwd - s2 * left, instead.y + s2 * fwd + c2 * left,
+                          float(wrap_angle(instead.theta + turned))))
 
     def _settle(self, pose: Pose) -> None:
         """Reset the belief to a narrow Gaussian around `pose` (`ChallengeConfig.prior_std_cm`, `prior_std_deg`)."""
@@ -208,6 +225,8 @@ class WaypointSweeps:
             outcome = self.robot.move(step)
             self.localiser.predict(Motion(0.0, outcome.distance_cm))
             self.trajectory.append(self.robot.true_pose)
+            if outcome.watchdog:  # a wall ahead: the leg ends here
+                break
             left -= step
         self.estimate = self.localiser.estimate()
 
@@ -265,40 +284,58 @@ class WaypointSweeps:
 
 def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: Localiser, planner: Planner,
                   rng: np.random.Generator, config: ChallengeConfig | None = None) -> ChallengeReport:
-    """Run the challenge from waypoint `start` of `course` (module docstring) on a simulated `robot` that
-    stands there; never raises for a refused sweep or a lost robot: the report says so."""
+    """Run the challenge on a simulated `robot` standing on waypoint `start` of `course` (module
+    docstring; the robot is not told `start`, the report scores against it); never raises for a refused
+    sweep or a lost robot: the report says so."""
     cfg = config or ChallengeConfig()
-    route = course_from(course, start)
+    truth_route = course_from(course, start)
     policy = WaypointSweeps(robot, m, localiser, planner, rng, cfg)
-    report = ChallengeReport(route[0], robot.true_pose, route, localiser.name, planner.name, reach_cm=cfg.reach_cm)
+    report = ChallengeReport(truth_route[0], robot.true_pose, truth_route, localiser.name, planner.name,
+                             reach_cm=cfg.reach_cm)
     t0 = float(robot.robot_time_s)
-    report.start_match = policy.localise_start(course)
-    assert policy.estimate is not None
-    report.visits.append(WaypointVisit(route[0], round(_distance(robot.true_pose, route[0]), 3),
-                                       round(_distance(policy.estimate.pose, route[0]), 3), 1,
-                                       "" if report.start_match == route[0] else "took it for another waypoint"))
+    hypotheses = policy.localise_start(course)
+    believed = hypotheses[0]
+    report.start_match = (believed.x, believed.y)
+    report.visits.append(WaypointVisit(truth_route[0], round(_distance(robot.true_pose, truth_route[0]), 3),
+                                       round(_distance(believed, truth_route[0]), 3), 1))
+    route, k, retries = course_from(course, course.index(report.start_match)), 1, 0
     report.status = "done"
-    for waypoint in route[1:]:
-        policy.drive_to(waypoint)
-        visit = policy.sweep_and_correct(waypoint)
+    while k < len(route):
+        policy.drive_to(route[k])
+        visit = policy.sweep_and_correct(route[k])
+        if visit.sweeps == 0 and k == 1 and retries < min(cfg.start_retries, len(hypotheses) - 1):
+            retries += 1  # no waypoint where the first leg ended: the start was another place that fits
+            policy.restart_from(believed, hypotheses[retries])
+            believed = hypotheses[retries]
+            report.notes.append(f"no sweep at ({route[k][0]:g}, {route[k][1]:g}); started at "
+                                f"({believed.x:g}, {believed.y:g}) instead, the next best fit")
+            route = course_from(course, course.index((believed.x, believed.y)))
+            continue
         report.visits.append(visit)
         if visit.sweeps == 0:
-            report.status = f"ended at ({waypoint[0]:g}, {waypoint[1]:g}): {visit.note}"
+            report.status = f"ended at ({route[k][0]:g}, {route[k][1]:g}): {visit.note}"
             break
+        k += 1
     report.collisions = int(robot.collisions)
     report.robot_time_s = float(robot.robot_time_s) - t0
     report.trajectory = policy.trajectory
     return report
 
 
-
-
 def fit_pose(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
              step_deg: float = 1.0) -> Pose:
     """The pose, among the `places` (cm) and the headings `step_deg` apart (within `span_deg` of
-    `heading`; None: every heading), that the sweep `scan` fits best: the smallest median distance (cm)
-    between its echoes and exact (thin-ray) ray casting. That is the fit that aligned the sweep sets'
-    ``heading_deg`` with the map, so on a real sweep it finds the heading the sweep set calls true.
+    `heading`; None: every heading), that the sweep `scan` fits best (`rank_places`)."""
+    return rank_places(m, scan, places, heading=heading, span_deg=span_deg, step_deg=step_deg)[0][1]
+
+
+def rank_places(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
+                step_deg: float = 1.0) -> list[tuple[float, Pose]]:
+    """Each of the `places` (cm) at the heading, `step_deg` apart (within `span_deg` of `heading`; None:
+    every heading), that the sweep `scan` fits best there, with the fit's score, best place first. The
+    score is minus the median distance (cm) between the sweep's echoes and exact (thin-ray) ray casting:
+    the fit that aligned the sweep sets' ``heading_deg`` with the map, so on a real sweep it finds the
+    heading the sweep set calls true.
 
     The course's robot knows its waypoints: at the start it tells which one it stands on (and at what
     heading) by trying them all, the way the course's own place recognition compares a sweep with the
@@ -311,14 +348,11 @@ def fit_pose(m: Map, scan: Scan, places: list[XY], *, heading: float | None = No
     centre = 0.0 if heading is None else heading
     half = 180.0 if heading is None else span_deg
     offsets = np.radians(np.arange(-half, half, step_deg))
-    best: tuple[float, Pose] | None = None
+    ranked: list[tuple[float, Pose]] = []
     for x, y in places:
         poses = np.column_stack([np.full(offsets.size, x), np.full(offsets.size, y), centre + offsets])
         error = np.abs(exact_ranges(m, poses, rel) - meas[None, :])
         median = np.median(np.where(np.isfinite(error), error, 1e9), axis=1)
         k = int(np.argmin(median))
-        score = -float(median[k])
-        if best is None or score > best[0]:
-            best = (score, Pose(x, y, float(wrap_angle(centre + offsets[k]))))
-    assert best is not None
-    return best[1]
+        ranked.append((-float(median[k]), Pose(x, y, float(wrap_angle(centre + offsets[k])))))
+    return sorted(ranked, key=lambda item: -item[0])
