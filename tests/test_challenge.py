@@ -70,7 +70,11 @@ def test_bench_challenge_writes_a_row_per_mission(tmp_path: Path) -> None:
     assert tuple(rows[0]) == COLUMNS
     assert {(float(r["start_x_cm"]), float(r["start_y_cm"])) for r in rows} == {(180, 30), (126, 168), (30, 54)}
     for r in rows:
-        assert (r["reached"] == "True") == (float(r["worst_error_cm"]) <= 10.0 and r["status"] == "done")
+        assert int(r["waypoints"]) == 3 and int(r["collisions"]) >= 0
+        if r["reached"] == "True":
+            assert float(r["worst_error_cm"]) <= 10.0 and r["status"] == "done"
+        elif r["status"] == "done":  # every sweep answered, yet a waypoint was ended more than 10 cm from
+            assert float(r["worst_error_cm"]) > 10.0
     doc = json.loads((out / "summary.json").read_text())
     reached = sum(r["reached"] == "True" for r in rows) / 3
     assert doc["summary"]["paper-pf"]["all"]["reached"] == pytest.approx(reached)

@@ -60,7 +60,7 @@ class ChallengeConfig:
     move_step_cm: float = 10.0
     correction_cm: float = 3.0
     max_corrections: int = 0
-    margin_cm: float = 2.0
+    margin_cm: float = 8.0
     plan_time_s: float = 0.5
     prior_std_cm: float = 3.0
     prior_std_deg: float = 2.0
