@@ -156,12 +156,13 @@ def summary_markdown(runs: Sequence[ChallengeRun], *, sweeps: SweepSet, seeds: S
     lines += [f"# The challenge on real sweeps: `{sweeps.folder}`, map `{sweeps.map.name}`, seeds "
               f"{', '.join(map(str, seeds))}", "",
               "| localiser | source | missions | reached every waypoint (10 cm) | median worst error (cm) "
-              "| max worst error (cm) | collisions | median robot time (s) |",
-              "|---|---|---:|---:|---:|---:|---:|---:|"]
+              "| max worst error (cm) | missions with a collision | collisions | median robot time (s) |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name, groups in summarise(runs).items():
         for key, s in groups.items():
             lines.append(f"| {name} | {key} | {s['missions']} | {s['reached']:.0%} | {s['median_worst_error_cm']:.1f} "
-                         f"| {s['max_worst_error_cm']:.1f} | {s['collisions']} | {s['median_robot_time_s']:.0f} |")
+                         f"| {s['max_worst_error_cm']:.1f} | {s['missions_with_collision']} | {s['collisions']} "
+                         f"| {s['median_robot_time_s']:.0f} |")
     lines += ["", "Each mission starts at one waypoint of a source (a seeded random heading, the waypoint unknown to "
               "the robot) and visits the others in the course's order, sweeping only at waypoints with that "
               "source's real sweeps. *Worst error*: the largest true distance from a waypoint where a visit ended.",
