@@ -225,8 +225,11 @@ class WaypointSweeps:
             outcome = self.robot.move(step)
             self.localiser.predict(Motion(0.0, outcome.distance_cm))
             self.trajectory.append(self.robot.true_pose)
-            if outcome.watchdog:  # a wall ahead: the leg ends here
-                break
+            if outcome.watchdog:  # a wall ahead, or the sensor's short reading twice: move on unless stuck
+                if abs(outcome.distance_cm) < 0.5:
+                    break
+                left -= abs(outcome.distance_cm)
+                continue
             left -= step
         self.estimate = self.localiser.estimate()
 
