@@ -112,13 +112,13 @@ def load_challenge_set(folder: Path, map: Map | str) -> SweepSet:
 
 def rotated(sweep: Sweep, heading_rad: float) -> Scan:
     """`sweep` as a robot whose true heading is `heading_rad` reads it: its ring of readings shifted by
-    whole bins (module docstring), its own turret angles kept."""
+    whole bins (module docstring), its own turret angles kept. The readings are the sensor's as it gave
+    them: a run the sweep set reads as held echoes (``held_runs`` ``no-echo``) comes back as read, and
+    the localisers judge such runs themselves (`localisation.scan.drop_stuck`)."""
     delta_deg = math.degrees(wrap_angle(math.radians(sweep.heading_deg) - heading_rad))
     shift = round(delta_deg / sweep.step_deg)
     sense = 1 if sweep.direction == "ccw" else -1
-    readings = np.roll(sweep.readings, sense * shift)
-    held = None if sweep.held is None else np.roll(sweep.held, sense * shift)
-    return replace(sweep, readings=readings, held=held).scan()
+    return replace(sweep, readings=np.roll(sweep.readings, sense * shift), held=None).scan()
 
 
 @dataclass(frozen=True)
