@@ -123,3 +123,12 @@ def test_bad_sweep_sets_are_one_line_and_exit_2(tmp_path: Path, capsys: pytest.C
     err = capsys.readouterr().err.strip()
     assert err.startswith("nxtnav: error: ") and message in err and "\n" not in err
     assert not out.exists()
+
+
+def test_run_options_a_challenge_does_not_take_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    plot = tmp_path / "mission.png"
+    assert run_cli(["run", "--map", "co333-arena", "--sonar", f"sweeps:{REAL_NXT}", "--start", "30,54",
+                    "--plot", str(plot)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("nxtnav: error: --start, --plot: not with --sonar sweeps:") and "\n" not in err
+    assert not plot.exists()

@@ -37,9 +37,11 @@ def _map_of(folder: Path, map_name: str | None) -> str:
 
 
 def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, seed: int, noise_model: str,
-                       noise_text: str, profile: Path | None, json_out: Path | None) -> None:
+                       noise_text: str, profile: Path | None, json_out: Path | None,
+                       not_here: dict[str, Any] | None = None) -> None:
     """`nxtnav run --sonar sweeps:DIR`: one challenge mission (`toolkit.mission.challenge`) on a seeded
-    source of the set, from a seeded waypoint; exit 1 when a waypoint was not reached within 10 cm."""
+    source of the set, from a seeded waypoint; exit 1 when a waypoint was not reached within 10 cm.
+    `not_here`: options of `run` a challenge does not take, with their values (any set one is an error)."""
     import numpy as np
 
     from toolkit.bench.challenge import challenge_mission
@@ -47,6 +49,10 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
     from toolkit.seeds import derive_seed
     from toolkit.sweep_sonar import course_waypoints, load_challenge_set, sweeps_folder
 
+    given = [option for option, value in (not_here or {}).items() if value not in (None, False)]
+    if given:
+        raise NxtnavError(f"{', '.join(given)}: not with --sonar {sonar} (the challenge starts at a seeded waypoint "
+                          "of the sweep set, in the simulator, and writes --json only)")
     folder = sweeps_folder(sonar)
     assert folder is not None
     folder = shipped(folder)

@@ -172,7 +172,11 @@ def run(
         from .challenge_cmds import run_sweeps_mission
 
         return run_sweeps_mission(sonar, map_name, planner, localiser, seed, noise_model, noise_text,
-                                  sonar_profile_path, json_out)
+                                  sonar_profile_path, json_out, {
+                                      "--robot": robot_kind != "sim", "--start": start_text, "--random-start":
+                                      random_start, "--target": target_text, "--start-heading": start_heading_text,
+                                      "--radius": radius, "--plot": plot, "--animate": animate, "--record": record,
+                                      "--view": view, "--view-save": view_save})
     m = load_map(map_name)
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
     localiser = _check_name(localiser, "--localiser", _localiser_names())
