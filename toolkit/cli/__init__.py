@@ -24,9 +24,9 @@ def _load() -> ModuleType:
     # the app module (by path: its name is also the attribute `app`), then the command modules,
     # imported for their side effect: each adds its commands to the Typer app
     app_module = importlib.import_module(".app", __name__)
-    for name in ("export_cmds", "faults_cmds", "figures_cmds", "import_cmds", "localise_cmds", "mission_cmds",
-                 "nxt_cmds", "plan_cmds", "plugin_cmds", "replay_cmds", "scen_cmds", "sonar_cmds", "sweeps_cmds",
-                 "world_cmds", "routes_cmds"):
+    for name in ("challenge_cmds", "export_cmds", "faults_cmds", "figures_cmds", "import_cmds", "localise_cmds",
+                 "mission_cmds", "nxt_cmds", "plan_cmds", "plugin_cmds", "replay_cmds", "routes_cmds", "scen_cmds",
+                 "sonar_cmds", "sweeps_cmds", "world_cmds"):
         importlib.import_module(f".{name}", __name__)
     # importing the submodule `app` set this package's attribute `app` to the module: the name means
     # the Typer application here

@@ -123,7 +123,8 @@ def run(
     planner: str = typer.Option("min-turn", help="Planner " + one_of("planner") + "."),
     localiser: str = typer.Option("paper-pf", help="Localiser " + one_of("localiser") + "."),
     robot_kind: str = typer.Option("sim", "--robot", help="sim or nxt."),
-    sonar: str = typer.Option("ideal", help="Sonar model of the simulator " + one_of("sonar") + "."),
+    sonar: str = typer.Option("ideal", help="Sonar model of the simulator " + one_of("sonar") + ", or sweeps:DIR: "
+                                            "real sweeps at a sweep set's waypoints (the course's challenge)."),
     sonar_profile_path: Path | None = typer.Option(
         None, "--sonar-profile", metavar="FILE",
         help=SONAR_PROFILE_HELP + " With --robot nxt: the real sensor's model, for the localiser."),
@@ -167,6 +168,15 @@ def run(
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
     from ..robots.sim import simulated_sonar
 
+    if sonar.startswith("sweeps:"):  # real sweeps at waypoints: the course's challenge (docs/real-sonar.md)
+        from .challenge_cmds import run_sweeps_mission
+
+        return run_sweeps_mission(sonar, map_name, planner, localiser, seed, noise_model, noise_text,
+                                  sonar_profile_path, json_out, {
+                                      "--robot": robot_kind != "sim", "--start": start_text, "--random-start":
+                                      random_start, "--target": target_text, "--start-heading": start_heading_text,
+                                      "--radius": radius, "--plot": plot, "--animate": animate, "--record": record,
+                                      "--view": view, "--view-save": view_save})
     m = load_map(map_name)
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
     localiser = _check_name(localiser, "--localiser", _localiser_names())

@@ -1,0 +1,134 @@
+"""The course's challenge on real sweeps: the sweeps-backed sonar, `nxtnav run --sonar sweeps:DIR`,
+`nxtnav bench challenge`, and their bad input (on the shipped MIT sweeps, or copies of them)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import REAL_NXT, run_cli
+
+from toolkit.bench.challenge import COLUMNS
+from toolkit.mission.challenge import course_from
+from toolkit.real_sonar.sweep_sonar import SweepRefused, SweepSetSonar, load_challenge_set, rotated
+from toolkit.real_sonar.sweeps import SweepSet
+from toolkit.world import Pose, load_map
+
+
+@pytest.fixture(scope="module")
+def real_set() -> SweepSet:
+    return load_challenge_set(REAL_NXT, load_map("co333-arena"))
+
+
+def test_a_sweep_turns_by_whole_bins_round_its_ring(real_set: SweepSet) -> None:
+    sw = real_set.sweeps[0]  # 360 readings a degree apart, clockwise
+    as_read = replace(sw, held=None).scan().ranges  # the sensor's readings, held runs as read
+    own = rotated(sw, math.radians(sw.heading_deg)).ranges
+    assert np.array_equal(own, as_read)
+    # a robot turned 3 degrees to the left reads each wall 3 degrees further clockwise: 3 bins on
+    turned = rotated(sw, math.radians(sw.heading_deg + 3.0)).ranges
+    assert np.array_equal(turned, np.roll(as_read, 3))
+    assert not np.array_equal(turned, own)
+
+
+def test_the_sonar_answers_near_a_waypoint_and_refuses_elsewhere(real_set: SweepSet) -> None:
+    sonar = SweepSetSonar(real_set, "andrei-alpha/robotics")
+    scan, sweep = sonar.sweep_at(Pose(186.0, 33.0, 0.0), rng=0)  # 6.7 cm from (180, 30)
+    assert (sweep.x_cm, sweep.y_cm) == (180.0, 30.0) and len(scan) == 360
+    with pytest.raises(SweepRefused, match=r"\(180, 30\), is 12\.0 cm away"):
+        sonar.sweep_at(Pose(168.0, 30.0, 0.0), rng=0)
+
+
+def test_the_route_starts_at_the_start_and_goes_round_the_course() -> None:
+    assert course_from([(1, 1), (2, 2), (3, 3)], 2) == [(3, 3), (1, 1), (2, 2)]
+
+
+def test_run_with_real_sweeps_visits_every_waypoint_of_the_route(tmp_path: Path) -> None:
+    report = tmp_path / "run.json"
+    code = run_cli(["run", "--map", "co333-arena", "--sonar", f"sweeps:{REAL_NXT}", "--seed", "3",
+                    "--json", str(report)])
+    doc = json.loads(report.read_text())
+    assert code == (0 if doc["reached"] else 1)
+    waypoints = [[180.0, 30.0], [126.0, 168.0], [30.0, 54.0]]
+    assert doc["route"][0] in waypoints and sorted(doc["route"]) == sorted(waypoints)
+    assert doc["visits"][0]["error_cm"] == 0.0  # put down on its start waypoint
+    assert doc["worst_error_cm"] == max(v["error_cm"] for v in doc["visits"])
+    assert doc["reached"] == (len(doc["visits"]) == 3 and doc["worst_error_cm"] <= 10.0)
+
+
+@pytest.mark.slow
+def test_bench_challenge_writes_a_row_per_mission(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    assert run_cli(["bench", "challenge", str(REAL_NXT), "--localisers", "paper-pf", "--seeds", "0",
+                    "--out", str(out)]) == 0
+    with (out / "challenge.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert tuple(rows[0]) == COLUMNS
+    assert {(float(r["start_x_cm"]), float(r["start_y_cm"])) for r in rows} == {(180, 30), (126, 168), (30, 54)}
+    for r in rows:
+        assert int(r["waypoints"]) == 3 and int(r["collisions"]) >= 0
+        if r["reached"] == "True":
+            assert float(r["worst_error_cm"]) <= 10.0 and r["status"] == "done"
+        elif r["status"] == "done":  # every sweep answered, yet a waypoint was ended more than 10 cm from
+            assert float(r["worst_error_cm"]) > 10.0
+    doc = json.loads((out / "summary.json").read_text())
+    reached = sum(r["reached"] == "True" for r in rows) / 3
+    assert doc["summary"]["paper-pf"]["all"]["reached"] == pytest.approx(reached)
+    assert "| paper-pf | all | 3 |" in (out / "summary.md").read_text()
+
+
+def _copy(tmp_path: Path) -> Path:
+    dst = tmp_path / "set"
+    shutil.copytree(REAL_NXT, dst)
+    return dst
+
+
+def _keep_rows(folder: Path, keep: int) -> None:
+    lines = (folder / "sweeps.csv").read_text().splitlines()
+    (folder / "sweeps.csv").write_text("\n".join(lines[:1 + keep]) + "\n")
+
+
+def _drop_heading(folder: Path) -> None:
+    text = (folder / "sweeps.csv").read_text().replace(",0.0,-90.5,", ",0.0,,")
+    (folder / "sweeps.csv").write_text(text)
+
+
+@pytest.mark.parametrize(("command", "spoil", "message"), [
+    ("run", None, "no such folder"),
+    ("run", "map1", "differs from the map 'map1'"),
+    ("run", _drop_heading, "sweep andrei-alpha/robotics/loc_03.dat has no heading_deg"),
+    ("run", lambda f: _keep_rows(f, 1), "no source has sweeps at two or more waypoints"),
+    ("bench", lambda f: _keep_rows(f, 1), "no source has sweeps at two or more waypoints"),
+    ("bench", "map1", "differs from the map 'map1'"),
+])
+def test_bad_sweep_sets_are_one_line_and_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str,
+                                                spoil: object, message: str) -> None:
+    folder, map_name = _copy(tmp_path), "co333-arena"
+    if spoil is None:
+        folder = tmp_path / "missing"
+    elif isinstance(spoil, str):
+        map_name = spoil
+    else:
+        spoil(folder)  # type: ignore[operator]
+    out = tmp_path / "out"
+    argv = (["run", "--map", map_name, "--sonar", f"sweeps:{folder}", "--json", str(out / "r.json")]
+            if command == "run" else ["bench", "challenge", str(folder), "--map", map_name, "--out", str(out)])
+    assert run_cli(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("nxtnav: error: ") and message in err and "\n" not in err
+    assert not out.exists()
+
+
+def test_run_options_a_challenge_does_not_take_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    plot = tmp_path / "mission.png"
+    assert run_cli(["run", "--map", "co333-arena", "--sonar", f"sweeps:{REAL_NXT}", "--start", "30,54",
+                    "--plot", str(plot)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("nxtnav: error: --start, --plot: not with --sonar sweeps:") and "\n" not in err
+    assert not plot.exists()

@@ -1,0 +1,151 @@
+"""`nxtnav bench challenge` and `nxtnav run --sonar sweeps:DIR`: the course's challenge on real sweeps."""
+
+from __future__ import annotations
+
+import json
+import shlex
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from toolkit.world import MotionNoise, NxtnavError, load_map
+
+from .app import EXIT_FAILED, Interrupted, bench_app, fail
+from .options import check_out_folder, check_writable, parse_floats, parse_list, shipped, writable_folder
+from .options import sonar_profile as load_profile
+from .options import workers as workers_ok
+from .progress import progress
+
+__all__ = ["run_sweeps_mission"]
+
+
+def _noise(noise_model: str, text: str) -> MotionNoise:
+    """The motion noise of ``--noise SENSOR,MOTION,TURN`` (the sensor's is the real sweeps': unused)."""
+    _, motion, turn = parse_floats(text, "--noise", (3,))
+    if min(motion, turn) < 0:
+        raise NxtnavError(f"--noise: values must be >= 0, got {text!r}")
+    return MotionNoise(noise_model, motion, turn)  # type: ignore[arg-type]
+
+
+def _map_of(folder: Path, map_name: str | None) -> str:
+    if map_name is not None:
+        return map_name
+    if (folder / "arena.yaml").is_file():
+        return str(folder / "arena.yaml")
+    raise NxtnavError(f"{folder}: no arena.yaml; name the map with --map")
+
+
+def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, seed: int, noise_model: str,
+                       noise_text: str, profile: Path | None, json_out: Path | None,
+                       not_here: dict[str, Any] | None = None) -> None:
+    """`nxtnav run --sonar sweeps:DIR`: one challenge mission (`toolkit.mission.challenge`) on a seeded
+    source of the set, from a seeded waypoint; exit 1 when a waypoint was not reached within 10 cm.
+    `not_here`: options of `run` a challenge does not take, with their values (any set one is an error)."""
+    import numpy as np
+
+    from toolkit.bench.challenge import challenge_mission
+    from toolkit.number_format import json_safe
+    from toolkit.real_sonar.sweep_sonar import course_waypoints, load_challenge_set, sweeps_folder
+    from toolkit.seeds import derive_seed
+
+    given = [option for option, value in (not_here or {}).items() if value not in (None, False)]
+    if given:
+        raise NxtnavError(f"{', '.join(given)}: not with --sonar {sonar} (the challenge starts at a seeded waypoint "
+                          "of the sweep set, in the simulator, and writes --json only)")
+    folder = sweeps_folder(sonar)
+    assert folder is not None
+    folder = shipped(folder)
+    noise = _noise(noise_model, noise_text)
+    model = load_profile(profile, "nxt")
+    check_writable(json_out, "--json")
+    sweeps = load_challenge_set(folder, load_map(map_name))
+    repos = [r for r in sweeps.repos if len(course_waypoints(sweeps, r)) >= 2]
+    pick = np.random.default_rng(derive_seed(seed, "run challenge"))
+    repo = repos[int(pick.integers(len(repos)))]
+    start = int(pick.integers(len(course_waypoints(sweeps, repo))))
+    report = challenge_mission(sweeps, repo, start, seed, localiser, planner, model, noise)
+    typer.echo(f"sweeps of {repo} ({folder})")
+    typer.echo(report.summary())
+    if json_out is not None:
+        doc = {**report.to_dict(), "repo": repo, "sweeps": str(folder), "seed": seed, "noise": noise.to_dict()}
+        json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
+        typer.echo(f"wrote {json_out}")
+    if not report.reached:
+        raise fail(f"mission failed: {report.status}", code=EXIT_FAILED)
+
+
+def _seeds(text: str) -> list[int]:
+    out = []
+    for part in parse_list(text, "--seeds"):
+        if not part.isdigit():
+            raise NxtnavError(f"--seeds: not a whole number >= 0: {part!r}")
+        out.append(int(part))
+    return out
+
+
+@bench_app.command("challenge")
+def bench_challenge(
+    folder: Path = typer.Argument(..., callback=shipped,
+                                  help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
+    map_name: str | None = typer.Option(None, "--map", help="The arena (default: the folder's arena.yaml)."),
+    localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated localisers."),
+    seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
+    planner: str = typer.Option("min-turn", "--planner", help="Planner between waypoints."),
+    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise model (botsim or absolute)."),
+    noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
+                                   help="As `run` takes it; the sensor's noise is the real sweeps' (unused)."),
+    sonar_profile: Path | None = typer.Option(None, "--sonar-profile",
+                                              help="nxt sonar model for the localisers (YAML; default: fitted)."),
+    out: Path = typer.Option(Path("out/challenge"), "--out", callback=writable_folder,
+                             help="Output folder (must be empty or new, unless --force)."),
+    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
+    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+) -> None:
+    """The course's challenge on real sweeps: every source x start waypoint x seed x localiser; challenge.csv,
+    summary.md and summary.json in --out."""
+    from localisation.base import LOCALISERS
+    from planners import PLANNERS
+    from toolkit.bench.challenge import (
+        challenge_tasks,
+        run_challenge_task,
+        summary_json,
+        summary_markdown,
+        write_challenge_csv,
+    )
+    from toolkit.bench.executors import TasksInterrupted, collect_tasks
+    from toolkit.real_sonar.sweep_sonar import load_challenge_set
+
+    locs = parse_list(localisers_text, "--localisers", list(LOCALISERS.names()))
+    PLANNERS.check(planner)
+    seeds = _seeds(seeds_text)
+    noise = _noise(noise_model, noise_text)
+    model = load_profile(sonar_profile, "nxt")
+    map_ref = _map_of(folder, map_name)
+    sweeps = load_challenge_set(folder, load_map(map_ref))
+    check_out_folder(out, force)
+    tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise)
+    complete = True
+    with progress(f"{len(tasks)} challenge missions", len(tasks)) as advance:
+        try:
+            runs = collect_tasks(run_challenge_task, tasks, workers=workers, on_done=advance)
+        except TasksInterrupted as exc:
+            runs, complete = list(exc.results), False
+            if not runs:
+                raise Interrupted(f"no mission had finished (of {len(tasks)}); nothing written") from None
+    command = " ".join(shlex.quote(a) for a in [
+        "nxtnav", "bench", "challenge", str(folder), *(["--map", map_name] if map_name else []),
+        "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)), "--planner", planner,
+        "--noise-model", noise_model, "--noise", noise_text, "--out", str(out)])
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = write_challenge_csv(runs, out / "challenge.csv")
+    text = summary_markdown(runs, sweeps=sweeps, seeds=seeds, command=command, complete=complete)
+    (out / "summary.md").write_text(text)
+    extra: dict[str, Any] = {"folder": str(folder), "map": sweeps.map.name, "localisers": locs, "seeds": seeds,
+                             "planner": planner, "noise": noise.to_dict(), "complete": complete,
+                             "missions_done": len(runs), "missions_planned": len(tasks), "command": command}
+    (out / "summary.json").write_text(summary_json(runs, **extra))
+    typer.echo(text)
+    typer.echo(f"wrote {csv_path}, {out / 'summary.md'}, {out / 'summary.json'}")
+    if not complete:
+        raise Interrupted(f"{len(runs)} of {len(tasks)} missions done; partial results (marked incomplete) in {out}")

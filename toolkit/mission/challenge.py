@@ -1,0 +1,361 @@
+"""The course's challenge: visit waypoints in order, sweeping only at them.
+
+The robot is put down at one of the course's waypoints, at an unknown heading; it knows the course's
+waypoints but not which one it stands on. It then visits the others in the course's order (starting
+after its own, round the list), sweeping at each and nowhere else. This is the mission a robot runs
+when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real sweeps), and
+`WaypointSweeps` is its policy:
+
+1. **Start.** One full sweep. The robot knows it stands on a waypoint, so it tells which one and its
+   heading by trying them all (`fit_pose`: every waypoint, every heading a degree apart), as the
+   course's own place recognition does; the belief is reset to a narrow Gaussian there
+   (`ChallengeConfig.prior_std_cm`, `prior_std_deg`).
+2. **Drive.** A path from the estimate to the next waypoint (the planner, with the robot radius plus
+   `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; a straight line when no
+   path exists at all), driven leg by leg: turn toward the leg's end from the estimate, then moves of
+   at most `ChallengeConfig.move_step_cm`, the localiser predicting after each. No sweep on the way.
+3. **At the waypoint.** A full sweep and the localiser's update; the heading is the one the sweep fits
+   best at the waypoint near the predicted heading (`WaypointSweeps.fitted_heading`), the position the
+   predicted one (`ChallengeConfig.position_from` ``prediction``, the default) or the localiser's
+   (``localiser``). A real sweep is evidence of its own waypoint, not of where within 10 cm of it the
+   robot stands: moving the belief to the localiser's position only adds the localiser's error on the
+   real sweep (2-5 cm) to the odometry's, and corrections toward the waypoint chase it (measured in
+   docs/real-sonar.md). With `ChallengeConfig.max_corrections` > 0, while the estimate is more than
+   `ChallengeConfig.correction_cm` from the waypoint, a correction (turn and move toward it) and
+   another sweep. A sweep the sonar refuses (the robot is too far from the waypoint for any real
+   sweep) ends the mission there.
+
+The report scores the truth: a waypoint is reached when the robot's true position ends within
+`ChallengeConfig.reach_cm` (10 cm) of it; the mission when every waypoint is.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from localisation.base import Localiser, Motion, PoseEstimate, Prior
+from localisation.models import exact_ranges
+from planners.base import Planner, PlanningProblem
+
+from ..world import ConfigError, Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
+from ..world.arrays import FloatArray
+
+__all__ = ["ChallengeConfig", "ChallengeReport", "WaypointSweeps", "WaypointVisit", "course_from", "fit_pose",
+           "run_challenge"]
+
+XY = tuple[float, float]
+
+POSITION_FROM = ("prediction", "localiser")
+"""Where the belief's position comes from after a waypoint's sweep (`ChallengeConfig.position_from`)."""
+
+
+@dataclass(frozen=True)
+class ChallengeConfig:
+    """How the challenge mission runs (module docstring; lengths in cm, angles in degrees)."""
+
+    move_step_cm: float = 10.0
+    correction_cm: float = 3.0
+    max_corrections: int = 0
+    margin_cm: float = 8.0
+    plan_time_s: float = 0.5
+    prior_std_cm: float = 3.0
+    prior_std_deg: float = 2.0
+    reach_cm: float = 10.0
+    heading_span_deg: float = 30.0
+    position_from: str = "prediction"
+    start_retries: int = 1
+
+    def __post_init__(self) -> None:
+        if self.position_from not in POSITION_FROM:
+            raise ConfigError(f"ChallengeConfig.position_from must be one of {', '.join(POSITION_FROM)}, "
+                              f"got {self.position_from!r}")
+
+
+@dataclass(frozen=True)
+class WaypointVisit:
+    """One waypoint of the route: where it is, how far the robot truly ended from it and believed it
+    ended (cm), the sweeps taken there, and what happened (empty: nothing to say)."""
+
+    waypoint: XY
+    error_cm: float
+    estimate_error_cm: float
+    sweeps: int
+    note: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"waypoint": list(self.waypoint), "error_cm": self.error_cm,
+                "estimate_error_cm": self.estimate_error_cm, "sweeps": self.sweeps, "note": self.note}
+
+
+@dataclass
+class ChallengeReport:
+    """The outcome of `run_challenge`: the visits (the start first), the truth's collisions and the robot time."""
+
+    start: XY
+    start_pose: Pose
+    route: list[XY]
+    localiser: str
+    planner: str
+    visits: list[WaypointVisit] = field(default_factory=list)
+    start_match: XY | None = None
+    notes: list[str] = field(default_factory=list)
+    collisions: int = 0
+    robot_time_s: float = 0.0
+    status: str = ""
+    reach_cm: float = 10.0
+    trajectory: list[Pose] = field(default_factory=list)
+
+    @property
+    def reached(self) -> bool:
+        """Every waypoint of the route visited, in its order, and truly reached within `reach_cm`."""
+        return [v.waypoint for v in self.visits] == list(self.route) and \
+            all(v.error_cm <= self.reach_cm for v in self.visits)
+
+    @property
+    def worst_error_cm(self) -> float:
+        """The largest true distance (cm) from a waypoint where the robot ended its visit."""
+        return max((v.error_cm for v in self.visits), default=math.nan)
+
+    def summary(self) -> str:
+        lines = [f"challenge: start ({self.start[0]:g}, {self.start[1]:g}), route "
+                 + " -> ".join(f"({x:g}, {y:g})" for x, y in self.route) + f"; {self.localiser}, {self.planner}"]
+        for v in self.visits:
+            lines.append(f"  ({v.waypoint[0]:g}, {v.waypoint[1]:g}): ended {v.error_cm:.1f} cm from it "
+                         f"(believed {v.estimate_error_cm:.1f} cm), {v.sweeps} sweep(s)"
+                         + (f"; {v.note}" if v.note else ""))
+        lines += [f"  {note}" for note in self.notes]
+        lines.append(f"{'reached every waypoint' if self.reached else 'NOT reached'} within {self.reach_cm:g} cm: "
+                     f"worst {self.worst_error_cm:.1f} cm, {self.collisions} collision(s), robot time "
+                     f"{self.robot_time_s:.1f} s; {self.status}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"start": list(self.start), "start_pose": self.start_pose.to_list_deg(),
+                "route": [list(p) for p in self.route], "localiser": self.localiser, "planner": self.planner,
+                "start_match": None if self.start_match is None else list(self.start_match),
+                "visits": [v.to_dict() for v in self.visits], "notes": list(self.notes), "reached": self.reached,
+                "worst_error_cm": self.worst_error_cm, "collisions": self.collisions,
+                "robot_time_s": self.robot_time_s, "status": self.status, "reach_cm": self.reach_cm}
+
+
+def course_from(course: list[XY], start: int) -> list[XY]:
+    """The route of a challenge from waypoint `start` of `course`: the start, then the others in the
+    course's order, round the list.
+
+    >>> course_from([(1, 1), (2, 2), (3, 3)], 1)
+    [(2, 2), (3, 3), (1, 1)]
+    """
+    return [*course[start:], *course[:start]]
+
+
+def _distance(pose: Pose, xy: XY) -> float:
+    return math.hypot(pose.x - xy[0], pose.y - xy[1])
+
+
+class WaypointSweeps:
+    """The challenge's policy: sweep at the waypoints only, drive between them on predictions (module
+    docstring). `robot` is a simulated robot with a truth (`true_pose`, `collisions`)."""
+
+    def __init__(self, robot: Any, m: Map, localiser: Localiser, planner: Planner, rng: np.random.Generator,
+                 config: ChallengeConfig) -> None:
+        self.robot = robot
+        self.map = m
+        self.localiser = localiser
+        self.planner = planner
+        self.rng = rng
+        self.cfg = config
+        radius = float(robot.geometry.radius_cm)
+        self.checkers = [make_checker(m, radius + config.margin_cm), make_checker(m, radius)]
+        self.estimate: PoseEstimate | None = None
+        self.trajectory: list[Pose] = [robot.true_pose]
+
+    # -- the start ------------------------------------------------------------------------------------
+    def localise_start(self, course: list[XY]) -> list[Pose]:
+        """Which waypoint the robot stands on, and at which heading (`rank_places` over every waypoint
+        and heading); the belief is reset around the best. Returns every waypoint's pose, best first."""
+        scan = self.robot.ultrascan()
+        ranked = [pose for _, pose in rank_places(self.map, scan, course)]
+        self._settle(ranked[0])
+        return ranked
+
+    def restart_from(self, believed: Pose, instead: Pose) -> None:
+        """The robot started at `instead`, not at `believed`: the belief is moved as the robot's own
+        motion since then moves it (the current estimate seen from `believed`, put at `instead`)."""
+        assert self.estimate is not None
+        p = self.estimate.pose
+        c, s = math.cos(believed.theta), math.sin(believed.theta)
+        dx, dy = p.x - believed.x, p.y - believed.y
+        fwd, left = c * dx + s * dy, -s * dx + c * dy
+        c2, s2 = math.cos(instead.theta), math.sin(instead.theta)
+        turned = float(angle_diff(p.theta, believed.theta))
+        self._settle(Pose(instead.x + c2 * fwd - s2 * left, instead.y + s2 * fwd + c2 * left,
+                          float(wrap_angle(instead.theta + turned))))
+
+    def _settle(self, pose: Pose) -> None:
+        """Reset the belief to a narrow Gaussian around `pose` (`ChallengeConfig.prior_std_cm`, `prior_std_deg`)."""
+        cov = np.diag([self.cfg.prior_std_cm ** 2] * 2 + [math.radians(self.cfg.prior_std_deg) ** 2])
+        self.localiser.reset(Prior(pose, cov))
+        self.estimate = self.localiser.estimate()
+
+    # -- driving ----------------------------------------------------------------------------------------
+    def _plan(self, goal: XY) -> FloatArray:
+        assert self.estimate is not None
+        start = self.estimate.pose.xy
+        for checker in self.checkers:
+            if not (checker.point_free(start) and checker.point_free(np.array(goal))):
+                continue
+            result = self.planner.plan(PlanningProblem(self.map, checker, start, np.array(goal), self.cfg.plan_time_s,
+                                                       self.rng))
+            if result.success:
+                return np.asarray(result.path, dtype=float)
+        return np.array([start, goal], dtype=float)
+
+    def _act(self, turn_rad: float, distance_cm: float) -> None:
+        """Turn, then drive in steps, the localiser predicting after each action."""
+        if turn_rad:
+            self.robot.turn(turn_rad)
+            self.localiser.predict(Motion(turn_rad, 0.0))
+        left = distance_cm
+        while left > 1e-6:
+            step = min(self.cfg.move_step_cm, left)
+            outcome = self.robot.move(step)
+            self.localiser.predict(Motion(0.0, outcome.distance_cm))
+            self.trajectory.append(self.robot.true_pose)
+            if outcome.watchdog:  # a wall ahead, or the sensor's short reading twice: move on unless stuck
+                if abs(outcome.distance_cm) < 0.5:
+                    break
+                left -= abs(outcome.distance_cm)
+                continue
+            left -= step
+        self.estimate = self.localiser.estimate()
+
+    def go_to(self, xy: XY) -> None:
+        """Turn toward `xy` from the estimate and drive there (no sweep)."""
+        assert self.estimate is not None
+        p = self.estimate.pose
+        bearing = math.atan2(xy[1] - p.y, xy[0] - p.x)
+        self._act(float(angle_diff(bearing, p.theta)), math.hypot(xy[0] - p.x, xy[1] - p.y))
+
+    def drive_to(self, goal: XY) -> None:
+        """Plan from the estimate to `goal` and drive the path leg by leg."""
+        for corner in self._plan(goal)[1:]:
+            self.go_to((float(corner[0]), float(corner[1])))
+
+    # -- at a waypoint ------------------------------------------------------------------------------
+    def fitted_heading(self, scan: Scan, predicted: float, waypoint: XY) -> float:
+        """The heading (rad) the sweep fits best at the `waypoint` the robot is visiting (`fit_pose`),
+        within `ChallengeConfig.heading_span_deg` of the `predicted` heading (rad).
+
+        The fit holds the position at the waypoint, where the real sweep was taken: a thin-ray fit's
+        median is shallow in heading, and a position 2 cm off can move its minimum by 20 degrees on a
+        72-reading sweep. The search is centred on the prediction, not on the update: odometry keeps
+        the heading to a degree or two over a leg, while a localiser's update from a real sweep can turn
+        it by 10-30 degrees (its 40-degree lobe blurs the heading, and the real sweeps' headings are
+        those that align them with the map by a thin ray)."""
+        return fit_pose(self.map, scan, [waypoint], heading=predicted, span_deg=self.cfg.heading_span_deg).theta
+
+    def sweep_and_correct(self, waypoint: XY) -> WaypointVisit:
+        """Sweep, update, fit the heading and correct toward `waypoint` (module docstring); a refused
+        sweep ends the visit."""
+        sweeps, note = 0, ""
+        for attempt in range(self.cfg.max_corrections + 1):
+            try:
+                scan = self.robot.ultrascan()
+            except RobotError as exc:
+                note = f"sweep refused: {exc}"
+                break
+            sweeps += 1
+            assert self.estimate is not None
+            predicted = self.estimate.pose
+            self.localiser.update(scan)
+            updated = self.localiser.estimate().pose
+            heading = self.fitted_heading(scan, predicted.theta, waypoint)
+            keep = predicted if self.cfg.position_from == "prediction" else updated
+            self._settle(Pose(keep.x, keep.y, heading))
+            if _distance(self.estimate.pose, waypoint) <= self.cfg.correction_cm or \
+                    attempt == self.cfg.max_corrections:
+                break
+            self.go_to(waypoint)
+        assert self.estimate is not None
+        return WaypointVisit(waypoint, round(_distance(self.robot.true_pose, waypoint), 3),
+                             round(_distance(self.estimate.pose, waypoint), 3), sweeps, note)
+
+
+def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: Localiser, planner: Planner,
+                  rng: np.random.Generator, config: ChallengeConfig | None = None) -> ChallengeReport:
+    """Run the challenge on a simulated `robot` standing on waypoint `start` of `course` (module
+    docstring; the robot is not told `start`, the report scores against it); never raises for a refused
+    sweep or a lost robot: the report says so."""
+    cfg = config or ChallengeConfig()
+    truth_route = course_from(course, start)
+    policy = WaypointSweeps(robot, m, localiser, planner, rng, cfg)
+    report = ChallengeReport(truth_route[0], robot.true_pose, truth_route, localiser.name, planner.name,
+                             reach_cm=cfg.reach_cm)
+    t0 = float(robot.robot_time_s)
+    hypotheses = policy.localise_start(course)
+    believed = hypotheses[0]
+    report.start_match = (believed.x, believed.y)
+    report.visits.append(WaypointVisit(truth_route[0], round(_distance(robot.true_pose, truth_route[0]), 3),
+                                       round(_distance(believed, truth_route[0]), 3), 1))
+    route, k, retries = course_from(course, course.index(report.start_match)), 1, 0
+    report.status = "done"
+    while k < len(route):
+        policy.drive_to(route[k])
+        visit = policy.sweep_and_correct(route[k])
+        if visit.sweeps == 0 and k == 1 and retries < min(cfg.start_retries, len(hypotheses) - 1):
+            retries += 1  # no waypoint where the first leg ended: the start was another place that fits
+            policy.restart_from(believed, hypotheses[retries])
+            believed = hypotheses[retries]
+            report.notes.append(f"no sweep at ({route[k][0]:g}, {route[k][1]:g}); started at "
+                                f"({believed.x:g}, {believed.y:g}) instead, the next best fit")
+            route = course_from(course, course.index((believed.x, believed.y)))
+            continue
+        report.visits.append(visit)
+        if visit.sweeps == 0:
+            report.status = f"ended at ({route[k][0]:g}, {route[k][1]:g}): {visit.note}"
+            break
+        k += 1
+    report.collisions = int(robot.collisions)
+    report.robot_time_s = float(robot.robot_time_s) - t0
+    report.trajectory = policy.trajectory
+    return report
+
+
+def fit_pose(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
+             step_deg: float = 1.0) -> Pose:
+    """The pose, among the `places` (cm) and the headings `step_deg` apart (within `span_deg` of
+    `heading`; None: every heading), that the sweep `scan` fits best (`rank_places`)."""
+    return rank_places(m, scan, places, heading=heading, span_deg=span_deg, step_deg=step_deg)[0][1]
+
+
+def rank_places(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
+                step_deg: float = 1.0) -> list[tuple[float, Pose]]:
+    """Each of the `places` (cm) at the heading, `step_deg` apart (within `span_deg` of `heading`; None:
+    every heading), that the sweep `scan` fits best there, with the fit's score, best place first. The
+    score is minus the median distance (cm) between the sweep's echoes and exact (thin-ray) ray casting:
+    the fit that aligned the sweep sets' ``heading_deg`` with the map, so on a real sweep it finds the
+    heading the sweep set calls true.
+
+    The course's robot knows its waypoints: at the start it tells which one it stands on (and at what
+    heading) by trying them all, the way the course's own place recognition compares a sweep with the
+    signature of every waypoint. A thin ray and a robust score: the NXT's 40-degree lobe blurs the
+    heading (its beam model leaves 10-20 degrees of heading error on these sweeps), while the walls'
+    corners, read by the lobe's axis, pin it (a robust median, since a real sweep has a heavy tail of
+    wrong readings)."""
+    ok = scan.valid & np.isfinite(scan.ranges)
+    rel, meas = np.asarray(scan.angles[ok], dtype=float), np.asarray(scan.ranges[ok], dtype=float)
+    centre = 0.0 if heading is None else heading
+    half = 180.0 if heading is None else span_deg
+    offsets = np.radians(np.arange(-half, half, step_deg))
+    ranked: list[tuple[float, Pose]] = []
+    for x, y in places:
+        poses = np.column_stack([np.full(offsets.size, x), np.full(offsets.size, y), centre + offsets])
+        error = np.abs(exact_ranges(m, poses, rel) - meas[None, :])
+        median = np.median(np.where(np.isfinite(error), error, 1e9), axis=1)
+        k = int(np.argmin(median))
+        ranked.append((-float(median[k]), Pose(x, y, float(wrap_angle(centre + offsets[k])))))
+    return sorted(ranked, key=lambda item: -item[0])
