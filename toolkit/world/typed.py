@@ -71,6 +71,8 @@ def _message(err: Mapping[str, Any]) -> str:
     if err.get("type") == "missing":
         return f"{path}: missing"
     value = err.get("input")
+    if isinstance(value, dict | list):  # a whole group failed its own check: its message names the value
+        return f"{path}: {text}" if path else text
     return f"{path}: {value!r} {text}" if path else f"{value!r}: {text}"
 
 
@@ -123,10 +125,20 @@ def with_sets(model: T, sets: Mapping[str, str], where: str = "--set") -> T:
     return with_values(model, {key: parse_value(text) for key, text in sets.items()}, where)
 
 
+def _fields(value: Any) -> Any:
+    """A model's (or a nested dataclass group's) fields as nested dicts, every other value as it is (unlike
+    ``model_dump``, which would turn objects held in ``Any`` fields into dicts too)."""
+    if isinstance(value, BaseModel):
+        return {name: _fields(getattr(value, name)) for name in type(value).model_fields}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
+    return value
+
+
 def with_values(model: T, values: Mapping[str, Any], where: str = "--set") -> T:
     """`model` with each ``dotted.key`` of `values` replaced by its value, validated again (groups may be
     pydantic models or standard dataclasses nested in them)."""
-    data = model.model_dump()
+    data = _fields(model)
     for key, value in values.items():
         node, parts = data, key.split(".")
         known = group_fields(type(model)) or {}
