@@ -10,12 +10,12 @@ from typing import Any
 import typer
 
 from ..formats import json_safe
-from .app import Interrupted, bench_app
+from .app import bench_app
 from .choices import one_of
+from .interrupts import run_batch
 from .options import check_writable, count, non_negative, parse_list, positive, writable_file, writable_folder
 from .options import seed as seed_ok
 from .options import workers as workers_ok
-from .progress import progress
 
 __all__: list[str] = []
 
@@ -45,7 +45,6 @@ def bench_faults(
 ) -> None:
     """Missions with random faults on virtual bricks: success, collisions, faults seen and recovered,
     extra robot time, motors left running, recordings replayed."""
-    from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.faults import FAULT_KINDS, fault_tasks, run_fault_task, summarise
     from ..world import load_map
 
@@ -57,11 +56,7 @@ def bench_faults(
             raise typer.BadParameter(f"map {name} has no start and target presets", param_hint="--maps")
     check_writable(json_out, "--json")
     tasks = fault_tasks(missions, seed, kinds, maps, reconnect_timeout, reply_timeout, recordings)
-    with progress("missions", len(tasks)) as advance:
-        try:
-            results = collect_tasks(run_fault_task, tasks, workers=workers, dask_address=dask, on_done=advance)
-        except TasksInterrupted as exc:
-            raise Interrupted(f"after {len(exc.results)} of {len(tasks)} missions; nothing written") from None
+    results = run_batch(run_fault_task, tasks, "missions", workers=workers, dask=dask, keep_partial=False).results
     results.sort(key=lambda r: r.index)
     summary = summarise(results)
     _print(summary)

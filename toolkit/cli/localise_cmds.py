@@ -13,8 +13,9 @@ import typer
 
 from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
 
-from .app import Interrupted, app, bench_app
+from .app import app, bench_app
 from .choices import one_of
+from .interrupts import Batch, run_batch
 from .options import (
     NOISE_MODEL_HELP,
     SENSOR_NOISE_HELP,
@@ -31,7 +32,6 @@ from .options import (
 )
 from .options import seed as seed_ok
 from .options import workers as workers_ok
-from .progress import progress
 from .set_options import localiser_sets
 
 __all__: list[str] = []
@@ -209,7 +209,6 @@ def bench_localisers(
 ) -> None:
     """Benchmark localisers on random true poses: runs.csv, summary.md and plots in --out."""
 
-    from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.localisers import FILES, BenchConfig, TrialResult, make_tasks, run_trial, write_csv, write_summary
     from ..bench.localisers.plots import write_plots
 
@@ -230,16 +229,10 @@ def bench_localisers(
     _check_construction(load_map(maps[0]), options)
     tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
     out.mkdir(parents=True, exist_ok=True)
-    results: list[TrialResult] = []
     t0 = time.perf_counter()
-    interrupted = False
-    with progress(f"{', '.join(scenarios)} on {', '.join(maps)}", len(tasks)) as advance:
-        try:
-            results = collect_tasks(run_trial, tasks, workers=workers, dask_address=dask, on_done=advance)
-        except TasksInterrupted as exc:  # keep what finished; the files say they are incomplete
-            results, interrupted = list(exc.results), True
-            if not results:
-                raise Interrupted(f"no trial had finished (of {len(tasks)}); nothing written") from None
+    batch: Batch[TrialResult] = run_batch(run_trial, tasks, "trials", label=f"{', '.join(scenarios)} on "
+                                          f"{', '.join(maps)}", workers=workers, dask=dask)
+    results, interrupted = batch.results, not batch.complete
     wall = time.perf_counter() - t0
     written = [write_csv(results, out / FILES[s], s) for s in scenarios]
     command = _bench_command(maps, locs, trials, sonar, sonar_profile_path, scenarios, seed, tracker_prior,
@@ -252,11 +245,8 @@ def bench_localisers(
                                                  "scenarios": scenarios, "complete": not interrupted,
                                                  "trials_done": len(results), "trials_planned": len(tasks),
                                                  **cfg.to_dict()}, indent=1, default=str))
-    if interrupted:
-        summary = out / "summary.md"
-        summary.write_text(f"**INCOMPLETE**: interrupted after {len(results)} of {len(tasks)} trials; the tables "
-                           "below cover only the finished trials.\n\n" + summary.read_text())
-    typer.echo((out / "summary.md").read_text())
+    summary = out / "summary.md"
+    summary.write_text(batch.banner() + summary.read_text())
+    typer.echo(summary.read_text())
     typer.echo(f"wrote {', '.join(str(p) for p in written)} ({len(results)} trials in {wall:.1f} s)")
-    if interrupted:
-        raise Interrupted(f"{len(results)} of {len(tasks)} trials done; partial results (marked incomplete) in {out}")
+    batch.finish(f"partial results (marked incomplete) in {out}")

@@ -24,8 +24,9 @@ from rich.table import Table
 
 from ..formats import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
-from .app import Interrupted, sonar_app
+from .app import sonar_app
 from .choices import one_of
+from .interrupts import run_batch
 from .options import check_writable, parse_heading_prior, parse_list, shipped, writable_file, writable_folder
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
@@ -275,7 +276,6 @@ def sonar_loo(
     the means weighted by their readings, whether the fitted models explain held-out readings better than
     the hardware facts, and whether they expect a no-echo share within 0.05 of the real one.
     """
-    from ..bench.executors import TasksInterrupted, collect_tasks
     from ..sonar_fit import LeaveOneOut, repo_folds, score_fold
 
     widths = _grid(widths_text, "--widths", 120.0)
@@ -290,12 +290,8 @@ def sonar_loo(
                 held = [score_fold(f, widths=widths, criticals=criticals, progress=lambda d, t: advance())
                         for f in folds]
         else:
-            with progress("folds", len(folds)) as advance:
-                try:
-                    done = collect_tasks(partial(score_fold, widths=widths, criticals=criticals), folds,
-                                         workers=workers, on_done=advance)
-                except TasksInterrupted as exc:
-                    raise Interrupted(f"{len(exc.results)} of {len(folds)} folds done; nothing written") from None
+            done = run_batch(partial(score_fold, widths=widths, criticals=criticals), folds, "folds",
+                             workers=workers, keep_partial=False).results
             order = {f.repo: i for i, f in enumerate(folds)}
             held = sorted(done, key=lambda h: order[h.repo])
     loo = LeaveOneOut.of(held)
