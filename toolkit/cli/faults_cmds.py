@@ -13,9 +13,18 @@ from ..formats import json_safe
 from .app import bench_app
 from .choices import one_of
 from .interrupts import run_batch
-from .options import check_writable, count, non_negative, parse_list, positive, writable_file, writable_folder
-from .options import seed as seed_ok
-from .options import workers as workers_ok
+from .options import (
+    Dask,
+    JsonOut,
+    Seed,
+    Workers,
+    check_writable,
+    count,
+    non_negative,
+    parse_list,
+    positive,
+    writable_folder,
+)
 
 __all__: list[str] = []
 
@@ -24,21 +33,18 @@ __all__: list[str] = []
 def bench_faults(
     missions: int = typer.Option(20, "--missions", help="Missions to run (each also once without faults).",
                                  callback=count),
-    seed: int = typer.Option(0, "--seed", help="Seed of the campaign (missions, faults, bricks).", callback=seed_ok),
+    seed: Seed = 0,
     kinds_text: str | None = typer.Option(
         None, "--faults", metavar="KIND[,KIND]",
         help="Fault kinds to draw from " + one_of("fault kind") + " (default all)."),
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Maps, taken in turn."),
-    workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
-                                    help="Dask scheduler address, or local (each mission and its brick run on a "
-                                         "worker; --recordings then names a folder on the workers)."),
+    workers: Workers = 1,
+    dask: Dask = None,
     reconnect_timeout: float = typer.Option(30.0, "--reconnect-timeout", metavar="S", callback=non_negative,
                                             help="How long a mission tries to reach its brick again (s)."),
     reply_timeout: float = typer.Option(3.0, "--reply-timeout", metavar="S", callback=positive,
                                         help="A reply later than this counts as a lost link (s)."),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
-                                         metavar="FILE", help="Write the summary and every mission."),
+    json_out: JsonOut = None,
     recordings: Path | None = typer.Option(None, "--recordings", callback=writable_folder, metavar="DIR",
                                            help="Keep each faulty mission's recording here (default: checked, "
                                                 "then deleted)."),

@@ -17,9 +17,19 @@ from .app import app, bench_app
 from .choices import one_of
 from .interrupts import Batch, run_batch
 from .options import (
-    NOISE_MODEL_HELP,
     SENSOR_NOISE_HELP,
     SONAR_PROFILE_HELP,
+    Dask,
+    Force,
+    JsonOut,
+    MapName,
+    NoiseModel,
+    OutFolder,
+    PluginSets,
+    Radius,
+    Seed,
+    Sonar,
+    Workers,
     check_out_folder,
     check_writable,
     count,
@@ -28,10 +38,7 @@ from .options import (
     parse_pose,
     sonar_profile,
     writable_file,
-    writable_folder,
 )
-from .options import seed as seed_ok
-from .options import workers as workers_ok
 from .set_options import localiser_sets
 
 __all__: list[str] = []
@@ -70,23 +77,22 @@ def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
 
 @app.command("localise")
 def localise_cmd(
-    map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
+    map_name: MapName = "map1",
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="True start pose (cm, cm, deg)."),
     localiser: str = typer.Option("paper-pf", "--localiser", help="Localiser " + one_of("localiser") + "."),
-    sonar: str = typer.Option("ideal", help="Simulated sonar " + one_of("sonar") + "."),
+    sonar: Sonar = "ideal",
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    noise_model: str = typer.Option("botsim", help=NOISE_MODEL_HELP),
+    noise_model: NoiseModel = "botsim",
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior") + "."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
-    radius: float | None = typer.Option(None, "--radius", min=0.1,
-                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
-    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
-    sets: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="Localiser option (repeatable)."),
+    radius: Radius = None,
+    seed: Seed = 0,
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
     output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
                                        help="Draw the particles per iteration."),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the result as JSON."),
+    json_out: JsonOut = None,
 ) -> None:
     """Localise once in the simulator from a known true pose; print the result, draw it with -o."""
     from localisation import candidate_poses, describe_candidates
@@ -175,14 +181,15 @@ def _bench_command(maps: list[str], locs: list[str], trials: int, sonar: str, so
 
 @bench_app.command("localisers")
 def bench_localisers(
+    out: OutFolder,
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps."),
     localisers_text: str = typer.Option("all", "--localisers",
                                         help="Comma-separated localisers " + one_of("localiser") + ", or all."),
     trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser.", callback=count),
-    sonar: str = typer.Option("ideal", help="Simulated sonar " + one_of("sonar") + "."),
+    sonar: Sonar = "ideal",
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
     sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    noise_model: str = typer.Option("botsim", help=NOISE_MODEL_HELP),
+    noise_model: NoiseModel = "botsim",
     scenario: str = typer.Option("global", help="Scenarios " + one_of("scenario") + ": one, a comma list, or all."),
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior")
                                       + " (pf: paper-pf's "
@@ -196,16 +203,12 @@ def bench_localisers(
                                                   + ": modes (a mission's: safe from every candidate pose) "
                                                   "or scan (toward the longest free run of the last sweep)."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
-    radius: float | None = typer.Option(None, "--radius", min=0.1,
-                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
-    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
-    sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
-                                   help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
-    out: Path = typer.Option(..., "--out", callback=writable_folder,
-                             help="Output folder (must be empty or new, unless --force)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
+    radius: Radius = None,
+    seed: Seed = 0,
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    force: Force = False,
+    workers: Workers = 1,
+    dask: Dask = None,
 ) -> None:
     """Benchmark localisers on random true poses: runs.csv, summary.md and plots in --out."""
 

@@ -21,6 +21,7 @@ from .app import brick_app, nxt_app
 from .choices import one_of
 from .options import (
     SENSOR_NOISE_HELP,
+    MapName,
     check_writable,
     count,
     non_negative,
@@ -84,7 +85,7 @@ def _brick_pose(text: str | None, m: Map) -> Pose:
 
 @brick_app.command("serve")
 def brick_serve(
-    map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
+    map_name: MapName = "map1",
     pose_text: str | None = typer.Option(None, "--pose", metavar="X,Y,HEADING_DEG",
                                          help="True start pose (cm, cm, deg); default: the map's start, heading 0."),
     port: int = typer.Option(2727, "--port", help="TCP port (0 = any free port, printed at start).",

@@ -16,8 +16,16 @@ from .app import Interrupted, app, bench_app, fail
 from .choices import one_of
 from .compiling import compile_note, warm_up_planner
 from .options import (
-    COLLISION_HELP,
-    NOISE_MODEL_HELP,
+    Collision,
+    Dask,
+    Force,
+    JsonOut,
+    MapName,
+    NoiseModel,
+    OutFolder,
+    PluginSets,
+    Seed,
+    Workers,
     check_writable,
     count,
     non_negative,
@@ -25,13 +33,9 @@ from .options import (
     parse_xy,
     positive,
     writable_file,
-    writable_folder,
 )
-from .options import collision as collision_ok
 from .options import repeats as repeats_ok
-from .options import seed as seed_ok
 from .options import time_limit as time_limit_ok
-from .options import workers as workers_ok
 from .progress import progress
 from .set_options import checked_sets, parse_sets
 
@@ -63,31 +67,27 @@ def _to_builtin(obj: Any) -> Any:
 
 @app.command("plan")
 def plan(
-    map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
+    map_name: MapName = "map1",
     planner: str = typer.Option("min-turn", "--planner", help="Planner " + one_of("planner") + "."),
     start_text: str | None = typer.Option(None, "--start", metavar="X,Y", help="Start in cm (default: preset)."),
     goal_text: str | None = typer.Option(None, "--goal", metavar="X,Y", help="Goal in cm (default: preset)."),
-    seed: int = typer.Option(0, "--seed", help="Random seed of the planner and of the execution error.",
-                          callback=seed_ok),
+    seed: Seed = 0,
     time_limit: float = typer.Option(1.0, "--time-limit", metavar="SEC", help="Planning budget (s).",
                                      callback=time_limit_ok),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0: a point robot).",
                                  callback=non_negative),
-    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
-                                  callback=collision_ok),
+    collision: Collision = "index",
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives for the execution error (0 skips it)."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
+    noise_model: NoiseModel = "botsim",
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
                                      callback=non_negative),
     output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
                                 metavar="FILE.png", help="Figure to write."),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
-                                         metavar="FILE", help="Write path, metrics and status."),
-    sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
-                                   help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
+    json_out: JsonOut = None,
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
 ) -> None:
     """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
@@ -229,6 +229,7 @@ def _parse_budgets(text: str) -> tuple[float, ...]:
 
 @bench_app.command("planners")
 def bench_planners(
+    out: OutFolder,
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
     planners: str = typer.Option(",".join(DEFAULT_PLANNERS), "--planners",
                                  help="Comma-separated planners " + one_of("planner") + "."),
@@ -244,28 +245,23 @@ def bench_planners(
     progress_interval: float = typer.Option(0.01, "--progress-interval", metavar="SECONDS", callback=positive,
                                             help="Budget (s) between two best-cost samples of the anytime "
                                                  "planners (also sampled at every improvement)."),
-    seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it).", callback=seed_ok),
-    out: Path = typer.Option(..., "--out", callback=writable_folder,
-                             metavar="DIR", help="Output folder (must be new or empty)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),
-    workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
-                                    help="Run on a Dask cluster (tcp://host:8786) or 'local' (extra 'cluster')."),
+    seed: Seed = 0,
+    force: Force = False,
+    workers: Workers = 1,
+    dask: Dask = None,
     queries: str = typer.Option("presets", "--queries", help="presets (the map's start/target) or random."),
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives per run for the execution error (0 skips it)."),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0 = a point).",
                                  callback=non_negative),
-    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
-                                  callback=collision_ok),
-    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
+    collision: Collision = "index",
+    noise_model: NoiseModel = "botsim",
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
                                      callback=non_negative),
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
-    sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
-                                   help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
 ) -> None:
     """Benchmark planners on maps: runs.csv, progress.csv, paths.jsonl, summary.md, plots and an OMPL benchmark.log."""
     from ..bench.planners import (

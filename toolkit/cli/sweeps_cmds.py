@@ -13,9 +13,17 @@ from toolkit.world import NxtnavError
 
 from .app import bench_app
 from .interrupts import run_batch
-from .options import check_out_folder, parse_heading_prior, parse_list, shipped, writable_folder
+from .options import (
+    Dask,
+    Force,
+    OutFolder,
+    Workers,
+    check_out_folder,
+    parse_heading_prior,
+    parse_list,
+    shipped,
+)
 from .options import sonar_profile as load_profile
-from .options import workers as workers_ok
 
 
 def _seeds(text: str) -> list[int]:
@@ -44,11 +52,10 @@ def bench_sweeps(
         None, "--heading-prior", metavar="H:SD",
         help="The robot believes its heading is H degrees, give or take SD (the position stays unknown); "
              "default: global localisation, no heading known."),
-    out: Path = typer.Option(Path("out/sweeps"), "--out", callback=writable_folder,
-                             help="Output folder (must be empty or new, unless --force)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
+    out: OutFolder = Path("out/sweeps"),
+    force: Force = False,
+    workers: Workers = 1,
+    dask: Dask = None,
 ) -> None:
     """Global localisation from each real sweep alone: sweeps.csv and summary.md in --out."""
     from localisation.base import LOCALISERS
