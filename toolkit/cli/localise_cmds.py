@@ -35,7 +35,7 @@ from .options import (
     count,
     non_negative,
     parse_list,
-    parse_pose,
+    pose_on_map,
     sonar_profile,
     writable_file,
 )
@@ -109,10 +109,8 @@ def localise_cmd(
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
-    pose = parse_pose(pose_text, "--pose")
+    pose = pose_on_map(pose_text, "--pose", m)
     assert isinstance(pose, Pose)
-    if not m.contains(pose.xy):
-        raise NxtnavError(f"--pose: ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
                       localiser_options=localiser_sets(sets, [localiser]), sonar_model=profile)

@@ -10,7 +10,7 @@ import numpy as np
 import typer
 
 from ..formats import json_safe
-from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, load_map, make_checker
+from ..world import SONAR_MODELS, NxtnavError, NxtSonar, RobotGeometry, load_map, make_checker
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, app, fail
 from .choices import one_of
 from .interrupts import Batch, run_batch
@@ -35,9 +35,9 @@ from .options import (
     parse_floats,
     parse_heading_prior,
     parse_list,
-    parse_pose,
     parse_xy,
     port,
+    pose_on_map,
     positive,
     sonar_profile,
     writable_file,
@@ -243,12 +243,7 @@ def _sim_start(text: str | None, m: Any) -> Any:
     """The simulator's start from ``--start`` (a pose, or a position with a seeded heading), or None."""
     if text is None:
         return None
-    start = parse_pose(text, "--start", heading_required=False)
-    xy = start.xy if isinstance(start, Pose) else np.array(start)
-    if not m.contains(xy):
-        raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
-                                 param_hint="--start")
-    return start
+    return pose_on_map(text, "--start", m, heading_required=False)
 
 
 def _names(text: str, option: str, known: list[str]) -> list[str]:

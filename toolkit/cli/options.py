@@ -22,6 +22,8 @@ from .choices import one_of
 if TYPE_CHECKING:
     from localisation.base import HeadingPrior
 
+    from ..world import Map
+
 __all__ = [
     "COLLISION_HELP",
     "MAX_COUNT",
@@ -59,6 +61,7 @@ __all__ = [
     "parse_xy",
     "port",
     "port_or_zero",
+    "pose_on_map",
     "positive",
     "remove_created_folders",
     "repeats",
@@ -291,6 +294,24 @@ def parse_pose(text: str, option: str, heading_required: bool = True) -> Pose | 
     if len(values) == 2:
         return values[0], values[1]
     return Pose.from_deg(*values)
+
+
+def pose_on_map(text: str, option: str, m: Map, radius_cm: float | None = None,
+                heading_required: bool = True) -> Pose | tuple[float, float]:
+    """`parse_pose`, then a pose the robot can stand on: inside the free area of `m` and, with `radius_cm`,
+    a robot disc of that radius clear of its walls; every refusal is one line in one style
+    (``--pose: (500, 1) is outside the free area of map1``)."""
+    pose = parse_pose(text, option, heading_required)
+    x, y = (pose.x, pose.y) if isinstance(pose, Pose) else pose
+    if not m.contains((x, y)):
+        raise NxtnavError(f"{option}: ({x:g}, {y:g}) is outside the free area of {m.name}")
+    if radius_cm is not None:
+        from ..world import CollisionChecker
+
+        if not CollisionChecker(m, radius_cm).point_free((x, y)):
+            raise NxtnavError(f"{option}: a robot of radius {radius_cm:g} cm at ({x:g}, {y:g}) touches a wall "
+                              f"of {m.name}")
+    return pose
 
 
 def parse_heading_prior(text: str | None, option: str) -> HeadingPrior | None:

@@ -13,7 +13,6 @@ from rich.table import Table
 from ..robots.sim import simulated_sonar
 from ..world import (
     SONAR_MODELS,
-    CollisionChecker,
     Pose,
     RobotGeometry,
     default_scan_angles,
@@ -33,8 +32,8 @@ from .options import (
     check_writable,
     count,
     non_negative,
-    parse_pose,
     parse_sweep,
+    pose_on_map,
     sonar_profile,
     writable_file,
 )
@@ -126,15 +125,9 @@ def scan(
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
-    pose = parse_pose(pose_text, "--pose")
+    pose = pose_on_map(pose_text, "--pose", m, radius)
     assert isinstance(pose, Pose)
-    if not m.contains(pose.xy):
-        raise typer.BadParameter(f"pose ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
-                                 param_hint="--pose")
     geometry = RobotGeometry() if radius is None else RobotGeometry(radius_cm=radius)
-    if radius is not None and not CollisionChecker(m, radius).point_free(pose.xy):
-        raise typer.BadParameter(f"a robot of radius {radius:g} cm at ({pose.x:g}, {pose.y:g}) touches a wall of "
-                                 f"{m.name}", param_hint="--pose")
     model = simulated_sonar(sonar if profile is None else profile, sensor_noise)
     # the default full turn keeps its exact angles (k * 2 pi / 360); any other sweep is built as a real one
     default = angles_text is None and direction == "ccw"
