@@ -93,3 +93,27 @@ def test_a_file_that_is_no_configuration_is_one_line(content: str, words: str, t
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--config" in err[0] and words in err[0], err
     assert not (tmp_path / "out.json").exists()
+
+
+def test_plan_and_the_localiser_benchmark_run_again_from_their_outputs(tmp_path: Path) -> None:
+    first, again = tmp_path / "p.json", tmp_path / "q.json"
+    assert run_cli(["plan", "--planner", "rrtstar", "--time-limit", "0.2", "--seed", "3", "--set", "rrtstar.range=20",
+                    "--exec-repeats", "0", "-o", str(tmp_path / "p.png"), "--json", str(first)]) == 0
+    assert run_cli(["plan", "--config", str(first), "-o", str(tmp_path / "q.png"), "--json", str(again)]) == 0
+    a, b = json.loads(first.read_text()), json.loads(again.read_text())
+    assert a["configuration"]["set"] == ["rrtstar.range=20"] and a["configuration"]["options"]["seed"] == 3
+    assert b["configuration"] == a["configuration"] and b["path"] == a["path"]
+    bench, bench_again = tmp_path / "b", tmp_path / "c"
+    assert run_cli(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "1",
+                    "--set", "n_particles=300", "--out", str(bench)]) == 0
+    conf = json.loads((bench / "config.json").read_text())["configuration"]
+    assert conf["command"] == "bench localisers" and conf["set"] == ["n_particles=300"]
+    assert run_cli(["bench", "localisers", "--config", str(bench / "config.json"), "--out", str(bench_again)]) == 0
+    columns = ("map", "localiser", "trial", "seed", "success", "error_cm", "heading_error_deg")
+
+    def rows(folder: Path) -> list[tuple[str, ...]]:
+        lines = [line.split(",") for line in (folder / "runs.csv").read_text().splitlines()]
+        keep = [lines[0].index(c) for c in columns]
+        return [tuple(line[i] for i in keep) for line in lines[1:]]
+
+    assert rows(bench_again) == rows(bench) and len(rows(bench)) == 1

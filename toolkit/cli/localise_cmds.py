@@ -19,6 +19,7 @@ from .interrupts import Batch, run_batch
 from .options import (
     SENSOR_NOISE_HELP,
     SONAR_PROFILE_HELP,
+    ConfigFile,
     Dask,
     Force,
     JsonOut,
@@ -39,6 +40,7 @@ from .options import (
     sonar_profile,
     writable_file,
 )
+from .run_config import configuration, given_sets
 from .set_options import localiser_sets
 
 __all__: list[str] = []
@@ -77,6 +79,7 @@ def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
 
 @app.command("localise")
 def localise_cmd(
+    ctx: typer.Context,
     map_name: MapName = "map1",
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="True start pose (cm, cm, deg)."),
     localiser: str = typer.Option("paper-pf", "--localiser", help="Localiser " + one_of("localiser") + "."),
@@ -90,6 +93,7 @@ def localise_cmd(
     radius: Radius = None,
     seed: Seed = 0,
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
     output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
                                        help="Draw the particles per iteration."),
     json_out: JsonOut = None,
@@ -113,7 +117,7 @@ def localise_cmd(
     assert isinstance(pose, Pose)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
-                      localiser_options=localiser_sets(sets, [localiser]), sonar_model=profile)
+                      localiser_options=localiser_sets(given_sets(ctx, sets), [localiser]), sonar_model=profile)
     out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
     candidates = candidate_poses(loc)
     if candidates:  # the mean of several modes means nothing: name the candidates instead
@@ -127,7 +131,8 @@ def localise_cmd(
     if json_out is not None:
         doc = {"map": m.name, "localiser": localiser, "sonar": sonar, "sonar_model": cfg.simulated_sonar.to_dict(),
                "seed": seed, **out.to_dict(),
-               "ambiguous": bool(candidates), "candidates": [c.to_list_deg() for c in candidates]}
+               "ambiguous": bool(candidates), "candidates": [c.to_list_deg() for c in candidates],
+               "configuration": configuration(ctx, sets)}
         json_out.write_text(json.dumps(doc, indent=1))
         typer.echo(f"wrote {json_out}")
     if output is not None:
@@ -179,6 +184,7 @@ def _bench_command(maps: list[str], locs: list[str], trials: int, sonar: str, so
 
 @bench_app.command("localisers")
 def bench_localisers(
+    ctx: typer.Context,
     out: OutFolder,
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps."),
     localisers_text: str = typer.Option("all", "--localisers",
@@ -204,6 +210,7 @@ def bench_localisers(
     radius: Radius = None,
     seed: Seed = 0,
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
     force: Force = False,
     workers: Workers = 1,
     dask: Dask = None,
@@ -222,7 +229,7 @@ def bench_localisers(
     profile = sonar_profile(sonar_profile_path, sonar)
     scenarios = _scenarios(scenario)
     _check_bench_numbers(exploration, trials, workers, sensor_noise, out, force)
-    options = localiser_sets(sets, locs)
+    options = localiser_sets(given_sets(ctx, sets), locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
                       exploration=exploration, lobe=lobe, robot_radius_cm=radius, localiser_options=options,
@@ -245,7 +252,8 @@ def bench_localisers(
     (out / "config.json").write_text(json.dumps({"maps": maps, "localisers": locs, "trials": trials, "seed": seed,
                                                  "scenarios": scenarios, "complete": not interrupted,
                                                  "trials_done": len(results), "trials_planned": len(tasks),
-                                                 **cfg.to_dict()}, indent=1, default=str))
+                                                 **cfg.to_dict(), "configuration": configuration(ctx, sets)},
+                                                indent=1, default=str))
     summary = out / "summary.md"
     summary.write_text(batch.banner() + summary.read_text())
     typer.echo(summary.read_text())

@@ -144,7 +144,7 @@ def run(
     radius: Radius = None,
     collision: Collision = "index",
     sets: RunSets = [],  # noqa: B006 - typer reads the default, never mutates it
-    config: ConfigFile = None,
+    config_file: ConfigFile = None,
     option: OptionGone = None,
     json_out: JsonOut = None,
     plot: Path | None = typer.Option(None, "--plot", callback=writable_file,
@@ -348,7 +348,7 @@ def paper(
     random_start: bool = typer.Option(False, "--random-start",
                                       help="Start each trial from a seeded random free pose (>= 10 cm from walls)."),
     sets: RunSets = [],  # noqa: B006 - typer reads the default, never mutates it
-    config: ConfigFile = None,
+    config_file: ConfigFile = None,
     option: OptionGone = None,
     pareto: Path | None = typer.Option(None, "--pareto", callback=writable_file, metavar="FILE.png",
                                        help="Run every mission setting instead and draw mean final error "

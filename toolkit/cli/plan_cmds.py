@@ -17,6 +17,7 @@ from .choices import one_of
 from .compiling import compile_note, warm_up_planner
 from .options import (
     Collision,
+    ConfigFile,
     Dask,
     Force,
     JsonOut,
@@ -37,6 +38,7 @@ from .options import (
 from .options import repeats as repeats_ok
 from .options import time_limit as time_limit_ok
 from .progress import progress
+from .run_config import add_configuration, configuration, given_sets
 from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
@@ -67,6 +69,7 @@ def _to_builtin(obj: Any) -> Any:
 
 @app.command("plan")
 def plan(
+    ctx: typer.Context,
     map_name: MapName = "map1",
     planner: str = typer.Option("min-turn", "--planner", help="Planner " + one_of("planner") + "."),
     start_text: str | None = typer.Option(None, "--start", metavar="X,Y", help="Start in cm (default: preset)."),
@@ -88,6 +91,7 @@ def plan(
                                 metavar="FILE.png", help="Figure to write."),
     json_out: JsonOut = None,
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
 ) -> None:
     """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
@@ -100,7 +104,7 @@ def plan(
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
     nz = _noise(noise_model, motion_noise, turn_noise)
     check_planner_names([planner])
-    options = checked_sets(parse_sets(sets), [planner], planner_params, "planner").get(planner, {})
+    options = checked_sets(parse_sets(given_sets(ctx, sets)), [planner], planner_params, "planner").get(planner, {})
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -117,7 +121,7 @@ def plan(
     refs = _reference_paths(m, checker, start, goal)
     doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
                            "robot_radius_cm": radius, "collision": checker.backend, "start": start.tolist(),
-                           "goal": goal.tolist(), "warm_up_s": warm_up_s,
+                           "goal": goal.tolist(), "warm_up_s": warm_up_s, "configuration": configuration(ctx, sets),
                            **{k: v for k, v in result.to_dict().items() if k != "planner"}}
     fig, ax = new_axes(size=6.0)
     draw_map(m, ax, presets=False, title=False)
@@ -229,6 +233,7 @@ def _parse_budgets(text: str) -> tuple[float, ...]:
 
 @bench_app.command("planners")
 def bench_planners(
+    ctx: typer.Context,
     out: OutFolder,
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
     planners: str = typer.Option(",".join(DEFAULT_PLANNERS), "--planners",
@@ -262,6 +267,7 @@ def bench_planners(
                                      callback=non_negative),
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
 ) -> None:
     """Benchmark planners on maps: runs.csv, progress.csv, paths.jsonl, summary.md, plots and an OMPL benchmark.log."""
     from ..bench.planners import (
@@ -285,7 +291,7 @@ def bench_planners(
     check_planner_names(planner_list)
     from planners.declarations import planner_params
 
-    options = checked_sets(parse_sets(sets), planner_list, planner_params, "planner")
+    options = checked_sets(parse_sets(given_sets(ctx, sets)), planner_list, planner_params, "planner")
     for name in map_list:
         load_map(name)  # a bad map name fails before any work
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs,
@@ -303,6 +309,7 @@ def bench_planners(
     if not result.records:
         raise Interrupted("no planner run had finished; nothing written")
     files = write_results(result, out_dir, plots=plots)
+    add_configuration(out_dir / "config.json", configuration(ctx, sets))
     typer.echo((out_dir / "summary.md").read_text(encoding="utf-8"))
     typer.echo(f"wrote {len(files)} files to {out_dir} in {result.total_time_s:.1f} s")
     if not result.complete:

@@ -30,14 +30,15 @@ from ..world.yaml_text import YAMLError, load_yaml
 if TYPE_CHECKING:
     from ..mission import MissionConfig
 
-__all__ = ["SECTIONS", "configuration", "given_sets", "load_config", "mission_config", "mission_sets", "split_sets"]
+__all__ = ["SECTIONS", "add_configuration", "configuration", "dumps", "given_sets", "load_config",
+           "mission_config", "mission_sets", "split_sets"]
 
 SECTIONS = ("mission",)
 """The settings sections ``--set`` knows besides the plug-ins' names."""
 
 _NOT_CONFIGURATION = frozenset({
     "json_out", "plot", "animate", "record", "view", "view_save", "markdown", "pareto", "out", "output",
-    "force", "config", "sets", "dask", "workers"})
+    "force", "config_file", "sets", "dask", "workers"})
 """Parameters that say where results go or how they are computed, not what they are."""
 
 _META = "nxtnav.config.sets"
@@ -143,6 +144,12 @@ def load_config(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> A
     ctx.default_map = {**(ctx.default_map or {}), **conf["options"]}
     ctx.meta[_META] = sets
     return value
+
+
+def add_configuration(path: Path, conf: dict[str, Any]) -> None:
+    """Put `conf` into the JSON object the file `path` holds (a benchmark's ``config.json``)."""
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    path.write_text(json.dumps({**doc, "configuration": conf}, indent=1, default=str), encoding="utf-8")
 
 
 def dumps(doc: Any) -> str:
