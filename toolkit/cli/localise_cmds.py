@@ -18,7 +18,6 @@ from .choices import one_of
 from .interrupts import Batch, run_batch
 from .options import (
     SENSOR_NOISE_HELP,
-    SONAR_PROFILE_HELP,
     ConfigFile,
     Dask,
     Force,
@@ -27,9 +26,11 @@ from .options import (
     NoiseModel,
     OutFolder,
     PluginSets,
+    PngOut,
     Radius,
     Seed,
     Sonar,
+    SonarProfile,
     Workers,
     check_out_folder,
     check_writable,
@@ -38,7 +39,6 @@ from .options import (
     parse_list,
     pose_on_map,
     sonar_profile,
-    writable_file,
 )
 from .run_config import configuration, given_sets
 from .set_options import localiser_sets
@@ -85,7 +85,7 @@ def localise_cmd(
     localiser: str = typer.Option("paper-pf", "--localiser", help="Localiser " + one_of("localiser") + "."),
     sonar: Sonar = "ideal",
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
-    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
+    sonar_profile_path: SonarProfile = None,
     noise_model: NoiseModel = "botsim",
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior") + "."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
@@ -94,8 +94,7 @@ def localise_cmd(
     seed: Seed = 0,
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
     config_file: ConfigFile = None,
-    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
-                                       help="Draw the particles per iteration."),
+    output: PngOut = None,
     json_out: JsonOut = None,
 ) -> None:
     """Localise once in the simulator from a known true pose; print the result, draw it with -o."""
@@ -192,7 +191,7 @@ def bench_localisers(
     trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser.", callback=count),
     sonar: Sonar = "ideal",
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
-    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
+    sonar_profile_path: SonarProfile = None,
     noise_model: NoiseModel = "botsim",
     scenario: str = typer.Option("global", help="Scenarios " + one_of("scenario") + ": one, a comma list, or all."),
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior")

@@ -42,6 +42,7 @@ __all__ = [
     "OptionGone",
     "OutFolder",
     "PluginSets",
+    "PngOut",
     "Radius",
     "RunSets",
     "Seed",
@@ -399,6 +400,8 @@ JsonOut = Annotated[Path | None, typer.Option("--json", callback=writable_file, 
                                               help="Write the results as JSON.")]
 OutFolder = Annotated[Path, typer.Option("--out", callback=writable_folder,
                                          help="Output folder (must be empty or new, unless --force).")]
+PngOut = Annotated[Path | None, typer.Option("-o", "--output", callback=writable_file, metavar="FILE.png",
+                                             help="Draw the result into this PNG file.")]
 Force = Annotated[bool, typer.Option("--force", help="Write into a non-empty --out, replacing files.")]
 Seed = Annotated[int, typer.Option("--seed", callback=seed,
                                    help="Random seed (every random draw of the command derives from it).")]

@@ -10,7 +10,7 @@ import typer
 
 from ..formats import cell
 from .app import app
-from .options import JsonOut, PluginSets, Seed, parse_floats, parse_heading_prior, parse_list, shipped, writable_file
+from .options import JsonOut, PluginSets, PngOut, Seed, parse_floats, parse_heading_prior, parse_list, shipped
 from .progress import progress_after
 from .set_options import localiser_sets
 
@@ -43,8 +43,7 @@ def replay_cmd(
                                         help="Localisers to compare (default: the one used live)."),
     seed: Seed = 0,
     json_out: JsonOut = None,
-    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
-                                       help="Draw the estimates and their error (or agreement)."),
+    output: PngOut = None,
     initial_pose: str | None = typer.Option(
         None, "--initial-pose", metavar="X,Y,H[,SD_CM,SD_DEG]",
         help="Start every localiser here (cm, cm, degrees; spread default 10 cm, 5 degrees) instead of the "
