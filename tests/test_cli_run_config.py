@@ -25,10 +25,10 @@ def test_a_run_written_with_its_configuration_runs_again_from_it(tmp_path: Path)
                     "--json", str(first), "--record", str(rec)]) == 0
     doc = json.loads(first.read_text())
     conf = doc["configuration"]
-    assert conf["command"] == "run" and conf["options"]["seed"] == 4 and conf["options"]["map_name"] == "map1"
+    assert conf["command"] == "run" and conf["options"]["seed"] == 4 and conf["options"]["map"] == "map1"
     assert conf["mission"]["drive"]["move_step_cm"] == 25.0 and conf["mission"]["fix"]["rule"] == "always"
     assert conf["mission"]["localiser_options"] == {"n_particles": 400}
-    assert "json_out" not in conf["options"] and "record" not in conf["options"]
+    assert "json" not in conf["options"] and "record" not in conf["options"]
     header = json.loads(rec.read_text().splitlines()[0])
     assert header["configuration"] == conf
     # the same mission from the file alone; a setting read from the file is really applied
@@ -117,3 +117,14 @@ def test_plan_and_the_localiser_benchmark_run_again_from_their_outputs(tmp_path:
         return [tuple(line[i] for i in keep) for line in lines[1:]]
 
     assert rows(bench_again) == rows(bench) and len(rows(bench)) == 1
+
+
+def test_a_hand_written_configuration_names_options_as_the_command_line_does(tmp_path: Path) -> None:
+    conf, out = tmp_path / "mission.yaml", tmp_path / "m.json"
+    conf.write_text("command: run\noptions:\n  map: map2\n  seed: 5\n  noise-model: absolute\n"
+                    "set: [mission.fix.rule=always]\n")
+    assert run_cli(["run", "--config", str(conf), "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert (doc["map"], doc["seed"]) == ("map2", 5)
+    assert doc["configuration"]["options"]["noise-model"] == "absolute"
+    assert doc["configuration"]["mission"]["fix"]["rule"] == "always"

@@ -101,10 +101,18 @@ def _command(ctx: typer.Context) -> str:
     return ctx.command_path.removeprefix(f"{ctx.find_root().info_name} ").strip()
 
 
+def _flags(ctx: typer.Context) -> dict[str, str]:
+    """Each option of the command `ctx` runs by its long name without dashes (``map``), to its parameter."""
+    return {max(p.opts, key=len).lstrip("-"): p.name for p in ctx.command.params
+            if p.name is not None and p.opts and p.name not in _NOT_CONFIGURATION}
+
+
 def configuration(ctx: typer.Context, sets: list[str], **extra: Any) -> dict[str, Any]:
     """The effective configuration of the command `ctx` runs: its name, every option that shapes the result
-    (as typed, after the ``--config`` file's), the whole ``--set`` list and `extra` (the mission settings)."""
-    options = {k: _plain(v) for k, v in ctx.params.items() if k not in _NOT_CONFIGURATION and v is not None}
+    by its name on the command line (``map``, ``noise-model``; as typed, after the ``--config`` file's), the
+    whole ``--set`` list and `extra` (the mission settings)."""
+    options = {flag: _plain(ctx.params[name]) for flag, name in _flags(ctx).items()
+               if ctx.params.get(name) is not None}
     return {"command": _command(ctx), "options": options, "set": given_sets(ctx, sets), **extra}
 
 
@@ -134,14 +142,14 @@ def load_config(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> A
     command = _command(ctx)
     if conf["command"] != command:
         raise typer.BadParameter(f"{path} configures 'nxtnav {conf['command']}', not 'nxtnav {command}'")
-    known = {p.name for p in ctx.command.params}
-    unknown = sorted(k for k in conf["options"] if k not in known or k in _NOT_CONFIGURATION)
+    flags = _flags(ctx)
+    unknown = sorted(k for k in conf["options"] if k.lstrip("-") not in flags)
     if unknown:
         raise typer.BadParameter(f"{path}: options of no 'nxtnav {command}': {', '.join(unknown)}")
     sets = conf.get("set", [])
     if not (isinstance(sets, list) and all(isinstance(s, str) for s in sets)):
         raise typer.BadParameter(f"{path}: set must be a list of KEY=VALUE texts, got {sets!r}")
-    ctx.default_map = {**(ctx.default_map or {}), **conf["options"]}
+    ctx.default_map = {**(ctx.default_map or {}), **{flags[k.lstrip("-")]: v for k, v in conf["options"].items()}}
     ctx.meta[_META] = sets
     return value
 
