@@ -90,11 +90,15 @@ def test_run_target_in_wall_reports_it(tmp_path: Path, capsys: pytest.CaptureFix
     ["paper", "--stack", "min-turn/nope"],
     ["paper", "--sonar", "radar"],
     ["paper", "--sonar", "ideal,radar"],
-    ["paper", "--option", "no_such_option=1"],
-    ["paper", "--option", "fix.rule=never"],
-    ["paper", "--option", "fix_rule=always"],
-    ["paper", "--option", "fix.habit=1"],
-    ["paper", "--option", "track_scan_step_deg"],
+    ["paper", "--set", "mission.no_such_option=1"],
+    ["paper", "--set", "mission.fix.rule=never"],
+    ["paper", "--set", "mission.fix_rule=always"],
+    ["paper", "--set", "mission.fix.habit=1"],
+    ["paper", "--set", "mission.sweeps.track_scan_step_deg"],
+    ["paper", "--set", "paper-pf.n_particles=300"],
+    ["run", "--set", "mission.drive.max_legs=1.5"],
+    ["run", "--set", "mission=1"],
+    ["run", "--set", "amcl.min_particles=50"],
     ["paper", "--pareto", "x.png", "--settings", "no-such-setting"],
 ])
 def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
@@ -103,13 +107,20 @@ def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str])
     assert "Traceback" not in err and err.strip()
 
 
-def test_mission_options_read_exponents() -> None:
-    """`--option` values are YAML, with Python's number syntax where YAML 1.1 leaves a text (1e1)."""
-    from toolkit.cli.mission_cmds import _parse_options
+def test_mission_settings_read_exponents() -> None:
+    """``--set mission.`` values are YAML, with Python's number syntax where YAML 1.1 leaves a text (1e1)."""
+    from toolkit.cli.run_config import mission_config
 
-    got = _parse_options(["drive.move_step_cm=1e1", "fix.check_turn_deg=2.5E1", "sweeps.track_windows=sides"])
-    assert got == {"drive.move_step_cm": 10.0, "fix.check_turn_deg": 25.0, "sweeps.track_windows": "sides"}
-    assert MissionConfig().with_options(**got).drive.move_step_cm == 10.0
+    got = mission_config("ideal", ["mission.drive.move_step_cm=1e1", "mission.fix.check_turn_deg=2.5E1",
+                                   "mission.sweeps.track_windows=axes"])
+    assert (got.drive.move_step_cm, got.fix.check_turn_deg, got.sweeps.track_windows) == (10.0, 25.0, "axes")
+    assert got.drive.model_copy(update={"move_step_cm": 10.0}) == MissionConfig().drive
+
+
+def test_option_is_gone_and_names_set(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli(["paper", "--option", "fix.rule=always"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--option" in err[0] and "--set mission." in err[0]
 
 
 def test_paper_json_shape(tmp_path: Path) -> None:

@@ -1,7 +1,7 @@
 """How far the fixes of paper missions lie from the truth, per kind of fix, and where the robot time goes.
 
 Usage: ``python tools/fix_errors.py [--sonar nxt] [--trials 10] [--seed 4] [--noise-model botsim]
-[--option KEY=VALUE ...]``
+[--set mission.GROUP.FIELD=VALUE ...]`` (the mission settings `nxtnav paper --set` takes)
 
 Runs the trials `nxtnav paper` runs (same seeds, `toolkit.bench.paper.paper_tasks`) on maps 1-3 and
 reads each mission's trace against the simulator's truth. Prints, per map and kind of fix (global
@@ -23,6 +23,7 @@ import numpy as np
 
 from toolkit.bench.paper import paper_tasks
 from toolkit.mission import MissionConfig, MissionReport, run_sim_mission
+from toolkit.world.typed import parse_value
 
 FIX_ACTIONS = ("localise", "relocalise", "check-heading")
 MAPS = ("map1", "map2", "map3")
@@ -65,10 +66,10 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=10)
     ap.add_argument("--seed", type=int, default=4)
     ap.add_argument("--noise-model", default="botsim", choices=("botsim", "absolute"))
-    ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                    help="a MissionConfig option (numbers as numbers, 'none' as None)")
+    ap.add_argument("--set", action="append", default=[], metavar="mission.GROUP.FIELD=VALUE",
+                    help="a mission setting, as nxtnav paper --set takes it (values read as YAML)")
     args = ap.parse_args()
-    options = dict(_option(text) for text in args.option)
+    options = dict(_setting(text) for text in args.set)
     config = MissionConfig.for_sonar(args.sonar, **options)
     tasks = paper_tasks(args.trials, args.seed, noise_models=(args.noise_model,), sonar=args.sonar)
     for name in MAPS:
@@ -102,18 +103,11 @@ def main() -> None:
         print()
 
 
-def _option(text: str) -> tuple[str, object]:
+def _setting(text: str) -> tuple[str, object]:
     key, sep, value = text.partition("=")
-    if not sep:
-        raise SystemExit(f"fix_errors: error: --option {text!r}: give KEY=VALUE")
-    if value.lower() == "none":
-        return key, None
-    for kind in (int, float):
-        try:
-            return key, kind(value)
-        except ValueError:
-            pass
-    return key, value
+    if not sep or not key.startswith("mission."):
+        raise SystemExit(f"fix_errors: error: --set {text!r}: give mission.GROUP.FIELD=VALUE")
+    return key.removeprefix("mission."), parse_value(value)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,8 @@
 
 Prints every deterministic field that differs (path, before, after) and exits 1 when any does, 0 when
 the two runs agree. Wall-clock and CPU fields (`completion_*`, `cpu_*`) are skipped: they change from
-run to run; robot time is simulated and is compared.
+run to run; robot time is simulated and is compared. Each table's ``configuration`` (the command that
+made it) is skipped too.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from pathlib import Path
 from typing import Any
 
 WALL_CLOCK = ("completion_s", "completion_median_s", "completion_max_s", "cpu_s", "cpu_median_s")
+RECORD_OF_THE_RUN = "configuration"
+"""Each table's record of the command that made it (`toolkit.cli.run_config`): how it ran, not what it found."""
 
 
 def leaves(obj: Any, path: str = "") -> Iterator[tuple[str, Any]]:
@@ -35,7 +38,7 @@ def differences(before: Any, after: Any) -> list[tuple[str, Any, Any]]:
     a, b = dict(leaves(before)), dict(leaves(after))
     out = []
     for key in sorted(a.keys() | b.keys()):
-        if key.rsplit("/", 1)[-1] in WALL_CLOCK:
+        if key.rsplit("/", 1)[-1] in WALL_CLOCK or f"/{RECORD_OF_THE_RUN}/" in f"{key}/":
             continue
         if a.get(key, "<missing>") != b.get(key, "<missing>"):
             out.append((key, a.get(key, "<missing>"), b.get(key, "<missing>")))

@@ -10,12 +10,21 @@ from typing import Any
 import typer
 
 from ..number_format import json_safe
-from .app import Interrupted, bench_app
+from .app import bench_app
 from .choices import one_of
-from .options import check_writable, count, non_negative, parse_list, positive, writable_file, writable_folder
-from .options import seed as seed_ok
-from .options import workers as workers_ok
-from .progress import progress
+from .interrupts import run_batch
+from .options import (
+    Dask,
+    JsonOut,
+    Seed,
+    Workers,
+    check_writable,
+    count,
+    non_negative,
+    parse_list,
+    positive,
+    writable_folder,
+)
 
 __all__: list[str] = []
 
@@ -24,28 +33,24 @@ __all__: list[str] = []
 def bench_faults(
     missions: int = typer.Option(20, "--missions", help="Missions to run (each also once without faults).",
                                  callback=count),
-    seed: int = typer.Option(0, "--seed", help="Seed of the campaign (missions, faults, bricks).", callback=seed_ok),
+    seed: Seed = 0,
     kinds_text: str | None = typer.Option(
         None, "--faults", metavar="KIND[,KIND]",
         help="Fault kinds to draw from " + one_of("fault kind") + " (default all)."),
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Maps, taken in turn."),
-    workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
-                                    help="Dask scheduler address, or local (each mission and its brick run on a "
-                                         "worker; --recordings then names a folder on the workers)."),
+    workers: Workers = 1,
+    dask: Dask = None,
     reconnect_timeout: float = typer.Option(30.0, "--reconnect-timeout", metavar="S", callback=non_negative,
                                             help="How long a mission tries to reach its brick again (s)."),
     reply_timeout: float = typer.Option(3.0, "--reply-timeout", metavar="S", callback=positive,
                                         help="A reply later than this counts as a lost link (s)."),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
-                                         metavar="FILE", help="Write the summary and every mission."),
+    json_out: JsonOut = None,
     recordings: Path | None = typer.Option(None, "--recordings", callback=writable_folder, metavar="DIR",
                                            help="Keep each faulty mission's recording here (default: checked, "
                                                 "then deleted)."),
 ) -> None:
     """Missions with random faults on virtual bricks: success, collisions, faults seen and recovered,
     extra robot time, motors left running, recordings replayed."""
-    from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.faults import FAULT_KINDS, fault_tasks, run_fault_task, summarise
     from ..world import load_map
 
@@ -57,11 +62,7 @@ def bench_faults(
             raise typer.BadParameter(f"map {name} has no start and target presets", param_hint="--maps")
     check_writable(json_out, "--json")
     tasks = fault_tasks(missions, seed, kinds, maps, reconnect_timeout, reply_timeout, recordings)
-    with progress("missions", len(tasks)) as advance:
-        try:
-            results = collect_tasks(run_fault_task, tasks, workers=workers, dask_address=dask, on_done=advance)
-        except TasksInterrupted as exc:
-            raise Interrupted(f"after {len(exc.results)} of {len(tasks)} missions; nothing written") from None
+    results = run_batch(run_fault_task, tasks, "missions", workers=workers, dask=dask, keep_partial=False).results
     results.sort(key=lambda r: r.index)
     summary = summarise(results)
     _print(summary)

@@ -22,7 +22,7 @@ from ..world import NxtnavError
 from .app import app, main
 from .choices import one_of
 from .figure_jobs import FIGURE_JOBS, SCREENSHOTS, FigureJob, figure_names
-from .options import parse_list, writable_folder
+from .options import OutFolder, parse_list
 
 __all__ = ["FIGURE_JOBS", "SCREENSHOTS", "FigureJob", "figure_names", "run_job", "shrink_png"]
 
@@ -69,8 +69,7 @@ def _index(jobs: Sequence[FigureJob], quick: bool) -> str:
 
 @app.command("figures")
 def figures(
-    out: Path = typer.Option(Path("docs/img"), "--out", callback=writable_folder,
-                             metavar="DIR", help="Folder of the figures."),
+    out: OutFolder = Path("docs/img"),
     quick: bool = typer.Option(False, "--quick", help="Reduced setting (fewer runs and trials): for tests."),
     only: str | None = typer.Option(None, "--only", metavar="NAMES",
                                     help="Comma-separated jobs " + one_of("figure job") + "."),

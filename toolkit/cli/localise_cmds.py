@@ -13,25 +13,34 @@ import typer
 
 from toolkit.world import SONAR_MODELS, NxtnavError, Pose, load_map
 
-from .app import Interrupted, app, bench_app
+from .app import app, bench_app
 from .choices import one_of
+from .interrupts import Batch, run_batch
 from .options import (
-    NOISE_MODEL_HELP,
     SENSOR_NOISE_HELP,
-    SONAR_PROFILE_HELP,
+    ConfigFile,
+    Dask,
+    Force,
+    JsonOut,
+    MapName,
+    NoiseModel,
+    OutFolder,
+    PluginSets,
+    PngOut,
+    Radius,
+    Seed,
+    Sonar,
+    SonarProfile,
+    Workers,
     check_out_folder,
     check_writable,
     count,
     non_negative,
     parse_list,
-    parse_pose,
+    pose_on_map,
     sonar_profile,
-    writable_file,
-    writable_folder,
 )
-from .options import seed as seed_ok
-from .options import workers as workers_ok
-from .progress import progress
+from .run_config import configuration, given_sets
 from .set_options import localiser_sets
 
 __all__: list[str] = []
@@ -70,23 +79,23 @@ def _check_construction(m: Any, options: dict[str, dict[str, Any]]) -> None:
 
 @app.command("localise")
 def localise_cmd(
-    map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
+    ctx: typer.Context,
+    map_name: MapName = "map1",
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="True start pose (cm, cm, deg)."),
     localiser: str = typer.Option("paper-pf", "--localiser", help="Localiser " + one_of("localiser") + "."),
-    sonar: str = typer.Option("ideal", help="Simulated sonar " + one_of("sonar") + "."),
+    sonar: Sonar = "ideal",
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
-    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    noise_model: str = typer.Option("botsim", help=NOISE_MODEL_HELP),
+    sonar_profile_path: SonarProfile = None,
+    noise_model: NoiseModel = "botsim",
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior") + "."),
     scan_processing: str = typer.Option("paper", help="Scans for the localiser: paper (processed) or raw."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
-    radius: float | None = typer.Option(None, "--radius", min=0.1,
-                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
-    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
-    sets: list[str] = typer.Option([], "--set", metavar="KEY=VALUE", help="Localiser option (repeatable)."),
-    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
-                                       help="Draw the particles per iteration."),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the result as JSON."),
+    radius: Radius = None,
+    seed: Seed = 0,
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
+    output: PngOut = None,
+    json_out: JsonOut = None,
 ) -> None:
     """Localise once in the simulator from a known true pose; print the result, draw it with -o."""
     from localisation import candidate_poses, describe_candidates
@@ -103,13 +112,11 @@ def localise_cmd(
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
-    pose = parse_pose(pose_text, "--pose")
+    pose = pose_on_map(pose_text, "--pose", m)
     assert isinstance(pose, Pose)
-    if not m.contains(pose.xy):
-        raise NxtnavError(f"--pose: ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}")
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
-                      localiser_options=localiser_sets(sets, [localiser]), sonar_model=profile)
+                      localiser_options=localiser_sets(given_sets(ctx, sets), [localiser]), sonar_model=profile)
     out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
     candidates = candidate_poses(loc)
     if candidates:  # the mean of several modes means nothing: name the candidates instead
@@ -123,7 +130,8 @@ def localise_cmd(
     if json_out is not None:
         doc = {"map": m.name, "localiser": localiser, "sonar": sonar, "sonar_model": cfg.simulated_sonar.to_dict(),
                "seed": seed, **out.to_dict(),
-               "ambiguous": bool(candidates), "candidates": [c.to_list_deg() for c in candidates]}
+               "ambiguous": bool(candidates), "candidates": [c.to_list_deg() for c in candidates],
+               "configuration": configuration(ctx, sets)}
         json_out.write_text(json.dumps(doc, indent=1))
         typer.echo(f"wrote {json_out}")
     if output is not None:
@@ -175,14 +183,16 @@ def _bench_command(maps: list[str], locs: list[str], trials: int, sonar: str, so
 
 @bench_app.command("localisers")
 def bench_localisers(
+    ctx: typer.Context,
+    out: OutFolder,
     maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps."),
     localisers_text: str = typer.Option("all", "--localisers",
                                         help="Comma-separated localisers " + one_of("localiser") + ", or all."),
     trials: int = typer.Option(20, help="Trials (random true poses) per map and localiser.", callback=count),
-    sonar: str = typer.Option("ideal", help="Simulated sonar " + one_of("sonar") + "."),
+    sonar: Sonar = "ideal",
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
-    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    noise_model: str = typer.Option("botsim", help=NOISE_MODEL_HELP),
+    sonar_profile_path: SonarProfile = None,
+    noise_model: NoiseModel = "botsim",
     scenario: str = typer.Option("global", help="Scenarios " + one_of("scenario") + ": one, a comma list, or all."),
     tracker_prior: str = typer.Option("noisy-truth", help="Prior of the EKF/UKF " + one_of("tracker prior")
                                       + " (pf: paper-pf's "
@@ -196,20 +206,16 @@ def bench_localisers(
                                                   + ": modes (a mission's: safe from every candidate pose) "
                                                   "or scan (toward the longest free run of the last sweep)."),
     lobe: str = typer.Option("auto", help="auto: localisers that can model it get the sonar's lobe; off: thin ray."),
-    radius: float | None = typer.Option(None, "--radius", min=0.1,
-                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
-    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
-    sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
-                                   help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
-    out: Path = typer.Option(..., "--out", callback=writable_folder,
-                             help="Output folder (must be empty or new, unless --force)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
+    radius: Radius = None,
+    seed: Seed = 0,
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
+    force: Force = False,
+    workers: Workers = 1,
+    dask: Dask = None,
 ) -> None:
     """Benchmark localisers on random true poses: runs.csv, summary.md and plots in --out."""
 
-    from ..bench.executors import TasksInterrupted, collect_tasks
     from ..bench.localisers import FILES, BenchConfig, TrialResult, make_tasks, run_trial, write_csv, write_summary
     from ..bench.localisers.plots import write_plots
 
@@ -222,7 +228,7 @@ def bench_localisers(
     profile = sonar_profile(sonar_profile_path, sonar)
     scenarios = _scenarios(scenario)
     _check_bench_numbers(exploration, trials, workers, sensor_noise, out, force)
-    options = localiser_sets(sets, locs)
+    options = localiser_sets(given_sets(ctx, sets), locs)
     cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
                       tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
                       exploration=exploration, lobe=lobe, robot_radius_cm=radius, localiser_options=options,
@@ -230,16 +236,10 @@ def bench_localisers(
     _check_construction(load_map(maps[0]), options)
     tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
     out.mkdir(parents=True, exist_ok=True)
-    results: list[TrialResult] = []
     t0 = time.perf_counter()
-    interrupted = False
-    with progress(f"{', '.join(scenarios)} on {', '.join(maps)}", len(tasks)) as advance:
-        try:
-            results = collect_tasks(run_trial, tasks, workers=workers, dask_address=dask, on_done=advance)
-        except TasksInterrupted as exc:  # keep what finished; the files say they are incomplete
-            results, interrupted = list(exc.results), True
-            if not results:
-                raise Interrupted(f"no trial had finished (of {len(tasks)}); nothing written") from None
+    batch: Batch[TrialResult] = run_batch(run_trial, tasks, "trials", label=f"{', '.join(scenarios)} on "
+                                          f"{', '.join(maps)}", workers=workers, dask=dask)
+    results, interrupted = batch.results, not batch.complete
     wall = time.perf_counter() - t0
     written = [write_csv(results, out / FILES[s], s) for s in scenarios]
     command = _bench_command(maps, locs, trials, sonar, sonar_profile_path, scenarios, seed, tracker_prior,
@@ -251,12 +251,10 @@ def bench_localisers(
     (out / "config.json").write_text(json.dumps({"maps": maps, "localisers": locs, "trials": trials, "seed": seed,
                                                  "scenarios": scenarios, "complete": not interrupted,
                                                  "trials_done": len(results), "trials_planned": len(tasks),
-                                                 **cfg.to_dict()}, indent=1, default=str))
-    if interrupted:
-        summary = out / "summary.md"
-        summary.write_text(f"**INCOMPLETE**: interrupted after {len(results)} of {len(tasks)} trials; the tables "
-                           "below cover only the finished trials.\n\n" + summary.read_text())
-    typer.echo((out / "summary.md").read_text())
+                                                 **cfg.to_dict(), "configuration": configuration(ctx, sets)},
+                                                indent=1, default=str))
+    summary = out / "summary.md"
+    summary.write_text(batch.banner() + summary.read_text())
+    typer.echo(summary.read_text())
     typer.echo(f"wrote {', '.join(str(p) for p in written)} ({len(results)} trials in {wall:.1f} s)")
-    if interrupted:
-        raise Interrupted(f"{len(results)} of {len(tasks)} trials done; partial results (marked incomplete) in {out}")
+    batch.finish(f"partial results (marked incomplete) in {out}")

@@ -4,36 +4,45 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import typer
 
 from ..number_format import json_safe
-from ..world import SONAR_MODELS, NxtnavError, NxtSonar, Pose, RobotGeometry, load_map, make_checker
-from .app import EXIT_BAD_INPUT, EXIT_FAILED, Interrupted, app, fail
+from ..world import SONAR_MODELS, NxtnavError, NxtSonar, RobotGeometry, load_map, make_checker
+from .app import EXIT_BAD_INPUT, EXIT_FAILED, app, fail
 from .choices import one_of
+from .interrupts import Batch, run_batch
 from .options import (
-    COLLISION_HELP,
-    NOISE_MODEL_HELP,
-    SONAR_PROFILE_HELP,
+    Collision,
+    ConfigFile,
+    Dask,
+    JsonOut,
+    MapList,
+    MapName,
+    NoiseModel,
+    OptionGone,
+    Radius,
+    RunSets,
+    Seed,
+    SonarProfile,
+    Workers,
     check_writable,
     count,
     non_negative,
     parse_floats,
     parse_heading_prior,
     parse_list,
-    parse_pose,
     parse_xy,
     port,
+    pose_on_map,
     positive,
     sonar_profile,
     writable_file,
 )
-from .options import collision as collision_ok
-from .options import seed as seed_ok
-from .options import workers as workers_ok
 from .progress import progress
+from .run_config import configuration, dumps, given_sets, mission_config
 from .run_parts import RunOutputs, Stack, mission_on_nxt, mission_on_sim
 
 __all__: list[str] = []
@@ -109,7 +118,8 @@ def _check_kinds(robot_kind: str, sonar: str, noise_model: str, nxt_backend: str
 
 @app.command("run")
 def run(
-    map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
+    ctx: typer.Context,
+    map_name: MapName = "map1",
     start_text: str | None = typer.Option(
         None, "--start", metavar="X,Y[,HEADING_DEG]",
         help="True start (simulator): default the map's preset with a seeded random heading."),
@@ -123,22 +133,21 @@ def run(
     planner: str = typer.Option("min-turn", help="Planner " + one_of("planner") + "."),
     localiser: str = typer.Option("paper-pf", help="Localiser " + one_of("localiser") + "."),
     robot_kind: str = typer.Option("sim", "--robot", help="sim or nxt."),
-    sonar: str = typer.Option("ideal", help="Sonar model of the simulator " + one_of("sonar") + ", or sweeps:DIR: "
-                                            "real sweeps at a sweep set's waypoints (the course's challenge)."),
-    sonar_profile_path: Path | None = typer.Option(
-        None, "--sonar-profile", metavar="FILE",
-        help=SONAR_PROFILE_HELP + " With --robot nxt: the real sensor's model, for the localiser."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
+    sonar: Annotated[str, typer.Option(help="Sonar model of the simulator " + one_of("sonar") + ", or "
+                                       "sweeps:DIR: real sweeps at a sweep set's waypoints (the course's "
+                                       "challenge).")] = "ideal",
+    sonar_profile_path: SonarProfile = None,
+    noise_model: NoiseModel = "botsim",
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="Noise of the ideal sonar (cm; the nxt sonar's comes from its model), "
                                         "motion noise, turn noise (the paper's by default)."),
-    seed: int = typer.Option(0, help="Random seed (start heading, simulator noise, stack).", callback=seed_ok),
-    radius: float | None = typer.Option(None, "--radius", min=0.1,
-                                        help="Simulated robot's radius (cm; default 8): a robot scaled to the map."),
-    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
-                                  callback=collision_ok),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
-                                         metavar="FILE", help="Write the report as JSON."),
+    seed: Seed = 0,
+    radius: Radius = None,
+    collision: Collision = "index",
+    sets: RunSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
+    option: OptionGone = None,
+    json_out: JsonOut = None,
     plot: Path | None = typer.Option(None, "--plot", callback=writable_file,
                                      metavar="FILE.png", help="Draw the mission."),
     animate: Path | None = typer.Option(None, "--animate", callback=writable_file,
@@ -183,8 +192,11 @@ def run(
     _check_kinds(robot_kind, sonar, noise_model, nxt_backend)
     sensor_noise, motion_noise, turn_noise = _noise(noise_text)
     start_heading = parse_heading_prior(start_heading_text, "--start-heading")
-    fitted_sonar = sonar_profile(sonar_profile_path, "nxt" if robot_kind == "nxt" else sonar)
-    outputs = RunOutputs(record, record_particles, view, view_save, json_out, plot, animate)
+    named = "nxt" if robot_kind == "nxt" else sonar
+    fitted_sonar = sonar_profile(sonar_profile_path, named)
+    mission = _run_mission_config(named, planner, localiser, collision, given_sets(ctx, sets))
+    configured = configuration(ctx, sets, mission=mission.to_dict())
+    outputs = RunOutputs(record, record_particles, view, view_save, json_out, plot, animate, configured)
     outputs.check()
     if start_text is not None and random_start:
         raise typer.BadParameter("give either --start or --random-start", param_hint="--start")
@@ -192,9 +204,8 @@ def run(
     if target is None:
         raise typer.BadParameter(f"map {m.name} has no preset target; give --target X,Y", param_hint="--target")
     # the sonar model: the simulator's readings come from it; a real NXT's localiser is told it
-    named = "nxt" if robot_kind == "nxt" else sonar
     sonar_model = simulated_sonar(named if fitted_sonar is None else fitted_sonar, sensor_noise)
-    stack = Stack(planner, localiser, seed, collision, start_heading)
+    stack = Stack(planner, localiser, seed, collision, start_heading, mission)
     doc: dict[str, Any] = {"robot": robot_kind, "sonar_model": sonar_model.to_dict()}
     if robot_kind == "nxt":
         if start_text is not None or random_start:
@@ -220,16 +231,29 @@ def run(
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED if reachable else EXIT_BAD_INPUT)
 
 
+def _run_mission_config(sonar: str, planner: str, localiser: str, collision: str, sets: list[str]) -> Any:
+    """The mission settings of `nxtnav run`: the sonar's tuning, then ``--set`` (``mission.`` settings, and
+    the planner's and localiser's options, checked against their declarations)."""
+    from localisation import LOCALISERS
+    from planners.declarations import planner_kwargs, planner_options
+
+    from .run_config import mission_config, split_sets
+    from .set_options import checked_sets, parse_sets
+
+    plugins = split_sets(sets)[1]
+    declared = {planner: lambda: planner_options(planner), localiser: lambda: LOCALISERS.get(localiser).options_model}
+    options = checked_sets(parse_sets(plugins), [planner, localiser], lambda n: declared[n](), "plug-in")
+    planning = {"planner_options": planner_kwargs(planner, options.get(planner, {}))}
+    base = mission_config(sonar, sets, collision)
+    return base.model_copy(update={"planning": base.planning.model_copy(update=planning),
+                                   "localiser_options": {**base.localiser_options, **options.get(localiser, {})}})
+
+
 def _sim_start(text: str | None, m: Any) -> Any:
     """The simulator's start from ``--start`` (a pose, or a position with a seeded heading), or None."""
     if text is None:
         return None
-    start = parse_pose(text, "--start", heading_required=False)
-    xy = start.xy if isinstance(start, Pose) else np.array(start)
-    if not m.contains(xy):
-        raise typer.BadParameter(f"start ({xy[0]:g}, {xy[1]:g}) is outside the free area of {m.name}",
-                                 param_hint="--start")
-    return start
+    return pose_on_map(text, "--start", m, heading_required=False)
 
 
 def _names(text: str, option: str, known: list[str]) -> list[str]:
@@ -242,28 +266,18 @@ def _names(text: str, option: str, known: list[str]) -> list[str]:
     return out
 
 
-def _parse_options(items: list[str] | None) -> dict[str, Any]:
-    """``KEY=VALUE`` pairs as mission options (`MissionConfig.with_options`: KEY is ``group.field`` or a
-    field name only one group has; values as YAML scalars: 2, 2.5, true, null, spread)."""
-    from ..mission import MissionConfig
-    from ..world.yaml_text import YAMLError, load_yaml
+def _paper_options(sets: list[str], sonars: list[str]) -> dict[str, Any]:
+    """The ``--set mission.GROUP.FIELD=VALUE`` settings of every paper mission (values read as YAML), checked
+    against the mission settings of each sonar; a key outside the ``mission`` section is an error."""
+    from ..world.typed import parse_value
+    from .run_config import mission_config, split_sets
 
-    out: dict[str, Any] = {}
-    for item in items or []:
-        key, sep, value = item.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise typer.BadParameter(f"expected KEY=VALUE with a mission option as KEY, got {item!r}",
-                                     param_hint="--option")
-        try:
-            out[key] = load_yaml(value)
-        except YAMLError:
-            raise typer.BadParameter(f"cannot read the value of {item!r}", param_hint="--option") from None
-    try:
-        MissionConfig().with_options(**out)
-    except (TypeError, ValueError) as exc:
-        raise typer.BadParameter(str(exc), param_hint="--option") from None
-    return out
+    sections, plugins = split_sets(sets)
+    if plugins:
+        raise NxtnavError(f"--set: nxtnav paper takes mission settings (mission.GROUP.FIELD=VALUE), got {plugins[0]!r}")
+    for sonar in sonars:
+        mission_config(sonar, sets)
+    return {key: parse_value(text) for key, text in sections.get("mission", {}).items()}
 
 
 def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list[str], models: list[str],
@@ -322,10 +336,10 @@ def _parse_stacks(stacks: list[str] | None) -> list[tuple[str, str]]:
 
 @app.command("paper")
 def paper(
+    ctx: typer.Context,
     trials: int = typer.Option(20, "--trials", help="Missions per map and noise model.", callback=count),
-    seed: int = typer.Option(0, help="Seed of the table (each trial's seed derives from it).", callback=seed_ok),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
-                                         metavar="FILE", help="Write the tables as JSON."),
+    seed: Seed = 0,
+    json_out: JsonOut = None,
     markdown: Path | None = typer.Option(None, "--markdown", callback=writable_file,
                                          metavar="FILE", help="Write the tables as Markdown."),
     plot: Path | None = typer.Option(None, "--plot", callback=writable_file, metavar="FILE.png",
@@ -335,31 +349,26 @@ def paper(
     sonar: str | None = typer.Option(
         None, metavar="NAME[,NAME]",
         help="Sonar model(s) " + one_of("sonar") + " (default ideal; with --pareto ideal and nxt)."),
-    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE",
-                                                   help=SONAR_PROFILE_HELP + " For the nxt tables."),
+    sonar_profile_path: SonarProfile = None,
     noise_model: list[str] | None = typer.Option(
         None, "--noise-model", help=_PAPER_NOISE_HELP),
-    maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated maps (default the paper's three)."),
-    workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
-                                    help="Dask scheduler address (tcp://host:8786), or local: run the missions "
-                                         "there (docs/cluster.md)."),
+    maps: MapList = "map1,map2,map3",
+    workers: Workers = 1,
+    dask: Dask = None,
     random_start: bool = typer.Option(False, "--random-start",
                                       help="Start each trial from a seeded random free pose (>= 10 cm from walls)."),
-    option: list[str] | None = typer.Option(None, "--option", metavar="KEY=VALUE",
-                                            help="A MissionConfig option for every mission (repeatable), "
-                                                 "group.field or a field name, e.g. sweeps.track_scan_step_deg=2."),
+    sets: RunSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
+    option: OptionGone = None,
     pareto: Path | None = typer.Option(None, "--pareto", callback=writable_file, metavar="FILE.png",
                                        help="Run every mission setting instead and draw mean final error "
                                             "against median robot time (the Pareto front)."),
     settings: str | None = typer.Option(None, "--settings", metavar="NAME[,NAME]",
                                         help=_SETTINGS_HELP),
-    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
-                                  callback=collision_ok),
+    collision: Collision = "index",
 ) -> None:
     """The paper's Table I regenerated: completion time, final error, path length, collisions, robot time."""
-    from ..bench.executors import TasksInterrupted
-    from ..bench.paper import in_task_order, paper_tasks, run_paper, summarise
+    from ..bench.paper import in_task_order, paper_tasks, run_trial, summarise
 
     sonars = _names(sonar or ("ideal,nxt" if pareto is not None else "ideal"), "--sonar", SONAR_MODELS.names())
     profile = sonar_profile(sonar_profile_path, sonars)
@@ -370,7 +379,9 @@ def paper(
     check_writable(json_out, "--json")
     check_writable(markdown, "--markdown")
     stacks = _parse_stacks(stack)
-    options = _parse_options(option)
+    options = _paper_options(given_sets(ctx, sets), sonars)
+    configured = configuration(ctx, sets, mission={so: mission_config(so, given_sets(ctx, sets), collision).to_dict()
+                                                   for so in sonars})
     if pareto is not None:
         _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out,
                     profile, collision, dask)
@@ -379,30 +390,19 @@ def paper(
              for t in paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=so,
                                   random_start=random_start, options=options,
                                   sonar_model=profile if so == "nxt" else None, collision=collision)]
-    with progress("missions", len(tasks), transient=True) as advance:
-        done = len(tasks)
-        try:
-            tables, results = run_paper(tasks, workers=workers, dask_address=dask, on_done=advance)
-        except TasksInterrupted as exc:  # keep the finished missions; every output says it is incomplete
-            results = in_task_order(exc.results, tasks)
-            done, tables = len(results), summarise(results)
-    complete = done == len(tasks)
-    if not complete and not tables:
-        raise Interrupted(f"no mission had finished (of {len(tasks)}); nothing written")
-    _write_paper(tables, results, done, len(tasks), json_out, markdown, plot)
+    batch = run_batch(run_trial, tasks, "missions", workers=workers, dask=dask, transient=True)
+    results = in_task_order(batch.results, tasks)  # as `run_paper` orders and summarises them
+    _write_paper(summarise(results), results, batch, configured, json_out, markdown, plot)
 
 
-def _write_paper(tables: list[Any], results: list[Any], done: int, planned: int, json_out: Path | None,
-                 markdown: Path | None, plot: Path | None) -> None:
-    """Print Table I (marked incomplete when only `done` of the `planned` missions finished) and the first
-    failures, write it as JSON, Markdown and a plot where asked; after an interrupt, say where it is."""
+def _write_paper(tables: list[Any], results: list[Any], batch: Batch[Any], configured: dict[str, Any],
+                 json_out: Path | None, markdown: Path | None, plot: Path | None) -> None:
+    """Print Table I (marked incomplete when only part of the `batch` finished) and the first failures,
+    write it as JSON (each table with the run's configuration), Markdown and a plot where asked; after an
+    interrupt, say where it is."""
     from ..bench.paper import tables_to_markdown
 
-    complete = done == planned
-    text = tables_to_markdown(tables)
-    if not complete:
-        text = (f"**INCOMPLETE**: interrupted after {done} of {planned} missions; the rows below cover only "
-                f"the finished missions.\n\n{text}")
+    text = batch.banner() + tables_to_markdown(tables)
     typer.echo(text)
     for t in tables:
         for r in t.rows:
@@ -410,9 +410,9 @@ def _write_paper(tables: list[Any], results: list[Any], done: int, planned: int,
                 typer.echo(f"{t.noise_model} {r.map}: {f}", err=True)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        doc = json_safe([{**t.to_dict(), "complete": complete, "missions_done": done,
-                        "missions_planned": planned} for t in tables])
-        json_out.write_text(json.dumps(doc, indent=1, allow_nan=False))
+        json_out.write_text(dumps([{**t.to_dict(), "complete": batch.complete, "missions_done": batch.done,
+                                    "missions_planned": batch.planned, "configuration": configured}
+                                   for t in tables]))
         typer.echo(f"wrote {json_out}")
     if markdown is not None:
         markdown.parent.mkdir(parents=True, exist_ok=True)
@@ -424,8 +424,6 @@ def _write_paper(tables: list[Any], results: list[Any], done: int, planned: int,
 
         save_figure(draw_paper_table(results), plot)
         typer.echo(f"wrote {plot}")
-    if not complete:
-        saved = [str(p) for p in (json_out, markdown) if p is not None]
-        where = f"partial results (marked incomplete) in {' and '.join(saved)}" if saved else \
-            "the partial table is printed above (give --json/--markdown to keep it in a file)"
-        raise Interrupted(f"{done} of {planned} missions done; {where}")
+    saved = [str(p) for p in (json_out, markdown) if p is not None]
+    batch.finish(f"partial results (marked incomplete) in {' and '.join(saved)}" if saved else
+                 "the partial table is printed above (give --json/--markdown to keep it in a file)")

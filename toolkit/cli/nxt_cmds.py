@@ -16,17 +16,18 @@ from ..robots.nxt_profile import calibrated_track_width, calibrated_wheel_diamet
 from ..robots.virtual_brick import BrickServer
 from ..robots.virtual_brick_world import BrickConfig, BrickWorld
 from ..seeds import derive_seed
-from ..world import SONAR_MODELS, ConfigError, Map, Pose, RobotGeometry, load_map
+from ..world import SONAR_MODELS, ConfigError, Map, NxtnavError, Pose, RobotGeometry, load_map
 from .app import brick_app, nxt_app
 from .choices import one_of
 from .options import (
     SENSOR_NOISE_HELP,
+    MapName,
     check_writable,
     count,
     non_negative,
-    parse_pose,
     port,
     port_or_zero,
+    pose_on_map,
     positive,
     sonar_profile,
     writable_file,
@@ -72,19 +73,16 @@ def _brick_pose(text: str | None, m: Map) -> Pose:
     """The virtual brick's true pose from ``--pose`` (None: the map's start, facing +x), in the free area."""
     if text is None:
         if m.start is None:
-            raise typer.BadParameter(f"map {m.name} has no start preset; give --pose", param_hint="--pose")
+            raise NxtnavError(f"--pose: map {m.name} has no start preset; give --pose")
         return Pose(float(m.start[0]), float(m.start[1]), 0.0)
-    pose = parse_pose(text, "--pose")
+    pose = pose_on_map(text, "--pose", m)
     assert isinstance(pose, Pose)
-    if not m.contains(pose.xy):
-        raise typer.BadParameter(f"({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
-                                 param_hint="--pose")
     return pose
 
 
 @brick_app.command("serve")
 def brick_serve(
-    map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
+    map_name: MapName = "map1",
     pose_text: str | None = typer.Option(None, "--pose", metavar="X,Y,HEADING_DEG",
                                          help="True start pose (cm, cm, deg); default: the map's start, heading 0."),
     port: int = typer.Option(2727, "--port", help="TCP port (0 = any free port, printed at start).",

@@ -11,7 +11,7 @@ import os
 import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -22,6 +22,8 @@ from .choices import one_of
 if TYPE_CHECKING:
     from localisation.base import HeadingPrior
 
+    from ..world import Map
+
 __all__ = [
     "COLLISION_HELP",
     "MAX_COUNT",
@@ -29,6 +31,24 @@ __all__ = [
     "NOISE_MODEL_HELP",
     "SENSOR_NOISE_HELP",
     "SONAR_PROFILE_HELP",
+    "Collision",
+    "ConfigFile",
+    "Dask",
+    "Force",
+    "JsonOut",
+    "MapList",
+    "MapName",
+    "NoiseModel",
+    "OptionGone",
+    "OutFolder",
+    "PluginSets",
+    "PngOut",
+    "Radius",
+    "RunSets",
+    "Seed",
+    "Sonar",
+    "SonarProfile",
+    "Workers",
     "check_writable",
     "collision",
     "count",
@@ -42,6 +62,7 @@ __all__ = [
     "parse_xy",
     "port",
     "port_or_zero",
+    "pose_on_map",
     "positive",
     "remove_created_folders",
     "repeats",
@@ -276,6 +297,24 @@ def parse_pose(text: str, option: str, heading_required: bool = True) -> Pose | 
     return Pose.from_deg(*values)
 
 
+def pose_on_map(text: str, option: str, m: Map, radius_cm: float | None = None,
+                heading_required: bool = True) -> Pose | tuple[float, float]:
+    """`parse_pose`, then a pose the robot can stand on: inside the free area of `m` and, with `radius_cm`,
+    a robot disc of that radius clear of its walls; every refusal is one line in one style
+    (``--pose: (500, 1) is outside the free area of map1``)."""
+    pose = parse_pose(text, option, heading_required)
+    x, y = (pose.x, pose.y) if isinstance(pose, Pose) else pose
+    if not m.contains((x, y)):
+        raise NxtnavError(f"{option}: ({x:g}, {y:g}) is outside the free area of {m.name}")
+    if radius_cm is not None:
+        from ..world import CollisionChecker
+
+        if not CollisionChecker(m, radius_cm).point_free((x, y)):
+            raise NxtnavError(f"{option}: a robot of radius {radius_cm:g} cm at ({x:g}, {y:g}) touches a wall "
+                              f"of {m.name}")
+    return pose
+
+
 def parse_heading_prior(text: str | None, option: str) -> HeadingPrior | None:
     """``H:SD`` (degrees) as a `localisation.base.HeadingPrior` (None: none given); one line naming
     `option` when it is not one."""
@@ -338,3 +377,56 @@ def sonar_profile(path: Path | None, sonars: str | Sequence[str], option: str = 
     from ..real_sonar.fit import load_sonar_profile
 
     return load_sonar_profile(data_path(path))
+
+
+def _option_gone(value: Any) -> Any:
+    """Callback of the removed ``--option``: one line naming ``--set`` (exit 2)."""
+    if value:
+        raise typer.BadParameter("is gone: give mission settings as --set mission.GROUP.FIELD=VALUE "
+                                 "(e.g. --set mission.fix.rule=always)")
+    return value
+
+
+def _load_config(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> Any:
+    from .run_config import load_config
+
+    return load_config(ctx, param, value)
+
+
+# The options many commands take, declared once (a command writes ``seed: Seed = 0``).
+MapName = Annotated[str, typer.Option("--map", metavar="NAME|PATH", help="Map name (map1) or YAML file.")]
+MapList = Annotated[str, typer.Option("--maps", metavar="NAME[,NAME]", help="Comma-separated map names or files.")]
+JsonOut = Annotated[Path | None, typer.Option("--json", callback=writable_file, metavar="FILE",
+                                              help="Write the results as JSON.")]
+OutFolder = Annotated[Path, typer.Option("--out", callback=writable_folder,
+                                         help="Output folder (must be empty or new, unless --force).")]
+PngOut = Annotated[Path | None, typer.Option("-o", "--output", callback=writable_file, metavar="FILE.png",
+                                             help="Draw the result into this PNG file.")]
+Force = Annotated[bool, typer.Option("--force", help="Write into a non-empty --out, replacing files.")]
+Seed = Annotated[int, typer.Option("--seed", callback=seed,
+                                   help="Random seed (every random draw of the command derives from it).")]
+Workers = Annotated[int, typer.Option("--workers", callback=workers, help="Worker processes (1 = in this process).")]
+Dask = Annotated[str | None, typer.Option("--dask", metavar="ADDRESS",
+                                          help="Dask scheduler address (tcp://host:8786), or local: run the "
+                                               "tasks there (docs/cluster.md).")]
+Radius = Annotated[float | None, typer.Option("--radius", min=0.1,
+                                              help="Simulated robot's radius (cm; default 8): a robot scaled to "
+                                                   "the map.")]
+Collision = Annotated[str, typer.Option("--collision", metavar="index|fcl", help=COLLISION_HELP,
+                                        callback=collision)]
+NoiseModel = Annotated[str, typer.Option("--noise-model", help=NOISE_MODEL_HELP)]
+Sonar = Annotated[str, typer.Option("--sonar", help="Sonar model of the simulator " + one_of("sonar") + ".")]
+SonarProfile = Annotated[Path | None, typer.Option("--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP)]
+PluginSets = Annotated[list[str], typer.Option(
+    "--set", metavar="[PLUGIN.]KEY=VALUE",
+    help="A plug-in option (repeatable): NAME.KEY=VALUE for the chosen planner or localiser NAME, or KEY=VALUE "
+         "for every chosen one that has it (docs/parameters.md).")]
+RunSets = Annotated[list[str], typer.Option(
+    "--set", metavar="SECTION.KEY=VALUE",
+    help="A setting (repeatable): mission.GROUP.FIELD=VALUE for the mission (e.g. mission.drive.move_step_cm=20; "
+         "docs/missions.md), PLUGIN.KEY=VALUE for the planner's or localiser's options (docs/parameters.md).")]
+ConfigFile = Annotated[Path | None, typer.Option(
+    "--config", metavar="FILE", is_eager=True, callback=_load_config,
+    help="Run again as a run's JSON output (or its configuration) says: its options and settings are the "
+         "defaults; options and --set given here win.")]
+OptionGone = Annotated[list[str] | None, typer.Option("--option", hidden=True, callback=_option_gone)]

@@ -16,8 +16,17 @@ from .app import Interrupted, app, bench_app, fail
 from .choices import one_of
 from .compiling import compile_note, warm_up_planner
 from .options import (
-    COLLISION_HELP,
-    NOISE_MODEL_HELP,
+    Collision,
+    ConfigFile,
+    Dask,
+    Force,
+    JsonOut,
+    MapName,
+    NoiseModel,
+    OutFolder,
+    PluginSets,
+    Seed,
+    Workers,
     check_writable,
     count,
     non_negative,
@@ -25,14 +34,11 @@ from .options import (
     parse_xy,
     positive,
     writable_file,
-    writable_folder,
 )
-from .options import collision as collision_ok
 from .options import repeats as repeats_ok
-from .options import seed as seed_ok
 from .options import time_limit as time_limit_ok
-from .options import workers as workers_ok
 from .progress import progress
+from .run_config import add_configuration, configuration, given_sets
 from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
@@ -63,31 +69,29 @@ def _to_builtin(obj: Any) -> Any:
 
 @app.command("plan")
 def plan(
-    map_name: str = typer.Option("map1", "--map", metavar="NAME|PATH", help="Map name (map1) or YAML file."),
+    ctx: typer.Context,
+    map_name: MapName = "map1",
     planner: str = typer.Option("min-turn", "--planner", help="Planner " + one_of("planner") + "."),
     start_text: str | None = typer.Option(None, "--start", metavar="X,Y", help="Start in cm (default: preset)."),
     goal_text: str | None = typer.Option(None, "--goal", metavar="X,Y", help="Goal in cm (default: preset)."),
-    seed: int = typer.Option(0, "--seed", help="Random seed of the planner and of the execution error.",
-                          callback=seed_ok),
+    seed: Seed = 0,
     time_limit: float = typer.Option(1.0, "--time-limit", metavar="SEC", help="Planning budget (s).",
                                      callback=time_limit_ok),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0: a point robot).",
                                  callback=non_negative),
-    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
-                                  callback=collision_ok),
+    collision: Collision = "index",
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives for the execution error (0 skips it)."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
+    noise_model: NoiseModel = "botsim",
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
                                      callback=non_negative),
     output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
                                 metavar="FILE.png", help="Figure to write."),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
-                                         metavar="FILE", help="Write path, metrics and status."),
-    sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
-                                   help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
+    json_out: JsonOut = None,
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
 ) -> None:
     """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
@@ -100,7 +104,7 @@ def plan(
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
     nz = _noise(noise_model, motion_noise, turn_noise)
     check_planner_names([planner])
-    options = checked_sets(parse_sets(sets), [planner], planner_options, "planner").get(planner, {})
+    options = checked_sets(parse_sets(given_sets(ctx, sets)), [planner], planner_options, "planner").get(planner, {})
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -117,7 +121,7 @@ def plan(
     refs = _reference_paths(m, checker, start, goal)
     doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
                            "robot_radius_cm": radius, "collision": checker.backend, "start": start.tolist(),
-                           "goal": goal.tolist(), "warm_up_s": warm_up_s,
+                           "goal": goal.tolist(), "warm_up_s": warm_up_s, "configuration": configuration(ctx, sets),
                            **{k: v for k, v in result.to_dict().items() if k != "planner"}}
     fig, ax = new_axes(size=6.0)
     draw_map(m, ax, presets=False, title=False)
@@ -229,6 +233,8 @@ def _parse_budgets(text: str) -> tuple[float, ...]:
 
 @bench_app.command("planners")
 def bench_planners(
+    ctx: typer.Context,
+    out: OutFolder,
     maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
     planners: str = typer.Option(",".join(DEFAULT_PLANNERS), "--planners",
                                  help="Comma-separated planners " + one_of("planner") + "."),
@@ -244,28 +250,24 @@ def bench_planners(
     progress_interval: float = typer.Option(0.01, "--progress-interval", metavar="SECONDS", callback=positive,
                                             help="Budget (s) between two best-cost samples of the anytime "
                                                  "planners (also sampled at every improvement)."),
-    seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it).", callback=seed_ok),
-    out: Path = typer.Option(..., "--out", callback=writable_folder,
-                             metavar="DIR", help="Output folder (must be new or empty)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),
-    workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS",
-                                    help="Run on a Dask cluster (tcp://host:8786) or 'local' (extra 'cluster')."),
+    seed: Seed = 0,
+    force: Force = False,
+    workers: Workers = 1,
+    dask: Dask = None,
     queries: str = typer.Option("presets", "--queries", help="presets (the map's start/target) or random."),
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives per run for the execution error (0 skips it)."),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0 = a point).",
                                  callback=non_negative),
-    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
-                                  callback=collision_ok),
-    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
+    collision: Collision = "index",
+    noise_model: NoiseModel = "botsim",
     motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
                                        callback=non_negative),
     turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
                                      callback=non_negative),
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
-    sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
-                                   help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
 ) -> None:
     """Benchmark planners on maps: runs.csv, progress.csv, paths.jsonl, summary.md, plots and an OMPL benchmark.log."""
     from ..bench.planners import (
@@ -289,7 +291,7 @@ def bench_planners(
     check_planner_names(planner_list)
     from planners.declarations import planner_options
 
-    options = checked_sets(parse_sets(sets), planner_list, planner_options, "planner")
+    options = checked_sets(parse_sets(given_sets(ctx, sets)), planner_list, planner_options, "planner")
     for name in map_list:
         load_map(name)  # a bad map name fails before any work
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs,
@@ -307,6 +309,7 @@ def bench_planners(
     if not result.records:
         raise Interrupted("no planner run had finished; nothing written")
     files = write_results(result, out_dir, plots=plots)
+    add_configuration(out_dir / "config.json", configuration(ctx, sets))
     typer.echo((out_dir / "summary.md").read_text(encoding="utf-8"))
     typer.echo(f"wrote {len(files)} files to {out_dir} in {result.total_time_s:.1f} s")
     if not result.complete:

@@ -10,7 +10,7 @@ import typer
 
 from ..number_format import cell
 from .app import app
-from .options import parse_floats, parse_heading_prior, parse_list, shipped, writable_file
+from .options import JsonOut, PluginSets, PngOut, Seed, parse_floats, parse_heading_prior, parse_list, shipped
 from .progress import progress_after
 from .set_options import localiser_sets
 
@@ -41,11 +41,9 @@ def replay_cmd(
                                      help="A recording (nxtnav run --record, nxtnav import)."),
     localisers_text: str = typer.Option("", "--localisers", metavar="A,B,...",
                                         help="Localisers to compare (default: the one used live)."),
-    seed: int = typer.Option(0, help="Seed of the localisers other than the live one."),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file,
-                                         metavar="FILE", help="Write every step as JSON."),
-    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
-                                       help="Draw the estimates and their error (or agreement)."),
+    seed: Seed = 0,
+    json_out: JsonOut = None,
+    output: PngOut = None,
     initial_pose: str | None = typer.Option(
         None, "--initial-pose", metavar="X,Y,H[,SD_CM,SD_DEG]",
         help="Start every localiser here (cm, cm, degrees; spread default 10 cm, 5 degrees) instead of the "
@@ -54,9 +52,7 @@ def replay_cmd(
         None, "--initial-heading", metavar="H:SD",
         help="Every global reset of the recording (each sweep of a sweep set) knows the heading (degrees, "
              "give or take SD) but not the position (global localisers only)."),
-    sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
-                                   help="Localiser option (repeatable) on top of the ones the recording gives it, "
-                                        "e.g. amcl.sigma_hit=3."),
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
 ) -> None:
     """Replay the recorded motions and scans through localisers: estimate, spread and error per step.
 

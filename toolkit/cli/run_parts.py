@@ -22,24 +22,36 @@ from .options import check_writable
 if TYPE_CHECKING:
     from localisation import HeadingPrior
 
+    from ..mission import MissionConfig
+
 __all__ = ["RunOutputs", "Stack", "mission_on_nxt", "mission_on_sim"]
 
 
 @dataclass(frozen=True)
 class Stack:
-    """What the mission runs: planner and localiser names, seed, collision backend, start heading prior."""
+    """What the mission runs: planner and localiser names, seed, collision backend, start heading prior and
+    the mission settings (None: the sonar's defaults)."""
 
     planner: str
     localiser: str
     seed: int
     collision: str
     start_heading: HeadingPrior | None
+    mission: MissionConfig | None = None
+
+    def config(self, sonar: str) -> MissionConfig:
+        """The mission settings: this stack's, else `sonar`'s defaults with the stack's collision backend."""
+        from ..mission import MissionConfig
+
+        return self.mission or MissionConfig.for_sonar(sonar, collision=self.collision)
 
 
 @dataclass(frozen=True)
 class RunOutputs:
     """Where a run's results go: a recording (with at most `record_particles` particles per estimate), a
-    live view (`view`) or its file (`view_save`), the JSON report, the plot and the animation."""
+    live view (`view`) or its file (`view_save`), the JSON report, the plot and the animation; the run's
+    effective `configuration` (`toolkit.cli.run_config.configuration`) goes into the report and the
+    recording's header."""
 
     record: Path | None
     record_particles: int
@@ -48,6 +60,7 @@ class RunOutputs:
     json_out: Path | None
     plot: Path | None
     animate: Path | None
+    configuration: dict[str, Any] | None = None
 
     def check(self) -> None:
         """Fail now, before any work, on an output that could not be written or a view that cannot open."""
@@ -86,6 +99,8 @@ class RunOutputs:
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
             extra: dict[str, Any] = {"collision": stack.collision}
+            if self.configuration is not None:
+                extra["configuration"] = self.configuration
             if noise is not None:
                 extra["noise"] = noise
             return Recorder(self.record, map=m, robot=robot, sonar=sonar, seed=stack.seed, extra=extra,
@@ -103,7 +118,9 @@ class RunOutputs:
             typer.echo(note)
         if self.json_out is not None:
             self.json_out.parent.mkdir(parents=True, exist_ok=True)
-            self.json_out.write_text(json.dumps(json_safe({**report.to_dict(), **doc}), indent=1, allow_nan=False))
+            conf = {} if self.configuration is None else {"configuration": self.configuration}
+            self.json_out.write_text(json.dumps(json_safe({**report.to_dict(), **doc, **conf}), indent=1,
+                                                allow_nan=False))
             typer.echo(f"wrote {self.json_out}")
         if self.plot is not None or self.animate is not None:
             from ..bench.paper_plots import animate_mission, draw_mission
@@ -135,7 +152,7 @@ def mission_on_nxt(brick: Any, m: Map, target: Any, stack: Stack, sonar_model: S
                    reconnect_timeout_s: float) -> tuple[Any, float, float]:
     """The mission on the NXT robot `brick` (a real one, or the virtual brick): its report, the robot's
     radius (cm) and the robot time the simulator's time model gives the same commands (s)."""
-    from ..mission import MissionConfig, localiser_options, run_mission
+    from ..mission import localiser_options, run_mission
     from ..robots.model_clock import ModelClock
 
     robot = ModelClock(brick)
@@ -150,8 +167,7 @@ def mission_on_nxt(brick: Any, m: Map, target: Any, stack: Stack, sonar_model: S
                                  readings="simulated" if robot.virtual else "real")
         opts = localiser_options(stack.localiser, robot_model)
         report = run_mission(robot, m, target, planner=stack.planner, localiser=stack.localiser, rng=stack.seed,
-                             config=MissionConfig.for_sonar("nxt", localiser_options=opts,
-                                                            collision=stack.collision),
+                             config=stack.config("nxt").with_localiser_defaults(opts),
                              recorder=recorder, reconnect_timeout_s=reconnect_timeout_s,
                              start_heading=stack.start_heading)
     finally:
@@ -165,7 +181,7 @@ def mission_on_sim(m: Map, target: Any, start: Any, random_start: bool, stack: S
                    robot_radius: float, outputs: RunOutputs) -> Any:
     """The mission in the simulator (`simulator`: the sonar's name, the noise model and its three noises;
     `radius`: the robot's, None for the default): its report."""
-    from ..mission import MissionConfig, run_sim_mission
+    from ..mission import run_sim_mission
 
     stream = outputs.open_stream()
     recorder = report = None
@@ -183,7 +199,7 @@ def mission_on_sim(m: Map, target: Any, start: Any, random_start: bool, stack: S
                 sensor_noise=simulator["sensor_noise"], motion_noise=simulator["motion_noise"],
                 turn_noise=simulator["turn_noise"], sonar=simulator["sonar"], sonar_model=fitted_sonar,
                 recorder=recorder, robot_radius_cm=radius, start_heading=stack.start_heading,
-                config=MissionConfig.for_sonar(simulator["sonar"], collision=stack.collision),
+                config=stack.config(simulator["sonar"]),
             )
     finally:
         finish(recorder, report, stream)

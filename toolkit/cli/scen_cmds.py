@@ -11,8 +11,16 @@ import yaml
 from ..world import NxtnavError, import_map
 from .app import bench_app, maps_app
 from .choices import one_of
-from .options import COLLISION_HELP, parse_list, shipped, writable_file, writable_folder
-from .options import collision as collision_ok
+from .options import (
+    Collision,
+    Dask,
+    OutFolder,
+    Seed,
+    Workers,
+    parse_list,
+    shipped,
+    writable_file,
+)
 from .progress import progress
 
 __all__: list[str] = []
@@ -61,7 +69,7 @@ def maps_random(
     output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
                                 metavar="OUT.map", help="Moving AI .map file to write."),
     density: float = typer.Option(0.2, "--density", help="Probability that each cell is blocked."),
-    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    seed: Seed = 0,
     force: bool = typer.Option(False, "--force", help="Overwrite OUT.map if it exists."),
 ) -> None:
     """Write a SIZE x SIZE grid of independently blocked cells as a Moving AI map (for scaling runs)."""
@@ -94,15 +102,14 @@ def bench_scen(
                                       help="Comma-separated planners " + one_of("planner")
                                            + ", or peers (benchmark extra 'peers') " + one_of("peer") + "."),
     radius: float = typer.Option(0.0, "--radius", help="Robot radius in cm (0: a point, as the benchmarks assume)."),
-    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
-                                  callback=collision_ok),
+    collision: Collision = "index",
     cell_cm: float = typer.Option(1.0, "--cell-cm", help="Cell size in cm (lengths are compared in cells)."),
     limit: int | None = typer.Option(None, "--limit", help="Run N queries spread evenly over the file."),
     time_limit: float = typer.Option(10.0, "--time-limit", help="Planning budget per query (s)."),
-    seed: int = typer.Option(0, "--seed", min=0, help="Random seed (for sampling planners)."),
-    out: Path = typer.Option(Path("out/scen"), "--out", callback=writable_folder, help="Output folder."),
-    workers: int = typer.Option(1, "--workers", min=1, help="Worker processes (1 = in this process)."),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
+    seed: Seed = 0,
+    out: OutFolder = Path("out/scen"),
+    workers: Workers = 1,
+    dask: Dask = None,
     check: bool = typer.Option(False, "--check", help="Exit 1 when an exact planner mismatches the published optimum "
                                                       "or any path is shorter than it where none can be."),
 ) -> None:

@@ -24,19 +24,21 @@ from rich.table import Table
 
 from ..number_format import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
-from .app import Interrupted, sonar_app
+from .app import sonar_app
 from .choices import one_of
+from .interrupts import run_batch
 from .options import (
+    JsonOut,
+    OutFolder,
+    Seed,
+    Workers,
     check_writable,
     output_problem,
     parse_heading_prior,
     parse_list,
     shipped,
-    writable_file,
-    writable_folder,
 )
 from .options import sonar_profile as load_profile
-from .options import workers as workers_ok
 from .progress import progress
 
 __all__: list[str] = []
@@ -52,7 +54,6 @@ _CRITICALS = typer.Option("20,30,40,50,60", "--criticals", metavar="DEG[,DEG]",
                           help="Specular incidence limits tried (degrees, > 0 and <= 90).")
 _MODEL = typer.Option(None, "--sonar-profile", metavar="FILE",
                       help="The model (default: the toolkit's nxt model, fitted to real sweeps).")
-_JSON = typer.Option(None, "--json", callback=writable_file, metavar="FILE", help="Write the results as JSON.")
 
 _UNITS = {"noise_sd": "cm", "noise_per_m": "cm/m", "bias_cm": "cm", "beam_width_deg": "deg", "beam_rays": "",
           "critical_incidence_deg": "deg", "min_range_cm": "cm", "max_range_cm": "cm", "reach_cm": "cm",
@@ -150,7 +151,7 @@ def sonar_fit(
                                     help="Fit each source (the repo column) on its own sweeps; write one profile "
                                          "per source into the folder -o, named OWNER+NAME.yaml (what "
                                          "--sonar-profile DIR of bench routes and bench sweeps reads)."),
-    json_out: Path | None = _JSON,
+    json_out: JsonOut = None,
 ) -> None:
     """Fit the nxt sonar model by maximum likelihood to real sweeps; write it as a sonar profile.
 
@@ -251,7 +252,7 @@ def sonar_score(
         None, "--heading-prior", metavar="H:SD",
         help="Weigh the places by a heading prior (degrees; the position stays unknown): the bound for a "
              "localiser that knows the heading roughly."),
-    json_out: Path | None = _JSON,
+    json_out: JsonOut = None,
 ) -> None:
     """How well a sonar model explains real sweeps at their waypoints.
 
@@ -317,9 +318,8 @@ def sonar_loo(
     map_file: Path | None = _MAP,
     widths_text: str = _WIDTHS,
     criticals_text: str = _CRITICALS,
-    workers: int = typer.Option(1, "--workers", help="Worker processes (one fold each; 1 = in this process).",
-                                callback=workers_ok),
-    json_out: Path | None = _JSON,
+    workers: Workers = 1,
+    json_out: JsonOut = None,
 ) -> None:
     """Leave one repository out: fit without each source of sweeps, score its sweeps.
 
@@ -328,7 +328,6 @@ def sonar_loo(
     the means weighted by their readings, whether the fitted models explain held-out readings better than
     the hardware facts, and whether they expect a no-echo share within 0.05 of the real one.
     """
-    from ..bench.executors import TasksInterrupted, collect_tasks
     from ..real_sonar.fit import LeaveOneOut, repo_folds, score_fold
 
     widths = _grid(widths_text, "--widths", 120.0)
@@ -343,12 +342,8 @@ def sonar_loo(
                 held = [score_fold(f, widths=widths, criticals=criticals, progress=lambda d, t: advance())
                         for f in folds]
         else:
-            with progress("folds", len(folds)) as advance:
-                try:
-                    done = collect_tasks(partial(score_fold, widths=widths, criticals=criticals), folds,
-                                         workers=workers, on_done=advance)
-                except TasksInterrupted as exc:
-                    raise Interrupted(f"{len(exc.results)} of {len(folds)} folds done; nothing written") from None
+            done = run_batch(partial(score_fold, widths=widths, criticals=criticals), folds, "folds",
+                             workers=workers, keep_partial=False).results
             order = {f.repo: i for i, f in enumerate(folds)}
             held = sorted(done, key=lambda h: order[h.repo])
     loo = LeaveOneOut.of(held)
@@ -386,8 +381,8 @@ def sonar_plot(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
     sonar_profile: Path | None = _MODEL,
-    out: Path = typer.Option(Path("out"), "--out", callback=writable_folder, help="Folder of the PNG figures."),
-    seed: int = typer.Option(0, help="Seed of the model's drawn sweeps."),
+    out: OutFolder = Path("out"),
+    seed: Seed = 0,
     heading_prior_text: str | None = typer.Option(
         None, "--heading-prior", metavar="H:SD",
         help="Also draw where the first sweep puts the robot with the heading known (degrees)."),

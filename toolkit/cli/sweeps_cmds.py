@@ -11,11 +11,19 @@ import typer
 
 from toolkit.world import NxtnavError
 
-from .app import Interrupted, bench_app
-from .options import check_out_folder, parse_heading_prior, parse_list, shipped, writable_folder
+from .app import bench_app
+from .interrupts import run_batch
+from .options import (
+    Dask,
+    Force,
+    OutFolder,
+    Workers,
+    check_out_folder,
+    parse_heading_prior,
+    parse_list,
+    shipped,
+)
 from .options import sonar_profile as load_profile
-from .options import workers as workers_ok
-from .progress import progress
 
 
 def _seeds(text: str) -> list[int]:
@@ -46,15 +54,13 @@ def bench_sweeps(
         None, "--heading-prior", metavar="H:SD",
         help="The robot believes its heading is H degrees, give or take SD (the position stays unknown); "
              "default: global localisation, no heading known."),
-    out: Path = typer.Option(Path("out/sweeps"), "--out", callback=writable_folder,
-                             help="Output folder (must be empty or new, unless --force)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
-    dask: str | None = typer.Option(None, "--dask", metavar="ADDRESS", help="Dask scheduler address, or local."),
+    out: OutFolder = Path("out/sweeps"),
+    force: Force = False,
+    workers: Workers = 1,
+    dask: Dask = None,
 ) -> None:
     """Global localisation from each real sweep alone: sweeps.csv and summary.md in --out."""
     from localisation.base import LOCALISERS
-    from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.bench.sweeps import make_sweep_tasks, run_sweep, write_sweeps_csv, write_sweeps_summary
     from toolkit.real_sonar.fit import profiles_by_source
     from toolkit.real_sonar.sweeps import load_sweep_set
@@ -79,14 +85,9 @@ def bench_sweeps(
     tasks = make_sweep_tasks(sweeps, map_file, locs, seeds, sonar, heading_prior=heading_prior)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    complete = True
-    with progress(f"{len(sweeps)} sweeps x {len(locs)} localisers x {len(seeds)} seeds", len(tasks)) as advance:
-        try:
-            runs = collect_tasks(run_sweep, tasks, workers=workers, dask_address=dask, on_done=advance)
-        except TasksInterrupted as exc:
-            runs, complete = list(exc.results), False
-            if not runs:
-                raise Interrupted(f"no run had finished (of {len(tasks)}); nothing written") from None
+    batch = run_batch(run_sweep, tasks, "runs", label=f"{len(sweeps)} sweeps x {len(locs)} localisers x "
+                      f"{len(seeds)} seeds", workers=workers, dask=dask)
+    runs, complete = batch.results, batch.complete
     wall = time.perf_counter() - t0
     order = {(t.localiser, t.seed, t.index): i for i, t in enumerate(tasks)}
     label = {(s.repo, s.file): i for i, s in enumerate(sweeps)}
@@ -110,5 +111,4 @@ def bench_sweeps(
                                                  "wall_time_s": wall}, indent=1))
     typer.echo(md.read_text())
     typer.echo(f"wrote {csv_path}, {md} ({len(runs)} runs in {wall:.1f} s)")
-    if not complete:
-        raise Interrupted(f"{len(runs)} of {len(tasks)} runs done; partial results (marked incomplete) in {out}")
+    batch.finish(f"partial results (marked incomplete) in {out}")

@@ -13,7 +13,6 @@ from rich.table import Table
 from ..robots.sim import simulated_sonar
 from ..world import (
     SONAR_MODELS,
-    CollisionChecker,
     Pose,
     RobotGeometry,
     default_scan_angles,
@@ -21,21 +20,24 @@ from ..world import (
     load_map,
 )
 from .app import app, bench_app, maps_app
-from .choices import one_of
 from .options import (
-    COLLISION_HELP,
     SENSOR_NOISE_HELP,
-    SONAR_PROFILE_HELP,
+    Collision,
+    JsonOut,
+    MapName,
+    PngOut,
+    Radius,
+    Seed,
+    Sonar,
+    SonarProfile,
     check_writable,
     count,
     non_negative,
-    parse_pose,
     parse_sweep,
+    pose_on_map,
     sonar_profile,
     writable_file,
 )
-from .options import collision as collision_ok
-from .options import seed as seed_ok
 from .tables import NEVER_CUT, print_json, print_table
 
 __all__: list[str] = []
@@ -89,18 +91,15 @@ def maps_show(
 
 @app.command("scan")
 def scan(
-    map_name: str = typer.Option("map1", "--map", help="Map name or YAML file."),
+    map_name: MapName = "map1",
     pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="Robot pose (cm, cm, deg)."),
-    sonar: str = typer.Option("ideal", help="Sonar model " + one_of("sonar") + "."),
+    sonar: Sonar = "ideal",
     sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
-    sonar_profile_path: Path | None = typer.Option(None, "--sonar-profile", metavar="FILE", help=SONAR_PROFILE_HELP),
-    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
-    radius: float | None = typer.Option(None, "--radius", min=0.1,
-                                        help="Robot's radius (cm; default 8): a robot scaled to the map; the "
-                                             "disc must fit at the pose."),
-    output: Path | None = typer.Option(None, "-o", "--output", callback=writable_file, metavar="FILE.png",
-                                       help="Draw the scan (rays on the map, radar chart)."),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the scan as JSON."),
+    sonar_profile_path: SonarProfile = None,
+    seed: Seed = 0,
+    radius: Radius = None,
+    output: PngOut = None,
+    json_out: JsonOut = None,
     angles_text: str | None = typer.Option(None, "--angles", metavar="START:STEP:COUNT",
                                            help="The sensor angles (degrees, relative to the heading): COUNT "
                                                 "readings STEP apart from START (default 0:1:360)."),
@@ -126,15 +125,9 @@ def scan(
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
-    pose = parse_pose(pose_text, "--pose")
+    pose = pose_on_map(pose_text, "--pose", m, radius)
     assert isinstance(pose, Pose)
-    if not m.contains(pose.xy):
-        raise typer.BadParameter(f"pose ({pose.x:g}, {pose.y:g}) is outside the free area of {m.name}",
-                                 param_hint="--pose")
     geometry = RobotGeometry() if radius is None else RobotGeometry(radius_cm=radius)
-    if radius is not None and not CollisionChecker(m, radius).point_free(pose.xy):
-        raise typer.BadParameter(f"a robot of radius {radius:g} cm at ({pose.x:g}, {pose.y:g}) touches a wall of "
-                                 f"{m.name}", param_hint="--pose")
     model = simulated_sonar(sonar if profile is None else profile, sensor_noise)
     # the default full turn keeps its exact angles (k * 2 pi / 360); any other sweep is built as a real one
     default = angles_text is None and direction == "ccw"
@@ -180,8 +173,7 @@ def bench_world(
     cell_cm: float | None = typer.Option(None, help="Cell size (cm) of a Moving AI map (default 1) or of "
                                                     "--random-grid (default 5)."),
     radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the checks and the c-space (cm)."),
-    collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
-                                  callback=collision_ok),
+    collision: Collision = "index",
     poses: int = typer.Option(1000, help="Poses per ray-casting call (x 360 directions).", callback=count),
     repeats: int = typer.Option(5, help="Repetitions; the median is reported.", callback=count),
     segments: int = typer.Option(20000, help="Random segments / points for the collision-check timing.",
@@ -191,10 +183,10 @@ def bench_world(
     range_memory_mb: float | None = typer.Option(None, "--range-memory-mb",
                                                  help="Range model memory budget (MB; default 1024 or "
                                                       "$NXTNAV_RANGE_MEMORY_MB)."),
-    sonar: str = typer.Option("ideal", help="Sonar of the range model " + one_of("sonar") + "."),
+    sonar: Sonar = "ideal",
     peer: bool = typer.Option(True, "--peer/--no-peer", help="Measure raycast2d (optional extra) in the same run."),
-    seed: int = typer.Option(0, help="Random seed.", callback=seed_ok),
-    json_out: Path | None = typer.Option(None, "--json", callback=writable_file, help="Write the figures as JSON."),
+    seed: Seed = 0,
+    json_out: JsonOut = None,
 ) -> None:
     """Throughput of ray casting and collision checks, c-space and range-model build; medians of repeats.
 

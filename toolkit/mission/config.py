@@ -2,23 +2,27 @@
 
 Each group documents its own fields (lengths in cm, angles in degrees unless the name says otherwise,
 times in s). `MissionConfig.with_options` sets fields from flat ``key=value`` options, as
-``nxtnav paper --option`` passes them: a key is ``group.field`` (``fix.rule``) or a field name that
-only one group has (``rule``). `MissionConfig.for_sonar` holds the tuning for the ``nxt`` sensor.
+the mission settings of ``paper_pareto`` are written: a key is ``group.field`` (``fix.rule``) or a field
+name that only one group has (``rule``). The command line sets them with ``--set mission.group.field=V``.
+`MissionConfig.for_sonar` holds the tuning for the ``nxt`` sensor.
+
+Every group is a typed model (`toolkit.world.typed.Typed`): frozen, unknown fields refused, each field's
+type and range declared once; a bad value is one `ConfigError` line naming the group, the field and the
+value.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field
 
 from localisation.global_localisation import GlobalLocalisation
 from localisation.scan import sweep_angles
-from toolkit.world import CHECKER_BACKENDS, ConfigError
+from toolkit.world import ConfigError
+from toolkit.world.typed import Typed, build, group_fields, with_values
 
 __all__ = ["FIX_RULES", "TRACK_WINDOWS", "DriveConfig", "FinalConfig", "FixConfig", "LimitsConfig", "MissionConfig",
            "PlanningConfig", "SweepConfig"]
@@ -33,27 +37,7 @@ TRACKING = ("continue", "prior")
 """How a tracking re-localisation starts (`FixConfig.tracking`)."""
 
 
-def _check(group: str, name: str, value: Any, *, low: float = 0.0, strict: bool = False,
-           integer: bool = False, high: float = math.inf) -> None:
-    """ConfigError unless `value` is a finite number (an int when `integer`) in the range."""
-    kind = int if integer else int | float
-    ok = isinstance(value, kind) and not isinstance(value, bool) and math.isfinite(value)
-    ok = ok and (value > low if strict else value >= low) and value <= high
-    if not ok:
-        what = "an integer" if integer else "a number"
-        bounds = f"> {low:g}" if strict else f">= {low:g}"
-        if high < math.inf:
-            bounds += f" and <= {high:g}"
-        raise ConfigError(f"MissionConfig.{group}.{name} must be {what} {bounds}, got {value!r}")
-
-
-def _check_choice(group: str, name: str, value: Any, choices: tuple[str, ...] | Mapping[str, Any]) -> None:
-    if value not in choices:
-        raise ConfigError(f"MissionConfig.{group}.{name} must be one of {', '.join(choices)}, got {value!r}")
-
-
-@dataclass(frozen=True)
-class PlanningConfig:
+class PlanningConfig(Typed):
     """How paths are planned.
 
     Parameters
@@ -67,17 +51,13 @@ class PlanningConfig:
         Keyword arguments of `make_planner` when the planner is given by name.
     """
 
-    time_s: float = 1.0
-    safety_margin_cm: float = 2.0
-    planner_options: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        _check("planning", "time_s", self.time_s, strict=True)
-        _check("planning", "safety_margin_cm", self.safety_margin_cm)
+    time_s: float = Field(default=1.0, gt=0)
+    safety_margin_cm: float = Field(default=2.0, ge=0)
+    planner_options: dict[str, Any] = Field(default_factory=dict)
 
 
-@dataclass(frozen=True)
-class DriveConfig:
+
+class DriveConfig(Typed):
     """How a path is driven, leg by leg.
 
     Parameters
@@ -97,23 +77,16 @@ class DriveConfig:
         Extra clearance of that check, for the estimate's position error (from estimates that have it).
     """
 
-    move_step_cm: float = 10.0
-    waypoint_tolerance_cm: float = 1.0
-    max_legs: int = 12
-    heading_tolerance_deg: float = 8.0
-    min_leg_cm: float = 4.0
-    leg_margin_cm: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check("drive", "move_step_cm", self.move_step_cm, strict=True)
-        _check("drive", "waypoint_tolerance_cm", self.waypoint_tolerance_cm, strict=True)
-        _check("drive", "max_legs", self.max_legs, low=1, integer=True)
-        for name in ("heading_tolerance_deg", "min_leg_cm", "leg_margin_cm"):
-            _check("drive", name, getattr(self, name))
+    move_step_cm: float = Field(default=10.0, gt=0)
+    waypoint_tolerance_cm: float = Field(default=1.0, gt=0)
+    max_legs: int = Field(default=12, ge=1)
+    heading_tolerance_deg: float = Field(default=8.0, ge=0)
+    min_leg_cm: float = Field(default=4.0, ge=0)
+    leg_margin_cm: float = Field(default=0.0, ge=0)
 
 
-@dataclass(frozen=True)
-class FixConfig:
+
+class FixConfig(Typed):
     """When and how the robot re-localises on the way (`toolkit.mission.fix_policy.FixPolicy`).
 
     Parameters
@@ -152,31 +125,20 @@ class FixConfig:
         checks from 20 degrees).
     """
 
-    rule: str = "spread"
-    relocalise_every_cm: float | None = None
-    first_leg_cm: float | None = 6.0
-    spread_sigmas: float = 3.0
-    spread_min_heading_deg: float = 1.0
-    spread_drift: float = 0.05
-    tracking: str = "continue"
-    tracking_std_cm: float = 4.0
-    tracking_std_deg: float = 8.0
-    check_turn_deg: float | None = None
-
-    def __post_init__(self) -> None:
-        _check_choice("fix", "rule", self.rule, FIX_RULES)
-        _check_choice("fix", "tracking", self.tracking, TRACKING)
-        for name in ("relocalise_every_cm", "first_leg_cm", "check_turn_deg"):
-            if getattr(self, name) is not None:
-                _check("fix", name, getattr(self, name), strict=True)
-        for name in ("spread_sigmas", "spread_min_heading_deg", "spread_drift"):
-            _check("fix", name, getattr(self, name))
-        _check("fix", "tracking_std_cm", self.tracking_std_cm, strict=True)
-        _check("fix", "tracking_std_deg", self.tracking_std_deg, strict=True)
+    rule: Literal["always", "spread"] = "spread"
+    relocalise_every_cm: float | None = Field(default=None, gt=0)
+    first_leg_cm: float | None = Field(default=6.0, gt=0)
+    spread_sigmas: float = Field(default=3.0, ge=0)
+    spread_min_heading_deg: float = Field(default=1.0, ge=0)
+    spread_drift: float = Field(default=0.05, ge=0)
+    tracking: Literal["continue", "prior"] = "continue"
+    tracking_std_cm: float = Field(default=4.0, gt=0)
+    tracking_std_deg: float = Field(default=8.0, gt=0)
+    check_turn_deg: float | None = Field(default=None, gt=0)
 
 
-@dataclass(frozen=True)
-class SweepConfig:
+
+class SweepConfig(Typed):
     """How the sonar sweeps of the re-localisations read (the global ones: `GlobalLocalisation`).
 
     Parameters
@@ -195,20 +157,14 @@ class SweepConfig:
         Extra keyword arguments of every look (`localisation.procedure.look`), global or tracking.
     """
 
-    track_window_deg: float = 15.0
-    track_scan_step_deg: float = 2.0
-    track_windows: str = "sides"
+    track_window_deg: float = Field(default=15.0, ge=0, le=180)
+    track_scan_step_deg: float = Field(default=2.0, gt=0, le=90)
+    track_windows: Literal["sides", "axes"] = "sides"
     track_align: bool = False
-    final_window_deg: float = 15.0
-    final_scan_step_deg: float = 1.0
-    localise_options: Mapping[str, Any] = field(default_factory=dict)
+    final_window_deg: float = Field(default=15.0, ge=0, le=180)
+    final_scan_step_deg: float = Field(default=1.0, gt=0, le=90)
+    localise_options: dict[str, Any] = Field(default_factory=dict)
 
-    def __post_init__(self) -> None:
-        for name in ("track_scan_step_deg", "final_scan_step_deg"):
-            _check("sweeps", name, getattr(self, name), strict=True, high=90.0)
-        for name in ("track_window_deg", "final_window_deg"):
-            _check("sweeps", name, getattr(self, name), high=180.0)
-        _check_choice("sweeps", "track_windows", self.track_windows, TRACK_WINDOWS)
 
     def heading_check_angles(self) -> NDArray[np.float64]:
         """The turret angles of a heading check: the front half, -90 to +90 degrees at the tracking step.
@@ -218,8 +174,7 @@ class SweepConfig:
         return sweep_angles(self.track_scan_step_deg, 90.0, (0.0,))
 
 
-@dataclass(frozen=True)
-class FinalConfig:
+class FinalConfig(Typed):
     """The final correction at the target (`toolkit.mission.final_correction.FinalCorrectionPolicy`).
 
     Parameters
@@ -235,20 +190,14 @@ class FinalConfig:
         around (0: always turn toward the target).
     """
 
-    goal_tolerance_cm: float = 0.5
-    max_corrections: int = 6
-    success_radius_cm: float = 3.0
-    reverse_cm: float = 10.0
-
-    def __post_init__(self) -> None:
-        _check("final", "goal_tolerance_cm", self.goal_tolerance_cm, strict=True)
-        _check("final", "max_corrections", self.max_corrections, integer=True)
-        _check("final", "success_radius_cm", self.success_radius_cm, strict=True)
-        _check("final", "reverse_cm", self.reverse_cm)
+    goal_tolerance_cm: float = Field(default=0.5, gt=0)
+    max_corrections: int = Field(default=6, ge=0)
+    success_radius_cm: float = Field(default=3.0, gt=0)
+    reverse_cm: float = Field(default=10.0, ge=0)
 
 
-@dataclass(frozen=True)
-class LimitsConfig:
+
+class LimitsConfig(Typed):
     """When the mission gives up.
 
     Parameters
@@ -259,19 +208,12 @@ class LimitsConfig:
         Turn and Move commands (a guard against endless loops).
     """
 
-    max_replans: int = 12
-    max_actions: int = 400
-
-    def __post_init__(self) -> None:
-        _check("limits", "max_replans", self.max_replans, integer=True)
-        _check("limits", "max_actions", self.max_actions, low=1, integer=True)
+    max_replans: int = Field(default=12, ge=0)
+    max_actions: int = Field(default=400, ge=1)
 
 
-_GROUPS = ("planning", "drive", "fix", "global_localisation", "sweeps", "final", "limits")
 
-
-@dataclass(frozen=True)
-class MissionConfig:
+class MissionConfig(Typed):
     """How a mission is run: one group per concern, each documenting its fields.
 
     Parameters
@@ -293,33 +235,29 @@ class MissionConfig:
         watchdog and contacts use it too when the mission runs on it.
     """
 
-    planning: PlanningConfig = field(default_factory=PlanningConfig)
-    drive: DriveConfig = field(default_factory=DriveConfig)
-    fix: FixConfig = field(default_factory=FixConfig)
-    global_localisation: GlobalLocalisation = field(default_factory=GlobalLocalisation)
-    sweeps: SweepConfig = field(default_factory=SweepConfig)
-    final: FinalConfig = field(default_factory=FinalConfig)
-    limits: LimitsConfig = field(default_factory=LimitsConfig)
-    localiser_options: Mapping[str, Any] = field(default_factory=dict)
-    collision: str = "index"
+    planning: PlanningConfig = PlanningConfig()
+    drive: DriveConfig = DriveConfig()
+    fix: FixConfig = FixConfig()
+    global_localisation: GlobalLocalisation = GlobalLocalisation()
+    sweeps: SweepConfig = SweepConfig()
+    final: FinalConfig = FinalConfig()
+    limits: LimitsConfig = LimitsConfig()
+    localiser_options: dict[str, Any] = Field(default_factory=dict)
+    collision: Literal["index", "fcl"] = "index"
 
-    def __post_init__(self) -> None:
-        _check_choice("", "collision", self.collision, CHECKER_BACKENDS)
 
     def with_options(self, **options: Any) -> MissionConfig:
         """This configuration with fields set from flat options: ``group.field`` or a field name only one
-        group has (``fix.rule`` or ``rule``), or ``localiser_options`` / ``collision``; an unknown key is
-        a `ConfigError` naming it."""
-        groups: dict[str, dict[str, Any]] = {}
-        top: dict[str, Any] = {}
-        for key, value in options.items():
-            group, name = _locate(key)
-            if group:
-                groups.setdefault(group, {})[name] = value
-            else:
-                top[name] = value
-        changed = {g: replace(getattr(self, g), **values) for g, values in groups.items()}
-        return replace(self, **changed, **top)
+        group has (``fix.rule`` or ``rule``), or ``localiser_options`` / ``collision``; an unknown key or a
+        bad value is a `ConfigError` naming it."""
+        dotted = {".".join(part for part in _locate(key) if part): value for key, value in options.items()}
+        return with_values(self, dotted, "MissionConfig")
+
+    @classmethod
+    def from_dict(cls, data: Any, where: str = "MissionConfig") -> MissionConfig:
+        """A configuration from its `to_dict` form (a missing field keeps its default); a bad one is one
+        `ConfigError` line naming `where`, the field and the value."""
+        return build(cls, data, where)
 
     @classmethod
     def for_sonar(cls, sonar: str, **options: Any) -> MissionConfig:
@@ -338,24 +276,22 @@ class MissionConfig:
                     "fix.spread_min_heading_deg": 2.0, "fix.check_turn_deg": 20.0, "sweeps.track_windows": "axes"}
         return cls().with_options(**base).with_options(**options)
 
+    def with_localiser_defaults(self, defaults: dict[str, Any]) -> MissionConfig:
+        """This configuration with `defaults` under its own `localiser_options` (its own win)."""
+        return self.model_copy(update={"localiser_options": {**defaults, **self.localiser_options}})
+
     def to_dict(self) -> dict[str, Any]:
         """Every field, groups as nested dicts."""
-        out: dict[str, Any] = {}
-        for f in fields(self):
-            v = getattr(self, f.name)
-            out[f.name] = ({g.name: _plain(getattr(v, g.name)) for g in fields(v)} if f.name in _GROUPS
-                           else _plain(v))
-        return out
+        return self.model_dump()
 
 
-def _plain(v: Any) -> Any:
-    return dict(v) if isinstance(v, Mapping) else v
+_GROUPS = ("planning", "drive", "fix", "global_localisation", "sweeps", "final", "limits")
 
 
 def _group_fields() -> dict[str, tuple[str, ...]]:
     """The field names of each group."""
-    default = MissionConfig()
-    return {g: tuple(f.name for f in fields(getattr(default, g))) for g in _GROUPS}
+    own = group_fields(MissionConfig) or {}
+    return {g: tuple(group_fields(own[g]) or ()) for g in _GROUPS}
 
 
 def _locate(key: str) -> tuple[str, str]:

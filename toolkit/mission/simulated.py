@@ -85,7 +85,7 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
         raise NxtnavError(f"map {m.name} has no preset target: give one")
     cfg = config or MissionConfig.for_sonar(sonar)
     if isinstance(localiser, str):
-        cfg = replace(cfg, localiser_options={**localiser_options(localiser, robot_model), **cfg.localiser_options})
+        cfg = cfg.with_localiser_defaults(localiser_options(localiser, robot_model))
     robot = SimRobot(m, pose, geometry=robot_model.geometry, noise=robot_model.motion, sonar=robot_model.sonar,
                      rng=s_sim, checker=make_checker(m, radius, cfg.collision))  # the simulator's contacts: one backend
     report = run_mission(robot, m, target, planner=planner, localiser=localiser,

@@ -34,6 +34,8 @@ toolkit.world.errors.ConfigError: --set: no option 'motion.speed'; motion has: s
 
 from __future__ import annotations
 
+import dataclasses
+import typing
 from collections.abc import Iterator, Mapping
 from typing import Any, TypeVar
 
@@ -44,7 +46,8 @@ from pydantic_core import PydanticCustomError
 from .errors import ConfigError
 from .yaml_text import YAMLError, load_yaml
 
-__all__ = ["Typed", "build", "fields_of", "one_line", "parse_value", "with_sets", "worded"]
+__all__ = ["Typed", "build", "fields_of", "group_fields", "one_line", "parse_value", "with_sets", "with_values",
+           "worded"]
 
 T = TypeVar("T", bound=BaseModel)
 
@@ -94,6 +97,8 @@ def _message(err: Mapping[str, Any]) -> str:
     if err.get("type") == "missing":
         return f"{path}: missing"
     value = err.get("input")
+    if isinstance(value, dict | list):  # a whole group failed its own check: its message names the value
+        return f"{path}: {text}" if path else text
     return f"{path}: {value!r} {text}" if path else f"{value!r}: {text}"
 
 
@@ -111,8 +116,20 @@ def build(cls: type[T], data: Any, where: str = "") -> T:
         raise ConfigError(one_line(exc, where)) from None
 
 
+def group_fields(kind: Any) -> dict[str, Any] | None:
+    """The fields of a group type (a pydantic model, or a standard dataclass nested in one) by name, each
+    with its type; None when `kind` is a value, not a group."""
+    if isinstance(kind, type) and issubclass(kind, BaseModel):
+        return {name: info.annotation for name, info in kind.model_fields.items()}
+    if isinstance(kind, type) and dataclasses.is_dataclass(kind):
+        hints = typing.get_type_hints(kind)
+        return {f.name: hints.get(f.name, Any) for f in dataclasses.fields(kind)}
+    return None
+
+
 def fields_of(cls: type[BaseModel], prefix: str = "") -> Iterator[tuple[str, FieldInfo]]:
-    """Every leaf field of `cls` as (dotted name, field), nested groups expanded, in declaration order."""
+    """Every leaf field of `cls` as (dotted name, field), nested groups expanded, in declaration order
+    (a standard dataclass nested in a model counts as one field)."""
     for name, info in cls.model_fields.items():
         kind = info.annotation
         if isinstance(kind, type) and issubclass(kind, BaseModel):
@@ -131,19 +148,35 @@ def parse_value(text: str) -> Any:
 
 def with_sets(model: T, sets: Mapping[str, str], where: str = "--set") -> T:
     """`model` with each ``dotted.key`` of `sets` replaced by its text read as YAML, validated again."""
-    data = model.model_dump()
-    for key, text in sets.items():
+    return with_values(model, {key: parse_value(text) for key, text in sets.items()}, where)
+
+
+def _fields(value: Any) -> Any:
+    """A model's (or a nested dataclass group's) fields as nested dicts, every other value as it is (unlike
+    ``model_dump``, which would turn objects held in ``Any`` fields into dicts too)."""
+    if isinstance(value, BaseModel):
+        return {name: _fields(getattr(value, name)) for name in type(value).model_fields}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
+    return value
+
+
+def with_values(model: T, values: Mapping[str, Any], where: str = "--set") -> T:
+    """`model` with each ``dotted.key`` of `values` replaced by its value, validated again (groups may be
+    pydantic models or standard dataclasses nested in them)."""
+    data = _fields(model)
+    for key, value in values.items():
         node, parts = data, key.split(".")
-        cls: type[BaseModel] = type(model)
+        known = group_fields(type(model)) or {}
         for depth, part in enumerate(parts):
             group = ".".join(parts[:depth]) or type(model).__name__
-            if part not in cls.model_fields:
-                raise ConfigError(f"{where}: no option {key!r}; {group} has: {', '.join(cls.model_fields)}")
-            kind = cls.model_fields[part].annotation
+            if part not in known:
+                raise ConfigError(f"{where}: no option {key!r}; {group} has: {', '.join(known)}")
+            inner = group_fields(known[part])
             if depth < len(parts) - 1:
-                if not (isinstance(kind, type) and issubclass(kind, BaseModel)):
+                if inner is None:
                     raise ConfigError(f"{where}: {'.'.join(parts[:depth + 1])} is a value, not a group")
-                node, cls = node[part], kind
+                node, known = node[part], inner
             else:
-                node[part] = parse_value(text)
+                node[part] = value
     return build(type(model), data, where)

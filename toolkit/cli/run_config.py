@@ -1,0 +1,167 @@
+"""One override syntax and reproducible runs: ``--set section.key=value`` and ``--config FILE``.
+
+``--set`` takes settings sections and plug-in options alike; the first dotted part names the section:
+
+- ``mission.GROUP.FIELD=V``: the mission settings (`toolkit.mission.MissionConfig`, e.g.
+  ``mission.drive.move_step_cm=20`` or ``mission.fix.rule=always``), through `toolkit.world.typed.with_sets`;
+- ``PLUGIN.KEY=V`` or a bare ``KEY=V``: a chosen planner's or localiser's options
+  (`toolkit.cli.set_options`, unchanged).
+
+Every command that runs something writes its effective configuration into its outputs
+(`configuration`: the command, every option that shapes the result, the ``--set`` list and the
+resulting mission settings). ``--config FILE`` reads such a file back (the JSON output itself, or the
+``configuration`` part of it alone): its options become the command's defaults, so options given on the
+command line win and ``--set`` values given there apply after the file's; the run is the same.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import typer
+
+from ..world import ConfigError, NxtnavError
+from ..world.bundled import data_path
+from ..world.typed import with_sets
+from ..world.yaml_text import YAMLError, load_yaml
+
+if TYPE_CHECKING:
+    from ..mission import MissionConfig
+
+__all__ = ["SECTIONS", "add_configuration", "configuration", "dumps", "given_sets", "load_config",
+           "mission_config", "mission_sets", "split_sets"]
+
+SECTIONS = ("mission",)
+"""The settings sections ``--set`` knows besides the plug-ins' names."""
+
+_NOT_CONFIGURATION = frozenset({
+    "json_out", "plot", "animate", "record", "view", "view_save", "markdown", "pareto", "out", "output",
+    "force", "config_file", "sets", "dask", "workers"})
+"""Parameters that say where results go or how they are computed, not what they are."""
+
+_META = "nxtnav.config.sets"
+"""Where `load_config` leaves the ``--set`` list of the file in the click context."""
+
+
+def split_sets(values: list[str]) -> tuple[dict[str, dict[str, str]], list[str]]:
+    """``--set`` values of the settings sections (`SECTIONS`) by section, keys without the section; and the
+    rest (plug-in options) as given."""
+    sections: dict[str, dict[str, str]] = {}
+    rest: list[str] = []
+    for text in values:
+        key, sep, raw = text.partition("=")
+        section, dot, inner = key.strip().partition(".")
+        if sep and dot and section in SECTIONS:
+            if not inner:
+                raise NxtnavError(f"--set: expected {section}.KEY=VALUE, got {text!r}")
+            sections.setdefault(section, {})[inner] = raw
+        elif sep and key.strip() in SECTIONS:
+            raise NxtnavError(f"--set: {key.strip()} is a section; give {key.strip()}.KEY=VALUE, got {text!r}")
+        else:
+            rest.append(text)
+    return sections, rest
+
+
+def mission_sets(sets: list[str]) -> dict[str, str]:
+    """The ``mission.`` settings of `sets` (dotted keys below the section, values as typed)."""
+    return split_sets(sets)[0].get("mission", {})
+
+
+def mission_config(sonar: str, sets: list[str], collision: str = "index", **fields: Any) -> MissionConfig:
+    """The mission settings of a run on `sonar`: its tuning (`MissionConfig.for_sonar`), the backend and
+    `fields`, then the ``mission.`` values of `sets`; a bad key or value is one line naming it."""
+    from ..mission import MissionConfig
+
+    base = MissionConfig.for_sonar(sonar, collision=collision).model_copy(update=fields)
+    own = mission_sets(sets)
+    try:
+        return with_sets(base, own, "--set mission") if own else base
+    except ConfigError as exc:
+        raise NxtnavError(str(exc)) from None
+
+
+def given_sets(ctx: typer.Context, sets: list[str]) -> list[str]:
+    """The ``--set`` values of the ``--config`` file (if one was given to the command of `ctx`), then those of
+    the command line."""
+    return list(ctx.meta.get(_META, [])) + list(sets)
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _command(ctx: typer.Context) -> str:
+    """The command `ctx` runs, as typed after ``nxtnav`` (``run``, ``bench localisers``)."""
+    return ctx.command_path.removeprefix(f"{ctx.find_root().info_name} ").strip()
+
+
+def _flags(ctx: typer.Context) -> dict[str, str]:
+    """Each option of the command `ctx` runs by its long name without dashes (``map``), to its parameter."""
+    return {max(p.opts, key=len).lstrip("-"): p.name for p in ctx.command.params
+            if p.name is not None and p.opts and p.name not in _NOT_CONFIGURATION}
+
+
+def configuration(ctx: typer.Context, sets: list[str], **extra: Any) -> dict[str, Any]:
+    """The effective configuration of the command `ctx` runs: its name, every option that shapes the result
+    by its name on the command line (``map``, ``noise-model``; as typed, after the ``--config`` file's), the
+    whole ``--set`` list and `extra` (the mission settings)."""
+    options = {flag: _plain(ctx.params[name]) for flag, name in _flags(ctx).items()
+               if ctx.params.get(name) is not None}
+    return {"command": _command(ctx), "options": options, "set": given_sets(ctx, sets), **extra}
+
+
+def _configuration_in(doc: Any, path: Path) -> dict[str, Any]:
+    """The configuration a file holds: itself, its ``configuration`` part, or the first table's (paper)."""
+    if isinstance(doc, list) and doc and isinstance(doc[0], dict):
+        doc = doc[0]
+    if isinstance(doc, dict) and isinstance(doc.get("configuration"), dict):
+        doc = doc["configuration"]
+    if not (isinstance(doc, dict) and isinstance(doc.get("command"), str) and isinstance(doc.get("options"), dict)):
+        raise typer.BadParameter(f"{path} holds no run configuration (no 'command' and 'options'; give a "
+                                 "configuration or the JSON output of a run)")
+    return doc
+
+
+def load_config(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> Any:
+    """Eager callback of ``--config FILE``: the file's options become the command's defaults (those given on
+    the command line win) and its ``--set`` list goes before the command line's (`given_sets`)."""
+    if value is None or ctx.resilient_parsing:
+        return value
+    path = data_path(value)
+    try:
+        doc = load_yaml(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, YAMLError) as exc:
+        raise typer.BadParameter(f"cannot read {path}: {' '.join(str(exc).split())}") from None
+    conf = _configuration_in(doc, Path(path))
+    command = _command(ctx)
+    if conf["command"] != command:
+        raise typer.BadParameter(f"{path} configures 'nxtnav {conf['command']}', not 'nxtnav {command}'")
+    flags = _flags(ctx)
+    unknown = sorted(k for k in conf["options"] if k.lstrip("-") not in flags)
+    if unknown:
+        raise typer.BadParameter(f"{path}: options of no 'nxtnav {command}': {', '.join(unknown)}")
+    sets = conf.get("set", [])
+    if not (isinstance(sets, list) and all(isinstance(s, str) for s in sets)):
+        raise typer.BadParameter(f"{path}: set must be a list of KEY=VALUE texts, got {sets!r}")
+    ctx.default_map = {**(ctx.default_map or {}), **{flags[k.lstrip("-")]: v for k, v in conf["options"].items()}}
+    ctx.meta[_META] = sets
+    return value
+
+
+def add_configuration(path: Path, conf: dict[str, Any]) -> None:
+    """Put `conf` into the JSON object the file `path` holds (a benchmark's ``config.json``)."""
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    path.write_text(json.dumps({**doc, "configuration": conf}, indent=1, default=str), encoding="utf-8")
+
+
+def dumps(doc: Any) -> str:
+    """`doc` as the JSON the outputs write (no NaN)."""
+    from ..number_format import json_safe
+
+    return json.dumps(json_safe(doc), indent=1, allow_nan=False)
