@@ -1,0 +1,262 @@
+"""The robot's cost of a path: its robot time, its predicted open-loop error, and the planners' objectives.
+
+A path is a (k, 2) polyline (cm) the robot drives as the mission does: at each waypoint it stops,
+turns in place to the next segment's heading, and drives the segment straight. The start heading
+and the goal heading are free (the first segment starts facing its heading; no turn at the goal).
+
+Robot time (`robot_time_s`) is `RobotTiming`'s own account of those commands, the one the simulator
+charges (`toolkit.robots.sim.SimRobot`) and the model clock checks on the brick: each drive at
+``drive_speed_cm_s``, each turn at ``turn_rate_deg_s`` plus the fixed ``stop_turn_s`` of a
+stop-and-turn command.
+
+Predicted open-loop error (`predicted_error_cm`) is the root-mean-square distance between where the
+robot ends and the goal when it drives the path blind under its `MotionNoise`, in closed form to
+first order in the noise (exact for the drive noise, linearised in the heading noise):
+
+    E|e|^2 = sum_i var(delta d_i) + sum_j var(eta_j) * |g - p_(j-1)|^2
+
+where segment ``i`` of length ``d_i`` has distance noise ``delta d_i`` (``botsim``: ``d_i * motion``;
+``absolute``: ``motion`` cm), and the heading noise ``eta_j`` drawn before segment ``j`` (its turn's,
+``botsim``: ``|a_j| * turn``, ``absolute``: ``turn`` rad per turn; plus ``turn`` rad per move) swings the
+rest of the path, ``g - p_(j-1)``, about the segment's start. `monte_carlo_error_cm` draws the same
+commands through the simulator's noise equations (seeded) to check the closed form.
+
+Objectives (`OBJECTIVES`): ``length`` (cm), ``turns`` (interior waypoints turning by more than
+`TURN_THRESHOLD_RAD`) and ``robot-time`` (s). `objective_cost` gives a path's cost under one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .arrays import FloatArray
+from .errors import ConfigError
+from .geometry import wrap_angle
+
+if TYPE_CHECKING:
+    from .robot_model import MotionNoise
+
+__all__ = ["OBJECTIVES", "OBJECTIVE_UNITS", "TURN_THRESHOLD_RAD", "PathCost", "RobotTiming", "check_objective",
+           "monte_carlo_error_cm", "objective_cost", "path_cost", "predicted_error_cm", "robot_time_s",
+           "segment_turns"]
+
+OBJECTIVES = ("length", "turns", "robot-time")
+"""What a planner can be asked to minimise."""
+OBJECTIVE_UNITS = {"length": "cm", "turns": "turns", "robot-time": "s"}
+TURN_THRESHOLD_RAD = math.radians(1.0)
+"""A waypoint is a *turn* when the heading changes there by more than this (rad)."""
+_EPS_CM = 1e-9
+_EPS_RAD = 1e-9
+
+
+@dataclass(frozen=True)
+class RobotTiming:
+    """How long a real NXT takes for each action (for `robot_time_s`).
+
+    A sweep costs its readings plus the turret's travel: from the front through the requested
+    angles in the order given, then back to the front (so the sensor cable never winds up). A full
+    360-reading sweep at one-degree steps is 8.3 s of readings, 1.5 s of turret travel out and 1.5 s
+    back: 11.3 s. The reading time and the turret rate are those of the default NXT profile on the
+    virtual brick over a link of 3 ms per round trip (USB); drive and turn rates are kept below the
+    brick's (about 19 cm/s and 150 deg/s with the profile's powers), so the model does not promise
+    more than a robot gives.
+
+    Parameters
+    ----------
+    drive_speed_cm_s : float
+        Straight-line speed (cm/s).
+    turn_rate_deg_s : float
+        Spin-in-place rate (deg/s).
+    reading_s : float
+        Time per sonar reading, the turret standing (s); the sensor gives at most ~50 readings/s.
+    turret_rate_deg_s : float
+        Turret speed (sensor degrees per second).
+    stop_turn_s : float
+        Fixed time of each stop-and-turn command besides the spin itself (s): 0 by default, the
+        simulator's account so far; the brick's command round trip and motor settling when measured.
+    """
+
+    drive_speed_cm_s: float = 15.0
+    turn_rate_deg_s: float = 90.0
+    reading_s: float = 0.023
+    turret_rate_deg_s: float = 240.0
+    stop_turn_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        for k in ("drive_speed_cm_s", "turn_rate_deg_s", "turret_rate_deg_s"):
+            v = getattr(self, k)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise ConfigError(f"RobotTiming.{k} must be a positive number, got {v!r}")
+        for k in ("reading_s", "stop_turn_s"):
+            v = getattr(self, k)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise ConfigError(f"RobotTiming.{k} must be a number >= 0, got {v!r}")
+
+    def move(self, distance_cm: float) -> float:
+        """Time (s) to drive `distance_cm` (either sense)."""
+        return abs(distance_cm) / self.drive_speed_cm_s
+
+    def turn(self, angle_rad: float) -> float:
+        """Time (s) to stop and spin by `angle_rad` (a zero turn costs nothing)."""
+        if abs(angle_rad) <= _EPS_RAD:
+            return 0.0
+        return abs(math.degrees(angle_rad)) / self.turn_rate_deg_s + self.stop_turn_s
+
+    def sweep(self, angles_rad: ArrayLike) -> tuple[float, float]:
+        """(sweep, return) times (s) of an Ultrascan over `angles_rad` (relative, in the order given):
+        the readings and the turret's travel from the front through them, then the travel back."""
+        deg = np.degrees(np.asarray(angles_rad, dtype=float).ravel())
+        if deg.size == 0:
+            return 0.0, 0.0
+        out = float(np.abs(np.diff(deg, prepend=0.0)).sum())
+        return deg.size * self.reading_s + out / self.turret_rate_deg_s, abs(float(deg[-1])) / self.turret_rate_deg_s
+
+    def scan(self, angles_rad: ArrayLike) -> float:
+        """Whole time (s) of an Ultrascan over `angles_rad`, turret return included."""
+        return sum(self.sweep(angles_rad))
+
+    def reading_times(self, angles_rad: ArrayLike) -> FloatArray:
+        """When each reading of an Ultrascan over `angles_rad` is done (s after the sweep starts): the
+        turret's travel to each angle plus one reading time per reading; the last is the sweep time."""
+        deg = np.degrees(np.asarray(angles_rad, dtype=float).ravel())
+        return np.cumsum(np.abs(np.diff(deg, prepend=0.0)) / self.turret_rate_deg_s + self.reading_s)
+
+    @property
+    def cm_per_rad(self) -> float:
+        """Driving distance (cm) that takes as long as spinning one radian: robot time in cm."""
+        return self.drive_speed_cm_s / math.radians(self.turn_rate_deg_s)
+
+    def to_dict(self) -> dict[str, float]:
+        return {k: float(getattr(self, k)) for k in self.__dataclass_fields__}
+
+
+def _paper_noise() -> MotionNoise:
+    from .robot_model import MotionNoise  # the model module declares the robot, timing included
+
+    return MotionNoise()
+
+
+def check_objective(objective: str, supported: tuple[str, ...] = OBJECTIVES, who: str = "") -> str:
+    """`objective` when it is one of `supported`, else a `ConfigError` that names the choices."""
+    if objective not in OBJECTIVES:
+        raise ConfigError(f"unknown objective {objective!r}; choose one of {', '.join(OBJECTIVES)}")
+    if objective not in supported:
+        raise ConfigError(f"{who or 'this planner'} cannot optimise objective {objective!r}; "
+                          f"it optimises {', '.join(supported)}")
+    return objective
+
+
+def _segments(path: ArrayLike) -> FloatArray:
+    """Non-degenerate segment vectors of the path, shape (m, 2) (repeated waypoints dropped)."""
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    if len(p) < 2:
+        return np.empty((0, 2))
+    d = np.diff(p, axis=0)
+    return d[np.hypot(d[:, 0], d[:, 1]) > _EPS_CM]
+
+
+def segment_turns(path: ArrayLike) -> FloatArray:
+    """Signed heading change (rad, in [-pi, pi)) at each interior waypoint, zero-length segments skipped."""
+    d = _segments(path)
+    if len(d) < 2:
+        return np.empty(0)
+    return np.asarray(wrap_angle(np.diff(np.arctan2(d[:, 1], d[:, 0]))))
+
+
+def robot_time_s(path: ArrayLike, timing: RobotTiming | None = None) -> float:
+    """Robot time (s) to drive `path`: every segment by `RobotTiming.move`, every turn by `RobotTiming.turn`.
+
+    >>> robot_time_s([[0, 0], [30, 0], [30, 15]])  # 45 cm at 15 cm/s, 90 degrees at 90 deg/s
+    4.0
+    """
+    t = timing or RobotTiming()
+    d = _segments(path)
+    drive = sum(t.move(float(x)) for x in np.hypot(d[:, 0], d[:, 1]))
+    return float(drive + sum(t.turn(float(a)) for a in segment_turns(path)))
+
+
+def _heading_variances(turns: FloatArray, n_moves: int, noise: MotionNoise) -> FloatArray:
+    """Variance (rad^2) of the heading noise drawn before each segment's drive: its turn's and its move's."""
+    var = np.full(n_moves, noise.turn**2)
+    if n_moves > 1:
+        turned = np.abs(turns) > _EPS_RAD
+        var[1:] += np.where(turned, (turns * noise.turn) ** 2 if noise.model == "botsim" else noise.turn**2, 0.0)
+    return var
+
+
+def predicted_error_cm(path: ArrayLike, noise: MotionNoise | None = None) -> float:
+    """Root-mean-square final position error (cm) of driving `path` open loop, in closed form (module notes).
+
+    >>> from toolkit.world import MotionNoise
+    >>> round(predicted_error_cm([[0, 0], [100, 0]], MotionNoise("botsim", 0.1, 0.0)), 6)  # 10 % of 100 cm
+    10.0
+    """
+    n = noise or _paper_noise()
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    if len(p) >= 2:
+        step = np.hypot(*np.diff(p, axis=0).T)
+        p = np.vstack([p[:1], p[1:][step > _EPS_CM]])
+    if len(p) < 2:
+        return 0.0
+    lengths = np.hypot(*np.diff(p, axis=0).T)
+    drive_var = (lengths * n.motion) ** 2 if n.model == "botsim" else np.full(len(lengths), n.motion**2)
+    lever = np.sum((p[-1] - p[:-1]) ** 2, axis=1)
+    heading_var = _heading_variances(segment_turns(p), len(lengths), n)
+    return float(math.sqrt(float(drive_var.sum() + (heading_var * lever).sum())))
+
+
+def monte_carlo_error_cm(path: ArrayLike, noise: MotionNoise | None = None, runs: int = 2000,
+                         seed: int = 0) -> float:
+    """Root-mean-square final position error (cm) over `runs` seeded open-loop drives of `path`, each
+    command drawn by the simulator's noise equations (`toolkit.robots.sim`); no walls."""
+    n = noise or _paper_noise()
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    d = _segments(p)
+    if len(d) == 0:
+        return 0.0
+    rng = np.random.default_rng(seed)
+    lengths = np.hypot(d[:, 0], d[:, 1])
+    turns = np.concatenate([[0.0], segment_turns(p)])
+    heading = np.full(runs, math.atan2(d[0, 1], d[0, 0]))
+    xy = np.tile(p[0], (runs, 1))
+    for length, turn in zip(lengths, turns, strict=True):
+        if abs(turn) > _EPS_RAD:
+            eps = rng.standard_normal(runs) * n.turn
+            heading = heading + turn + (turn * eps if n.model == "botsim" else eps)
+        heading = heading + rng.standard_normal(runs) * n.turn
+        eps = rng.standard_normal(runs) * n.motion
+        driven = length + (length * eps if n.model == "botsim" else eps)
+        xy = xy + driven[:, None] * np.column_stack([np.cos(heading), np.sin(heading)])
+    return float(math.sqrt(float(np.mean(np.sum((xy - p[-1]) ** 2, axis=1)))))
+
+
+def objective_cost(objective: str, path: ArrayLike, timing: RobotTiming | None = None) -> float:
+    """Cost of `path` under `objective`: length (cm), turns (count) or robot time (s)."""
+    check_objective(objective)
+    if objective == "length":
+        p = np.asarray(path, dtype=float).reshape(-1, 2)
+        return float(np.sum(np.hypot(*np.diff(p, axis=0).T))) if len(p) >= 2 else 0.0
+    if objective == "turns":
+        return float(np.count_nonzero(np.abs(segment_turns(path)) > TURN_THRESHOLD_RAD))
+    return robot_time_s(path, timing)
+
+
+@dataclass(frozen=True)
+class PathCost:
+    """A path's cost to the robot: robot time (s) and predicted open-loop error (cm, closed form)."""
+
+    robot_time_s: float
+    predicted_error_cm: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {"robot_time_s": self.robot_time_s, "predicted_error_cm": self.predicted_error_cm}
+
+
+def path_cost(path: ArrayLike, timing: RobotTiming | None = None, noise: MotionNoise | None = None) -> PathCost:
+    """`PathCost` of `path` for a robot with `timing` and motion `noise` (defaults: the simulator's)."""
+    return PathCost(robot_time_s(path, timing), predicted_error_cm(path, noise))
