@@ -16,8 +16,16 @@ from toolkit.world import Param, Params
 
 from .base import PLANNERS
 
-__all__ = ["ASTAR_PARAMS", "MIN_LINK_PARAMS", "MIN_TURN_PARAMS", "OMPL_PARAMS", "SHORTEST_PARAMS",
+__all__ = ["ASTAR_PARAMS", "FASTEST_PARAMS", "MIN_LINK_PARAMS", "MIN_TURN_PARAMS", "OMPL_PARAMS", "SHORTEST_PARAMS",
            "ompl_class_params", "planner_kwargs", "planner_params"]
+
+
+
+def _objective(default: str, choices: tuple[str, ...]) -> Param:
+    """The ``objective`` option: what the planner minimises, among the objectives it can."""
+    return Param("objective", str, default, "What the planner minimises (" + ", ".join(choices) + ")",
+                 choices=choices)
+
 
 MIN_TURN_PARAMS = Params(
     Param("n_samples", int, 30, "Random configuration-space points per round (the paper's 30)", low=1),
@@ -25,13 +33,15 @@ MIN_TURN_PARAMS = Params(
           low=1, optional=True),
     Param("max_rounds", int, None, "Stop after this many rounds of samples (null: at the time budget)", low=1,
           optional=True),
+    _objective("turns", ("turns", "robot-time")),
 )
 _REFERENCE = (
     Param("n_sides", int, 64, "Sides of the polygon standing in for the robot disc when growing the walls", low=8),
     Param("eps", float, 1e-4, "Extra clearance so boundary edges pass the checker despite rounding", unit="cm",
           low=0.0),
 )
-SHORTEST_PARAMS = Params(*_REFERENCE)
+SHORTEST_PARAMS = Params(*_REFERENCE, _objective("length", ("length",)))
+FASTEST_PARAMS = Params(*_REFERENCE, _objective("robot-time", ("robot-time",)))
 MIN_LINK_PARAMS = Params(
     Param("boundary_spacing", float, 3.0, "Spacing of the nodes along the configuration space's boundary",
           unit="cm", low=1e-6),
@@ -39,6 +49,7 @@ MIN_LINK_PARAMS = Params(
           optional=True),
     Param("refine", bool, True, "Shorten the path by moving its bends, keeping the number of links"),
     *_REFERENCE,
+    _objective("turns", ("turns",)),
 )
 ASTAR_PARAMS = Params(
     Param("resolution", float, 2.0, "Grid spacing (null: the map's own cells, for a map imported from a grid)",
@@ -47,6 +58,7 @@ ASTAR_PARAMS = Params(
           unit="cm", low=1e-6, optional=True),
     Param("corner_cutting", bool, None, "A diagonal move may pass a blocked corner (null: on a spaced grid only)",
           optional=True),
+    _objective("length", ("length", "robot-time", "turns")),
 )
 OMPL_PARAMS = Params(
     Param("simplify", bool, False, "Run OMPL's path simplifier on the solution (its time counts)"),
@@ -58,6 +70,7 @@ OMPL_PARAMS = Params(
     Param("deterministic", bool, True, "Count the budget in iterations (reproducible) rather than seconds"),
     Param("iterations_per_s", float, None, "Iterations per second of budget when deterministic (null: the "
           "planner's calibrated rate)", low=1e-6, optional=True),
+    _objective("length", ("length", "robot-time")),
     Param("progress_interval", float, 0.01, "Seconds of budget between two best-cost samples (besides one at "
           "every improvement)", unit="s", low=1e-6),
 )

@@ -133,9 +133,12 @@ class MinTurnPlanner(Planner):
 
     name = "min-turn"
     params = MIN_TURN_PARAMS
+    objectives = ("turns", "robot-time")
 
     def __init__(self, n_samples: int = 30, max_intermediate: int | None = None,
-                 max_rounds: int | None = None, deterministic: bool = True, rounds_per_s: float = 50.0) -> None:
+                 max_rounds: int | None = None, deterministic: bool = True, rounds_per_s: float = 50.0,
+                 objective: str = "turns") -> None:
+        self._set_objective(objective)
         if int(n_samples) < 1:
             raise ConfigError(f"n_samples must be >= 1, got {n_samples!r}")
         if max_intermediate is not None and int(max_intermediate) < 1:

@@ -217,7 +217,8 @@ def shorten_bends(checker: CollisionChecker, path: FloatArray, step: float = 5.0
 class _ReferencePlanner(Planner):
     """Shared machinery: the polygonal configuration space and a per-(map, radius, backend) graph cache."""
 
-    def __init__(self, n_sides: int = 64, eps: float = 1e-4) -> None:
+    def __init__(self, n_sides: int = 64, eps: float = 1e-4, objective: str | None = None) -> None:
+        self._set_objective(objective)
         if int(n_sides) < 8:
             raise ConfigError(f"n_sides must be >= 8, got {n_sides!r}")
         if not (math.isfinite(eps) and eps >= 0):
@@ -449,11 +450,12 @@ class MinLinkPlanner(_ReferencePlanner):
 
     name = "min-link"
     params = MIN_LINK_PARAMS
+    objectives = ("turns",)
     large_map_options = None  # its dense graph grows with the map's area squared
 
     def __init__(self, boundary_spacing: float = 3.0, grid_spacing: float | None = 10.0, refine: bool = True,
-                 n_sides: int = 64, eps: float = 1e-4) -> None:
-        super().__init__(n_sides, eps)
+                 n_sides: int = 64, eps: float = 1e-4, objective: str = "turns") -> None:
+        super().__init__(n_sides, eps, objective)
         self.refine = bool(refine)
         if not (math.isfinite(boundary_spacing) and boundary_spacing > 0):
             raise ConfigError(f"boundary_spacing must be a positive number of cm, got {boundary_spacing!r}")
