@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from .robot_model import MotionNoise
 
 __all__ = ["OBJECTIVES", "OBJECTIVE_UNITS", "TURN_THRESHOLD_RAD", "PathCost", "RobotTiming", "check_objective",
-           "monte_carlo_error_cm", "objective_cost", "path_cost", "predicted_error_cm", "robot_time_s",
+           "monte_carlo_error_cm", "objective_cost", "path_cost", "predicted_error_cm", "robot_time_s", "robot_times_s",
            "segment_turns"]
 
 OBJECTIVES = ("length", "turns", "robot-time")
@@ -174,10 +174,26 @@ def robot_time_s(path: ArrayLike, timing: RobotTiming | None = None) -> float:
     >>> robot_time_s([[0, 0], [30, 0], [30, 15]])  # 45 cm at 15 cm/s, 90 degrees at 90 deg/s
     4.0
     """
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    if len(p) >= 2:
+        step = np.hypot(*np.diff(p, axis=0).T)
+        p = np.vstack([p[:1], p[1:][step > _EPS_CM]])
+    return float(robot_times_s(p[None], timing)[0])
+
+
+def robot_times_s(paths: ArrayLike, timing: RobotTiming | None = None) -> FloatArray:
+    """Robot times (s) of many polylines at once, shape (m, k, 2) -> (m,): `robot_time_s` of each (their
+    segments must have a length: a repeated waypoint would count as a turn to heading 0)."""
     t = timing or RobotTiming()
-    d = _segments(path)
-    drive = sum(t.move(float(x)) for x in np.hypot(d[:, 0], d[:, 1]))
-    return float(drive + sum(t.turn(float(a)) for a in segment_turns(path)))
+    p = np.asarray(paths, dtype=float)
+    if p.shape[1] < 2:
+        return np.zeros(p.shape[0])
+    d = np.diff(p, axis=1)
+    drive = np.hypot(d[..., 0], d[..., 1]).sum(axis=1) / t.drive_speed_cm_s
+    heading = np.arctan2(d[..., 1], d[..., 0])
+    turn = np.abs(np.asarray(wrap_angle(np.diff(heading, axis=1))))
+    spin = np.degrees(turn) / t.turn_rate_deg_s + np.where(turn > _EPS_RAD, t.stop_turn_s, 0.0)
+    return np.asarray(drive + np.where(turn > _EPS_RAD, spin, 0.0).sum(axis=1), dtype=float)
 
 
 def _heading_variances(turns: FloatArray, n_moves: int, noise: MotionNoise) -> FloatArray:
