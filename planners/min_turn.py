@@ -52,8 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import CollisionChecker, ConfigError, RobotTiming
-from toolkit.world.robot_cost import robot_times_s
+from toolkit.world import CollisionChecker, ConfigError, RobotTiming, robot_times_s
 from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution

@@ -411,5 +411,6 @@ def test_the_bench_gives_a_planner_what_its_class_declares() -> None:
     assert planner_for("min-link", large) is None and planner_for("min-link", grid) is not None
     assert planner_for("ompl:RRTConnect", small, progress_interval=0.5).progress_interval == 0.5
     assert planner_for("min-turn", small, progress_interval=0.5) is not None  # declares none: given none
-    with pytest.raises(RegistryError, match=r"unknown planner 'declared'; known: astar, fastest, min-link, .*ompl:NAME"):
+    with pytest.raises(RegistryError,
+                       match=r"unknown planner 'declared'; known: astar, fastest, min-link, .*ompl:NAME"):
         planner_for("declared", small)  # gone with its block

@@ -11,7 +11,19 @@ import numpy as np
 import typer
 
 from ..formats import json_safe
-from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
+from ..world import (
+    OBJECTIVES,
+    ConfigError,
+    NxtnavError,
+    PlanningError,
+    RobotGeometry,
+    RobotTiming,
+    check_objective,
+    load_map,
+    make_checker,
+    objective_cost,
+    path_cost,
+)
 from .app import Interrupted, app, bench_app, fail
 from .choices import one_of
 from .compiling import compile_note, warm_up_planner
@@ -43,6 +55,39 @@ DEFAULT_PLANNERS = ("min-turn", "astar", "rrtstar", "prm", "ompl:RRTConnect", "o
 """`bench planners`' default set: the paper's planner, grid A*, and OMPL's optimising planners (RRT*, PRM,
 Informed RRT*, BIT*) with RRTConnect as the fast feasible one (OMPL 2.0.1's Python wheel has no AIT*,
 ABIT* or LazyPRM*, and its AORRTC crashes the process now and then)."""
+
+
+OBJECTIVE_HELP = ("What every planner minimises: " + ", ".join(OBJECTIVES) + " (default: each planner its own; "
+                  "`nxtnav planners show NAME` lists what a planner can minimise).")
+_TIMING = RobotTiming()
+REFERENCE_OF = {"length": "shortest", "turns": "min-link", "robot-time": "fastest"}
+"""The reference planner whose path is the optimum of a query under each objective."""
+
+
+def robot_timing(drive_speed: float, turn_rate: float, stop_turn: float) -> RobotTiming:
+    """The robot's timing from ``--drive-speed``, ``--turn-rate`` and ``--stop-turn`` (one-line errors)."""
+    try:
+        return RobotTiming(drive_speed_cm_s=drive_speed, turn_rate_deg_s=turn_rate, stop_turn_s=stop_turn)
+    except ConfigError as exc:
+        names = {"drive_speed_cm_s": "--drive-speed", "turn_rate_deg_s": "--turn-rate", "stop_turn_s": "--stop-turn"}
+        option = next((o for k, o in names.items() if k in str(exc)), "--drive-speed/--turn-rate/--stop-turn")
+        raise NxtnavError(f"{option}: {exc}") from None
+
+
+def planner_objectives(objective: str | None, planners: list[str],
+                       options: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """`options` per planner with `objective` added (a planner's own ``--set NAME.objective`` wins); an
+    unknown objective, or one a planner cannot minimise, is a one-line error before any planning."""
+    from planners import PLANNERS
+
+    out = {name: dict(options.get(name, {})) for name in planners}
+    for name in planners:
+        chosen = out[name].get("objective", objective)
+        if chosen is None:
+            continue
+        check_objective(chosen, PLANNERS.class_of(name).objectives, f"planner {name!r}")
+        out[name]["objective"] = chosen
+    return out
 
 
 def _noise(model: str, motion: float, turn: float) -> Any:
@@ -88,6 +133,13 @@ def plan(
                                          metavar="FILE", help="Write path, metrics and status."),
     sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
                                    help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
+    objective: str | None = typer.Option(None, "--objective", metavar="|".join(OBJECTIVES), help=OBJECTIVE_HELP),
+    drive_speed: float = typer.Option(_TIMING.drive_speed_cm_s, "--drive-speed", metavar="CM/S",
+                                      help="Robot model: driving speed (cm/s), for robot time."),
+    turn_rate: float = typer.Option(_TIMING.turn_rate_deg_s, "--turn-rate", metavar="DEG/S",
+                                    help="Robot model: turn-in-place rate (deg/s), for robot time."),
+    stop_turn: float = typer.Option(_TIMING.stop_turn_s, "--stop-turn", metavar="S",
+                                    help="Robot model: fixed time of each stop-and-turn (s), for robot time."),
 ) -> None:
     """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
@@ -99,8 +151,10 @@ def plan(
     if not (math.isfinite(time_limit) and time_limit > 0):
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
     nz = _noise(noise_model, motion_noise, turn_noise)
+    timing = robot_timing(drive_speed, turn_rate, stop_turn)
     check_planner_names([planner])
-    options = checked_sets(parse_sets(sets), [planner], planner_params, "planner").get(planner, {})
+    options = planner_objectives(objective, [planner],
+                                 checked_sets(parse_sets(sets), [planner], planner_params, "planner"))[planner]
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -109,12 +163,12 @@ def plan(
 
     start = _query_point(start_text, "--start", m.start, m, checker, radius)
     goal = _query_point(goal_text, "--goal", m.target, m, checker, radius)
-    problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed))
+    problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed), timing)
     built = planner_for(planner, m, options) or make_planner(planner, **planner_kwargs(planner, options))
     with compile_note(_KERNELS):  # before the timer: planning time never holds compilation
         warm_up_s = warm_up_planner(planner, options, checker, radius, collision, start, goal)
     result = built.plan(problem)
-    refs = _reference_paths(m, checker, start, goal)
+    refs = _reference_paths(m, checker, start, goal, timing)
     doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
                            "robot_radius_cm": radius, "collision": checker.backend, "start": start.tolist(),
                            "goal": goal.tolist(), "warm_up_s": warm_up_s,
@@ -125,8 +179,13 @@ def plan(
     ax.plot(*start, "o", color="tab:green", ms=9, label="start", zorder=6)
     ax.plot(*goal, "*", color="tab:red", ms=14, label="goal", zorder=6)
     lines = [f"{planner} on {m.name}: {result.message} in {1e3 * result.time_s:.2f} ms"]
+    reference = refs.get(REFERENCE_OF[result.objective])
+    doc["reference_cost"] = objective_cost(result.objective, reference, timing) if reference is not None else None
     if result.success:
+        cost = path_cost(result.path, timing, nz)
+        doc.update(robot_time_s=cost.robot_time_s, predicted_error_cm=cost.predicted_error_cm)
         lines += _found_path(result, planner, refs, checker, goal, (exec_repeats, nz, seed), ax, doc)
+        lines.insert(2, _cost_line(result, cost, doc["reference_cost"]))
     doc["references"] = {k: {"path": v.tolist(), "length_cm": float(np.sum(np.hypot(*np.diff(v, axis=0).T)))}
                          for k, v in refs.items()}
     ax.set_title("\n".join(lines), fontsize=9)
@@ -141,6 +200,16 @@ def plan(
     if not result.success:
         raise fail(f"{planner} found no path on {m.name}: {result.message}", code=1)
 
+
+
+def _cost_line(result: Any, cost: Any, reference: float | None) -> str:
+    """The path's cost to the robot and under its planner's objective, against the reference optimum."""
+    from ..world import OBJECTIVE_UNITS
+
+    unit = OBJECTIVE_UNITS[result.objective]
+    ratio = f", x{result.objective_cost / reference:.3f} the optimum" if reference else ""
+    return (f"objective {result.objective}: {result.objective_cost:.3g} {unit}{ratio}; robot time "
+            f"{cost.robot_time_s:.2f} s, predicted open-loop error {cost.predicted_error_cm:.2f} cm")
 
 
 def _query_point(text: str | None, option: str, preset: Any, m: Any, checker: Any, radius: float) -> np.ndarray:
@@ -190,8 +259,9 @@ def _found_path(result: Any, planner: str, refs: dict[str, np.ndarray], checker:
     return lines
 
 
-def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray) -> dict[str, np.ndarray]:
-    """The paths of the reference planners that solve the query (shortest, min-link), by name."""
+def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray,
+                     timing: RobotTiming | None = None) -> dict[str, np.ndarray]:
+    """The paths of the reference planners that solve the query (shortest, min-link, fastest), by name."""
     from planners import PlanningProblem
 
     from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, planner_for
@@ -203,7 +273,7 @@ def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray) 
             continue
         try:
             ref = ref_planner.plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
-                                                   np.random.default_rng(0)))
+                                                   np.random.default_rng(0), timing or RobotTiming()))
         except NxtnavError:
             continue
         if ref.success:
@@ -266,6 +336,13 @@ def bench_planners(
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
     sets: list[str] = typer.Option([], "--set", metavar="[PLANNER.]KEY=VALUE",
                                    help="Planner option (repeatable; `nxtnav planners show NAME` lists them)."),
+    objective: str | None = typer.Option(None, "--objective", metavar="|".join(OBJECTIVES), help=OBJECTIVE_HELP),
+    drive_speed: float = typer.Option(_TIMING.drive_speed_cm_s, "--drive-speed", metavar="CM/S",
+                                      help="Robot model: driving speed (cm/s), for robot time."),
+    turn_rate: float = typer.Option(_TIMING.turn_rate_deg_s, "--turn-rate", metavar="DEG/S",
+                                    help="Robot model: turn-in-place rate (deg/s), for robot time."),
+    stop_turn: float = typer.Option(_TIMING.stop_turn_s, "--stop-turn", metavar="S",
+                                    help="Robot model: fixed time of each stop-and-turn (s), for robot time."),
 ) -> None:
     """Benchmark planners on maps: runs.csv, progress.csv, paths.jsonl, summary.md, plots and an OMPL benchmark.log."""
     from ..bench.planners import (
@@ -289,7 +366,9 @@ def bench_planners(
     check_planner_names(planner_list)
     from planners.declarations import planner_params
 
-    options = checked_sets(parse_sets(sets), planner_list, planner_params, "planner")
+    timing = robot_timing(drive_speed, turn_rate, stop_turn)
+    options = planner_objectives(objective, planner_list,
+                                 checked_sets(parse_sets(sets), planner_list, planner_params, "planner"))
     for name in map_list:
         load_map(name)  # a bad map name fails before any work
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs,
@@ -297,7 +376,8 @@ def bench_planners(
                              seed=seed, queries=queries,  # type: ignore[arg-type]
                              exec_repeats=exec_repeats, robot_radius=radius, collision=collision,
                              noise=_noise(noise_model, motion_noise, turn_noise),
-                             simplify=simplify, progress_interval=progress_interval, planner_options=options)
+                             simplify=simplify, progress_interval=progress_interval, planner_options=options,
+                             objective=objective, timing=timing)
     out_dir = check_out_dir(out, force)
     if budget_list is not None:
         _sweep_budgets(config, budget_list, out_dir, workers, dask, plots)

@@ -55,6 +55,7 @@ from .robot_cost import (
     path_cost,
     predicted_error_cm,
     robot_time_s,
+    robot_times_s,
     segment_turns,
 )
 from .robot_model import FACETS, NXT_SONAR_SIGMA_CM, MotionNoise, RobotModel
@@ -125,6 +126,7 @@ __all__ = [
     "ray_cast",
     "ray_wall_distances",
     "robot_time_s",
+    "robot_times_s",
     "segment_turns",
     "wrap_angle",
 ]
