@@ -119,3 +119,21 @@ def test_bench_runs_csv_has_the_objective_columns(tmp_path: Path) -> None:
         assert float(r["reference_cost"]) <= float(r["objective_cost"]) == pytest.approx(float(r["robot_time_s"]))
         assert float(r["predicted_error_cm"]) > 0
     assert "BUG" not in (out / "summary.md").read_text()
+
+
+@pytest.mark.parametrize("command", [["run", "--planner", "min-link"], ["paper", "--trials", "1",
+                                                                        "--stack", "shortest/paper-pf"]])
+def test_missions_refuse_an_objective_their_planner_cannot_minimise(command: list[str],
+                                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli([*command, "--objective", "robot-time"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot optimise objective 'robot-time'" in err[0], err
+
+
+def test_a_mission_plans_under_the_objective(tmp_path: Path) -> None:
+    out = tmp_path / "r.json"
+    assert run_cli(["run", "--map", "map1", "--planner", "astar", "--objective", "robot-time", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["objective"] == "robot-time" and doc["success"]
+    first = np.asarray(doc["plans"][0], dtype=float)
+    assert objective_cost("turns", first) <= 4  # a lattice path under robot time bends rarely; by length it zigzags

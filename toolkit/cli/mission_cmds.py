@@ -163,6 +163,8 @@ def run(
                               "else use --view-save)."),
     view_save: Path | None = typer.Option(None, "--view-save", callback=writable_file, metavar="FILE.rrd",
                                           help="Stream the live view into a Rerun file instead of a viewer."),
+    objective: str | None = typer.Option(None, "--objective", metavar="length|turns|robot-time",
+                                         help="What the planner minimises (default: its own)."),
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
     from ..robots.sim import simulated_sonar
@@ -184,8 +186,9 @@ def run(
     # the sonar model: the simulator's readings come from it; a real NXT's localiser is told it
     named = "nxt" if robot_kind == "nxt" else sonar
     sonar_model = simulated_sonar(named if fitted_sonar is None else fitted_sonar, sensor_noise)
-    stack = Stack(planner, localiser, seed, collision, start_heading)
-    doc: dict[str, Any] = {"robot": robot_kind, "sonar_model": sonar_model.to_dict()}
+    _check_objective(objective, [planner])
+    stack = Stack(planner, localiser, seed, collision, start_heading, objective)
+    doc: dict[str, Any] = {"robot": robot_kind, "sonar_model": sonar_model.to_dict(), "objective": objective}
     if robot_kind == "nxt":
         if start_text is not None or random_start:
             raise typer.BadParameter("the start of a real robot is unknown; --start/--random-start are for the "
@@ -295,6 +298,13 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
         typer.echo(f"wrote {json_out}")
 
 
+def _check_objective(objective: str | None, planners: list[str]) -> None:
+    """A one-line error, before any mission, for an objective unknown or one of `planners` cannot minimise."""
+    from .plan_cmds import planner_objectives
+
+    planner_objectives(objective, planners, {})
+
+
 def _parse_stacks(stacks: list[str] | None) -> list[tuple[str, str]]:
     if not stacks:
         return [("min-turn", "paper-pf")]
@@ -346,6 +356,9 @@ def paper(
                                         help=_SETTINGS_HELP),
     collision: str = typer.Option("index", "--collision", metavar="index|fcl", help=COLLISION_HELP,
                                   callback=collision_ok),
+    objective: str | None = typer.Option(None, "--objective", metavar="length|turns|robot-time",
+                                         help="What every stack's planner minimises (default: its own); the "
+                                              "table's robot time is then each planner's under it."),
 ) -> None:
     """The paper's Table I regenerated: completion time, final error, path length, collisions, robot time."""
     from ..bench.executors import TasksInterrupted
@@ -361,6 +374,9 @@ def paper(
     check_writable(markdown, "--markdown")
     stacks = _parse_stacks(stack)
     options = _parse_options(option)
+    _check_objective(objective, [p for p, _ in stacks])
+    if objective is not None:
+        options["planning.objective"] = objective
     if pareto is not None:
         _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out,
                     profile, collision, dask)

@@ -34,6 +34,11 @@ class Stack:
     seed: int
     collision: str
     start_heading: HeadingPrior | None
+    objective: str | None = None
+
+    def config_options(self) -> dict[str, Any]:
+        """`MissionConfig` options of the stack: its collision backend and the planner's objective."""
+        return {"collision": self.collision, **({"planning.objective": self.objective} if self.objective else {})}
 
 
 @dataclass(frozen=True)
@@ -151,7 +156,7 @@ def mission_on_nxt(brick: Any, m: Map, target: Any, stack: Stack, sonar_model: S
         opts = localiser_options(stack.localiser, robot_model)
         report = run_mission(robot, m, target, planner=stack.planner, localiser=stack.localiser, rng=stack.seed,
                              config=MissionConfig.for_sonar("nxt", localiser_options=opts,
-                                                            collision=stack.collision),
+                                                            **stack.config_options()),
                              recorder=recorder, reconnect_timeout_s=reconnect_timeout_s,
                              start_heading=stack.start_heading)
     finally:
@@ -183,7 +188,7 @@ def mission_on_sim(m: Map, target: Any, start: Any, random_start: bool, stack: S
                 sensor_noise=simulator["sensor_noise"], motion_noise=simulator["motion_noise"],
                 turn_noise=simulator["turn_noise"], sonar=simulator["sonar"], sonar_model=fitted_sonar,
                 recorder=recorder, robot_radius_cm=radius, start_heading=stack.start_heading,
-                config=MissionConfig.for_sonar(simulator["sonar"], collision=stack.collision),
+                config=MissionConfig.for_sonar(simulator["sonar"], **stack.config_options()),
             )
     finally:
         finish(recorder, report, stream)

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from localisation.global_localisation import GlobalLocalisation
 from localisation.scan import sweep_angles
-from toolkit.world import CHECKER_BACKENDS, ConfigError
+from toolkit.world import CHECKER_BACKENDS, ConfigError, check_objective
 
 __all__ = ["FIX_RULES", "TRACK_WINDOWS", "DriveConfig", "FinalConfig", "FixConfig", "LimitsConfig", "MissionConfig",
            "PlanningConfig", "SweepConfig"]
@@ -65,15 +65,25 @@ class PlanningConfig:
         path exists with it. Starts and targets closer to a wall join the path by a short straight leg.
     planner_options : mapping
         Keyword arguments of `make_planner` when the planner is given by name.
+    objective : str or None
+        What the planner minimises (``length``, ``turns``, ``robot-time``; None: its own default), when
+        it is given by name; its ``objective`` in `planner_options` wins.
     """
 
     time_s: float = 1.0
     safety_margin_cm: float = 2.0
     planner_options: Mapping[str, Any] = field(default_factory=dict)
+    objective: str | None = None
 
     def __post_init__(self) -> None:
         _check("planning", "time_s", self.time_s, strict=True)
         _check("planning", "safety_margin_cm", self.safety_margin_cm)
+        if self.objective is not None:
+            check_objective(self.objective)
+
+    def planner_kwargs(self) -> dict[str, Any]:
+        """`make_planner`'s keywords: `planner_options` with `objective` where it is set."""
+        return {**({"objective": self.objective} if self.objective is not None else {}), **self.planner_options}
 
 
 @dataclass(frozen=True)
