@@ -408,3 +408,58 @@ def _sweep_budgets(config: Any, budgets: tuple[float, ...], out_dir: Path, worke
     typer.echo(f"wrote {len(files)} files to {out_dir}")
     if not sweep.complete:
         raise Interrupted(f"{len(sweep.results)} of {len(budgets)} budgets done; partial results in {out_dir}")
+
+
+OBJECTIVE_PLANNERS = ("rrtstar", "ompl:InformedRRTstar", "ompl:BITstar", "astar", "min-turn")
+"""`bench objectives`' default set: OMPL's optimising planners, grid A* and the paper's planner."""
+
+
+@bench_app.command("objectives")
+def bench_objectives(
+    maps: str = typer.Option("map1,map2,map3", "--maps", help="Comma-separated map names or files."),
+    planners: str = typer.Option(",".join(OBJECTIVE_PLANNERS), "--planners",
+                                 help="Comma-separated planners " + one_of("planner") + "."),
+    runs: int = typer.Option(20, "--runs", help="Runs per planner, objective and map.", callback=count),
+    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", help="Planning budget per run (s).",
+                                     callback=time_limit_ok),
+    seed: int = typer.Option(0, "--seed", help="Benchmark seed (every run seed derives from it).", callback=seed_ok),
+    out: Path = typer.Option(..., "--out", callback=writable_folder, metavar="DIR",
+                             help="Output folder (must be new or empty)."),
+    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out folder, replacing files."),
+    workers: int = typer.Option(1, "--workers", help="Worker processes.", callback=workers_ok),
+    exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
+                                     help="Open-loop drives per run for the measured error (0: predicted only)."),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0 = a point).",
+                                 callback=non_negative),
+    noise_model: str = typer.Option("botsim", "--noise-model", help=NOISE_MODEL_HELP),
+    motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
+                                       callback=non_negative),
+    turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
+                                     callback=non_negative),
+    drive_speed: float = typer.Option(_TIMING.drive_speed_cm_s, "--drive-speed", metavar="CM/S",
+                                      help="Robot model: driving speed (cm/s), for robot time."),
+    turn_rate: float = typer.Option(_TIMING.turn_rate_deg_s, "--turn-rate", metavar="DEG/S",
+                                    help="Robot model: turn-in-place rate (deg/s), for robot time."),
+    stop_turn: float = typer.Option(_TIMING.stop_turn_s, "--stop-turn", metavar="S",
+                                    help="Robot model: fixed time of each stop-and-turn (s), for robot time."),
+    plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the Pareto figure of each map."),
+) -> None:
+    """Every planner under every objective it can minimise: robot time, open-loop error, the targets checked."""
+    from ..bench.planners import BenchmarkConfig, check_out_dir, check_planner_names
+    from ..bench.planners.objectives import run_objectives, write_objectives
+
+    timing = robot_timing(drive_speed, turn_rate, stop_turn)
+    map_list = parse_list(maps, "--maps")
+    planner_list = parse_list(planners, "--planners")
+    check_planner_names(planner_list)
+    for name in map_list:
+        load_map(name)
+    config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs, time_limit=time_limit,
+                             seed=seed, exec_repeats=exec_repeats, robot_radius=radius,
+                             noise=_noise(noise_model, motion_noise, turn_noise), simplify="none", timing=timing)
+    out_dir = check_out_dir(out, force)
+    with progress("objectives: references and runs", 3 * config.n_tasks()) as advance:
+        sweep = run_objectives(config, workers=workers, on_done=advance)
+    files = write_objectives(sweep, out_dir, plots=plots)
+    typer.echo(files["summary"].read_text(encoding="utf-8"))
+    typer.echo(f"wrote {len(files)} files to {out_dir}")
