@@ -137,3 +137,19 @@ def test_a_mission_plans_under_the_objective(tmp_path: Path) -> None:
     assert doc["objective"] == "robot-time" and doc["success"]
     first = np.asarray(doc["plans"][0], dtype=float)
     assert objective_cost("turns", first) <= 4  # a lattice path under robot time bends rarely; by length it zigzags
+
+
+def test_bench_objectives_runs_each_planner_under_what_it_can_minimise(tmp_path: Path) -> None:
+    out = tmp_path / "o"
+    assert run_cli(["bench", "objectives", "--maps", "map1", "--planners", "astar,min-turn", "--runs", "1",
+                    "--exec-repeats", "0", "--no-plots", "--out", str(out)]) == 0
+    with (out / "objectives.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    pairs = {(r["planner"], r["objective"]) for r in rows}
+    assert pairs == {("astar", "length"), ("astar", "turns"), ("astar", "robot-time"), ("min-turn", "turns"),
+                     ("min-turn", "robot-time")}
+    for r in rows:  # nothing beats the least robot time of the query
+        assert float(r["robot_time_s"]) >= float(r["fastest_time_s"]) * (1 - 1e-9)
+    by = {(r["planner"], r["objective"]): float(r["robot_time_s"]) for r in rows}
+    assert by[("astar", "robot-time")] < by[("astar", "length")]  # the lattice's zigzag costs turns
+    assert "## map1" in (out / "objectives.md").read_text()
