@@ -34,7 +34,7 @@ __all__ = ["OBJECTIVE_COLUMNS", "ObjectiveSweep", "run_objectives", "write_objec
 
 OBJECTIVE_COLUMNS = ("map", "planner", "objective", "run", "success", "time_s", "robot_time_s",
                      "predicted_error_cm", "exec_error_cm", "turns", "length_cm", "objective_cost", "reference_cost",
-                     "fastest_time_s")
+                     "fastest_time_s", "collision_checks")
 RRTSTAR_WITHIN = 0.10
 """Target: RRT*'s median robot time under ``robot-time`` at most this much above the reference."""
 
@@ -90,7 +90,8 @@ def _rows(sweep: ObjectiveSweep, map_name: str) -> list[dict[str, Any]]:
                         "predicted_error_cm": _median([r.predicted_error_cm for r in ok]),
                         "exec_error_cm": _median([r.exec_error_cm for r in ok]),
                         "turns": _median([r.turns for r in ok]), "length_cm": _median([r.length_cm for r in ok]),
-                        "time_s": _median([r.time_s for r in ok])})
+                        "time_s": _median([r.time_s for r in ok]),
+                        "check_us": _median([1e6 * r.time_s / r.collision_checks for r in ok if r.collision_checks])})
     return out
 
 
@@ -129,17 +130,18 @@ def format_objectives(sweep: ObjectiveSweep) -> str:
              f"{c.noise.turn:g}), predicted (closed form, root mean square) and measured (mean over "
              f"{c.exec_repeats} drives)",
              "", "Medians over the successful runs; robot time / fastest = over the least robot time of the query "
-             "(`fastest`)."]
+             "(`fastest`); per check = planning time over collision checks (the cost of the objective's evaluations "
+             "shows there: compare a planner under robot-time with itself under length)."]
     for m in c.maps:
         rows = _rows(sweep, m)
         lines += ["", f"## {m}", "",
                   "| planner | objective | success | robot time (s) | / fastest | predicted error (cm) | "
-                  "measured error (cm) | turns | length (cm) | planning time (s) |",
-                  "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+                  "measured error (cm) | turns | length (cm) | planning time (s) | per check (us) |",
+                  "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for r in rows:
             lines.append(f"| {r['planner']} | {r['objective']} | {r['ok']}/{r['runs']} | {r['robot_time_s']:.2f} | "
                          f"{r['time_ratio']:.3f} | {r['predicted_error_cm']:.2f} | {r['exec_error_cm']:.2f} | "
-                         f"{r['turns']:g} | {r['length_cm']:.1f} | {r['time_s']:.3f} |")
+                         f"{r['turns']:g} | {r['length_cm']:.1f} | {r['time_s']:.3f} | {r['check_us']:.0f} |")
         targets = _targets(rows)
         if targets:
             lines += ["", "Targets:", "", *targets]
@@ -183,7 +185,7 @@ def write_objectives(sweep: ObjectiveSweep, out: Path, plots: bool = True) -> di
             w.writerow([csv_cell(v) for v in (r.map, r.planner, r.objective, r.run, r.success, r.time_s,
                                                r.robot_time_s, r.predicted_error_cm, r.exec_error_cm, r.turns,
                                                r.length_cm, r.objective_cost, r.reference_cost,
-                                               fastest.get((r.map, r.query), math.nan))])
+                                               fastest.get((r.map, r.query), math.nan), r.collision_checks)])
     files["summary"].write_text(format_objectives(sweep), encoding="utf-8")
     if plots:
         first = next(iter(sweep.results.values()))
