@@ -165,7 +165,7 @@ def _save_pareto(sweep: ObjectiveSweep, m: str, path: Path) -> Path:
         ax.scatter(r["robot_time_s"], err, marker=markers[r["objective"]], s=60,
                    color=colors[planners.index(r["planner"]) % len(colors)], label=f"{r['planner']} / {r['objective']}")
     ax.set_xlabel("median robot time (s)")
-    ax.set_ylabel("median open-loop final error (cm)")
+    ax.set_ylabel("open-loop final error (cm): median over runs of the mean")
     ax.set_title(f"{m}: robot time against error, every planner under every objective", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="best")
