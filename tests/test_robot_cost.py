@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from toolkit.world import ConfigError, MotionNoise, RobotModel, RobotTiming, objective_cost, robot_time_s
+from toolkit.world import ConfigError, MotionNoise, RobotModel, RobotTiming, objective_cost, path_cost, robot_time_s
 from toolkit.world.robot_cost import monte_carlo_error_cm, predicted_error_cm
 
 ZIGZAG = [[0.0, 0.0], [60.0, 0.0], [60.0, 45.0], [100.0, 75.0]]
@@ -20,7 +20,8 @@ def test_robot_time_of_a_path_by_hand() -> None:
     assert objective_cost("robot-time", ZIGZAG, timing) == pytest.approx(by_hand, rel=1e-12)
     assert objective_cost("turns", ZIGZAG) == 2
     assert objective_cost("length", ZIGZAG) == pytest.approx(155.0)
-    assert RobotModel(timing=timing).path_cost(ZIGZAG).robot_time_s == pytest.approx(by_hand)
+    model = RobotModel(timing=timing)
+    assert path_cost(ZIGZAG, model.timing, model.motion).robot_time_s == pytest.approx(by_hand)
 
 
 @pytest.mark.parametrize("model", ["botsim", "absolute"])

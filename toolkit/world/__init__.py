@@ -49,7 +49,6 @@ from .robot_cost import (
     OBJECTIVE_UNITS,
     OBJECTIVES,
     PathCost,
-    RobotTiming,
     check_objective,
     objective_cost,
     path_cost,
@@ -59,6 +58,7 @@ from .robot_cost import (
     segment_turns,
 )
 from .robot_model import FACETS, NXT_SONAR_SIGMA_CM, MotionNoise, RobotModel
+from .robot_timing import RobotTiming
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
 
 __all__ = [

@@ -19,7 +19,7 @@ from typing import Any, Literal
 
 from .errors import ConfigError
 from .robot import RobotGeometry
-from .robot_cost import PathCost, RobotTiming, path_cost
+from .robot_timing import RobotTiming
 from .sonar import IdealSonar, NxtSonar, SonarModel, make_sonar
 
 __all__ = ["FACETS", "NXT_SONAR_SIGMA_CM", "MotionNoise", "RobotModel"]
@@ -83,7 +83,7 @@ class RobotModel:
     motion : MotionNoise
     geometry : RobotGeometry
     timing : RobotTiming
-        How long its drives, turns and sweeps take: the robot time of a path (`path_cost`).
+        How long its drives, turns and sweeps take: the robot time of a path (`toolkit.world.path_cost`).
     readings : {"simulated", "real"}
         Where the readings come from: a simulator or the virtual brick draws each reading independently
         (the localisers get `NxtSonar.simulated`, no reading correlation); real readings keep the
@@ -113,10 +113,6 @@ class RobotModel:
         geometry = RobotGeometry() if radius_cm is None else RobotGeometry(radius_cm=float(radius_cm))
         return cls(sonar, MotionNoise(noise_model, motion_noise, turn_noise), geometry,  # type: ignore[arg-type]
                    readings=readings)
-
-    def path_cost(self, path: Any) -> PathCost:
-        """The robot's cost of driving `path` ((k, 2) cm): robot time (s), predicted open-loop error (cm)."""
-        return path_cost(path, self.timing, self.motion)
 
     def with_readings(self, readings: Literal["simulated", "real"]) -> RobotModel:
         return replace(self, readings=readings)
