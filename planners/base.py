@@ -227,6 +227,10 @@ class Planner(ABC):
       ``problem.rng`` (the same seed gives the same path) and keep to ``problem.time_limit`` (s);
     - return a failed result with a `PlanStatus`, never raise, for a goal it cannot reach.
 
+    A planner that minimises more than path length says so in ``objectives`` (`toolkit.world.OBJECTIVES`,
+    its default first), takes the choice as its ``objective`` keyword (`_set_objective` checks it) and
+    reads the robot's `RobotTiming` from ``problem.timing``; `plan` reports the path's cost under it.
+
     `planners.conformance.check_planner` (``nxtnav planners check MODULE:CLASS``) runs these checks on
     a class and says what is missing; ``docs/howto/planner.md`` writes a planner that passes them.
     """
