@@ -25,7 +25,7 @@ import numpy as np
 
 from planners import PLANNERS
 
-from ...formats import csv_cell
+from ...formats import cell, csv_cell
 from ...world import OBJECTIVES
 from .records import BenchmarkConfig, BenchmarkResult, RunRecord
 from .runner import run_benchmark
@@ -139,9 +139,10 @@ def format_objectives(sweep: ObjectiveSweep) -> str:
                   "measured error (cm) | turns | length (cm) | planning time (s) | per check (us) |",
                   "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for r in rows:
-            lines.append(f"| {r['planner']} | {r['objective']} | {r['ok']}/{r['runs']} | {r['robot_time_s']:.2f} | "
-                         f"{r['time_ratio']:.3f} | {r['predicted_error_cm']:.2f} | {r['exec_error_cm']:.2f} | "
-                         f"{r['turns']:g} | {r['length_cm']:.1f} | {r['time_s']:.3f} | {r['check_us']:.0f} |")
+            values = (cell(r["robot_time_s"], ".2f"), cell(r["time_ratio"], ".3f"),
+                      cell(r["predicted_error_cm"], ".2f"), cell(r["exec_error_cm"], ".2f"), cell(r["turns"], "g"),
+                      cell(r["length_cm"], ".1f"), cell(r["time_s"], ".3f"), cell(r["check_us"], ".0f"))
+            lines.append(f"| {r['planner']} | {r['objective']} | {r['ok']}/{r['runs']} | " + " | ".join(values) + " |")
         targets = _targets(rows)
         if targets:
             lines += ["", "Targets:", "", *targets]
