@@ -255,6 +255,12 @@ class Planner(ABC):
         if "name" in cls.__dict__:
             PLANNERS.add(cls.name, cls)
 
+    @classmethod
+    def objectives_for(cls, name: str) -> tuple[str, ...]:
+        """The objectives planner `name` (this class's registry name, or a family member's such as
+        ``ompl:NAME``) can minimise; the class's `objectives` unless a family says otherwise."""
+        return cls.objectives
+
     def _set_objective(self, objective: str | None) -> str:
         """Check and keep `objective` (None: the planner's default, ``objectives[0]``); a `ConfigError`
         names the objectives it can minimise."""

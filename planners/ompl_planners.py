@@ -95,6 +95,11 @@ _ROADMAP_ROUND_S = 0.01  # deterministic PRM: budget (s) of one roadmap growth r
 # deterministic mode: iterations per second of budget, about what one laptop core does on the bundled maps
 _ITERATIONS_PER_S = {"PRMstar": 1000.0, "BITstar": 50000.0, "ABITstar": 50000.0, "AITstar": 50000.0}
 _DEFAULT_ITERATIONS_PER_S = 5000.0
+_OPTIMISING = frozenset({"RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "ABITstar", "AITstar", "EITstar",
+                         "AORRTC", "PRM", "PRMstar", "LazyPRMstar", "FMT", "BFMT", "RRTXstatic", "RRTsharp",
+                         "LBTRRT", "LazyLBTRRT", "CForest", "SST", "SPARS", "SPARStwo"})
+"""OMPL's planners that improve their path under an optimisation objective (the others stop at a first
+path, whatever the objective: they take ``length`` only, the default)."""
 _PARAM_TYPES = (bool, int, float, str)
 _NOT_PARAMS = frozenset({"Name", "ProblemDefinition"})
 
@@ -285,6 +290,12 @@ class OmplPlanner(Planner):
     reports_progress = True
     objectives = ("length", "robot-time")
 
+    @classmethod
+    def objectives_for(cls, name: str) -> tuple[str, ...]:
+        """``length`` alone for an OMPL planner that stops at its first path (RRTConnect, KPIECE1, ...)."""
+        planner = {"rrtstar": "RRTstar", "prm": "PRM"}.get(name, name.split(":", 1)[-1])
+        return cls.objectives if planner in _OPTIMISING else ("length",)
+
     def __init__(
         self,
         planner: str = "RRTstar",
@@ -312,6 +323,10 @@ class OmplPlanner(Planner):
         if not (isinstance(progress_interval, int | float) and math.isfinite(progress_interval)
                 and progress_interval > 0):
             raise ConfigError(f"progress_interval must be a positive number of seconds, got {progress_interval!r}")
+        own = self.objectives_for(f"ompl:{planner}")
+        if objective not in own and objective in self.objectives:
+            raise ConfigError(f"planner 'ompl:{planner}' stops at its first path and optimises no objective; it "
+                              f"takes {', '.join(own)} only")
         self._set_objective(objective)
         cls = getattr(og, planner)
         for key in settings or {}:

@@ -83,6 +83,8 @@ def test_every_planner_says_what_it_minimises() -> None:
     (["--objective", "speed"], "unknown objective 'speed'"),
     (["--planner", "shortest", "--objective", "robot-time"], "planner 'shortest' cannot optimise objective "
                                                               "'robot-time'; it optimises length"),
+    (["--planner", "ompl:RRTConnect", "--objective", "robot-time"], "planner 'ompl:RRTConnect' cannot optimise "
+                                                                    "objective 'robot-time'; it optimises length"),
     (["--drive-speed", "0"], "--drive-speed"),
     (["--turn-rate", "inf"], "--turn-rate"),
     (["--turn-rate", "nan"], "--turn-rate"),

@@ -85,7 +85,7 @@ def planner_objectives(objective: str | None, planners: list[str],
         chosen = out[name].get("objective", objective)
         if chosen is None:
             continue
-        check_objective(chosen, PLANNERS.class_of(name).objectives, f"planner {name!r}")
+        check_objective(chosen, PLANNERS.class_of(name).objectives_for(name), f"planner {name!r}")
         out[name]["objective"] = chosen
     return out
 

@@ -62,7 +62,7 @@ def run_objectives(config: BenchmarkConfig, *, workers: int = 1,
     ``objective`` option, if any, is replaced)."""
     results = {}
     for objective in OBJECTIVES:
-        able = tuple(p for p in config.planners if objective in PLANNERS.class_of(p).objectives)
+        able = tuple(p for p in config.planners if objective in PLANNERS.class_of(p).objectives_for(p))
         if not able:
             continue
         options = {p: {k: v for k, v in config.planner_options.get(p, {}).items() if k != "objective"} for p in able}
@@ -106,7 +106,7 @@ def _targets(rows: list[dict[str, Any]]) -> list[str]:
                      f"(target <= x{1 + RRTSTAR_WITHIN:.2f}): {'met' if met else 'NOT met'}")
     for (planner, objective), row in sorted(by.items()):
         cls = PLANNERS.class_of(planner)
-        if objective != "robot-time" or "length" not in cls.objectives or planner in ("astar",):
+        if objective != "robot-time" or "length" not in cls.objectives_for(planner) or planner in ("astar",):
             continue
         base = by.get((planner, "length"))
         if base is None or not math.isfinite(base["robot_time_s"]):

@@ -305,7 +305,7 @@ def check_objectives(config: BenchmarkConfig) -> None:
         objective = _options(config, name).get("objective")
         if objective is not None:
             cls = PLANNERS.class_of(name)
-            check_objective(objective, cls.objectives, f"planner {name!r}")
+            check_objective(objective, cls.objectives_for(name), f"planner {name!r}")
 
 
 def run_benchmark(
