@@ -18,6 +18,11 @@ search reproduces the published octile optimal lengths exactly.
 
 The search itself is compiled (`planners.astar_search`): flat arrays and an indexed binary heap,
 the octile heuristic when the goal is a node joined through the lattice alone.
+
+Objectives. ``length`` is the search above. ``robot-time`` and ``turns`` search the same lattice with
+the heading the robot arrived with as part of the state (8 headings), every move charged its turn
+(`planners.astar_lattice`): the least robot time over the lattice's paths, or the fewest turns (then
+the shortest).
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ from numpy.typing import NDArray
 
 from toolkit.world import CollisionChecker, ConfigError
 
+from .astar_lattice import lattice_search, warm_up_lattice
 from .astar_search import MAX_STEPS, MOVES, Workspace, search, warm_up
 from .base import Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import AStarOptions
@@ -83,7 +89,8 @@ class AStarPlanner(Planner):
         (cm; None puts the nodes at the centres of the map's own cells, for a map imported from a grid),
         the `connect_radius` (cm) within which start and goal join free grid nodes (None: two spacings),
         and `corner_cutting` (whether a diagonal move may pass a blocked neighbour's corner; None:
-        allowed on a spaced grid, forbidden on the map's own cells).
+        allowed on a spaced grid, forbidden on the map's own cells), and the `objective` it
+        minimises (length, robot-time or turns; module notes).
     **overrides
         Options on top of `options` by name (``resolution=1.0``).
 
@@ -97,11 +104,13 @@ class AStarPlanner(Planner):
     name = "astar"
     options_model = AStarOptions
     grid_map_options: ClassVar[Mapping[str, Any]] = {"resolution": None}
+    objectives = ("length", "robot-time", "turns")
 
     def __init__(self, options: AStarOptions | None = None, **overrides: Any) -> None:
         o: AStarOptions = self.configure(options, overrides)
         self.options = o
         self.resolution, self._connect, self.corner_cutting = o.resolution, o.connect_radius, o.corner_cutting
+        self._set_objective(o.objective)
         self._lat: _Lattice | None = None  # one map at a time: a lattice can be large
 
     def spacing(self, problem: PlanningProblem) -> float:
@@ -168,6 +177,8 @@ class AStarPlanner(Planner):
         step = float(xs[1] - xs[0]) if nx > 1 else float(ys[1] - ys[0]) if ny > 1 else 1.0
         ws = Workspace(nx * ny)
         warm_up(moves, xs, ys, step, ws)  # compiling belongs to the preparation, not to a query
+        if self.objective != "length":
+            warm_up_lattice()
         self._lat = _Lattice(checker, xs, ys, free.ravel(), int(free.sum()), moves, step, cutting,
                              time.perf_counter() - t0, ws)
         return self._lat, False
@@ -214,6 +225,8 @@ class AStarPlanner(Planner):
         dist = float(np.hypot(*(goal - start)))
         if not through_lattice and dist <= radius and checker.segment_free(start, goal):
             direct = dist
+        if self.objective != "length":
+            return self._solve_headings(problem, lat, (s, g), direct, info)
         octile = not lat.cutting and g.on_node >= 0
         out = search(lat.moves, lat.xs, lat.ys, lat.step, lat.workspace, (float(goal[0]), float(goal[1])),
                      s.nodes, s.costs, g.nodes, g.costs, direct, octile=octile, deadline=deadline)
@@ -229,3 +242,38 @@ class AStarPlanner(Planner):
         if len(pts) and np.array_equal(pts[-1], goal):
             pts = pts[:-1]
         return Solution(np.vstack([start[None], pts, goal[None]]), PlanStatus.EXACT, info)
+
+    def _solve_headings(self, problem: PlanningProblem, lat: _Lattice, joins: tuple[_Join, _Join], direct: float,
+                        info: dict[str, Any]) -> Solution:
+        """The least robot time (or fewest turns) over the lattice with headings (`planners.astar_lattice`)."""
+        start, goal = problem.start, problem.goal
+        if self.objective == "robot-time":
+            t = problem.timing
+            weights = (1.0 / t.drive_speed_cm_s, 1.0 / math.radians(t.turn_rate_deg_s), t.stop_turn_s)
+        else:
+            xmin, ymin, xmax, ymax = problem.map.bounds
+            weights = (1.0 / (20.0 * ((xmax - xmin) + (ymax - ymin))), 0.0, 1.0)
+        s, g = joins
+        cost, nodes, expanded = lattice_search(lat.moves, lat.xs, lat.ys, lat.step, start, (s.nodes, s.costs),
+                                               goal, (g.nodes, g.costs), direct, weights)
+        info["expanded"] = expanded
+        if not math.isfinite(cost):
+            return Solution(None, PlanStatus.NO_PATH, info, "no path on the grid")
+        ny = len(lat.ys)
+        pts = np.column_stack([lat.xs[nodes // ny], lat.ys[nodes % ny]])
+        return Solution(_drop_straight(np.vstack([start[None], pts, goal[None]])), PlanStatus.EXACT, info)
+
+
+def _drop_straight(path: NDArray[np.float64]) -> NDArray[np.float64]:
+    """`path` without its repeated waypoints and the waypoints where it goes straight on (no turn there)."""
+    keep = [0]
+    for k in range(1, len(path) - 1):
+        a, b, c = path[keep[-1]], path[k], path[k + 1]
+        if np.allclose(b, a):
+            continue
+        u, v = b - a, c - b
+        if abs(u[0] * v[1] - u[1] * v[0]) > 1e-9 * (np.hypot(*u) * np.hypot(*v) + 1e-300) or np.dot(u, v) < 0:
+            keep.append(k)
+    keep.append(len(path) - 1)
+    out = path[keep]
+    return out[np.r_[True, np.any(np.diff(out, axis=0) != 0, axis=1)]] if len(out) > 2 else out

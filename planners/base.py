@@ -31,9 +31,12 @@ from toolkit.world import (
     PlanningError,
     Registry,
     RngLike,
+    RobotTiming,
     as_rng,
+    check_objective,
     configure,
     make_checker,
+    objective_cost,
 )
 from toolkit.world.arrays import FloatArray
 
@@ -80,6 +83,8 @@ class PlanningProblem:
         Planning budget in seconds.
     rng : None, int or Generator
         Seed of every random draw of the planner (normalised to a Generator).
+    timing : RobotTiming
+        The robot's speed, turn rate and stop-and-turn cost: what the ``robot-time`` objective charges.
     """
 
     map: Map
@@ -88,6 +93,7 @@ class PlanningProblem:
     goal: FloatArray
     time_limit: float = 1.0
     rng: np.random.Generator = field(default_factory=np.random.default_rng)
+    timing: RobotTiming = field(default_factory=RobotTiming)
 
     def __post_init__(self) -> None:
         self.start = np.asarray(self.start, dtype=float).reshape(2)
@@ -101,10 +107,11 @@ class PlanningProblem:
 
     @classmethod
     def create(cls, map: Map, robot_radius: float, start: ArrayLike, goal: ArrayLike, time_limit: float = 1.0,
-               rng: RngLike = None, checker: CollisionChecker | None = None) -> PlanningProblem:
+               rng: RngLike = None, checker: CollisionChecker | None = None,
+               timing: RobotTiming | None = None) -> PlanningProblem:
         """A problem with a new checker for `robot_radius` (or the given one); radius 0 is a point robot."""
         return cls(map, checker or make_checker(map, robot_radius), np.asarray(start, float),
-                   np.asarray(goal, float), time_limit, as_rng(rng))
+                   np.asarray(goal, float), time_limit, as_rng(rng), timing or RobotTiming())
 
     @property
     def robot_radius(self) -> float:
@@ -160,6 +167,10 @@ class PlanResult:
         Planner-specific extras (e.g. path length before simplification).
     detail : str
         The planner's own words on the status, or "".
+    objective : str
+        What the planner minimised (`toolkit.world.OBJECTIVES`).
+    objective_cost : float
+        The path's cost under `objective` (cm, turns or s; inf when the plan failed).
     """
 
     planner: str
@@ -170,6 +181,8 @@ class PlanResult:
     collision_checks: int = 0
     info: dict[str, Any] = field(default_factory=dict)
     detail: str = ""
+    objective: str = "length"
+    objective_cost: float = math.inf
 
     @property
     def message(self) -> str:
@@ -192,6 +205,8 @@ class PlanResult:
             "time_s": self.time_s,
             "collision_checks": self.collision_checks,
             "length_cm": self.length if self.success else None,
+            "objective": self.objective,
+            "objective_cost": self.objective_cost if self.success else None,
             "path": self.path.tolist(),
             "info": self.info,
         }
@@ -215,6 +230,10 @@ class Planner(ABC):
       ``problem.rng`` (the same seed gives the same path) and keep to ``problem.time_limit`` (s);
     - return a failed result with a `PlanStatus`, never raise, for a goal it cannot reach.
 
+    A planner that minimises more than path length says so in ``objectives`` (`toolkit.world.OBJECTIVES`,
+    its default first), takes the choice as its ``objective`` keyword (`_set_objective` checks it) and
+    reads the robot's `RobotTiming` from ``problem.timing``; `plan` reports the path's cost under it.
+
     `planners.conformance.check_planner` (``nxtnav planners check MODULE:CLASS``) runs these checks on
     a class and says what is missing; ``docs/howto/planner.md`` writes a planner that passes them.
     """
@@ -227,6 +246,9 @@ class Planner(ABC):
     large_map_options: ClassVar[Mapping[str, Any] | None] = {}
     """Options the benchmarks give it on a map of more than ``LARGE_MAP_WALLS`` walls (an imported real
     map; `toolkit.bench.planners`); None: it is skipped there (too slow to be a reference)."""
+    objectives: ClassVar[tuple[str, ...]] = ("length",)
+    """The objectives it can minimise (`toolkit.world.OBJECTIVES`), its default first; it takes the chosen
+    one as its ``objective`` constructor keyword and keeps it as ``self.objective``."""
     reports_progress: ClassVar[bool] = False
     """Whether it takes ``progress_interval`` (seconds of budget between best-cost samples): the benchmarks
     then pass theirs (OMPL's planners)."""
@@ -243,6 +265,24 @@ class Planner(ABC):
         if cls.options_model is None:
             raise ConfigError(f"{cls.__qualname__} declares no options_model")
         return configure(cls.options_model, options, overrides)
+
+    @classmethod
+    def objectives_for(cls, name: str) -> tuple[str, ...]:
+        """The objectives planner `name` (this class's registry name, or a family member's such as
+        ``ompl:NAME``) can minimise; the class's `objectives` unless a family says otherwise."""
+        return cls.objectives
+
+    def _set_objective(self, objective: str | None) -> str:
+        """Check and keep `objective` (None: the planner's default, ``objectives[0]``); a `ConfigError`
+        names the objectives it can minimise."""
+        chosen = self.objectives[0] if objective is None else objective
+        self.objective = check_objective(chosen, self.objectives, f"planner {getattr(self, 'name', '?')!r}")
+        return self.objective
+
+    @property
+    def minimises(self) -> str:
+        """The objective it minimises (``self.objective``, else its default)."""
+        return str(getattr(self, "objective", None) or self.objectives[0])
 
     def plan(self, problem: PlanningProblem) -> PlanResult:
         """Solve `problem`; never raises for an unsolvable query (a failed result says why)."""
@@ -265,9 +305,11 @@ class Planner(ABC):
         elapsed = time.perf_counter() - t0
         checks = checker.checks - checks0
         if path is None:
-            return PlanResult(self.name, np.empty((0, 2)), False, status, elapsed, checks, info, detail)
+            return PlanResult(self.name, np.empty((0, 2)), False, status, elapsed, checks, info, detail,
+                              self.minimises)
         arr = np.asarray(path, dtype=float).reshape(-1, 2)
-        return PlanResult(self.name, arr, True, status, elapsed, checks, info, detail)
+        cost = objective_cost(self.minimises, arr, problem.timing)
+        return PlanResult(self.name, arr, True, status, elapsed, checks, info, detail, self.minimises, cost)
 
     @abstractmethod
     def _solve(self, problem: PlanningProblem) -> Solution:

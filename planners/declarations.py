@@ -20,8 +20,8 @@ from toolkit.world import Options, option
 
 from .base import PLANNERS
 
-__all__ = ["AStarOptions", "MinLinkOptions", "MinTurnOptions", "OmplOptions", "ShortestOptions",
-           "ompl_class_options", "planner_kwargs", "planner_options"]
+__all__ = ["AStarOptions", "FastestOptions", "MinLinkOptions", "MinTurnOptions", "OmplOptions", "ReferenceOptions",
+           "ShortestOptions", "ompl_class_options", "planner_kwargs", "planner_options"]
 
 
 class MinTurnOptions(Options):
@@ -33,17 +33,32 @@ class MinTurnOptions(Options):
     max_rounds: int | None = option(None, "Stop after this many rounds of samples (null: at the time budget)", ge=1)
     deterministic: bool = option(True, "Count the budget in rounds (reproducible) rather than seconds")
     rounds_per_s: float = option(50.0, "Rounds per second of budget when deterministic", ge=1e-6)
+    objective: str = option("turns", "What the planner minimises (turns, robot-time)")
 
 
-class ShortestOptions(Options):
-    """The exact shortest path (``shortest``, a reference)."""
+class ReferenceOptions(Options):
+    """What the references over the visibility graph share (`ShortestOptions`, `FastestOptions`,
+    `MinLinkOptions`)."""
 
     n_sides: int = option(64, "Sides of the polygon standing in for the robot disc when growing the walls", ge=8)
     eps: float = option(1e-4, "Extra clearance so boundary edges pass the checker despite rounding", unit="cm",
                         ge=0.0)
+    objective: str = option("length", "What the planner minimises (each reference one objective)")
 
 
-class MinLinkOptions(ShortestOptions):
+class ShortestOptions(ReferenceOptions):
+    """The exact shortest path (``shortest``, a reference)."""
+
+    objective: str = option("length", "What the planner minimises (length)")
+
+
+class FastestOptions(ReferenceOptions):
+    """The least robot time path (``fastest``, a reference)."""
+
+    objective: str = option("robot-time", "What the planner minimises (robot-time)")
+
+
+class MinLinkOptions(ReferenceOptions):
     """The fewest-links path (``min-link``, a reference)."""
 
     boundary_spacing: float = option(3.0, "Spacing of the nodes along the configuration space's boundary",
@@ -51,6 +66,7 @@ class MinLinkOptions(ShortestOptions):
     grid_spacing: float | None = option(10.0, "Spacing of an interior grid of nodes (null: none)", unit="cm",
                                         ge=1e-6)
     refine: bool = option(True, "Shorten the path by moving its bends, keeping the number of links")
+    objective: str = option("turns", "What the planner minimises (turns)")
 
 
 class AStarOptions(Options):
@@ -62,6 +78,7 @@ class AStarOptions(Options):
                                           unit="cm", ge=1e-6)
     corner_cutting: bool | None = option(None, "A diagonal move may pass a blocked corner (null: on a spaced grid "
                                          "only)")
+    objective: str = option("length", "What the planner minimises (length, robot-time, turns)")
 
 
 class OmplOptions(Options):
@@ -77,6 +94,8 @@ class OmplOptions(Options):
                                             "planner's calibrated rate)", ge=1e-6)
     progress_interval: float = option(0.01, "Seconds of budget between two best-cost samples (besides one at "
                                       "every improvement)", unit="s", ge=1e-6)
+    objective: str = option("length", "What the planner minimises (length, robot-time; a planner that stops at "
+                                      "its first path: length only)")
 
 
 _OMPL_CLASSES = {"rrtstar": "RRTstar", "prm": "PRM"}

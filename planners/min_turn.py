@@ -35,6 +35,12 @@ planners do here (`planners.ompl_planners`). A wall-clock cap of ten times the b
 still ends a round on a machine far slower than that; ``info["stopped_by"]`` says what ended the
 call (``solution``, ``rounds`` or ``time``: only the last is not reproducible).
 ``deterministic=False`` gives the wall-clock budget back (rounds are then cut at the deadline).
+
+Objectives. ``turns`` (the default) is the paper's rule above: fewest points, then shortest.
+``robot-time`` keeps the fewest points (its defining rule) and orders the polylines with that many by
+their robot time instead of their length (`toolkit.world.robot_times_s`, the problem's timing): exactly
+for 1, 2 and 3 points; from 4 points on, the lazy dynamic programme still walks them by length (a
+turn's cost depends on two edges, which its edge weights cannot hold).
 """
 
 from __future__ import annotations
@@ -46,7 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from toolkit.world import CollisionChecker
+from toolkit.world import CollisionChecker, RobotTiming, robot_times_s
 from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
@@ -130,12 +136,14 @@ class MinTurnPlanner(Planner):
 
     name = "min-turn"
     options_model = MinTurnOptions
+    objectives = ("turns", "robot-time")
 
     def __init__(self, options: MinTurnOptions | None = None, **overrides: Any) -> None:
         o: MinTurnOptions = self.configure(options, overrides)
         self.options = o
         self.n_samples, self.max_intermediate, self.max_rounds = o.n_samples, o.max_intermediate, o.max_rounds
         self.deterministic, self.rounds_per_s = o.deterministic, o.rounds_per_s
+        self._set_objective(o.objective)
 
     def _limits(self, time_limit: float) -> tuple[int | None, float]:
         """Most rounds (None: no count) and the wall-clock seconds the call may take."""
@@ -181,7 +189,8 @@ class MinTurnPlanner(Planner):
             info["rounds"] = rounds
             samples = self._sample(problem, deadline)
             found = fewest_points_path(checker, start, goal, samples, self.max_intermediate, deadline,
-                                       info, direct_known_blocked=True)
+                                       info, direct_known_blocked=True,
+                                       timing=problem.timing if self.objective == "robot-time" else None)
             if found is not None:
                 return Solution(found, PlanStatus.EXACT, info)
             late = time.perf_counter() >= deadline  # the clock ended (or cut) this round
@@ -201,6 +210,7 @@ def fewest_points_path(
     info: dict[str, Any] | None = None,
     *,
     direct_known_blocked: bool = False,
+    timing: RobotTiming | None = None,
 ) -> FloatArray | None:
     """The shortest collision-free polyline start -> samples -> goal with the fewest sample points.
 
@@ -221,6 +231,9 @@ def fewest_points_path(
         set to the number of points used.
     direct_known_blocked : bool
         The caller already knows that the straight segment start -> goal is blocked.
+    timing : RobotTiming or None
+        Order the polylines with the fewest points by this robot's time rather than by length (see
+        the module notes).
 
     Returns
     -------
@@ -241,7 +254,7 @@ def fewest_points_path(
     limit = len(pts) if max_intermediate is None else min(int(max_intermediate), len(pts))
     if limit < 1:
         return None
-    return _round(checker, np.vstack([a, b, pts]), limit, deadline, stats)
+    return _round(checker, np.vstack([a, b, pts]), limit, deadline, stats, timing)
 
 
 def _min_hops(status: NDArray[np.int8]) -> int:
@@ -288,7 +301,7 @@ def _three_point_candidates(length: FloatArray, status: NDArray[np.int8], first:
 
 
 def _round(checker: CollisionChecker, nodes: FloatArray, max_intermediate: int, deadline: float,
-           info: dict[str, Any]) -> FloatArray | None:
+           info: dict[str, Any], timing: RobotTiming | None = None) -> FloatArray | None:
     """Search one set of samples; nodes[0] is the start, nodes[1] the goal (the direct edge is blocked).
 
     Level 1 checks every start->sample and sample->goal segment at once (a one-point path needs
@@ -314,7 +327,11 @@ def _round(checker: CollisionChecker, nodes: FloatArray, max_intermediate: int, 
     _set(status, samples, np.ones(n - 2, dtype=np.intp), ok_goal)
     both = ok_start & ok_goal
     if np.any(both):
-        p = samples[np.argmin(np.where(both, length[0, 2:] + length[2:, 1], np.inf))]
+        score = length[0, 2:] + length[2:, 1]
+        if timing is not None:
+            score = robot_times_s(np.stack([np.repeat(nodes[:1], n - 2, axis=0), nodes[2:],
+                                            np.repeat(nodes[1:2], n - 2, axis=0)], axis=1), timing)
+        p = samples[np.argmin(np.where(both, score, np.inf))]
         info["intermediate"] = 1
         return nodes[[0, p, 1]]
     first = samples[ok_start]
@@ -328,12 +345,13 @@ def _round(checker: CollisionChecker, nodes: FloatArray, max_intermediate: int, 
         if k > max_intermediate:
             return None
         if k == 2:
-            seq = _walk(checker, nodes, status, _two_point_candidates(length, first, last), deadline, info)
+            cand = _by_time(nodes, _two_point_candidates(length, first, last), timing)
+            seq = _walk(checker, nodes, status, cand, deadline, info)
             if seq is not None:
                 info["intermediate"] = 2
                 return nodes[[0, seq[0, 0], seq[0, 1], 1]]
         elif k == 3 and len(first) * len(samples) * len(last) <= _MAX_ENUMERATED:
-            cand = _three_point_candidates(length, status, first, samples, last)
+            cand = _by_time(nodes, _three_point_candidates(length, status, first, samples, last), timing)
             seq = _walk(checker, nodes, status, cand, deadline, info)
             if seq is not None:
                 info["intermediate"] = 3
@@ -346,6 +364,17 @@ def _round(checker: CollisionChecker, nodes: FloatArray, max_intermediate: int, 
         if time.perf_counter() >= deadline:
             return None
     return None
+
+
+def _by_time(nodes: FloatArray, cand: NDArray[np.intp], timing: RobotTiming | None) -> NDArray[np.intp]:
+    """Candidates (m, e, 2) of `_two_point_candidates` or `_three_point_candidates` in order of robot time
+    (unchanged without a `timing`)."""
+    if timing is None or len(cand) == 0:
+        return cand
+    inner = np.concatenate([cand[:, :1, 0], cand[:, :, 1]], axis=1)  # the intermediate points, in order
+    m = len(cand)
+    seq = np.concatenate([np.zeros((m, 1), dtype=np.intp), inner, np.ones((m, 1), dtype=np.intp)], axis=1)
+    return cand[np.argsort(robot_times_s(nodes[seq], timing), kind="stable")]
 
 
 def _set(status: NDArray[np.int8], ia: NDArray[np.intp], ib: NDArray[np.intp], ok: NDArray[np.bool_]) -> None:

@@ -3,7 +3,10 @@
 The state space is OMPL's 2-D `RealVectorStateSpace` bounded by the map's bounding box (cm). State
 validity is the shared checker's point check and motion validity is its swept-disc segment check,
 installed as a Python `MotionValidator` subclass, so OMPL never discretises an edge into states: every
-edge the planner keeps was checked exactly once by FCL. The optimisation objective is path length.
+edge the planner keeps was checked exactly once by FCL. The optimisation objective is path length, or
+with ``objective="robot-time"`` the robot's time over OMPL's SE(2) space (`planners.ompl_objective`:
+a motion turns in place to its segment's heading and drives; start and goal headings free); the
+progress costs, ``bestCost`` and the first solution's cost (``first_solution_cost``) are then in seconds.
 
 Time budget. `RRTConnect`, `RRT`, `KPIECE1` and other feasibility planners stop at their first
 solution. Asymptotically optimal planners (`RRTstar`, `PRM` with a length objective, `BITstar`, ...)
@@ -73,6 +76,7 @@ from toolkit.world import CollisionChecker, ConfigError, RegistryError
 
 from .base import PLANNERS, Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import OmplOptions
+from .ompl_objective import RobotTimeObjective, se2_space
 
 __all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "declared_params", "ompl_planner_names", "ompl_simplify"]
 
@@ -92,6 +96,11 @@ _ROADMAP_ROUND_S = 0.01  # deterministic PRM: budget (s) of one roadmap growth r
 # deterministic mode: iterations per second of budget, about what one laptop core does on the bundled maps
 _ITERATIONS_PER_S = {"PRMstar": 1000.0, "BITstar": 50000.0, "ABITstar": 50000.0, "AITstar": 50000.0}
 _DEFAULT_ITERATIONS_PER_S = 5000.0
+_OPTIMISING = frozenset({"RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "ABITstar", "AITstar", "EITstar",
+                         "AORRTC", "PRM", "PRMstar", "LazyPRMstar", "FMT", "BFMT", "RRTXstatic", "RRTsharp",
+                         "LBTRRT", "LazyLBTRRT", "CForest", "SST", "SPARS", "SPARStwo"})
+"""OMPL's planners that improve their path under an optimisation objective (the others stop at a first
+path, whatever the objective: they take ``length`` only, the default)."""
 _PARAM_TYPES = (bool, int, float, str)
 _NOT_PARAMS = frozenset({"Name", "ProblemDefinition"})
 
@@ -201,6 +210,10 @@ def ompl_simplify(path: ArrayLike, checker: CollisionChecker, bounds: tuple[floa
     return out
 
 
+def _polyline_length(points: NDArray[np.float64]) -> float:
+    return float(np.sum(np.hypot(*np.diff(points, axis=0).T))) if len(points) >= 2 else 0.0
+
+
 class _Progress:
     """Best-cost samples of one planning call: at every improvement and on a fixed grid.
 
@@ -272,6 +285,9 @@ class OmplPlanner(Planner):
     progress_interval : float
         Seconds of budget between two progress samples (besides one at every improvement); in
         deterministic mode counted as ``iterations_per_s * progress_interval`` iterations.
+    objective : {"length", "robot-time"}
+        What the planner minimises: path length (cm, over the plane), or robot time (s, over SE(2),
+        `planners.ompl_objective`, with the problem's `RobotTiming`).
 
     ``info`` holds ``ompl_status`` (OMPL's own words), ``first_solution_s``,
     ``first_solution_length_cm``, ``progress`` (``[time_s, iterations, best_cost]`` samples),
@@ -280,6 +296,13 @@ class OmplPlanner(Planner):
     """
 
     reports_progress = True
+    objectives = ("length", "robot-time")
+
+    @classmethod
+    def objectives_for(cls, name: str) -> tuple[str, ...]:
+        """``length`` alone for an OMPL planner that stops at its first path (RRTConnect, KPIECE1, ...)."""
+        planner = {"rrtstar": "RRTstar", "prm": "PRM"}.get(name, name.split(":", 1)[-1])
+        return cls.objectives if planner in _OPTIMISING else ("length",)
 
     options_model = OmplOptions
 
@@ -289,6 +312,11 @@ class OmplPlanner(Planner):
         if planner not in known:
             raise RegistryError(f"unknown OMPL planner {planner!r}; known: {', '.join(known)}")
         o: OmplOptions = self.configure(options, overrides)
+        own = self.objectives_for(f"ompl:{planner}")
+        if o.objective not in own and o.objective in self.objectives:
+            raise ConfigError(f"planner 'ompl:{planner}' stops at its first path and optimises no objective; it "
+                              f"takes {', '.join(own)} only")
+        self._set_objective(o.objective)
         cls = getattr(og, planner)
         for key in settings or {}:
             if not hasattr(cls, f"set{key}"):
@@ -342,12 +370,12 @@ class OmplPlanner(Planner):
         if exact and ended["by"] == "time" and self.deterministic:
             ended["by"] = "solution"  # a feasibility planner returned its solution before the condition said stop
             info["stopped_by"] = "solution"
-        final = float(pdef.getSolutionPath().length()) if exact else math.inf
+        final = self._cost_of(pdef.getSolutionPath()) if exact else math.inf
         if exact and not first and (self.planner not in _THREADED or self.stop_at_first):
             # solved in the last iteration after the condition was last polled, or stopped by the objective
             first["time"], first["length"] = time.perf_counter() - t0, final
         info["first_solution_s"] = first.get("time", math.nan)
-        info["first_solution_length_cm"] = first.get("length", math.nan)
+        self._first_solution(info, first)
         info["progress"] = progress.finish(ended["polls"], time.perf_counter(), final)
         if not exact:
             return Solution(None, _STATUS.get(key, PlanStatus.ERROR), info, info["ompl_status"])
@@ -356,13 +384,22 @@ class OmplPlanner(Planner):
     def _setup(self, problem: PlanningProblem) -> tuple[Any, Any]:
         """OMPL's `SimpleSetup` for `problem` (start, goal, path-length objective) and its planner,
         configured with `range` and `settings` and set up."""
-        space, si = _space(problem.map.bounds, problem.checker)
+        se2 = self.objective == "robot-time"
+        space, si = (se2_space if se2 else _space)(problem.map.bounds, problem.checker)
         setup = og.SimpleSetup(si)
         start, goal = space.allocState(), space.allocState()
-        start[0], start[1] = float(problem.start[0]), float(problem.start[1])
-        goal[0], goal[1] = float(problem.goal[0]), float(problem.goal[1])
+        for state, (x, y) in ((start, problem.start), (goal, problem.goal)):
+            if se2:
+                state.setX(float(x))
+                state.setY(float(y))
+                state.setYaw(math.atan2(problem.goal[1] - problem.start[1], problem.goal[0] - problem.start[0]))
+            else:
+                state[0], state[1] = float(x), float(y)
         setup.setStartAndGoalStates(start, goal)
-        objective = ob.PathLengthOptimizationObjective(si)
+        objective = (RobotTimeObjective(si, problem.timing, (problem.start[0], problem.start[1]),
+                                        (problem.goal[0], problem.goal[1]))
+                     if se2 else ob.PathLengthOptimizationObjective(si))
+        self._objective_impl = objective
         if self.stop_at_first:  # any solution satisfies the objective, so optimising planners stop at it
             objective.setCostThreshold(ob.Cost(math.inf))
         setup.setOptimizationObjective(objective)
@@ -404,8 +441,26 @@ class OmplPlanner(Planner):
 
         return ob.PlannerTerminationCondition(stop)
 
-    @staticmethod
-    def _cost_reader(planner: Any, pdef: Any) -> Callable[[], float]:
+    def _points(self, path: Any) -> NDArray[np.float64]:
+        """An OMPL path's positions (cm), (k, 2)."""
+        states = [path.getState(i) for i in range(path.getStateCount())]
+        if self.objective == "length":
+            return np.array([[s[0], s[1]] for s in states], dtype=float).reshape(-1, 2)
+        return np.array([[s.getX(), s.getY()] for s in states], dtype=float).reshape(-1, 2)
+
+    def _cost_of(self, path: Any) -> float:
+        """A solution path's cost under the objective: its length (cm) or its robot time over SE(2) (s)."""
+        if self.objective == "length":
+            return float(path.length())
+        return float(path.cost(self._objective_impl).value())
+
+    def _first_solution(self, info: dict[str, Any], first: dict[str, float]) -> None:
+        """The first solution's cost into `info` (``first_solution_cost``; its length when that is the cost)."""
+        cost = first.get("length", math.nan)
+        info["first_solution_cost"] = cost
+        info["first_solution_length_cm"] = cost if self.objective == "length" else math.nan
+
+    def _cost_reader(self, planner: Any, pdef: Any) -> Callable[[], float]:
         """The best cost so far (inf before a solution): the planner's ``bestCost()`` where it has one
         (optimising tree planners publish their solution only at the end), else the problem's exact
         solution (read again only when the number of solutions changes)."""
@@ -418,7 +473,7 @@ class OmplPlanner(Planner):
             count = pdef.getSolutionCount()
             if count != seen["count"]:
                 seen["count"] = count
-                seen["cost"] = float(pdef.getSolutionPath().length()) if pdef.hasExactSolution() else math.inf
+                seen["cost"] = self._cost_of(pdef.getSolutionPath()) if pdef.hasExactSolution() else math.inf
             return seen["cost"]
 
         return from_problem
@@ -451,8 +506,8 @@ class OmplPlanner(Planner):
                 if math.hypot(end[0] - goal[0], end[1] - goal[1]) < 1e-9:  # joins the goal (OMPL may call
                     found = path                                            # it approximate all the same)
                     if not first:
-                        first = {"time": time.perf_counter() - t0, "length": float(path.length())}
-            cost = float(found.length()) if found is not None else math.inf
+                        first = {"time": time.perf_counter() - t0, "length": self._cost_of(path)}
+            cost = self._cost_of(found) if found is not None else math.inf
             progress.poll(min(polls["n"], polls["round_end"]), time.perf_counter(), cost)
             if time.perf_counter() >= deadline:
                 ended = "time"
@@ -465,9 +520,9 @@ class OmplPlanner(Planner):
                                 "iterations": iterations, "milestones": int(planner.milestoneCount()),
                                 "params": params,
                                 "first_solution_s": first.get("time", math.nan),
-                                "first_solution_length_cm": first.get("length", math.nan),
                                 "progress": progress.finish(iterations, time.perf_counter(),
-                                                            float(found.length()) if found is not None else math.inf)}
+                                                            self._cost_of(found) if found is not None else math.inf)}
+        self._first_solution(info, first)
         if found is None:
             info["ompl_status"] = "no solution in the roadmap"
             if ended == "time":
@@ -484,13 +539,12 @@ class OmplPlanner(Planner):
         if path is None:
             path = setup.getSolutionPath()
         if self.simplify:
-            info["length_before_simplify_cm"] = float(path.length())
+            info["length_before_simplify_cm"] = _polyline_length(self._points(path))
             t_s = time.perf_counter()
             og.PathSimplifier(si).simplifyMax(path)
             info["simplify_time_s"] = time.perf_counter() - t_s
-            info["length_after_simplify_cm"] = float(path.length())
-        states = [path.getState(i) for i in range(path.getStateCount())]
-        arr = np.array([[s[0], s[1]] for s in states], dtype=float)
+            info["length_after_simplify_cm"] = _polyline_length(self._points(path))
+        arr = self._points(path)
         arr[0], arr[-1] = problem.start, problem.goal  # exact end points (OMPL may copy with rounding)
         if not checker.path_free(arr):
             return Solution(None, PlanStatus.INVALID_PATH, info)

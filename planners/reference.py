@@ -67,7 +67,7 @@ from toolkit.world import CollisionChecker, Map, PointCollisionChecker
 from toolkit.world.arrays import FloatArray
 
 from .base import Planner, PlanningProblem, PlanStatus, Solution
-from .declarations import MinLinkOptions, ShortestOptions
+from .declarations import MinLinkOptions, ReferenceOptions, ShortestOptions
 from .metrics import turn_angle
 from .min_turn import hop_shortest_path
 
@@ -217,10 +217,11 @@ def shorten_bends(checker: CollisionChecker, path: FloatArray, step: float = 5.0
 class _ReferencePlanner(Planner):
     """Shared machinery: the polygonal configuration space and a per-(map, radius, backend) graph cache."""
 
-    def __init__(self, options: ShortestOptions | None = None, **overrides: Any) -> None:
-        o: ShortestOptions = self.configure(options, overrides)
+    def __init__(self, options: ReferenceOptions | None = None, **overrides: Any) -> None:
+        o: ReferenceOptions = self.configure(options, overrides)
         self.options = o
         self.n_sides, self.eps = o.n_sides, o.eps
+        self._set_objective(o.objective)
         self._cache: dict[tuple[int, float, str], _Graph] = {}
 
     @staticmethod
@@ -353,7 +354,7 @@ class ShortestPathPlanner(_ReferencePlanner):
     """
 
     name = "shortest"
-    options_model = ShortestOptions
+    options_model: ClassVar[type[ReferenceOptions]] = ShortestOptions
     large_map_options: ClassVar[Mapping[str, Any] | None] = {"n_sides": 16}  # length tolerance stays < ~1 cm
 
     def _build(self, problem: PlanningProblem) -> _Graph:
@@ -448,6 +449,7 @@ class MinLinkPlanner(_ReferencePlanner):
 
     name = "min-link"
     options_model = MinLinkOptions
+    objectives = ("turns",)
     large_map_options = None  # its dense graph grows with the map's area squared
 
     def __init__(self, options: MinLinkOptions | None = None, **overrides: Any) -> None:

@@ -272,8 +272,9 @@ def test_turns_error_correlation_is_a_rank_correlation() -> None:
     q = Query("map1", 0, (20.0, 20.0), (80.0, 80.0))
 
     def rec(i: int, turns: float, err: float, success: bool = True) -> RunRecord:
-        return RunRecord("map1", "min-turn", i, 0, 0, q.start, q.goal, success, "exact", 0.01, 1, turns=turns,
-                         exec_error_cm=err)
+        return RunRecord.build(map="map1", planner="min-turn", run=i, seed=0, query=0, start=q.start, goal=q.goal,
+                               success=success, status="exact", time_s=0.01, collision_checks=1, turns=turns,
+                               exec_error_cm=err)
 
     cfg = BenchmarkConfig(maps=("map1",), planners=("min-turn",), runs=5)
     up = [rec(0, 0, 1.0), rec(1, 1, 5.0), rec(2, 2, 5.5), rec(3, 5, 40.0), rec(4, 9, 1e9, success=False)]
@@ -410,5 +411,6 @@ def test_the_bench_gives_a_planner_what_its_class_declares() -> None:
     assert planner_for("min-link", large) is None and planner_for("min-link", grid) is not None
     assert planner_for("ompl:RRTConnect", small, progress_interval=0.5).progress_interval == 0.5
     assert planner_for("min-turn", small, progress_interval=0.5) is not None  # declares none: given none
-    with pytest.raises(RegistryError, match=r"unknown planner 'declared'; known: astar, min-link, .*ompl:NAME"):
+    with pytest.raises(RegistryError,
+                       match=r"unknown planner 'declared'; known: astar, fastest, min-link, .*ompl:NAME"):
         planner_for("declared", small)  # gone with its block

@@ -214,8 +214,9 @@ _Q = Query("m", 0, (0.0, 0.0), (1.0, 0.0))
 
 def _rec(run: int, progress: tuple[tuple[float, int, float], ...] = (), length: float = math.nan,
          time_s: float = 1.0, success: bool = True) -> RunRecord:
-    return RunRecord("m", "p", run, 0, 0, _Q.start, _Q.goal, success, "exact", time_s, 0, length_cm=length,
-                     progress=progress)
+    return RunRecord.build(map="m", planner="p", run=run, seed=0, query=0, start=_Q.start, goal=_Q.goal,
+                           success=success, status="exact", time_s=time_s, collision_checks=0, length_cm=length,
+                           progress=progress)
 
 
 def test_time_within_reads_the_first_sample_under_the_target() -> None:
@@ -290,8 +291,8 @@ def test_cost_over_time_figure_is_drawn(tmp_path: Path) -> None:
 
     cfg = BenchmarkConfig(maps=("m",), planners=("p", "q"), runs=2)
     recs = [_rec(0, ((0.1, 1, 110.0), (0.3, 3, 100.0))), _rec(1, ((0.2, 2, 120.0), (0.4, 4, 102.0))),
-            RunRecord("m", "q", 0, 0, 0, _Q.start, _Q.goal, True, "exact", 0.01, 0, length_cm=108.0,
-                      first_solution_s=0.01)]
+            RunRecord.build(map="m", planner="q", run=0, seed=0, query=0, start=_Q.start, goal=_Q.goal, success=True,
+                            status="exact", time_s=0.01, collision_checks=0, length_cm=108.0, first_solution_s=0.01)]
     ref = ReferenceResult(_Q, 100.0, 1, 1, 100.0, "", 0.0)
     res = BenchmarkResult(cfg, tuple(recs), (ref,), datetime.now(), 1.0)
     png = save_cost_over_time(res, tmp_path)

@@ -22,6 +22,7 @@ from .options import (
     MapList,
     MapName,
     NoiseModel,
+    Objective,
     OptionGone,
     Radius,
     RunSets,
@@ -173,6 +174,7 @@ def run(
                               "else use --view-save)."),
     view_save: Path | None = typer.Option(None, "--view-save", callback=writable_file, metavar="FILE.rrd",
                                           help="Stream the live view into a Rerun file instead of a viewer."),
+    objective: Objective = None,
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
     from ..robots.sim import simulated_sonar
@@ -205,8 +207,9 @@ def run(
         raise typer.BadParameter(f"map {m.name} has no preset target; give --target X,Y", param_hint="--target")
     # the sonar model: the simulator's readings come from it; a real NXT's localiser is told it
     sonar_model = simulated_sonar(named if fitted_sonar is None else fitted_sonar, sensor_noise)
-    stack = Stack(planner, localiser, seed, collision, start_heading, mission)
-    doc: dict[str, Any] = {"robot": robot_kind, "sonar_model": sonar_model.to_dict()}
+    _check_objective(objective, [planner])
+    stack = Stack(planner, localiser, seed, collision, start_heading, mission, objective)
+    doc: dict[str, Any] = {"robot": robot_kind, "sonar_model": sonar_model.to_dict(), "objective": objective}
     if robot_kind == "nxt":
         if start_text is not None or random_start:
             raise typer.BadParameter("the start of a real robot is unknown; --start/--random-start are for the "
@@ -319,6 +322,13 @@ def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list
         typer.echo(f"wrote {json_out}")
 
 
+def _check_objective(objective: str | None, planners: list[str]) -> None:
+    """A one-line error, before any mission, for an objective unknown or one of `planners` cannot minimise."""
+    from .plan_cmds import planner_objectives
+
+    planner_objectives(objective, planners, {})
+
+
 def _parse_stacks(stacks: list[str] | None) -> list[tuple[str, str]]:
     if not stacks:
         return [("min-turn", "paper-pf")]
@@ -366,6 +376,7 @@ def paper(
     settings: str | None = typer.Option(None, "--settings", metavar="NAME[,NAME]",
                                         help=_SETTINGS_HELP),
     collision: Collision = "index",
+    objective: Objective = None,
 ) -> None:
     """The paper's Table I regenerated: completion time, final error, path length, collisions, robot time."""
     from ..bench.paper import in_task_order, paper_tasks, run_trial, summarise
@@ -382,6 +393,9 @@ def paper(
     options = _paper_options(given_sets(ctx, sets), sonars)
     configured = configuration(ctx, sets, mission={so: mission_config(so, given_sets(ctx, sets), collision).to_dict()
                                                    for so in sonars})
+    _check_objective(objective, [p for p, _ in stacks])
+    if objective is not None:
+        options["planning.objective"] = objective
     if pareto is not None:
         _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out,
                     profile, collision, dask)

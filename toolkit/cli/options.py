@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from ..world import CHECKER_BACKENDS, COORDINATE_LIMIT_CM, NxtnavError, NxtSonar, Pose
+from ..world import CHECKER_BACKENDS, COORDINATE_LIMIT_CM, OBJECTIVES, NxtnavError, NxtSonar, Pose, RobotTiming
 from ..world.bundled import data_path
 from .choices import one_of
 
@@ -430,3 +430,15 @@ ConfigFile = Annotated[Path | None, typer.Option(
     help="Run again as a run's JSON output (or its configuration) says: its options and settings are the "
          "defaults; options and --set given here win.")]
 OptionGone = Annotated[list[str] | None, typer.Option("--option", hidden=True, callback=_option_gone)]
+Objective = Annotated[str | None, typer.Option(
+    "--objective", metavar="|".join(OBJECTIVES),
+    help="What every planner minimises: " + ", ".join(OBJECTIVES) + " (default: each planner its own; "
+         "`nxtnav planners show NAME` lists what a planner can minimise).")]
+TIMING = RobotTiming()
+"""The robot model's default timing: the defaults of the options below."""
+DriveSpeed = Annotated[float, typer.Option("--drive-speed", metavar="CM/S",
+                                           help="Robot model: driving speed (cm/s), for robot time.")]
+TurnRate = Annotated[float, typer.Option("--turn-rate", metavar="DEG/S",
+                                         help="Robot model: turn-in-place rate (deg/s), for robot time.")]
+StopTurn = Annotated[float, typer.Option("--stop-turn", metavar="S",
+                                         help="Robot model: fixed time of each stop-and-turn (s), for robot time.")]

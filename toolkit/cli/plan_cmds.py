@@ -11,21 +11,38 @@ import numpy as np
 import typer
 
 from ..number_format import json_safe
-from ..world import NxtnavError, PlanningError, RobotGeometry, load_map, make_checker
+from ..world import (
+    ConfigError,
+    NxtnavError,
+    PlanningError,
+    RobotGeometry,
+    RobotTiming,
+    check_objective,
+    load_map,
+    make_checker,
+    objective_cost,
+    path_cost,
+)
 from .app import Interrupted, app, bench_app, fail
 from .choices import one_of
 from .compiling import compile_note, warm_up_planner
 from .options import (
+    TIMING,
     Collision,
     ConfigFile,
     Dask,
+    DriveSpeed,
     Force,
     JsonOut,
+    MapList,
     MapName,
     NoiseModel,
+    Objective,
     OutFolder,
     PluginSets,
     Seed,
+    StopTurn,
+    TurnRate,
     Workers,
     check_writable,
     count,
@@ -49,6 +66,36 @@ DEFAULT_PLANNERS = ("min-turn", "astar", "rrtstar", "prm", "ompl:RRTConnect", "o
 """`bench planners`' default set: the paper's planner, grid A*, and OMPL's optimising planners (RRT*, PRM,
 Informed RRT*, BIT*) with RRTConnect as the fast feasible one (OMPL 2.0.1's Python wheel has no AIT*,
 ABIT* or LazyPRM*, and its AORRTC crashes the process now and then)."""
+
+
+REFERENCE_OF = {"length": "shortest", "turns": "min-link", "robot-time": "fastest"}
+"""The reference planner whose path is the optimum of a query under each objective."""
+
+
+def robot_timing(drive_speed: float, turn_rate: float, stop_turn: float) -> RobotTiming:
+    """The robot's timing from ``--drive-speed``, ``--turn-rate`` and ``--stop-turn`` (one-line errors)."""
+    try:
+        return RobotTiming(drive_speed_cm_s=drive_speed, turn_rate_deg_s=turn_rate, stop_turn_s=stop_turn)
+    except ConfigError as exc:
+        names = {"drive_speed_cm_s": "--drive-speed", "turn_rate_deg_s": "--turn-rate", "stop_turn_s": "--stop-turn"}
+        option = next((o for k, o in names.items() if k in str(exc)), "--drive-speed/--turn-rate/--stop-turn")
+        raise NxtnavError(f"{option}: {exc}") from None
+
+
+def planner_objectives(objective: str | None, planners: list[str],
+                       options: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """`options` per planner with `objective` added (a planner's own ``--set NAME.objective`` wins); an
+    unknown objective, or one a planner cannot minimise, is a one-line error before any planning."""
+    from planners import PLANNERS
+
+    out = {name: dict(options.get(name, {})) for name in planners}
+    for name in planners:
+        chosen = out[name].get("objective", objective)
+        if chosen is None:
+            continue
+        check_objective(chosen, PLANNERS.class_of(name).objectives_for(name), f"planner {name!r}")
+        out[name]["objective"] = chosen
+    return out
 
 
 def _noise(model: str, motion: float, turn: float) -> Any:
@@ -92,6 +139,10 @@ def plan(
     json_out: JsonOut = None,
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
     config_file: ConfigFile = None,
+    objective: Objective = None,
+    drive_speed: DriveSpeed = TIMING.drive_speed_cm_s,
+    turn_rate: TurnRate = TIMING.turn_rate_deg_s,
+    stop_turn: StopTurn = TIMING.stop_turn_s,
 ) -> None:
     """Plan one query and draw the path on the map (with the shortest path, dashed) and its metrics."""
     from planners import PlanningProblem, make_planner
@@ -103,8 +154,10 @@ def plan(
     if not (math.isfinite(time_limit) and time_limit > 0):
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
     nz = _noise(noise_model, motion_noise, turn_noise)
+    timing = robot_timing(drive_speed, turn_rate, stop_turn)
     check_planner_names([planner])
-    options = checked_sets(parse_sets(given_sets(ctx, sets)), [planner], planner_options, "planner").get(planner, {})
+    options = planner_objectives(objective, [planner], checked_sets(parse_sets(given_sets(ctx, sets)), [planner],
+                                                                    planner_options, "planner"))[planner]
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -113,12 +166,12 @@ def plan(
 
     start = _query_point(start_text, "--start", m.start, m, checker, radius)
     goal = _query_point(goal_text, "--goal", m.target, m, checker, radius)
-    problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed))
+    problem = PlanningProblem(m, checker, start, goal, time_limit, np.random.default_rng(seed), timing)
     built = planner_for(planner, m, options) or make_planner(planner, **planner_kwargs(planner, options))
     with compile_note(_KERNELS):  # before the timer: planning time never holds compilation
         warm_up_s = warm_up_planner(planner, options, checker, radius, collision, start, goal)
     result = built.plan(problem)
-    refs = _reference_paths(m, checker, start, goal)
+    refs = _reference_paths(m, checker, start, goal, timing)
     doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
                            "robot_radius_cm": radius, "collision": checker.backend, "start": start.tolist(),
                            "goal": goal.tolist(), "warm_up_s": warm_up_s, "configuration": configuration(ctx, sets),
@@ -129,8 +182,13 @@ def plan(
     ax.plot(*start, "o", color="tab:green", ms=9, label="start", zorder=6)
     ax.plot(*goal, "*", color="tab:red", ms=14, label="goal", zorder=6)
     lines = [f"{planner} on {m.name}: {result.message} in {1e3 * result.time_s:.2f} ms"]
+    reference = refs.get(REFERENCE_OF[result.objective])
+    doc["reference_cost"] = objective_cost(result.objective, reference, timing) if reference is not None else None
     if result.success:
+        cost = path_cost(result.path, timing, nz)
+        doc.update(robot_time_s=cost.robot_time_s, predicted_error_cm=cost.predicted_error_cm)
         lines += _found_path(result, planner, refs, checker, goal, (exec_repeats, nz, seed), ax, doc)
+        lines.insert(2, _cost_line(result, cost, doc["reference_cost"]))
     doc["references"] = {k: {"path": v.tolist(), "length_cm": float(np.sum(np.hypot(*np.diff(v, axis=0).T)))}
                          for k, v in refs.items()}
     ax.set_title("\n".join(lines), fontsize=9)
@@ -145,6 +203,16 @@ def plan(
     if not result.success:
         raise fail(f"{planner} found no path on {m.name}: {result.message}", code=1)
 
+
+
+def _cost_line(result: Any, cost: Any, reference: float | None) -> str:
+    """The path's cost to the robot and under its planner's objective, against the reference optimum."""
+    from ..world import OBJECTIVE_UNITS
+
+    unit = OBJECTIVE_UNITS[result.objective]
+    ratio = f", x{result.objective_cost / reference:.3f} the optimum" if reference else ""
+    return (f"objective {result.objective}: {result.objective_cost:.3g} {unit}{ratio}; robot time "
+            f"{cost.robot_time_s:.2f} s, predicted open-loop error {cost.predicted_error_cm:.2f} cm")
 
 
 def _query_point(text: str | None, option: str, preset: Any, m: Any, checker: Any, radius: float) -> np.ndarray:
@@ -194,8 +262,9 @@ def _found_path(result: Any, planner: str, refs: dict[str, np.ndarray], checker:
     return lines
 
 
-def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray) -> dict[str, np.ndarray]:
-    """The paths of the reference planners that solve the query (shortest, min-link), by name."""
+def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray,
+                     timing: RobotTiming | None = None) -> dict[str, np.ndarray]:
+    """The paths of the reference planners that solve the query (shortest, min-link, fastest), by name."""
     from planners import PlanningProblem
 
     from ..bench.planners import REFERENCE_PLANNERS, REFERENCE_TIME_LIMIT_S, planner_for
@@ -207,7 +276,7 @@ def _reference_paths(m: Any, checker: Any, start: np.ndarray, goal: np.ndarray) 
             continue
         try:
             ref = ref_planner.plan(PlanningProblem(m, checker, start, goal, REFERENCE_TIME_LIMIT_S,
-                                                   np.random.default_rng(0)))
+                                                   np.random.default_rng(0), timing or RobotTiming()))
         except NxtnavError:
             continue
         if ref.success:
@@ -268,6 +337,10 @@ def bench_planners(
     plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the box plots."),
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
     config_file: ConfigFile = None,
+    objective: Objective = None,
+    drive_speed: DriveSpeed = TIMING.drive_speed_cm_s,
+    turn_rate: TurnRate = TIMING.turn_rate_deg_s,
+    stop_turn: StopTurn = TIMING.stop_turn_s,
 ) -> None:
     """Benchmark planners on maps: runs.csv, progress.csv, paths.jsonl, summary.md, plots and an OMPL benchmark.log."""
     from ..bench.planners import (
@@ -291,7 +364,9 @@ def bench_planners(
     check_planner_names(planner_list)
     from planners.declarations import planner_options
 
-    options = checked_sets(parse_sets(given_sets(ctx, sets)), planner_list, planner_options, "planner")
+    timing = robot_timing(drive_speed, turn_rate, stop_turn)
+    checked = checked_sets(parse_sets(given_sets(ctx, sets)), planner_list, planner_options, "planner")
+    options = planner_objectives(objective, planner_list, checked)
     for name in map_list:
         load_map(name)  # a bad map name fails before any work
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs,
@@ -299,7 +374,8 @@ def bench_planners(
                              seed=seed, queries=queries,  # type: ignore[arg-type]
                              exec_repeats=exec_repeats, robot_radius=radius, collision=collision,
                              noise=_noise(noise_model, motion_noise, turn_noise),
-                             simplify=simplify, progress_interval=progress_interval, planner_options=options)
+                             simplify=simplify, progress_interval=progress_interval, planner_options=options,
+                             objective=objective, timing=timing)
     out_dir = check_out_dir(out, force)
     if budget_list is not None:
         _sweep_budgets(config, budget_list, out_dir, workers, dask, plots)
@@ -331,3 +407,54 @@ def _sweep_budgets(config: Any, budgets: tuple[float, ...], out_dir: Path, worke
     typer.echo(f"wrote {len(files)} files to {out_dir}")
     if not sweep.complete:
         raise Interrupted(f"{len(sweep.results)} of {len(budgets)} budgets done; partial results in {out_dir}")
+
+
+OBJECTIVE_PLANNERS = ("rrtstar", "ompl:InformedRRTstar", "ompl:BITstar", "astar", "min-turn")
+"""`bench objectives`' default set: OMPL's optimising planners, grid A* and the paper's planner."""
+
+
+@bench_app.command("objectives")
+def bench_objectives(
+    out: OutFolder,
+    maps: MapList = "map1,map2,map3",
+    planners: str = typer.Option(",".join(OBJECTIVE_PLANNERS), "--planners",
+                                 help="Comma-separated planners " + one_of("planner") + "."),
+    runs: int = typer.Option(20, "--runs", help="Runs per planner, objective and map.", callback=count),
+    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", help="Planning budget per run (s).",
+                                     callback=time_limit_ok),
+    seed: Seed = 0,
+    force: Force = False,
+    workers: Workers = 1,
+    exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
+                                     help="Open-loop drives per run for the measured error (0: predicted only)."),
+    radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0 = a point).",
+                                 callback=non_negative),
+    noise_model: NoiseModel = "botsim",
+    motion_noise: float = typer.Option(0.1, "--motion-noise", help="botsim: fraction; absolute: cm per move.",
+                                       callback=non_negative),
+    turn_noise: float = typer.Option(0.005, "--turn-noise", help="botsim: fraction of a turn; absolute: rad.",
+                                     callback=non_negative),
+    drive_speed: DriveSpeed = TIMING.drive_speed_cm_s,
+    turn_rate: TurnRate = TIMING.turn_rate_deg_s,
+    stop_turn: StopTurn = TIMING.stop_turn_s,
+    plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the Pareto figure of each map."),
+) -> None:
+    """Every planner under every objective it can minimise: robot time, open-loop error, the targets checked."""
+    from ..bench.planners import BenchmarkConfig, check_out_dir, check_planner_names
+    from ..bench.planners.objectives import run_objectives, write_objectives
+
+    timing = robot_timing(drive_speed, turn_rate, stop_turn)
+    map_list = parse_list(maps, "--maps")
+    planner_list = parse_list(planners, "--planners")
+    check_planner_names(planner_list)
+    for name in map_list:
+        load_map(name)
+    config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs, time_limit=time_limit,
+                             seed=seed, exec_repeats=exec_repeats, robot_radius=radius,
+                             noise=_noise(noise_model, motion_noise, turn_noise), simplify="none", timing=timing)
+    out_dir = check_out_dir(out, force)
+    with progress("objectives: references and runs", 3 * config.n_tasks()) as advance:
+        sweep = run_objectives(config, workers=workers, on_done=advance)
+    files = write_objectives(sweep, out_dir, plots=plots)
+    typer.echo(files["summary"].read_text(encoding="utf-8"))
+    typer.echo(f"wrote {len(files)} files to {out_dir}")

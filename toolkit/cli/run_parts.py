@@ -38,12 +38,15 @@ class Stack:
     collision: str
     start_heading: HeadingPrior | None
     mission: MissionConfig | None = None
+    objective: str | None = None
 
     def config(self, sonar: str) -> MissionConfig:
-        """The mission settings: this stack's, else `sonar`'s defaults with the stack's collision backend."""
+        """The mission settings: this stack's, else `sonar`'s defaults with the stack's collision backend;
+        then the planner's objective, where one is chosen."""
         from ..mission import MissionConfig
 
-        return self.mission or MissionConfig.for_sonar(sonar, collision=self.collision)
+        config = self.mission or MissionConfig.for_sonar(sonar, collision=self.collision)
+        return config.with_options(**{"planning.objective": self.objective}) if self.objective else config
 
 
 @dataclass(frozen=True)

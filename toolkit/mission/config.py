@@ -17,11 +17,11 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from localisation.global_localisation import GlobalLocalisation
 from localisation.scan import sweep_angles
-from toolkit.world import ConfigError
+from toolkit.world import ConfigError, check_objective
 from toolkit.world.typed import Typed, build, group_fields, with_values
 
 __all__ = ["FIX_RULES", "TRACK_WINDOWS", "DriveConfig", "FinalConfig", "FixConfig", "LimitsConfig", "MissionConfig",
@@ -49,11 +49,26 @@ class PlanningConfig(Typed):
         path exists with it. Starts and targets closer to a wall join the path by a short straight leg.
     planner_options : mapping
         Keyword arguments of `make_planner` when the planner is given by name.
+    objective : str or None
+        What the planner minimises (``length``, ``turns``, ``robot-time``; None: its own default), when
+        it is given by name; its ``objective`` in `planner_options` wins.
     """
 
     time_s: float = Field(default=1.0, gt=0)
     safety_margin_cm: float = Field(default=2.0, ge=0)
     planner_options: dict[str, Any] = Field(default_factory=dict)
+    objective: str | None = None
+
+    @field_validator("objective")
+    @classmethod
+    def _known_objective(cls, value: str | None) -> str | None:
+        if value is not None:
+            check_objective(value)
+        return value
+
+    def planner_kwargs(self) -> dict[str, Any]:
+        """`make_planner`'s keywords: `planner_options` with `objective` where it is set."""
+        return {**({"objective": self.objective} if self.objective is not None else {}), **self.planner_options}
 
 
 

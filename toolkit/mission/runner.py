@@ -93,7 +93,7 @@ def run_mission(robot: Robot, map: Map | str, target: ArrayLike, *, planner: str
     m = map if isinstance(map, Map) else load_map(map)
     tgt = _target_xy(target)
     plan_rng, loc_rng = as_rng(rng).spawn(2)
-    plan_obj = planner if isinstance(planner, Planner) else make_planner(planner, **cfg.planning.planner_options)
+    plan_obj = planner if isinstance(planner, Planner) else make_planner(planner, **cfg.planning.planner_kwargs())
     loc_name, build_localiser = _localiser_factory(localiser, m, cfg, loc_rng)
     if recorder is not None:
         robot, build_localiser = _recorded(recorder, robot, build_localiser, localiser, cfg, loc_rng)

@@ -19,7 +19,6 @@ touch one ends at the contact and counts as a true collision.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -35,6 +34,7 @@ from ..world import (
     RngLike,
     RobotError,
     RobotGeometry,
+    RobotTiming,
     Scan,
     SonarModel,
     as_rng,
@@ -63,74 +63,6 @@ def simulated_sonar(sonar: SonarModel | str, sensor_noise: float = 1.0) -> Sonar
     if not isinstance(sonar, str):
         return sonar
     return make_sonar(sonar, noise_sd=sensor_noise) if sonar == "ideal" else make_sonar(sonar)
-
-
-@dataclass(frozen=True)
-class RobotTiming:
-    """How long a real NXT takes for each action (for `robot_time_s`).
-
-    A sweep costs its readings plus the turret's travel: from the front through the requested
-    angles in the order given, then back to the front (so the sensor cable never winds up). A full
-    360-reading sweep at one-degree steps is 8.3 s of readings, 1.5 s of turret travel out and 1.5 s
-    back: 11.3 s. The reading time and the turret rate are those of the default NXT profile on the
-    virtual brick over a link of 3 ms per round trip (USB); drive and turn rates are kept below the
-    brick's (about 19 cm/s and 150 deg/s with the profile's powers), so the model does not promise
-    more than a robot gives.
-
-    Parameters
-    ----------
-    drive_speed_cm_s : float
-        Straight-line speed (cm/s).
-    turn_rate_deg_s : float
-        Spin-in-place rate (deg/s).
-    reading_s : float
-        Time per sonar reading, the turret standing (s); the sensor gives at most ~50 readings/s.
-    turret_rate_deg_s : float
-        Turret speed (sensor degrees per second).
-    """
-
-    drive_speed_cm_s: float = 15.0
-    turn_rate_deg_s: float = 90.0
-    reading_s: float = 0.023
-    turret_rate_deg_s: float = 240.0
-
-    def __post_init__(self) -> None:
-        for k in ("drive_speed_cm_s", "turn_rate_deg_s", "turret_rate_deg_s"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v > 0):
-                raise ConfigError(f"RobotTiming.{k} must be a positive number, got {v!r}")
-        if not (math.isfinite(self.reading_s) and self.reading_s >= 0):
-            raise ConfigError(f"RobotTiming.reading_s must be >= 0, got {self.reading_s!r}")
-
-    def move(self, distance_cm: float) -> float:
-        """Time (s) to drive `distance_cm` (either sense)."""
-        return abs(distance_cm) / self.drive_speed_cm_s
-
-    def turn(self, angle_rad: float) -> float:
-        """Time (s) to spin by `angle_rad`."""
-        return abs(math.degrees(angle_rad)) / self.turn_rate_deg_s
-
-    def sweep(self, angles_rad: ArrayLike) -> tuple[float, float]:
-        """(sweep, return) times (s) of an Ultrascan over `angles_rad` (relative, in the order given):
-        the readings and the turret's travel from the front through them, then the travel back."""
-        deg = np.degrees(np.asarray(angles_rad, dtype=float).ravel())
-        if deg.size == 0:
-            return 0.0, 0.0
-        out = float(np.abs(np.diff(deg, prepend=0.0)).sum())
-        return deg.size * self.reading_s + out / self.turret_rate_deg_s, abs(float(deg[-1])) / self.turret_rate_deg_s
-
-    def scan(self, angles_rad: ArrayLike) -> float:
-        """Whole time (s) of an Ultrascan over `angles_rad`, turret return included."""
-        return sum(self.sweep(angles_rad))
-
-    def reading_times(self, angles_rad: ArrayLike) -> FloatArray:
-        """When each reading of an Ultrascan over `angles_rad` is done (s after the sweep starts): the
-        turret's travel to each angle plus one reading time per reading; the last is the sweep time."""
-        deg = np.degrees(np.asarray(angles_rad, dtype=float).ravel())
-        return np.cumsum(np.abs(np.diff(deg, prepend=0.0)) / self.turret_rate_deg_s + self.reading_s)
-
-    def to_dict(self) -> dict[str, float]:
-        return {k: float(getattr(self, k)) for k in self.__dataclass_fields__}
 
 
 class SimRobot:

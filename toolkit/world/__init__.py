@@ -45,7 +45,20 @@ from .robot import (
     WatchdogDistance,
     default_scan_angles,
 )
+from .robot_cost import (
+    OBJECTIVE_UNITS,
+    OBJECTIVES,
+    PathCost,
+    check_objective,
+    objective_cost,
+    path_cost,
+    predicted_error_cm,
+    robot_time_s,
+    robot_times_s,
+    segment_turns,
+)
 from .robot_model import FACETS, NXT_SONAR_SIGMA_CM, MotionNoise, RobotModel
+from .robot_timing import RobotTiming
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
 
 __all__ = [
@@ -54,6 +67,8 @@ __all__ = [
     "FACETS",
     "NO_ECHO",
     "NXT_SONAR_SIGMA_CM",
+    "OBJECTIVES",
+    "OBJECTIVE_UNITS",
     "SONAR_MODELS",
     "BackoffDistance",
     "CollisionChecker",
@@ -72,6 +87,7 @@ __all__ = [
     "OccupancyGrid",
     "OptionInfo",
     "Options",
+    "PathCost",
     "PlanningError",
     "PointCollisionChecker",
     "Pose",
@@ -86,12 +102,14 @@ __all__ = [
     "RobotError",
     "RobotGeometry",
     "RobotModel",
+    "RobotTiming",
     "Scan",
     "SonarModel",
     "TruthSource",
     "WatchdogDistance",
     "angle_diff",
     "as_rng",
+    "check_objective",
     "circular_mean",
     "configure",
     "default_scan_angles",
@@ -102,9 +120,15 @@ __all__ = [
     "make_checker",
     "make_sonar",
     "map_from_dict",
+    "objective_cost",
     "option",
+    "path_cost",
     "polygonise",
+    "predicted_error_cm",
     "ray_cast",
     "ray_wall_distances",
+    "robot_time_s",
+    "robot_times_s",
+    "segment_turns",
     "wrap_angle",
 ]

@@ -19,6 +19,7 @@ from typing import Any, Literal
 
 from .errors import ConfigError
 from .robot import RobotGeometry
+from .robot_timing import RobotTiming
 from .sonar import IdealSonar, NxtSonar, SonarModel, make_sonar
 
 __all__ = ["FACETS", "NXT_SONAR_SIGMA_CM", "MotionNoise", "RobotModel"]
@@ -81,6 +82,8 @@ class RobotModel:
         The sensor: ``ideal`` (its `noise_sd`) or ``nxt`` (a whole `NxtSonar`, fitted or from a profile).
     motion : MotionNoise
     geometry : RobotGeometry
+    timing : RobotTiming
+        How long its drives, turns and sweeps take: the robot time of a path (`toolkit.world.path_cost`).
     readings : {"simulated", "real"}
         Where the readings come from: a simulator or the virtual brick draws each reading independently
         (the localisers get `NxtSonar.simulated`, no reading correlation); real readings keep the
@@ -90,6 +93,7 @@ class RobotModel:
     sonar: SonarModel = field(default_factory=IdealSonar)
     motion: MotionNoise = field(default_factory=MotionNoise)
     geometry: RobotGeometry = field(default_factory=RobotGeometry)
+    timing: RobotTiming = field(default_factory=RobotTiming)
     readings: Literal["simulated", "real"] = "simulated"
 
     def __post_init__(self) -> None:
@@ -108,7 +112,7 @@ class RobotModel:
             sonar = make_sonar(sonar, noise_sd=sensor_noise) if sonar == "ideal" else make_sonar(sonar)
         geometry = RobotGeometry() if radius_cm is None else RobotGeometry(radius_cm=float(radius_cm))
         return cls(sonar, MotionNoise(noise_model, motion_noise, turn_noise), geometry,  # type: ignore[arg-type]
-                   readings)
+                   readings=readings)
 
     def with_readings(self, readings: Literal["simulated", "real"]) -> RobotModel:
         return replace(self, readings=readings)
@@ -172,4 +176,4 @@ class RobotModel:
 
     def to_dict(self) -> dict[str, Any]:
         return {"sonar": self.sonar.to_dict(), "motion": self.motion.to_dict(), "geometry": self.geometry.to_dict(),
-                "readings": self.readings}
+                "timing": self.timing.to_dict(), "readings": self.readings}

@@ -48,6 +48,7 @@ from .records import (
 )
 from .report import check_out_dir, format_summary, summarise, turns_error_correlation, write_results
 from .runner import (
+    check_objectives,
     check_planner_names,
     known_planners,
     make_queries,
@@ -75,6 +76,7 @@ __all__ = [
     "RunRecord",
     "RunTask",
     "check_budgets",
+    "check_objectives",
     "check_out_dir",
     "check_planner_names",
     "cost_band",

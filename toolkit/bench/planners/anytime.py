@@ -28,6 +28,12 @@ def reference_lengths(result: BenchmarkResult) -> dict[tuple[str, int], float]:
     return {(r.query.map, r.query.index): r.shortest_length_cm for r in result.references}
 
 
+def _in_units(record: RunRecord, reference: float) -> float:
+    """The reference a run's best costs compare with: `reference` (a length, cm) for a run that minimised
+    length, else the query's reference under the run's own objective (``record.reference_cost``)."""
+    return reference if record.objective == "length" else record.reference_cost
+
+
 def has_curve(record: RunRecord) -> bool:
     """Whether a run reported an anytime curve: more than one sample with a solution (a planner
     that stops at its first solution has one)."""
@@ -37,14 +43,17 @@ def has_curve(record: RunRecord) -> bool:
 def time_within(record: RunRecord, reference: float, within: float = WITHIN) -> float:
     """Seconds until the run had a path at most ``(1 + within) * reference`` long; NaN if never.
 
-    From the best-cost samples when the run has them, else the planning time of its one path.
+    From the best-cost samples when the run has them, else the planning time of its one path. A run
+    that minimised another objective than length is measured in that objective (`_in_units`).
     """
+    reference = _in_units(record, reference)
     if not (record.success and math.isfinite(reference) and reference > 0):
         return math.nan
     target = (1.0 + within) * reference
     if record.progress:
         return next((t for t, _, c in record.progress if c <= target), math.nan)
-    return record.time_s if record.length_cm <= target else math.nan
+    cost = record.length_cm if record.objective == "length" else record.objective_cost
+    return record.time_s if cost <= target else math.nan
 
 
 def time_within_median(records: Sequence[RunRecord], refs: dict[tuple[str, int], float],
@@ -58,6 +67,7 @@ def time_within_median(records: Sequence[RunRecord], refs: dict[tuple[str, int],
 def _curve(record: RunRecord, grid: FloatArray, reference: float) -> FloatArray:
     """The run's best cost over `grid` (s) as a ratio to `reference` (inf before a solution)."""
     out = np.full(len(grid), np.inf)
+    reference = _in_units(record, reference)
     if not record.success or not record.progress:
         return out
     samples = np.array(record.progress, dtype=float)

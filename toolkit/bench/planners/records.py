@@ -10,14 +10,17 @@ from typing import Any, Literal
 from planners import PlanStatus
 
 from ...robots.sim import MotionNoise
-from ...world import CHECKER_BACKENDS, PlanningError, RobotGeometry
+from ...world import CHECKER_BACKENDS, PlanningError, RobotGeometry, RobotTiming
 from .simplify import SIMPLIFY_METHODS, SimplifyMethod
 
-#: Columns of ``runs.csv``, in order: the raw path's metrics, its first solution, then the simplified path's.
+#: Columns of ``runs.csv``, in order: the raw path's metrics, its first solution, then the simplified path's,
+#: then the objective the planner minimised, the path's cost under it, the query's reference cost under it,
+#: and the raw path's robot time (s) and predicted open-loop error (cm).
 RUN_COLUMNS = ("map", "planner", "run", "seed", "success", "time_s", "length_cm", "turns", "turn_angle_rad",
                "min_clearance_cm", "collision_checks", "length_ratio", "exec_error_cm", "first_solution_s",
                "first_solution_length_cm", "simplify", "simplify_time_s", "simplified_length_cm", "simplified_turns",
-               "simplified_min_clearance_cm", "simplified_length_ratio", "simplified_exec_error_cm", "collision")
+               "simplified_min_clearance_cm", "simplified_length_ratio", "simplified_exec_error_cm", "collision",
+               "objective", "objective_cost", "reference_cost", "robot_time_s", "predicted_error_cm")
 
 #: Columns of ``runs.csv`` that hold wall-clock measures: they differ between two runs of the same seed.
 TIMING_COLUMNS = frozenset({"time_s", "first_solution_s", "simplify_time_s"})
@@ -33,7 +36,9 @@ condition polls (about one per iteration) and the best path length so far (inf b
 QueryMode = Literal["presets", "random"]
 
 
-REFERENCE_PLANNERS = ("shortest", "min-link")
+REFERENCE_PLANNERS = ("shortest", "min-link", "fastest")
+"""The references: the optimum of a query by length, by turns (an upper bound, `planners.reference`)
+and by robot time (`planners.reference_time`)."""
 
 
 
@@ -68,6 +73,7 @@ class ReferenceTask:
     robot_radius: float
     time_limit: float = REFERENCE_TIME_LIMIT_S
     collision: str = "index"
+    timing: RobotTiming = field(default_factory=RobotTiming)
 
 
 @dataclass(frozen=True)
@@ -83,12 +89,23 @@ class ReferenceResult:
     time_s: float
     shortest_path: tuple[tuple[float, float], ...] = ()
     min_link_path: tuple[tuple[float, float], ...] = ()
+    fastest_time_s: float = math.nan
+    fastest_path: tuple[tuple[float, float], ...] = ()
+
+    def cost(self, objective: str) -> float:
+        """The query's reference cost under `objective`: shortest length (cm), min-link turns, least
+        robot time (s); NaN when that reference is missing."""
+        if objective == "length":
+            return self.shortest_length_cm
+        if objective == "turns":
+            return math.nan if self.min_link_turns is None else float(self.min_link_turns)
+        return self.fastest_time_s
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["query"] = self.query.to_dict()
-        d["shortest_path"] = [list(p) for p in self.shortest_path]
-        d["min_link_path"] = [list(p) for p in self.min_link_path]
+        for k in ("shortest_path", "min_link_path", "fastest_path"):
+            d[k] = [list(p) for p in getattr(self, k)]
         return d
 
 
@@ -111,20 +128,16 @@ class RunTask:
     simplify: SimplifyMethod = "ompl"
     progress_interval: float = 0.01
     options: tuple[tuple[str, Any], ...] = ()
-    """The planner's `--set` options (checked against its declarations), as sorted pairs."""
+    """The planner's `--set` options (checked against its declarations), as sorted pairs; its objective
+    is one of them."""
+    timing: RobotTiming = field(default_factory=RobotTiming)
+    reference_costs: tuple[tuple[str, float], ...] = ()
+    """The query's reference cost under each objective (`ReferenceResult.cost`)."""
 
 
 @dataclass(frozen=True)
-class RunRecord:
-    """The outcome of one `RunTask` (metrics are NaN when the plan failed).
-
-    ``time_s`` is the planning time (anytime planners use the whole budget); ``first_solution_s``
-    and ``first_solution_length_cm`` the time to their first solution and its length (the planning
-    time and the path for planners that stop there). ``progress`` holds the best-cost samples of
-    planners that report them (OMPL's), ``params`` their declared parameters. The ``simplified_*``
-    fields measure the path after `RunTask.simplify` (NaN when it is ``none`` or the plan failed);
-    ``simplify_time_s`` is the simplification time, not part of ``time_s``.
-    """
+class RunKey:
+    """Which run a record is: map, planner, run number, seed and query (index, start and goal in cm)."""
 
     map: str
     planner: str
@@ -133,10 +146,18 @@ class RunRecord:
     query: int
     start: tuple[float, float]
     goal: tuple[float, float]
-    success: bool
-    status: PlanStatus
-    time_s: float
-    collision_checks: int
+
+
+@dataclass(frozen=True)
+class PathMeasures:
+    """One path's measures (NaN when there is no path): its metrics against the references, its
+    open-loop execution error over the drives, its cost to the robot (robot time, predicted error) and
+    its cost under the run's objective.
+
+    The execution error is measured (`toolkit.bench.execution`); ``predicted_error_cm`` is the closed
+    form of `toolkit.world.predicted_error_cm` (root mean square, no walls).
+    """
+
     length_cm: float = math.nan
     turns: float = math.nan
     turn_angle_rad: float = math.nan
@@ -147,34 +168,89 @@ class RunRecord:
     exec_error_cm: float = math.nan
     exec_median_cm: float = math.nan
     exec_collision_fraction: float = math.nan
-    first_solution_s: float = math.nan
+    robot_time_s: float = math.nan
+    predicted_error_cm: float = math.nan
+    objective_cost: float = math.nan
     path: tuple[tuple[float, float], ...] = field(default=(), repr=False)
+
+    def to_dict(self, prefix: str = "") -> dict[str, Any]:
+        d = {f"{prefix}{k}": v for k, v in asdict(self).items()}
+        d[f"{prefix}path"] = [list(p) for p in self.path]
+        return d
+
+
+_KEY_FIELDS = frozenset(RunKey.__dataclass_fields__)
+_MEASURE_FIELDS = frozenset(PathMeasures.__dataclass_fields__)
+_SIMPLIFIED = "simplified_"
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """The outcome of one `RunTask` (metrics are NaN when the plan failed).
+
+    ``time_s`` is the planning time (anytime planners use the whole budget); ``first_solution_s``
+    and ``first_solution_length_cm`` the time to their first solution and its length (the planning
+    time and the path for planners that stop there). ``progress`` holds the best-cost samples of
+    planners that report them (OMPL's), ``params`` their declared parameters. `raw` measures the
+    planner's path, `simplified` the path after `RunTask.simplify` (NaN when it is ``none`` or the plan
+    failed); ``simplify_time_s`` is the simplification time, not part of ``time_s``. ``objective`` is
+    what the planner minimised and ``reference_cost`` the reference optimum of the query under it (its
+    unit: cm, turns or s; `REFERENCE_PLANNERS`).
+
+    The fields of `key` and of `raw` read as the record's own (``record.map``, ``record.length_cm``),
+    and those of `simplified` with the prefix ``simplified_`` (``record.simplified_length_cm``): the
+    names of ``runs.csv``'s columns. `build` makes a record from those flat names.
+    """
+
+    key: RunKey
+    success: bool
+    status: PlanStatus
+    time_s: float
+    collision_checks: int
     detail: str = ""
     collision: str = "index"
     """The checker that answered (``index``, ``fcl``, or ``point`` for a point robot)."""
+    objective: str = "length"
+    reference_cost: float = math.nan
+    first_solution_s: float = math.nan
     first_solution_length_cm: float = math.nan
     simplify: str = "none"
     simplify_time_s: float = math.nan
-    simplified_length_cm: float = math.nan
-    simplified_turns: float = math.nan
-    simplified_turn_angle_rad: float = math.nan
-    simplified_min_clearance_cm: float = math.nan
-    simplified_length_ratio: float = math.nan
-    simplified_turn_ratio: float = math.nan
-    simplified_exec_error_cm: float = math.nan
-    simplified_exec_collision_fraction: float = math.nan
-    simplified_path: tuple[tuple[float, float], ...] = field(default=(), repr=False)
+    raw: PathMeasures = field(default_factory=PathMeasures)
+    simplified: PathMeasures = field(default_factory=PathMeasures)
     progress: tuple[ProgressSample, ...] = field(default=(), repr=False)
     params: tuple[tuple[str, bool | int | float | str], ...] = field(default=(), repr=False)
 
+    @classmethod
+    def build(cls, **flat: Any) -> RunRecord:
+        """A record from flat names: the key's and the raw measures' own, ``simplified_*`` for the
+        simplified path's, and the record's other fields."""
+        key = {k: flat.pop(k) for k in list(flat) if k in _KEY_FIELDS}
+        raw = {k: flat.pop(k) for k in list(flat) if k in _MEASURE_FIELDS}
+        simplified = {k[len(_SIMPLIFIED):]: flat.pop(k) for k in list(flat)
+                      if k.startswith(_SIMPLIFIED) and k[len(_SIMPLIFIED):] in _MEASURE_FIELDS}
+        return cls(RunKey(**key), raw=PathMeasures(**raw), simplified=PathMeasures(**simplified), **flat)
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_") or "key" not in self.__dict__:
+            raise AttributeError(name)
+        if name in _KEY_FIELDS:
+            return getattr(self.key, name)
+        if name in _MEASURE_FIELDS:
+            return getattr(self.raw, name)
+        if name.startswith(_SIMPLIFIED) and name[len(_SIMPLIFIED):] in _MEASURE_FIELDS:
+            return getattr(self.simplified, name[len(_SIMPLIFIED):])
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
     def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
+        d: dict[str, Any] = {k: getattr(self.key, k) for k in RunKey.__dataclass_fields__}
+        d.update({k: getattr(self, k) for k in self.__dataclass_fields__ if k not in ("key", "raw", "simplified")})
+        d.update(self.raw.to_dict())
+        d.update(self.simplified.to_dict(_SIMPLIFIED))
         d["status"] = str(self.status)
-        d["path"] = [list(p) for p in self.path]
-        d["simplified_path"] = [list(p) for p in self.simplified_path]
         d["progress"] = [list(s) for s in self.progress]
         d["params"] = dict(self.params)
-        d["start"], d["goal"] = list(self.start), list(self.goal)
+        d["start"], d["goal"] = list(self.key.start), list(self.key.goal)
         return d
 
 
@@ -211,6 +287,11 @@ class BenchmarkConfig:
     planner_options : mapping
         Per planner name, options checked against its declarations (`planners.declarations`; the
         command line's ``--set NAME.KEY=VALUE``).
+    objective : str or None
+        What every planner minimises (`toolkit.world.OBJECTIVES`); None: each its own default. A
+        planner's ``objective`` option overrides it.
+    timing : RobotTiming
+        The robot's speed, turn rate and stop-and-turn time: its robot time.
     """
 
     maps: tuple[str, ...]
@@ -226,6 +307,8 @@ class BenchmarkConfig:
     simplify: SimplifyMethod = "ompl"
     progress_interval: float = 0.01
     planner_options: dict[str, dict[str, Any]] = field(default_factory=dict)
+    objective: str | None = None
+    timing: RobotTiming = field(default_factory=RobotTiming)
 
     def __post_init__(self) -> None:
         if not self.maps:
@@ -265,6 +348,7 @@ class BenchmarkConfig:
         d = asdict(self)
         d["maps"], d["planners"] = list(self.maps), list(self.planners)
         d["noise"] = self.noise.to_dict()
+        d["timing"] = self.timing.to_dict()
         return d
 
 

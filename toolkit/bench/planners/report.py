@@ -60,6 +60,12 @@ def summarise(result: BenchmarkResult) -> dict[str, list[dict[str, Any]]]:
                 "median_simplified_exec_error_cm": finite_median(r.simplified_exec_error_cm for r in ok),
                 "median_simplified_exec_collision_fraction": finite_median(
                     r.simplified_exec_collision_fraction for r in ok),
+                "objective": ", ".join(sorted({r.objective for r in rs})) or "-",
+                "median_robot_time_s": finite_median(r.robot_time_s for r in ok),
+                "median_predicted_error_cm": finite_median(r.predicted_error_cm for r in ok),
+                "median_objective_ratio": finite_median(r.objective_cost / r.reference_cost for r in ok
+                                                        if r.reference_cost > 0),
+                "below_reference": sum(1 for r in ok if below_reference(r)),
             })
         out[m] = rows
     return out
@@ -83,8 +89,8 @@ def _query_line(result: BenchmarkResult, m: str) -> list[str]:
 def _raw_table(rows: list[dict[str, Any]]) -> list[str]:
     lines = ["| planner | success | median time (ms) | first solution (ms) | first / shortest | "
              f"within {100 * WITHIN:g} % (ms) | length ratio | turns | exec error (cm) | exec collisions | "
-             "collision checks |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "collision checks | objective | objective / reference | robot time (s) | predicted error (cm) |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|"]
     for row in rows:
         within = cell(1e3 * row["median_within_s"], ".2f")
         if row["within_runs"] and row["within_runs"] < row["runs"]:
@@ -96,8 +102,29 @@ def _raw_table(rows: list[dict[str, Any]]) -> list[str]:
             f"{cell(row['median_length_ratio'], '.3f')} | "
             f"{cell(row['median_turns'], 'g')} | {cell(row['median_exec_error_cm'], '.2f')} | "
             f"{percent(row['median_exec_collision_fraction'])} | "
-            f"{cell(row['median_collision_checks'], '.0f')} |")
+            f"{cell(row['median_collision_checks'], '.0f')} | {row['objective']} | "
+            f"{cell(row['median_objective_ratio'], '.3f')} | {cell(row['median_robot_time_s'], '.2f')} | "
+            f"{cell(row['median_predicted_error_cm'], '.2f')} |")
     return lines
+
+
+BELOW_REFERENCE_RTOL = 1e-3
+"""A path whose cost is below its query's reference by more than this fraction (and the reference's own
+length tolerance, 1 cm of driving) is a bug of the planner or of the reference."""
+
+
+def below_reference(r: RunRecord) -> bool:
+    """Whether a successful run's path costs less than the reference optimum of its query (a bug)."""
+    if not (r.success and math.isfinite(r.reference_cost) and math.isfinite(r.objective_cost)):
+        return False
+    slack = {"length": 1.0, "turns": 0.0}.get(r.objective, 1.0 / 15.0)  # about 1 cm of driving
+    return bool(r.objective_cost < r.reference_cost * (1 - BELOW_REFERENCE_RTOL) - slack)
+
+
+def _below_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """A line per planner whose paths cost less than the reference optimum (a bug), none otherwise."""
+    return [f"BUG: {row['below_reference']} run(s) of {row['planner']} cost less under {row['objective']} than the "
+            "reference optimum of their query." for row in rows if row["below_reference"]]
 
 
 def _simplified_table(rows: list[dict[str, Any]], method: str) -> list[str]:
@@ -127,6 +154,8 @@ def format_summary(result: BenchmarkResult) -> str:
         f"- robot radius {c.robot_radius:g} cm, collision checks: {_backend(result)}; execution error: mean final "
         f"distance to the goal over "
         f"{c.exec_repeats} open-loop drives, noise {nz.model} (motion {nz.motion:g}, turn {nz.turn:g})",
+        f"- objective: {c.objective or 'each planner its own'}; robot time at {c.timing.drive_speed_cm_s:g} cm/s, "
+        f"{c.timing.turn_rate_deg_s:g} deg/s, {c.timing.stop_turn_s:g} s per stop-and-turn",
         f"- paths simplified with `{c.simplify}`; anytime progress sampled every {1e3 * c.progress_interval:g} ms "
         "of budget and at every improvement",
         f"- started {result.started.isoformat(timespec='seconds')}, total {result.total_time_s:.1f} s",
@@ -137,12 +166,16 @@ def format_summary(result: BenchmarkResult) -> str:
         "shortest (median over the runs that got there, their count in brackets when not all did). Length "
         "ratio = length / shortest path; turns are heading changes above 1 degree; exec error = mean distance "
         "(cm) from the goal after driving the path open-loop; exec collisions = share of those drives that "
-        "touched a wall. The simplified table measures the same paths after simplification (its time is not "
-        "part of the planning time).",
+        "touched a wall; objective / reference = the path's cost under the objective its planner minimised over "
+        "the query's reference optimum under it (shortest, min-link, fastest); robot time and predicted error "
+        "(closed form, root mean square, no walls) are the robot model's cost of the path. The simplified table "
+        "measures the same paths after simplification (its time is not part of the planning time).",
     ]
     summary = summarise(result)
     for m in c.maps:
         lines += ["", f"## {m}", "", *_query_line(result, m), "", *_raw_table(summary[m])]
+        if _below_lines(summary[m]):
+            lines += ["", *_below_lines(summary[m])]
         if c.simplify != "none":
             lines += ["", *_simplified_table(summary[m], c.simplify)]
         rho, n = turns_error_correlation(result, m)

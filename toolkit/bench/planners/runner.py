@@ -18,7 +18,19 @@ from planners.declarations import planner_kwargs
 from planners.metrics import count_turns, path_length, path_metrics
 
 from ...seeds import derive_seed
-from ...world import CollisionChecker, Map, NxtnavError, PlanningError, load_map, make_checker
+from ...world import (
+    OBJECTIVES,
+    CollisionChecker,
+    Map,
+    NxtnavError,
+    PlanningError,
+    check_objective,
+    load_map,
+    make_checker,
+    objective_cost,
+    predicted_error_cm,
+    robot_time_s,
+)
 from ..common import cached_map
 from ..execution import execution_error
 from ..executors import TasksInterrupted, collect_tasks
@@ -165,12 +177,12 @@ def run_reference(task: ReferenceTask) -> ReferenceResult:
             statuses.append(f"{name}: skipped on a map of {len(cached_map(q.map).walls)} walls")
             continue
         problem = PlanningProblem(cached_map(q.map), checker, np.array(q.start), np.array(q.goal), task.time_limit,
-                                  np.random.default_rng(0))
+                                  np.random.default_rng(0), task.timing)
         res = planner.plan(problem)
         statuses.append(f"{name}: {res.message}")
         if res.success:
             results[name] = res.path
-    sp, ml = results.get("shortest"), results.get("min-link")
+    sp, ml, fa = results.get("shortest"), results.get("min-link"), results.get("fastest")
     return ReferenceResult(
         query=q,
         shortest_length_cm=path_length(sp) if sp is not None else math.nan,
@@ -181,6 +193,8 @@ def run_reference(task: ReferenceTask) -> ReferenceResult:
         time_s=time.perf_counter() - t0,
         shortest_path=_path_tuple(sp) if sp is not None else (),
         min_link_path=_path_tuple(ml) if ml is not None else (),
+        fastest_time_s=robot_time_s(fa, task.timing) if fa is not None else math.nan,
+        fastest_path=_path_tuple(fa) if fa is not None else (),
     )
 
 
@@ -199,7 +213,7 @@ def run_task(task: RunTask) -> RunRecord:
                             "query": q.index, "start": q.start, "goal": q.goal, "collision": checker.backend,
                             "simplify": task.simplify}
     problem = PlanningProblem(m, checker, np.array(q.start), np.array(q.goal), task.time_limit,
-                              np.random.default_rng(plan_ss))
+                              np.random.default_rng(plan_ss), task.timing)
     checks0 = checker.checks
     t0 = time.perf_counter()
     try:
@@ -208,26 +222,28 @@ def run_task(task: RunTask) -> RunRecord:
         raise
     except Exception as exc:  # a crashing planner is a result, not the end of the benchmark
         log.warning("planner %s crashed on %s run %d: %s", task.planner, task.map, task.run, exc)
-        return RunRecord(**base, success=False, status=PlanStatus.ERROR, detail=f"{type(exc).__name__}: {exc}",
+        return RunRecord.build(**base, success=False, status=PlanStatus.ERROR, detail=f"{type(exc).__name__}: {exc}",
                          time_s=time.perf_counter() - t0, collision_checks=checker.checks - checks0)
     base["progress"] = _progress(res.info)
+    base["objective"] = res.objective
+    base["reference_cost"] = dict(task.reference_costs).get(res.objective, math.nan)
     base["params"] = tuple(sorted(res.info.get("params", {}).items()))
     if not res.success or len(res.path) < 1:
-        return RunRecord(**base, success=False, status=res.status, detail=res.detail, time_s=res.time_s,
+        return RunRecord.build(**base, success=False, status=res.status, detail=res.detail, time_s=res.time_s,
                          collision_checks=res.collision_checks)
     path = np.asarray(res.path, dtype=float).reshape(-1, 2)
-    raw = _measure(path, checker, task, q.goal, exec_ss)
+    raw = _measure(path, checker, task, q.goal, exec_ss, res.objective)
     simplified: dict[str, Any] = {}
     if task.simplify != "none":
         short, t_simplify = simplify_path(task.simplify, path, checker, m.bounds, _simplify_seed(task.seed))
         if not checker.path_free(short):  # never expected: every method validates with this checker
             raise PlanningError(f"{task.simplify} simplification of {task.planner}'s path on {task.map} run "
                                 f"{task.run} is not collision-free")
-        met = _measure(short, checker, task, q.goal, exec_ss)
+        met = _measure(short, checker, task, q.goal, exec_ss, res.objective)
         simplified = {"simplify_time_s": t_simplify, "simplified_path": _path_tuple(short),
                       **{f"simplified_{k}": met[k] for k in _SIMPLIFIED_METRICS}}
     first_len = res.info.get("first_solution_length_cm", raw["length_cm"])
-    return RunRecord(**base, success=True, status=res.status, detail=res.detail, time_s=res.time_s,
+    return RunRecord.build(**base, success=True, status=res.status, detail=res.detail, time_s=res.time_s,
                      collision_checks=res.collision_checks, first_solution_s=_first_solution(res.info, res.time_s),
                      first_solution_length_cm=float(first_len) if first_len is not None else math.nan,
                      path=_path_tuple(path), **raw, **simplified)
@@ -235,17 +251,21 @@ def run_task(task: RunTask) -> RunRecord:
 
 #: What `_measure` returns and the `RunRecord` fields of the simplified path take (prefixed).
 _SIMPLIFIED_METRICS = ("length_cm", "turns", "turn_angle_rad", "min_clearance_cm", "length_ratio", "turn_ratio",
-                       "exec_error_cm", "exec_collision_fraction")
+                       "exec_error_cm", "exec_collision_fraction", "robot_time_s", "predicted_error_cm",
+                       "objective_cost")
 
 
 def _measure(path: np.ndarray, checker: CollisionChecker, task: RunTask, goal: tuple[float, float],
-             exec_ss: np.random.SeedSequence) -> dict[str, Any]:
-    """Path metrics and the open-loop execution error of one path (NaN when not driven)."""
+             exec_ss: np.random.SeedSequence, objective: str) -> dict[str, Any]:
+    """Path metrics, its cost to the robot and under `objective`, and the open-loop execution error of one
+    path (NaN when not driven)."""
     met = path_metrics(path, checker, reference_length=task.reference_length, reference_turns=task.reference_turns)
     out = {"length_cm": met.length_cm, "turns": float(met.turns), "turn_angle_rad": met.turn_angle_rad,
            "min_clearance_cm": met.min_clearance_cm, "mean_clearance_cm": met.mean_clearance_cm,
            "length_ratio": met.length_ratio, "turn_ratio": met.turn_ratio,
-           "exec_error_cm": math.nan, "exec_median_cm": math.nan, "exec_collision_fraction": math.nan}
+           "exec_error_cm": math.nan, "exec_median_cm": math.nan, "exec_collision_fraction": math.nan,
+           "robot_time_s": robot_time_s(path, task.timing), "predicted_error_cm": predicted_error_cm(path, task.noise),
+           "objective_cost": objective_cost(objective, path, task.timing)}
     if len(path) >= 2 and task.exec_repeats > 0:
         fresh = np.random.SeedSequence(exec_ss.entropy, spawn_key=exec_ss.spawn_key)  # spawn() counts its
         ex = execution_error(path, checker, goal=goal, repeats=task.exec_repeats,  # children: the same draws
@@ -269,6 +289,23 @@ def _first_solution(info: dict[str, Any], time_s: float) -> float:
 def _progress(info: dict[str, Any]) -> tuple[ProgressSample, ...]:
     """The best-cost samples a planner reported (empty for planners that report none)."""
     return tuple((float(t), int(i), float(c)) for t, i, c in info.get("progress", ()))
+
+
+def _options(config: BenchmarkConfig, planner: str) -> dict[str, Any]:
+    """The planner's options: the benchmark's objective under its own ``--set`` options."""
+    own = dict(config.planner_options.get(planner, {}))
+    if config.objective is not None:
+        own.setdefault("objective", config.objective)
+    return own
+
+
+def check_objectives(config: BenchmarkConfig) -> None:
+    """A `ConfigError` (before any planning) when a planner cannot minimise the objective it is given."""
+    for name in config.planners:
+        objective = _options(config, name).get("objective")
+        if objective is not None:
+            cls = PLANNERS.class_of(name)
+            check_objective(objective, cls.objectives_for(name), f"planner {name!r}")
 
 
 def run_benchmark(
@@ -295,6 +332,7 @@ def run_benchmark(
         `config.n_tasks()` is the total.
     """
     check_planner_names(config.planners)
+    check_objectives(config)
     started = datetime.now()
     t0 = time.perf_counter()
     maps = {name: load_map(name) for name in config.maps}
@@ -302,7 +340,8 @@ def run_benchmark(
     for name, m in maps.items():
         queries.extend(make_queries(m, config.queries, config.runs, config.seed, config.robot_radius, label=name,
                                     collision=config.collision))
-    ref_tasks = [ReferenceTask(q, config.robot_radius, collision=config.collision) for q in queries]
+    ref_tasks = [ReferenceTask(q, config.robot_radius, collision=config.collision, timing=config.timing)
+                 for q in queries]
     try:
         refs = collect_tasks(run_reference, ref_tasks, workers=workers, dask_address=dask_address, on_done=on_done)
     except TasksInterrupted:  # no planner has run yet: nothing to keep
@@ -321,7 +360,8 @@ def run_benchmark(
                     reference_length=None if math.isnan(ref.shortest_length_cm) else ref.shortest_length_cm,
                     reference_turns=ref.min_link_turns, collision=config.collision, simplify=config.simplify,
                     progress_interval=config.progress_interval,
-                    options=tuple(sorted(dict(config.planner_options.get(planner, {})).items())),
+                    options=tuple(sorted(_options(config, planner).items())), timing=config.timing,
+                    reference_costs=tuple((o, ref.cost(o)) for o in OBJECTIVES),
                 ))
     complete = True
     try:

@@ -1,0 +1,108 @@
+"""The robot-time objective for OMPL's planners: an `OptimizationObjective` over SE(2).
+
+Robot time is not a sum over the segments of a 2-D path: a turn's cost depends on the segment before
+it. Over SE(2) it is. A state is a position and a heading; a motion from ``(x1, y1, h1)`` to
+``(x2, y2, h2)`` turns in place from ``h1`` to the segment's heading ``phi``, drives the segment and
+turns from ``phi`` to ``h2``, and costs the robot time of those commands (`toolkit.world.RobotTiming`:
+the fixed stop-and-turn time is charged once per vertex, with the turn that leaves it). The start's
+heading and the goal's are free: no turn is charged leaving the start or arriving at the goal.
+
+Any SE(2) path costs at least the robot time of its 2-D polyline (the turns at a vertex add up to at
+least the heading change there), and a polyline costs exactly its robot time when every vertex's
+heading lies between the headings of its two segments, so the minimum over SE(2) paths is the minimum
+robot time over polylines: OMPL's optimising planners minimise the right quantity. The cost is
+evaluated by a Python subclass of OMPL's `OptimizationObjective` (OMPL's nanobind bindings dispatch
+``motionCost``, ``stateCost`` and ``motionCostHeuristic`` to Python); its admissible heuristic is the
+straight-line drive time.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import ompl.base as ob
+
+from toolkit.world import CollisionChecker, RobotTiming
+
+__all__ = ["RobotTimeObjective", "se2_space"]
+
+_TAU = 2.0 * math.pi
+
+
+class RobotTimeObjective(ob.OptimizationObjective):
+    """Robot time (s) of SE(2) motions: turn to the segment's heading, drive, turn to the state's heading.
+
+    Parameters
+    ----------
+    si : ompl.base.SpaceInformation
+        Of an `ompl.base.SE2StateSpace` (cm, rad).
+    timing : RobotTiming
+    start, goal : (float, float)
+        Positions (cm) whose heading is free: no turn is charged leaving `start` or arriving at `goal`.
+    """
+
+    def __init__(self, si: Any, timing: RobotTiming, start: tuple[float, float], goal: tuple[float, float]) -> None:
+        super().__init__(si)
+        self._speed = float(timing.drive_speed_cm_s)
+        self._s_per_rad = math.degrees(1.0) / float(timing.turn_rate_deg_s)
+        self._stop_s = float(timing.stop_turn_s)
+        self._start_x, self._start_y = float(start[0]), float(start[1])
+        self._goal_x, self._goal_y = float(goal[0]), float(goal[1])
+        self.calls = 0
+
+    def stateCost(self, s: Any) -> Any:
+        return ob.Cost(0.0)
+
+    def motionCost(self, s1: Any, s2: Any) -> Any:
+        # the hot path of the planners (tens of calls per collision check): plain float arithmetic only
+        self.calls += 1
+        x1, y1, x2, y2 = s1.getX(), s1.getY(), s2.getX(), s2.getY()
+        dx, dy = x2 - x1, y2 - y1
+        d = math.hypot(dx, dy)
+        from_start = x1 == self._start_x and y1 == self._start_y
+        to_goal = x2 == self._goal_x and y2 == self._goal_y
+        if d <= 1e-9:
+            spin = 0.0 if from_start or to_goal else abs(math.remainder(s2.getYaw() - s1.getYaw(), _TAU))
+            return ob.Cost(spin * self._s_per_rad)
+        phi = math.atan2(dy, dx)
+        cost = d / self._speed
+        if not from_start:
+            leave = abs(math.remainder(phi - s1.getYaw(), _TAU))
+            if leave > 1e-9:
+                cost += leave * self._s_per_rad + self._stop_s
+        if not to_goal:
+            cost += abs(math.remainder(s2.getYaw() - phi, _TAU)) * self._s_per_rad
+        return ob.Cost(cost)
+
+    def motionCostHeuristic(self, s1: Any, s2: Any) -> Any:
+        return ob.Cost(math.hypot(s2.getX() - s1.getX(), s2.getY() - s1.getY()) / self._speed)
+
+
+class _SegmentValidatorSE2(ob.MotionValidator):
+    """SE(2) motions validated by the shared checker's swept-disc check of their 2-D segment (a disc
+    robot turning in place sweeps nothing)."""
+
+    def __init__(self, si: Any, checker: CollisionChecker) -> None:
+        super().__init__(si)
+        self._checker = checker
+
+    def checkMotion(self, s1: Any, s2: Any, *rest: Any) -> bool:
+        return self._checker.segment_free((s1.getX(), s1.getY()), (s2.getX(), s2.getY()))
+
+
+def se2_space(bounds: tuple[float, float, float, float], checker: CollisionChecker) -> tuple[Any, Any]:
+    """OMPL's SE(2) space on the box `bounds` (cm) and its space information, states and motions
+    validated by the shared checker."""
+    space = ob.SE2StateSpace()
+    box = ob.RealVectorBounds(2)
+    xmin, ymin, xmax, ymax = bounds
+    box.setLow(0, xmin)
+    box.setLow(1, ymin)
+    box.setHigh(0, xmax)
+    box.setHigh(1, ymax)
+    space.setBounds(box)
+    si = ob.SpaceInformation(space)
+    si.setStateValidityChecker(lambda s: bool(checker.point_free((s.getX(), s.getY()))))
+    si.setMotionValidator(_SegmentValidatorSE2(si, checker))
+    return space, si

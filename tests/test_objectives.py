@@ -1,0 +1,157 @@
+"""One objective for every planner: what each can minimise, the references, and the command line.
+
+Every cost here is the robot model's (`toolkit.world.RobotTiming`): a lattice path or an OMPL path under
+``robot-time`` must never cost less than the ``fastest`` reference of its query, and the reference must
+agree with a hand count on a map small enough to reason about.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import run_cli
+
+from planners import PLANNERS, PlanningProblem, make_planner
+from toolkit.world import ConfigError, RobotTiming, load_map, make_checker, map_from_dict, objective_cost
+
+TIMING = RobotTiming(drive_speed_cm_s=10.0, turn_rate_deg_s=45.0)
+WALL = map_from_dict({"name": "one-wall",
+                      "boundary": [[0, 0], [48, 0], [48, 40], [52, 40], [52, 0], [100, 0], [100, 60], [0, 60]]})
+"""A 100 x 60 cm room with a wall from the floor up to y = 40 in the middle: the robot goes over it."""
+
+
+def _problem(m: object, start: tuple[float, float], goal: tuple[float, float], radius: float = 0.0,
+             seed: int = 0) -> PlanningProblem:
+    return PlanningProblem(m, make_checker(m, radius), np.array(start), np.array(goal), 0.3,  # type: ignore[arg-type]
+                           np.random.default_rng(seed), TIMING)
+
+
+def test_fastest_over_one_wall_by_hand() -> None:
+    """Point robot from (20, 20) to (80, 20): up to the wall's top corners and down again. The taut path
+    bends at (48, 40) and (52, 40); its robot time is its length at 10 cm/s plus its turns at 45 deg/s."""
+    res = make_planner("fastest").plan(_problem(WALL, (20, 20), (80, 20)))
+    assert res.success and res.objective == "robot-time"
+    a = math.atan2(20, 28)  # rising from (20, 20) to (48, 40)
+    by_hand = (2 * math.hypot(28, 20) + 4) / 10 + 2 * math.degrees(a) / 45
+    assert res.objective_cost == pytest.approx(by_hand, abs=1e-3)
+    assert objective_cost("robot-time", res.path, TIMING) == pytest.approx(res.objective_cost)
+
+
+@pytest.mark.parametrize("name", ["astar", "rrtstar", "min-turn"])
+def test_no_planner_beats_the_robot_time_reference(name: str) -> None:
+    m = load_map("map1")
+    start, goal = (float(m.start[0]), float(m.start[1])), (float(m.target[0]), float(m.target[1]))  # type: ignore[index]
+    ref = make_planner("fastest").plan(_problem(m, start, goal, 8.0))
+    res = make_planner(name, objective="robot-time").plan(_problem(m, start, goal, 8.0))
+    assert ref.success and res.success and res.objective == "robot-time"
+    assert res.objective_cost >= ref.objective_cost * (1 - 1e-6)
+    assert res.objective_cost == pytest.approx(objective_cost("robot-time", res.path, TIMING))
+
+
+def test_lattice_astar_matches_the_reference_where_the_lattice_holds_the_optimum() -> None:
+    """Over the wall with corners on the lattice and 45-degree bends the lattice path is the taut path."""
+    m = map_from_dict({"name": "step",
+                       "boundary": [[0, 0], [40, 0], [40, 20], [60, 20], [60, 0], [100, 0], [100, 60], [0, 60]]})
+    problem = _problem(m, (21, 1), (79, 1))  # the taut path: 45 degrees up, along the top, 45 degrees down
+    ref = make_planner("fastest").plan(problem)
+    lattice = make_planner("astar", resolution=1.0, objective="robot-time").plan(problem)
+    assert ref.success and lattice.success
+    assert lattice.objective_cost >= ref.objective_cost * (1 - 1e-9)
+    assert lattice.objective_cost == pytest.approx(ref.objective_cost, rel=1e-6)
+    turns = make_planner("astar", resolution=1.0, objective="turns").plan(problem)
+    length = make_planner("astar", resolution=1.0).plan(problem)
+    assert turns.objective_cost <= objective_cost("turns", length.path)
+
+
+def test_every_planner_says_what_it_minimises() -> None:
+    for name in PLANNERS.names():
+        cls = PLANNERS.class_of(name)
+        assert cls.objectives and set(cls.objectives) <= {"length", "turns", "robot-time"}, name
+        assert make_planner(name).minimises == cls.objectives[0]
+    with pytest.raises(ConfigError, match=r"planner 'shortest' cannot optimise objective 'turns'; it optimises length"):
+        make_planner("shortest", objective="turns")
+    with pytest.raises(ConfigError, match=r"unknown objective 'speed'"):
+        make_planner("rrtstar", objective="speed")
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["--objective", "speed"], "unknown objective 'speed'"),
+    (["--planner", "shortest", "--objective", "robot-time"], "planner 'shortest' cannot optimise objective "
+                                                              "'robot-time'; it optimises length"),
+    (["--planner", "ompl:RRTConnect", "--objective", "robot-time"], "planner 'ompl:RRTConnect' cannot optimise "
+                                                                    "objective 'robot-time'; it optimises length"),
+    (["--drive-speed", "0"], "--drive-speed"),
+    (["--turn-rate", "inf"], "--turn-rate"),
+    (["--turn-rate", "nan"], "--turn-rate"),
+])
+def test_plan_refuses_a_bad_objective_or_robot_before_planning(args: list[str], words: str, tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli(["plan", "--exec-repeats", "0", "-o", str(tmp_path / "p.png"), *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("nxtnav: error:") and words in err[0], err
+    assert not any(tmp_path.iterdir())
+
+
+def test_plan_json_reports_the_robot_cost(tmp_path: Path) -> None:
+    out = tmp_path / "p.json"
+    assert run_cli(["plan", "--map", "map1", "--planner", "astar", "--objective", "robot-time", "--turn-rate", "60",
+                    "--exec-repeats", "0", "-o", str(tmp_path / "p.png"), "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    timing = RobotTiming(turn_rate_deg_s=60.0)
+    assert doc["objective"] == "robot-time"
+    assert doc["robot_time_s"] == pytest.approx(objective_cost("robot-time", doc["path"], timing))
+    assert doc["objective_cost"] == pytest.approx(doc["robot_time_s"])
+    assert 0 < doc["reference_cost"] <= doc["objective_cost"] and doc["predicted_error_cm"] > 0
+
+
+def test_bench_runs_csv_has_the_objective_columns(tmp_path: Path) -> None:
+    out = tmp_path / "b"
+    assert run_cli(["bench", "planners", "--maps", "map1", "--planners", "astar,min-turn", "--runs", "1",
+                    "--objective", "robot-time", "--exec-repeats", "0", "--simplify", "none", "--no-plots",
+                    "--out", str(out)]) == 0
+    with (out / "runs.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert {r["objective"] for r in rows} == {"robot-time"}
+    for r in rows:
+        assert float(r["reference_cost"]) <= float(r["objective_cost"]) == pytest.approx(float(r["robot_time_s"]))
+        assert float(r["predicted_error_cm"]) > 0
+    assert "BUG" not in (out / "summary.md").read_text()
+
+
+@pytest.mark.parametrize("command", [["run", "--planner", "min-link"], ["paper", "--trials", "1",
+                                                                        "--stack", "shortest/paper-pf"]])
+def test_missions_refuse_an_objective_their_planner_cannot_minimise(command: list[str],
+                                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli([*command, "--objective", "robot-time"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot optimise objective 'robot-time'" in err[0], err
+
+
+def test_a_mission_plans_under_the_objective(tmp_path: Path) -> None:
+    out = tmp_path / "r.json"
+    assert run_cli(["run", "--map", "map1", "--planner", "astar", "--objective", "robot-time", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["objective"] == "robot-time" and doc["success"]
+    first = np.asarray(doc["plans"][0], dtype=float)
+    assert objective_cost("turns", first) <= 4  # a lattice path under robot time bends rarely; by length it zigzags
+
+
+def test_bench_objectives_runs_each_planner_under_what_it_can_minimise(tmp_path: Path) -> None:
+    out = tmp_path / "o"
+    assert run_cli(["bench", "objectives", "--maps", "map1", "--planners", "astar,min-turn", "--runs", "1",
+                    "--exec-repeats", "0", "--no-plots", "--out", str(out)]) == 0
+    with (out / "objectives.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    pairs = {(r["planner"], r["objective"]) for r in rows}
+    assert pairs == {("astar", "length"), ("astar", "turns"), ("astar", "robot-time"), ("min-turn", "turns"),
+                     ("min-turn", "robot-time")}
+    for r in rows:  # nothing beats the least robot time of the query
+        assert float(r["robot_time_s"]) >= float(r["fastest_time_s"]) * (1 - 1e-9)
+    by = {(r["planner"], r["objective"]): float(r["robot_time_s"]) for r in rows}
+    assert by[("astar", "robot-time")] < by[("astar", "length")]  # the lattice's zigzag costs turns
+    assert "## map1" in (out / "objectives.md").read_text()
