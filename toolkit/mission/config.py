@@ -40,7 +40,7 @@ TRACKING = ("continue", "prior")
 class PlanningConfig(Typed):
     """How paths are planned.
 
-    Parameters
+    Attributes
     ----------
     time_s : float
         Time budget of each planner query (s).
@@ -75,7 +75,7 @@ class PlanningConfig(Typed):
 class DriveConfig(Typed):
     """How a path is driven, leg by leg.
 
-    Parameters
+    Attributes
     ----------
     move_step_cm : float
         Longest single Move; the localiser predicts after each (the watchdog runs inside every Move).
@@ -104,7 +104,7 @@ class DriveConfig(Typed):
 class FixConfig(Typed):
     """When and how the robot re-localises on the way (`toolkit.mission.fix_policy.FixPolicy`).
 
-    Parameters
+    Attributes
     ----------
     rule : {"spread", "always"}
         Where a leg ends, ``always`` re-localises; ``spread`` only when the belief, predicted through the
@@ -156,7 +156,7 @@ class FixConfig(Typed):
 class SweepConfig(Typed):
     """How the sonar sweeps of the re-localisations read (the global ones: `GlobalLocalisation`).
 
-    Parameters
+    Attributes
     ----------
     track_window_deg : float
         A tracking sweep reads windows of +-this around the centres of `track_windows` (180: the full turn).
@@ -192,7 +192,7 @@ class SweepConfig(Typed):
 class FinalConfig(Typed):
     """The final correction at the target (`toolkit.mission.final_correction.FinalCorrectionPolicy`).
 
-    Parameters
+    Attributes
     ----------
     goal_tolerance_cm : float
         Corrections stop when the estimate is this close to the target.
@@ -215,7 +215,7 @@ class FinalConfig(Typed):
 class LimitsConfig(Typed):
     """When the mission gives up.
 
-    Parameters
+    Attributes
     ----------
     max_replans : int
         Re-plans (after watchdog stops or deviations).
@@ -231,7 +231,7 @@ class LimitsConfig(Typed):
 class MissionConfig(Typed):
     """How a mission is run: one group per concern, each documenting its fields.
 
-    Parameters
+    Attributes
     ----------
     planning : PlanningConfig
     drive : DriveConfig
