@@ -18,8 +18,9 @@ from toolkit.cli.options import writable_file, writable_folder
 OUTPUT_NAMES = {"--json", "--plot", "--output", "--out", "--mcap", "--record", "--view-save", "--animate",
                 "--markdown", "--pareto", "--log", "--recordings"}
 """Options that name a file or folder a command writes."""
-ELSEWHERE = {("view", "--save")}
-"""Output options checked by their own command's code (the Rerun view)."""
+ELSEWHERE = {("view", "--save"), ("sonar fit", "--output")}
+"""Output options checked by their own command's code before any work (the Rerun view; sonar fit's -o, a
+file or, with --per-source, a folder)."""
 
 
 def _commands() -> list[tuple[tuple[str, ...], Any]]:
@@ -132,3 +133,16 @@ def test_a_missing_folder_is_created_only_when_the_command_writes(tmp_path: Path
     proc = subprocess.run([nxtnav_exe(), "maps", "show", "nosuchmap", "-o", "other/m.png"], cwd=tmp_path,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and not (tmp_path / "other").exists()  # a bad map: no folder made for nothing
+
+
+@pytest.mark.parametrize("per_source", [[], ["--per-source"]], ids=["profile", "per-source folder"])
+def test_sonar_fit_checks_its_output_before_fitting(per_source: list[str], tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str],
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    # sonar fit's -o is a file, or with --per-source a folder: its own code checks it (ELSEWHERE)
+    blocker = tmp_path / "blocker"
+    blocker.write_text("a file where a folder should be\n")
+    monkeypatch.chdir(tmp_path)
+    line = _refused_in_process(["sonar", "fit", "maps/real-nxt", *per_source, "-o", str(blocker / "out")], capsys)
+    assert "--output" in line and str(blocker) in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker"]
