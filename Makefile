@@ -30,13 +30,13 @@ PYTEST := $(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 # every tier in one run, so the cores stay busy to the end: the quick tests, the slow end-to-end ones and
 # the documented commands (tier docs: every shell block of README.md and docs/, tools/docs_commands.py)
-# mypy runs in the background from the start (its report comes at the end), while tools/compile_kernels.py
-# fills numba's cache once (not every test process that starts before it is) and then pytest runs
+# mypy runs in the background beside pytest (its report comes at the end); pytest starts the slow tests and
+# the documented commands first (tests/conftest.py), so that both workers finish together
 test: $(STAMP)
 	$(BIN)/ruff check toolkit planners localisation tests notebooks tools
 	$(BIN)/python tools/docs_commands.py --summary
 	mypy_log=$$(mktemp); $(BIN)/mypy > $$mypy_log 2>&1 & mypy_pid=$$!; \
-	$(BIN)/python tools/compile_kernels.py && $(PYTEST) --durations=30; rc=$$?; \
+	$(PYTEST) --durations=30; rc=$$?; \
 	wait $$mypy_pid; mypy_rc=$$?; echo "mypy (exit $$mypy_rc):"; cat $$mypy_log; rm -f $$mypy_log; \
 	test $$rc -eq 0 && test $$mypy_rc -eq 0
 

@@ -14,6 +14,14 @@ import pytest
 
 from toolkit.world import Map, load_map, map_from_dict
 
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The slow end-to-end checks and the documented commands first, the quick tests after (a stable
+    sort: each keeps its order): pytest-xdist's workers then finish together instead of one running a
+    long notebook while the other has nothing left."""
+    items.sort(key=lambda item: 0 if item.get_closest_marker("slow") or item.get_closest_marker("docs") else 1)
+
+
 BOTSIM_MAPS = ("map1", "map2", "map3")
 ALL_MAPS = (*BOTSIM_MAPS, "pillars")
 
