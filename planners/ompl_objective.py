@@ -25,7 +25,7 @@ import ompl.base as ob
 
 from toolkit.world import CollisionChecker, RobotTiming
 
-__all__ = ["RobotTimeObjective", "se2_space"]
+__all__ = ["RobotTimeObjective", "box_bounds", "se2_space"]
 
 _TAU = 2.0 * math.pi
 
@@ -91,17 +91,22 @@ class _SegmentValidatorSE2(ob.MotionValidator):
         return self._checker.segment_free((s1.getX(), s1.getY()), (s2.getX(), s2.getY()))
 
 
-def se2_space(bounds: tuple[float, float, float, float], checker: CollisionChecker) -> tuple[Any, Any]:
-    """OMPL's SE(2) space on the box `bounds` (cm) and its space information, states and motions
-    validated by the shared checker."""
-    space = ob.SE2StateSpace()
+def box_bounds(bounds: tuple[float, float, float, float]) -> Any:
+    """OMPL's bounds of the plane's box ``(xmin, ymin, xmax, ymax)`` (cm), for a 2-D or an SE(2) space."""
     box = ob.RealVectorBounds(2)
     xmin, ymin, xmax, ymax = bounds
     box.setLow(0, xmin)
     box.setLow(1, ymin)
     box.setHigh(0, xmax)
     box.setHigh(1, ymax)
-    space.setBounds(box)
+    return box
+
+
+def se2_space(bounds: tuple[float, float, float, float], checker: CollisionChecker) -> tuple[Any, Any]:
+    """OMPL's SE(2) space on the box `bounds` (cm) and its space information, states and motions
+    validated by the shared checker."""
+    space = ob.SE2StateSpace()
+    space.setBounds(box_bounds(bounds))
     si = ob.SpaceInformation(space)
     si.setStateValidityChecker(lambda s: bool(checker.point_free((s.getX(), s.getY()))))
     si.setMotionValidator(_SegmentValidatorSE2(si, checker))

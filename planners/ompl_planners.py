@@ -76,7 +76,7 @@ from toolkit.world import CollisionChecker, ConfigError, RegistryError
 
 from .base import PLANNERS, Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import OmplOptions
-from .ompl_objective import RobotTimeObjective, se2_space
+from .ompl_objective import RobotTimeObjective, box_bounds, se2_space
 
 __all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "declared_params", "ompl_planner_names", "ompl_simplify"]
 
@@ -155,13 +155,7 @@ def _space(bounds: tuple[float, float, float, float], checker: CollisionChecker)
     """OMPL's 2-D space on the box `bounds` and its space information, whose states and motions the
     shared checker validates (the validator is kept alive by the space information)."""
     space = ob.RealVectorStateSpace(2)
-    box = ob.RealVectorBounds(2)
-    xmin, ymin, xmax, ymax = bounds
-    box.setLow(0, xmin)
-    box.setLow(1, ymin)
-    box.setHigh(0, xmax)
-    box.setHigh(1, ymax)
-    space.setBounds(box)
+    space.setBounds(box_bounds(bounds))
     si = ob.SpaceInformation(space)
     si.setStateValidityChecker(lambda s: bool(checker.point_free((s[0], s[1]))))
     si.setMotionValidator(_SegmentValidator(si, checker))
