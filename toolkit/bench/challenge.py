@@ -8,7 +8,6 @@ course's order. A mission *reached* when the robot truly ended within 10 cm of e
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from collections.abc import Sequence
@@ -22,6 +21,7 @@ import numpy as np
 from localisation.base import make_localiser
 from localisation.robot_options import localiser_options
 from planners.base import make_planner
+from toolkit.bench.common import write_rows_csv
 from toolkit.mission.challenge import ChallengeConfig, ChallengeReport, run_challenge
 from toolkit.real_sonar.sweep_sonar import SweepSetRobot, SweepSetSonar, course_waypoints, load_challenge_set
 from toolkit.real_sonar.sweeps import SweepSet
@@ -118,14 +118,7 @@ def run_challenge_task(task: ChallengeTask) -> ChallengeRun:
 
 def write_challenge_csv(runs: Sequence[ChallengeRun], path: Path) -> Path:
     """`runs` as CSV with `COLUMNS` (written to a temporary file, then moved into place)."""
-    tmp = path.with_name(path.name + ".part")
-    with tmp.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in runs:
-            w.writerow(r.to_dict())
-    tmp.replace(path)
-    return path
+    return write_rows_csv((r.to_dict() for r in runs), COLUMNS, path)
 
 
 def summarise(runs: Sequence[ChallengeRun]) -> dict[str, dict[str, Any]]:

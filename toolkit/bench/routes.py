@@ -26,7 +26,6 @@ a predict and an update. Each step is scored:
 
 from __future__ import annotations
 
-import csv
 import itertools
 import math
 import time
@@ -41,6 +40,7 @@ import numpy as np
 from localisation.ambiguity import candidate_poses, confidently_wrong, truth_among
 from localisation.base import Motion, make_localiser
 from localisation.robot_options import localiser_options
+from toolkit.bench.common import write_rows_csv
 from toolkit.real_sonar.sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set
 from toolkit.seeds import derive_seed
 from toolkit.world import MotionNoise, NxtSonar, Pose, RobotModel, angle_diff, wrap_angle
@@ -275,14 +275,7 @@ def run_route(task: RouteTask) -> list[RouteStep]:
 
 def write_routes_csv(steps: Sequence[RouteStep], path: Path) -> Path:
     """`steps` as CSV with `COLUMNS` (written to a temporary file, then moved into place)."""
-    tmp = path.with_name(path.name + ".part")
-    with tmp.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS)
-        w.writeheader()
-        for s in steps:
-            w.writerow(s.row())
-    tmp.replace(path)
-    return path
+    return write_rows_csv((s.row() for s in steps), COLUMNS, path)
 
 
 def _mean(flags: Sequence[bool]) -> float:

@@ -12,7 +12,6 @@ another task, for a robot that believes its heading (it drove there by odometry)
 
 from __future__ import annotations
 
-import csv
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -26,6 +25,7 @@ import numpy as np
 from localisation.ambiguity import CANDIDATE_RADIUS_CM, candidate_poses, confidently_wrong, truth_among
 from localisation.base import HeadingPrior, make_localiser
 from localisation.robot_options import localiser_options
+from toolkit.bench.common import write_rows_csv
 from toolkit.real_sonar.sweeps import SweepSet, load_sweep_set
 from toolkit.seeds import derive_seed
 from toolkit.world import NxtSonar, RobotModel
@@ -125,14 +125,7 @@ def run_sweep(task: SweepTask) -> SweepRun:
 
 def write_sweeps_csv(runs: Sequence[SweepRun], path: Path) -> Path:
     """`runs` as CSV with `COLUMNS` (written to a temporary file, then moved into place)."""
-    tmp = path.with_name(path.name + ".part")
-    with tmp.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in runs:
-            w.writerow(r.to_dict())
-    tmp.replace(path)
-    return path
+    return write_rows_csv((r.to_dict() for r in runs), COLUMNS, path)
 
 
 def summarise(runs: Sequence[SweepRun], localiser: str) -> dict[str, float]:
