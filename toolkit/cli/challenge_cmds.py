@@ -16,6 +16,7 @@ from .options import check_out_folder, check_writable, parse_floats, parse_list,
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
+from .sweeps_cmds import _seeds
 
 __all__ = ["run_sweeps_mission"]
 
@@ -73,15 +74,6 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
         typer.echo(f"wrote {json_out}")
     if not report.reached:
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED)
-
-
-def _seeds(text: str) -> list[int]:
-    out = []
-    for part in parse_list(text, "--seeds"):
-        if not part.isdigit():
-            raise NxtnavError(f"--seeds: not a whole number >= 0: {part!r}")
-        out.append(int(part))
-    return out
 
 
 @bench_app.command("challenge")
