@@ -36,18 +36,16 @@ filterpy's defects and the workarounds here (docs/localisers.md, "filterpy 2.0 d
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import threading
 import warnings
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.linalg
-from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
-from filterpy.monte_carlo import resampling as fp_resampling
 from numpy.typing import ArrayLike
 
 from toolkit.world import LocalisationError, Map, Options, Pose, RngLike, Scan, angle_diff, wrap_angle
@@ -81,6 +79,14 @@ log = logging.getLogger(__name__)
 _RNG_LOCK = threading.RLock()
 
 
+def _filterpy_resampling() -> Any:
+    """filterpy's resampling module, imported on first use: filterpy imports scipy.stats, which costs
+    every `nxtnav` process over a second at start, and most never use a filterpy variant."""
+    from filterpy.monte_carlo import resampling
+
+    return resampling
+
+
 @contextmanager
 def filterpy_rng(rng: np.random.Generator) -> Iterator[None]:
     """Make filterpy's resampling functions draw from `rng` instead of numpy's global state.
@@ -89,6 +95,7 @@ def filterpy_rng(rng: np.random.Generator) -> Iterator[None]:
     module attribute is swapped for ``rng.random`` for the duration of the block (under a lock, so
     threads do not see each other's generator).
     """
+    fp_resampling = _filterpy_resampling()
     with _RNG_LOCK:
         saved = fp_resampling.random
         fp_resampling.random = rng.random
@@ -125,7 +132,7 @@ def filterpy_residual(weights: ArrayLike, n: int | None = None, rng: RngLike = N
         wp = np.concatenate([w, np.zeros(m - w.size)])
         with filterpy_rng(gen), np.errstate(all="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            det = np.asarray(fp_resampling.residual_resample(wp), dtype=np.int64)[:k]
+            det = np.asarray(_filterpy_resampling().residual_resample(wp), dtype=np.int64)[:k]
     else:  # filterpy makes len(weights) draws; with fewer wanted, the same deterministic part by hand
         det = np.repeat(np.arange(w.size, dtype=np.int64), copies)
     rest = m - k
@@ -136,16 +143,17 @@ def filterpy_residual(weights: ArrayLike, n: int | None = None, rng: RngLike = N
     if residual.size < rest:
         residual = np.concatenate([residual, np.zeros(rest - residual.size)])
     with filterpy_rng(gen):
-        extra = np.asarray(fp_resampling.multinomial_resample(residual), dtype=np.int64)[:rest]
+        extra = np.asarray(_filterpy_resampling().multinomial_resample(residual), dtype=np.int64)[:rest]
     return np.sort(np.concatenate([det, np.minimum(extra, w.size - 1)]))
 
 
-FILTERPY_RESAMPLERS: dict[str, Callable[[FloatArray], Any]] = {
-    "systematic": fp_resampling.systematic_resample,
-    "stratified": fp_resampling.stratified_resample,
-    "multinomial": fp_resampling.multinomial_resample,
-    "residual": fp_resampling.residual_resample,
+FILTERPY_RESAMPLERS: dict[str, str] = {
+    "systematic": "systematic_resample",
+    "stratified": "stratified_resample",
+    "multinomial": "multinomial_resample",
+    "residual": "residual_resample",
 }
+"""Each scheme's function in ``filterpy.monte_carlo.resampling``, by name."""
 
 
 def filterpy_resample(scheme: str, weights: ArrayLike, n: int | None = None, rng: RngLike = None) -> IntArray:
@@ -175,7 +183,7 @@ def filterpy_resample(scheme: str, weights: ArrayLike, n: int | None = None, rng
     length = max(m * stride, size)
     wp = np.concatenate([w, np.zeros(length - size)])
     with filterpy_rng(gen):
-        idx = np.asarray(FILTERPY_RESAMPLERS[scheme](wp), dtype=np.int64)
+        idx = np.asarray(getattr(_filterpy_resampling(), FILTERPY_RESAMPLERS[scheme])(wp), dtype=np.int64)
     if stride > 1:
         if scheme == "multinomial":
             idx = idx[:m]
@@ -232,6 +240,8 @@ def symmetric_cholesky(p: ArrayLike) -> FloatArray:
     scale = max(float(np.max(np.abs(np.diag(a)))), 1e-12)
     for _ in range(8):
         try:
+            import scipy.linalg  # imported here for the same reason as filterpy
+
             return np.asarray(scipy.linalg.cholesky(a + jitter * np.eye(a.shape[0])))
         except np.linalg.LinAlgError:
             jitter = scale * 1e-9 if jitter == 0.0 else jitter * 100.0
@@ -359,7 +369,7 @@ class EkfLocaliser(KalmanLocaliser):
         super().__init__(map, options, rng=rng, **overrides)
         o: EkfOptions = self.options  # type: ignore[assignment]
         self.jacobian_step = np.asarray(o.jacobian_step, dtype=float)
-        self.kf = _MotionEKF(self.motion_model)
+        self.kf = _motion_ekf_class()(self.motion_model)
 
     def _get(self) -> tuple[FloatArray, FloatArray]:
         return np.asarray(self.kf.x, dtype=float).ravel(), np.asarray(self.kf.P, dtype=float)
@@ -402,17 +412,23 @@ class EkfLocaliser(KalmanLocaliser):
         self.iterations += 1
 
 
-class _MotionEKF(ExtendedKalmanFilter):
-    """filterpy's EKF with the nonlinear motion of `MotionModel` as ``predict_x``."""
+@functools.cache
+def _motion_ekf_class() -> type:
+    """filterpy's EKF with the nonlinear motion of `MotionModel` as ``predict_x`` (a class made on first
+    use, so that importing this module does not import filterpy)."""
+    from filterpy.kalman import ExtendedKalmanFilter
 
-    def __init__(self, model: MotionModel) -> None:
-        super().__init__(dim_x=3, dim_z=1)
-        self.model = model
+    class MotionEKF(ExtendedKalmanFilter):
+        def __init__(self, model: MotionModel) -> None:
+            super().__init__(dim_x=3, dim_z=1)
+            self.model = model
 
-    def predict_x(self, u: Any = 0) -> None:
-        motion = u if isinstance(u, Motion) else Motion()
-        state: Any = self.x  # type: ignore[has-type]  # filterpy assigns x without annotations
-        self.x = self.model.mean(np.array(state, dtype=np.float64).ravel(), motion).reshape(3, 1)
+        def predict_x(self, u: Any = 0) -> None:
+            motion = u if isinstance(u, Motion) else Motion()
+            state: Any = self.x  # type: ignore[has-type]  # filterpy assigns x without annotations
+            self.x = self.model.mean(np.array(state, dtype=np.float64).ravel(), motion).reshape(3, 1)
+
+    return MotionEKF
 
 
 class UkfLocaliser(KalmanLocaliser):
@@ -429,6 +445,8 @@ class UkfLocaliser(KalmanLocaliser):
                  **overrides: Any) -> None:
         super().__init__(map, options, rng=rng, **overrides)
         sp = self.options.sigma_points  # type: ignore[attr-defined]
+        from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+
         points = MerweScaledSigmaPoints(3, alpha=sp.alpha, beta=sp.beta, kappa=sp.kappa,
                                         sqrt_method=symmetric_cholesky, subtract=_state_residual)
         self.kf = UnscentedKalmanFilter(dim_x=3, dim_z=1, dt=1.0, hx=None, fx=self._fx, points=points,

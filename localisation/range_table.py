@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import ConfigError, Map, ray_cast
@@ -58,6 +57,8 @@ def lobe_minimum(ranges: ArrayLike, beam_width_deg: float) -> NDArray[np.float32
     half = round(beam_width_deg / 2.0 / (360.0 / n))
     if half <= 0:
         return r
+    import scipy.ndimage  # here, not at the top: it costs every process half a second at start
+
     return np.asarray(scipy.ndimage.minimum_filter1d(r, size=2 * half + 1, axis=1, mode="wrap"), dtype=np.float32)
 
 

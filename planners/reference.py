@@ -57,7 +57,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-import scipy.ndimage
 import shapely
 from numpy.typing import NDArray
 from shapely.geometry import polygon as shapely_polygon
@@ -307,6 +306,8 @@ def _grid_graph(map: Map, free: NDArray[np.bool_], cs: BaseGeometry) -> tuple[An
     prv = v + c * np.column_stack([quad[:, 0], np.zeros(len(quad))])
     nxt = v + c * np.column_stack([np.zeros(len(quad)), quad[:, 1]])
     # a corner's part is that of the free cell diagonally opposite its blocked one (4-connected labels)
+    import scipy.ndimage  # here, not at the top: it costs every process half a second at start
+
     labels, n_labels = scipy.ndimage.label(free)
     corners = gv.corners
     cell_i = corners[:, 0] - (quad[:, 0] > 0)

@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
-import scipy.ndimage
 from numpy.typing import ArrayLike, NDArray
 
 from .arrays import FloatArray, IntArray
@@ -443,6 +442,8 @@ class EdgeIndex:
         w.setflags(write=False)
         occupied = (np.diff(start) > 0).reshape(nx, ny)
         if occupied.any():
+            import scipy.ndimage  # here, not at the top: it costs every process half a second at start
+
             empty = scipy.ndimage.distance_transform_cdt(~occupied, metric="chessboard").astype(np.int32)
         else:
             empty = np.full((nx, ny), max(nx, ny), dtype=np.int32)
