@@ -44,9 +44,12 @@ def view_cmd(
                                      help="Write a Rerun recording instead of opening a viewer."),
 ) -> None:
     """Show a run in Rerun (extra 'viz'): map, c-space, truth, estimate and covariance, particles, sweeps, plan."""
-    from ..view.live import view_file
+    from ..view.viewer import check_view
     from .options import check_writable
 
     check_writable(save, "--save")
+    check_view("view", "--save", spawn=save is None)  # before the recording's readers are imported
+    from ..view.live import view_file
+
     n = view_file(source, save)
     typer.echo(f"{source}: {n} items drawn" + (f"; wrote {save}" if save is not None else ""))
