@@ -305,13 +305,37 @@ class LocalisationOutcome:
 
 
 @dataclass(frozen=True)
-class GlobalRun:
-    """One global-localisation trial (a row of ``runs.csv``)."""
+class TrialKey:
+    """Which trial a result is: map, localiser, trial number and seed (the first columns of every CSV)."""
 
     map: str
     localiser: str
     trial: int
     seed: int
+
+
+_KEY_FIELDS = frozenset(TrialKey.__dataclass_fields__)
+
+
+class _KeyedTrial:
+    """A trial result whose `key`'s fields read as its own (``run.map``, ``run.seed``): the CSV's column names."""
+
+    key: TrialKey
+
+    def __getattr__(self, name: str) -> Any:
+        if name in _KEY_FIELDS and "key" in self.__dict__:
+            return getattr(self.key, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def _row(self, columns: tuple[str, ...]) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in columns}
+
+
+@dataclass(frozen=True)
+class GlobalRun(_KeyedTrial):
+    """One global-localisation trial (a row of ``runs.csv``)."""
+
+    key: TrialKey
     success: bool
     error_cm: float
     heading_error_deg: float
@@ -326,17 +350,14 @@ class GlobalRun:
     """Candidate poses of an ambiguous final belief (0: not ambiguous)."""
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in RUNS_COLUMNS}
+        return self._row(RUNS_COLUMNS)
 
 
 @dataclass(frozen=True)
-class TrackingRun:
+class TrackingRun(_KeyedTrial):
     """One tracking trial (a row of ``tracking.csv``); errors are against the true pose after every action."""
 
-    map: str
-    localiser: str
-    trial: int
-    seed: int
+    key: TrialKey
     steps: int
     rmse_cm: float
     rmse_heading_deg: float
@@ -362,11 +383,11 @@ class TrackingRun:
     scenario: str = field(default="tracking", repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in TRACKING_COLUMNS}
+        return self._row(TRACKING_COLUMNS)
 
 
 @dataclass(frozen=True)
-class KidnappedRun:
+class KidnappedRun(_KeyedTrial):
     """One kidnapped-robot trial (a row of ``kidnapped.csv``).
 
     `recovery_iterations` and `recovery_scans` count the procedure's iterations and scans after the
@@ -375,10 +396,7 @@ class KidnappedRun:
     of the whole trial.
     """
 
-    map: str
-    localiser: str
-    trial: int
-    seed: int
+    key: TrialKey
     localised: bool
     kidnap_cm: float
     recovered: bool
@@ -391,7 +409,7 @@ class KidnappedRun:
     scenario: str = field(default="kidnapped", repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in KIDNAPPED_COLUMNS}
+        return self._row(KIDNAPPED_COLUMNS)
 
 
 TrialResult = GlobalRun | TrackingRun | KidnappedRun
