@@ -41,7 +41,7 @@ SECTIONS = ("mission",)
 
 _NOT_CONFIGURATION = frozenset({
     "json_out", "plot", "animate", "record", "view", "view_save", "markdown", "pareto", "out", "output",
-    "force", "config_file", "sets", "dask", "workers"})
+    "force", "config_file", "sets", "dask", "workers", "recordings"})
 """Parameters that say where results go or how they are computed, not what they are."""
 
 _META = "nxtnav.config.sets"
