@@ -42,7 +42,7 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 from pydantic.fields import FieldInfo
-from pydantic_core import PydanticCustomError
+from pydantic_core import ArgsKwargs, PydanticCustomError
 
 from .errors import ConfigError
 from .yaml_text import YAMLError, load_yaml
@@ -99,7 +99,7 @@ def _message(err: Mapping[str, Any]) -> str:
     if err.get("type") == "missing":
         return f"{path}: missing"
     value = err.get("input")
-    if isinstance(value, dict | list):  # a whole group failed its own check: its message names the value
+    if isinstance(value, dict | list | ArgsKwargs):  # a whole group failed its own check: its message names the value
         return f"{path}: {text}" if path else text
     return f"{path}: {value!r} {text}" if path else f"{value!r}: {text}"
 
