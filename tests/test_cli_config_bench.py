@@ -78,6 +78,7 @@ def _deterministic(mission: dict[str, Any]) -> dict[str, Any]:
     return {**{k: v for k, v in mission.items() if k not in ("wall_s", "noticed")}, "noticed": noticed}
 
 
+@pytest.mark.slow
 def test_the_fault_benchmark_runs_again_from_its_json(tmp_path: Path) -> None:
     first, again = tmp_path / "a.json", tmp_path / "b.json"
     assert run_cli(["bench", "faults", "--missions", "1", "--seed", "4", "--faults", "sonar-garbage", "--maps",
