@@ -18,14 +18,13 @@ from __future__ import annotations
 import math
 import re
 import socket
-import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
-from pydantic import Field, StringConstraints, model_validator
+from pydantic import AfterValidator, Field, StringConstraints, model_validator
 from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from planners import PlanStatus
@@ -55,12 +54,23 @@ OMPL_STATUS = (
     "Infeasible",
 )
 
-PropertyType = Literal["REAL", "INTEGER", "BOOLEAN", "ENUM", "VARCHAR(512)"]
-"""The types of a property OMPL's parser knows."""
-ProgressType = Literal["REAL", "INTEGER", "BOOLEAN"]
-"""The types a progress property may have (numbers: the database plots them)."""
-_TYPES = typing.get_args(PropertyType)
+_TYPES = ("REAL", "INTEGER", "BOOLEAN", "ENUM", "VARCHAR(512)")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_ ]*$")
+
+
+def _one_of(kinds: tuple[str, ...]) -> AfterValidator:
+    """A check that a type name is one of `kinds`."""
+    def check(kind: str) -> str:
+        if kind not in kinds:
+            raise ValueError(f"must be one of {', '.join(kinds)}")
+        return kind
+    return AfterValidator(check)
+
+
+PropertyType = Annotated[str, _one_of(_TYPES)]
+"""The types of a property OMPL's parser knows."""
+ProgressType = Annotated[str, _one_of(_TYPES[:3])]
+"""The types a progress property may have (numbers: the database plots them)."""
 PropertyName = Annotated[str, StringConstraints(pattern=_NAME_RE.pattern)]
 """A property's name: letters, digits, spaces and underscores (it becomes a database column)."""
 
