@@ -16,6 +16,7 @@ from toolkit.world.arrays import FloatArray
 
 from .adaptive import kld_bound
 from .base import HeadingPrior
+from .declarations import AmclOptions
 from .models import RangeLattice, RangeTable
 from .resampling import log_normalise, systematic_resample
 
@@ -27,23 +28,14 @@ class ParticleDraws:
     are what the draws read and write of the filter (its options, its belief, its measurement model's helpers)."""
 
     map: Map
+    options: AmclOptions
     rng: np.random.Generator
     particles: FloatArray
     log_weights: FloatArray
     _weighed: NDArray[np.bool_]
     injected: int
-    min_particles: int
-    max_particles: int
-    pf_err: float
-    pf_z: float
     kld_bin: FloatArray
-    ambiguity_injection: float
     _ambiguous_fix: bool
-    recovery_sampler: str
-    refine_steps: int
-    refine_particles: int
-    clearance_cm: float
-    scan_sample_ess: float
     _heading_prior: HeadingPrior | None
     log_likelihood: Callable[[FloatArray, FloatArray, FloatArray], FloatArray]
     _log_heading_prior: Callable[[FloatArray], FloatArray | float]
@@ -75,10 +67,11 @@ class ParticleDraws:
         instead of one lucky particle, and its spread tells how well the scan pins the pose.
         """
         w = log_normalise(np.where(self._weighed, self.log_weights, -np.inf))
-        k = min(self.refine_particles, self.max_particles)
+        k = min(self.options.global_start.refine_particles, self.options.max_particles)
         idx = systematic_resample(w, k, self.rng)
         p, cur = self.particles[idx].copy(), ll[idx].copy()
-        scales = np.geomspace(2.0, 0.1, self.refine_steps) if self.refine_steps > 1 else np.array([0.5])
+        steps = self.options.global_start.refine_steps
+        scales = np.geomspace(2.0, 0.1, steps) if steps > 1 else np.array([0.5])
         for sc in scales:
             d = np.column_stack([p[:, :2] - p[:, :2].mean(axis=0), angle_diff(p[:, 2], circular_mean(p[:, 2]))])
             cov = (2.38**2 / 3.0) * (d.T @ d) / k + np.diag([sc, sc, math.radians(sc)]) ** 2
@@ -96,15 +89,16 @@ class ParticleDraws:
     def kld_resample(self, rel: FloatArray, meas: FloatArray) -> None:
         """KLD-sampling with augmented-MCL injection, vectorised over the `max_particles` candidates."""
         w = log_normalise(self.log_weights)
-        m = self.max_particles
+        o = self.options
+        m = o.max_particles
         cdf = np.cumsum(w)
         cdf[-1] = max(cdf[-1], 1.0)
         cand = self.particles[np.searchsorted(cdf, self.rng.random(m), side="right").clip(0, w.size - 1)]
-        p_inject = max(self.injection_probability, self.ambiguity_injection if self._ambiguous_fix else 0.0)
+        p_inject = max(self.injection_probability, o.recovery.ambiguity_injection if self._ambiguous_fix else 0.0)
         fresh = self.rng.random(m) < p_inject if p_inject > 0 else np.zeros(m, dtype=bool)
         if fresh.any():
             k = int(fresh.sum())
-            cand[fresh] = (self.scan_poses(k, rel, meas) if self.recovery_sampler == "scan"
+            cand[fresh] = (self.scan_poses(k, rel, meas) if o.recovery.recovery_sampler == "scan"
                            else self.uniform_poses(k))
         bins = np.floor(cand / self.kld_bin).astype(np.int64)
         _, first = np.unique(bins, axis=0, return_index=True)
@@ -112,7 +106,7 @@ class ParticleDraws:
         is_new[first] = 1
         occupied = np.cumsum(is_new)  # bins occupied by the first n+1 candidates
         count = np.arange(1, m + 1)
-        enough = (count >= kld_bound(occupied, self.pf_err, self.pf_z)) & (count >= self.min_particles)
+        enough = (count >= kld_bound(occupied, o.kld.pf_err, o.kld.pf_z)) & (count >= o.min_particles)
         n = int(np.argmax(enough)) + 1 if enough.any() else m
         self.particles = cand[:n]
         self._weighed = ~fresh[:n]
@@ -126,7 +120,7 @@ class ParticleDraws:
         have = 0
         while have < n:
             cand = self.rng.uniform([xmin, ymin], [xmax, ymax], size=(2 * (n - have) + 64, 2))
-            keep = cand[self._free(cand, self.clearance_cm)]
+            keep = cand[self._free(cand, self.options.global_start.clearance_cm)]
             out.append(keep)
             have += len(keep)
         xy = np.vstack(out)[:n]
@@ -142,7 +136,7 @@ class ParticleDraws:
         cand = np.argpartition(ssd, top - 1)[:top]
         s = ssd[cand] - ssd[cand].min()
         lo, hi = 1e-6, 1.0  # bisection on the temperature: the ESS falls as beta grows
-        target = min(self.scan_sample_ess, top / 2)
+        target = min(self.options.global_start.scan_sample_ess, top / 2)
         for _ in range(40):
             mid = math.sqrt(lo * hi)
             w = np.exp(-0.5 * mid * s)

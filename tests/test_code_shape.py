@@ -1,20 +1,27 @@
 """The shape of the source, read from the files: no module over 600 lines, no function body over 60
-lines outside the numba kernels, one definition of each shared array alias, and no private attribute
-of another library (nxt-python's ``_sock``, ``ProcessPoolExecutor._processes``).
+lines outside the numba kernels, no record (dataclass, pydantic model, or a class's declared attributes)
+over 20 fields, one definition of each shared array alias, and no private attribute of another library
+(nxt-python's ``_sock``, ``ProcessPoolExecutor._processes``).
 
 The modules and functions still waiting for their split are named below; the list may only shrink."""
 
 from __future__ import annotations
 
 import ast
+import dataclasses
+import importlib
+import inspect
+import pkgutil
 from pathlib import Path
 
 import pytest
+from pydantic import BaseModel
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("toolkit", "planners", "localisation")
 MAX_FILE_LINES = 600
 MAX_BODY_LINES = 60
+MAX_FIELDS = 20
 
 #: Modules over the limit that another change splits (none left).
 LONG_FILES_LEFT: set[str] = set()
@@ -57,6 +64,64 @@ def long_functions(path: Path) -> dict[str, int]:
     return {f"{_rel(path)}:{node.name}": body_lines(node) for node in ast.walk(tree)
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and not _is_numba_kernel(node)
             and body_lines(node) > MAX_BODY_LINES}
+
+
+def field_count(cls: type) -> int:
+    """The fields a record holds: a dataclass's or a pydantic model's (inherited ones included), else the
+    attributes the class itself declares (a mixin's annotations; class variables aside)."""
+    if dataclasses.is_dataclass(cls):
+        return len(dataclasses.fields(cls))
+    if issubclass(cls, BaseModel):
+        return len(cls.model_fields)
+    own = inspect.get_annotations(cls)
+    return sum(1 for kind in own.values() if "ClassVar" not in str(kind))
+
+
+def _classes() -> list[type]:
+    """Every class defined at the top of a module of the three packages (each module imported)."""
+    out: list[type] = []
+    for package in PACKAGES:
+        for info in pkgutil.walk_packages(importlib.import_module(package).__path__, f"{package}."):
+            if info.name.endswith(".__main__"):  # runs the command line when imported
+                continue
+            module = importlib.import_module(info.name)
+            out += [c for c in vars(module).values() if inspect.isclass(c) and c.__module__ == module.__name__]
+    return out
+
+
+def test_no_record_holds_more_than_20_fields() -> None:
+    classes = _classes()
+    big = {f"{c.__module__}.{c.__qualname__}": n for c in classes if (n := field_count(c)) > MAX_FIELDS}
+    assert not big, big
+    assert len(classes) > 300  # the walk found the packages' classes
+
+
+def test_the_field_counter_counts_inherited_fields_and_a_mixins_attributes() -> None:
+    from typing import ClassVar
+
+    from toolkit.world.typed import Typed
+
+    @dataclasses.dataclass
+    class Base:
+        a: int = 0
+
+    @dataclasses.dataclass
+    class Child(Base):
+        b: int = 0
+
+    class Model(Typed):
+        a: int = 0
+
+    class Wider(Model):
+        b: int = 0
+        c: int = 0
+
+    class Mixin:
+        a: int
+        b: float
+        kind: ClassVar[str] = "mixin"
+
+    assert [field_count(c) for c in (Base, Child, Model, Wider, Mixin)] == [1, 2, 1, 3, 2]
 
 
 def test_no_module_is_over_600_lines() -> None:

@@ -32,5 +32,5 @@ def test_the_fixes_are_read_against_the_truth_and_the_time_adds_up() -> None:
                                                                      2 * math.pi))))
     assert all(0.0 <= h <= 180.0 and p >= 0.0 for _, h, p in errors)
     spent = fix_errors.time_by_kind(report)
-    assert sum(t for t, _ in spent.values()) == pytest.approx(report.robot_time_s)
+    assert sum(t for t, _ in spent.values()) == pytest.approx(report.times.robot_time_s)
     assert spent["move"][1] == sum(s.action.value == "move" for s in report.trace)

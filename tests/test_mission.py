@@ -51,18 +51,18 @@ def _check_against_truth(report: object, robot: SimRobot) -> None:
 
     assert isinstance(report, MissionReport)
     assert report.success, report.status
-    assert report.final_pose == robot.true_pose
-    assert report.final_error_cm == pytest.approx(robot.true_pose.distance_to(report.target))
+    assert report.poses.final_pose == robot.true_pose
+    assert report.final_error_cm == pytest.approx(robot.true_pose.distance_to(report.poses.target))
     assert report.final_error_cm < 2.5
     assert report.collisions == robot.collisions == 0
-    assert report.watchdog_stops == robot.watchdog_stops
+    assert report.counts.watchdog_stops == robot.watchdog_stops
     assert report.path_length_cm == pytest.approx(robot.odometry_cm)
-    assert report.robot_time_s == pytest.approx(robot.robot_time_s)
-    assert report.final_estimate is not None
+    assert report.times.robot_time_s == pytest.approx(robot.robot_time_s)
+    assert report.poses.final_estimate is not None
     # the estimate the mission stopped on is close to the truth (the localiser's accuracy)
-    assert report.final_estimate.distance_to(robot.true_pose) < 2.0
+    assert report.poses.final_estimate.distance_to(robot.true_pose) < 2.0
     # the first plan starts where the first estimate was and ends at the target
-    assert report.plans and np.allclose(report.plans[0][-1], report.target)
+    assert report.plans and np.allclose(report.plans[0][-1], report.poses.target)
     assert report.trace[0].action == Action.LOCALISE
     assert report.trace[-1].true_pose == robot.true_pose
 
@@ -92,7 +92,7 @@ def test_run_sim_mission_is_reproducible() -> None:
     a = run_sim_mission("map1", seed=3)
     b = run_sim_mission("map1", seed=3)
     assert a.seed == b.seed == 3
-    assert a.final_pose == b.final_pose
+    assert a.poses.final_pose == b.poses.final_pose
     assert a.path_length_cm == b.path_length_cm
     assert [s.action for s in a.trace] == [s.action for s in b.trace]
 
@@ -170,8 +170,8 @@ def test_without_a_safe_exploration_move_the_robot_turns_and_sweeps_again() -> N
 def test_report_counts_the_cpu_time_of_the_mission() -> None:
     report = run_sim_mission("map1", seed=2)
     assert report.success
-    assert 0.0 < report.cpu_s < math.inf
-    assert report.to_dict(trace=False)["cpu_s"] == report.cpu_s
+    assert 0.0 < report.times.cpu_s < math.inf
+    assert report.to_dict(trace=False)["cpu_s"] == report.times.cpu_s
     assert "s CPU" in report.summary()
 
 
@@ -212,13 +212,13 @@ def test_a_mission_reads_the_robot_through_its_protocol_and_the_truth_from_its_s
     robot = _ProtocolOnly(sim)
     assert isinstance(robot, Robot) and not isinstance(robot, TruthSource | RobotCounters)
     blind = run_mission(robot, m, m.target, rng=2)  # no truth source: nothing true in the report
-    assert blind.success and blind.final_pose is None and blind.collisions is None and blind.start is None
+    assert blind.success and blind.poses.final_pose is None and blind.collisions is None and blind.poses.start is None
     assert blind.path_length_cm == pytest.approx(sim.odometry_cm)  # the mission's own count of the moves
     assert all(s.true_pose is None for s in blind.trace)
 
     sim = SimRobot(m, Pose(30.0, 20.0, 1.0), rng=2)
     report = run_mission(_ProtocolOnly(sim), m, m.target, rng=2, truth=sim)
-    assert report.start == Pose(30.0, 20.0, 1.0) and report.final_pose == sim.true_pose
+    assert report.poses.start == Pose(30.0, 20.0, 1.0) and report.poses.final_pose == sim.true_pose
     assert report.collisions == sim.collisions == 0
     assert report.trace[-1].true_pose == sim.true_pose
     assert [s.action for s in report.trace] == [s.action for s in blind.trace]  # the truth steers nothing
@@ -237,10 +237,10 @@ def test_tracking_from_a_prior_converges_as_tracking_from_the_belief_does(tracki
     report = run_mission(robot, m, m.target, localiser=loc, rng=3, config=cfg, truth=robot)
     _check_against_truth(report, robot)
     fixes = [s.note for s in report.trace if s.action == Action.RELOCALISE]
-    assert len(fixes) == report.relocalisations >= 3
+    assert len(fixes) == report.counts.relocalisations >= 3
     assert all(": converged" in note for note in fixes)  # no fallback was needed
     from_prior = sum(p is not None for p in priors)
-    assert from_prior == (report.relocalisations if tracking == "prior" else 0)
+    assert from_prior == (report.counts.relocalisations if tracking == "prior" else 0)
 
 
 class _SlipsOnce(_ProtocolOnly):

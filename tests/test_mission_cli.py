@@ -158,7 +158,7 @@ def test_paper_random_start_trials_start_off_the_preset() -> None:
     (task,) = paper_tasks(1, 5, maps=("map1",), noise_models=("absolute",), random_start=True)
     assert task.random_start
     report = run_sim_mission(task.map, seed=task.seed, random_start_pose=True, noise_model="absolute")
-    assert report.start is not None and report.start.distance_to((20.0, 20.0)) > 1.0
+    assert report.poses.start is not None and report.poses.start.distance_to((20.0, 20.0)) > 1.0
 
 
 def test_paper_pareto_draws_the_front(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -133,10 +133,10 @@ def test_mission_reaches_preset_target(name: str, model: str) -> None:
     assert report.final_error_cm == pytest.approx(true_err)
     assert true_err < 2.0
     assert report.collisions == robot.collisions == 0
-    assert report.watchdog_stops == robot.watchdog_stops
+    assert report.counts.watchdog_stops == robot.watchdog_stops
     assert report.path_length_cm == pytest.approx(robot.odometry_cm)
-    assert report.robot_time_s == pytest.approx(robot.robot_time_s)
-    assert report.final_pose == robot.true_pose
+    assert report.times.robot_time_s == pytest.approx(robot.robot_time_s)
+    assert report.poses.final_pose == robot.true_pose
     # the driven path cannot be shorter than the straight line nor the first plan shorter than it
     assert report.path_length_cm >= np.hypot(*(m.target - m.start)) - 3.0
     assert report.planned_length_cm >= np.hypot(*(m.target - m.start)) - 3.0
@@ -173,7 +173,7 @@ def test_lost_robot() -> None:
     report, _ = _mission(m, Pose(30, 20, 0), m.target, converge=False)
     assert not report.success
     assert report.outcome is Outcome.LOST, report.status
-    assert report.relocalisations == 0
+    assert report.counts.relocalisations == 0
     strategy = MissionConfig().global_localisation
     finals = [s for s in report.trace if s.action == Action.LOCALISE and "not converged" in s.note]
     assert len(finals) == strategy.attempts
@@ -205,11 +205,11 @@ def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
     assert robot.true_pose.distance_to((20.0, 88.0)) < 2.0
     assert report.success, report.status
     assert robot.collisions == 0
-    assert report.watchdog_stops == robot.watchdog_stops >= 1
+    assert report.counts.watchdog_stops == robot.watchdog_stops >= 1
     actions = [s.action for s in report.trace]
     k = actions.index(Action.TURNBACK)
     assert actions[k + 1] == Action.RELOCALISE and Action.PLAN in actions[k + 2:]
-    assert report.replans >= 1
+    assert report.counts.replans >= 1
 
 
 def test_report_to_dict_is_json() -> None:

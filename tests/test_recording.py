@@ -222,8 +222,8 @@ def test_virtual_brick_recording_replays_bit_for_bit(tmp_path: Path) -> None:
         finally:
             robot.close()
             rec.close(report.status, report.success)
-    assert report.start == Pose.from_deg(20.0, 20.0, 30.0)  # the world is the report's truth source
-    assert report.final_pose is not None and report.collisions is not None
+    assert report.poses.start == Pose.from_deg(20.0, 20.0, 30.0)  # the world is the report's truth source
+    assert report.poses.final_pose is not None and report.collisions is not None
     recording = read_recording(path)
     moves = [e for _, e in recording.events if e["type"] == "move"]
     assert moves and all(e["odometry"]["tacho_after"]["left"] != e["odometry"]["tacho_before"]["left"]
@@ -232,8 +232,8 @@ def test_virtual_brick_recording_replays_bit_for_bit(tmp_path: Path) -> None:
     assert out.reproduced == {"amcl": True}
     # the truth comes from the brick's world: the last replayed estimate's error is the distance from
     # the mission's final estimate to where the brick's world has the robot at the end
-    assert out.has_truth and report.final_estimate is not None
-    assert out.summary()["amcl"]["final_error_cm"] == pytest.approx(report.final_estimate.distance_to(world.pose),
+    assert out.has_truth and report.poses.final_estimate is not None
+    assert out.summary()["amcl"]["final_error_cm"] == pytest.approx(report.poses.final_estimate.distance_to(world.pose),
                                                                     abs=1e-9)
 
 
@@ -247,7 +247,7 @@ def test_recording_leaves_the_mission_unchanged() -> None:
     plain = run_sim_mission(m, seed=6, localiser="amcl", sonar="nxt")
     rec = Recorder(None, map=m, robot={"kind": "sim"}, sonar={"model": "nxt"}, seed=6)
     recorded = run_sim_mission(m, seed=6, localiser="amcl", sonar="nxt", recorder=rec)
-    assert recorded.status == plain.status and recorded.final_pose == plain.final_pose
+    assert recorded.status == plain.status and recorded.poses.final_pose == plain.poses.final_pose
     assert [s.true_pose for s in recorded.trace] == [s.true_pose for s in plain.trace]
 
 

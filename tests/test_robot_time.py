@@ -51,9 +51,10 @@ def test_sim_robot_splits_its_time() -> None:
 def test_mission_report_has_the_time_split() -> None:
     report = run_sim_mission("map1", seed=2)
     assert report.success
-    split = report.time_split
+    split = report.times.split
     assert split is not None
-    assert split.sweep_s + split.turret_return_s + split.drive_s + split.turn_s == pytest.approx(report.robot_time_s)
+    parts = split.sweep_s + split.turret_return_s + split.drive_s + split.turn_s
+    assert parts == pytest.approx(report.times.robot_time_s)
     assert split.other_s == pytest.approx(0.0, abs=1e-9)
     assert split.readings > 0 and split.sweep_s > split.turret_return_s > 0
     assert split.drive_s == pytest.approx(report.path_length_cm / RobotTiming().drive_speed_cm_s)
@@ -70,7 +71,7 @@ def test_model_clock_equals_the_simulators_model() -> None:
     assert report.success
     assert clock.model_time_s == pytest.approx(robot.robot_time_s)
     assert report.collisions == robot.collisions
-    assert report.watchdog_stops == robot.watchdog_stops  # the robot's counters are read through the clock
+    assert report.counts.watchdog_stops == robot.watchdog_stops  # the robot's counters are read through the clock
     assert report.path_length_cm == pytest.approx(robot.odometry_cm)
 
 
@@ -81,9 +82,9 @@ def test_scan_less_defaults_cost_less_robot_time_than_the_papers_habit() -> None
     lean = run_sim_mission("map2", seed=3)
     old = run_sim_mission("map2", seed=3, config=habit)
     assert lean.success and old.success
-    assert lean.robot_time_s < 0.5 * old.robot_time_s
-    assert lean.time_split is not None and old.time_split is not None
-    assert lean.time_split.readings < 0.5 * old.time_split.readings
+    assert lean.times.robot_time_s < 0.5 * old.times.robot_time_s
+    assert lean.times.split is not None and old.times.split is not None
+    assert lean.times.split.readings < 0.5 * old.times.split.readings
     assert lean.final_error_cm is not None and lean.final_error_cm < 1.0
 
 
@@ -117,9 +118,9 @@ def test_brick_clock_agrees_with_the_time_model() -> None:
         finally:
             robot.close()
     assert report.success, report.status
-    assert report.robot_time_s == pytest.approx(world.time_s, rel=0.05)  # the brick's clock
-    assert report.robot_time_s == pytest.approx(robot.model_time_s, rel=0.10)
-    split = report.time_split
+    assert report.times.robot_time_s == pytest.approx(world.time_s, rel=0.05)  # the brick's clock
+    assert report.times.robot_time_s == pytest.approx(robot.model_time_s, rel=0.10)
+    split = report.times.split
     assert split is not None and split.readings > 0
-    assert split.sweep_s > 0.5 * report.robot_time_s
+    assert split.sweep_s > 0.5 * report.times.robot_time_s
 

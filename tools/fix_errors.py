@@ -81,7 +81,7 @@ def main() -> None:
         for task in runs:
             report = run_sim_mission(name, seed=task.seed, sonar=args.sonar, noise_model=args.noise_model,
                                      config=config)
-            robot_times.append(report.robot_time_s)
+            robot_times.append(report.times.robot_time_s)
             for kind, heading, position in fix_errors(report):
                 errors[kind].append((heading, position))
             for kind, (spent, n) in time_by_kind(report).items():

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -45,6 +45,7 @@ class ChallengeTask:
     planner: str
     sonar: dict[str, Any]
     noise: dict[str, Any]
+    config: ChallengeConfig = field(default_factory=ChallengeConfig)
 
 
 @dataclass(frozen=True)
@@ -77,12 +78,14 @@ def _sweep_set(folder: str, map: str) -> SweepSet:
 
 def challenge_tasks(sweeps: SweepSet, map: str, localisers: Sequence[str], seeds: Sequence[int], *,
                     planner: str = "min-turn", sonar: NxtSonar | None = None,
-                    noise: MotionNoise | None = None) -> list[ChallengeTask]:
-    """Every source (with two or more waypoints) x start waypoint x seed x localiser."""
+                    noise: MotionNoise | None = None, config: ChallengeConfig | None = None) -> list[ChallengeTask]:
+    """Every source (with two or more waypoints) x start waypoint x seed x localiser (`config`: the missions'
+    settings, default `ChallengeConfig()`)."""
     folder = str(Path(sweeps.folder).absolute())
     params = asdict(sonar or NxtSonar())
     motion = (noise or MotionNoise()).to_dict()
-    return [ChallengeTask(folder, map, repo, i, int(s), name, planner, params, motion)
+    settings = config or ChallengeConfig()
+    return [ChallengeTask(folder, map, repo, i, int(s), name, planner, params, motion, settings)
             for name in localisers for s in seeds for repo in sweeps.repos
             for i in range(len(course_waypoints(sweeps, repo))) if len(course_waypoints(sweeps, repo)) >= 2]
 
@@ -110,7 +113,7 @@ def run_challenge_task(task: ChallengeTask) -> ChallengeRun:
     sweeps = _sweep_set(task.folder, task.map)
     noise = MotionNoise(**task.noise)
     report = challenge_mission(sweeps, task.repo, task.start, task.seed, task.localiser, task.planner,
-                               NxtSonar(**task.sonar), noise)
+                               NxtSonar(**task.sonar), noise, task.config)
     x, y = report.start
     return ChallengeRun(task.repo, x, y, task.seed, task.localiser, report.reached, round(report.worst_error_cm, 3),
                         report.collisions, round(report.robot_time_s, 2), len(report.route), report.status)

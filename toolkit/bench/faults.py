@@ -31,13 +31,16 @@ import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..robots.brick_faults import FAULT_KINDS, Fault, fault_class, known_fault_kinds
 from ..seeds import derive_seeds
 from ..world import ConfigError, Pose, load_map
+
+if TYPE_CHECKING:
+    from ..mission import MissionReport
 
 __all__ = ["CAMPAIGN_MAPS", "FAULT_KINDS", "SUCCESS_CM", "FaultMission", "FaultTask", "draw_faults", "fault_tasks",
            "run_fault_task", "summarise"]
@@ -114,7 +117,7 @@ def draw_faults(rng: np.random.Generator, kinds: Sequence[str], duration_s: floa
 class _Run:
     """What one run on a virtual brick gave."""
 
-    report: Any
+    report: MissionReport
     true_error_cm: float
     collisions: int
     faults: list[dict[str, Any]]
@@ -257,7 +260,7 @@ def run_fault_task(task: FaultTask) -> FaultMission:
         # the baseline is recorded too: the recorder's tacho reads cost brick time, the same in both runs
         base = _mission(task, [], folder / f"mission-{task.index:04d}-baseline.jsonl")
         rng = np.random.default_rng(derive_seeds(task.seed, "draw")[0])
-        faults = draw_faults(rng, task.kinds, float(base.report.robot_time_s))
+        faults = draw_faults(rng, task.kinds, float(base.report.times.robot_time_s))
         run = _mission(task, faults, folder / f"mission-{task.index:04d}.jsonl")
     report = run.report
     success = bool(report.success) and run.true_error_cm <= SUCCESS_CM and run.collisions == 0
@@ -265,8 +268,8 @@ def run_fault_task(task: FaultTask) -> FaultMission:
     return FaultMission(
         index=task.index, map=task.map, seed=task.seed, faults=run.faults, success=success,
         outcome=report.outcome.value, status=report.status, true_error_cm=run.true_error_cm,
-        collisions=run.collisions, robot_time_s=float(report.robot_time_s),
-        baseline_robot_time_s=float(base.report.robot_time_s),
+        collisions=run.collisions, robot_time_s=float(report.times.robot_time_s),
+        baseline_robot_time_s=float(base.report.times.robot_time_s),
         baseline_success=bool(base.report.success) and base.true_error_cm <= SUCCESS_CM and base.collisions == 0,
         noticed=[n.to_dict() for n in report.faults], left_running=run.left_running + base.left_running,
         readable=run.readable and base.readable,

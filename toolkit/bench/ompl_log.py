@@ -22,10 +22,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+from pydantic import AfterValidator, Field, StringConstraints, model_validator
+from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from planners import PlanStatus
 from toolkit.world import ConfigError
+from toolkit.world.typed import checked
 
 __all__ = [
     "OMPL_STATUS",
@@ -54,6 +58,23 @@ _TYPES = ("REAL", "INTEGER", "BOOLEAN", "ENUM", "VARCHAR(512)")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_ ]*$")
 
 
+def _one_of(kinds: tuple[str, ...]) -> AfterValidator:
+    """A check that a type name is one of `kinds`."""
+    def check(kind: str) -> str:
+        if kind not in kinds:
+            raise ValueError(f"must be one of {', '.join(kinds)}")
+        return kind
+    return AfterValidator(check)
+
+
+PropertyType = Annotated[str, _one_of(_TYPES)]
+"""The types of a property OMPL's parser knows."""
+ProgressType = Annotated[str, _one_of(_TYPES[:3])]
+"""The types a progress property may have (numbers: the database plots them)."""
+PropertyName = Annotated[str, StringConstraints(pattern=_NAME_RE.pattern)]
+"""A property's name: letters, digits, spaces and underscores (it becomes a database column)."""
+
+
 _OMPL_LABEL = {
     PlanStatus.EXACT: "Exact solution",
     PlanStatus.APPROXIMATE: "Approximate solution",
@@ -73,7 +94,8 @@ def ompl_status(success: bool, status: PlanStatus) -> int:
     return OMPL_STATUS.index(_OMPL_LABEL.get(status, "Unknown status"))
 
 
-@dataclass(frozen=True)
+@checked
+@pydantic_dataclass(frozen=True)
 class OmplPlannerData:
     """One planner's block of an OMPL log.
 
@@ -95,46 +117,33 @@ class OmplPlannerData:
         Per run (in `runs` order), its samples, each a row of values in `progress_properties` order.
     """
 
-    name: str
-    properties: Sequence[tuple[str, str]]
+    name: Annotated[str, StringConstraints(pattern=r"^[^\n]+$")]
+    properties: Sequence[tuple[PropertyName, PropertyType]]
     runs: Sequence[Sequence[Any]]
-    common: dict[str, Any] = field(default_factory=dict)
-    progress_properties: Sequence[tuple[str, str]] = ()
+    common: dict[str, Any] = Field(default_factory=dict)
+    progress_properties: Sequence[tuple[PropertyName, ProgressType]] = ()
     progress: Sequence[Sequence[Sequence[Any]]] = ()
 
-    def __post_init__(self) -> None:
-        if not self.name or "\n" in self.name:
-            raise ConfigError(f"planner name must be one non-empty line, got {self.name!r}")
-        for pname, ptype in self.properties:
-            if not _NAME_RE.match(pname):
-                raise ConfigError(f"property name {pname!r}: use letters, digits, spaces and underscores")
-            if ptype not in _TYPES:
-                raise ConfigError(f"property {pname!r}: type {ptype!r} is not one of {', '.join(_TYPES)}")
+    @model_validator(mode="after")
+    def _rows_fit(self) -> OmplPlannerData:
         for i, row in enumerate(self.runs):
             if len(row) != len(self.properties):
-                raise ConfigError(f"planner {self.name!r} run {i}: {len(row)} values for "
+                raise ValueError(f"planner {self.name!r} run {i}: {len(row)} values for "
                                  f"{len(self.properties)} properties")
-        self._check_progress()
-
-    def _check_progress(self) -> None:
         if not self.progress_properties:
             if self.progress:
-                raise ConfigError(f"planner {self.name!r}: progress samples without progress properties")
-            return
+                raise ValueError(f"planner {self.name!r}: progress samples without progress properties")
+            return self
         names = [pname for pname, _ in self.progress_properties]
         if "time" not in names:
-            raise ConfigError(f"planner {self.name!r}: the progress properties need a 'time', got {names}")
-        for pname, ptype in self.progress_properties:
-            if not _NAME_RE.match(pname) or ptype not in _TYPES[:3]:
-                raise ConfigError(f"progress property {pname!r} {ptype!r}: use letters, digits, spaces and "
-                                  f"underscores and a type of {', '.join(_TYPES[:3])}")
+            raise ValueError(f"planner {self.name!r}: the progress properties need a 'time', got {names}")
         if len(self.progress) != len(self.runs):
-            raise ConfigError(f"planner {self.name!r}: progress for {len(self.progress)} runs, {len(self.runs)} runs")
+            raise ValueError(f"planner {self.name!r}: progress for {len(self.progress)} runs, {len(self.runs)} runs")
         for i, samples in enumerate(self.progress):
-            for sample in samples:
-                if len(sample) != len(self.progress_properties):
-                    raise ConfigError(f"planner {self.name!r} run {i}: a progress sample of {len(sample)} values "
-                                      f"for {len(self.progress_properties)} progress properties")
+            if any(len(sample) != len(names) for sample in samples):
+                raise ValueError(f"planner {self.name!r} run {i}: a progress sample of other than {len(names)} "
+                                 "values (one per progress property)")
+        return self
 
 
 @dataclass(frozen=True)

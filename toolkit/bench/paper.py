@@ -148,10 +148,10 @@ def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> PaperRes
     truly = r.success and r.final_error_cm is not None and r.final_error_cm <= cfg.final.success_radius_cm
     status = r.status if truly or not r.success else f"{r.status}, but truly {r.final_error_cm:.1f} cm away"
     return PaperResult(
-        task, truly, status, r.completion_s,
+        task, truly, status, r.times.completion_s,
         math.nan if r.final_error_cm is None else r.final_error_cm,
-        r.path_length_cm, int(r.collisions or 0), r.robot_time_s, r.watchdog_stops, r.relocalisations, r.replans,
-        r.time_split, r.cpu_s,
+        r.path_length_cm, int(r.collisions or 0), r.times.robot_time_s, r.counts.watchdog_stops,
+        r.counts.relocalisations, r.counts.replans, r.times.split, r.times.cpu_s,
     )
 
 

@@ -54,11 +54,11 @@ def draw_mission(report: MissionReport, m: Map, ax: Axes | None = None, radius: 
     if len(traj):
         out.extend(ax.plot(traj[:, 0], traj[:, 1], "-", color="tab:blue", lw=1.5, label="true trajectory",
                            zorder=6))
-    if report.start is not None:
-        out.extend(draw_pose(report.start, ax, radius=r, color="tab:green", label="start"))
-    if report.final_pose is not None:
-        out.extend(draw_pose(report.final_pose, ax, radius=r, color="tab:blue", label="end"))
-    out.extend(ax.plot(*report.target, marker="*", color="tab:red", ms=15, ls="", label="target", zorder=9))
+    if report.poses.start is not None:
+        out.extend(draw_pose(report.poses.start, ax, radius=r, color="tab:green", label="start"))
+    if report.poses.final_pose is not None:
+        out.extend(draw_pose(report.poses.final_pose, ax, radius=r, color="tab:blue", label="end"))
+    out.extend(ax.plot(*report.poses.target, marker="*", color="tab:red", ms=15, ls="", label="target", zorder=9))
     err = "?" if report.final_error_cm is None else f"{report.final_error_cm:.2f} cm"
     ax.set_title(f"{report.map}: {report.planner}/{report.localiser}, seed {report.seed}\n"
                  f"{'reached' if report.success else 'failed'}, final error {err}, "
@@ -168,7 +168,7 @@ def animate_mission(report: MissionReport, m: Map, path: str | Path, radius: flo
     fig, ax = plt.subplots(figsize=(6, 6))
     draw_map(m, ax, presets=False, title=False)
     draw_cspace(m, r, ax)
-    ax.plot(*report.target, marker="*", color="tab:red", ms=15, ls="", zorder=9)
+    ax.plot(*report.poses.target, marker="*", color="tab:red", ms=15, ls="", zorder=9)
     traj_line, = ax.plot([], [], "-", color="tab:blue", lw=1.5, zorder=6)
     est_dots = ax.scatter([], [], s=10, c="tab:purple", zorder=6)
     plan_line, = ax.plot([], [], "-o", color="tab:red", ms=3, lw=1.5, zorder=5)
@@ -177,7 +177,7 @@ def animate_mission(report: MissionReport, m: Map, path: str | Path, radius: flo
     title = ax.set_title("", fontsize=9)
     plan_steps = [k for k, s in enumerate(steps) if s.action == Action.PLAN and not s.note.startswith("failed")]
     truth = [s.true_pose for s in steps]
-    start = report.start
+    start = report.poses.start
 
     def frame(j: int) -> list[Any]:
         k = int(idx[j])

@@ -5,18 +5,30 @@ from __future__ import annotations
 import json
 import shlex
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from toolkit.world import MotionNoise, NxtnavError, load_map
 
 from .app import EXIT_FAILED, Interrupted, bench_app, fail
-from .options import check_out_folder, check_writable, parse_floats, parse_list, shipped, writable_folder
+from .options import (
+    ConfigFile,
+    check_out_folder,
+    check_writable,
+    parse_floats,
+    parse_list,
+    shipped,
+    writable_folder,
+)
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
 from .progress import progress
+from .run_config import configuration, given_sets, section_settings
 from .sweeps_cmds import _seeds
+
+if TYPE_CHECKING:
+    from toolkit.mission.challenge import ChallengeConfig
 
 __all__ = ["run_sweeps_mission"]
 
@@ -29,6 +41,18 @@ def _noise(noise_model: str, text: str) -> MotionNoise:
     return MotionNoise(noise_model, motion, turn)  # type: ignore[arg-type]
 
 
+ChallengeSets = Annotated[list[str], typer.Option(
+    "--set", metavar="challenge.KEY=VALUE",
+    help="A setting of the challenge mission (repeatable), e.g. challenge.move_step_cm=15 (docs/real-sonar.md).")]
+
+
+def challenge_config(sets: list[str], command: str) -> ChallengeConfig:
+    """The challenge mission's settings: the defaults with the ``challenge.KEY=VALUE`` values of `sets`."""
+    from toolkit.mission.challenge import ChallengeConfig
+
+    return section_settings(ChallengeConfig(), sets, "challenge", command)
+
+
 def _map_of(folder: Path, map_name: str | None) -> str:
     if map_name is not None:
         return map_name
@@ -39,10 +63,13 @@ def _map_of(folder: Path, map_name: str | None) -> str:
 
 def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, seed: int, noise_model: str,
                        noise_text: str, profile: Path | None, json_out: Path | None,
-                       not_here: dict[str, Any] | None = None) -> None:
+                       not_here: dict[str, Any] | None = None, ctx: typer.Context | None = None,
+                       sets: list[str] | None = None) -> None:
     """`nxtnav run --sonar sweeps:DIR`: one challenge mission (`toolkit.mission.challenge`) on a seeded
     source of the set, from a seeded waypoint; exit 1 when a waypoint was not reached within 10 cm.
-    `not_here`: options of `run` a challenge does not take, with their values (any set one is an error)."""
+    `not_here`: options of `run` a challenge does not take, with their values (any set one is an error);
+    `ctx` and `sets`: the command and its ``--set`` values (``challenge.KEY=VALUE`` only), for the settings
+    and the configuration the report carries."""
     import numpy as np
 
     from toolkit.bench.challenge import challenge_mission
@@ -54,6 +81,8 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
     if given:
         raise NxtnavError(f"{', '.join(given)}: not with --sonar {sonar} (the challenge starts at a seeded waypoint "
                           "of the sweep set, in the simulator, and writes --json only)")
+    all_sets = [] if ctx is None else given_sets(ctx, sets or [])
+    settings = challenge_config(all_sets, f"run --sonar {sonar}")
     folder = sweeps_folder(sonar)
     assert folder is not None
     folder = shipped(folder)
@@ -65,11 +94,13 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
     pick = np.random.default_rng(derive_seed(seed, "run challenge"))
     repo = repos[int(pick.integers(len(repos)))]
     start = int(pick.integers(len(course_waypoints(sweeps, repo))))
-    report = challenge_mission(sweeps, repo, start, seed, localiser, planner, model, noise)
+    report = challenge_mission(sweeps, repo, start, seed, localiser, planner, model, noise, settings)
     typer.echo(f"sweeps of {repo} ({folder})")
     typer.echo(report.summary())
     if json_out is not None:
         doc = {**report.to_dict(), "repo": repo, "sweeps": str(folder), "seed": seed, "noise": noise.to_dict()}
+        if ctx is not None:
+            doc["configuration"] = configuration(ctx, sets or [], challenge=settings.model_dump())
         json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
     if not report.reached:
@@ -78,6 +109,7 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
 
 @bench_app.command("challenge")
 def bench_challenge(
+    ctx: typer.Context,
     folder: Path = typer.Argument(..., callback=shipped,
                                   help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
     map_name: str | None = typer.Option(None, "--map", help="The arena (default: the folder's arena.yaml)."),
@@ -93,6 +125,8 @@ def bench_challenge(
                              help="Output folder (must be empty or new, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
     workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+    sets: ChallengeSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
 ) -> None:
     """The course's challenge on real sweeps: every source x start waypoint x seed x localiser; challenge.csv,
     summary.md and summary.json in --out."""
@@ -112,11 +146,12 @@ def bench_challenge(
     PLANNERS.check(planner)
     seeds = _seeds(seeds_text)
     noise = _noise(noise_model, noise_text)
+    settings = challenge_config(given_sets(ctx, sets), "bench challenge")
     model = load_profile(sonar_profile, "nxt")
     map_ref = _map_of(folder, map_name)
     sweeps = load_challenge_set(folder, load_map(map_ref))
     check_out_folder(out, force)
-    tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise)
+    tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise, config=settings)
     complete = True
     with progress(f"{len(tasks)} challenge missions", len(tasks)) as advance:
         try:
@@ -128,14 +163,16 @@ def bench_challenge(
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "challenge", str(folder), *(["--map", map_name] if map_name else []),
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)), "--planner", planner,
-        "--noise-model", noise_model, "--noise", noise_text, "--out", str(out)])
+        "--noise-model", noise_model, "--noise", noise_text, *[a for s in given_sets(ctx, sets) for a in ("--set", s)],
+        "--out", str(out)])
     out.mkdir(parents=True, exist_ok=True)
     csv_path = write_challenge_csv(runs, out / "challenge.csv")
     text = summary_markdown(runs, sweeps=sweeps, seeds=seeds, command=command, complete=complete)
     (out / "summary.md").write_text(text)
     extra: dict[str, Any] = {"folder": str(folder), "map": sweeps.map.name, "localisers": locs, "seeds": seeds,
                              "planner": planner, "noise": noise.to_dict(), "complete": complete,
-                             "missions_done": len(runs), "missions_planned": len(tasks), "command": command}
+                             "missions_done": len(runs), "missions_planned": len(tasks), "command": command,
+                             "configuration": configuration(ctx, sets, challenge=settings.model_dump())}
     (out / "summary.json").write_text(summary_json(runs, **extra))
     typer.echo(text)
     typer.echo(f"wrote {csv_path}, {out / 'summary.md'}, {out / 'summary.json'}")

@@ -14,6 +14,7 @@ from .app import bench_app
 from .choices import one_of
 from .interrupts import run_batch
 from .options import (
+    ConfigFile,
     Dask,
     JsonOut,
     Seed,
@@ -25,12 +26,14 @@ from .options import (
     positive,
     writable_folder,
 )
+from .run_config import configuration
 
 __all__: list[str] = []
 
 
 @bench_app.command("faults")
 def bench_faults(
+    ctx: typer.Context,
     missions: int = typer.Option(20, "--missions", help="Missions to run (each also once without faults).",
                                  callback=count),
     seed: Seed = 0,
@@ -48,6 +51,7 @@ def bench_faults(
     recordings: Path | None = typer.Option(None, "--recordings", callback=writable_folder, metavar="DIR",
                                            help="Keep each faulty mission's recording here (default: checked, "
                                                 "then deleted)."),
+    config_file: ConfigFile = None,
 ) -> None:
     """Missions with random faults on virtual bricks: success, collisions, faults seen and recovered,
     extra robot time, motors left running, recordings replayed."""
@@ -70,7 +74,8 @@ def bench_faults(
         json_out.parent.mkdir(parents=True, exist_ok=True)
         doc = {"settings": {"missions": missions, "seed": seed, "faults": kinds, "maps": maps,
                             "reconnect_timeout_s": reconnect_timeout, "reply_timeout_s": reply_timeout},
-               "summary": summary, "missions": [r.to_dict() for r in results]}
+               "summary": summary, "missions": [r.to_dict() for r in results],
+               "configuration": configuration(ctx, [])}
         json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
 

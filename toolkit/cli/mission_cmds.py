@@ -187,7 +187,7 @@ def run(
                                       "--robot": robot_kind != "sim", "--start": start_text, "--random-start":
                                       random_start, "--target": target_text, "--start-heading": start_heading_text,
                                       "--radius": radius, "--plot": plot, "--animate": animate, "--record": record,
-                                      "--view": view, "--view-save": view_save})
+                                      "--view": view, "--view-save": view_save}, ctx, sets)
     m = load_map(map_name)
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
     localiser = _check_name(localiser, "--localiser", _localiser_names())

@@ -10,8 +10,19 @@ import typer
 
 from ..number_format import cell
 from .app import app
-from .options import JsonOut, PluginSets, PngOut, Seed, parse_floats, parse_heading_prior, parse_list, shipped
+from .options import (
+    ConfigFile,
+    JsonOut,
+    PluginSets,
+    PngOut,
+    Seed,
+    parse_floats,
+    parse_heading_prior,
+    parse_list,
+    shipped,
+)
 from .progress import progress_after
+from .run_config import configuration, given_sets
 from .set_options import localiser_sets
 
 if TYPE_CHECKING:
@@ -37,6 +48,7 @@ def _localiser_names() -> list[str]:
 
 @app.command("replay")
 def replay_cmd(
+    ctx: typer.Context,
     recording: Path = typer.Argument(..., metavar="FILE.jsonl", callback=shipped,
                                      help="A recording (nxtnav run --record, nxtnav import)."),
     localisers_text: str = typer.Option("", "--localisers", metavar="A,B,...",
@@ -53,6 +65,7 @@ def replay_cmd(
         help="Every global reset of the recording (each sweep of a sweep set) knows the heading (degrees, "
              "give or take SD) but not the position (global localisers only)."),
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
 ) -> None:
     """Replay the recorded motions and scans through localisers: estimate, spread and error per step.
 
@@ -71,7 +84,7 @@ def replay_cmd(
         if rec.localiser is None:
             raise typer.BadParameter(f"{recording} names no localiser; give --localisers", param_hint="--localisers")
         names = [rec.localiser.name]
-    options = localiser_sets(sets, names)
+    options = localiser_sets(given_sets(ctx, sets), names)
     with progress_after("replay", rec.calls) as advance:
         report = replay(rec, names, seed=seed, initial=prior, heading=heading, options=options, on_step=advance)
     live = rec.localiser.name if rec.localiser else "none"
@@ -93,7 +106,8 @@ def replay_cmd(
         typer.echo(f"{n}: failed at {msg}", err=True)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(report.to_dict(), indent=1, allow_nan=False))
+        doc = {**report.to_dict(), "configuration": configuration(ctx, sets)}
+        json_out.write_text(json.dumps(doc, indent=1, allow_nan=False))
         typer.echo(f"wrote {json_out}")
     if output is not None:
         from ..plotting import save_figure

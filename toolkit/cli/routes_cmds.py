@@ -17,9 +17,10 @@ from toolkit.number_format import cell, json_safe, percent
 from toolkit.world import NxtnavError
 
 from .app import Interrupted, bench_app
-from .options import check_out_folder, parse_floats, parse_list, shipped, writable_folder
+from .options import ConfigFile, check_out_folder, parse_floats, parse_list, shipped, writable_folder
 from .options import workers as workers_ok
 from .progress import progress
+from .run_config import configuration, given_sets
 from .set_options import localiser_sets
 from .sweeps_cmds import _seeds
 
@@ -82,6 +83,7 @@ def _targets(summary: dict[str, Any]) -> list[str]:
 
 @bench_app.command("routes")
 def bench_routes(
+    ctx: typer.Context,
     folder: Path = typer.Argument(..., callback=shipped,
                                   help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
     map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
@@ -108,6 +110,7 @@ def bench_routes(
                              help="Output folder (must be empty or new, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
     workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+    config_file: ConfigFile = None,
 ) -> None:
     """Localise along routes of real sweeps: routes.csv, summary.json and route.png in --out.
 
@@ -133,7 +136,7 @@ def bench_routes(
         raise NxtnavError(f"--orders: must be 0 or more, got {orders}")
     order = _order(order_text)
     noise = _noise(noise_model, noise_text)
-    options = localiser_sets(sets, locs)
+    options = localiser_sets(given_sets(ctx, sets), locs)
     sweeps = load_sweep_set(folder, map_file)
     if headings not in ("column", "model"):
         raise NxtnavError(f"--headings: must be column or model, got {headings!r}")
@@ -150,18 +153,20 @@ def bench_routes(
         *(["--order", order_text] if order is not None else []), "--noise-model", noise_model, "--noise", noise_text,
         *(["--headings", headings] if headings != "column" else []),
         *(["--sonar-profile", str(sonar_profile)] if sonar_profile else []),
-        *[a for s in sets for a in ("--set", s)], "--out", str(out), "--workers", str(workers)])
+        *[a for s in given_sets(ctx, sets) for a in ("--set", s)], "--out", str(out), "--workers", str(workers)])
     _run_and_write(tasks, out, locs, command=command, config={
         "folder": str(folder), "map": map_file, "localisers": locs, "seeds": seeds, "orders": orders,
         "order": order, "noise": noise.to_dict(), "options": options, "headings": headings,
         "truth_headings_deg": truth_headings,
         "routes": [{"repo": r.repo, "route": r.name, "waypoints": r.waypoints} for r in routes],
-        "sonar": {repo: m.to_dict() for repo, m in sonars.items()}}, workers=workers)
+        "sonar": {repo: m.to_dict() for repo, m in sonars.items()}}, workers=workers,
+        configured=configuration(ctx, sets))
 
 
 def _run_and_write(tasks: list[Any], out: Path, locs: list[str], *, command: str, config: dict[str, Any],
-                   workers: int) -> None:
-    """Run the route tasks, then write routes.csv, summary.json and route.png and print the summary."""
+                   workers: int, configured: dict[str, Any]) -> None:
+    """Run the route tasks, then write routes.csv, summary.json (with `configured`: the command's effective
+    configuration, `toolkit.cli.run_config`) and route.png and print the summary."""
     from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.bench.routes import run_route, summarise_steps, write_routes_csv
     from toolkit.bench.routes_plots import route_figure
@@ -183,7 +188,7 @@ def _run_and_write(tasks: list[Any], out: Path, locs: list[str], *, command: str
     csv_path = write_routes_csv(steps, out / "routes.csv")
     summary = summarise_steps(steps, locs)
     doc = {"command": command, "complete": complete, "routes_done": len(done), "routes_planned": len(tasks),
-           "wall_time_s": wall, "config": config, "localisers": summary}
+           "wall_time_s": wall, "config": config, "localisers": summary, "configuration": configured}
     (out / "summary.json").write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
     figure = [route_figure(done[0], tasks[0], out / "route.png")] if done and done[0][0].truth is not None else []
     Console().print(_summary_table(summary))

@@ -5,7 +5,9 @@
 - ``mission.GROUP.FIELD=V``: the mission settings (`toolkit.mission.MissionConfig`, e.g.
   ``mission.drive.move_step_cm=20`` or ``mission.fix.rule=always``), through `toolkit.world.typed.with_sets`;
 - ``PLUGIN.KEY=V`` or a bare ``KEY=V``: a chosen planner's or localiser's options
-  (`toolkit.cli.set_options`, unchanged).
+  (`toolkit.cli.set_options`, unchanged);
+- ``challenge.KEY=V``: the challenge mission's settings (`toolkit.mission.challenge.ChallengeConfig`) on the
+  commands that run it (`section_settings`).
 
 Every command that runs something writes its effective configuration into its outputs
 (`configuration`: the command, every option that shapes the result, the ``--set`` list and the
@@ -18,9 +20,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import typer
+from pydantic import BaseModel
 
 from ..world import ConfigError, NxtnavError
 from ..world.bundled import data_path
@@ -31,17 +34,19 @@ if TYPE_CHECKING:
     from ..mission import MissionConfig
 
 __all__ = ["SECTIONS", "add_configuration", "configuration", "dumps", "given_sets", "load_config",
-           "mission_config", "mission_sets", "split_sets"]
+           "mission_config", "mission_sets", "section_settings", "split_sets"]
 
 SECTIONS = ("mission",)
 """The settings sections ``--set`` knows besides the plug-ins' names."""
 
 _NOT_CONFIGURATION = frozenset({
     "json_out", "plot", "animate", "record", "view", "view_save", "markdown", "pareto", "out", "output",
-    "force", "config_file", "sets", "dask", "workers"})
+    "force", "config_file", "sets", "dask", "workers", "recordings"})
 """Parameters that say where results go or how they are computed, not what they are."""
 
 _META = "nxtnav.config.sets"
+
+M = TypeVar("M", bound=BaseModel)
 """Where `load_config` leaves the ``--set`` list of the file in the click context."""
 
 
@@ -78,6 +83,22 @@ def mission_config(sonar: str, sets: list[str], collision: str = "index", **fiel
     own = mission_sets(sets)
     try:
         return with_sets(base, own, "--set mission") if own else base
+    except ConfigError as exc:
+        raise NxtnavError(str(exc)) from None
+
+
+def section_settings(model: M, sets: list[str], section: str, command: str) -> M:
+    """`model` with the ``SECTION.KEY=VALUE`` values of `sets` applied (`with_sets`) for a command whose only
+    settings are that section's; anything else in `sets` is one line naming the command and the section."""
+    own: dict[str, str] = {}
+    for text in sets:
+        key, sep, raw = text.partition("=")
+        head, dot, inner = key.strip().partition(".")
+        if not (sep and dot and inner and head == section):
+            raise NxtnavError(f"--set: nxtnav {command} takes {section} settings ({section}.KEY=VALUE), got {text!r}")
+        own[inner] = raw
+    try:
+        return with_sets(model, own, f"--set {section}")
     except ConfigError as exc:
         raise NxtnavError(str(exc)) from None
 

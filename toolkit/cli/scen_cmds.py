@@ -13,6 +13,7 @@ from .app import bench_app, maps_app
 from .choices import one_of
 from .options import (
     Collision,
+    ConfigFile,
     Dask,
     OutFolder,
     Seed,
@@ -22,6 +23,7 @@ from .options import (
     writable_file,
 )
 from .progress import progress
+from .run_config import configuration, dumps
 
 __all__: list[str] = []
 
@@ -93,6 +95,7 @@ def maps_random(
 
 @bench_app.command("scen")
 def bench_scen(
+    ctx: typer.Context,
     scen: Path = typer.Argument(..., metavar="FILE.scen", callback=shipped, help="Moving AI / GPPC scenario file."),
     map_path: Path | None = typer.Option(None, "--map", metavar="FILE.map", callback=shipped,
                                          help="The map (default: the file the scenarios name, next to FILE.scen)."),
@@ -112,10 +115,12 @@ def bench_scen(
     dask: Dask = None,
     check: bool = typer.Option(False, "--check", help="Exit 1 when an exact planner mismatches the published optimum "
                                                       "or any path is shorter than it where none can be."),
+    config_file: ConfigFile = None,
 ) -> None:
     """Run planners on a scenario file and compare their lengths with the published optima.
 
-    Writes DIR/scen.csv, DIR/summary.md and DIR/scen.log (OMPL format, for Planner Arena).
+    Writes DIR/scen.csv, DIR/summary.md, DIR/scen.log (OMPL format, for Planner Arena) and DIR/config.json
+    (the run's configuration, for --config).
     """
     from planners import PLANNERS
 
@@ -155,6 +160,8 @@ def bench_scen(
     with progress(f"{scen.name}: {', '.join(names)}", len(chosen) * len(names)) as advance:
         result = run_scen(config, chosen, workers=workers, dask_address=dask, on_done=advance)
     files = write_outputs(result, out, len(chosen))
+    files["config"] = out / "config.json"
+    files["config"].write_text(dumps({"configuration": configuration(ctx, [])}), encoding="utf-8")
     typer.echo(files["summary"].read_text(encoding="utf-8"))
     typer.echo(f"wrote {', '.join(str(p) for p in files.values())}")
     if not result.complete:

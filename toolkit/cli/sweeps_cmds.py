@@ -14,6 +14,7 @@ from toolkit.world import NxtnavError
 from .app import bench_app
 from .interrupts import run_batch
 from .options import (
+    ConfigFile,
     Dask,
     Force,
     OutFolder,
@@ -24,6 +25,7 @@ from .options import (
     shipped,
 )
 from .options import sonar_profile as load_profile
+from .run_config import configuration
 
 
 def _seeds(text: str) -> list[int]:
@@ -41,6 +43,7 @@ def _seeds(text: str) -> list[int]:
 
 @bench_app.command("sweeps")
 def bench_sweeps(
+    ctx: typer.Context,
     folder: Path = typer.Argument(..., callback=shipped,
                                   help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
     map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
@@ -58,6 +61,7 @@ def bench_sweeps(
     force: Force = False,
     workers: Workers = 1,
     dask: Dask = None,
+    config_file: ConfigFile = None,
 ) -> None:
     """Global localisation from each real sweep alone: sweeps.csv and summary.md in --out."""
     from localisation.base import LOCALISERS
@@ -108,7 +112,8 @@ def bench_sweeps(
                                                  "heading_prior": heading_prior and heading_prior.to_dict(),
                                                  "complete": complete,
                                                  "runs_done": len(runs), "runs_planned": len(tasks),
-                                                 "wall_time_s": wall}, indent=1))
+                                                 "wall_time_s": wall, "configuration": configuration(ctx, [])},
+                                                indent=1))
     typer.echo(md.read_text())
     typer.echo(f"wrote {csv_path}, {md} ({len(runs)} runs in {wall:.1f} s)")
     batch.finish(f"partial results (marked incomplete) in {out}")

@@ -23,6 +23,7 @@ from .app import app, bench_app, maps_app
 from .options import (
     SENSOR_NOISE_HELP,
     Collision,
+    ConfigFile,
     JsonOut,
     MapName,
     PngOut,
@@ -38,6 +39,7 @@ from .options import (
     sonar_profile,
     writable_file,
 )
+from .run_config import configuration
 from .tables import NEVER_CUT, print_json, print_table
 
 __all__: list[str] = []
@@ -166,6 +168,7 @@ def scan(
 
 @bench_app.command("world")
 def bench_world(
+    ctx: typer.Context,
     map_name: str = typer.Option("map1", "--map", help="Map name, YAML file, Moving AI .map or ROS map YAML."),
     random_grid: int = typer.Option(0, "--random-grid", metavar="CELLS",
                                     help="Instead of --map: a generated CELLS x CELLS random grid map "
@@ -187,6 +190,7 @@ def bench_world(
     peer: bool = typer.Option(True, "--peer/--no-peer", help="Measure raycast2d (optional extra) in the same run."),
     seed: Seed = 0,
     json_out: JsonOut = None,
+    config_file: ConfigFile = None,
 ) -> None:
     """Throughput of ray casting and collision checks, c-space and range-model build; medians of repeats.
 
@@ -239,5 +243,5 @@ def bench_world(
                       f"mean |range difference| {pr['mean_abs_range_diff_cm']:.2f} cm")
     Console().print(table)
     if json_out is not None:
-        json_out.write_text(json.dumps(fig, indent=1))
+        json_out.write_text(json.dumps({**fig, "configuration": configuration(ctx, [])}, indent=1))
         typer.echo(f"wrote {json_out}")

@@ -29,7 +29,7 @@ is a state machine (`toolkit.mission.machine.Mission`, its states listed in
 
 The robot's time (on the simulator, `toolkit.robots.sim.RobotTiming`) goes mostly to sweeps; the
 report splits it into sweeping, turning the turret back, driving and turning
-(`MissionReport.time_split`), and `toolkit.bench.paper_pareto` measures what each sweep option
+(`MissionReport.times`, `MissionTimes.split`), and `toolkit.bench.paper_pareto` measures what each sweep option
 costs against what it buys.
 
 Every action is recorded in a trace (action, estimate, and the true pose when a truth source is
@@ -62,7 +62,7 @@ from .config import (
     PlanningConfig,
     SweepConfig,
 )
-from .report import Action, MissionReport, Outcome, RobotTimeSplit, TraceStep
+from .report import Action, MissionCounts, MissionPoses, MissionReport, MissionTimes, Outcome, RobotTimeSplit, TraceStep
 from .runner import run_mission
 from .simulated import run_sim_mission
 
@@ -73,7 +73,10 @@ __all__ = [
     "FixConfig",
     "LimitsConfig",
     "MissionConfig",
+    "MissionCounts",
+    "MissionPoses",
     "MissionReport",
+    "MissionTimes",
     "Outcome",
     "PlanningConfig",
     "RobotTimeSplit",

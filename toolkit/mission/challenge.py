@@ -33,46 +33,46 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import Field
 
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
 from localisation.models import exact_ranges
 from planners.base import Planner, PlanningProblem
 
-from ..world import ConfigError, Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
+from ..world import Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
 from ..world.arrays import FloatArray
+from ..world.typed import Typed
 
 __all__ = ["ChallengeConfig", "ChallengeReport", "WaypointSweeps", "WaypointVisit", "course_from", "fit_pose",
            "run_challenge"]
 
 XY = tuple[float, float]
 
-POSITION_FROM = ("prediction", "localiser")
+PositionFrom = Literal["prediction", "localiser"]
 """Where the belief's position comes from after a waypoint's sweep (`ChallengeConfig.position_from`)."""
 
 
-@dataclass(frozen=True)
-class ChallengeConfig:
-    """How the challenge mission runs (module docstring; lengths in cm, angles in degrees)."""
+class ChallengeConfig(Typed):
+    """How the challenge mission runs (module docstring): ``--set challenge.KEY=VALUE`` on the commands that
+    run it."""
 
-    move_step_cm: float = 10.0
-    correction_cm: float = 3.0
-    max_corrections: int = 0
-    margin_cm: float = 8.0
-    plan_time_s: float = 0.5
-    prior_std_cm: float = 3.0
-    prior_std_deg: float = 2.0
-    reach_cm: float = 10.0
-    heading_span_deg: float = 30.0
-    position_from: str = "prediction"
-    start_retries: int = 1
-
-    def __post_init__(self) -> None:
-        if self.position_from not in POSITION_FROM:
-            raise ConfigError(f"ChallengeConfig.position_from must be one of {', '.join(POSITION_FROM)}, "
-                              f"got {self.position_from!r}")
+    move_step_cm: float = Field(default=10.0, gt=0, description="Longest move between two predictions (cm).")
+    correction_cm: float = Field(default=3.0, ge=0,
+                                 description="Corrections go on while the estimate is farther from the waypoint (cm).")
+    max_corrections: int = Field(default=0, ge=0, description="Corrections (and sweeps) at most per waypoint.")
+    margin_cm: float = Field(default=8.0, ge=0, description="Clearance asked of a path beyond the robot radius (cm).")
+    plan_time_s: float = Field(default=0.5, gt=0, description="Planning budget per leg (s).")
+    prior_std_cm: float = Field(default=3.0, gt=0, description="Spread of the belief reset at the start (cm).")
+    prior_std_deg: float = Field(default=2.0, gt=0, description="Heading spread of that belief (deg).")
+    reach_cm: float = Field(default=10.0, gt=0, description="A waypoint is reached within this distance (cm).")
+    heading_span_deg: float = Field(default=30.0, ge=0,
+                                    description="Headings tried around the predicted one at a waypoint (deg).")
+    position_from: PositionFrom = Field(
+        default="prediction", description="Where the belief's position comes from after a waypoint's sweep.")
+    start_retries: int = Field(default=1, ge=0, description="Other start hypotheses tried when the first leg fails.")
 
 
 @dataclass(frozen=True)

@@ -173,6 +173,70 @@ def _time_split(delta: Mapping[str, float], robot_time_s: float) -> RobotTimeSpl
                           robot_time_s - (sweep + back + drive + turn))
 
 
+@dataclass(frozen=True)
+class MissionTimes:
+    """How long a mission took.
+
+    Attributes
+    ----------
+    completion_s : float
+        Wall-clock time of the whole run (s).
+    cpu_s : float
+        CPU time the process spent on the run (s, `time.process_time`: every thread of the process,
+        so on a shared machine the cost of the computation where the wall clock also counts waiting).
+    robot_time_s : float
+        Time the robot spent acting (modelled on the simulator) (s).
+    split : RobotTimeSplit or None
+        Where the robot time went, when the robot keeps the counters.
+    """
+
+    completion_s: float
+    robot_time_s: float
+    cpu_s: float = math.nan
+    split: RobotTimeSplit | None = None
+
+
+@dataclass(frozen=True)
+class MissionCounts:
+    """The counters of a mission's commands.
+
+    Attributes
+    ----------
+    turns : int
+        Turn commands of the mission (above half a degree; those of the localisation procedure excluded).
+    watchdog_stops, relocalisations, replans : int
+        Counters of the run (relocalisations exclude the first global localisation).
+    """
+
+    turns: int
+    watchdog_stops: int
+    relocalisations: int
+    replans: int
+
+
+@dataclass(frozen=True, eq=False)
+class MissionPoses:
+    """Where a mission began, aimed and ended.
+
+    Attributes
+    ----------
+    start : Pose or None
+        True start pose when known.
+    target : (2,) ndarray
+        The target (cm).
+    final_pose, final_estimate : Pose or None
+        The true pose (when known) and the estimate at the end.
+    candidates : list of Pose
+        The places that fit the scans equally when the mission ended ambiguous (else empty).
+    """
+
+    start: Pose | None
+    target: FloatArray
+    final_pose: Pose | None
+    final_estimate: Pose | None
+    candidates: list[Pose] = field(default_factory=list)
+
+
 @dataclass(frozen=True, eq=False)
 class MissionReport:
     """What a mission did and how well.
@@ -190,34 +254,25 @@ class MissionReport:
         otherwise None.
     estimate_error_cm : float or None
         Distance between the final estimate and the target (cm).
-    completion_s : float
-        Wall-clock time of the whole run (s).
-    cpu_s : float
-        CPU time the process spent on the run (s, `time.process_time`: every thread of the process,
-        so on a shared machine the cost of the computation where the wall clock also counts waiting).
-    robot_time_s : float
-        Time the robot spent acting (modelled on the simulator) (s).
     path_length_cm : float
         Distance driven, from odometry (forward and backward moves) (cm).
     planned_length_cm : float
         Length of the first successful plan (cm); 0 when nothing was planned.
-    turns : int
-        Turn commands of the mission (above half a degree; those of the localisation procedure excluded).
     collisions : int or None
         True contacts with walls (simulator), None when unknown.
-    watchdog_stops, relocalisations, replans : int
-        Counters of the run (relocalisations exclude the first global localisation).
     map, planner, localiser : str
     seed : int or None
-    start : Pose or None
-        True start pose when known.
-    target : (2,) ndarray
-    final_pose, final_estimate : Pose or None
+    collision : str
+        Backend of the mission's collision checks (``index`` or ``fcl``).
+    times : MissionTimes
+        Wall-clock, CPU and robot time.
+    counts : MissionCounts
+        Turns, watchdog stops, re-localisations and re-plans.
+    poses : MissionPoses
+        Start, target, final pose and estimate, candidates.
     plans : list of (k, 2) ndarray
         Every planned path, in order.
     trace : list of TraceStep
-    collision : str
-        Backend of the mission's collision checks (``index`` or ``fcl``).
     faults : list of FaultNote
         Every fault the mission met (a lost link, a sonar swept again) and what came of it
         (`toolkit.mission.recovery`).
@@ -227,29 +282,19 @@ class MissionReport:
     status: str
     final_error_cm: float | None
     estimate_error_cm: float | None
-    completion_s: float
-    robot_time_s: float
     path_length_cm: float
     planned_length_cm: float
-    turns: int
     collisions: int | None
-    watchdog_stops: int
-    relocalisations: int
-    replans: int
     map: str
     planner: str
     localiser: str
     seed: int | None
-    start: Pose | None
-    target: FloatArray
-    final_pose: Pose | None
-    final_estimate: Pose | None
+    times: MissionTimes
+    counts: MissionCounts
+    poses: MissionPoses
     plans: list[FloatArray] = field(default_factory=list)
     trace: list[TraceStep] = field(default_factory=list)
-    candidates: list[Pose] = field(default_factory=list)
-    time_split: RobotTimeSplit | None = None
     outcome: Outcome = Outcome.REACHED
-    cpu_s: float = math.nan
     collision: str = "index"
     faults: list[FaultNote] = field(default_factory=list)
 
@@ -261,28 +306,28 @@ class MissionReport:
             "status": self.status,
             "final_error_cm": self.final_error_cm,
             "estimate_error_cm": self.estimate_error_cm,
-            "completion_s": self.completion_s,
-            "cpu_s": self.cpu_s,
-            "robot_time_s": self.robot_time_s,
-            "robot_time_split": None if self.time_split is None else self.time_split.to_dict(),
+            "completion_s": self.times.completion_s,
+            "cpu_s": self.times.cpu_s,
+            "robot_time_s": self.times.robot_time_s,
+            "robot_time_split": None if self.times.split is None else self.times.split.to_dict(),
             "path_length_cm": self.path_length_cm,
             "planned_length_cm": self.planned_length_cm,
-            "turns": self.turns,
+            "turns": self.counts.turns,
             "collisions": self.collisions,
-            "watchdog_stops": self.watchdog_stops,
-            "relocalisations": self.relocalisations,
-            "replans": self.replans,
+            "watchdog_stops": self.counts.watchdog_stops,
+            "relocalisations": self.counts.relocalisations,
+            "replans": self.counts.replans,
             "map": self.map,
             "planner": self.planner,
             "localiser": self.localiser,
             "seed": self.seed,
             "collision": self.collision,
-            "start": None if self.start is None else self.start.to_list_deg(),
-            "target": [float(v) for v in self.target],
-            "final_pose": None if self.final_pose is None else self.final_pose.to_list_deg(),
-            "final_estimate": None if self.final_estimate is None else self.final_estimate.to_list_deg(),
-            "ambiguous": len(self.candidates) > 1,
-            "candidates": [p.to_list_deg() for p in self.candidates],
+            "start": None if self.poses.start is None else self.poses.start.to_list_deg(),
+            "target": [float(v) for v in self.poses.target],
+            "final_pose": _deg(self.poses.final_pose),
+            "final_estimate": _deg(self.poses.final_estimate),
+            "ambiguous": len(self.poses.candidates) > 1,
+            "candidates": [p.to_list_deg() for p in self.poses.candidates],
             "faults": [f.to_dict() for f in self.faults],
         }
         if trace:
@@ -294,8 +339,8 @@ class MissionReport:
     def true_trajectory(self) -> FloatArray:
         """(n, 2) true positions along the trace (cm); empty when the robot does not know its pose."""
         pts = [s.true_pose.xy for s in self.trace if s.true_pose is not None]
-        if self.start is not None:
-            pts.insert(0, self.start.xy)
+        if self.poses.start is not None:
+            pts.insert(0, self.poses.start.xy)
         return np.array(pts).reshape(-1, 2)
 
     @property
@@ -321,12 +366,13 @@ class MissionReport:
             f"collision checks {self.collision}",
             f"final error {err} (estimate {_fmt(self.estimate_error_cm)} cm from target), "
             f"collisions {coll}",
-            f"completion {self.completion_s:.3f} s wall-clock ({self.cpu_s:.3f} s CPU), "
-            f"robot time {self.robot_time_s:.1f} s"
-            + ("" if self.time_split is None else f": {self.time_split.describe()}"),
-            f"driven {self.path_length_cm:.1f} cm (planned {self.planned_length_cm:.1f} cm), turns {self.turns}, "
-            f"watchdog stops {self.watchdog_stops}, re-localisations {self.relocalisations}, "
-            f"re-plans {self.replans}",
+            f"completion {self.times.completion_s:.3f} s wall-clock ({self.times.cpu_s:.3f} s CPU), "
+            f"robot time {self.times.robot_time_s:.1f} s"
+            + ("" if self.times.split is None else f": {self.times.split.describe()}"),
+            f"driven {self.path_length_cm:.1f} cm (planned {self.planned_length_cm:.1f} cm), "
+            f"turns {self.counts.turns}, "
+            f"watchdog stops {self.counts.watchdog_stops}, re-localisations {self.counts.relocalisations}, "
+            f"re-plans {self.counts.replans}",
         ]
         if self.faults:
             lost = [f for f in self.faults if f.kind == "link-lost"]
@@ -338,6 +384,10 @@ class MissionReport:
                          f"{sonar} sweep(s) taken again for a faulty sonar, "
                          f"{len(self.faults) - len(lost) - sonar} fix(es) off course")
         return "\n".join(lines)
+
+
+def _deg(pose: Pose | None) -> list[float] | None:
+    return None if pose is None else pose.to_list_deg()
 
 
 def _fmt(v: float | None) -> str:

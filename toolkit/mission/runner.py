@@ -31,7 +31,7 @@ from ..world.arrays import FloatArray
 from .config import MissionConfig
 from .machine import Mission
 from .recovery import DEFAULT_RECONNECT_TIMEOUT_S, FaultLog, Recovery
-from .report import _SPLIT_COUNTERS, MissionReport, Outcome, _time_split
+from .report import _SPLIT_COUNTERS, MissionCounts, MissionPoses, MissionReport, MissionTimes, Outcome, _time_split
 
 if TYPE_CHECKING:
     from ..recordings.recorder import Recorder
@@ -111,7 +111,7 @@ def run_mission(robot: Robot, map: Map | str, target: ArrayLike, *, planner: str
     log.info("mission on %s: %s", m.name, status)
     return _report(mission, robot, before, outcome, status, recovery, planner=plan_obj.name, localiser=loc_name,
                    seed=int(rng) if isinstance(rng, int | np.integer) else None,
-                   completion_s=time.perf_counter() - t0, cpu_s=time.process_time() - cpu0)
+                   clocks=(time.perf_counter() - t0, time.process_time() - cpu0))
 
 
 def _target_xy(target: ArrayLike) -> FloatArray:
@@ -139,8 +139,9 @@ def _localiser_factory(localiser: str | Localiser, m: Map, cfg: MissionConfig,
 
 
 def _report(mission: Mission, robot: Robot, before: _Before, outcome: Outcome, status: str,
-            recovery: Recovery, **names: Any) -> MissionReport:
-    """The report of `mission`; `names`: its planner, localiser, seed and timings."""
+            recovery: Recovery, clocks: tuple[float, float], **names: Any) -> MissionReport:
+    """The report of `mission`; `clocks`: its wall-clock and CPU time (s); `names`: its planner, localiser and
+    seed."""
     ctx = mission.context
     final = ctx.true_pose()
     est = ctx.estimate.pose if ctx.estimate is not None else None
@@ -152,15 +153,14 @@ def _report(mission: Mission, robot: Robot, before: _Before, outcome: Outcome, s
         success=outcome is Outcome.REACHED, status=status,
         final_error_cm=None if final is None else final.distance_to(ctx.target),
         estimate_error_cm=None if est is None else est.distance_to(ctx.target),
-        robot_time_s=robot_time,
         path_length_cm=float(delta.get("odometry_cm", ctx.counts.path_cm)),
-        planned_length_cm=mission.planner.planned_length, turns=ctx.counts.turns,
-        collisions=None if collisions is None else int(collisions),
-        watchdog_stops=int(delta.get("watchdog_stops", ctx.counts.watchdog_stops)),
-        relocalisations=ctx.counts.relocalisations, replans=ctx.counts.replans,
-        map=ctx.map.name, start=before.start, target=ctx.target,
-        final_pose=final, final_estimate=est, plans=ctx.plans, trace=ctx.trace, candidates=ctx.candidates,
-        time_split=_time_split(delta, robot_time), outcome=outcome, collision=ctx.cfg.collision,
+        planned_length_cm=mission.planner.planned_length,
+        collisions=None if collisions is None else int(collisions), map=ctx.map.name,
+        times=MissionTimes(clocks[0], robot_time, clocks[1], _time_split(delta, robot_time)),
+        counts=MissionCounts(ctx.counts.turns, int(delta.get("watchdog_stops", ctx.counts.watchdog_stops)),
+                             ctx.counts.relocalisations, ctx.counts.replans),
+        poses=MissionPoses(before.start, ctx.target, final, est, ctx.candidates),
+        plans=ctx.plans, trace=ctx.trace, outcome=outcome, collision=ctx.cfg.collision,
         faults=list(recovery.log.notes), **names,
     )
 

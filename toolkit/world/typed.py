@@ -35,21 +35,23 @@ toolkit.world.errors.ConfigError: --set: no option 'motion.speed'; motion has: s
 from __future__ import annotations
 
 import dataclasses
+import functools
 import typing
 from collections.abc import Iterator, Mapping
 from typing import Any, TypeVar
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 from pydantic.fields import FieldInfo
-from pydantic_core import PydanticCustomError
+from pydantic_core import ArgsKwargs, PydanticCustomError
 
 from .errors import ConfigError
 from .yaml_text import YAMLError, load_yaml
 
-__all__ = ["Typed", "build", "fields_of", "group_fields", "one_line", "parse_value", "with_sets", "with_values",
-           "worded"]
+__all__ = ["Typed", "build", "checked", "fields_of", "group_fields", "one_line", "parse_value", "with_sets",
+           "with_values", "worded"]
 
 T = TypeVar("T", bound=BaseModel)
+C = TypeVar("C", bound=type)
 
 
 class Typed(BaseModel):
@@ -97,7 +99,7 @@ def _message(err: Mapping[str, Any]) -> str:
     if err.get("type") == "missing":
         return f"{path}: missing"
     value = err.get("input")
-    if isinstance(value, dict | list):  # a whole group failed its own check: its message names the value
+    if isinstance(value, dict | list | ArgsKwargs):  # a whole group failed its own check: its message names the value
         return f"{path}: {text}" if path else text
     return f"{path}: {value!r} {text}" if path else f"{value!r}: {text}"
 
@@ -114,6 +116,38 @@ def build(cls: type[T], data: Any, where: str = "") -> T:
         return cls.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(one_line(exc, where)) from None
+
+
+def checked(cls: C) -> C:
+    """A pydantic dataclass (``pydantic.dataclasses.dataclass``: built by position or keyword, and by
+    ``dataclasses.replace``) whose construction fails with one `ConfigError` line naming the class, the field
+    and the value, as `build` words it.
+
+    >>> from pydantic import Field
+    >>> from pydantic.dataclasses import dataclass
+    >>> @checked
+    ... @dataclass(frozen=True)
+    ... class Budget:
+    ...     runs: int = Field(1, ge=1)
+    >>> Budget(0)
+    Traceback (most recent call last):
+    ...
+    toolkit.world.errors.ConfigError: Budget: runs: 0 must be greater than or equal to 1
+    """
+    init = cls.__init__  # type: ignore[misc]  # the class's own, wrapped below
+    names = [f.name for f in dataclasses.fields(cls) if f.init]
+
+    @functools.wraps(init)
+    def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
+        if len(args) > len(names):
+            raise ConfigError(f"{cls.__name__}: {len(args)} values for {len(names)} fields")
+        try:  # by name, so that an error names the field
+            init(self, **dict(zip(names, args, strict=False)), **kwargs)
+        except ValidationError as exc:
+            raise ConfigError(one_line(exc, cls.__name__)) from None
+
+    cls.__init__ = __init__  # type: ignore[misc]
+    return cls
 
 
 def group_fields(kind: Any) -> dict[str, Any] | None:

@@ -3,18 +3,20 @@
 from __future__ import annotations
 
 import math
+import typing
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
+from pydantic import Field, InstanceOf, ValidationInfo, field_validator, model_validator
+from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from localisation.base import PoseEstimate
 from localisation.global_localisation import EXPLORATIONS, GlobalLocalisation
 from localisation.robot_options import THIN_RAY, localiser_options
 from toolkit.world import (
     MotionNoise,
-    NxtnavError,
     NxtSonar,
     Pose,
     RobotGeometry,
@@ -22,6 +24,8 @@ from toolkit.world import (
     SonarModel,
     angle_diff,
 )
+from toolkit.world.robot_model import NoiseModelName
+from toolkit.world.typed import checked, worded
 
 SUCCESS_CM = 2.0
 """Position tolerance of a successful localisation (cm)."""
@@ -35,6 +39,12 @@ SCENARIOS = ("global", "tracking", "kidnapped")
 
 
 TRACKER_PRIORS = ("noisy-truth", "pf")
+
+
+_CHOICES: dict[str, tuple[str, ...]] = {
+    "noise_model": typing.get_args(NoiseModelName), "tracker_prior": TRACKER_PRIORS,
+    "scan_processing": ("paper", "raw"), "exploration": EXPLORATIONS, "lobe": ("auto", "off")}
+"""The values each text setting of `BenchConfig` takes."""
 
 
 RUNS_COLUMNS = (
@@ -66,7 +76,8 @@ def pose_error(estimate: Pose, truth: Pose) -> tuple[float, float]:
     return estimate.distance_to(truth), math.degrees(angle_diff(estimate.theta, truth.theta))
 
 
-@dataclass(frozen=True)
+@checked
+@pydantic_dataclass(frozen=True)
 class BenchConfig:
     """Settings shared by every trial of a benchmark run.
 
@@ -118,50 +129,42 @@ class BenchConfig:
     """
 
     sonar: str = "ideal"
-    sensor_noise: float = 1.0
+    sensor_noise: float = Field(default=1.0, ge=0, allow_inf_nan=False)
     noise_model: str = "botsim"
-    motion_noise: float = 0.1
-    turn_noise: float = 0.005
+    motion_noise: float = Field(default=0.1, ge=0, allow_inf_nan=False)
+    turn_noise: float = Field(default=0.005, ge=0, allow_inf_nan=False)
     tracker_prior: str = "noisy-truth"
-    prior_sd_cm: float = 3.0
-    prior_sd_deg: float = 5.0
-    clearance_cm: float = 10.0
-    robot_radius_cm: float | None = None
-    tracking_steps: int = 12
+    prior_sd_cm: float = Field(default=3.0, ge=0, allow_inf_nan=False)
+    prior_sd_deg: float = Field(default=5.0, ge=0, allow_inf_nan=False)
+    clearance_cm: float = Field(default=10.0, ge=0, allow_inf_nan=False)
+    robot_radius_cm: float | None = Field(default=None, gt=0, allow_inf_nan=False)
+    tracking_steps: int = Field(default=12, ge=1)
     tracking_step_cm: tuple[float, float] = (6.0, 15.0)
-    kidnap_min_cm: float = 30.0
-    recovery_rounds: int = 3
+    kidnap_min_cm: float = Field(default=30.0, ge=0, allow_inf_nan=False)
+    recovery_rounds: int = Field(default=3, ge=1)
     scan_processing: str = "paper"
     exploration: str = "modes"
     lobe: str = "auto"
-    localiser_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
-    localise_options: Mapping[str, Any] = field(default_factory=dict)
-    sonar_model: NxtSonar | None = None
+    localiser_options: Mapping[str, Mapping[str, Any]] = Field(default_factory=dict)
+    localise_options: Mapping[str, Any] = Field(default_factory=dict)
+    sonar_model: InstanceOf[NxtSonar] | None = None
 
-    def __post_init__(self) -> None:
-        if self.tracker_prior not in TRACKER_PRIORS:
-            raise NxtnavError(f"tracker prior must be one of {', '.join(TRACKER_PRIORS)}, got {self.tracker_prior!r}")
-        for k in ("sensor_noise", "prior_sd_cm", "prior_sd_deg", "clearance_cm", "kidnap_min_cm"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v >= 0):
-                raise NxtnavError(f"{k} must be a non-negative number, got {v!r}")
-        if self.sonar_model is not None and self.sonar != "nxt":
-            raise NxtnavError(f"a sonar model (profile) is for the nxt sonar, not {self.sonar!r}")
-        if self.lobe not in ("auto", "off"):
-            raise NxtnavError(f"lobe must be 'auto' or 'off', got {self.lobe!r}")
-        if self.scan_processing not in ("paper", "raw"):
-            raise NxtnavError(f"scan processing must be 'paper' or 'raw', got {self.scan_processing!r}")
-        if self.exploration not in EXPLORATIONS:
-            raise NxtnavError(f"exploration must be one of {', '.join(EXPLORATIONS)}, got {self.exploration!r}")
-        if self.tracking_steps < 1 or self.recovery_rounds < 1:
-            raise NxtnavError("tracking_steps and recovery_rounds must be >= 1")
+    @field_validator(*_CHOICES)
+    @classmethod
+    def _one_of(cls, value: str, info: ValidationInfo) -> str:
+        name = str(info.field_name)
+        if value not in _CHOICES[name]:
+            raise worded(f"{name.replace('_', ' ')} must be one of {', '.join(_CHOICES[name])}, got {value!r}")
+        return value
+
+    @model_validator(mode="after")
+    def _fits(self) -> BenchConfig:
         lo, hi = self.tracking_step_cm
         if not 0 < lo <= hi:
-            raise NxtnavError(f"tracking_step_cm must be 0 < low <= high, got {self.tracking_step_cm}")
-        MotionNoise(self.noise_model, self.motion_noise, self.turn_noise)  # type: ignore[arg-type]
-        r = self.robot_radius_cm
-        if r is not None and not (math.isfinite(r) and r > 0):
-            raise NxtnavError(f"robot radius must be a positive number of cm, got {r!r}")
+            raise ValueError(f"tracking_step_cm must be 0 < low <= high, got {self.tracking_step_cm}")
+        if self.sonar_model is not None and self.sonar != "nxt":
+            raise ValueError(f"a sonar model (profile) is for the nxt sonar, not {self.sonar!r}")
+        return self
 
     @property
     def strategy(self) -> GlobalLocalisation:
@@ -305,13 +308,37 @@ class LocalisationOutcome:
 
 
 @dataclass(frozen=True)
-class GlobalRun:
-    """One global-localisation trial (a row of ``runs.csv``)."""
+class TrialKey:
+    """Which trial a result is: map, localiser, trial number and seed (the first columns of every CSV)."""
 
     map: str
     localiser: str
     trial: int
     seed: int
+
+
+_KEY_FIELDS = frozenset(TrialKey.__dataclass_fields__)
+
+
+class _KeyedTrial:
+    """A trial result whose `key`'s fields read as its own (``run.map``, ``run.seed``): the CSV's column names."""
+
+    key: TrialKey
+
+    def __getattr__(self, name: str) -> Any:
+        if name in _KEY_FIELDS and "key" in self.__dict__:
+            return getattr(self.key, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def _row(self, columns: tuple[str, ...]) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in columns}
+
+
+@dataclass(frozen=True)
+class GlobalRun(_KeyedTrial):
+    """One global-localisation trial (a row of ``runs.csv``)."""
+
+    key: TrialKey
     success: bool
     error_cm: float
     heading_error_deg: float
@@ -326,17 +353,14 @@ class GlobalRun:
     """Candidate poses of an ambiguous final belief (0: not ambiguous)."""
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in RUNS_COLUMNS}
+        return self._row(RUNS_COLUMNS)
 
 
 @dataclass(frozen=True)
-class TrackingRun:
+class TrackingRun(_KeyedTrial):
     """One tracking trial (a row of ``tracking.csv``); errors are against the true pose after every action."""
 
-    map: str
-    localiser: str
-    trial: int
-    seed: int
+    key: TrialKey
     steps: int
     rmse_cm: float
     rmse_heading_deg: float
@@ -362,11 +386,11 @@ class TrackingRun:
     scenario: str = field(default="tracking", repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in TRACKING_COLUMNS}
+        return self._row(TRACKING_COLUMNS)
 
 
 @dataclass(frozen=True)
-class KidnappedRun:
+class KidnappedRun(_KeyedTrial):
     """One kidnapped-robot trial (a row of ``kidnapped.csv``).
 
     `recovery_iterations` and `recovery_scans` count the procedure's iterations and scans after the
@@ -375,10 +399,7 @@ class KidnappedRun:
     of the whole trial.
     """
 
-    map: str
-    localiser: str
-    trial: int
-    seed: int
+    key: TrialKey
     localised: bool
     kidnap_cm: float
     recovered: bool
@@ -391,7 +412,7 @@ class KidnappedRun:
     scenario: str = field(default="kidnapped", repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in KIDNAPPED_COLUMNS}
+        return self._row(KIDNAPPED_COLUMNS)
 
 
 TrialResult = GlobalRun | TrackingRun | KidnappedRun

@@ -35,6 +35,7 @@ from .records import (
     KidnappedRun,
     LocalisationOutcome,
     TrackingRun,
+    TrialKey,
     TrialResult,
     TrialTask,
     is_success,
@@ -205,12 +206,16 @@ def run_trial(task: TrialTask) -> TrialResult:
 
 def _failed(task: TrialTask, msg: str) -> TrialResult:
     nan = math.nan
-    head = (task.map, task.localiser, task.trial, task.seed)
+    head = _key(task)
     if task.scenario == "global":
-        return GlobalRun(*head, False, nan, nan, nan, 0, 0, False, nan, failure=msg)
+        return GlobalRun(head, False, nan, nan, nan, 0, 0, False, nan, failure=msg)
     if task.scenario == "tracking":
-        return TrackingRun(*head, 0, nan, nan, nan, nan, nan, 0, failure=msg)
-    return KidnappedRun(*head, False, nan, False, -1, -1, nan, nan, nan, failure=msg)
+        return TrackingRun(head, 0, nan, nan, nan, nan, nan, 0, failure=msg)
+    return KidnappedRun(head, False, nan, False, -1, -1, nan, nan, nan, failure=msg)
+
+
+def _key(task: TrialTask) -> TrialKey:
+    return TrialKey(task.map, task.localiser, task.trial, task.seed)
 
 
 def _trial_streams(task: TrialTask) -> tuple[np.random.Generator, np.random.Generator]:
@@ -223,7 +228,7 @@ def _run_global(task: TrialTask) -> GlobalRun:
     pose_rng, run_rng = _trial_streams(task)
     truth = m.random_pose(pose_rng, task.config.pose_clearance_cm)
     out, _, loc = localise_once(m, truth, task.localiser, config=task.config, rng=run_rng)
-    return GlobalRun(task.map, task.localiser, task.trial, task.seed, out.success, out.error_cm,
+    return GlobalRun(_key(task), out.success, out.error_cm,
                      out.heading_error_deg, out.time_s, out.iterations, out.scans, out.converged, out.cpu_time_s,
                      candidates=len(candidate_poses(loc)))
 
@@ -301,7 +306,7 @@ def _run_tracking(task: TrialTask) -> TrackingRun:
     ea, ha = np.asarray(errs), np.asarray(herrs)
     ca = np.asarray(counts, dtype=float)
     echo = ~np.asarray(blind)
-    return TrackingRun(task.map, task.localiser, task.trial, task.seed, len(drive),
+    return TrackingRun(_key(task), len(drive),
                        float(np.sqrt(np.mean(ea**2))), float(np.sqrt(np.mean(ha**2))), float(ea[-1]),
                        float(ea.max()), elapsed, int(robot.collisions), float(np.median(ca)), float(ca.max()),
                        1e3 * float(np.median(update_s)), tuple(float(e) for e in ea), int((~echo).sum()),
@@ -361,5 +366,5 @@ def _run_kidnapped(task: TrialTask) -> KidnappedRun:
             recovered = True
             break
     elapsed = time.perf_counter() - t0
-    return KidnappedRun(task.map, task.localiser, task.trial, task.seed, localised, float(dist[i]), recovered,
+    return KidnappedRun(_key(task), localised, float(dist[i]), recovered,
                         iterations if recovered else -1, scans if recovered else -1, err, herr, elapsed)

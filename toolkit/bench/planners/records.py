@@ -5,13 +5,17 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, InstanceOf, field_validator, model_validator
+from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from planners import PlanStatus
 
 from ...robots.sim import MotionNoise
-from ...world import CHECKER_BACKENDS, PlanningError, RobotGeometry, RobotTiming
-from .simplify import SIMPLIFY_METHODS, SimplifyMethod
+from ...world import CHECKER_BACKENDS, RobotGeometry, RobotTiming
+from ...world.typed import checked
+from .simplify import SimplifyMethod
 
 #: Columns of ``runs.csv``, in order: the raw path's metrics, its first solution, then the simplified path's,
 #: then the objective the planner minimised, the path's cost under it, the query's reference cost under it,
@@ -255,7 +259,8 @@ class RunRecord:
 
 
 # -- the benchmark -------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@checked
+@pydantic_dataclass(frozen=True)
 class BenchmarkConfig:
     """What to benchmark.
 
@@ -294,48 +299,35 @@ class BenchmarkConfig:
         The robot's speed, turn rate and stop-and-turn time: its robot time.
     """
 
-    maps: tuple[str, ...]
-    planners: tuple[str, ...]
-    runs: int = 50
-    time_limit: float = 1.0
+    maps: Annotated[tuple[str, ...], Field(min_length=1)]
+    planners: Annotated[tuple[str, ...], Field(min_length=1)]
+    runs: int = Field(default=50, ge=1)
+    time_limit: float = Field(default=1.0, gt=0, allow_inf_nan=False)
     seed: int = 0
     queries: QueryMode = "presets"
-    exec_repeats: int = 100
-    robot_radius: float = RobotGeometry().radius_cm
-    noise: MotionNoise = field(default_factory=MotionNoise)
+    exec_repeats: int = Field(default=100, ge=0)
+    robot_radius: float = Field(default=RobotGeometry().radius_cm, ge=0, allow_inf_nan=False)
+    noise: InstanceOf[MotionNoise] = Field(default_factory=MotionNoise)
     collision: str = "index"
     simplify: SimplifyMethod = "ompl"
-    progress_interval: float = 0.01
-    planner_options: dict[str, dict[str, Any]] = field(default_factory=dict)
+    progress_interval: float = Field(default=0.01, gt=0, allow_inf_nan=False)
+    planner_options: dict[str, dict[str, Any]] = Field(default_factory=dict)
     objective: str | None = None
-    timing: RobotTiming = field(default_factory=RobotTiming)
+    timing: InstanceOf[RobotTiming] = Field(default_factory=RobotTiming)
 
-    def __post_init__(self) -> None:
-        if not self.maps:
-            raise PlanningError("no maps to benchmark")
-        if not self.planners:
-            raise PlanningError("no planners to benchmark")
-        if len(set(self.maps)) != len(self.maps):
-            raise PlanningError(f"map listed twice in {', '.join(self.maps)}")
-        if len(set(self.planners)) != len(self.planners):
-            raise PlanningError(f"planner listed twice in {', '.join(self.planners)}")
-        if self.runs < 1:
-            raise PlanningError(f"runs must be >= 1, got {self.runs}")
-        if not (math.isfinite(self.time_limit) and self.time_limit > 0):
-            raise PlanningError(f"time limit must be a positive number of seconds, got {self.time_limit}")
-        if self.exec_repeats < 0:
-            raise PlanningError(f"exec repeats must be >= 0, got {self.exec_repeats}")
-        if self.queries not in ("presets", "random"):
-            raise PlanningError(f"queries must be 'presets' or 'random', got {self.queries!r}")
-        if not (math.isfinite(self.robot_radius) and self.robot_radius >= 0):
-            raise PlanningError(f"robot radius must be a number of cm >= 0 (0: a point), got {self.robot_radius}")
-        if self.collision not in CHECKER_BACKENDS:
-            raise PlanningError(f"collision backend must be one of {', '.join(CHECKER_BACKENDS)}, "
-                                f"got {self.collision!r}")
-        if self.simplify not in SIMPLIFY_METHODS:
-            raise PlanningError(f"simplify must be one of {', '.join(SIMPLIFY_METHODS)}, got {self.simplify!r}")
-        if not (math.isfinite(self.progress_interval) and self.progress_interval > 0):
-            raise PlanningError(f"progress interval must be a positive number of seconds, got {self.progress_interval}")
+    @field_validator("collision")
+    @classmethod
+    def _backend(cls, value: str) -> str:
+        if value not in CHECKER_BACKENDS:
+            raise ValueError(f"must be one of {', '.join(CHECKER_BACKENDS)}")
+        return value
+
+    @model_validator(mode="after")
+    def _each_once(self) -> BenchmarkConfig:
+        for what, names in (("map", self.maps), ("planner", self.planners)):
+            if len(set(names)) != len(names):
+                raise ValueError(f"{what} listed twice in {', '.join(names)}")
+        return self
 
     def n_queries(self) -> int:
         return len(self.maps) * (1 if self.queries == "presets" else self.runs)
