@@ -35,21 +35,24 @@ toolkit.world.errors.ConfigError: --set: no option 'motion.speed'; motion has: s
 from __future__ import annotations
 
 import dataclasses
+import functools
 import typing
-from collections.abc import Iterator, Mapping
-from typing import Any, TypeVar
+from collections.abc import Callable, Iterator, Mapping
+from typing import Annotated, Any, TypeVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Strict, TypeAdapter, ValidationError
+from pydantic.dataclasses import dataclass as pydantic_dataclass
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticCustomError
 
 from .errors import ConfigError
 from .yaml_text import YAMLError, load_yaml
 
-__all__ = ["Typed", "build", "fields_of", "group_fields", "one_line", "parse_value", "with_sets", "with_values",
-           "worded"]
+__all__ = ["Real", "Typed", "Whole", "build", "fields_of", "group_fields", "model_fields", "one_line", "parse_value",
+           "schema_of", "typed_dataclass", "with_sets", "with_values", "worded"]
 
-T = TypeVar("T", bound=BaseModel)
+T = TypeVar("T")
+C = TypeVar("C", bound=type)
 
 
 class Typed(BaseModel):
@@ -57,6 +60,43 @@ class Typed(BaseModel):
     checked finite unless a field says otherwise."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, validate_default=True)
+
+
+_DATACLASS_CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True)
+
+
+def typed_dataclass(*, frozen: bool = True) -> Callable[[C], C]:
+    """`Typed`'s rules for a class that must stay a dataclass (built with positional arguments, copied with
+    ``dataclasses.replace``, read with ``dataclasses.asdict``): a pydantic dataclass, its fields validated
+    on construction and on ``replace``, unknown fields refused, numbers finite.
+
+    >>> from pydantic import Field
+    >>> @typed_dataclass()
+    ... class Wheel:
+    ...     diameter_cm: Real = Field(5.6, gt=0)
+    >>> Wheel(6).diameter_cm, dataclasses.replace(Wheel(), diameter_cm=4.0).diameter_cm
+    (6.0, 4.0)
+    >>> build(Wheel, {"diameter_cm": True}, "wheel.yaml")
+    Traceback (most recent call last):
+    ...
+    toolkit.world.errors.ConfigError: wheel.yaml: diameter_cm: True must be a valid number
+    """
+    def wrap(cls: C) -> C:
+        return typing.cast(C, pydantic_dataclass(frozen=frozen, config=_DATACLASS_CONFIG)(cls))
+
+    return wrap
+
+
+def _no_text_or_flag(value: Any) -> Any:
+    if isinstance(value, bool | str):
+        raise PydanticCustomError("int_type", "Input should be a valid integer")
+    return value
+
+
+Real = Annotated[float, Strict()]
+"""A float field that takes a number (an int too), never a text or true/false."""
+Whole = Annotated[int, BeforeValidator(_no_text_or_flag)]
+"""An int field that takes a whole number (``17`` or ``17.0``), never a text, true/false or ``17.5``."""
 
 
 def worded(text: str) -> PydanticCustomError:
@@ -108,19 +148,43 @@ def one_line(exc: ValidationError, where: str) -> str:
     return f"{where}: {text}" if where else text
 
 
+@functools.cache
+def _adapter(cls: type) -> TypeAdapter[Any]:
+    return TypeAdapter(cls)
+
+
+def _validated(cls: type[T], data: Any) -> T:
+    if issubclass(cls, BaseModel):
+        return typing.cast(T, cls.model_validate(data))
+    return typing.cast(T, _adapter(cls).validate_python(data))
+
+
 def build(cls: type[T], data: Any, where: str = "") -> T:
-    """`cls` validated from `data` (a mapping); a failure is one `ConfigError` line naming `where`."""
+    """`cls` (a `Typed` model or a `typed_dataclass`) validated from `data` (a mapping); a failure is one
+    `ConfigError` line naming `where`."""
     try:
-        return cls.model_validate(data)
+        return _validated(cls, data)
     except ValidationError as exc:
         raise ConfigError(one_line(exc, where)) from None
+
+
+def schema_of(cls: type) -> dict[str, Any]:
+    """The JSON Schema of a `Typed` model or a `typed_dataclass`."""
+    return _adapter(cls).json_schema()
+
+
+def model_fields(cls: type) -> dict[str, FieldInfo]:
+    """The pydantic fields of a model or a pydantic dataclass by name ({} for any other class)."""
+    if isinstance(cls, type) and issubclass(cls, BaseModel):
+        return dict(cls.model_fields)
+    return dict(getattr(cls, "__pydantic_fields__", None) or {})
 
 
 def group_fields(kind: Any) -> dict[str, Any] | None:
     """The fields of a group type (a pydantic model, or a standard dataclass nested in one) by name, each
     with its type; None when `kind` is a value, not a group."""
-    if isinstance(kind, type) and issubclass(kind, BaseModel):
-        return {name: info.annotation for name, info in kind.model_fields.items()}
+    if isinstance(kind, type) and (issubclass(kind, BaseModel) or hasattr(kind, "__pydantic_fields__")):
+        return {name: info.annotation for name, info in model_fields(kind).items()}
     if isinstance(kind, type) and dataclasses.is_dataclass(kind):
         hints = typing.get_type_hints(kind)
         return {f.name: hints.get(f.name, Any) for f in dataclasses.fields(kind)}
@@ -129,10 +193,10 @@ def group_fields(kind: Any) -> dict[str, Any] | None:
 
 def fields_of(cls: type[BaseModel], prefix: str = "") -> Iterator[tuple[str, FieldInfo]]:
     """Every leaf field of `cls` as (dotted name, field), nested groups expanded, in declaration order
-    (a standard dataclass nested in a model counts as one field)."""
-    for name, info in cls.model_fields.items():
+    (a standard dataclass nested in a model counts as one field, a `typed_dataclass` as a group)."""
+    for name, info in model_fields(cls).items():
         kind = info.annotation
-        if isinstance(kind, type) and issubclass(kind, BaseModel):
+        if model_fields(kind):
             yield from fields_of(kind, f"{prefix}{name}.")
         else:
             yield f"{prefix}{name}", info
@@ -151,32 +215,47 @@ def with_sets(model: T, sets: Mapping[str, str], where: str = "--set") -> T:
     return with_values(model, {key: parse_value(text) for key, text in sets.items()}, where)
 
 
-def _fields(value: Any) -> Any:
-    """A model's (or a nested dataclass group's) fields as nested dicts, every other value as it is (unlike
-    ``model_dump``, which would turn objects held in ``Any`` fields into dicts too)."""
-    if isinstance(value, BaseModel):
-        return {name: _fields(getattr(value, name)) for name in type(value).model_fields}
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
-    return value
+class _Group(dict[str, Any]):
+    """The overrides of one nested group (by field name), as `with_values` collects them."""
 
 
 def with_values(model: T, values: Mapping[str, Any], where: str = "--set") -> T:
-    """`model` with each ``dotted.key`` of `values` replaced by its value, validated again (groups may be
-    pydantic models or standard dataclasses nested in them)."""
-    data = _fields(model)
+    """`model` with each ``dotted.key`` of `values` replaced by its value, validated again. Groups may be
+    pydantic models, pydantic or standard dataclasses; a key is looked up in the group the model holds
+    (its own class, which may be a subclass of the declared one: a `RobotModel`'s sonar)."""
+    edits = _Group()
     for key, value in values.items():
-        node, parts = data, key.split(".")
-        known = group_fields(type(model)) or {}
+        node, parts, here = edits, key.split("."), typing.cast(Any, model)
         for depth, part in enumerate(parts):
-            group = ".".join(parts[:depth]) or type(model).__name__
+            known = group_fields(type(here)) or {}
             if part not in known:
+                group = ".".join(parts[:depth]) or type(model).__name__
                 raise ConfigError(f"{where}: no option {key!r}; {group} has: {', '.join(known)}")
-            inner = group_fields(known[part])
-            if depth < len(parts) - 1:
-                if inner is None:
-                    raise ConfigError(f"{where}: {'.'.join(parts[:depth + 1])} is a value, not a group")
-                node, known = node[part], inner
-            else:
+            if depth == len(parts) - 1:
                 node[part] = value
-    return build(type(model), data, where)
+                break
+            here = getattr(here, part)
+            if group_fields(type(here)) is None:
+                raise ConfigError(f"{where}: {'.'.join(parts[:depth + 1])} is a value, not a group")
+            inner = node.get(part)
+            if not isinstance(inner, _Group):
+                inner = node[part] = _Group()
+            node = inner
+    return typing.cast(T, _rebuilt(model, edits, where, ()))
+
+
+def _rebuilt(group: Any, edits: _Group, where: str, path: tuple[str, ...]) -> Any:
+    """`group` (at `path` in the model) with `edits`, validated as its own class; an error names the field by
+    its whole dotted path."""
+    data = {name: getattr(group, name) for name in group_fields(type(group)) or {}}
+    for name, edit in edits.items():
+        data[name] = _rebuilt(getattr(group, name), edit, where, (*path, name)) if isinstance(edit, _Group) else edit
+    if not path:
+        return build(type(group), data, where)
+    if not model_fields(type(group)):  # a standard dataclass: the model holding it validates the values
+        return data
+    try:
+        return _validated(type(group), data)
+    except ValidationError as exc:
+        errors = [{**e, "loc": (*path, *e.get("loc", ()))} for e in exc.errors()]
+        raise ConfigError(f"{where}: " + "; ".join(_message(e) for e in errors)) from None
