@@ -79,23 +79,48 @@ def typed_dataclass(*, frozen: bool = True) -> Callable[[C], C]:
     >>> build(Wheel, {"diameter_cm": True}, "wheel.yaml")
     Traceback (most recent call last):
     ...
-    toolkit.world.errors.ConfigError: wheel.yaml: diameter_cm: True must be a valid number
+    toolkit.world.errors.ConfigError: wheel.yaml: diameter_cm must be a number, got True
+    >>> Wheel(-1)
+    Traceback (most recent call last):
+    ...
+    toolkit.world.errors.ConfigError: Wheel: diameter_cm: -1 must be greater than 0
     """
     def wrap(cls: C) -> C:
-        return typing.cast(C, pydantic_dataclass(frozen=frozen, config=_DATACLASS_CONFIG)(cls))
+        made: Any = pydantic_dataclass(frozen=frozen, config=_DATACLASS_CONFIG)(cls)
+        validating_init = made.__init__
+
+        @functools.wraps(validating_init)
+        def init(self: Any, *args: Any, **kwargs: Any) -> None:
+            names = list(made.__pydantic_fields__)
+            if len(args) <= len(names):  # by name, so that an error names the field
+                args, kwargs = (), {**dict(zip(names, args, strict=False)), **kwargs}
+            try:
+                validating_init(self, *args, **kwargs)
+            except ValidationError as exc:  # built in code: the same one line as from a file, named by class
+                raise ConfigError(one_line(exc, made.__name__)) from None
+
+        made.__init__ = init
+        return typing.cast(C, made)
 
     return wrap
 
 
-def _no_text_or_flag(value: Any) -> Any:
-    if isinstance(value, bool | str):
-        raise PydanticCustomError("int_type", "Input should be a valid integer")
+def _number(value: Any) -> Any:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise PydanticCustomError("needs", "must be a number")
     return value
 
 
-Real = Annotated[float, Strict()]
-"""A float field that takes a number (an int too), never a text or true/false."""
-Whole = Annotated[int, BeforeValidator(_no_text_or_flag)]
+def _whole(value: Any) -> Any:
+    if isinstance(value, bool) or not isinstance(value, int | float) or (isinstance(value, float)
+                                                                       and not value.is_integer()):
+        raise PydanticCustomError("needs", "must be a whole number")
+    return int(value)
+
+
+Real = Annotated[float, BeforeValidator(_number), Strict()]
+"""A float field that takes a number (an int too), never a text or true/false: ``x must be a number, got 'a'``."""
+Whole = Annotated[int, BeforeValidator(_whole)]
 """An int field that takes a whole number (``17`` or ``17.0``), never a text, true/false or ``17.5``."""
 
 
@@ -126,6 +151,8 @@ def _message(err: Mapping[str, Any]) -> str:
     if err.get("type") == "worded":
         return str((err.get("ctx") or {}).get("text", err.get("msg", "")))
     path = ".".join(str(p) for p in err.get("loc", ()))
+    if err.get("type") == "needs":  # the field's kind of value: worded as the readers have always said it
+        return f"{path} {err.get('msg')}, got {err.get('input')!r}"
     text = str(err.get("msg", "invalid"))
     if text.startswith("Value error, "):
         text = text[len("Value error, "):]
