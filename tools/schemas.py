@@ -8,8 +8,8 @@ event lines (`toolkit.recordings.format`), a row of a sweep set's ``sweeps.csv``
 a map file (`toolkit.world.map_parsing.MapFile`), a sonar profile (`toolkit.real_sonar.profile_file.SonarProfileFile`),
 an NXT robot profile (`toolkit.robots.nxt_profile.NxtProfile`) and the robot model a run's configuration holds
 (`toolkit.world.robot_model.RobotModel`). File names start with the kind of file
-(``recording-``, ``sweep-set``, ``map``, ``sonar-profile``, ``nxt-profile``, ``robot-model``), so other schemas can share the
-folder: this tool writes and checks only its own files.
+(``recording-``, ``sweep-set``, ``map``, ``sonar-profile``, ``nxt-profile``, ``robot-model``), so other
+schemas can share the folder: this tool writes and checks only its own files.
 """
 
 from __future__ import annotations
@@ -36,11 +36,11 @@ def file_schemas() -> dict[str, str]:
     """The schema of each file kind, by file name, as the text written to the folder."""
     from toolkit.real_sonar.profile_file import SonarProfileFile
     from toolkit.real_sonar.sweeps import SweepRow
+    from toolkit.recordings.format import FORMAT_NAME, FORMAT_VERSION, event_schema, header_schema
     from toolkit.robots.nxt_profile import NxtProfile
+    from toolkit.world.map_parsing import MapFile
     from toolkit.world.robot_model import RobotModel
     from toolkit.world.typed import schema_of
-    from toolkit.recordings.format import FORMAT_NAME, FORMAT_VERSION, event_schema, header_schema
-    from toolkit.world.map_parsing import MapFile
 
     return {
         "recording-header.json": _text(header_schema(), f"{FORMAT_NAME} header (version {FORMAT_VERSION})",

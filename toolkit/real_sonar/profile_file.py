@@ -43,17 +43,18 @@ class SonarProfileError(NxtnavError, ValueError):
 class SonarProfileFile(Typed):
     """A sonar profile file (YAML): the ``nxt`` sonar's parameters and where they came from."""
 
-    kind: Literal["nxtnav-sonar-profile"] = Field(PROFILE_KIND, description="What the file is.")
-    sonar: Literal["nxt"] = Field("nxt", description="The sonar model the parameters are of.")
+    kind: Literal["nxtnav-sonar-profile"] = Field(default="nxtnav-sonar-profile", description="What the file is.")
+    sonar: Literal["nxt"] = Field(default="nxt", description="The sonar model the parameters are of.")
     params: NxtSonar = Field(default_factory=NxtSonar, description=(
         "The model's parameters; those left out keep the model's defaults."))
-    fit: dict[str, Any] | None = Field(None, description=(
+    fit: dict[str, Any] | None = Field(default=None, description=(
         "How the parameters were found (nxtnav sonar fit: sweeps, headings, scores); not read."))
 
 
 def save_sonar_profile(model: NxtSonar, path: str | Path, *, fit: dict[str, Any] | None = None) -> None:
     """Write `model` as a sonar profile (YAML: kind, sonar, params, and optional fit provenance)."""
-    params = {k: (int(v) if k == "beam_rays" else round(float(v), 6)) for k, v in asdict(model).items()}
+    params: dict[str, Any] = {k: (int(v) if k == "beam_rays" else round(float(v), 6))
+                              for k, v in asdict(model).items()}
     doc = SonarProfileFile(params=NxtSonar(**params), fit=fit or None)
     data = {k: v for k, v in doc.model_dump(mode="json").items() if v is not None}
     data["params"] = params  # as rounded, in the model's order

@@ -55,10 +55,10 @@ class NxtProfile:
     """Wiring and calibration of an NXT robot (lengths in cm, angles in degrees); each field's range,
     unit and meaning is in its declaration, and the profile file holds the same fields."""
 
-    left_port: MotorPort = Field("A", description="Motor output of the left wheel.")
-    right_port: MotorPort = Field("B", description="Motor output of the right wheel.")
-    turret_port: MotorPort = Field("C", description="Motor output of the sensor turret.")
-    sonar_port: Whole = Field(4, ge=1, le=4, description="Input port of the ultrasonic sensor (1-4).")
+    left_port: MotorPort = Field(default="A", description="Motor output of the left wheel.")
+    right_port: MotorPort = Field(default="B", description="Motor output of the right wheel.")
+    turret_port: MotorPort = Field(default="C", description="Motor output of the sensor turret.")
+    sonar_port: Whole = Field(default=4, ge=1, le=4, description="Input port of the ultrasonic sensor (1-4).")
     wheel_diameter_cm: Real = _field(5.6, "cm", "Drive wheel diameter (standard NXT wheel 5.6 cm); calibrated "
                                                 "by driving a known distance.", gt=0)
     track_width_cm: Real = _field(12.0, "cm", "Distance between the wheel contact points; calibrated by spinning "
@@ -68,11 +68,11 @@ class NxtProfile:
     turret_gear_ratio: Real = _field(1.0, "motor deg / sensor deg", "Turret motor degrees per degree of sensor "
                                                                     "rotation.", gt=0)
     sensor_offset_cm: Real = _field(0.0, "cm", "Distance from the turret axis to the sensor face.", ge=0)
-    reverse_drive: StrictBool = Field(False, description="A positive motor power drives the robot backwards.")
-    reverse_turret: StrictBool = Field(False, description="A positive motor power turns the turret clockwise.")
-    drive_power: Power = Field(50, description="Motor power of moves.")
-    turn_power: Power = Field(40, description="Motor power of spins.")
-    turret_power: Power = Field(30, description="Motor power of turret steps.")
+    reverse_drive: StrictBool = Field(default=False, description="A positive motor power drives the robot backwards.")
+    reverse_turret: StrictBool = Field(default=False, description="A positive motor power turns the turret clockwise.")
+    drive_power: Power = Field(default=50, description="Motor power of moves.")
+    turn_power: Power = Field(default=40, description="Motor power of spins.")
+    turret_power: Power = Field(default=30, description="Motor power of turret steps.")
     watchdog_cm: Real | None = _field(None, "cm", "A forward move stops when the sonar reads closer than this "
                                                   "(default: radius + 4 cm).", gt=0)
     backoff_cm: Real = _field(10.0, "cm", "How far Turnback reverses.", gt=0)

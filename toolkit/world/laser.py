@@ -39,15 +39,15 @@ class LaserScanner(SonarModel):
 
     name: ClassVar[str] = "laser"
     no_echo: ClassVar[float] = float("inf")
-    noise_sd: Real = Field(1.0, ge=0.0, json_schema_extra={"unit": "cm"},
+    noise_sd: Real = Field(default=1.0, ge=0.0, json_schema_extra={"unit": "cm"},
                            description="Standard deviation of an echo's reading.")
-    min_range_cm: Real = Field(0.0, ge=0.0, json_schema_extra={"unit": "cm"}, description=(
+    min_range_cm: Real = Field(default=0.0, ge=0.0, json_schema_extra={"unit": "cm"}, description=(
         "Readings below this are no echo (a ROS LaserScan's range_min)."))
-    max_range_cm: Real = Field(3000.0, ge=0.0, json_schema_extra={"unit": "cm"}, description=(
+    max_range_cm: Real = Field(default=3000.0, ge=0.0, json_schema_extra={"unit": "cm"}, description=(
         "Readings beyond this are no echo (a ROS LaserScan's range_max)."))
-    miss_prob: Real = Field(0.0, ge=0.0, le=1.0, json_schema_extra={"unit": "probability"},
+    miss_prob: Real = Field(default=0.0, ge=0.0, le=1.0, json_schema_extra={"unit": "probability"},
                             description="Probability that an echo within the limits is lost.")
-    rand_prob: Real = Field(0.0, ge=0.0, le=1.0, json_schema_extra={"unit": "probability"}, description=(
+    rand_prob: Real = Field(default=0.0, ge=0.0, le=1.0, json_schema_extra={"unit": "probability"}, description=(
         "Probability that a reading is uniformly random within the limits (also where nothing echoes)."))
 
     @model_validator(mode="after")

@@ -50,12 +50,13 @@ class MotionNoise:
     """Motion noise: `model` is ``botsim`` (proportional) or ``absolute``; defaults are the paper's (how
     `motion` and `turn` apply: `toolkit.robots.sim`)."""
 
-    model: NoiseModelName = Field("botsim", description="How motion and turn apply: botsim (proportional) or "
+    model: NoiseModelName = Field(default="botsim", description="How motion and turn apply: botsim (proportional) or "
                                                         "absolute.")
-    motion: Real = Field(0.1, ge=0, json_schema_extra={"unit": "fraction (botsim) or cm (absolute)"},
+    motion: Real = Field(default=0.1, ge=0, json_schema_extra={"unit": "fraction (botsim) or cm (absolute)"},
                          description="botsim: fraction of each move (0.1); absolute: cm per move.")
-    turn: Real = Field(0.005, ge=0, json_schema_extra={"unit": "fraction (botsim) or rad (absolute)"}, description=(
-        "botsim: fraction of each turn and rad of heading noise per move (0.005); absolute: rad."))
+    turn: Real = Field(default=0.005, ge=0, json_schema_extra={"unit": "fraction (botsim) or rad (absolute)"},
+                       description=("botsim: fraction of each turn and rad of heading noise per move (0.005); "
+                                    "absolute: rad."))
 
     def to_dict(self) -> dict[str, object]:
         return {"model": self.model, "motion": self.motion, "turn": self.turn}
@@ -91,7 +92,7 @@ class RobotModel:
     motion: MotionNoise = Field(default_factory=MotionNoise, description="Motion noise.")
     geometry: RobotGeometry = Field(default_factory=RobotGeometry, description="Size and build.")
     timing: RobotTiming = Field(default_factory=RobotTiming, description="Robot time of each action.")
-    readings: Literal["simulated", "real"] = Field("simulated", description=(
+    readings: Literal["simulated", "real"] = Field(default="simulated", description=(
         "simulated: each reading drawn independently; real: readings keep the model's fitted correlation."))
 
     @classmethod

@@ -35,14 +35,15 @@ class RobotTiming:
     more than a robot gives.
     """
 
-    drive_speed_cm_s: Real = Field(15.0, gt=0, json_schema_extra={"unit": "cm/s"},
+    drive_speed_cm_s: Real = Field(default=15.0, gt=0, json_schema_extra={"unit": "cm/s"},
                                    description="Straight-line speed.")
-    turn_rate_deg_s: Real = Field(90.0, gt=0, json_schema_extra={"unit": "deg/s"}, description="Spin-in-place rate.")
-    reading_s: Real = Field(0.023, ge=0, json_schema_extra={"unit": "s"}, description=(
+    turn_rate_deg_s: Real = Field(default=90.0, gt=0, json_schema_extra={"unit": "deg/s"},
+                                  description="Spin-in-place rate.")
+    reading_s: Real = Field(default=0.023, ge=0, json_schema_extra={"unit": "s"}, description=(
         "Time per sonar reading, the turret standing; the sensor gives at most ~50 readings/s."))
-    turret_rate_deg_s: Real = Field(240.0, gt=0, json_schema_extra={"unit": "deg/s"},
+    turret_rate_deg_s: Real = Field(default=240.0, gt=0, json_schema_extra={"unit": "deg/s"},
                                     description="Turret speed (sensor degrees per second).")
-    stop_turn_s: Real = Field(0.0, ge=0, json_schema_extra={"unit": "s"}, description=(
+    stop_turn_s: Real = Field(default=0.0, ge=0, json_schema_extra={"unit": "s"}, description=(
         "Fixed time of each stop-and-turn command besides the spin itself: 0 by default, the simulator's "
         "account so far; the brick's command round trip and motor settling when measured."))
 

@@ -14,9 +14,9 @@ as YAML) to a model, nested groups included.
 
 >>> from pydantic import Field
 >>> class Motion(Typed):
-...     sd_cm: float = Field(1.0, ge=0, description="drive noise", json_schema_extra={"unit": "cm"})
+...     sd_cm: float = Field(default=1.0, ge=0, description="drive noise", json_schema_extra={"unit": "cm"})
 >>> class Robot(Typed):
-...     radius_cm: float = Field(10.0, gt=0)
+...     radius_cm: float = Field(default=10.0, gt=0)
 ...     motion: Motion = Motion()
 >>> with_sets(Robot(), {"motion.sd_cm": "2.5"}).motion.sd_cm
 2.5
@@ -40,7 +40,7 @@ import typing
 from collections.abc import Callable, Iterator, Mapping
 from typing import Annotated, Any, TypeVar
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Strict, TypeAdapter, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict, TypeAdapter, ValidationError
 from pydantic.dataclasses import dataclass as pydantic_dataclass
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticCustomError
@@ -65,6 +65,7 @@ class Typed(BaseModel):
 _DATACLASS_CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True)
 
 
+@typing.dataclass_transform(field_specifiers=(dataclasses.field, Field))
 def typed_dataclass(*, frozen: bool = True) -> Callable[[C], C]:
     """`Typed`'s rules for a class that must stay a dataclass (built with positional arguments, copied with
     ``dataclasses.replace``, read with ``dataclasses.asdict``): a pydantic dataclass, its fields validated
@@ -73,7 +74,7 @@ def typed_dataclass(*, frozen: bool = True) -> Callable[[C], C]:
     >>> from pydantic import Field
     >>> @typed_dataclass()
     ... class Wheel:
-    ...     diameter_cm: Real = Field(5.6, gt=0)
+    ...     diameter_cm: Real = Field(default=5.6, gt=0)
     >>> Wheel(6).diameter_cm, dataclasses.replace(Wheel(), diameter_cm=4.0).diameter_cm
     (6.0, 4.0)
     >>> build(Wheel, {"diameter_cm": True}, "wheel.yaml")
@@ -183,7 +184,7 @@ def _adapter(cls: type) -> TypeAdapter[Any]:
 def _validated(cls: type[T], data: Any) -> T:
     if issubclass(cls, BaseModel):
         return typing.cast(T, cls.model_validate(data))
-    return typing.cast(T, _adapter(cls).validate_python(data))
+    return typing.cast(T, _adapter(typing.cast(Any, cls)).validate_python(data))
 
 
 def build(cls: type[T], data: Any, where: str = "") -> T:
@@ -200,7 +201,7 @@ def schema_of(cls: type) -> dict[str, Any]:
     return _adapter(cls).json_schema()
 
 
-def model_fields(cls: type) -> dict[str, FieldInfo]:
+def model_fields(cls: Any) -> dict[str, FieldInfo]:
     """The pydantic fields of a model or a pydantic dataclass by name ({} for any other class)."""
     if isinstance(cls, type) and issubclass(cls, BaseModel):
         return dict(cls.model_fields)
@@ -218,7 +219,7 @@ def group_fields(kind: Any) -> dict[str, Any] | None:
     return None
 
 
-def fields_of(cls: type[BaseModel], prefix: str = "") -> Iterator[tuple[str, FieldInfo]]:
+def fields_of(cls: Any, prefix: str = "") -> Iterator[tuple[str, FieldInfo]]:
     """Every leaf field of `cls` as (dotted name, field), nested groups expanded, in declaration order
     (a standard dataclass nested in a model counts as one field, a `typed_dataclass` as a group)."""
     for name, info in model_fields(cls).items():
@@ -237,49 +238,52 @@ def parse_value(text: str) -> Any:
         return text
 
 
-def with_sets(model: T, sets: Mapping[str, str], where: str = "--set") -> T:
-    """`model` with each ``dotted.key`` of `sets` replaced by its text read as YAML, validated again."""
-    return with_values(model, {key: parse_value(text) for key, text in sets.items()}, where)
+def with_sets(model: T, sets: Mapping[str, str], where: str = "--set", section: str = "") -> T:
+    """`model` with each ``dotted.key`` of `sets` replaced by its text read as YAML, validated again (an error
+    names a key as ``section.key`` when `section` is given: ``--set robot.timing.drive_speed_cm_s``)."""
+    return with_values(model, {key: parse_value(text) for key, text in sets.items()}, where, section)
 
 
 class _Group(dict[str, Any]):
     """The overrides of one nested group (by field name), as `with_values` collects them."""
 
 
-def with_values(model: T, values: Mapping[str, Any], where: str = "--set") -> T:
+def with_values(model: T, values: Mapping[str, Any], where: str = "--set", section: str = "") -> T:
     """`model` with each ``dotted.key`` of `values` replaced by its value, validated again. Groups may be
     pydantic models, pydantic or standard dataclasses; a key is looked up in the group the model holds
-    (its own class, which may be a subclass of the declared one: a `RobotModel`'s sonar)."""
+    (its own class, which may be a subclass of the declared one: a `RobotModel`'s sonar). With `section`,
+    messages name each key as ``section.key``."""
     edits = _Group()
+    head = (section,) if section else ()
     for key, value in values.items():
         node, parts, here = edits, key.split("."), typing.cast(Any, model)
         for depth, part in enumerate(parts):
             known = group_fields(type(here)) or {}
             if part not in known:
-                group = ".".join(parts[:depth]) or type(model).__name__
-                raise ConfigError(f"{where}: no option {key!r}; {group} has: {', '.join(known)}")
+                group = ".".join((*head, *parts[:depth])) or type(model).__name__
+                raise ConfigError(f"{where}: no option {'.'.join((*head, key))!r}; {group} has: {', '.join(known)}")
             if depth == len(parts) - 1:
                 node[part] = value
                 break
             here = getattr(here, part)
             if group_fields(type(here)) is None:
-                raise ConfigError(f"{where}: {'.'.join(parts[:depth + 1])} is a value, not a group")
+                raise ConfigError(f"{where}: {'.'.join((*head, *parts[:depth + 1]))} is a value, not a group")
             inner = node.get(part)
             if not isinstance(inner, _Group):
                 inner = node[part] = _Group()
             node = inner
-    return typing.cast(T, _rebuilt(model, edits, where, ()))
+    return typing.cast(T, _rebuilt(model, edits, where, head, top=True))
 
 
-def _rebuilt(group: Any, edits: _Group, where: str, path: tuple[str, ...]) -> Any:
+def _rebuilt(group: Any, edits: _Group, where: str, path: tuple[str, ...], top: bool = False) -> Any:
     """`group` (at `path` in the model) with `edits`, validated as its own class; an error names the field by
     its whole dotted path."""
     data = {name: getattr(group, name) for name in group_fields(type(group)) or {}}
     for name, edit in edits.items():
         data[name] = _rebuilt(getattr(group, name), edit, where, (*path, name)) if isinstance(edit, _Group) else edit
-    if not path:
+    if top and not path:
         return build(type(group), data, where)
-    if not model_fields(type(group)):  # a standard dataclass: the model holding it validates the values
+    if not top and not model_fields(type(group)):  # a standard dataclass: the model holding it validates the values
         return data
     try:
         return _validated(type(group), data)
