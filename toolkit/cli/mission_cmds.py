@@ -43,7 +43,7 @@ from .options import (
     writable_file,
 )
 from .progress import progress
-from .run_config import configuration, dumps, given_sets, mission_config
+from .run_config import configuration, dumps, given_sets, mission_config, robot_sets
 from .run_parts import RunOutputs, Stack, mission_on_nxt, mission_on_sim
 
 __all__: list[str] = []
@@ -307,6 +307,22 @@ def _paper_options(sets: list[str], sonars: list[str]) -> dict[str, Any]:
     return {key: parse_value(text) for key, text in sections.get("mission", {}).items()}
 
 
+def _paper_robots(ctx: typer.Context, sets: list[str], sonars: list[str], models: list[str],
+                  profile: NxtSonar | None) -> dict[str, Any]:
+    """The robot of each sonar and noise model (``ideal/botsim``), ``--set robot.`` and ``sonar.`` settings
+    applied; a bad setting is one line naming it."""
+    from ..robots.sim import simulated_sonar
+    from .run_config import robot_model
+
+    every = given_sets(ctx, sets)
+    robots = {}
+    for so in sonars:
+        sonar = simulated_sonar(profile if so == "nxt" and profile is not None else so, 1.0)
+        for nm in models:
+            robots[f"{so}/{nm}"] = robot_model(RobotModel.build(sonar, noise_model=nm), every, ctx, sets).to_dict()
+    return robots
+
+
 def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list[str], models: list[str],
                 settings: str | None, workers: int, random_start: bool, json_out: Path | None,
                 profile: NxtSonar | None = None, collision: str = "index", dask: str | None = None) -> None:
@@ -415,8 +431,9 @@ def paper(
     check_writable(markdown, "--markdown")
     stacks = _parse_stacks(stack)
     options = _paper_options(given_sets(ctx, sets), sonars)
+    robots = _paper_robots(ctx, sets, sonars, models, profile)
     configured = configuration(ctx, sets, mission={so: mission_config(so, given_sets(ctx, sets), collision).to_dict()
-                                                   for so in sonars})
+                                                   for so in sonars}, robot=robots)
     _check_objective(objective, [p for p, _ in stacks])
     if objective is not None:
         options["planning.objective"] = objective
@@ -427,6 +444,7 @@ def paper(
     tasks = [t for so in sonars
              for t in paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=so,
                                   random_start=random_start, options=options,
+                                  robot_sets=robot_sets(given_sets(ctx, sets)),
                                   sonar_model=profile if so == "nxt" else None, collision=collision)]
     batch = run_batch(run_trial, tasks, "missions", workers=workers, dask=dask, transient=True)
     results = in_task_order(batch.results, tasks)  # as `run_paper` orders and summarises them

@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from ..world import RobotModel
 
 __all__ = ["SECTIONS", "SHORTHANDS", "add_configuration", "configuration", "dumps", "given_sets", "load_config",
-           "mission_config", "mission_sets", "robot_model", "split_sets"]
+           "mission_config", "mission_sets", "robot_model", "robot_sets", "split_sets"]
 
 SECTIONS = ("mission", "robot", "sonar")
 """The settings sections ``--set`` knows besides the plug-ins' names."""
@@ -126,18 +126,20 @@ def robot_model(base: RobotModel, sets: list[str], ctx: typer.Context | None = N
     a bad key or value is one line naming it (``--set: robot.timing.drive_speed_cm_s: -1 must be ...``).
     With `ctx`, a ``--set`` of `command_line` and a shorthand flag given there for the same field are an
     error."""
-    from dataclasses import replace
+    from ..world.robot_model import with_robot_sets
 
     _shorthand_clash(ctx, command_line or [])
-    sections = split_sets(sets)[0]
     try:
-        sonar = base.sonar
-        if sections.get("sonar"):
-            sonar = with_sets(sonar, sections["sonar"], "--set", section="sonar")
-        robot = replace(base, sonar=sonar) if sonar is not base.sonar else base
-        return with_sets(robot, sections["robot"], "--set", section="robot") if sections.get("robot") else robot
+        return with_robot_sets(base, robot_sets(sets))
     except ConfigError as exc:
         raise NxtnavError(str(exc)) from None
+
+
+def robot_sets(sets: list[str]) -> dict[str, str]:
+    """The ``robot.`` and ``sonar.`` settings of `sets`, by their whole key (``robot.timing.drive_speed_cm_s``)."""
+    sections = split_sets(sets)[0]
+    return {f"{section}.{key}": text for section in ("robot", "sonar")
+            for key, text in sections.get(section, {}).items()}
 
 
 def given_sets(ctx: typer.Context, sets: list[str]) -> list[str]:

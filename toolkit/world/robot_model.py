@@ -20,12 +20,13 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, PlainValidator, WithJsonSchema
 
+from .errors import ConfigError
 from .robot import RobotGeometry
 from .robot_timing import RobotTiming
 from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
-from .typed import Real, build, typed_dataclass
+from .typed import Real, build, typed_dataclass, with_sets
 
-__all__ = ["FACETS", "NXT_SONAR_SIGMA_CM", "MotionNoise", "RobotModel"]
+__all__ = ["FACETS", "NXT_SONAR_SIGMA_CM", "MotionNoise", "RobotModel", "with_robot_sets"]
 
 NoiseModelName = Literal["botsim", "absolute"]
 
@@ -170,3 +171,21 @@ class RobotModel:
     def to_dict(self) -> dict[str, Any]:
         return {"sonar": self.sonar.to_dict(), "motion": self.motion.to_dict(), "geometry": self.geometry.to_dict(),
                 "timing": self.timing.to_dict(), "readings": self.readings}
+
+
+def with_robot_sets(model: RobotModel, sets: Mapping[str, str], where: str = "--set") -> RobotModel:
+    """`model` with the settings `sets` (``robot.GROUP.FIELD`` and ``sonar.FIELD`` keys, values as typed,
+    read as YAML), validated again; a bad key or value is one `ConfigError` line naming the key as given.
+
+    >>> with_robot_sets(RobotModel(), {"robot.timing.drive_speed_cm_s": "20", "sonar.noise_sd": "2"}).timing
+    RobotTiming(drive_speed_cm_s=20.0, turn_rate_deg_s=90.0, reading_s=0.023, turret_rate_deg_s=240.0, stop_turn_s=0.0)
+    """
+    own: dict[str, dict[str, str]] = {"robot": {}, "sonar": {}}
+    for key, text in sets.items():
+        section, _, rest = key.partition(".")
+        if section not in own or not rest:
+            raise ConfigError(f"{where}: {key!r} is no robot setting (robot.GROUP.FIELD or sonar.FIELD)")
+        own[section][rest] = text
+    if own["sonar"]:
+        model = replace(model, sonar=with_sets(model.sonar, own["sonar"], where, section="sonar"))
+    return with_sets(model, own["robot"], where, section="robot") if own["robot"] else model
