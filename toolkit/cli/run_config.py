@@ -46,6 +46,8 @@ SHORTHANDS: dict[str, tuple[str, ...]] = {
     "--noise": ("robot.sonar.noise_sd", "robot.motion.motion", "robot.motion.turn"),
     "--sensor-noise": ("robot.sonar.noise_sd",),
     "--noise-model": ("robot.motion.model",),
+    "--motion-noise": ("robot.motion.motion",),
+    "--turn-noise": ("robot.motion.turn",),
     "--drive-speed": ("robot.timing.drive_speed_cm_s",),
     "--turn-rate": ("robot.timing.turn_rate_deg_s",),
     "--stop-turn": ("robot.timing.stop_turn_s",),
