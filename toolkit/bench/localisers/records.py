@@ -22,6 +22,7 @@ from toolkit.world import (
     SonarModel,
     angle_diff,
 )
+from toolkit.world.robot_model import with_robot_sets
 
 SUCCESS_CM = 2.0
 """Position tolerance of a successful localisation (cm)."""
@@ -115,6 +116,9 @@ class BenchConfig:
     sonar_model : NxtSonar, optional
         The ``nxt`` sonar's model (a fitted profile's, `toolkit.real_sonar.fit.load_sonar_profile`): the
         simulator reads with it and the localisers get its lobe. None: `NxtSonar`'s defaults.
+    robot_sets : tuple of (key, text)
+        ``--set robot.GROUP.FIELD`` and ``sonar.FIELD`` settings applied to the robot model
+        (`toolkit.world.robot_model.with_robot_sets`).
     """
 
     sonar: str = "ideal"
@@ -137,6 +141,7 @@ class BenchConfig:
     localiser_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     localise_options: Mapping[str, Any] = field(default_factory=dict)
     sonar_model: NxtSonar | None = None
+    robot_sets: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if self.tracker_prior not in TRACKER_PRIORS:
@@ -182,10 +187,11 @@ class BenchConfig:
     @property
     def robot(self) -> RobotModel:
         """The one robot model of the run: the simulator reads and moves with it, every localiser is told it."""
-        return RobotModel.build(self.sonar if self.sonar_model is None else self.sonar_model,
+        base = RobotModel.build(self.sonar if self.sonar_model is None else self.sonar_model,
                                 sensor_noise=self.sensor_noise, noise_model=self.noise_model,
                                 motion_noise=self.motion_noise, turn_noise=self.turn_noise,
                                 radius_cm=self.robot_radius_cm)
+        return with_robot_sets(base, dict(self.robot_sets)) if self.robot_sets else base
 
     @property
     def noise(self) -> MotionNoise:
