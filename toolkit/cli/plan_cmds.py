@@ -108,6 +108,12 @@ def _noise(model: str, motion: float, turn: float) -> Any:
         raise NxtnavError(f"--noise-model/--motion-noise/--turn-noise: {exc}") from None
 
 
+def _plan_robot(ctx: typer.Context, sets: list[str], noise: Any, timing: RobotTiming) -> RobotModel:
+    """The robot of `nxtnav plan`: its motion noise and timing flags, then ``--set robot.`` settings (a flag
+    and a ``--set`` of the same field on the command line are an error)."""
+    return robot_model(RobotModel(motion=noise, timing=timing), given_sets(ctx, sets), ctx, sets)
+
+
 def _to_builtin(obj: Any) -> Any:
     """numpy scalars and arrays (planner `info` extras) as JSON values."""
     if isinstance(obj, np.ndarray | np.generic):
@@ -154,14 +160,12 @@ def plan(
 
     if not (math.isfinite(time_limit) and time_limit > 0):
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
-    robot = robot_model(RobotModel(motion=_noise(noise_model, motion_noise, turn_noise),
-                                   timing=robot_timing(drive_speed, turn_rate, stop_turn)),
-                        given_sets(ctx, sets), ctx, sets)
+    robot = _plan_robot(ctx, sets, _noise(noise_model, motion_noise, turn_noise),
+                        robot_timing(drive_speed, turn_rate, stop_turn))
     nz, timing = robot.motion, robot.timing
     check_planner_names([planner])
-    plugins = split_sets(given_sets(ctx, sets))[1]
-    options = planner_objectives(objective, [planner], checked_sets(parse_sets(plugins), [planner],
-                                                                    planner_options, "planner"))[planner]
+    options = planner_objectives(objective, [planner], checked_sets(parse_sets(split_sets(given_sets(ctx, sets))[1]),
+                                                                    [planner], planner_options, "planner"))[planner]
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)

@@ -25,10 +25,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import Field
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from ..world import ConfigError, NxtnavError, NxtSonar
-from ..world.typed import Typed, build
+from ..world.typed import Typed, build, worded
 from ..world.yaml_text import YAMLError, load_yaml
 
 __all__ = ["PROFILE_KIND", "SonarProfileError", "SonarProfileFile", "load_sonar_profile", "save_sonar_profile"]
@@ -49,6 +49,22 @@ class SonarProfileFile(Typed):
         "The model's parameters; those left out keep the model's defaults."))
     fit: dict[str, Any] | None = Field(default=None, description=(
         "How the parameters were found (nxtnav sonar fit: sweeps, headings, scores); not read."))
+
+    @model_validator(mode="before")
+    @classmethod
+    def _known_fields(cls, data: Any) -> Any:
+        stray = [str(k) for k in data if k not in cls.model_fields] if isinstance(data, dict) else []
+        if stray:
+            raise worded(f"unknown field {', '.join(map(repr, stray))} (known: {', '.join(cls.model_fields)})")
+        return data
+
+    @field_validator("kind", "sonar", mode="before")
+    @classmethod
+    def _one_value(cls, value: Any, info: ValidationInfo) -> Any:
+        want = cls.model_fields[str(info.field_name)].default
+        if value != want:
+            raise worded(f"field {info.field_name!r} must be {want!r}, got {value!r}")
+        return value
 
 
 def save_sonar_profile(model: NxtSonar, path: str | Path, *, fit: dict[str, Any] | None = None) -> None:

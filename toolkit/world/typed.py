@@ -160,7 +160,7 @@ def _message(err: Mapping[str, Any]) -> str:
     text = text[:1].lower() + text[1:]
     if text.startswith("input should be "):  # pydantic's "Input should be greater than 0"
         text = "must be " + text[len("input should be "):]
-    if err.get("type") == "extra_forbidden":
+    if err.get("type") in ("extra_forbidden", "unexpected_keyword_argument"):  # a model's, a dataclass's
         return f"{path}: unknown field"
     if err.get("type") == "missing":
         return f"{path}: missing"
