@@ -36,7 +36,7 @@ import numpy as np
 from pydantic import Field
 
 from toolkit.world import CollisionChecker, Map, RngLike, Robot, Scan, angle_diff, as_rng, make_checker
-from toolkit.world.typed import Real, Whole, typed_dataclass
+from toolkit.world.typed import Count, NonNegative, Real, Whole, typed_dataclass
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 from .exploration import explore_direction, explore_from_modes, scan_explore_move
@@ -174,13 +174,13 @@ class GlobalLocalisation:
     attempts: Whole = Field(default=3, ge=1)
     confirm: bool = True
     confirm_all: bool = True
-    confirm_tolerance_cm: Real = Field(default=5.0, ge=0)
-    max_explore_moves: Whole = Field(default=6, ge=0)
-    explore_step_cm: Real = Field(default=30.0, ge=0)
-    explore_heading_tolerance_deg: Real = Field(default=12.0, ge=0)
-    align_sweeps: Whole = Field(default=2, ge=0)
-    place_cm: Real = Field(default=4.0, ge=0)
-    margin_cm: Real = Field(default=2.0, ge=0)
+    confirm_tolerance_cm: NonNegative = 5.0
+    max_explore_moves: Count = 6
+    explore_step_cm: NonNegative = 30.0
+    explore_heading_tolerance_deg: NonNegative = 12.0
+    align_sweeps: Count = 2
+    place_cm: NonNegative = 4.0
+    margin_cm: NonNegative = 2.0
     exploration: Literal["modes", "scan"] = "modes"
 
     def look_options(self) -> dict[str, Any]:

@@ -14,7 +14,7 @@ from typing import Annotated
 from pydantic import Field, model_validator
 
 from ..world import RobotGeometry
-from ..world.typed import Real, Whole, typed_dataclass, worded
+from ..world.typed import Positive, Real, Whole, typed_dataclass, worded
 
 __all__ = ["US_CMD_CONTINUOUS", "US_CMD_EVENT", "US_CMD_OFF", "US_CMD_RESET", "US_CMD_SINGLE_SHOT", "US_I2C_ADDRESS",
            "US_REG_COMMAND", "US_REG_DISTANCE", "US_REG_INTERVAL", "BrickConfig", "InputPort", "Motor", "MotorMode",
@@ -116,21 +116,21 @@ class BrickConfig:
     right_port: Port = 1
     turret_port: Port = 2
     sonar_port: Whole = Field(default=3, ge=0, le=3)
-    deg_per_s_per_power: Real = Field(default=8.0, gt=0)
-    accel_deg_s2: Real = Field(default=6000.0, gt=0)
-    coast_decel_deg_s2: Real = Field(default=2000.0, gt=0)
-    substep_s: Real = Field(default=0.005, gt=0)
-    time_factor: Real = Field(default=1.0, gt=0)
-    max_step_s: Real = Field(default=0.02, gt=0)
+    deg_per_s_per_power: Positive = 8.0
+    accel_deg_s2: Positive = 6000.0
+    coast_decel_deg_s2: Positive = 2000.0
+    substep_s: Positive = 0.005
+    time_factor: Positive = 1.0
+    max_step_s: Positive = 0.02
     free_run: bool | None = None
     i2c_pending_polls: Whole = Field(default=0, ge=0, le=20)
     wheel_slip: Real = Field(default=0.0, ge=0, lt=0.5)
-    brake_decel_deg_s2: Real | None = Field(default=None, gt=0)
+    brake_decel_deg_s2: Positive | None = None
     latency_s: Real | None = Field(default=None, gt=0, le=1)
     battery_mv: Whole = 8000
     name: str = Field(default="nxtnav-virtual", max_length=14)
     brake_on_disconnect: bool = True
-    reassembly_s: Real = Field(default=0.25, gt=0)
+    reassembly_s: Positive = 0.25
 
     @model_validator(mode="after")
     def _ports_differ(self) -> BrickConfig:

@@ -48,8 +48,9 @@ from pydantic_core import PydanticCustomError
 from .errors import ConfigError
 from .yaml_text import YAMLError, load_yaml
 
-__all__ = ["Real", "Typed", "Whole", "build", "fields_of", "group_fields", "model_fields", "one_line", "parse_value",
-           "schema_of", "typed_dataclass", "with_sets", "with_values", "worded"]
+__all__ = ["Count", "NonNegative", "Positive", "Real", "Typed", "Whole", "build", "fields_of", "group_fields",
+           "model_fields", "one_line", "parse_value", "schema_of", "typed_dataclass", "with_sets", "with_values",
+           "worded"]
 
 T = TypeVar("T")
 C = TypeVar("C", bound=type)
@@ -123,6 +124,12 @@ Real = Annotated[float, BeforeValidator(_number), Strict()]
 """A float field that takes a number (an int too), never a text or true/false: ``x must be a number, got 'a'``."""
 Whole = Annotated[int, BeforeValidator(_whole)]
 """An int field that takes a whole number (``17`` or ``17.0``), never a text, true/false or ``17.5``."""
+Positive = Annotated[Real, Field(gt=0)]
+"""A `Real` > 0."""
+NonNegative = Annotated[Real, Field(ge=0)]
+"""A `Real` >= 0."""
+Count = Annotated[Whole, Field(ge=0)]
+"""A `Whole` >= 0."""
 
 
 def worded(text: str) -> PydanticCustomError:
