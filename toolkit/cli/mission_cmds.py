@@ -438,6 +438,9 @@ def paper(
     if objective is not None:
         options["planning.objective"] = objective
     if pareto is not None:
+        if robot_sets(given_sets(ctx, sets)):
+            raise NxtnavError("--pareto compares mission settings on the paper's robot; --set robot.* and sonar.* "
+                              "are for the tables")
         _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out,
                     profile, collision, dask)
         return
