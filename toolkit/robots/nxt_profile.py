@@ -145,8 +145,6 @@ class NxtProfile:
             text = p.read_text(encoding="utf-8")
         except OSError as exc:
             raise ProfileError(f"cannot read robot profile {p}: {exc.strerror or exc}") from None
-        except UnicodeDecodeError:
-            raise ProfileError(f"robot profile {p} is not UTF-8 text") from None
         try:
             data = load_yaml(text)
         except YAMLError as exc:

@@ -134,10 +134,10 @@ class BrickConfig:
 
     @model_validator(mode="after")
     def _ports_differ(self) -> BrickConfig:
-        ports = (self.left_port, self.right_port, self.turret_port)
-        if len(set(ports)) != 3:
-            raise worded(f"motor ports must be three different values of 0, 1, 2; got {ports}")
-        return self
+        if len({self.left_port, self.right_port, self.turret_port}) == 3:
+            return self
+        raise worded("motor ports must be three different values of 0, 1, 2; got "
+                     f"{(self.left_port, self.right_port, self.turret_port)}")
 
 
 @dataclass
