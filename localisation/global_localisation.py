@@ -30,13 +30,13 @@ import time
 from collections.abc import Mapping
 from dataclasses import replace
 from enum import StrEnum
-from typing import Any, Literal, Protocol
+from typing import Any, Protocol
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from toolkit.world import CollisionChecker, Map, RngLike, Robot, Scan, angle_diff, as_rng, make_checker
-from toolkit.world.typed import Count, NonNegative, Real, Whole, typed_dataclass
+from toolkit.world.typed import Count, NonNegative, Real, Whole, typed_dataclass, worded
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 from .exploration import explore_direction, explore_from_modes, scan_explore_move
@@ -181,7 +181,14 @@ class GlobalLocalisation:
     align_sweeps: Count = 2
     place_cm: NonNegative = 4.0
     margin_cm: NonNegative = 2.0
-    exploration: Literal["modes", "scan"] = "modes"
+    exploration: str = "modes"
+
+    @field_validator("exploration")
+    @classmethod
+    def _known_rule(cls, value: str) -> str:
+        if value not in EXPLORATIONS:
+            raise worded(f"exploration must be one of {', '.join(EXPLORATIONS)}, got {value!r}")
+        return value
 
     def look_options(self) -> dict[str, Any]:
         """Keyword arguments of the look of a global sweep (`localisation.procedure.look`)."""
