@@ -28,13 +28,15 @@ import logging
 import math
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from enum import StrEnum
 from typing import Any, Protocol
 
 import numpy as np
+from pydantic import Field, field_validator
 
-from toolkit.world import CollisionChecker, ConfigError, Map, RngLike, Robot, Scan, angle_diff, as_rng, make_checker
+from toolkit.world import CollisionChecker, Map, RngLike, Robot, Scan, angle_diff, as_rng, make_checker
+from toolkit.world.typed import Count, NonNegative, Real, Whole, typed_dataclass, worded
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 from .exploration import explore_direction, explore_from_modes, scan_explore_move
@@ -125,7 +127,7 @@ class RobotDriver:
         log.debug("%s", text)
 
 
-@dataclass(frozen=True)
+@typed_dataclass()
 class GlobalLocalisation:
     """The global-localisation strategy and its settings (lengths in cm, angles in degrees).
 
@@ -166,38 +168,27 @@ class GlobalLocalisation:
         The exploration rule (`EXPLORATIONS`).
     """
 
-    scan_step_deg: float = 2.0
+    scan_step_deg: Real = Field(default=2.0, gt=0, le=90)
     align: bool = False
     process: bool = True
-    attempts: int = 3
+    attempts: Whole = Field(default=3, ge=1)
     confirm: bool = True
     confirm_all: bool = True
-    confirm_tolerance_cm: float = 5.0
-    max_explore_moves: int = 6
-    explore_step_cm: float = 30.0
-    explore_heading_tolerance_deg: float = 12.0
-    align_sweeps: int = 2
-    place_cm: float = 4.0
-    margin_cm: float = 2.0
+    confirm_tolerance_cm: NonNegative = 5.0
+    max_explore_moves: Count = 6
+    explore_step_cm: NonNegative = 30.0
+    explore_heading_tolerance_deg: NonNegative = 12.0
+    align_sweeps: Count = 2
+    place_cm: NonNegative = 4.0
+    margin_cm: NonNegative = 2.0
     exploration: str = "modes"
 
-    def __post_init__(self) -> None:
-        if not (isinstance(self.scan_step_deg, int | float) and 0 < self.scan_step_deg <= 90):
-            raise ConfigError("global localisation: scan_step_deg must be in (0, 90] degrees, "
-                              f"got {self.scan_step_deg!r}")
-        for name in ("attempts", "max_explore_moves", "align_sweeps"):
-            v = getattr(self, name)
-            lowest = 1 if name == "attempts" else 0
-            if not (isinstance(v, int) and not isinstance(v, bool) and v >= lowest):
-                raise ConfigError(f"global localisation: {name} must be an integer >= {lowest}, got {v!r}")
-        for name in ("confirm_tolerance_cm", "explore_step_cm", "explore_heading_tolerance_deg", "margin_cm",
-                     "place_cm"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ConfigError(f"global localisation: {name} must be a number >= 0, got {v!r}")
-        if self.exploration not in EXPLORATIONS:
-            raise ConfigError(f"global localisation: exploration must be one of {', '.join(EXPLORATIONS)}, "
-                              f"got {self.exploration!r}")
+    @field_validator("exploration")
+    @classmethod
+    def _known_rule(cls, value: str) -> str:
+        if value not in EXPLORATIONS:
+            raise worded(f"exploration must be one of {', '.join(EXPLORATIONS)}, got {value!r}")
+        return value
 
     def look_options(self) -> dict[str, Any]:
         """Keyword arguments of the look of a global sweep (`localisation.procedure.look`)."""

@@ -23,14 +23,15 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
+from pydantic import Field, field_validator
 
-from toolkit.world import ConfigError, Map, RngLike, as_rng, ray_cast, wrap_angle
+from toolkit.world import Map, RngLike, as_rng, ray_cast, wrap_angle
 from toolkit.world.arrays import FloatArray
+from toolkit.world.typed import Real, typed_dataclass, worded
 
 from .base import Motion
 from .range_table import (
@@ -72,7 +73,7 @@ log = logging.getLogger(__name__)
 NOISE_MODELS = ("botsim", "absolute")
 
 
-@dataclass(frozen=True)
+@typed_dataclass()
 class MotionModel:
     """Sampling motion model with the simulator's noise semantics (see the module docstring).
 
@@ -88,18 +89,17 @@ class MotionModel:
         Factor applied to both noise levels (> 1 makes the filter more tolerant of unmodelled error).
     """
 
-    model: str = "botsim"
-    motion: float = 0.1
-    turn: float = 0.005
-    inflation: float = 1.0
+    model: Literal["botsim", "absolute"] = "botsim"
+    motion: Real = Field(default=0.1, ge=0)
+    turn: Real = Field(default=0.005, ge=0)
+    inflation: Real = Field(default=1.0, ge=0)
 
-    def __post_init__(self) -> None:
-        if self.model not in NOISE_MODELS:
-            raise ConfigError(f"noise model must be one of {', '.join(NOISE_MODELS)}, got {self.model!r}")
-        for k in ("motion", "turn", "inflation"):
-            v = getattr(self, k)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ConfigError(f"MotionModel.{k} must be a non-negative number, got {v!r}")
+    @field_validator("model", mode="before")
+    @classmethod
+    def _known_model(cls, value: Any) -> Any:
+        if value not in NOISE_MODELS:
+            raise worded(f"noise model must be one of {', '.join(NOISE_MODELS)}, got {value!r}")
+        return value
 
     def sample(self, poses: ArrayLike, motion: Motion, rng: RngLike = None) -> FloatArray:
         """Move every pose of `poses` ((N, 3): x cm, y cm, theta rad) by `motion`, with noise.
@@ -186,7 +186,7 @@ def exact_ranges(map: Map, poses: ArrayLike, rel_angles: ArrayLike, *, beam_widt
     return np.asarray(t[:, ray_of.reshape(rel.size, offsets.size)].min(axis=2), dtype=float)
 
 
-@dataclass(frozen=True)
+@typed_dataclass()
 class RangeLikelihood:
     """Gaussian likelihood of (expected - measured) range per beam, in log space.
 
@@ -202,14 +202,8 @@ class RangeLikelihood:
         Largest residual counted per beam, in units of `sigma_cm`.
     """
 
-    sigma_cm: float = 1.0
-    cap: float = 5.0
-
-    def __post_init__(self) -> None:
-        if not (self.sigma_cm > 0 and math.isfinite(self.sigma_cm)):
-            raise ConfigError(f"sigma_cm must be a positive number, got {self.sigma_cm!r}")
-        if not self.cap > 0:
-            raise ConfigError(f"cap must be > 0, got {self.cap!r}")
+    sigma_cm: Real = Field(default=1.0, gt=0)
+    cap: Real = Field(default=5.0, gt=0, allow_inf_nan=True)  # inf: the pure Gaussian
 
     def sq_residuals(self, expected: ArrayLike, measured: ArrayLike) -> FloatArray:
         """Sum over beams of the capped squared normalised residuals, (N, B) -> (N,)."""

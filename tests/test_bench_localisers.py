@@ -241,7 +241,7 @@ def test_non_empty_out_needs_force(tmp_path: Path, oracles: list[str], capsys: p
 def test_tracker_prior(kind: str, oracles: list[str]) -> None:
     m = load_map("map1")
     truth = Pose(80.0, 85.0, 0.5)
-    cfg = bench.BenchConfig(tracker_prior=kind, prior_sd_cm=3.0, prior_sd_deg=5.0)
+    cfg = bench.BenchConfig(tracker_prior=kind, prior_sd=(3.0, 5.0))
     out, robot, _ = bench.localise_once(m, truth, "test-tracker", config=cfg, rng=9)
     assert out.prior == kind
     priors = _PriorRecorder.priors

@@ -5,9 +5,11 @@ and fails, naming the files, when the folder differs from the models (a test run
 
 Each schema comes from the typed model the file's reader and writer share: a recording's header and
 event lines (`toolkit.recordings.format`), a row of a sweep set's ``sweeps.csv`` (`toolkit.real_sonar.sweeps.SweepRow`),
-a map file (`toolkit.world.map_parsing.MapFile`). File names start with the kind of file
-(``recording-``, ``sweep-set``, ``map``), so other schemas can share the
-folder: this tool writes and checks only its own files.
+a map file (`toolkit.world.map_parsing.MapFile`), a sonar profile (`toolkit.real_sonar.profile_file.SonarProfileFile`),
+an NXT robot profile (`toolkit.robots.nxt_profile.NxtProfile`) and the robot model a run's configuration holds
+(`toolkit.world.robot_model.RobotModel`). File names start with the kind of file
+(``recording-``, ``sweep-set``, ``map``, ``sonar-profile``, ``nxt-profile``, ``robot-model``), so other
+schemas can share the folder: this tool writes and checks only its own files.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 FOLDER = Path(__file__).resolve().parent.parent / "docs" / "reference" / "schemas"
-PREFIXES = ("recording-", "sweep-set", "map.")
+PREFIXES = ("recording-", "sweep-set", "map.", "sonar-profile.", "nxt-profile.", "robot-model.")
 """The names this tool owns in the folder."""
 
 
@@ -32,9 +34,13 @@ def _text(schema: dict[str, Any], title: str, description: str) -> str:
 
 def file_schemas() -> dict[str, str]:
     """The schema of each file kind, by file name, as the text written to the folder."""
+    from toolkit.real_sonar.profile_file import SonarProfileFile
     from toolkit.real_sonar.sweeps import SweepRow
     from toolkit.recordings.format import FORMAT_NAME, FORMAT_VERSION, event_schema, header_schema
+    from toolkit.robots.nxt_profile import NxtProfile
     from toolkit.world.map_parsing import MapFile
+    from toolkit.world.robot_model import RobotModel
+    from toolkit.world.typed import schema_of
 
     return {
         "recording-header.json": _text(header_schema(), f"{FORMAT_NAME} header (version {FORMAT_VERSION})",
@@ -49,6 +55,15 @@ def file_schemas() -> dict[str, str]:
                           "A polygonal map (YAML, cm): boundary with obstacles, or regions; optional thin walls, "
                           "grid, start and target. The geometric rules (simple polygons, obstacles strictly inside "
                           "and apart, walls and presets in the free space) are checked by the reader."),
+        "sonar-profile.json": _text(SonarProfileFile.model_json_schema(), "nxtnav sonar profile",
+                                    "The nxt sonar's model (YAML) as nxtnav sonar fit writes it and --sonar-profile "
+                                    "reads it."),
+        "nxt-profile.json": _text(schema_of(NxtProfile), "nxtnav NXT robot profile",
+                                  "Wiring and calibration of one LEGO NXT robot (YAML; --profile, nxtnav nxt "
+                                  "calibrate). Every field is optional."),
+        "robot-model.json": _text(schema_of(RobotModel), "nxtnav robot model",
+                                  "The robot a run simulates or drives (the robot part of a run's configuration; "
+                                  "--set robot.GROUP.FIELD=VALUE, --set sonar.FIELD=VALUE)."),
     }
 
 

@@ -25,11 +25,10 @@ from pathlib import Path
 from typing import Annotated, Any
 
 from pydantic import AfterValidator, Field, StringConstraints, model_validator
-from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from planners import PlanStatus
 from toolkit.world import ConfigError
-from toolkit.world.typed import checked
+from toolkit.world.typed import typed_dataclass
 
 __all__ = [
     "OMPL_STATUS",
@@ -94,8 +93,7 @@ def ompl_status(success: bool, status: PlanStatus) -> int:
     return OMPL_STATUS.index(_OMPL_LABEL.get(status, "Unknown status"))
 
 
-@checked
-@pydantic_dataclass(frozen=True)
+@typed_dataclass()
 class OmplPlannerData:
     """One planner's block of an OMPL log.
 

@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from toolkit.world import ConfigError, NxtSonar
+from toolkit.world import ConfigError, NxtSonar, RobotModel
+from toolkit.world.robot_model import with_robot_sets
 
 from ..mission import MissionConfig, RobotTimeSplit, run_sim_mission
 from ..robots.sim import simulated_sonar
@@ -81,6 +82,8 @@ class PaperTrial:
     """The ``nxt`` sonar's parameters (a fitted profile's; empty: the model's defaults)."""
     collision: str = "index"
     """Backend of the mission's and the simulator's collision checks (`MissionConfig.collision`)."""
+    robot_sets: tuple[tuple[str, str], ...] = ()
+    """``--set robot.GROUP.FIELD`` and ``sonar.FIELD`` settings (`toolkit.world.with_robot_sets`)."""
 
     @property
     def stack(self) -> str:
@@ -93,8 +96,20 @@ class PaperTrial:
 
     def sonar_dict(self) -> dict[str, Any]:
         """The simulated sonar's name and parameters (``to_dict`` of the model the simulator reads with)."""
+        robot = self.robot()
+        if robot is not None:
+            return robot.sonar.to_dict()
         return simulated_sonar(self.sonar if self.sonar_model is None else self.sonar_model,
                                self.sensor_noise).to_dict()
+
+    def robot(self) -> RobotModel | None:
+        """The robot simulated when `robot_sets` change it (None: the one the noise fields describe)."""
+        if not self.robot_sets:
+            return None
+        sonar = simulated_sonar(self.sonar if self.sonar_model is None else self.sonar_model, self.sensor_noise)
+        base = RobotModel.build(sonar, noise_model=self.noise_model, motion_noise=self.motion_noise,
+                                turn_noise=self.turn_noise)
+        return with_robot_sets(base, dict(self.robot_sets))
 
     def config(self) -> MissionConfig:
         """The mission configuration: the sonar's defaults with this trial's `options` and backend applied."""
@@ -122,7 +137,9 @@ class PaperResult:
     def to_dict(self) -> dict[str, Any]:
         d = {k: v for k, v in self.__dict__.items() if k not in ("task", "time_split")}
         d["robot_time_split"] = None if self.time_split is None else self.time_split.to_dict()
-        d.update({k: v for k, v in self.task.__dict__.items() if k not in ("options", "sonar_params")})
+        d.update({k: v for k, v in self.task.__dict__.items() if k not in ("options", "sonar_params", "robot_sets")})
+        if self.task.robot_sets:
+            d["robot_sets"] = dict(self.task.robot_sets)
         d["options"] = dict(self.task.options)
         d["sonar_model"] = self.task.sonar_dict()
         return d
@@ -137,7 +154,7 @@ def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> PaperRes
             task.map, seed=task.seed, planner=task.planner, localiser=task.localiser,
             noise_model=task.noise_model, sensor_noise=task.sensor_noise, motion_noise=task.motion_noise,
             turn_noise=task.turn_noise, sonar=task.sonar, sonar_model=task.sonar_model, config=config,
-            random_start_pose=task.random_start,
+            random_start_pose=task.random_start, robot=task.robot(),
         )
     except Exception as exc:  # a crash in one trial is a failed trial, not a lost table
         return PaperResult(task, False, f"crashed: {type(exc).__name__}: {exc}", math.nan, math.nan, math.nan,
@@ -170,11 +187,12 @@ def paper_tasks(
     options: Mapping[str, Any] | None = None,
     sonar_model: NxtSonar | None = None,
     collision: str = "index",
+    robot_sets: Mapping[str, str] | None = None,
 ) -> list[PaperTrial]:
     """Every trial of the table, in a fixed order (`random_start`: a seeded random free start pose
     at least 10 cm from the walls instead of the preset start; `options`: `MissionConfig` fields
     replacing the sonar's defaults; `sonar_model`: the ``nxt`` sonar's model, a fitted profile's;
-    `collision`: the collision backend)."""
+    `collision`: the collision backend; `robot_sets`: ``robot.`` and ``sonar.`` settings of every trial)."""
     if trials < 1:
         raise ConfigError(f"trials must be >= 1, got {trials}")
     if sonar_model is not None and sonar != "nxt":
@@ -184,9 +202,10 @@ def paper_tasks(
         raise ConfigError("the collision backend is set for the trials (--collision), not as a mission option")
     MissionConfig.for_sonar(sonar, **dict(opts), collision=collision)  # a bad option fails here, not in every trial
     params = () if sonar_model is None else tuple(asdict(sonar_model).items())
+    robot = tuple((robot_sets or {}).items())
     return [
         PaperTrial(m, i, derive_seed(seed, k, i), nm, p, lo, sonar, sensor_noise, motion_noise, turn_noise,
-                   random_start, opts, params, collision)
+                   random_start, opts, params, collision, robot)
         for nm in noise_models
         for p, lo in stacks
         for k, m in enumerate(maps)

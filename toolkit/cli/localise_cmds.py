@@ -40,7 +40,7 @@ from .options import (
     pose_on_map,
     sonar_profile,
 )
-from .run_config import configuration, given_sets
+from .run_config import configuration, given_sets, robot_model, robot_sets, split_sets
 from .set_options import localiser_sets
 
 __all__: list[str] = []
@@ -114,9 +114,11 @@ def localise_cmd(
     m = load_map(map_name)
     pose = pose_on_map(pose_text, "--pose", m)
     assert isinstance(pose, Pose)
-    cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
-                      scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
-                      localiser_options=localiser_sets(given_sets(ctx, sets), [localiser]), sonar_model=profile)
+    plugins = split_sets(given_sets(ctx, sets))[1]
+    cfg = _with_robot_sets(ctx, sets, BenchConfig(
+        sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
+        scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
+        localiser_options=localiser_sets(plugins, [localiser]), sonar_model=profile))
     out, _, loc = localise_once(m, pose, localiser, config=cfg, rng=seed)
     candidates = candidate_poses(loc)
     if candidates:  # the mean of several modes means nothing: name the candidates instead
@@ -131,7 +133,7 @@ def localise_cmd(
         doc = {"map": m.name, "localiser": localiser, "sonar": sonar, "sonar_model": cfg.simulated_sonar.to_dict(),
                "seed": seed, **out.to_dict(),
                "ambiguous": bool(candidates), "candidates": [c.to_list_deg() for c in candidates],
-               "configuration": configuration(ctx, sets)}
+               "configuration": configuration(ctx, sets, robot=cfg.robot.to_dict())}
         json_out.write_text(json.dumps(doc, indent=1))
         typer.echo(f"wrote {json_out}")
     if output is not None:
@@ -146,6 +148,16 @@ def _scenarios(text: str) -> list[str]:
     if text.strip() == "all":
         return list(SCENARIOS)
     return parse_list(text, "--scenario", list(SCENARIOS))
+
+
+def _with_robot_sets(ctx: typer.Context, sets: list[str], cfg: Any) -> Any:
+    """`cfg` (a `BenchConfig`) with the ``--set robot.`` and ``sonar.`` settings; a bad one, or one that a
+    shorthand flag given with it also sets, is one line before any work."""
+    from dataclasses import replace
+
+    every = given_sets(ctx, sets)
+    robot_model(cfg.robot, every, ctx, sets)
+    return replace(cfg, robot_sets=tuple(robot_sets(every).items()))
 
 
 def _check_bench_numbers(exploration: str, trials: int, workers: int, sensor_noise: float, out: Path,
@@ -228,11 +240,11 @@ def bench_localisers(
     profile = sonar_profile(sonar_profile_path, sonar)
     scenarios = _scenarios(scenario)
     _check_bench_numbers(exploration, trials, workers, sensor_noise, out, force)
-    options = localiser_sets(given_sets(ctx, sets), locs)
-    cfg = BenchConfig(sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
-                      tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
-                      exploration=exploration, lobe=lobe, robot_radius_cm=radius, localiser_options=options,
-                      sonar_model=profile)
+    options = localiser_sets(split_sets(given_sets(ctx, sets))[1], locs)
+    cfg = _with_robot_sets(ctx, sets, BenchConfig(
+        sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
+        tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,
+        exploration=exploration, lobe=lobe, robot_radius_cm=radius, localiser_options=options, sonar_model=profile))
     _check_construction(load_map(maps[0]), options)
     tasks = [t for s in scenarios for t in make_tasks(s, maps, locs, trials, seed, cfg)]
     out.mkdir(parents=True, exist_ok=True)
@@ -251,7 +263,8 @@ def bench_localisers(
     (out / "config.json").write_text(json.dumps({"maps": maps, "localisers": locs, "trials": trials, "seed": seed,
                                                  "scenarios": scenarios, "complete": not interrupted,
                                                  "trials_done": len(results), "trials_planned": len(tasks),
-                                                 **cfg.to_dict(), "configuration": configuration(ctx, sets)},
+                                                 **cfg.to_dict(),
+                                                 "configuration": configuration(ctx, sets, robot=cfg.robot.to_dict())},
                                                 indent=1, default=str))
     summary = out / "summary.md"
     summary.write_text(batch.banner() + summary.read_text())

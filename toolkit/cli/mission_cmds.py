@@ -10,7 +10,7 @@ import numpy as np
 import typer
 
 from ..number_format import json_safe
-from ..world import SONAR_MODELS, NxtnavError, NxtSonar, RobotGeometry, load_map, make_checker
+from ..world import SONAR_MODELS, NxtnavError, NxtSonar, RobotGeometry, RobotModel, load_map, make_checker
 from .app import EXIT_BAD_INPUT, EXIT_FAILED, app, fail
 from .choices import one_of
 from .interrupts import Batch, run_batch
@@ -43,7 +43,7 @@ from .options import (
     writable_file,
 )
 from .progress import progress
-from .run_config import configuration, dumps, given_sets, mission_config
+from .run_config import configuration, dumps, given_sets, mission_config, robot_sets
 from .run_parts import RunOutputs, Stack, mission_on_nxt, mission_on_sim
 
 __all__: list[str] = []
@@ -177,7 +177,6 @@ def run(
     objective: Objective = None,
 ) -> None:
     """Run one mission: localise, plan, drive with the watchdog, re-localise, correct at the target."""
-    from ..robots.sim import simulated_sonar
 
     if sonar.startswith("sweeps:"):  # real sweeps at waypoints: the course's challenge (docs/real-sonar.md)
         from .challenge_cmds import run_sweeps_mission
@@ -192,12 +191,13 @@ def run(
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
     localiser = _check_name(localiser, "--localiser", _localiser_names())
     _check_kinds(robot_kind, sonar, noise_model, nxt_backend)
-    sensor_noise, motion_noise, turn_noise = _noise(noise_text)
+    sensor_noise = _noise(noise_text)[0]
     start_heading = parse_heading_prior(start_heading_text, "--start-heading")
     named = "nxt" if robot_kind == "nxt" else sonar
     fitted_sonar = sonar_profile(sonar_profile_path, named)
     mission = _run_mission_config(named, planner, localiser, collision, given_sets(ctx, sets))
-    configured = configuration(ctx, sets, mission=mission.to_dict())
+    robot_model = _run_robot_model(ctx, sets, named, fitted_sonar, noise_model, noise_text, radius)
+    configured = configuration(ctx, sets, mission=mission.to_dict(), robot=robot_model.to_dict())
     outputs = RunOutputs(record, record_particles, view, view_save, json_out, plot, animate, configured)
     outputs.check()
     if start_text is not None and random_start:
@@ -206,7 +206,7 @@ def run(
     if target is None:
         raise typer.BadParameter(f"map {m.name} has no preset target; give --target X,Y", param_hint="--target")
     # the sonar model: the simulator's readings come from it; a real NXT's localiser is told it
-    sonar_model = simulated_sonar(named if fitted_sonar is None else fitted_sonar, sensor_noise)
+    sonar_model = robot_model.sonar
     _check_objective(objective, [planner])
     stack = Stack(planner, localiser, seed, collision, start_heading, mission, objective)
     doc: dict[str, Any] = {"robot": robot_kind, "sonar_model": sonar_model.to_dict(), "objective": objective}
@@ -219,11 +219,15 @@ def run(
                                                           reconnect_timeout)
         doc["model_robot_time_s"] = model_time
     else:
-        robot_radius = radius if radius is not None else RobotGeometry().radius_cm  # the simulator's robot
-        simulator = {"sonar": sonar, "noise_model": noise_model, "sensor_noise": sensor_noise,
-                     "motion_noise": motion_noise, "turn_noise": turn_noise}
+        robot_radius = robot_model.geometry.radius_cm  # the simulator's robot
+        if robot_model.geometry != RobotGeometry():
+            radius = robot_radius
+        motion = robot_model.motion
+        simulator = {"sonar": sonar, "noise_model": motion.model,
+                     "sensor_noise": float(getattr(sonar_model, "noise_sd", sensor_noise)),
+                     "motion_noise": motion.motion, "turn_noise": motion.turn}
         report = mission_on_sim(m, target, _sim_start(start_text, m), random_start, stack, simulator,
-                                fitted_sonar, sonar_model, radius, robot_radius, outputs)
+                                robot_model, radius, outputs)
         doc["simulator"] = simulator
     typer.echo(report.summary())
     note = None if robot_kind != "nxt" else \
@@ -232,6 +236,26 @@ def run(
     if not report.success:  # a target no robot disc fits on is bad input (2); any other failure is 1
         reachable = bool(m.contains(target)) and bool(make_checker(m, robot_radius, collision).point_free(target))
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED if reachable else EXIT_BAD_INPUT)
+
+
+def _run_robot_model(ctx: typer.Context, sets: list[str], sonar: str, fitted: NxtSonar | None, noise_model: str,
+                     noise_text: str, radius: float | None) -> RobotModel:
+    """The robot of `nxtnav run`: its flags (``--sonar``, ``--sonar-profile``, ``--noise``, ``--noise-model``,
+    ``--radius``), then the ``robot.`` and ``sonar.`` settings of ``--set`` (a flag and a ``--set`` of the
+    same field on the command line are an error). A real NXT's build comes from its profile: only its
+    sonar may be set."""
+    from ..robots.sim import simulated_sonar
+    from .run_config import robot_model, split_sets
+
+    sensor_noise, motion_noise, turn_noise = _noise(noise_text)
+    every = given_sets(ctx, sets)
+    if ctx.params.get("robot_kind") == "nxt" and split_sets(every)[0].get("robot"):
+        raise NxtnavError("--set robot.*: a real NXT's build comes from its --profile; --set sonar.* sets its "
+                          "sonar model")
+    base = RobotModel.build(simulated_sonar(sonar if fitted is None else fitted, sensor_noise),
+                            noise_model=noise_model, motion_noise=motion_noise, turn_noise=turn_noise,
+                            radius_cm=radius)
+    return robot_model(base, every, ctx, sets)
 
 
 def _run_mission_config(sonar: str, planner: str, localiser: str, collision: str, sets: list[str]) -> Any:
@@ -281,6 +305,22 @@ def _paper_options(sets: list[str], sonars: list[str]) -> dict[str, Any]:
     for sonar in sonars:
         mission_config(sonar, sets)
     return {key: parse_value(text) for key, text in sections.get("mission", {}).items()}
+
+
+def _paper_robots(ctx: typer.Context, sets: list[str], sonars: list[str], models: list[str],
+                  profile: NxtSonar | None) -> dict[str, Any]:
+    """The robot of each sonar and noise model (``ideal/botsim``), ``--set robot.`` and ``sonar.`` settings
+    applied; a bad setting is one line naming it."""
+    from ..robots.sim import simulated_sonar
+    from .run_config import robot_model
+
+    every = given_sets(ctx, sets)
+    robots = {}
+    for so in sonars:
+        sonar = simulated_sonar(profile if so == "nxt" and profile is not None else so, 1.0)
+        for nm in models:
+            robots[f"{so}/{nm}"] = robot_model(RobotModel.build(sonar, noise_model=nm), every, ctx, sets).to_dict()
+    return robots
 
 
 def _run_pareto(png: Path, trials: int, seed: int, sonars: list[str], maps: list[str], models: list[str],
@@ -391,18 +431,23 @@ def paper(
     check_writable(markdown, "--markdown")
     stacks = _parse_stacks(stack)
     options = _paper_options(given_sets(ctx, sets), sonars)
+    robots = _paper_robots(ctx, sets, sonars, models, profile)
     configured = configuration(ctx, sets, mission={so: mission_config(so, given_sets(ctx, sets), collision).to_dict()
-                                                   for so in sonars})
+                                                   for so in sonars}, robot=robots)
     _check_objective(objective, [p for p, _ in stacks])
     if objective is not None:
         options["planning.objective"] = objective
     if pareto is not None:
+        if robot_sets(given_sets(ctx, sets)):
+            raise NxtnavError("--pareto compares mission settings on the paper's robot; --set robot.* and sonar.* "
+                              "are for the tables")
         _run_pareto(pareto, trials, seed, sonars, map_names, models, settings, workers, random_start, json_out,
                     profile, collision, dask)
         return
     tasks = [t for so in sonars
              for t in paper_tasks(trials, seed, maps=map_names, noise_models=models, stacks=stacks, sonar=so,
                                   random_start=random_start, options=options,
+                                  robot_sets=robot_sets(given_sets(ctx, sets)),
                                   sonar_model=profile if so == "nxt" else None, collision=collision)]
     batch = run_batch(run_trial, tasks, "missions", workers=workers, dask=dask, transient=True)
     results = in_task_order(batch.results, tasks)  # as `run_paper` orders and summarises them

@@ -420,11 +420,14 @@ SonarProfile = Annotated[Path | None, typer.Option("--sonar-profile", metavar="F
 PluginSets = Annotated[list[str], typer.Option(
     "--set", metavar="[PLUGIN.]KEY=VALUE",
     help="A plug-in option (repeatable): NAME.KEY=VALUE for the chosen planner or localiser NAME, or KEY=VALUE "
-         "for every chosen one that has it (docs/parameters.md).")]
+         "for every chosen one that has it (docs/parameters.md); robot.GROUP.FIELD=VALUE, sonar.FIELD=VALUE for "
+         "the robot model where the command has one (docs/reference/schemas.md).")]
 RunSets = Annotated[list[str], typer.Option(
     "--set", metavar="SECTION.KEY=VALUE",
     help="A setting (repeatable): mission.GROUP.FIELD=VALUE for the mission (e.g. mission.drive.move_step_cm=20; "
-         "docs/missions.md), PLUGIN.KEY=VALUE for the planner's or localiser's options (docs/parameters.md).")]
+         "docs/missions.md), robot.GROUP.FIELD=VALUE and sonar.FIELD=VALUE for the robot model (e.g. "
+         "robot.timing.drive_speed_cm_s=20; docs/reference/schemas.md), PLUGIN.KEY=VALUE for the planner's or "
+         "localiser's options (docs/parameters.md).")]
 ConfigFile = Annotated[Path | None, typer.Option(
     "--config", metavar="FILE", is_eager=True, callback=_load_config,
     help="Run again as a run's JSON output (or its configuration) says: its options and settings are the "

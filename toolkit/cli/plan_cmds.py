@@ -16,6 +16,7 @@ from ..world import (
     NxtnavError,
     PlanningError,
     RobotGeometry,
+    RobotModel,
     RobotTiming,
     check_objective,
     load_map,
@@ -55,7 +56,7 @@ from .options import (
 from .options import repeats as repeats_ok
 from .options import time_limit as time_limit_ok
 from .progress import progress
-from .run_config import add_configuration, configuration, given_sets
+from .run_config import add_configuration, configuration, given_sets, robot_model, split_sets
 from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
@@ -107,6 +108,12 @@ def _noise(model: str, motion: float, turn: float) -> Any:
         raise NxtnavError(f"--noise-model/--motion-noise/--turn-noise: {exc}") from None
 
 
+def _plan_robot(ctx: typer.Context, sets: list[str], noise: Any, timing: RobotTiming) -> RobotModel:
+    """The robot of `nxtnav plan`: its motion noise and timing flags, then ``--set robot.`` settings (a flag
+    and a ``--set`` of the same field on the command line are an error)."""
+    return robot_model(RobotModel(motion=noise, timing=timing), given_sets(ctx, sets), ctx, sets)
+
+
 def _to_builtin(obj: Any) -> Any:
     """numpy scalars and arrays (planner `info` extras) as JSON values."""
     if isinstance(obj, np.ndarray | np.generic):
@@ -153,11 +160,12 @@ def plan(
 
     if not (math.isfinite(time_limit) and time_limit > 0):
         raise NxtnavError(f"--time-limit must be a positive number of seconds, got {time_limit:g}")
-    nz = _noise(noise_model, motion_noise, turn_noise)
-    timing = robot_timing(drive_speed, turn_rate, stop_turn)
+    robot = _plan_robot(ctx, sets, _noise(noise_model, motion_noise, turn_noise),
+                        robot_timing(drive_speed, turn_rate, stop_turn))
+    nz, timing = robot.motion, robot.timing
     check_planner_names([planner])
-    options = planner_objectives(objective, [planner], checked_sets(parse_sets(given_sets(ctx, sets)), [planner],
-                                                                    planner_options, "planner"))[planner]
+    options = planner_objectives(objective, [planner], checked_sets(parse_sets(split_sets(given_sets(ctx, sets))[1]),
+                                                                    [planner], planner_options, "planner"))[planner]
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)
@@ -174,7 +182,8 @@ def plan(
     refs = _reference_paths(m, checker, start, goal, timing)
     doc: dict[str, Any] = {"map": m.name, "planner": planner, "seed": seed, "time_limit_s": time_limit,
                            "robot_radius_cm": radius, "collision": checker.backend, "start": start.tolist(),
-                           "goal": goal.tolist(), "warm_up_s": warm_up_s, "configuration": configuration(ctx, sets),
+                           "goal": goal.tolist(), "warm_up_s": warm_up_s,
+                           "configuration": configuration(ctx, sets, robot=robot.to_dict()),
                            **{k: v for k, v in result.to_dict().items() if k != "planner"}}
     fig, ax = new_axes(size=6.0)
     draw_map(m, ax, presets=False, title=False)

@@ -4,6 +4,10 @@
 
 - ``mission.GROUP.FIELD=V``: the mission settings (`toolkit.mission.MissionConfig`, e.g.
   ``mission.drive.move_step_cm=20`` or ``mission.fix.rule=always``), through `toolkit.world.typed.with_sets`;
+- ``robot.GROUP.FIELD=V`` and ``sonar.FIELD=V``: the robot model (`toolkit.world.RobotModel`: ``motion``,
+  ``geometry``, ``timing``; the sonar's own parameters), through the same `with_sets` (`robot_model`). The
+  shorthand flags (`SHORTHANDS`: ``--radius``, ``--noise``, ``--drive-speed``, ...) set the same fields;
+  a flag and a ``--set`` of the same field on one command line are an error;
 - ``PLUGIN.KEY=V`` or a bare ``KEY=V``: a chosen planner's or localiser's options
   (`toolkit.cli.set_options`, unchanged);
 - ``challenge.KEY=V``: the challenge mission's settings (`toolkit.mission.challenge.ChallengeConfig`) on the
@@ -32,12 +36,26 @@ from ..world.yaml_text import YAMLError, load_yaml
 
 if TYPE_CHECKING:
     from ..mission import MissionConfig
+    from ..world import RobotModel
 
-__all__ = ["SECTIONS", "add_configuration", "configuration", "dumps", "given_sets", "load_config",
-           "mission_config", "mission_sets", "section_settings", "split_sets"]
+__all__ = ["SECTIONS", "SHORTHANDS", "add_configuration", "configuration", "dumps", "given_sets", "load_config",
+           "mission_config", "mission_sets", "robot_model", "robot_sets", "section_settings", "split_sets"]
 
-SECTIONS = ("mission",)
+SECTIONS = ("mission", "robot", "sonar")
 """The settings sections ``--set`` knows besides the plug-ins' names."""
+
+SHORTHANDS: dict[str, tuple[str, ...]] = {
+    "--radius": ("robot.geometry.radius_cm",),
+    "--noise": ("robot.sonar.noise_sd", "robot.motion.motion", "robot.motion.turn"),
+    "--sensor-noise": ("robot.sonar.noise_sd",),
+    "--noise-model": ("robot.motion.model",),
+    "--motion-noise": ("robot.motion.motion",),
+    "--turn-noise": ("robot.motion.turn",),
+    "--drive-speed": ("robot.timing.drive_speed_cm_s",),
+    "--turn-rate": ("robot.timing.turn_rate_deg_s",),
+    "--stop-turn": ("robot.timing.stop_turn_s",),
+}
+"""The robot model's fields each shorthand flag sets (``--set sonar.KEY`` is ``robot.sonar.KEY``)."""
 
 _NOT_CONFIGURATION = frozenset({
     "json_out", "plot", "animate", "record", "view", "view_save", "markdown", "pareto", "out", "output",
@@ -101,6 +119,50 @@ def section_settings(model: M, sets: list[str], section: str, command: str) -> M
         return with_sets(model, own, f"--set {section}")
     except ConfigError as exc:
         raise NxtnavError(str(exc)) from None
+
+
+def _field_of(section: str, key: str) -> str:
+    """The robot model's field a ``robot.`` or ``sonar.`` key names, as ``robot.sonar.noise_sd``."""
+    return f"robot.{key}" if section == "robot" else f"robot.sonar.{key}"
+
+
+def _shorthand_clash(ctx: typer.Context | None, command_line: list[str]) -> None:
+    """A one-line error when a shorthand flag given on the command line and a ``--set`` given there set
+    the same field of the robot model."""
+    if ctx is None:
+        return
+    given = {opt for p in ctx.command.params if p.name is not None  # typer has its own click: compare by name
+             and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE" for opt in p.opts}
+    sections = split_sets(command_line)[0]
+    keys = [(f"{section}.{key}", _field_of(section, key)) for section in ("robot", "sonar")
+            for key in sections.get(section, {})]
+    for flag, fields in SHORTHANDS.items():
+        for typed, field in keys:
+            hit = [f for f in fields if f == field or f.startswith(field + ".")]  # the field, or its group
+            if flag in given and hit:
+                raise NxtnavError(f"--set {typed} and {flag} both set {hit[0]}; give one of them")
+
+
+def robot_model(base: RobotModel, sets: list[str], ctx: typer.Context | None = None,
+                command_line: list[str] | None = None) -> RobotModel:
+    """`base` (the robot the command's flags describe) with the ``robot.`` and ``sonar.`` settings of `sets`;
+    a bad key or value is one line naming it (``--set: robot.timing.drive_speed_cm_s: -1 must be ...``).
+    With `ctx`, a ``--set`` of `command_line` and a shorthand flag given there for the same field are an
+    error."""
+    from ..world.robot_model import with_robot_sets
+
+    _shorthand_clash(ctx, command_line or [])
+    try:
+        return with_robot_sets(base, robot_sets(sets))
+    except ConfigError as exc:
+        raise NxtnavError(str(exc)) from None
+
+
+def robot_sets(sets: list[str]) -> dict[str, str]:
+    """The ``robot.`` and ``sonar.`` settings of `sets`, by their whole key (``robot.timing.drive_speed_cm_s``)."""
+    sections = split_sets(sets)[0]
+    return {f"{section}.{key}": text for section in ("robot", "sonar")
+            for key, text in sections.get(section, {}).items()}
 
 
 def given_sets(ctx: typer.Context, sets: list[str]) -> list[str]:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import typer
 
 from ..number_format import json_safe
-from ..world import Map, NxtnavError, NxtSonar, RobotGeometry, RobotModel, SonarModel
+from ..world import Map, NxtnavError, RobotModel, SonarModel
 from .compiling import compile_note
 from .options import check_writable
 
@@ -180,17 +180,18 @@ def mission_on_nxt(brick: Any, m: Map, target: Any, stack: Stack, sonar_model: S
 
 
 def mission_on_sim(m: Map, target: Any, start: Any, random_start: bool, stack: Stack, simulator: dict[str, Any],
-                   fitted_sonar: NxtSonar | None, sonar_model: SonarModel, radius: float | None,
-                   robot_radius: float, outputs: RunOutputs) -> Any:
-    """The mission in the simulator (`simulator`: the sonar's name, the noise model and its three noises;
-    `radius`: the robot's, None for the default): its report."""
+                   robot_model: RobotModel, radius: float | None, outputs: RunOutputs) -> Any:
+    """The mission in the simulator (`simulator`: the sonar's name, the noise model and its three noises, as
+    the recording's header tells them; `robot_model`: the robot simulated; `radius`: the robot's when given,
+    None for the default clearance of a random start): its report."""
+    sonar_model = robot_model.sonar
     from ..mission import run_sim_mission
 
     stream = outputs.open_stream()
     recorder = report = None
     try:
         recorder = outputs.recorder(
-            m, {"kind": "sim", "geometry": RobotGeometry(radius_cm=robot_radius).to_dict()},
+            m, {"kind": "sim", "geometry": robot_model.geometry.to_dict()},
             {"model": simulator["sonar"], "sensor_noise": simulator["sensor_noise"],
              "params": sonar_model.to_dict()}, stack,
             {"model": simulator["noise_model"], "motion": simulator["motion_noise"],
@@ -200,7 +201,7 @@ def mission_on_sim(m: Map, target: Any, start: Any, random_start: bool, stack: S
                 m, seed=stack.seed, start=start, random_start_pose=random_start, target=target,
                 planner=stack.planner, localiser=stack.localiser, noise_model=simulator["noise_model"],
                 sensor_noise=simulator["sensor_noise"], motion_noise=simulator["motion_noise"],
-                turn_noise=simulator["turn_noise"], sonar=simulator["sonar"], sonar_model=fitted_sonar,
+                turn_noise=simulator["turn_noise"], sonar=simulator["sonar"], robot=robot_model,
                 recorder=recorder, robot_radius_cm=radius, start_heading=stack.start_heading,
                 config=stack.config(simulator["sonar"]),
             )

@@ -37,7 +37,8 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
                     noise_model: str = "botsim", sensor_noise: float = 1.0, motion_noise: float = 0.1,
                     turn_noise: float = 0.005, sonar: str = "ideal", sonar_model: NxtSonar | None = None,
                     config: MissionConfig | None = None, recorder: Recorder | None = None,
-                    robot_radius_cm: float | None = None, start_heading: HeadingPrior | None = None) -> MissionReport:
+                    robot_radius_cm: float | None = None, start_heading: HeadingPrior | None = None,
+                    robot: RobotModel | None = None) -> MissionReport:
     """One seeded mission on the simulator, as `nxtnav run` and `nxtnav paper` run it.
 
     Parameters
@@ -67,14 +68,18 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
         start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm`` get it.
     start_heading : HeadingPrior, optional
         What the mission is told of the start's heading (`run_mission`).
+    robot : RobotModel, optional
+        The whole robot (sonar, motion noise, geometry, timing), as ``--set robot.*`` makes it: given, it
+        replaces the noise arguments, `sonar_model` and the default geometry (`robot_radius_cm` still says
+        how far a random start keeps from the walls).
     """
     from ..robots.sim import SimRobot
 
     if sonar_model is not None and sonar != "nxt":
         raise NxtnavError(f"a sonar model (profile) is for the nxt sonar, not {sonar!r}")
-    robot_model = RobotModel.build(sonar if sonar_model is None else sonar_model, sensor_noise=sensor_noise,
-                                   noise_model=noise_model, motion_noise=motion_noise, turn_noise=turn_noise,
-                                   radius_cm=robot_radius_cm)
+    robot_model = robot or RobotModel.build(sonar if sonar_model is None else sonar_model, sensor_noise=sensor_noise,
+                                            noise_model=noise_model, motion_noise=motion_noise,
+                                            turn_noise=turn_noise, radius_cm=robot_radius_cm)
     radius = robot_model.geometry.radius_cm
     m = map if isinstance(map, Map) else load_map(map)
     s_start, s_sim, s_stack = derive_seeds(seed, n=3)
@@ -86,10 +91,11 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
     cfg = config or MissionConfig.for_sonar(sonar)
     if isinstance(localiser, str):
         cfg = cfg.with_localiser_defaults(localiser_options(localiser, robot_model))
-    robot = SimRobot(m, pose, geometry=robot_model.geometry, noise=robot_model.motion, sonar=robot_model.sonar,
-                     rng=s_sim, checker=make_checker(m, radius, cfg.collision))  # the simulator's contacts: one backend
-    report = run_mission(robot, m, target, planner=planner, localiser=localiser,
-                         rng=s_stack, config=cfg, recorder=recorder, truth=robot, start_heading=start_heading)
+    simulator = SimRobot(m, pose, geometry=robot_model.geometry, noise=robot_model.motion, sonar=robot_model.sonar,
+                         timing=robot_model.timing, rng=s_sim,
+                         checker=make_checker(m, radius, cfg.collision))  # the simulator's contacts: one backend
+    report = run_mission(simulator, m, target, planner=planner, localiser=localiser,
+                         rng=s_stack, config=cfg, recorder=recorder, truth=simulator, start_heading=start_heading)
     return replace(report, seed=int(seed))
 
 

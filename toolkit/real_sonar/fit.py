@@ -21,21 +21,20 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from scipy.optimize import minimize
 
 from localisation.base import HeadingPrior
 from localisation.scan import drop_stuck
 
-from ..world import NO_ECHO, ConfigError, Map, NxtnavError, NxtSonar, wrap_angle
+from ..world import NO_ECHO, ConfigError, Map, NxtSonar, wrap_angle
 from ..world.arrays import FloatArray, finite_median
-from ..world.yaml_text import load_yaml
 from .margins import sweep_margins
+from .profile_file import SonarProfileError, load_sonar_profile, save_sonar_profile
 from .sweeps import Sweep, SweepSet
 
 __all__ = ["BASELINES", "FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
@@ -66,10 +65,6 @@ the model from the published hardware facts alone."""
 DEFAULT_WIDTHS = (10.0, 20.0, 30.0, 40.0, 60.0)
 DEFAULT_CRITICALS = (20.0, 30.0, 40.0, 50.0, 60.0)
 """The lobe grid of the shipped default model's fit (docs/real-sonar.md)."""
-
-
-class SonarProfileError(NxtnavError, ValueError):
-    """A sonar profile file that cannot be used: the message names the file, the field and the problem."""
 
 
 @dataclass(frozen=True)
@@ -467,71 +462,7 @@ def align_sweeps(model: NxtSonar, sweeps: SweepSet) -> list[AlignedSweep]:
     return out
 
 
-# -- profile files ---------------------------------------------------------------------------------
-PROFILE_KIND = "nxtnav-sonar-profile"
-
-
-def save_sonar_profile(model: NxtSonar, path: str | Path, *, fit: dict[str, Any] | None = None) -> None:
-    """Write `model` as a sonar profile (YAML: kind, sonar, params, and optional fit provenance)."""
-    doc: dict[str, Any] = {"kind": PROFILE_KIND, "sonar": model.name,
-                           "params": {k: (int(v) if k == "beam_rays" else round(float(v), 6))
-                                      for k, v in asdict(model).items()}}
-    if fit:
-        doc["fit"] = fit
-    out = Path(path)
-    tmp = out.with_name(out.name + ".part")
-    text = yaml.safe_dump(doc, sort_keys=False)
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(out)
-    finally:  # a failed write leaves neither a half-written profile nor its part file
-        tmp.unlink(missing_ok=True)
-
-
-def load_sonar_profile(path: str | Path) -> NxtSonar:
-    """The `nxt` sonar model of a profile file; `SonarProfileError` names the file and field on bad input.
-
-    Parameters the file leaves out keep the model's defaults. The file's fields are ``kind`` (optional,
-    `PROFILE_KIND`), ``sonar`` (optional, ``nxt``), ``params`` and ``fit`` (provenance, not read); any
-    other field is an error, as is an unknown parameter.
-    """
-    p = Path(path)
-    try:
-        doc = load_yaml(p.read_text(encoding="utf-8"))
-    except OSError as e:
-        raise SonarProfileError(f"{p}: cannot read the sonar profile ({e.strerror or e})") from None
-    except UnicodeDecodeError:
-        raise SonarProfileError(f"{p}: not a sonar profile (not UTF-8 text)") from None
-    except yaml.YAMLError as e:
-        raise SonarProfileError(f"{p}: not valid YAML ({str(e).splitlines()[0]})") from None
-    if not isinstance(doc, dict):
-        raise SonarProfileError(f"{p}: a sonar profile is a mapping with 'sonar' and 'params'")
-    stray = [str(k) for k in doc if k not in ("kind", "sonar", "params", "fit")]
-    if stray:
-        raise SonarProfileError(f"{p}: unknown field {', '.join(map(repr, stray))} (known: kind, sonar, params, fit)")
-    if doc.get("kind", PROFILE_KIND) != PROFILE_KIND:
-        raise SonarProfileError(f"{p}: field 'kind' must be {PROFILE_KIND!r}, got {doc.get('kind')!r}")
-    if doc.get("sonar", "nxt") != "nxt":
-        raise SonarProfileError(f"{p}: field 'sonar' must be 'nxt', got {doc.get('sonar')!r}")
-    params = doc.get("params")
-    if not isinstance(params, dict):
-        raise SonarProfileError(f"{p}: field 'params' must be a mapping of parameter: value")
-    known = [f.name for f in fields(NxtSonar)]
-    for k, v in params.items():
-        if k not in known:
-            raise SonarProfileError(f"{p}: unknown parameter params.{k} (known: {', '.join(known)})")
-        if isinstance(v, bool) or not isinstance(v, int | float):
-            raise SonarProfileError(f"{p}: params.{k} must be a number, got {v!r}")
-        try:
-            float(v)
-        except OverflowError:
-            raise SonarProfileError(f"{p}: params.{k} is too large a number") from None
-    try:
-        return NxtSonar(**params)
-    except ConfigError as e:
-        raise SonarProfileError(f"{p}: params.{e}") from None
-
-
+# -- profile files (the file itself: `toolkit.real_sonar.profile_file`) ----------------------------------
 def source_profile_name(repo: str) -> str:
     """The file name of source `repo`'s profile in a folder of per-source profiles: the ``/`` of
     ``owner/name`` as ``+`` (as a sweep set's ``raw/`` folders name sources), then ``.yaml``."""

@@ -19,111 +19,78 @@ Example file (every key is optional; missing keys take the defaults below)::
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, replace
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import yaml
+from pydantic import BeforeValidator, Field, StrictBool, model_validator
 
-from ..world import NxtnavError, RobotGeometry
+from ..world import ConfigError, RobotGeometry
+from ..world.typed import Real, Whole, build, typed_dataclass, worded
 from ..world.yaml_text import YAMLError, load_yaml
 
 __all__ = ["NxtProfile", "ProfileError", "calibrated_track_width", "calibrated_wheel_diameter"]
 
 
-class ProfileError(NxtnavError):
+class ProfileError(ConfigError):
     """A robot profile file or value is invalid."""
 
 
-_MOTOR_PORTS = ("A", "B", "C")
+def _port(value: Any) -> Any:
+    """A motor port as written (``a`` or ``A``), upper-case; anything else is left to the field's check."""
+    return value.upper() if isinstance(value, str) else value
 
 
-@dataclass(frozen=True)
+MotorPort = Annotated[Literal["A", "B", "C"], BeforeValidator(_port)]
+Power = Annotated[Whole, Field(ge=1, le=100, json_schema_extra={"unit": "% of full motor power"})]
+
+
+def _field(default: Any, unit: str, text: str, **limits: Any) -> Any:
+    return Field(default, json_schema_extra={"unit": unit}, description=text, **limits)
+
+
+@typed_dataclass()
 class NxtProfile:
-    """Wiring and calibration of an NXT robot (lengths in cm, angles in degrees).
+    """Wiring and calibration of an NXT robot (lengths in cm, angles in degrees); each field's range,
+    unit and meaning is in its declaration, and the profile file holds the same fields."""
 
-    Parameters
-    ----------
-    left_port, right_port, turret_port : {"A", "B", "C"}
-        Motor outputs of the left wheel, right wheel and sensor turret (three different ports).
-    sonar_port : {1, 2, 3, 4}
-        Input port of the ultrasonic sensor.
-    wheel_diameter_cm : float
-        Drive wheel diameter (standard NXT wheel 5.6 cm); calibrated by driving a known distance.
-    track_width_cm : float
-        Distance between the wheel contact points; calibrated by spinning a known angle.
-    radius_cm : float
-        Radius of the disc containing the robot (planning and collision margin).
-    turret_gear_ratio : float
-        Turret motor degrees per degree of sensor rotation.
-    sensor_offset_cm : float
-        Distance from the turret axis to the sensor face.
-    reverse_drive, reverse_turret : bool
-        Set when a positive motor power drives the robot backwards / turns the turret clockwise.
-    drive_power, turn_power, turret_power : int
-        Motor powers (1-100) for moves, spins and turret steps.
-    watchdog_cm : float or None
-        A forward move stops when the sonar reads closer than this (default radius + 4 cm).
-    backoff_cm : float
-        How far Turnback reverses (cm).
-    scan_step_deg : float
-        Turret step between two readings of a default Ultrascan (1 degree = 360 readings).
-    sonar_interval_s : float
-        Least wall time between two sonar reads on a real brick (the sensor gives ~50 readings/s);
-        not applied on the virtual brick.
-    stall_s : float
-        A motion whose tachos have not changed for this long (brick or wall seconds) is stopped.
-    motion_timeout_s : float
-        Upper bound on one motion (wall seconds) before the robot gives up with an error.
-    """
+    left_port: MotorPort = Field(default="A", description="Motor output of the left wheel.")
+    right_port: MotorPort = Field(default="B", description="Motor output of the right wheel.")
+    turret_port: MotorPort = Field(default="C", description="Motor output of the sensor turret.")
+    sonar_port: Whole = Field(default=4, ge=1, le=4, description="Input port of the ultrasonic sensor (1-4).")
+    wheel_diameter_cm: Real = _field(5.6, "cm", "Drive wheel diameter (standard NXT wheel 5.6 cm); calibrated "
+                                                "by driving a known distance.", gt=0)
+    track_width_cm: Real = _field(12.0, "cm", "Distance between the wheel contact points; calibrated by spinning "
+                                              "a known angle.", gt=0)
+    radius_cm: Real = _field(8.0, "cm", "Radius of the disc containing the robot (planning and collision margin).",
+                             gt=0)
+    turret_gear_ratio: Real = _field(1.0, "motor deg / sensor deg", "Turret motor degrees per degree of sensor "
+                                                                    "rotation.", gt=0)
+    sensor_offset_cm: Real = _field(0.0, "cm", "Distance from the turret axis to the sensor face.", ge=0)
+    reverse_drive: StrictBool = Field(default=False, description="A positive motor power drives the robot backwards.")
+    reverse_turret: StrictBool = Field(default=False, description="A positive motor power turns the turret clockwise.")
+    drive_power: Power = Field(default=50, description="Motor power of moves.")
+    turn_power: Power = Field(default=40, description="Motor power of spins.")
+    turret_power: Power = Field(default=30, description="Motor power of turret steps.")
+    watchdog_cm: Real | None = _field(None, "cm", "A forward move stops when the sonar reads closer than this "
+                                                  "(default: radius + 4 cm).", gt=0)
+    backoff_cm: Real = _field(10.0, "cm", "How far Turnback reverses.", gt=0)
+    scan_step_deg: Real = _field(1.0, "deg", "Turret step between two readings of a default Ultrascan (1 degree "
+                                             "= 360 readings).", gt=0)
+    sonar_interval_s: Real = _field(0.02, "s", "Least wall time between two sonar reads on a real brick (the "
+                                               "sensor gives ~50 readings/s); not applied on the virtual brick.", ge=0)
+    stall_s: Real = _field(0.5, "s", "A motion whose tachos have not changed for this long (brick or wall "
+                                     "seconds) is stopped.", gt=0)
+    motion_timeout_s: Real = _field(60.0, "s", "Upper bound on one motion (wall seconds) before the robot gives "
+                                               "up with an error.", gt=0)
 
-    left_port: str = "A"
-    right_port: str = "B"
-    turret_port: str = "C"
-    sonar_port: int = 4
-    wheel_diameter_cm: float = 5.6
-    track_width_cm: float = 12.0
-    radius_cm: float = 8.0
-    turret_gear_ratio: float = 1.0
-    sensor_offset_cm: float = 0.0
-    reverse_drive: bool = False
-    reverse_turret: bool = False
-    drive_power: int = 50
-    turn_power: int = 40
-    turret_power: int = 30
-    watchdog_cm: float | None = None
-    backoff_cm: float = 10.0
-    scan_step_deg: float = 1.0
-    sonar_interval_s: float = 0.02
-    stall_s: float = 0.5
-    motion_timeout_s: float = 60.0
-
-    def __post_init__(self) -> None:
-        for k in ("left_port", "right_port", "turret_port"):
-            v = getattr(self, k)
-            if not isinstance(v, str) or v.upper() not in _MOTOR_PORTS:
-                raise ProfileError(f"profile field {k}: expected one of A, B, C, got {v!r}")
-            object.__setattr__(self, k, v.upper())
+    @model_validator(mode="after")
+    def _ports_differ(self) -> NxtProfile:
         ports = (self.left_port, self.right_port, self.turret_port)
         if len(set(ports)) != 3:
-            raise ProfileError(f"profile fields left_port, right_port, turret_port must differ, got {ports}")
-        if not (isinstance(self.sonar_port, int) and not isinstance(self.sonar_port, bool)
-                and 1 <= self.sonar_port <= 4):
-            raise ProfileError(f"profile field sonar_port: expected 1, 2, 3 or 4, got {self.sonar_port!r}")
-        for k in ("wheel_diameter_cm", "track_width_cm", "radius_cm", "turret_gear_ratio", "backoff_cm",
-                  "scan_step_deg", "stall_s", "motion_timeout_s"):
-            _check_number(k, getattr(self, k), positive=True)
-        for k in ("sensor_offset_cm", "sonar_interval_s"):
-            _check_number(k, getattr(self, k), positive=False)
-        if self.watchdog_cm is not None:
-            _check_number("watchdog_cm", self.watchdog_cm, positive=True)
-        for k in ("drive_power", "turn_power", "turret_power"):
-            v = getattr(self, k)
-            if not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 100):
-                raise ProfileError(f"profile field {k}: expected a whole number from 1 to 100, got {v!r}")
-        for k in ("reverse_drive", "reverse_turret"):
-            if not isinstance(getattr(self, k), bool):
-                raise ProfileError(f"profile field {k}: expected true or false, got {getattr(self, k)!r}")
+            raise worded(f"profile fields left_port, right_port, turret_port must differ, got {ports}")
+        return self
 
     # -- derived ----------------------------------------------------------------------------------
     @property
@@ -161,30 +128,14 @@ class NxtProfile:
 
     @classmethod
     def from_dict(cls, data: Any, where: str = "profile") -> NxtProfile:
-        """A profile from a mapping; unknown keys and bad values raise `ProfileError` naming them."""
-        if data is None:
-            data = {}
-        if not isinstance(data, dict):
+        """A profile from a mapping (None: the defaults); unknown keys and bad values raise `ProfileError`
+        naming `where`, the field and the value."""
+        if data is not None and not isinstance(data, dict):
             raise ProfileError(f"{where}: expected a mapping of profile fields, got {type(data).__name__}")
-        known = {f.name: f for f in fields(cls)}
-        unknown = sorted(set(map(str, data)) - set(known))
-        if unknown:
-            raise ProfileError(f"{where}: unknown profile field {unknown[0]!r}; known: {', '.join(known)}")
-        values = dict(data)
-        for k in ("sonar_port", "drive_power", "turn_power", "turret_power"):
-            v = values.get(k)
-            if isinstance(v, float) and v.is_integer():
-                values[k] = int(v)
-        for k in ("wheel_diameter_cm", "track_width_cm", "radius_cm", "turret_gear_ratio", "sensor_offset_cm",
-                  "backoff_cm", "scan_step_deg", "sonar_interval_s", "stall_s", "motion_timeout_s",
-                  "watchdog_cm"):
-            v = values.get(k)
-            if isinstance(v, int) and not isinstance(v, bool):
-                values[k] = float(v)
         try:
-            return cls(**values)
-        except ProfileError as exc:
-            raise ProfileError(f"{where}: {exc}") from None
+            return build(cls, data or {}, where)
+        except ConfigError as exc:
+            raise ProfileError(str(exc)) from None
 
     @classmethod
     def load(cls, path: str | Path) -> NxtProfile:
@@ -211,13 +162,6 @@ class NxtProfile:
     def updated(self, **changes: Any) -> NxtProfile:
         """A copy with some fields changed (validated)."""
         return replace(self, **changes)
-
-
-def _check_number(name: str, value: Any, positive: bool) -> None:
-    ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or (positive and value <= 0) or (not positive and value < 0):
-        need = "a positive number" if positive else "a number >= 0"
-        raise ProfileError(f"profile field {name}: expected {need}, got {value!r}")
 
 
 def calibrated_wheel_diameter(diameter_cm: float, commanded_cm: float, measured_cm: float) -> float:

@@ -9,8 +9,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Annotated
 
-from ..world import ConfigError, RobotGeometry
+from pydantic import Field, model_validator
+
+from ..world import RobotGeometry
+from ..world.typed import Positive, Real, Whole, typed_dataclass, worded
 
 __all__ = ["US_CMD_CONTINUOUS", "US_CMD_EVENT", "US_CMD_OFF", "US_CMD_RESET", "US_CMD_SINGLE_SHOT", "US_I2C_ADDRESS",
            "US_REG_COMMAND", "US_REG_DISTANCE", "US_REG_INTERVAL", "BrickConfig", "InputPort", "Motor", "MotorMode",
@@ -42,7 +46,11 @@ class SensorType:
     LOW_SPEED_9V = 0x0B
 
 
-@dataclass(frozen=True)
+Port = Annotated[Whole, Field(ge=0, le=2)]
+"""A motor output of the brick (0, 1, 2: A, B, C)."""
+
+
+@typed_dataclass()
 class BrickConfig:
     """Physical constants and wiring of the simulated robot.
 
@@ -103,48 +111,33 @@ class BrickConfig:
         hears back quickly).
     """
 
-    geometry: RobotGeometry = field(default_factory=RobotGeometry)
-    left_port: int = 0
-    right_port: int = 1
-    turret_port: int = 2
-    sonar_port: int = 3
-    deg_per_s_per_power: float = 8.0
-    accel_deg_s2: float = 6000.0
-    coast_decel_deg_s2: float = 2000.0
-    substep_s: float = 0.005
-    time_factor: float = 1.0
-    max_step_s: float = 0.02
+    geometry: RobotGeometry = Field(default_factory=RobotGeometry)
+    left_port: Port = 0
+    right_port: Port = 1
+    turret_port: Port = 2
+    sonar_port: Whole = Field(default=3, ge=0, le=3)
+    deg_per_s_per_power: Positive = 8.0
+    accel_deg_s2: Positive = 6000.0
+    coast_decel_deg_s2: Positive = 2000.0
+    substep_s: Positive = 0.005
+    time_factor: Positive = 1.0
+    max_step_s: Positive = 0.02
     free_run: bool | None = None
-    i2c_pending_polls: int = 0
-    wheel_slip: float = 0.0
-    brake_decel_deg_s2: float | None = None
-    latency_s: float | None = None
-    battery_mv: int = 8000
-    name: str = "nxtnav-virtual"
+    i2c_pending_polls: Whole = Field(default=0, ge=0, le=20)
+    wheel_slip: Real = Field(default=0.0, ge=0, lt=0.5)
+    brake_decel_deg_s2: Positive | None = None
+    latency_s: Real | None = Field(default=None, gt=0, le=1)
+    battery_mv: Whole = 8000
+    name: str = Field(default="nxtnav-virtual", max_length=14)
     brake_on_disconnect: bool = True
-    reassembly_s: float = 0.25
+    reassembly_s: Positive = 0.25
 
-    def __post_init__(self) -> None:
-        ports = (self.left_port, self.right_port, self.turret_port)
-        if len(set(ports)) != 3 or not all(p in (0, 1, 2) for p in ports):
-            raise ConfigError(f"motor ports must be three different values of 0, 1, 2; got {ports}")
-        if self.sonar_port not in (0, 1, 2, 3):
-            raise ConfigError(f"sonar_port must be 0..3, got {self.sonar_port}")
-        for k in ("deg_per_s_per_power", "accel_deg_s2", "coast_decel_deg_s2", "substep_s", "time_factor",
-                  "max_step_s", "brake_decel_deg_s2", "reassembly_s"):
-            v = getattr(self, k)
-            if v is None and k == "brake_decel_deg_s2":
-                continue
-            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-                raise ConfigError(f"BrickConfig.{k} must be a positive number, got {v!r}")
-        if self.latency_s is not None and not (math.isfinite(self.latency_s) and 0 < self.latency_s <= 1):
-            raise ConfigError(f"BrickConfig.latency_s must be in (0, 1] s or None, got {self.latency_s!r}")
-        if not (isinstance(self.i2c_pending_polls, int) and 0 <= self.i2c_pending_polls <= 20):
-            raise ConfigError(f"BrickConfig.i2c_pending_polls must be 0..20, got {self.i2c_pending_polls!r}")
-        if not (math.isfinite(self.wheel_slip) and 0 <= self.wheel_slip < 0.5):
-            raise ConfigError(f"BrickConfig.wheel_slip must be in [0, 0.5), got {self.wheel_slip!r}")
-        if len(self.name.encode("ascii", "replace")) > 14:
-            raise ConfigError(f"brick name must be at most 14 characters, got {self.name!r}")
+    @model_validator(mode="after")
+    def _ports_differ(self) -> BrickConfig:
+        if len({self.left_port, self.right_port, self.turret_port}) == 3:
+            return self
+        raise worded("motor ports must be three different values of 0, 1, 2; got "
+                     f"{(self.left_port, self.right_port, self.turret_port)}")
 
 
 @dataclass

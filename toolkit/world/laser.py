@@ -15,11 +15,11 @@ the same mixture, so simulating and weighing agree.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from pydantic import Field, model_validator
 from scipy.special import ndtr
 
 from .arrays import FloatArray
@@ -27,46 +27,35 @@ from .errors import ConfigError
 from .geometry import RngLike, as_rng, ray_cast
 from .robot import Scan
 from .sonar import SonarModel
+from .typed import Real, typed_dataclass, worded
 
 __all__ = ["LaserScanner"]
 
 
-@dataclass
+@typed_dataclass(frozen=False)
 class LaserScanner(SonarModel):
-    """A laser range finder's beam (module docstring).
-
-    Parameters
-    ----------
-    noise_sd : float
-        Standard deviation (cm) of an echo's reading.
-    min_range_cm, max_range_cm : float
-        Readings outside these limits are no echo (a ROS ``LaserScan``'s ``range_min``, ``range_max``).
-    miss_prob : float
-        Probability that an echo within the limits is lost.
-    rand_prob : float
-        Probability that a reading is uniformly random within the limits (also where nothing echoes).
-    """
+    """A laser range finder's beam (module docstring); each parameter's range, unit and meaning is in its
+    declaration."""
 
     name: ClassVar[str] = "laser"
     no_echo: ClassVar[float] = float("inf")
-    noise_sd: float = 1.0
-    min_range_cm: float = 0.0
-    max_range_cm: float = 3000.0
-    miss_prob: float = 0.0
-    rand_prob: float = 0.0
+    noise_sd: Real = Field(default=1.0, ge=0.0, json_schema_extra={"unit": "cm"},
+                           description="Standard deviation of an echo's reading.")
+    min_range_cm: Real = Field(default=0.0, ge=0.0, json_schema_extra={"unit": "cm"}, description=(
+        "Readings below this are no echo (a ROS LaserScan's range_min)."))
+    max_range_cm: Real = Field(default=3000.0, ge=0.0, json_schema_extra={"unit": "cm"}, description=(
+        "Readings beyond this are no echo (a ROS LaserScan's range_max)."))
+    miss_prob: Real = Field(default=0.0, ge=0.0, le=1.0, json_schema_extra={"unit": "probability"},
+                            description="Probability that an echo within the limits is lost.")
+    rand_prob: Real = Field(default=0.0, ge=0.0, le=1.0, json_schema_extra={"unit": "probability"}, description=(
+        "Probability that a reading is uniformly random within the limits (also where nothing echoes)."))
 
-    def __post_init__(self) -> None:
-        for k in ("noise_sd", "min_range_cm", "max_range_cm"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
-                raise ConfigError(f"laser {k} must be a finite number >= 0, got {v!r}")
+    @model_validator(mode="after")
+    def _window(self) -> LaserScanner:
         if not self.max_range_cm > self.min_range_cm:
-            raise ConfigError(f"laser max_range_cm ({self.max_range_cm:g}) must exceed min_range_cm "
-                              f"({self.min_range_cm:g})")
-        for k in ("miss_prob", "rand_prob"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not 0.0 <= v <= 1.0:
-                raise ConfigError(f"laser {k} must be a probability in [0, 1], got {v!r}")
+            raise worded(f"laser max_range_cm ({self.max_range_cm:g}) must exceed min_range_cm "
+                         f"({self.min_range_cm:g})")
+        return self
 
     @property
     def span_cm(self) -> float:

@@ -12,9 +12,11 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from pydantic import Field
 
 from .errors import ConfigError
 from .geometry import Pose
+from .typed import Real, typed_dataclass
 
 __all__ = [
     "NO_ECHO",
@@ -40,36 +42,26 @@ def default_scan_angles(n: int = 360) -> NDArray[np.float64]:
     return np.arange(n, dtype=np.float64) * (2.0 * np.pi / n)
 
 
-@dataclass(frozen=True)
+def _unit(unit: str) -> dict[str, Any]:
+    return {"unit": unit}
+
+
+@typed_dataclass()
 class RobotGeometry:
-    """Physical constants of the robot (cm), with defaults for a typical NXT build.
+    """Physical constants of the robot (cm), with defaults for a typical NXT build (each field's
+    description and unit is in its declaration)."""
 
-    Parameters
-    ----------
-    radius_cm : float
-        Radius of the disc that contains the robot, centred on the wheel axis midpoint.
-    wheel_diameter_cm : float
-        Drive wheel diameter (the standard NXT wheel is 5.6 cm).
-    track_width_cm : float
-        Distance between the wheel contact points (a calibration value, 11-14 cm on typical builds).
-    sensor_offset_cm : float
-        Distance from the turret axis to the sensor face; the paper's turret is homocentric with
-        the wheel axis and readings are taken from the centre, so the default is 0.
-    turret_gear_ratio : float
-        Turret motor degrees per degree of sensor rotation.
-    """
-
-    radius_cm: float = 8.0
-    wheel_diameter_cm: float = 5.6
-    track_width_cm: float = 12.0
-    sensor_offset_cm: float = 0.0
-    turret_gear_ratio: float = 1.0
-
-    def __post_init__(self) -> None:
-        for name in ("radius_cm", "wheel_diameter_cm", "track_width_cm", "turret_gear_ratio"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
-                raise ConfigError(f"RobotGeometry.{name} must be a positive number, got {v!r}")
+    radius_cm: Real = Field(default=8.0, gt=0, json_schema_extra=_unit("cm"), description=(
+        "Radius of the disc that contains the robot, centred on the wheel axis midpoint."))
+    wheel_diameter_cm: Real = Field(default=5.6, gt=0, json_schema_extra=_unit("cm"), description=(
+        "Drive wheel diameter (the standard NXT wheel is 5.6 cm)."))
+    track_width_cm: Real = Field(default=12.0, gt=0, json_schema_extra=_unit("cm"), description=(
+        "Distance between the wheel contact points (a calibration value, 11-14 cm on typical builds)."))
+    sensor_offset_cm: Real = Field(default=0.0, json_schema_extra=_unit("cm"), description=(
+        "Distance from the turret axis to the sensor face; the paper's turret is homocentric with the wheel "
+        "axis and readings are taken from the centre, so the default is 0."))
+    turret_gear_ratio: Real = Field(default=1.0, gt=0, json_schema_extra=_unit("motor deg / sensor deg"), description=(
+        "Turret motor degrees per degree of sensor rotation."))
 
     @property
     def wheel_circumference_cm(self) -> float:

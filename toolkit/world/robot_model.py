@@ -14,15 +14,19 @@ mention is a `ConfigError`, never silently dropped.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Any, Literal
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, PlainValidator, WithJsonSchema
 
 from .errors import ConfigError
 from .robot import RobotGeometry
 from .robot_timing import RobotTiming
-from .sonar import IdealSonar, NxtSonar, SonarModel, make_sonar
+from .sonar import SONAR_MODELS, IdealSonar, NxtSonar, SonarModel, make_sonar
+from .typed import Real, build, typed_dataclass, with_sets
 
-__all__ = ["FACETS", "NXT_SONAR_SIGMA_CM", "MotionNoise", "RobotModel"]
+__all__ = ["FACETS", "NXT_SONAR_SIGMA_CM", "MotionNoise", "RobotModel", "with_robot_sets"]
 
 NoiseModelName = Literal["botsim", "absolute"]
 
@@ -42,65 +46,55 @@ the range sigma (``sensor_sigma_cm``), the sonar lobe (``beam_width_deg``, ``cri
 robot's radius (``clearance_cm``). A sonar without a lobe, a range limit or a mixture has no such facet."""
 
 
-@dataclass(frozen=True)
+@typed_dataclass()
 class MotionNoise:
-    """Motion noise: `model` is ``botsim`` (proportional) or ``absolute``; defaults are the paper's.
+    """Motion noise: `model` is ``botsim`` (proportional) or ``absolute``; defaults are the paper's (how
+    `motion` and `turn` apply: `toolkit.robots.sim`)."""
 
-    Parameters
-    ----------
-    model : {"botsim", "absolute"}
-        How `motion` and `turn` apply (see `toolkit.robots.sim`).
-    motion : float
-        botsim: fraction of each move (0.1); absolute: cm per move.
-    turn : float
-        botsim: fraction of each turn and rad of heading noise per move (0.005); absolute: rad.
-    """
-
-    model: NoiseModelName = "botsim"
-    motion: float = 0.1
-    turn: float = 0.005
-
-    def __post_init__(self) -> None:
-        if self.model not in ("botsim", "absolute"):
-            raise ConfigError(f"noise model must be 'botsim' or 'absolute', got {self.model!r}")
-        for k in ("motion", "turn"):
-            v = getattr(self, k)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ConfigError(f"{k} noise must be a non-negative number, got {v!r}")
+    model: NoiseModelName = Field(default="botsim", description="How motion and turn apply: botsim (proportional) or "
+                                                        "absolute.")
+    motion: Real = Field(default=0.1, ge=0, json_schema_extra={"unit": "fraction (botsim) or cm (absolute)"},
+                         description="botsim: fraction of each move (0.1); absolute: cm per move.")
+    turn: Real = Field(default=0.005, ge=0, json_schema_extra={"unit": "fraction (botsim) or rad (absolute)"},
+                       description=("botsim: fraction of each turn and rad of heading noise per move (0.005); "
+                                    "absolute: rad."))
 
     def to_dict(self) -> dict[str, object]:
         return {"model": self.model, "motion": self.motion, "turn": self.turn}
 
 
-@dataclass(frozen=True)
+def _as_sonar(value: Any) -> SonarModel:
+    """A sonar model as given, or built from its ``to_dict`` form (``name`` and parameters) by its registry."""
+    if isinstance(value, SonarModel):
+        return value
+    if not (isinstance(value, Mapping) and isinstance(value.get("name"), str)):
+        raise ValueError(f"must be a sonar model or a mapping with its name, got {value!r}")
+    kind = SONAR_MODELS.get(value["name"])
+    return build(kind, {k: v for k, v in value.items() if k != "name"})
+
+
+SonarField = Annotated[SonarModel, PlainValidator(_as_sonar), WithJsonSchema(
+    {"type": "object", "description": "A sonar model: its name (ideal, nxt, laser, ...) and its parameters.",
+     "properties": {"name": {"type": "string"}}, "required": ["name"]})]
+
+
+@typed_dataclass()
 class RobotModel:
     """The robot a run simulates or drives, as every part of the run is told it.
 
-    Parameters
-    ----------
-    sonar : SonarModel
-        The sensor: ``ideal`` (its `noise_sd`) or ``nxt`` (a whole `NxtSonar`, fitted or from a profile).
-    motion : MotionNoise
-    geometry : RobotGeometry
-    timing : RobotTiming
-        How long its drives, turns and sweeps take: the robot time of a path (`toolkit.world.path_cost`).
-    readings : {"simulated", "real"}
-        Where the readings come from: a simulator or the virtual brick draws each reading independently
-        (the localisers get `NxtSonar.simulated`, no reading correlation); real readings keep the
-        model's fitted correlation.
+    ``readings`` says where the readings come from: a simulator or the virtual brick draws each reading
+    independently (the localisers get `NxtSonar.simulated`, no reading correlation); real readings keep
+    the model's fitted correlation. ``timing`` is how long its drives, turns and sweeps take: the robot
+    time of a path (`toolkit.world.path_cost`).
     """
 
-    sonar: SonarModel = field(default_factory=IdealSonar)
-    motion: MotionNoise = field(default_factory=MotionNoise)
-    geometry: RobotGeometry = field(default_factory=RobotGeometry)
-    timing: RobotTiming = field(default_factory=RobotTiming)
-    readings: Literal["simulated", "real"] = "simulated"
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.sonar, SonarModel):
-            raise ConfigError(f"RobotModel.sonar must be a sonar model, got {self.sonar!r}")
-        if self.readings not in ("simulated", "real"):
-            raise ConfigError(f"RobotModel.readings must be 'simulated' or 'real', got {self.readings!r}")
+    sonar: SonarField = Field(default_factory=IdealSonar, description=(
+        "The sensor: ideal (its noise_sd) or nxt (a whole NxtSonar, fitted or from a profile)."))
+    motion: MotionNoise = Field(default_factory=MotionNoise, description="Motion noise.")
+    geometry: RobotGeometry = Field(default_factory=RobotGeometry, description="Size and build.")
+    timing: RobotTiming = Field(default_factory=RobotTiming, description="Robot time of each action.")
+    readings: Literal["simulated", "real"] = Field(default="simulated", description=(
+        "simulated: each reading drawn independently; real: readings keep the model's fitted correlation."))
 
     @classmethod
     def build(cls, sonar: str | SonarModel = "ideal", *, sensor_noise: float = 1.0, noise_model: str = "botsim",
@@ -177,3 +171,21 @@ class RobotModel:
     def to_dict(self) -> dict[str, Any]:
         return {"sonar": self.sonar.to_dict(), "motion": self.motion.to_dict(), "geometry": self.geometry.to_dict(),
                 "timing": self.timing.to_dict(), "readings": self.readings}
+
+
+def with_robot_sets(model: RobotModel, sets: Mapping[str, str], where: str = "--set") -> RobotModel:
+    """`model` with the settings `sets` (``robot.GROUP.FIELD`` and ``sonar.FIELD`` keys, values as typed,
+    read as YAML), validated again; a bad key or value is one `ConfigError` line naming the key as given.
+
+    >>> with_robot_sets(RobotModel(), {"robot.timing.drive_speed_cm_s": "20", "sonar.noise_sd": "2"}).timing
+    RobotTiming(drive_speed_cm_s=20.0, turn_rate_deg_s=90.0, reading_s=0.023, turret_rate_deg_s=240.0, stop_turn_s=0.0)
+    """
+    own: dict[str, dict[str, str]] = {"robot": {}, "sonar": {}}
+    for key, text in sets.items():
+        section, _, rest = key.partition(".")
+        if section not in own or not rest:
+            raise ConfigError(f"{where}: {key!r} is no robot setting (robot.GROUP.FIELD or sonar.FIELD)")
+        own[section][rest] = text
+    if own["sonar"]:
+        model = replace(model, sonar=with_sets(model.sonar, own["sonar"], where, section="sonar"))
+    return with_sets(model, own["robot"], where, section="robot") if own["robot"] else model

@@ -8,22 +8,23 @@ The simulator charges it (`toolkit.robots.sim.SimRobot`), the model clock checks
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
+from pydantic import Field
 
 from .arrays import FloatArray
-from .errors import ConfigError
+from .typed import Real, typed_dataclass
 
 __all__ = ["RobotTiming"]
 
 _EPS_RAD = 1e-9
 
 
-@dataclass(frozen=True)
+@typed_dataclass()
 class RobotTiming:
-    """How long a real NXT takes for each action (for `robot_time_s`).
+    """How long a real NXT takes for each action (for `robot_time_s`); each field's unit and meaning is in
+    its declaration.
 
     A sweep costs its readings plus the turret's travel: from the front through the requested
     angles in the order given, then back to the front (so the sensor cable never winds up). A full
@@ -32,37 +33,19 @@ class RobotTiming:
     virtual brick over a link of 3 ms per round trip (USB); drive and turn rates are kept below the
     brick's (about 19 cm/s and 150 deg/s with the profile's powers), so the model does not promise
     more than a robot gives.
-
-    Parameters
-    ----------
-    drive_speed_cm_s : float
-        Straight-line speed (cm/s).
-    turn_rate_deg_s : float
-        Spin-in-place rate (deg/s).
-    reading_s : float
-        Time per sonar reading, the turret standing (s); the sensor gives at most ~50 readings/s.
-    turret_rate_deg_s : float
-        Turret speed (sensor degrees per second).
-    stop_turn_s : float
-        Fixed time of each stop-and-turn command besides the spin itself (s): 0 by default, the
-        simulator's account so far; the brick's command round trip and motor settling when measured.
     """
 
-    drive_speed_cm_s: float = 15.0
-    turn_rate_deg_s: float = 90.0
-    reading_s: float = 0.023
-    turret_rate_deg_s: float = 240.0
-    stop_turn_s: float = 0.0
-
-    def __post_init__(self) -> None:
-        for k in ("drive_speed_cm_s", "turn_rate_deg_s", "turret_rate_deg_s"):
-            v = getattr(self, k)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-                raise ConfigError(f"RobotTiming.{k} must be a positive number, got {v!r}")
-        for k in ("reading_s", "stop_turn_s"):
-            v = getattr(self, k)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ConfigError(f"RobotTiming.{k} must be a number >= 0, got {v!r}")
+    drive_speed_cm_s: Real = Field(default=15.0, gt=0, json_schema_extra={"unit": "cm/s"},
+                                   description="Straight-line speed.")
+    turn_rate_deg_s: Real = Field(default=90.0, gt=0, json_schema_extra={"unit": "deg/s"},
+                                  description="Spin-in-place rate.")
+    reading_s: Real = Field(default=0.023, ge=0, json_schema_extra={"unit": "s"}, description=(
+        "Time per sonar reading, the turret standing; the sensor gives at most ~50 readings/s."))
+    turret_rate_deg_s: Real = Field(default=240.0, gt=0, json_schema_extra={"unit": "deg/s"},
+                                    description="Turret speed (sensor degrees per second).")
+    stop_turn_s: Real = Field(default=0.0, ge=0, json_schema_extra={"unit": "s"}, description=(
+        "Fixed time of each stop-and-turn command besides the spin itself: 0 by default, the simulator's "
+        "account so far; the brick's command round trip and motor settling when measured."))
 
     def move(self, distance_cm: float) -> float:
         """Time (s) to drive `distance_cm` (either sense)."""

@@ -26,19 +26,20 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import asdict, dataclass, is_dataclass, replace
+from dataclasses import asdict, is_dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
+from pydantic import Field, model_validator
 from scipy.special import ndtr as _ndtr
 
 from .arrays import FloatArray
 from .edge_index import edge_index
-from .errors import ConfigError
 from .geometry import RngLike, as_rng
 from .registry import Registry
 from .robot import NO_ECHO, Scan
+from .typed import Real, Whole, typed_dataclass, worded
 
 __all__ = ["SONAR_MODELS", "IdealSonar", "NxtSonar", "SonarModel", "make_sonar"]
 
@@ -98,13 +99,22 @@ class SonarModel(ABC):
         return {"name": self.name, **params}
 
 
-@dataclass
+def _unit(unit: str) -> dict[str, Any]:
+    return {"unit": unit}
+
+
+def _probability(default: float, text: str) -> Any:
+    return Field(default, ge=0.0, le=1.0, json_schema_extra=_unit("probability"), description=text)
+
+
+@typed_dataclass(frozen=False)
 class IdealSonar(SonarModel):
-    """BotSim's ultraScan (see the module docstring). `noise_sd` in cm (the paper: 1 cm)."""
+    """BotSim's ultraScan (see the module docstring)."""
 
     name: ClassVar[str] = "ideal"
     no_echo: ClassVar[float] = float("inf")
-    noise_sd: float = 1.0
+    noise_sd: Real = Field(default=1.0, ge=0.0, json_schema_extra=_unit("cm"), description=(
+        "Gaussian noise added to the x and to the y of each crossing point (the paper: 1 cm)."))
 
     crossings: ClassVar[int] = 4
     """Crossings per ray that receive noise (the nearest ones within ``slack_sd * noise_sd``)."""
@@ -138,101 +148,62 @@ class IdealSonar(SonarModel):
         return np.where(hit, d, np.inf).min(axis=1).reshape(shape)
 
 
-@dataclass
+@typed_dataclass(frozen=False)
 class NxtSonar(SonarModel):
-    """A LEGO NXT ultrasonic sensor: a lobe with specular loss and a beam mixture (module docstring).
+    """A LEGO NXT ultrasonic sensor: a lobe with specular loss and a beam mixture (module docstring); each
+    parameter's range, unit and meaning is in its declaration.
 
     The defaults are the parameters fitted by maximum likelihood to the real sweeps of
     ``docs/real-sonar.md`` (``nxtnav sonar fit``); `NxtSonar.hardware_facts()` gives the model
-    built from the published hardware facts alone.
-
-    Parameters
-    ----------
-    noise_sd : float
-        Standard deviation (cm) of a true echo's reading at zero range, before rounding.
-    noise_per_m : float
-        Growth of that standard deviation per metre of range (cm/m).
-    bias_cm : float
-        Mean offset of a true echo's reading from the echo distance (cm).
-    beam_width_deg : float
-        Full width of the lobe (degrees).
-    beam_rays : int
-        Rays sampling the lobe (odd, so one lies on the axis).
-    critical_incidence_deg : float
-        Largest angle between a ray and a wall's normal that still echoes back.
-    min_range_cm : float
-        Below this echo distance readings are unreliable: 255 with probability `close_no_echo_prob`,
-        otherwise a uniform whole number in [0, min_range_cm).
-    max_range_cm : float
-        Readings at or beyond this are reported as 255.
-    dropout_prob : float
-        Probability that an echo within reach is lost (255) at short range.
-    far_dropout_prob : float
-        The same far beyond `reach_cm`: the loss probability rises from `dropout_prob` to this along a
-        logistic curve centred on `reach_cm`, `reach_width_cm` wide.
-    reach_cm, reach_width_cm : float
-        See `far_dropout_prob` (cm).
-    phantom_prob : float
-        Probability of a (uniformly random) reading when nothing in the lobe echoes.
-    short_prob : float
-        Share of the readings of an echo that come from something nearer than the wall (uniform
-        between 0 and the echo distance: a passer-by, crosstalk, the lobe's edge).
-    outlier_prob : float
-        Share of the readings of an echo that are uniformly random in [0, max_range_cm).
-    close_no_echo_prob : float
-        See `min_range_cm`.
-    correlation_deg : float
-        Readings closer than this in turret angle are not independent evidence (neighbouring lobes
-        overlap and share their errors): a localiser counts each reading of a sweep `step` degrees
-        apart with weight ``min(1, step / correlation_deg)``.
+    built from the published hardware facts alone. The same values are in
+    ``maps/real-nxt/sonar-profiles/nxt-fitted.yaml``, and a test keeps the two equal.
     """
 
     name: ClassVar[str] = "nxt"
     no_echo: ClassVar[float] = NO_ECHO
-    # fitted to the 19 real sweeps of docs/real-sonar.md (`nxtnav sonar fit`); the same values are in
-    # maps/real-nxt/sonar-profiles/nxt-fitted.yaml, and a test keeps the two equal
-    noise_sd: float = 1.188316
-    noise_per_m: float = 0.925943
-    bias_cm: float = -0.480274
-    beam_width_deg: float = 40.0
-    beam_rays: int = 17
-    critical_incidence_deg: float = 30.0
-    min_range_cm: float = 6.0
-    max_range_cm: float = 255.0
-    dropout_prob: float = 0.00795
-    far_dropout_prob: float = 0.334932
-    reach_cm: float = 57.853445
-    reach_width_cm: float = 1.0
-    phantom_prob: float = 0.716444
-    short_prob: float = 0.123682
-    outlier_prob: float = 0.079517
-    close_no_echo_prob: float = 0.5
-    correlation_deg: float = 29.47
+    noise_sd: Real = Field(default=1.188316, ge=0.0, le=100.0, json_schema_extra=_unit("cm"), description=(
+        "Standard deviation of a true echo's reading at zero range, before rounding."))
+    noise_per_m: Real = Field(default=0.925943, ge=0.0, le=100.0, json_schema_extra=_unit("cm/m"), description=(
+        "Growth of that standard deviation per metre of range."))
+    bias_cm: Real = Field(default=-0.480274, ge=-50.0, le=50.0, json_schema_extra=_unit("cm"), description=(
+        "Mean offset of a true echo's reading from the echo distance."))
+    beam_width_deg: Real = Field(default=40.0, ge=0.0, le=120.0, json_schema_extra=_unit("deg"),
+                                 description="Full width of the lobe.")
+    beam_rays: Whole = Field(default=17, ge=1, le=1001,
+                             description="Rays sampling the lobe (odd, so one lies on the axis).")
+    critical_incidence_deg: Real = Field(default=30.0, ge=0.0, le=90.0, json_schema_extra=_unit("deg"), description=(
+        "Largest angle between a ray and a wall's normal that still echoes back."))
+    min_range_cm: Real = Field(default=6.0, ge=0.0, le=255.0, json_schema_extra=_unit("cm"), description=(
+        "Below this echo distance readings are unreliable: 255 with probability close_no_echo_prob, otherwise "
+        "a uniform whole number in [0, min_range_cm)."))
+    max_range_cm: Real = Field(default=255.0, ge=1.0, le=10_000.0, json_schema_extra=_unit("cm"),
+                               description="Readings at or beyond this are reported as 255.")
+    dropout_prob: Real = _probability(0.00795, "Probability that an echo within reach is lost (255) at short range.")
+    far_dropout_prob: Real = _probability(0.334932, (
+        "The same far beyond reach_cm: the loss probability rises from dropout_prob to this along a logistic "
+        "curve centred on reach_cm, reach_width_cm wide."))
+    reach_cm: Real = Field(default=57.853445, ge=0.0, le=10_000.0, json_schema_extra=_unit("cm"),
+                           description="Centre of the rise of the loss probability (see far_dropout_prob).")
+    reach_width_cm: Real = Field(default=1.0, ge=0.1, le=10_000.0, json_schema_extra=_unit("cm"),
+                                 description="Width of the rise of the loss probability (see far_dropout_prob).")
+    phantom_prob: Real = _probability(0.716444, "Probability of a (uniformly random) reading when nothing in the "
+                                                "lobe echoes.")
+    short_prob: Real = _probability(0.123682, (
+        "Share of the readings of an echo that come from something nearer than the wall (uniform between 0 and "
+        "the echo distance: a passer-by, crosstalk, the lobe's edge)."))
+    outlier_prob: Real = _probability(0.079517, "Share of the readings of an echo that are uniformly random in "
+                                                "[0, max_range_cm).")
+    close_no_echo_prob: Real = _probability(0.5, "See min_range_cm.")
+    correlation_deg: Real = Field(default=29.47, ge=0.0, le=360.0, json_schema_extra=_unit("deg"), description=(
+        "Readings closer than this in turret angle are not independent evidence (neighbouring lobes overlap "
+        "and share their errors): a localiser counts each reading of a sweep step degrees apart with weight "
+        "min(1, step / correlation_deg)."))
 
-    PROBABILITIES: ClassVar[tuple[str, ...]] = ("dropout_prob", "far_dropout_prob", "phantom_prob", "short_prob",
-                                                "outlier_prob", "close_no_echo_prob")
-    LIMITS: ClassVar[dict[str, tuple[float, float]]] = {
-        "noise_sd": (0.0, 100.0), "noise_per_m": (0.0, 100.0), "bias_cm": (-50.0, 50.0),
-        "beam_width_deg": (0.0, 120.0), "beam_rays": (1, 1001), "critical_incidence_deg": (0.0, 90.0),
-        "min_range_cm": (0.0, 255.0), "max_range_cm": (1.0, 10_000.0), "reach_cm": (0.0, 10_000.0),
-        "reach_width_cm": (0.1, 10_000.0), "correlation_deg": (0.0, 360.0),
-    }
-    """Allowed range of every non-probability parameter (inclusive)."""
-
-    def __post_init__(self) -> None:
-        for k, (lo, hi) in self.LIMITS.items():
-            v = getattr(self, k)
-            if not (isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and lo <= v <= hi):
-                raise ConfigError(f"{k} must be a number in [{lo:g}, {hi:g}], got {v!r}")
-        if self.beam_rays != int(self.beam_rays):
-            raise ConfigError(f"beam_rays must be a whole number, got {self.beam_rays!r}")
-        self.beam_rays = int(self.beam_rays)
-        for k in self.PROBABILITIES:
-            v = getattr(self, k)
-            if not (isinstance(v, int | float) and 0.0 <= v <= 1.0):
-                raise ConfigError(f"{k} must be a probability in [0, 1], got {v!r}")
+    @model_validator(mode="after")
+    def _shares_add_up(self) -> NxtSonar:
         if self.short_prob + self.outlier_prob > 1.0:
-            raise ConfigError(f"short_prob + outlier_prob must be <= 1, got {self.short_prob + self.outlier_prob:g}")
+            raise worded(f"short_prob + outlier_prob must be <= 1, got {self.short_prob + self.outlier_prob:g}")
+        return self
 
     @classmethod
     def hardware_facts(cls, **overrides: Any) -> NxtSonar:

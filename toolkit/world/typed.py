@@ -14,9 +14,9 @@ as YAML) to a model, nested groups included.
 
 >>> from pydantic import Field
 >>> class Motion(Typed):
-...     sd_cm: float = Field(1.0, ge=0, description="drive noise", json_schema_extra={"unit": "cm"})
+...     sd_cm: float = Field(default=1.0, ge=0, description="drive noise", json_schema_extra={"unit": "cm"})
 >>> class Robot(Typed):
-...     radius_cm: float = Field(10.0, gt=0)
+...     radius_cm: float = Field(default=10.0, gt=0)
 ...     motion: Motion = Motion()
 >>> with_sets(Robot(), {"motion.sd_cm": "2.5"}).motion.sd_cm
 2.5
@@ -37,20 +37,22 @@ from __future__ import annotations
 import dataclasses
 import functools
 import typing
-from collections.abc import Iterator, Mapping
-from typing import Any, TypeVar
+from collections.abc import Callable, Iterator, Mapping
+from typing import Annotated, Any, TypeVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict, TypeAdapter, ValidationError
+from pydantic.dataclasses import dataclass as pydantic_dataclass
 from pydantic.fields import FieldInfo
 from pydantic_core import ArgsKwargs, PydanticCustomError
 
 from .errors import ConfigError
 from .yaml_text import YAMLError, load_yaml
 
-__all__ = ["Typed", "build", "checked", "fields_of", "group_fields", "one_line", "parse_value", "with_sets",
-           "with_values", "worded"]
+__all__ = ["Count", "NonNegative", "Positive", "Real", "Typed", "Whole", "build", "fields_of", "group_fields",
+           "model_fields", "one_line", "parse_value", "schema_of", "typed_dataclass", "with_sets", "with_values",
+           "worded"]
 
-T = TypeVar("T", bound=BaseModel)
+T = TypeVar("T")
 C = TypeVar("C", bound=type)
 
 
@@ -59,6 +61,75 @@ class Typed(BaseModel):
     checked finite unless a field says otherwise."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, validate_default=True)
+
+
+_DATACLASS_CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True)
+
+
+@typing.dataclass_transform(field_specifiers=(dataclasses.field, Field))
+def typed_dataclass(*, frozen: bool = True) -> Callable[[C], C]:
+    """`Typed`'s rules for a class that must stay a dataclass (built with positional arguments, copied with
+    ``dataclasses.replace``, read with ``dataclasses.asdict``): a pydantic dataclass, its fields validated
+    on construction and on ``replace``, unknown fields refused, numbers finite.
+
+    >>> from pydantic import Field
+    >>> @typed_dataclass()
+    ... class Wheel:
+    ...     diameter_cm: Real = Field(default=5.6, gt=0)
+    >>> Wheel(6).diameter_cm, dataclasses.replace(Wheel(), diameter_cm=4.0).diameter_cm
+    (6.0, 4.0)
+    >>> build(Wheel, {"diameter_cm": True}, "wheel.yaml")
+    Traceback (most recent call last):
+    ...
+    toolkit.world.errors.ConfigError: wheel.yaml: diameter_cm must be a number, got True
+    >>> Wheel(-1)
+    Traceback (most recent call last):
+    ...
+    toolkit.world.errors.ConfigError: Wheel: diameter_cm: -1 must be greater than 0
+    """
+    def wrap(cls: C) -> C:
+        made: Any = pydantic_dataclass(frozen=frozen, config=_DATACLASS_CONFIG)(cls)
+        validating_init = made.__init__
+
+        @functools.wraps(validating_init)
+        def init(self: Any, *args: Any, **kwargs: Any) -> None:
+            names = list(made.__pydantic_fields__)
+            if len(args) <= len(names):  # by name, so that an error names the field
+                args, kwargs = (), {**dict(zip(names, args, strict=False)), **kwargs}
+            try:
+                validating_init(self, *args, **kwargs)
+            except ValidationError as exc:  # built in code: the same one line as from a file, named by class
+                raise ConfigError(one_line(exc, made.__name__)) from None
+
+        made.__init__ = init
+        return typing.cast(C, made)
+
+    return wrap
+
+
+def _number(value: Any) -> Any:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise PydanticCustomError("needs", "must be a number")
+    return value
+
+
+def _whole(value: Any) -> Any:
+    if isinstance(value, bool) or not isinstance(value, int | float) or (isinstance(value, float)
+                                                                       and not value.is_integer()):
+        raise PydanticCustomError("needs", "must be a whole number")
+    return int(value)
+
+
+Real = Annotated[float, BeforeValidator(_number), Strict()]
+"""A float field that takes a number (an int too), never a text or true/false: ``x must be a number, got 'a'``."""
+Whole = Annotated[int, BeforeValidator(_whole)]
+"""An int field that takes a whole number (``17`` or ``17.0``), never a text, true/false or ``17.5``."""
+Positive = Annotated[Real, Field(gt=0)]
+"""A `Real` > 0."""
+NonNegative = Annotated[Real, Field(ge=0)]
+"""A `Real` >= 0."""
+Count = Annotated[Whole, Field(ge=0)]
+"""A `Whole` >= 0."""
 
 
 def worded(text: str) -> PydanticCustomError:
@@ -88,18 +159,20 @@ def _message(err: Mapping[str, Any]) -> str:
     if err.get("type") == "worded":
         return str((err.get("ctx") or {}).get("text", err.get("msg", "")))
     path = ".".join(str(p) for p in err.get("loc", ()))
+    if err.get("type") == "needs":  # the field's kind of value: worded as the readers have always said it
+        return f"{path} {err.get('msg')}, got {err.get('input')!r}"
     text = str(err.get("msg", "invalid"))
     if text.startswith("Value error, "):
         text = text[len("Value error, "):]
     text = text[:1].lower() + text[1:]
     if text.startswith("input should be "):  # pydantic's "Input should be greater than 0"
         text = "must be " + text[len("input should be "):]
-    if err.get("type") == "extra_forbidden":
+    if err.get("type") in ("extra_forbidden", "unexpected_keyword_argument"):  # a model's, a dataclass's
         return f"{path}: unknown field"
     if err.get("type") == "missing":
         return f"{path}: missing"
     value = err.get("input")
-    if isinstance(value, dict | list | ArgsKwargs):  # a whole group failed its own check: its message names the value
+    if isinstance(value, dict | list | ArgsKwargs):  # a whole group failed its own check: it names the value
         return f"{path}: {text}" if path else text
     return f"{path}: {value!r} {text}" if path else f"{value!r}: {text}"
 
@@ -110,63 +183,55 @@ def one_line(exc: ValidationError, where: str) -> str:
     return f"{where}: {text}" if where else text
 
 
+@functools.cache
+def _adapter(cls: type) -> TypeAdapter[Any]:
+    return TypeAdapter(cls)
+
+
+def _validated(cls: type[T], data: Any) -> T:
+    if issubclass(cls, BaseModel):
+        return typing.cast(T, cls.model_validate(data))
+    return typing.cast(T, _adapter(typing.cast(Any, cls)).validate_python(data))
+
+
 def build(cls: type[T], data: Any, where: str = "") -> T:
-    """`cls` validated from `data` (a mapping); a failure is one `ConfigError` line naming `where`."""
+    """`cls` (a `Typed` model or a `typed_dataclass`) validated from `data` (a mapping); a failure is one
+    `ConfigError` line naming `where`."""
     try:
-        return cls.model_validate(data)
+        return _validated(cls, data)
     except ValidationError as exc:
         raise ConfigError(one_line(exc, where)) from None
 
 
-def checked(cls: C) -> C:
-    """A pydantic dataclass (``pydantic.dataclasses.dataclass``: built by position or keyword, and by
-    ``dataclasses.replace``) whose construction fails with one `ConfigError` line naming the class, the field
-    and the value, as `build` words it.
+def schema_of(cls: type) -> dict[str, Any]:
+    """The JSON Schema of a `Typed` model or a `typed_dataclass`."""
+    return _adapter(cls).json_schema()
 
-    >>> from pydantic import Field
-    >>> from pydantic.dataclasses import dataclass
-    >>> @checked
-    ... @dataclass(frozen=True)
-    ... class Budget:
-    ...     runs: int = Field(1, ge=1)
-    >>> Budget(0)
-    Traceback (most recent call last):
-    ...
-    toolkit.world.errors.ConfigError: Budget: runs: 0 must be greater than or equal to 1
-    """
-    init = cls.__init__  # type: ignore[misc]  # the class's own, wrapped below
-    names = [f.name for f in dataclasses.fields(cls) if f.init]
 
-    @functools.wraps(init)
-    def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
-        if len(args) > len(names):
-            raise ConfigError(f"{cls.__name__}: {len(args)} values for {len(names)} fields")
-        try:  # by name, so that an error names the field
-            init(self, **dict(zip(names, args, strict=False)), **kwargs)
-        except ValidationError as exc:
-            raise ConfigError(one_line(exc, cls.__name__)) from None
-
-    cls.__init__ = __init__  # type: ignore[misc]
-    return cls
+def model_fields(cls: Any) -> dict[str, FieldInfo]:
+    """The pydantic fields of a model or a pydantic dataclass by name ({} for any other class)."""
+    if isinstance(cls, type) and issubclass(cls, BaseModel):
+        return dict(cls.model_fields)
+    return dict(getattr(cls, "__pydantic_fields__", None) or {})
 
 
 def group_fields(kind: Any) -> dict[str, Any] | None:
     """The fields of a group type (a pydantic model, or a standard dataclass nested in one) by name, each
     with its type; None when `kind` is a value, not a group."""
-    if isinstance(kind, type) and issubclass(kind, BaseModel):
-        return {name: info.annotation for name, info in kind.model_fields.items()}
+    if isinstance(kind, type) and (issubclass(kind, BaseModel) or hasattr(kind, "__pydantic_fields__")):
+        return {name: info.annotation for name, info in model_fields(kind).items()}
     if isinstance(kind, type) and dataclasses.is_dataclass(kind):
         hints = typing.get_type_hints(kind)
         return {f.name: hints.get(f.name, Any) for f in dataclasses.fields(kind)}
     return None
 
 
-def fields_of(cls: type[BaseModel], prefix: str = "") -> Iterator[tuple[str, FieldInfo]]:
+def fields_of(cls: Any, prefix: str = "") -> Iterator[tuple[str, FieldInfo]]:
     """Every leaf field of `cls` as (dotted name, field), nested groups expanded, in declaration order
-    (a standard dataclass nested in a model counts as one field)."""
-    for name, info in cls.model_fields.items():
+    (a standard dataclass nested in a model counts as one field, a `typed_dataclass` as a group)."""
+    for name, info in model_fields(cls).items():
         kind = info.annotation
-        if isinstance(kind, type) and issubclass(kind, BaseModel):
+        if model_fields(kind):
             yield from fields_of(kind, f"{prefix}{name}.")
         else:
             yield f"{prefix}{name}", info
@@ -180,37 +245,55 @@ def parse_value(text: str) -> Any:
         return text
 
 
-def with_sets(model: T, sets: Mapping[str, str], where: str = "--set") -> T:
-    """`model` with each ``dotted.key`` of `sets` replaced by its text read as YAML, validated again."""
-    return with_values(model, {key: parse_value(text) for key, text in sets.items()}, where)
+def with_sets(model: T, sets: Mapping[str, str], where: str = "--set", section: str = "") -> T:
+    """`model` with each ``dotted.key`` of `sets` replaced by its text read as YAML, validated again (an error
+    names a key as ``section.key`` when `section` is given: ``--set robot.timing.drive_speed_cm_s``)."""
+    return with_values(model, {key: parse_value(text) for key, text in sets.items()}, where, section)
 
 
-def _fields(value: Any) -> Any:
-    """A model's (or a nested dataclass group's) fields as nested dicts, every other value as it is (unlike
-    ``model_dump``, which would turn objects held in ``Any`` fields into dicts too)."""
-    if isinstance(value, BaseModel):
-        return {name: _fields(getattr(value, name)) for name in type(value).model_fields}
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
-    return value
+class _Group(dict[str, Any]):
+    """The overrides of one nested group (by field name), as `with_values` collects them."""
 
 
-def with_values(model: T, values: Mapping[str, Any], where: str = "--set") -> T:
-    """`model` with each ``dotted.key`` of `values` replaced by its value, validated again (groups may be
-    pydantic models or standard dataclasses nested in them)."""
-    data = _fields(model)
+def with_values(model: T, values: Mapping[str, Any], where: str = "--set", section: str = "") -> T:
+    """`model` with each ``dotted.key`` of `values` replaced by its value, validated again. Groups may be
+    pydantic models, pydantic or standard dataclasses; a key is looked up in the group the model holds
+    (its own class, which may be a subclass of the declared one: a `RobotModel`'s sonar). With `section`,
+    messages name each key as ``section.key``."""
+    edits = _Group()
+    head = (section,) if section else ()
     for key, value in values.items():
-        node, parts = data, key.split(".")
-        known = group_fields(type(model)) or {}
+        node, parts, here = edits, key.split("."), typing.cast(Any, model)
         for depth, part in enumerate(parts):
-            group = ".".join(parts[:depth]) or type(model).__name__
+            known = group_fields(type(here)) or {}
             if part not in known:
-                raise ConfigError(f"{where}: no option {key!r}; {group} has: {', '.join(known)}")
-            inner = group_fields(known[part])
-            if depth < len(parts) - 1:
-                if inner is None:
-                    raise ConfigError(f"{where}: {'.'.join(parts[:depth + 1])} is a value, not a group")
-                node, known = node[part], inner
-            else:
+                group = ".".join((*head, *parts[:depth])) or type(model).__name__
+                raise ConfigError(f"{where}: no option {'.'.join((*head, key))!r}; {group} has: {', '.join(known)}")
+            if depth == len(parts) - 1:
                 node[part] = value
-    return build(type(model), data, where)
+                break
+            here = getattr(here, part)
+            if group_fields(type(here)) is None:
+                raise ConfigError(f"{where}: {'.'.join((*head, *parts[:depth + 1]))} is a value, not a group")
+            inner = node.get(part)
+            if not isinstance(inner, _Group):
+                inner = node[part] = _Group()
+            node = inner
+    return typing.cast(T, _rebuilt(model, edits, where, head, top=True))
+
+
+def _rebuilt(group: Any, edits: _Group, where: str, path: tuple[str, ...], top: bool = False) -> Any:
+    """`group` (at `path` in the model) with `edits`, validated as its own class; an error names the field by
+    its whole dotted path."""
+    data = {name: getattr(group, name) for name in group_fields(type(group)) or {}}
+    for name, edit in edits.items():
+        data[name] = _rebuilt(getattr(group, name), edit, where, (*path, name)) if isinstance(edit, _Group) else edit
+    if top and not path:
+        return build(type(group), data, where)
+    if not top and not model_fields(type(group)):  # a standard dataclass: the model holding it validates the values
+        return data
+    try:
+        return _validated(type(group), data)
+    except ValidationError as exc:
+        errors = [{**e, "loc": (*path, *e.get("loc", ()))} for e in exc.errors()]
+        raise ConfigError(f"{where}: " + "; ".join(_message(e) for e in errors)) from None

@@ -26,7 +26,7 @@ this process, over a process pool or on a Dask cluster:
 
 Pose trackers (`Localiser.needs_prior`, the EKF and UKF) cannot localise globally; in the global and
 kidnapped scenarios they get a prior, either the true pose plus Gaussian noise (``noisy-truth``,
-`BenchConfig.prior_sd_cm` / `prior_sd_deg`) or the first estimate of a ``paper-pf`` run on the same
+`BenchConfig.prior_sd`) or the first estimate of a ``paper-pf`` run on the same
 robot (``pf``). The summary says which.
 
 Randomness: trial ``t`` of map ``m`` uses the seed ``toolkit.seeds.derive_seed(seed, m, t)`` for the true pose, the

@@ -10,7 +10,6 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field, InstanceOf, ValidationInfo, field_validator, model_validator
-from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from localisation.base import PoseEstimate
 from localisation.global_localisation import EXPLORATIONS, GlobalLocalisation
@@ -24,8 +23,8 @@ from toolkit.world import (
     SonarModel,
     angle_diff,
 )
-from toolkit.world.robot_model import NoiseModelName
-from toolkit.world.typed import checked, worded
+from toolkit.world.robot_model import NoiseModelName, with_robot_sets
+from toolkit.world.typed import NonNegative, typed_dataclass, worded
 
 SUCCESS_CM = 2.0
 """Position tolerance of a successful localisation (cm)."""
@@ -76,8 +75,7 @@ def pose_error(estimate: Pose, truth: Pose) -> tuple[float, float]:
     return estimate.distance_to(truth), math.degrees(angle_diff(estimate.theta, truth.theta))
 
 
-@checked
-@pydantic_dataclass(frozen=True)
+@typed_dataclass()
 class BenchConfig:
     """Settings shared by every trial of a benchmark run.
 
@@ -91,7 +89,7 @@ class BenchConfig:
         The robot's `MotionNoise` (the paper's BotSim values by default).
     tracker_prior : {"noisy-truth", "pf"}
         Prior of the pose trackers in the global and kidnapped scenarios.
-    prior_sd_cm, prior_sd_deg : float
+    prior_sd : (float, float)
         Standard deviations of the noisy-truth prior (cm, degrees); also the prior of every localiser
         in the tracking scenario.
     clearance_cm : float
@@ -126,6 +124,9 @@ class BenchConfig:
     sonar_model : NxtSonar, optional
         The ``nxt`` sonar's model (a fitted profile's, `toolkit.real_sonar.fit.load_sonar_profile`): the
         simulator reads with it and the localisers get its lobe. None: `NxtSonar`'s defaults.
+    robot_sets : tuple of (key, text)
+        ``--set robot.GROUP.FIELD`` and ``sonar.FIELD`` settings applied to the robot model
+        (`toolkit.world.robot_model.with_robot_sets`).
     """
 
     sonar: str = "ideal"
@@ -134,8 +135,7 @@ class BenchConfig:
     motion_noise: float = Field(default=0.1, ge=0, allow_inf_nan=False)
     turn_noise: float = Field(default=0.005, ge=0, allow_inf_nan=False)
     tracker_prior: str = "noisy-truth"
-    prior_sd_cm: float = Field(default=3.0, ge=0, allow_inf_nan=False)
-    prior_sd_deg: float = Field(default=5.0, ge=0, allow_inf_nan=False)
+    prior_sd: tuple[NonNegative, NonNegative] = (3.0, 5.0)
     clearance_cm: float = Field(default=10.0, ge=0, allow_inf_nan=False)
     robot_radius_cm: float | None = Field(default=None, gt=0, allow_inf_nan=False)
     tracking_steps: int = Field(default=12, ge=1)
@@ -148,6 +148,7 @@ class BenchConfig:
     localiser_options: Mapping[str, Mapping[str, Any]] = Field(default_factory=dict)
     localise_options: Mapping[str, Any] = Field(default_factory=dict)
     sonar_model: InstanceOf[NxtSonar] | None = None
+    robot_sets: tuple[tuple[str, str], ...] = ()
 
     @field_validator(*_CHOICES)
     @classmethod
@@ -185,10 +186,11 @@ class BenchConfig:
     @property
     def robot(self) -> RobotModel:
         """The one robot model of the run: the simulator reads and moves with it, every localiser is told it."""
-        return RobotModel.build(self.sonar if self.sonar_model is None else self.sonar_model,
+        base = RobotModel.build(self.sonar if self.sonar_model is None else self.sonar_model,
                                 sensor_noise=self.sensor_noise, noise_model=self.noise_model,
                                 motion_noise=self.motion_noise, turn_noise=self.turn_noise,
                                 radius_cm=self.robot_radius_cm)
+        return with_robot_sets(base, dict(self.robot_sets)) if self.robot_sets else base
 
     @property
     def noise(self) -> MotionNoise:
@@ -208,8 +210,8 @@ class BenchConfig:
         return {
             "sonar": self.sonar, "sensor_noise": self.sensor_noise, "sonar_model": self.simulated_sonar.to_dict(),
             "noise": self.noise.to_dict(),
-            "tracker_prior": self.tracker_prior, "prior_sd_cm": self.prior_sd_cm,
-            "prior_sd_deg": self.prior_sd_deg, "clearance_cm": self.pose_clearance_cm,
+            "tracker_prior": self.tracker_prior, "prior_sd_cm": self.prior_sd[0],
+            "prior_sd_deg": self.prior_sd[1], "clearance_cm": self.pose_clearance_cm,
             "robot_radius_cm": self.geometry.radius_cm,
             "tracking_steps": self.tracking_steps, "tracking_step_cm": list(self.tracking_step_cm),
             "kidnap_min_cm": self.kidnap_min_cm, "recovery_rounds": self.recovery_rounds,

@@ -221,7 +221,7 @@ def _settings_lines(config: BenchConfig, maps: Sequence[str], localisers: Sequen
                     if config.lobe == "off" and config.sonar != "ideal" else ""))
     if trackers:
         if config.tracker_prior == "noisy-truth":
-            how = (f"the true pose plus Gaussian noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} "
+            how = (f"the true pose plus Gaussian noise ({config.prior_sd[0]:g} cm, {config.prior_sd[1]:g} "
                    "degrees): they track, they do not localise globally")
         else:
             how = "the first estimate of a `paper-pf` run on the same robot (its time not counted)"
@@ -270,7 +270,7 @@ def write_summary(
         lines += ["## Tracking", "",
                   f"A scripted drive of {config.tracking_steps} actions (turn, then a move of "
                   f"{config.tracking_step_cm[0]:g}-{config.tracking_step_cm[1]:g} cm); every localiser starts "
-                  f"from the true pose plus noise ({config.prior_sd_cm:g} cm, {config.prior_sd_deg:g} degrees) "
+                  f"from the true pose plus noise ({config.prior_sd[0]:g} cm, {config.prior_sd[1]:g} degrees) "
                   "and predicts + updates with a full scan after every action. RMSE over all actions and trials "
                   "(blind = actions whose scan held no reading, no wall within the sonar's reach; RMSE with "
                   "echo / blind = over the other / those actions; dead reckoning = the prior's mean moved by the "

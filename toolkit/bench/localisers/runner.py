@@ -55,7 +55,8 @@ def call_localise(robot: SimRobot, localiser: Localiser, prior: Prior | None, rn
 
 
 def _noisy_truth(truth: Pose, cfg: BenchConfig, rng: np.random.Generator) -> Prior:
-    sd = np.array([cfg.prior_sd_cm, cfg.prior_sd_cm, math.radians(cfg.prior_sd_deg)])
+    sd_cm, sd_deg = cfg.prior_sd
+    sd = np.array([sd_cm, sd_cm, math.radians(sd_deg)])
     mean = truth.as_array() + rng.standard_normal(3) * sd
     cov = np.diag(np.maximum(sd, 1e-3) ** 2)
     return Prior(Pose(mean[0], mean[1], wrap_angle(mean[2])), cov)

@@ -8,13 +8,12 @@ from datetime import datetime
 from typing import Annotated, Any, Literal
 
 from pydantic import Field, InstanceOf, field_validator, model_validator
-from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from planners import PlanStatus
 
 from ...robots.sim import MotionNoise
 from ...world import CHECKER_BACKENDS, RobotGeometry, RobotTiming
-from ...world.typed import checked
+from ...world.typed import typed_dataclass
 from .simplify import SimplifyMethod
 
 #: Columns of ``runs.csv``, in order: the raw path's metrics, its first solution, then the simplified path's,
@@ -259,8 +258,7 @@ class RunRecord:
 
 
 # -- the benchmark -------------------------------------------------------------------------------
-@checked
-@pydantic_dataclass(frozen=True)
+@typed_dataclass()
 class BenchmarkConfig:
     """What to benchmark.
 
