@@ -20,9 +20,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pydantic import Field, model_validator
-from scipy.special import ndtr
 
-from .arrays import FloatArray
+from .arrays import FloatArray, normal_cdf
 from .errors import ConfigError
 from .geometry import RngLike, as_rng, ray_cast
 from .robot import Scan
@@ -89,7 +88,7 @@ class LaserScanner(SonarModel):
         with np.errstate(invalid="ignore", over="ignore"):
             z = (np.where(echo, r, 0.0) - de) / sd
             gauss = np.exp(-0.5 * z * z) / (sd * math.sqrt(2.0 * math.pi))
-            kept = ndtr((self.max_range_cm - de) / sd) - ndtr((self.min_range_cm - de) / sd)
+            kept = normal_cdf((self.max_range_cm - de) / sd) - normal_cdf((self.min_range_cm - de) / sd)
         uniform = self.rand_prob / self.span_cm
         hit = 1.0 - self.rand_prob
         p_echo = np.where(seen, (1.0 - self.miss_prob) * hit * gauss, 0.0) + uniform

@@ -32,9 +32,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import Field, model_validator
-from scipy.special import ndtr as _ndtr
 
-from .arrays import FloatArray
+from .arrays import FloatArray, normal_cdf
 from .edge_index import edge_index
 from .geometry import RngLike, as_rng
 from .registry import Registry
@@ -275,8 +274,8 @@ class NxtSonar(SonarModel):
         sd = self.reading_sd(dd)
         with np.errstate(invalid="ignore"):
             lower = np.where(r <= 0, -np.inf, r - 0.5)  # the simulator clips at 0: reading 0 takes what lies below
-            hit = _ndtr((r + 0.5 - mu) / sd) - _ndtr((lower - mu) / sd)
-            beyond = 1.0 - _ndtr((self.max_range_cm - 0.5 - mu) / sd)
+            hit = normal_cdf((r + 0.5 - mu) / sd) - normal_cdf((lower - mu) / sd)
+            beyond = 1.0 - normal_cdf((self.max_range_cm - 0.5 - mu) / sd)
         n_short = np.maximum(np.floor(np.where(echo, dd, 1.0)), 1.0)
         short = np.where(r < n_short, 1.0 / n_short, 0.0)
         z_hit = 1.0 - self.short_prob - self.outlier_prob
