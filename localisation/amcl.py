@@ -393,6 +393,10 @@ class Amcl(ParticleDraws, Localiser):
                 self._fixing = False  # a fix the scan singles out; from here on the motion history does
         if self._fixing and self.ambiguity_nats > 0:
             self._modes = self._candidates(rel, meas)
+            # a fix that has not converged yet with several candidates is ambiguous too: without fresh
+            # draws the resampling keeps the heaviest candidate alone, and the next scan cannot bring back
+            # a twin the weights of this one dropped
+            self._ambiguous_fix = self._ambiguous_fix or len(self._modes) > 1
 
     def estimate(self) -> PoseEstimate:
         if self._estimate is None:
