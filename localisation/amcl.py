@@ -171,7 +171,8 @@ class Amcl(ParticleDraws, Localiser):
         map3: the procedure then moves and rescans). Once a fix passes, tracking relies on the motion
         history, which tells the twins apart. 0 disables the check.
     ambiguity_injection : float
-        While the check finds the fix ambiguous, at least this fraction of the resampled particles is
+        While a fix is ambiguous (the check finds a converged fix ambiguous, or a fix that has not
+        converged has two or more candidates), at least this fraction of the resampled particles is
         drawn fresh from the scan (as augmented MCL draws them), so a twin the weights dropped can come
         back when a later scan tells the twins apart.
     beam_width_deg, critical_incidence_deg : float
@@ -393,6 +394,10 @@ class Amcl(ParticleDraws, Localiser):
                 self._fixing = False  # a fix the scan singles out; from here on the motion history does
         if self._fixing and self.ambiguity_nats > 0:
             self._modes = self._candidates(rel, meas)
+            # a fix that has not converged yet with several candidates is ambiguous too: without fresh
+            # draws the resampling keeps the heaviest candidate alone, and the next scan cannot bring back
+            # a twin the weights of this one dropped
+            self._ambiguous_fix = self._ambiguous_fix or len(self._modes) > 1
 
     def estimate(self) -> PoseEstimate:
         if self._estimate is None:

@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from conftest import REAL_NXT, run_cli
 
+from localisation.base import PoseEstimate
 from toolkit.bench.challenge import COLUMNS
-from toolkit.mission.challenge import course_from
+from toolkit.mission.challenge import ChallengeConfig, course_from, plausible_update
 from toolkit.real_sonar.sweep_sonar import SweepRefused, SweepSetSonar, load_challenge_set, rotated
 from toolkit.real_sonar.sweeps import SweepSet
 from toolkit.world import Pose, load_map
@@ -41,8 +42,33 @@ def test_the_sonar_answers_near_a_waypoint_and_refuses_elsewhere(real_set: Sweep
     sonar = SweepSetSonar(real_set, "andrei-alpha/robotics")
     scan, sweep = sonar.sweep_at(Pose(186.0, 33.0, 0.0), rng=0)  # 6.7 cm from (180, 30)
     assert (sweep.x_cm, sweep.y_cm) == (180.0, 30.0) and len(scan) == 360
-    with pytest.raises(SweepRefused, match=r"\(180, 30\), is 12\.0 cm away"):
-        sonar.sweep_at(Pose(168.0, 30.0, 0.0), rng=0)
+    with pytest.raises(SweepRefused, match=r"\(180, 30\), is 22\.0 cm away \(more than 20 cm\)"):
+        sonar.sweep_at(Pose(158.0, 30.0, 0.0), rng=0)
+
+
+def test_a_sweep_answers_for_where_the_robot_stands(real_set: SweepSet) -> None:
+    """5 cm nearer the wall ahead (x = 210) the robot reads it 5 cm nearer; 5 cm farther from the wall
+    below (y = 0), 5 cm farther; no-echo readings stay no echo. Without the correction, the sweep as taken."""
+    sw = real_set.at(180.0, 30.0)[0]
+    heading = math.radians(sw.heading_deg)
+    at_waypoint = rotated(sw, heading)
+    for moved, looking, change in ((Pose(185.0, 30.0, heading), 0.0, -5.0), (Pose(180.0, 35.0, heading), -90.0, 5.0)):
+        plain, _ = SweepSetSonar(real_set, sw.repo, offset_correction=False).sweep_at(moved, rng=0)
+        assert np.array_equal(plain.ranges, at_waypoint.ranges)
+        scan, _ = SweepSetSonar(real_set, sw.repo).sweep_at(moved, rng=0)
+        off = np.degrees(scan.angles + heading) - looking
+        cone = (np.abs((off + 180.0) % 360.0 - 180.0) <= 5.0) & at_waypoint.valid
+        assert cone.any()
+        assert np.allclose(scan.ranges[cone] - at_waypoint.ranges[cone], change, atol=1.0)
+        assert np.array_equal(scan.valid, at_waypoint.valid)
+
+
+def test_an_update_the_drive_cannot_explain_is_not_trusted() -> None:
+    cfg = ChallengeConfig()
+    predicted = PoseEstimate(Pose(100.0, 50.0, 0.0), np.diag([4.0, 4.0, 0.001]), False)
+    assert plausible_update(predicted, Pose(106.0, 52.0, 0.05), cfg)  # 6 cm: within 3 sd (sd 3.6 cm)
+    assert not plausible_update(predicted, Pose(100.0, 70.0, 0.0), cfg)  # 20 cm: a jump
+    assert not plausible_update(predicted, Pose(101.0, 50.0, math.radians(40.0)), cfg)  # turned 40 degrees
 
 
 def test_the_route_starts_at_the_start_and_goes_round_the_course() -> None:

@@ -272,3 +272,26 @@ def test_a_registered_model_of_ones_own_weighs_the_scans() -> None:
         assert float(np.sqrt(np.trace(np.cov(field.particles[:, :2].T)))) < spread
     with pytest.raises(ConfigError, match="must be one of auto, beam, field, nxt-beam, got 'flat'"):
         Amcl(m, rng=0, model="flat")  # gone with its block
+
+
+def test_an_ambiguous_first_fix_draws_fresh_particles_from_the_sweep() -> None:
+    """A real sweep at (180, 30) fits the arena turned by 90 degrees better: amcl's first fix (not
+    converged) lists both places among its candidates, and its resampling draws fresh particles from
+    the sweep, as for an ambiguous converged fix, so that the next sweep can still weigh the true place
+    (before, the heaviest candidate kept every particle; along real routes the true place was lost)."""
+    from conftest import REAL_NXT
+
+    from localisation.ambiguity import candidate_poses, truth_among
+    from localisation.robot_options import localiser_options
+    from toolkit.real_sonar.sweeps import load_sweep_set
+    from toolkit.world import RobotModel
+
+    sweeps = load_sweep_set(REAL_NXT)
+    sweep = sweeps.at(180.0, 30.0)[0]
+    loc = make_localiser("amcl", sweeps.map, rng=0,
+                         **localiser_options("amcl", RobotModel(NxtSonar(), readings="real")))
+    loc.reset(None)
+    loc.update(sweep.scan())
+    assert not loc.estimate().converged and truth_among(candidate_poses(loc), 180.0, 30.0)
+    assert loc.estimate().pose.distance_to(Pose(180.0, 30.0, 0.0)) > 100.0  # the twin is the estimate
+    assert loc.injected > 0

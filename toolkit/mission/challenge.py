@@ -14,16 +14,21 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; a straight line when no
    path exists at all), driven leg by leg: turn toward the leg's end from the estimate, then moves of
    at most `ChallengeConfig.move_step_cm`, the localiser predicting after each. No sweep on the way.
-3. **At the waypoint.** A full sweep and the localiser's update; the heading is the one the sweep fits
-   best at the waypoint near the predicted heading (`WaypointSweeps.fitted_heading`), the position the
-   predicted one (`ChallengeConfig.position_from` ``prediction``, the default) or the localiser's
-   (``localiser``). A real sweep is evidence of its own waypoint, not of where within 10 cm of it the
-   robot stands: moving the belief to the localiser's position only adds the localiser's error on the
-   real sweep (2-5 cm) to the odometry's, and corrections toward the waypoint chase it (measured in
-   docs/real-sonar.md). With `ChallengeConfig.max_corrections` > 0, while the estimate is more than
+3. **At the waypoint.** A full sweep and the localiser's update. A sweep backed by real sweeps
+   answers for where the robot stands (`toolkit.real_sonar.sweep_sonar`: each echo moved by the
+   robot's offset from the waypoint), so the update shows the drift of the leg. The belief is reset
+   around the localiser's pose (`ChallengeConfig.position_from` ``localiser``, the default) when that
+   pose is one the odometry could have reached (`plausible_update`: within
+   `ChallengeConfig.gate_sigmas` standard deviations of the prediction, its heading within
+   `ChallengeConfig.heading_span_deg`); otherwise, or with ``prediction``, around the predicted
+   position at the heading the sweep fits best at the waypoint (`WaypointSweeps.fitted_heading`).
+   With `ChallengeConfig.max_corrections` > 0 (1 by default), while a trusted estimate is more than
    `ChallengeConfig.correction_cm` from the waypoint, a correction (turn and move toward it) and
    another sweep. A sweep the sonar refuses (the robot is too far from the waypoint for any real
    sweep) ends the mission there.
+
+A move that makes no headway (the watchdog stopped it at once, or the wheels stalled against a wall
+the sonar did not hear) ends the leg: driving on would push against the wall again.
 
 The report scores the truth: a waypoint is reached when the robot's true position ends within
 `ChallengeConfig.reach_cm` (10 cm) of it; the mission when every waypoint is.
@@ -47,7 +52,7 @@ from ..world.arrays import FloatArray
 from ..world.typed import Typed
 
 __all__ = ["ChallengeConfig", "ChallengeReport", "WaypointSweeps", "WaypointVisit", "course_from", "fit_pose",
-           "run_challenge"]
+           "plausible_update", "run_challenge"]
 
 XY = tuple[float, float]
 
@@ -62,7 +67,7 @@ class ChallengeConfig(Typed):
     move_step_cm: float = Field(default=10.0, gt=0, description="Longest move between two predictions (cm).")
     correction_cm: float = Field(default=3.0, ge=0,
                                  description="Corrections go on while the estimate is farther from the waypoint (cm).")
-    max_corrections: int = Field(default=0, ge=0, description="Corrections (and sweeps) at most per waypoint.")
+    max_corrections: int = Field(default=1, ge=0, description="Corrections (and sweeps) at most per waypoint.")
     margin_cm: float = Field(default=8.0, ge=0, description="Clearance asked of a path beyond the robot radius (cm).")
     plan_time_s: float = Field(default=0.5, gt=0, description="Planning budget per leg (s).")
     prior_std_cm: float = Field(default=3.0, gt=0, description="Spread of the belief reset at the start (cm).")
@@ -71,8 +76,10 @@ class ChallengeConfig(Typed):
     heading_span_deg: float = Field(default=30.0, ge=0,
                                     description="Headings tried around the predicted one at a waypoint (deg).")
     position_from: PositionFrom = Field(
-        default="prediction", description="Where the belief's position comes from after a waypoint's sweep.")
+        default="localiser", description="Where the belief's position comes from after a waypoint's sweep.")
     start_retries: int = Field(default=1, ge=0, description="Other start hypotheses tried when the first leg fails.")
+    gate_sigmas: float = Field(default=3.0, gt=0, description=(
+        "A sweep's fix is trusted when it lies within this many standard deviations of the prediction."))
 
 
 @dataclass(frozen=True)
@@ -225,11 +232,13 @@ class WaypointSweeps:
             outcome = self.robot.move(step)
             self.localiser.predict(Motion(0.0, outcome.distance_cm))
             self.trajectory.append(self.robot.true_pose)
-            if outcome.watchdog:  # a wall ahead, or the sensor's short reading twice: move on unless stuck
-                if abs(outcome.distance_cm) < 0.5:
-                    break
+            if abs(outcome.distance_cm) < 0.5:  # stopped at once by the watchdog, or against a wall
+                break
+            if outcome.watchdog:  # a wall ahead, or the sensor's short reading twice: move on
                 left -= abs(outcome.distance_cm)
                 continue
+            if abs(outcome.distance_cm) < step - 0.5:  # the wheels stalled part way: the body met a wall
+                break
             left -= step
         self.estimate = self.localiser.estimate()
 
@@ -270,19 +279,37 @@ class WaypointSweeps:
                 break
             sweeps += 1
             assert self.estimate is not None
-            predicted = self.estimate.pose
+            predicted = self.estimate
             self.localiser.update(scan)
             updated = self.localiser.estimate().pose
-            heading = self.fitted_heading(scan, predicted.theta, waypoint)
-            keep = predicted if self.cfg.position_from == "prediction" else updated
-            self._settle(Pose(keep.x, keep.y, heading))
-            if _distance(self.estimate.pose, waypoint) <= self.cfg.correction_cm or \
+            trusted = self.cfg.position_from == "localiser" and plausible_update(predicted, updated, self.cfg)
+            if trusted:
+                self._settle(updated)
+            else:
+                heading = self.fitted_heading(scan, predicted.pose.theta, waypoint)
+                self._settle(Pose(predicted.pose.x, predicted.pose.y, heading))
+            if not trusted or _distance(self.estimate.pose, waypoint) <= self.cfg.correction_cm or \
                     attempt == self.cfg.max_corrections:
                 break
             self.go_to(waypoint)
         assert self.estimate is not None
         return WaypointVisit(waypoint, round(_distance(self.robot.true_pose, waypoint), 3),
                              round(_distance(self.estimate.pose, waypoint), 3), sweeps, note)
+
+
+def plausible_update(predicted: PoseEstimate, updated: Pose, config: ChallengeConfig) -> bool:
+    """Whether the localiser's pose after a sweep (`updated`) is one the odometry could have reached:
+    within `ChallengeConfig.gate_sigmas` standard deviations of the `predicted` belief (its position
+    covariance widened by `ChallengeConfig.prior_std_cm`, how well one sweep pins a position) and its
+    heading within `ChallengeConfig.heading_span_deg` of the prediction's. An update that jumps
+    farther took a place the sweep fits, not one the robot can have driven to: the mission keeps the
+    prediction (a real sweep's fit can jump to a twin of the waypoint; a correction toward the
+    waypoint from there drove a robot into the walls)."""
+    if abs(math.degrees(float(angle_diff(updated.theta, predicted.pose.theta)))) > config.heading_span_deg:
+        return False
+    cov = np.asarray(predicted.cov, dtype=float)[:2, :2] + np.eye(2) * config.prior_std_cm ** 2
+    v = np.array([updated.x - predicted.pose.x, updated.y - predicted.pose.y])
+    return bool(v @ np.linalg.solve(cov, v) <= config.gate_sigmas ** 2)
 
 
 def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: Localiser, planner: Planner,

@@ -1,7 +1,7 @@
 """A sonar backed by a sweep set: the simulated robot sweeps with real readings where real sweeps exist.
 
 `SweepSetSonar` answers a full turret sweep with one of the real sweeps of a sweep set
-(`toolkit.real_sonar.sweeps`) when the robot stands within `SweepSetSonar.radius_cm` (10 cm) of a waypoint
+(`toolkit.real_sonar.sweeps`) when the robot stands within `SweepSetSonar.radius_cm` (20 cm) of a waypoint
 that has sweeps, and refuses anywhere else (`SweepRefused`, naming the nearest such waypoint and how
 far it is): a real sweep is evidence of its own waypoint only, and no reading is made up between
 waypoints. Where several sweeps of one source were taken at the waypoint, a seeded draw picks one.
@@ -14,6 +14,16 @@ shifted round the ring by ``round((heading_deg - theta) / step_deg)`` places and
 turret angles. The readings then lie within half a bin (0.5 degree for 1-degree sweeps, 2.5 degrees
 for 5-degree ones) of where a sensor on the robot would have taken them. A sweep that is not a full
 ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it is loaded.
+
+Offset. A real sweep was taken at its waypoint, while the robot stands up to `SweepSetSonar.radius_cm`
+away from it; replayed as taken, the sweep would tell the robot it stands on the waypoint wherever it
+is, and the drift of its odometry could never show (a real robot's sweep shows it). With
+`SweepSetSonar.offset_correction` (the default) every echo is moved by what the map says the offset
+changes along its direction: the nearest surface of a 40-degree lobe (`NxtSonar`'s beam width,
+any incidence) by exact ray casting at the robot's true pose, less the same at the waypoint with the
+same heading (`offset_corrected`). Whatever the real sensor did that the map does not explain (a
+missing or wrong echo, a held run) stays as it was; only the geometry of where it stands is the
+map's.
 
 `SweepSetRobot` is the simulator (`toolkit.robots.sim.SimRobot`: motion noise, exact collisions,
 robot time) with that sonar for its sweeps. Its collision watchdog reads one reading straight ahead
@@ -31,17 +41,20 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..robots.sim import SimRobot
-from ..world import Map, Pose, RngLike, RobotError, Scan, as_rng, load_map, wrap_angle
+from ..world import NO_ECHO, Map, NxtSonar, Pose, RngLike, RobotError, Scan, as_rng, load_map, wrap_angle
 from .sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set
 
 __all__ = ["SWEEPS_PREFIX", "SweepRefused", "SweepSetRobot", "SweepSetSonar", "course_waypoints",
-           "load_challenge_set", "sweeps_folder"]
+           "load_challenge_set", "offset_corrected", "sweeps_folder"]
 
 SWEEPS_PREFIX = "sweeps:"
 """``--sonar sweeps:DIR``: the sweep set in DIR backs the simulated robot's sweeps."""
 
-WAYPOINT_RADIUS_CM = 10.0
-"""The robot must stand this close (cm) to a waypoint for one of its real sweeps to answer."""
+WAYPOINT_RADIUS_CM = 20.0
+"""The robot must stand this close (cm) to a waypoint for one of its real sweeps to answer: twice the
+challenge's reach (10 cm), so that a robot that ended a leg outside the reach still sweeps, sees its
+offset (`offset_corrected`) and can correct it; farther, more of the sweep would be the map's than the
+sensor's."""
 
 
 class SweepRefused(RobotError):
@@ -110,6 +123,22 @@ def load_challenge_set(folder: Path, map: Map | str) -> SweepSet:
     return sweeps
 
 
+def offset_corrected(scan: Scan, m: Map, waypoint: Pose, pose: Pose, beam_width_deg: float) -> Scan:
+    """`scan`, read at `waypoint`, as read at `pose` (same heading; module docstring): each echo plus
+    the change (cm) of the lobe's nearest surface between the two poses, rounded to whole cm as the
+    sensor reads, kept within 0..254; no-echo readings, and echoes whose lobe meets nothing at either
+    pose, unchanged."""
+    from localisation.models import exact_ranges
+
+    poses = np.array([[waypoint.x, waypoint.y, pose.theta], [pose.x, pose.y, pose.theta]])
+    at_waypoint, here = exact_ranges(m, poses, scan.angles, beam_width_deg=beam_width_deg)
+    delta = here - at_waypoint
+    move = scan.valid & np.isfinite(scan.ranges) & np.isfinite(delta)
+    ranges = scan.ranges.copy()
+    ranges[move] = np.clip(np.round(ranges[move] + delta[move]), 0.0, NO_ECHO - 1.0)
+    return replace(scan, ranges=ranges)
+
+
 def rotated(sweep: Sweep, heading_rad: float) -> Scan:
     """`sweep` as a robot whose true heading is `heading_rad` reads it: its ring of readings shifted by
     whole bins (module docstring), its own turret angles kept. The readings are the sensor's as it gave
@@ -133,11 +162,15 @@ class SweepSetSonar:
         The source whose sweeps answer (a robot reads with its own sensor).
     radius_cm : float
         How close (cm) to a waypoint the robot must be.
+    offset_correction : bool
+        Move each echo by the robot's offset from the waypoint (module docstring); False: the sweep as
+        taken at the waypoint, wherever within `radius_cm` the robot stands.
     """
 
     sweeps: SweepSet
     repo: str
     radius_cm: float = WAYPOINT_RADIUS_CM
+    offset_correction: bool = True
 
     @property
     def waypoints(self) -> list[tuple[float, float]]:
@@ -156,7 +189,11 @@ class SweepSetSonar:
                                f"(more than {self.radius_cm:g} cm)")
         here = [s for s in self.sweeps if s.repo == self.repo and (s.x_cm, s.y_cm) == (wx, wy)]
         chosen = here[int(as_rng(rng).integers(len(here)))]
-        return rotated(chosen, pose.theta), chosen
+        scan = rotated(chosen, pose.theta)
+        if self.offset_correction:
+            scan = offset_corrected(scan, self.sweeps.map, Pose(float(wx), float(wy), pose.theta), pose,
+                                    NxtSonar().beam_width_deg)
+        return scan, chosen
 
 
 class SweepSetRobot(SimRobot):
