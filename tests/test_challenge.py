@@ -42,8 +42,12 @@ def test_the_sonar_answers_near_a_waypoint_and_refuses_elsewhere(real_set: Sweep
     sonar = SweepSetSonar(real_set, "andrei-alpha/robotics")
     scan, sweep = sonar.sweep_at(Pose(186.0, 33.0, 0.0), rng=0)  # 6.7 cm from (180, 30)
     assert (sweep.x_cm, sweep.y_cm) == (180.0, 30.0) and len(scan) == 360
+    with pytest.raises(SweepRefused, match=r"\(180, 30\), is 12\.0 cm away \(more than 10 cm\)"):
+        sonar.sweep_at(Pose(168.0, 30.0, 0.0), rng=0)
+    wider = SweepSetSonar(real_set, "andrei-alpha/robotics", radius_cm=20.0)
+    assert len(wider.sweep_at(Pose(168.0, 30.0, 0.0), rng=0)[0]) == 360
     with pytest.raises(SweepRefused, match=r"\(180, 30\), is 22\.0 cm away \(more than 20 cm\)"):
-        sonar.sweep_at(Pose(158.0, 30.0, 0.0), rng=0)
+        wider.sweep_at(Pose(158.0, 30.0, 0.0), rng=0)
 
 
 def test_a_sweep_answers_for_where_the_robot_stands(real_set: SweepSet) -> None:
@@ -53,9 +57,9 @@ def test_a_sweep_answers_for_where_the_robot_stands(real_set: SweepSet) -> None:
     heading = math.radians(sw.heading_deg)
     at_waypoint = rotated(sw, heading)
     for moved, looking, change in ((Pose(185.0, 30.0, heading), 0.0, -5.0), (Pose(180.0, 35.0, heading), -90.0, 5.0)):
-        plain, _ = SweepSetSonar(real_set, sw.repo, offset_correction=False).sweep_at(moved, rng=0)
+        plain, _ = SweepSetSonar(real_set, sw.repo).sweep_at(moved, rng=0)  # by default, as taken
         assert np.array_equal(plain.ranges, at_waypoint.ranges)
-        scan, _ = SweepSetSonar(real_set, sw.repo).sweep_at(moved, rng=0)
+        scan, _ = SweepSetSonar(real_set, sw.repo, offset_correction=True).sweep_at(moved, rng=0)
         off = np.degrees(scan.angles + heading) - looking
         cone = (np.abs((off + 180.0) % 360.0 - 180.0) <= 5.0) & at_waypoint.valid
         assert cone.any()

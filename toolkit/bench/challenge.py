@@ -100,7 +100,10 @@ def challenge_mission(sweeps: SweepSet, repo: str, start: int, seed: int, locali
     heading_seed, sim_seed, loc_seed, plan_seed = derive_seeds(seed, "challenge", repo, start, n=4)
     heading = float(np.random.default_rng(heading_seed).uniform(-math.pi, math.pi))
     motion = noise or MotionNoise()
-    robot = SweepSetRobot(m, Pose(course[start][0], course[start][1], heading), SweepSetSonar(sweeps, repo),
+    settings = config or ChallengeConfig()
+    sonar_of_sweeps = SweepSetSonar(sweeps, repo, radius_cm=settings.sweep_radius_cm,
+                                    offset_correction=settings.offset_correction)
+    robot = SweepSetRobot(m, Pose(course[start][0], course[start][1], heading), sonar_of_sweeps,
                           noise=motion, rng=sim_seed)
     model = RobotModel(sonar or NxtSonar(), motion=motion, readings="real")
     loc = make_localiser(localiser, m, rng=loc_seed, **localiser_options(localiser, model))

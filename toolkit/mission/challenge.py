@@ -80,6 +80,11 @@ class ChallengeConfig(Typed):
     start_retries: int = Field(default=1, ge=0, description="Other start hypotheses tried when the first leg fails.")
     gate_sigmas: float = Field(default=3.0, gt=0, description=(
         "A sweep's fix is trusted when it lies within this many standard deviations of the prediction."))
+    sweep_radius_cm: float = Field(default=10.0, gt=0, description=(
+        "A real sweep answers within this distance of its waypoint (cm); farther, the sonar refuses."))
+    offset_correction: bool = Field(default=False, description=(
+        "Move each real echo by the map's change between the waypoint and the robot's true pose "
+        "(a hybrid of real and map readings; off: the sweep as it was taken)."))
 
 
 @dataclass(frozen=True)

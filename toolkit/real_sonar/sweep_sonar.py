@@ -1,7 +1,7 @@
 """A sonar backed by a sweep set: the simulated robot sweeps with real readings where real sweeps exist.
 
 `SweepSetSonar` answers a full turret sweep with one of the real sweeps of a sweep set
-(`toolkit.real_sonar.sweeps`) when the robot stands within `SweepSetSonar.radius_cm` (20 cm) of a waypoint
+(`toolkit.real_sonar.sweeps`) when the robot stands within `SweepSetSonar.radius_cm` (10 cm) of a waypoint
 that has sweeps, and refuses anywhere else (`SweepRefused`, naming the nearest such waypoint and how
 far it is): a real sweep is evidence of its own waypoint only, and no reading is made up between
 waypoints. Where several sweeps of one source were taken at the waypoint, a seeded draw picks one.
@@ -18,7 +18,7 @@ ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it i
 Offset. A real sweep was taken at its waypoint, while the robot stands up to `SweepSetSonar.radius_cm`
 away from it; replayed as taken, the sweep would tell the robot it stands on the waypoint wherever it
 is, and the drift of its odometry could never show (a real robot's sweep shows it). With
-`SweepSetSonar.offset_correction` (the default) every echo is moved by what the map says the offset
+`SweepSetSonar.offset_correction` (off by default: ``--set challenge.offset_correction=true``) every echo is moved by what the map says the offset
 changes along its direction: the nearest surface of a 40-degree lobe (`NxtSonar`'s beam width,
 any incidence) by exact ray casting at the robot's true pose, less the same at the waypoint with the
 same heading (`offset_corrected`). Whatever the real sensor did that the map does not explain (a
@@ -50,11 +50,11 @@ __all__ = ["SWEEPS_PREFIX", "SweepRefused", "SweepSetRobot", "SweepSetSonar", "c
 SWEEPS_PREFIX = "sweeps:"
 """``--sonar sweeps:DIR``: the sweep set in DIR backs the simulated robot's sweeps."""
 
-WAYPOINT_RADIUS_CM = 20.0
-"""The robot must stand this close (cm) to a waypoint for one of its real sweeps to answer: twice the
-challenge's reach (10 cm), so that a robot that ended a leg outside the reach still sweeps, sees its
-offset (`offset_corrected`) and can correct it; farther, more of the sweep would be the map's than the
-sensor's."""
+WAYPOINT_RADIUS_CM = 10.0
+"""The robot must stand this close (cm) to a waypoint for one of its real sweeps to answer: the
+challenge's reach. With `offset_correction` a wider radius (``--set challenge.sweep_radius_cm=20``) lets a
+robot that ended a leg outside the reach still sweep, see its offset and correct it; the readings are
+then partly the map's."""
 
 
 class SweepRefused(RobotError):
@@ -170,7 +170,7 @@ class SweepSetSonar:
     sweeps: SweepSet
     repo: str
     radius_cm: float = WAYPOINT_RADIUS_CM
-    offset_correction: bool = True
+    offset_correction: bool = False
 
     @property
     def waypoints(self) -> list[tuple[float, float]]:
