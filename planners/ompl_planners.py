@@ -76,7 +76,7 @@ from toolkit.world import CollisionChecker, ConfigError, RegistryError
 
 from .base import PLANNERS, Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import OmplOptions
-from .ompl_objective import RobotTimeObjective, box_bounds, se2_space
+from .ompl_objective import PLANE_NEIGHBOURS, RobotTimeObjective, box_bounds, se2_space
 
 __all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "declared_params", "ompl_planner_names", "ompl_simplify"]
 
@@ -398,6 +398,8 @@ class OmplPlanner(Planner):
             objective.setCostThreshold(ob.Cost(math.inf))
         setup.setOptimizationObjective(objective)
         planner = getattr(og, self.planner)(si)
+        if se2 and hasattr(planner, "setRewireFactor"):  # the plane's neighbour count (settings may override)
+            planner.setRewireFactor(planner.getRewireFactor() * PLANE_NEIGHBOURS)
         if self.range is not None and hasattr(planner, "setRange"):
             planner.setRange(float(self.range))
         for key, value in self.settings.items():

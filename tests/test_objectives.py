@@ -155,3 +155,75 @@ def test_bench_objectives_runs_each_planner_under_what_it_can_minimise(tmp_path:
     by = {(r["planner"], r["objective"]): float(r["robot_time_s"]) for r in rows}
     assert by[("astar", "robot-time")] < by[("astar", "length")]  # the lattice's zigzag costs turns
     assert "## map1" in (out / "objectives.md").read_text()
+
+
+def test_ompl_robot_time_cost_is_asymmetric_as_the_objective_tells_ompl() -> None:
+    """A motion and its reverse turn by different angles: the objective says it is not symmetric (else
+    OMPL's RRT* rewires with the reverse motion's cost), and OMPL's path cost agrees with a hand count."""
+    import ompl.base as ob
+    import ompl.geometric as og
+
+    from planners.ompl_objective import RobotTimeObjective, se2_space
+
+    space, si = se2_space(WALL.bounds, make_checker(WALL, 0.0))
+    si.setup()
+    objective = RobotTimeObjective(si, TIMING, (0.0, 0.0), (100.0, 60.0))
+    assert objective.isSymmetric() is False
+
+    def state(x: float, y: float, yaw: float) -> object:
+        s = space.allocState()
+        s.setX(x)
+        s.setY(y)
+        s.setYaw(yaw)
+        return s
+
+    a, b = state(10.0, 10.0, 0.0), state(40.0, 10.0, math.pi / 2)  # a faces along the motion, b turned left
+    forward, backward = og.PathGeometric(si), og.PathGeometric(si)
+    for path, states in ((forward, (a, b)), (backward, (b, a))):
+        for s in states:
+            path.append(s)
+    # a -> b: drive 30 cm, turn 90 deg into b's heading; b -> a: turn 90 deg to face -x, drive, turn 180 deg
+    assert forward.cost(objective).value() == pytest.approx(3.0 + 2.0)
+    assert backward.cost(objective).value() == pytest.approx(2.0 + 3.0 + 4.0)
+
+
+def test_bench_objectives_draws_robot_time_over_time_in_seconds(tmp_path: Path) -> None:
+    """The cost-over-time curves under robot-time: axis named in seconds, no run below `fastest`."""
+    import matplotlib.pyplot as plt
+
+    from toolkit.bench.planners import BenchmarkConfig
+    from toolkit.bench.planners.objectives import run_objectives, write_objectives
+    from toolkit.bench.planners.plots import draw_cost_over_time
+
+    config = BenchmarkConfig(maps=("map1",), planners=("rrtstar", "min-turn"), runs=2, time_limit=0.05,
+                             exec_repeats=0, simplify="none", queries="random")
+    sweep = run_objectives(config)
+    files = write_objectives(sweep, tmp_path)
+    assert {"pareto_map1", "cost_over_time"} <= set(files) and files["cost_over_time"].stat().st_size > 0
+    fig, ax = plt.subplots()
+    draw_cost_over_time(sweep.results["robot-time"], "map1", ax)
+    assert ax.get_ylabel() == "best robot time (s) / fastest's (s)"
+    curves = [line.get_ydata() for line in ax.get_lines() if line.get_label() == "rrtstar"]
+    assert curves and all(np.min(np.asarray(y, dtype=float)) >= 1 - 1e-9 for y in curves)
+    plt.close(fig)
+
+
+def test_fastest_reference_runs_on_a_large_map() -> None:
+    """On a map of more than 200 walls `fastest` searches `shortest`'s 16-gon graph: never slower than
+    `shortest`'s own path, whose robot time it bounds from below."""
+    from toolkit.bench.planners.runner import planner_for
+
+    m = load_map("turtlebot3_world")
+    problem = _problem(m, (-60.0, -60.0), (60.0, 60.0), 8.0)
+    fast = planner_for("fastest", m).plan(problem)
+    short = planner_for("shortest", m).plan(problem)
+    assert fast.success and short.success, (fast.message, short.message)
+    assert fast.objective_cost <= objective_cost("robot-time", short.path, TIMING) * (1 + 1e-9)
+
+
+def test_bench_objectives_refuses_unknown_queries(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "o"
+    assert run_cli(["bench", "objectives", "--queries", "some", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--queries must be presets or random, got 'some'" in err[0], err
+    assert not out.exists()

@@ -9,7 +9,9 @@
 - ``objectives.md``: per map, the medians per planner and objective, robot time over the ``fastest``
   reference, and the issue's targets checked (RRT*'s robot time under ``robot-time`` within 10 % of
   the reference; every OMPL planner's robot time under ``robot-time`` no worse than under ``length``);
-- ``pareto_<map>.png``: median robot time against median open-loop error per planner and objective.
+- ``pareto_<map>.png``: median robot time against median open-loop error per planner and objective;
+- ``cost_over_time.png``: the best robot time over ``fastest``'s against planning time, per map, of the
+  planners under ``robot-time`` (anytime planners as curves, the others as points).
 """
 
 from __future__ import annotations
@@ -192,4 +194,8 @@ def write_objectives(sweep: ObjectiveSweep, out: Path, plots: bool = True) -> di
         first = next(iter(sweep.results.values()))
         for m in first.config.maps:
             files[f"pareto_{m}"] = _save_pareto(sweep, m, out / f"pareto_{Path(m).stem}.png")
+        if "robot-time" in sweep.results:
+            from .plots import save_cost_over_time
+
+            files["cost_over_time"] = save_cost_over_time(sweep.results["robot-time"], out)
     return files
