@@ -160,7 +160,6 @@ def test_bench_objectives_runs_each_planner_under_what_it_can_minimise(tmp_path:
 def test_ompl_robot_time_cost_is_asymmetric_as_the_objective_tells_ompl() -> None:
     """A motion and its reverse turn by different angles: the objective says it is not symmetric (else
     OMPL's RRT* rewires with the reverse motion's cost), and OMPL's path cost agrees with a hand count."""
-    import ompl.base as ob
     import ompl.geometric as og
 
     from planners.ompl_objective import RobotTimeObjective, se2_space

@@ -24,8 +24,8 @@ from ...world import OBJECTIVE_UNITS, ConfigError, load_map
 from .anytime import WITHIN, cost_band, has_curve, reference_lengths
 from .records import BenchmarkResult, RunRecord
 
-__all__ = ["BOXPLOT_METRICS", "cost_axis_label", "draw_cost_over_time", "draw_exec_vs_turns", "draw_metric_boxplot", "draw_paths_grid",
-           "planner_color", "save_boxplots", "save_cost_over_time", "save_plots"]
+__all__ = ["BOXPLOT_METRICS", "cost_axis_label", "draw_cost_over_time", "draw_exec_vs_turns", "draw_metric_boxplot",
+           "draw_paths_grid", "planner_color", "save_boxplots", "save_cost_over_time", "save_plots"]
 
 #: Box-plot metrics: record attribute -> (axis label, file stem, log scale).
 BOXPLOT_METRICS: dict[str, tuple[str, str, bool]] = {
@@ -154,7 +154,8 @@ def _time_grid(records: Sequence[RunRecord]) -> np.ndarray:
     return np.geomspace(max(min(times), 1e-5), max(times), 300)
 
 
-_COST_NAMES = {"length": ("length", "shortest"), "turns": ("turns", "min-link"), "robot-time": ("robot time", "fastest")}
+_COST_NAMES = {"length": ("length", "shortest"), "turns": ("turns", "min-link"),
+               "robot-time": ("robot time", "fastest")}
 
 
 def _cost_ratio(record: RunRecord, shortest_cm: float) -> float:
