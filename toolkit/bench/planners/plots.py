@@ -158,19 +158,17 @@ _COST_NAMES = {"length": ("length", "shortest"), "turns": ("turns", "min-link"),
                "robot-time": ("robot time", "fastest")}
 
 
-def _cost_ratio(record: RunRecord, shortest_cm: float) -> float:
-    """A run's cost over its reference in its own objective (length over `shortest_cm` under length)."""
-    if record.objective == "length":
+def _cost_ratio(record: RunRecord, objective: str, shortest_cm: float) -> float:
+    """A run's cost over the reference under `objective` (its length over `shortest_cm` under length)."""
+    if objective == "length":
         return record.length_cm / shortest_cm
     return record.objective_cost / record.reference_cost if record.reference_cost > 0 else math.nan
 
 
 def cost_axis_label(objective: str | None) -> str:
-    """The cost-over-time axis under `objective` (None: each planner's own), naming its unit."""
-    if objective is None:
-        return "best cost / reference (each planner's objective)"
-    name, reference = _COST_NAMES[objective]
-    unit = OBJECTIVE_UNITS[objective]
+    """The cost-over-time axis under `objective` (None: each planner's default, drawn as length), with its unit."""
+    name, reference = _COST_NAMES[objective or "length"]
+    unit = OBJECTIVE_UNITS[objective or "length"]
     return f"best {name} ({unit}) / {reference}'s ({unit})"
 
 
@@ -178,8 +176,8 @@ def draw_cost_over_time(result: BenchmarkResult, map_name: str, ax: Axes, within
     """Best cost over the reference against time on one map: per anytime planner the median over its
     runs (line) and the interquartile range (band); planners with one solution per run (min-turn,
     A*, RRTConnect) as a point at their median time and cost ratio with interquartile bars. The cost
-    is each run's objective's (length over `shortest` under ``length``, robot time over ``fastest``
-    under ``robot-time``), named with its unit on the axis."""
+    is the benchmark's objective's (length over `shortest` when each planner ran its default, robot
+    time over ``fastest`` under ``robot-time``), named with its unit on the axis."""
     refs = reference_lengths(result)
     records = [r for r in result.records if r.map == map_name]
     grid = _time_grid(records)
@@ -203,7 +201,7 @@ def draw_cost_over_time(result: BenchmarkResult, map_name: str, ax: Axes, within
             if not ok:
                 continue
             t = np.array([r.first_solution_s for r in ok], dtype=float)
-            y = np.array([_cost_ratio(r, refs[(r.map, r.query)]) for r in ok])
+            y = np.array([_cost_ratio(r, result.config.objective or "length", refs[(r.map, r.query)]) for r in ok])
             (tq25, tm, tq75), (yq25, ym, yq75) = np.quantile(t, [0.25, 0.5, 0.75]), np.quantile(y, [0.25, 0.5, 0.75])
             artists.append(ax.errorbar([tm], [ym], xerr=[[tm - tq25], [tq75 - tm]], yerr=[[ym - yq25], [yq75 - ym]],
                                        fmt="o", ms=6, color=color, capsize=2, label=p))
