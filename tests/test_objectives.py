@@ -229,11 +229,14 @@ def test_bench_objectives_refuses_unknown_queries(tmp_path: Path, capsys: pytest
 
 
 @pytest.mark.parametrize("name", ["prm", "ompl:PRMstar"])
-def test_undirected_roadmaps_refuse_robot_time(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+def test_undirected_roadmaps_refuse_robot_time(name: str, tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
     """A roadmap edge has one cost for both directions; robot time turns differently each way."""
     assert PLANNERS.class_of(name).objectives_for(name) == ("length",)
     with pytest.raises(ConfigError, match="undirected roadmap"):
         make_planner(name, objective="robot-time")
-    assert run_cli(["plan", "--map", "map1", "--planner", name, "--objective", "robot-time", "-o", "p.png"]) == 2
+    figure = tmp_path / "p.png"
+    assert run_cli(["plan", "--map", "map1", "--planner", name, "--objective", "robot-time", "-o", str(figure)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot optimise objective 'robot-time'" in err[0], err
+    assert not figure.exists()
