@@ -154,7 +154,9 @@ def test_bench_objectives_runs_each_planner_under_what_it_can_minimise(tmp_path:
         assert float(r["robot_time_s"]) >= float(r["fastest_time_s"]) * (1 - 1e-9)
     by = {(r["planner"], r["objective"]): float(r["robot_time_s"]) for r in rows}
     assert by[("astar", "robot-time")] < by[("astar", "length")]  # the lattice's zigzag costs turns
-    assert "## map1" in (out / "objectives.md").read_text()
+    summary = (out / "objectives.md").read_text()
+    assert "## map1" in summary and "No run costs less than the reference optimum" in summary
+    assert "BUG" not in summary
 
 
 def test_ompl_robot_time_cost_is_asymmetric_as_the_objective_tells_ompl() -> None:
@@ -240,3 +242,21 @@ def test_undirected_roadmaps_refuse_robot_time(name: str, tmp_path: Path,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot optimise objective 'robot-time'" in err[0], err
     assert not figure.exists()
+
+
+def test_bench_objectives_says_bug_for_a_run_below_the_optimum() -> None:
+    """A path cheaper than its query's reference is a bug of the planner or of the reference: the
+    summary names it (here one real run's reference raised by hand, as a broken reference would report it)."""
+    from dataclasses import replace
+
+    from toolkit.bench.planners import BenchmarkConfig
+    from toolkit.bench.planners.objectives import ObjectiveSweep, format_objectives, run_objectives
+
+    sweep = run_objectives(BenchmarkConfig(maps=("map1",), planners=("astar",), runs=1, exec_repeats=0,
+                                           simplify="none"))
+    assert "BUG" not in format_objectives(sweep)
+    timed = sweep.results["robot-time"]
+    broken = tuple(replace(r, reference_cost=2.0 * r.objective_cost) for r in timed.records)
+    sweep = ObjectiveSweep({**sweep.results, "robot-time": replace(timed, records=broken)})
+    assert "BUG: 1 run(s) cost less than the reference optimum of their query: astar under robot-time." \
+        in format_objectives(sweep)
