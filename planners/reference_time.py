@@ -18,7 +18,8 @@ fewer turns, can be faster: the reference is then an upper bound on the optimum,
 (``reference_kind``).
 
 It needs the polygon maps' complete graph: on a point robot's grid map (whose graph ``shortest``
-fills lazily) it reports an error, and it is skipped on large maps, as ``min-link`` is.
+fills lazily) it reports an error. On large maps it searches ``shortest``'s graph of 16-gon walls, as
+``shortest`` does there (seconds on the depot's 4082 walls).
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ class FastestPlanner(ShortestPathPlanner):
     name = "fastest"
     options_model = FastestOptions
     objectives = ("robot-time",)
-    large_map_options: ClassVar[Any] = None
+    large_map_options: ClassVar[Any] = {"n_sides": 16}  # as shortest: the graph it searches
 
     def _solve(self, problem: PlanningProblem) -> Solution:
         checker = problem.checker

@@ -17,7 +17,7 @@ NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
 
 # notebook -> (Markdown fragments its outputs must contain, minimum number of figures)
 EXPECTED: dict[str, tuple[tuple[str, ...], int]] = {
-    "planner_comparison": (("## map1", "## map2", "## map3", "| min-turn |"), 4),
+    "planner_comparison": (("## map1", "## map2", "## map3", "| min-turn |", "| map1 | min-turn | turns |"), 4),
     "localisation_comparison": (("| processed (kept) |", "| auto | raw |", "| off | paper |", "| map3 | paper-pf |",
                                  "RMSE", "recovered", "| nxt, amcl live | paper-pf |",
                                  "| bit for bit |", "| amcl | 0 +- 20 deg |"), 5),

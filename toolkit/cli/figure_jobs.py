@@ -110,6 +110,18 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         {"--runs": "1", "--budgets": "0.02,0.05", "--exec-repeats": "2", "--workers": "1", "--maps": "map1",
          "--planners": "min-turn,rrtstar,ompl:RRTConnect"}),
     FigureJob(
+        "objectives",
+        # defaults: planners rrtstar, ompl:InformedRRTstar, ompl:BITstar, astar, min-turn; 1 s budget;
+        # 100 drives per path
+        ("bench", "objectives", "--maps", "map1,map2,map3,pillars", "--runs", "5", "--seed", "0", "--workers", "2",
+         "--out", f"{WORK}/objectives"),
+        {f"objectives_pareto_{m}.png": f"objectives/pareto_{m}.png" for m in ("map1", "map2", "map3", "pillars")}
+        | {"objectives_cost_over_time.png": "objectives/cost_over_time.png"},
+        "every planner under every objective it can minimise: robot time against open-loop error per map, and "
+        "the best robot time over the least against planning time under robot-time",
+        {"--runs": "1", "--time-limit": "0.05", "--exec-repeats": "1", "--workers": "1",
+         "--planners": "astar,min-turn,rrtstar"}),
+    FigureJob(
         "localisers",
         ("bench", "localisers", "--localisers", "paper-pf,amcl,pf-systematic,ekf,ukf", "--trials", "20",
          "--scenario", "all", "--seed", "0", "--workers", "2", "--out", f"{WORK}/localisers"),

@@ -434,6 +434,7 @@ def bench_objectives(
     seed: Seed = 0,
     force: Force = False,
     workers: Workers = 1,
+    queries: str = typer.Option("presets", "--queries", help="presets (the map's start/target) or random."),
     exec_repeats: int = typer.Option(100, "--exec-repeats", callback=repeats_ok,
                                      help="Open-loop drives per run for the measured error (0: predicted only)."),
     radius: float = typer.Option(RobotGeometry().radius_cm, "--radius", help="Robot radius (cm; 0 = a point).",
@@ -446,12 +447,15 @@ def bench_objectives(
     drive_speed: DriveSpeed = TIMING.drive_speed_cm_s,
     turn_rate: TurnRate = TIMING.turn_rate_deg_s,
     stop_turn: StopTurn = TIMING.stop_turn_s,
-    plots: bool = typer.Option(True, "--plots/--no-plots", help="Write the Pareto figure of each map."),
+    plots: bool = typer.Option(True, "--plots/--no-plots",
+                               help="Write the Pareto figure of each map and the cost over time under robot-time."),
 ) -> None:
     """Every planner under every objective it can minimise: robot time, open-loop error, the targets checked."""
     from ..bench.planners import BenchmarkConfig, check_out_dir, check_planner_names
     from ..bench.planners.objectives import run_objectives, write_objectives
 
+    if queries not in ("presets", "random"):
+        raise NxtnavError(f"--queries must be presets or random, got {queries!r}")
     timing = robot_timing(drive_speed, turn_rate, stop_turn)
     map_list = parse_list(maps, "--maps")
     planner_list = parse_list(planners, "--planners")
@@ -459,7 +463,8 @@ def bench_objectives(
     for name in map_list:
         load_map(name)
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs, time_limit=time_limit,
-                             seed=seed, exec_repeats=exec_repeats, robot_radius=radius,
+                             seed=seed, queries=queries,  # type: ignore[arg-type]
+                             exec_repeats=exec_repeats, robot_radius=radius,
                              noise=_noise(noise_model, motion_noise, turn_noise), simplify="none", timing=timing)
     out_dir = check_out_dir(out, force)
     with progress("objectives: references and runs", 3 * config.n_tasks()) as advance:

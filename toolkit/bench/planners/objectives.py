@@ -9,7 +9,9 @@
 - ``objectives.md``: per map, the medians per planner and objective, robot time over the ``fastest``
   reference, and the issue's targets checked (RRT*'s robot time under ``robot-time`` within 10 % of
   the reference; every OMPL planner's robot time under ``robot-time`` no worse than under ``length``);
-- ``pareto_<map>.png``: median robot time against median open-loop error per planner and objective.
+- ``pareto_<map>.png``: median robot time against median open-loop error per planner and objective;
+- ``cost_over_time.png``: the best robot time over ``fastest``'s against planning time, per map, of the
+  planners under ``robot-time`` (anytime planners as curves, the others as points).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from planners import PLANNERS
 from ...number_format import cell, csv_cell
 from ...world import OBJECTIVES
 from .records import BenchmarkConfig, BenchmarkResult, RunRecord
+from .report import below_reference
 from .runner import run_benchmark
 
 __all__ = ["OBJECTIVE_COLUMNS", "ObjectiveSweep", "run_objectives", "write_objectives"]
@@ -117,6 +120,16 @@ def _targets(rows: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
+def _below_line(sweep: ObjectiveSweep, map_name: str) -> str:
+    """Whether a run on `map_name` cost less than its query's reference optimum under its objective (a bug
+    of the planner or of the reference; within the reference's tolerance it is not)."""
+    below = [r for r in sweep.records() if r.map == map_name and below_reference(r)]
+    if not below:
+        return "No run costs less than the reference optimum of its query under its objective."
+    who = ", ".join(sorted({f"{r.planner} under {r.objective}" for r in below}))
+    return f"BUG: {len(below)} run(s) cost less than the reference optimum of their query: {who}."
+
+
 def format_objectives(sweep: ObjectiveSweep) -> str:
     """``objectives.md``: the settings, then per map the medians per planner and objective and the targets."""
     first = next(iter(sweep.results.values()))
@@ -146,6 +159,7 @@ def format_objectives(sweep: ObjectiveSweep) -> str:
         targets = _targets(rows)
         if targets:
             lines += ["", "Targets:", "", *targets]
+        lines += ["", _below_line(sweep, m)]
     return "\n".join(lines) + "\n"
 
 
@@ -192,4 +206,8 @@ def write_objectives(sweep: ObjectiveSweep, out: Path, plots: bool = True) -> di
         first = next(iter(sweep.results.values()))
         for m in first.config.maps:
             files[f"pareto_{m}"] = _save_pareto(sweep, m, out / f"pareto_{Path(m).stem}.png")
+        if "robot-time" in sweep.results:
+            from .plots import save_cost_over_time
+
+            files["cost_over_time"] = save_cost_over_time(sweep.results["robot-time"], out)
     return files

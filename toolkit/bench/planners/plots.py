@@ -20,12 +20,12 @@ from matplotlib.figure import Figure
 from planners.base import status_message
 
 from ...plotting import draw_cspace, draw_map, draw_path, plain_log_axis, save_figure
-from ...world import ConfigError, load_map
+from ...world import OBJECTIVE_UNITS, ConfigError, load_map
 from .anytime import WITHIN, cost_band, has_curve, reference_lengths
 from .records import BenchmarkResult, RunRecord
 
-__all__ = ["BOXPLOT_METRICS", "draw_cost_over_time", "draw_exec_vs_turns", "draw_metric_boxplot", "draw_paths_grid",
-           "planner_color", "save_boxplots", "save_cost_over_time", "save_plots"]
+__all__ = ["BOXPLOT_METRICS", "cost_axis_label", "draw_cost_over_time", "draw_exec_vs_turns", "draw_metric_boxplot",
+           "draw_paths_grid", "planner_color", "save_boxplots", "save_cost_over_time", "save_plots"]
 
 #: Box-plot metrics: record attribute -> (axis label, file stem, log scale).
 BOXPLOT_METRICS: dict[str, tuple[str, str, bool]] = {
@@ -154,10 +154,30 @@ def _time_grid(records: Sequence[RunRecord]) -> np.ndarray:
     return np.geomspace(max(min(times), 1e-5), max(times), 300)
 
 
+_COST_NAMES = {"length": ("length", "shortest"), "turns": ("turns", "min-link"),
+               "robot-time": ("robot time", "fastest")}
+
+
+def _cost_ratio(record: RunRecord, objective: str, shortest_cm: float) -> float:
+    """A run's cost over the reference under `objective` (its length over `shortest_cm` under length)."""
+    if objective == "length":
+        return record.length_cm / shortest_cm
+    return record.objective_cost / record.reference_cost if record.reference_cost > 0 else math.nan
+
+
+def cost_axis_label(objective: str | None) -> str:
+    """The cost-over-time axis under `objective` (None: each planner's default, drawn as length), with its unit."""
+    name, reference = _COST_NAMES[objective or "length"]
+    unit = OBJECTIVE_UNITS[objective or "length"]
+    return f"best {name} ({unit}) / {reference}'s ({unit})"
+
+
 def draw_cost_over_time(result: BenchmarkResult, map_name: str, ax: Axes, within: float = WITHIN) -> list[Any]:
-    """Best path length over `shortest` against time on one map: per anytime planner the median over
-    its runs (line) and the interquartile range (band); planners with one solution per run (min-turn,
-    A*, RRTConnect) as a point at their median time and length ratio with interquartile bars."""
+    """Best cost over the reference against time on one map: per anytime planner the median over its
+    runs (line) and the interquartile range (band); planners with one solution per run (min-turn,
+    A*, RRTConnect) as a point at their median time and cost ratio with interquartile bars. The cost
+    is the benchmark's objective's (length over `shortest` when each planner ran its default, robot
+    time over ``fastest`` under ``robot-time``), named with its unit on the axis."""
     refs = reference_lengths(result)
     records = [r for r in result.records if r.map == map_name]
     grid = _time_grid(records)
@@ -181,7 +201,7 @@ def draw_cost_over_time(result: BenchmarkResult, map_name: str, ax: Axes, within
             if not ok:
                 continue
             t = np.array([r.first_solution_s for r in ok], dtype=float)
-            y = np.array([r.length_cm / refs[(r.map, r.query)] for r in ok])
+            y = np.array([_cost_ratio(r, result.config.objective or "length", refs[(r.map, r.query)]) for r in ok])
             (tq25, tm, tq75), (yq25, ym, yq75) = np.quantile(t, [0.25, 0.5, 0.75]), np.quantile(y, [0.25, 0.5, 0.75])
             artists.append(ax.errorbar([tm], [ym], xerr=[[tm - tq25], [tq75 - tm]], yerr=[[ym - yq25], [yq75 - ym]],
                                        fmt="o", ms=6, color=color, capsize=2, label=p))
@@ -191,8 +211,8 @@ def draw_cost_over_time(result: BenchmarkResult, map_name: str, ax: Axes, within
     plain_log_axis(ax.xaxis)
     ax.set_ylim(0.995, min(top * 1.02, 2.0))
     ax.set_xlabel("time (s)")
-    ax.set_ylabel("best length / shortest")
-    ax.set_title(f"{map_name}: dashed {100 * within:g} % above the shortest", fontsize=10)
+    ax.set_ylabel(cost_axis_label(result.config.objective))
+    ax.set_title(f"{map_name}: dashed {100 * within:g} % above the reference", fontsize=10)
     ax.grid(alpha=0.3, which="both")
     return artists
 
@@ -206,7 +226,8 @@ def save_cost_over_time(result: BenchmarkResult, out: str | Path) -> Path:
     handles, labels = axes[0][0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=8, frameon=False)
     c = result.config
-    fig.suptitle(f"best path length over time: median and interquartile range of {c.runs} runs, "
+    what = "path length" if c.objective in (None, "length") else c.objective
+    fig.suptitle(f"best {what} over time: median and interquartile range of {c.runs} runs, "
                  f"{c.time_limit:g} s budget", fontsize=11)
     fig.tight_layout(rect=(0, 0.1 if len(labels) > 5 else 0.06, 1, 1))
     return save_figure(fig, Path(out) / "cost_over_time.png")
