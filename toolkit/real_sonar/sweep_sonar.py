@@ -18,12 +18,12 @@ ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it i
 Offset. A real sweep was taken at its waypoint, while the robot stands up to `SweepSetSonar.radius_cm`
 away from it; replayed as taken, the sweep would tell the robot it stands on the waypoint wherever it
 is, and the drift of its odometry could never show (a real robot's sweep shows it). With
-`SweepSetSonar.offset_correction` (off by default: ``--set challenge.offset_correction=true``) every echo is moved by what the map says the offset
-changes along its direction: the nearest surface of a 40-degree lobe (`NxtSonar`'s beam width,
-any incidence) by exact ray casting at the robot's true pose, less the same at the waypoint with the
-same heading (`offset_corrected`). Whatever the real sensor did that the map does not explain (a
-missing or wrong echo, a held run) stays as it was; only the geometry of where it stands is the
-map's.
+`SweepSetSonar.offset_correction` (off by default: ``--set challenge.offset_correction=true``) every
+echo is moved by what the map says the offset changes along its direction: the nearest surface of a
+40-degree lobe (`NxtSonar`'s beam width, any incidence) by exact ray casting at the robot's true pose,
+less the same at the waypoint with the same heading (`offset_corrected`). Whatever the real sensor did
+that the map does not explain (a missing or wrong echo, a held run) stays as it was; only the geometry
+of where it stands is the map's.
 
 `SweepSetRobot` is the simulator (`toolkit.robots.sim.SimRobot`: motion noise, exact collisions,
 robot time) with that sonar for its sweeps. Its collision watchdog reads one reading straight ahead
