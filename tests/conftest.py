@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import fcntl
+import importlib.util
 import os
 import shutil
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
@@ -59,6 +61,17 @@ def wait_until(condition: Callable[[], object], timeout: float, what: str) -> No
         if time.monotonic() >= deadline:
             raise AssertionError(f"{what}: still not so after {timeout:g} s")
         time.sleep(0.02)  # the pause between two looks at the condition (the one poll of the suite)
+
+
+def load_tool(name: str) -> ModuleType:
+    """``tools/NAME.py`` as a module (tools/ is not a package), registered in `sys.modules` as NAME so that
+    its dataclasses and pickles resolve."""
+    spec = importlib.util.spec_from_file_location(name, Path(__file__).resolve().parents[1] / "tools" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
 
 
 def run_cli(argv: list[str]) -> int:

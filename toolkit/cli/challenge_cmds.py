@@ -11,11 +11,11 @@ import typer
 
 from toolkit.world import MotionNoise, NxtnavError, load_map
 
-from .app import EXIT_FAILED, Interrupted, bench_app, fail
+from .app import EXIT_FAILED, bench_app, fail
+from .interrupts import run_batch
 from .options import check_out_folder, check_writable, parse_floats, parse_list, shipped, writable_folder
 from .options import sonar_profile as load_profile
 from .options import workers as workers_ok
-from .progress import progress
 from .sweeps_cmds import _seeds
 
 __all__ = ["run_sweeps_mission"]
@@ -105,7 +105,6 @@ def bench_challenge(
         summary_markdown,
         write_challenge_csv,
     )
-    from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.real_sonar.sweep_sonar import load_challenge_set
 
     locs = parse_list(localisers_text, "--localisers", list(LOCALISERS.names()))
@@ -117,14 +116,9 @@ def bench_challenge(
     sweeps = load_challenge_set(folder, load_map(map_ref))
     check_out_folder(out, force)
     tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise)
-    complete = True
-    with progress(f"{len(tasks)} challenge missions", len(tasks)) as advance:
-        try:
-            runs = collect_tasks(run_challenge_task, tasks, workers=workers, on_done=advance)
-        except TasksInterrupted as exc:
-            runs, complete = list(exc.results), False
-            if not runs:
-                raise Interrupted(f"no mission had finished (of {len(tasks)}); nothing written") from None
+    batch = run_batch(run_challenge_task, tasks, "missions", label=f"{len(tasks)} challenge missions",
+                      workers=workers)
+    runs, complete = batch.results, batch.complete
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "challenge", str(folder), *(["--map", map_name] if map_name else []),
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)), "--planner", planner,
@@ -139,5 +133,4 @@ def bench_challenge(
     (out / "summary.json").write_text(summary_json(runs, **extra))
     typer.echo(text)
     typer.echo(f"wrote {csv_path}, {out / 'summary.md'}, {out / 'summary.json'}")
-    if not complete:
-        raise Interrupted(f"{len(runs)} of {len(tasks)} missions done; partial results (marked incomplete) in {out}")
+    batch.finish(f"partial results (marked incomplete) in {out}")

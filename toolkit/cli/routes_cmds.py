@@ -16,10 +16,10 @@ from rich.table import Table
 from toolkit.number_format import cell, json_safe, percent
 from toolkit.world import NxtnavError
 
-from .app import Interrupted, bench_app
+from .app import bench_app
+from .interrupts import run_batch
 from .options import check_out_folder, parse_floats, parse_list, shipped, writable_folder
 from .options import workers as workers_ok
-from .progress import progress
 from .set_options import localiser_sets
 from .sweeps_cmds import _seeds
 
@@ -162,20 +162,13 @@ def bench_routes(
 def _run_and_write(tasks: list[Any], out: Path, locs: list[str], *, command: str, config: dict[str, Any],
                    workers: int) -> None:
     """Run the route tasks, then write routes.csv, summary.json and route.png and print the summary."""
-    from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.bench.routes import run_route, summarise_steps, write_routes_csv
     from toolkit.bench.routes_plots import route_figure
 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    complete = True
-    with progress(f"{len(tasks)} routes", len(tasks)) as advance:
-        try:
-            done = collect_tasks(run_route, tasks, workers=workers, on_done=advance)
-        except TasksInterrupted as exc:
-            done, complete = list(exc.results), False
-            if not done:
-                raise Interrupted(f"no route had finished (of {len(tasks)}); nothing written") from None
+    batch = run_batch(run_route, tasks, "routes", label=f"{len(tasks)} routes", workers=workers)
+    done, complete = batch.results, batch.complete
     wall = time.perf_counter() - t0
     order = {(t.localiser, t.seed, t.route.repo, t.route.name): i for i, t in enumerate(tasks)}
     done.sort(key=lambda steps: order[(steps[0].localiser, steps[0].seed, steps[0].repo, steps[0].route)])
@@ -191,5 +184,4 @@ def _run_and_write(tasks: list[Any], out: Path, locs: list[str], *, command: str
         typer.echo(line)
     typer.echo(f"wrote {csv_path}, {out / 'summary.json'}{''.join(f', {p}' for p in figure)} "
                f"({len(steps)} steps of {len(done)} routes in {wall:.1f} s)")
-    if not complete:
-        raise Interrupted(f"{len(done)} of {len(tasks)} routes done; partial results (marked incomplete) in {out}")
+    batch.finish(f"partial results (marked incomplete) in {out}")
