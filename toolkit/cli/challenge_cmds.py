@@ -13,9 +13,23 @@ from toolkit.world import MotionNoise, NxtnavError, load_map
 
 from .app import EXIT_FAILED, bench_app, fail
 from .interrupts import run_batch
-from .options import check_out_folder, check_writable, parse_floats, parse_list, shipped, writable_folder
+from .options import (
+    Force,
+    GlobalLocalisers,
+    NoiseModel,
+    OutFolder,
+    PlannerName,
+    Seeds,
+    SweepsMap,
+    SweepsNoise,
+    Workers,
+    check_out_folder,
+    check_writable,
+    parse_floats,
+    parse_list,
+    shipped,
+)
 from .options import sonar_profile as load_profile
-from .options import workers as workers_ok
 from .sweeps_cmds import _seeds
 
 __all__ = ["run_sweeps_mission"]
@@ -80,19 +94,17 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
 def bench_challenge(
     folder: Path = typer.Argument(..., callback=shipped,
                                   help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
-    map_name: str | None = typer.Option(None, "--map", help="The arena (default: the folder's arena.yaml)."),
-    localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated localisers."),
-    seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
-    planner: str = typer.Option("min-turn", "--planner", help="Planner between waypoints."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise model (botsim or absolute)."),
-    noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
-                                   help="As `run` takes it; the sensor's noise is the real sweeps' (unused)."),
+    map_name: SweepsMap = None,
+    localisers_text: GlobalLocalisers = "paper-pf,amcl",
+    seeds_text: Seeds = "0,1,2",
+    planner: PlannerName = "min-turn",
+    noise_model: NoiseModel = "botsim",
+    noise_text: SweepsNoise = "1,0.1,0.005",
     sonar_profile: Path | None = typer.Option(None, "--sonar-profile",
                                               help="nxt sonar model for the localisers (YAML; default: fitted)."),
-    out: Path = typer.Option(Path("out/challenge"), "--out", callback=writable_folder,
-                             help="Output folder (must be empty or new, unless --force)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+    out: OutFolder = Path("out/challenge"),
+    force: Force = False,
+    workers: Workers = 1,
 ) -> None:
     """The course's challenge on real sweeps: every source x start waypoint x seed x localiser; challenge.csv,
     summary.md and summary.json in --out."""

@@ -20,8 +20,9 @@ from ..world import SONAR_MODELS, ConfigError, Map, NxtnavError, Pose, RobotGeom
 from .app import brick_app, nxt_app
 from .choices import one_of
 from .options import (
-    SENSOR_NOISE_HELP,
     MapName,
+    ProfileFile,
+    SensorNoise,
     check_writable,
     count,
     non_negative,
@@ -95,7 +96,7 @@ def brick_serve(
                                  "0.02 when faster.", callback=positive),
     sonar: str = typer.Option("nxt", "--sonar", help="Sonar model " + one_of("sonar") + " (default: nxt, "
                                                      "the sensor an NXT client's localisers are told of)."),
-    sensor_noise: float = typer.Option(1.0, "--sensor-noise", help=SENSOR_NOISE_HELP, callback=non_negative),
+    sensor_noise: SensorNoise = 1.0,
     sonar_profile_path: Path | None = typer.Option(
         None, "--sonar-profile", metavar="FILE",
         help="A sonar profile (nxtnav sonar fit) for the nxt sonar: the brick's readings are drawn from its model. "
@@ -189,7 +190,7 @@ def nxt_check(
     server_port: int = _PORT_OPT,
     bt_address: str | None = _ADDRESS_OPT,
     brick_name: str | None = _NAME_OPT,
-    profile: Path | None = typer.Option(None, "--profile", help="Robot profile YAML (ports, calibration)."),
+    profile: ProfileFile = None,
     readings: int = typer.Option(3, "--readings", help="Sonar readings to take.", callback=count),
 ) -> None:
     """Connect to the brick; print its name, battery, firmware and a live sonar reading."""

@@ -18,8 +18,22 @@ from toolkit.world import NxtnavError
 
 from .app import bench_app
 from .interrupts import run_batch
-from .options import check_out_folder, parse_floats, parse_list, shipped, writable_folder
-from .options import workers as workers_ok
+from .options import (
+    Force,
+    GlobalLocalisers,
+    NoiseModel,
+    OutFolder,
+    PluginSets,
+    Seeds,
+    SourceProfiles,
+    SweepsMap,
+    SweepsNoise,
+    Workers,
+    check_out_folder,
+    parse_floats,
+    parse_list,
+    shipped,
+)
 from .set_options import localiser_sets
 from .sweeps_cmds import _seeds
 
@@ -84,30 +98,22 @@ def _targets(summary: dict[str, Any]) -> list[str]:
 def bench_routes(
     folder: Path = typer.Argument(..., callback=shipped,
                                   help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
-    map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
-    localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated global localisers."),
-    seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds (sweep draws, odometry "
-                                                           "noise, localiser)."),
+    map_file: SweepsMap = None,
+    localisers_text: GlobalLocalisers = "paper-pf,amcl",
+    seeds_text: Seeds = "0,1,2",
     orders: int = typer.Option(0, "--orders", help="Seeded random orders per source, besides the course's order "
                                                   "from each waypoint."),
     order_text: str = typer.Option("listed", "--order", metavar="listed|X:Y,...", help=ORDER_HELP),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise model: botsim or absolute."),
-    noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
-                                   help="As `nxtnav run` takes it; the odometry gets the motion and turn noise "
-                                        "(the sensor's noise is the real sweeps')."),
+    noise_model: NoiseModel = "botsim",
+    noise_text: SweepsNoise = "1,0.1,0.005",
     headings: str = typer.Option("column", "--headings", metavar="column|model",
                                  help="The truth's heading at a sweep: column (sweeps.csv's heading_deg) or model "
                                       "(where the sonar model finds the sweep most likely)."),
-    sonar_profile: Path | None = typer.Option(
-        None, "--sonar-profile", metavar="FILE|DIR",
-        help="nxt sonar model: a profile for every source, or a folder of per-source profiles "
-             "(OWNER+NAME.yaml, as `nxtnav sonar fit --per-source` writes them); default: the fitted default."),
-    sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
-                                   help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
-    out: Path = typer.Option(Path("out/routes"), "--out", callback=writable_folder,
-                             help="Output folder (must be empty or new, unless --force)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+    sonar_profile: SourceProfiles = None,
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    out: OutFolder = Path("out/routes"),
+    force: Force = False,
+    workers: Workers = 1,
 ) -> None:
     """Localise along routes of real sweeps: routes.csv, summary.json and route.png in --out.
 

@@ -16,7 +16,11 @@ from .interrupts import run_batch
 from .options import (
     Dask,
     Force,
+    GlobalLocalisers,
     OutFolder,
+    Seeds,
+    SourceProfiles,
+    SweepsMap,
     Workers,
     check_out_folder,
     parse_heading_prior,
@@ -43,13 +47,10 @@ def _seeds(text: str) -> list[int]:
 def bench_sweeps(
     folder: Path = typer.Argument(..., callback=shipped,
                                   help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
-    map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
-    localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated global localisers."),
-    seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
-    sonar_profile: Path | None = typer.Option(
-        None, "--sonar-profile", metavar="FILE|DIR",
-        help="nxt sonar model: a profile for every source, or a folder of per-source profiles "
-             "(OWNER+NAME.yaml, as `nxtnav sonar fit --per-source` writes them); default: the fitted default."),
+    map_file: SweepsMap = None,
+    localisers_text: GlobalLocalisers = "paper-pf,amcl",
+    seeds_text: Seeds = "0,1,2",
+    sonar_profile: SourceProfiles = None,
     heading_prior_text: str | None = typer.Option(
         None, "--heading-prior", metavar="H:SD",
         help="The robot believes its heading is H degrees, give or take SD (the position stays unknown); "
