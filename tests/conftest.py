@@ -85,6 +85,18 @@ def run_cli(argv: list[str]) -> int:
     return 0
 
 
+def fails_cleanly(argv: list[str], capsys: pytest.CaptureFixture[str], *needles: str) -> str:
+    """Run `argv` in this process: it must exit 2 with one line ``nxtnav: error: ...`` on stderr holding
+    every needle; that line."""
+    assert run_cli(argv) == 2
+    err = capsys.readouterr().err.strip()
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("nxtnav: error:"), err
+    for n in needles:
+        assert n in lines[0], lines[0]
+    return lines[0]
+
+
 def nxtnav_exe() -> str:
     """The `nxtnav` console script next to this Python (`make install` puts it there)."""
     exe = shutil.which("nxtnav", path=str(Path(sys.executable).parent))

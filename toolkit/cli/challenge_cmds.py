@@ -20,6 +20,7 @@ from .options import (
     OutFolder,
     PlannerName,
     Seeds,
+    SweepSetFolder,
     SweepsMap,
     SweepsNoise,
     Workers,
@@ -92,8 +93,7 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
 
 @bench_app.command("challenge")
 def bench_challenge(
-    folder: Path = typer.Argument(..., callback=shipped,
-                                  help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
+    folder: SweepSetFolder,
     map_name: SweepsMap = None,
     localisers_text: GlobalLocalisers = "paper-pf,amcl",
     seeds_text: Seeds = "0,1,2",

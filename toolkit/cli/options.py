@@ -443,6 +443,8 @@ TurnRate = Annotated[float, typer.Option("--turn-rate", metavar="DEG/S",
 StopTurn = Annotated[float, typer.Option("--stop-turn", metavar="S",
                                          help="Robot model: fixed time of each stop-and-turn (s), for robot time.")]
 # Options that several commands take with one meaning (the default stays in each command's signature).
+SweepSetFolder = Annotated[Path, typer.Argument(callback=shipped, help="Sweep set: a folder with sweeps.csv, the raw "
+                                                                      "files and arena.yaml.")]
 SweepsMap = Annotated[str | None, typer.Option("--map", metavar="NAME|FILE",
                                                help="The map of the sweeps (default: the folder's arena.yaml).")]
 GlobalLocalisers = Annotated[str, typer.Option("--localisers", metavar="A,B,...",

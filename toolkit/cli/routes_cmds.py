@@ -26,13 +26,13 @@ from .options import (
     PluginSets,
     Seeds,
     SourceProfiles,
+    SweepSetFolder,
     SweepsMap,
     SweepsNoise,
     Workers,
     check_out_folder,
     parse_floats,
     parse_list,
-    shipped,
 )
 from .set_options import localiser_sets
 from .sweeps_cmds import _seeds
@@ -96,8 +96,7 @@ def _targets(summary: dict[str, Any]) -> list[str]:
 
 @bench_app.command("routes")
 def bench_routes(
-    folder: Path = typer.Argument(..., callback=shipped,
-                                  help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
+    folder: SweepSetFolder,
     map_file: SweepsMap = None,
     localisers_text: GlobalLocalisers = "paper-pf,amcl",
     seeds_text: Seeds = "0,1,2",

@@ -20,12 +20,12 @@ from .options import (
     OutFolder,
     Seeds,
     SourceProfiles,
+    SweepSetFolder,
     SweepsMap,
     Workers,
     check_out_folder,
     parse_heading_prior,
     parse_list,
-    shipped,
 )
 from .options import sonar_profile as load_profile
 
@@ -45,8 +45,7 @@ def _seeds(text: str) -> list[int]:
 
 @bench_app.command("sweeps")
 def bench_sweeps(
-    folder: Path = typer.Argument(..., callback=shipped,
-                                  help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
+    folder: SweepSetFolder,
     map_file: SweepsMap = None,
     localisers_text: GlobalLocalisers = "paper-pf,amcl",
     seeds_text: Seeds = "0,1,2",

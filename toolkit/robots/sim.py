@@ -43,6 +43,7 @@ from ..world import (
     wrap_angle,
 )
 from ..world.arrays import FloatArray
+from .running_totals import RunningTotals
 
 __all__ = ["MotionNoise", "RobotTiming", "SimRobot", "simulated_sonar"]
 
@@ -65,7 +66,7 @@ def simulated_sonar(sonar: SonarModel | str, sensor_noise: float = 1.0) -> Sonar
     return make_sonar(sonar, noise_sd=sensor_noise) if sonar == "ideal" else make_sonar(sonar)
 
 
-class SimRobot:
+class SimRobot(RunningTotals):
     """A simulated NXT robot in a map (implements `toolkit.world.Robot`).
 
     Parameters
@@ -134,13 +135,7 @@ class SimRobot:
         self._pose = pose
         self._time = 0.0
         self.collisions = 0
-        self.watchdog_stops = 0
-        self.odometry_cm = 0.0
-        self.sweep_s = 0.0
-        self.turret_return_s = 0.0
-        self.drive_s = 0.0
-        self.turn_s = 0.0
-        self.readings = 0
+        self.reset_totals()
         self.last_scan_times_s: FloatArray | None = None  # robot time of each reading of the last sweep
         self.closed = False
 
@@ -159,12 +154,6 @@ class SimRobot:
     def backoff_distance_cm(self) -> float:
         """How far (cm) `turnback` reverses (`backoff_cm`)."""
         return self.backoff_cm
-
-    def counters(self) -> dict[str, float]:
-        """The simulator's running totals (`toolkit.world.RobotCounters`; collisions are the truth's)."""
-        return {"watchdog_stops": float(self.watchdog_stops), "odometry_cm": self.odometry_cm,
-                "sweep_s": self.sweep_s, "turret_return_s": self.turret_return_s, "drive_s": self.drive_s,
-                "turn_s": self.turn_s, "readings": float(self.readings)}
 
     def teleport(self, pose: Pose) -> None:
         """Put the robot at `pose` (kidnapped-robot experiments)."""
