@@ -43,6 +43,7 @@ from ..world import (
     wrap_angle,
 )
 from ..world.arrays import FloatArray
+from .command_checks import finite_command
 from .running_totals import RunningTotals
 
 __all__ = ["MotionNoise", "RobotTiming", "SimRobot", "simulated_sonar"]
@@ -180,9 +181,7 @@ class SimRobot(RunningTotals):
     def turn(self, angle_rad: float) -> None:
         """Spin in place by `angle_rad` (counter-clockwise positive) with turn noise."""
         self._check_open()
-        a = float(angle_rad)
-        if not math.isfinite(a):
-            raise RobotError(f"turn angle must be finite, got {angle_rad!r}")
+        a = finite_command(angle_rad, "turn angle")
         eps = self.rng.standard_normal() * self.noise.turn
         actual = a + (a * eps if self.noise.model == "botsim" else eps)
         self._pose = Pose(self._pose.x, self._pose.y, wrap_angle(self._pose.theta + actual))
@@ -193,9 +192,7 @@ class SimRobot(RunningTotals):
     def move(self, distance_cm: float) -> MoveOutcome:
         """Drive `distance_cm` straight (negative = backwards); forward moves run the watchdog."""
         self._check_open()
-        d = float(distance_cm)
-        if not math.isfinite(d):
-            raise RobotError(f"move distance must be finite, got {distance_cm!r}")
+        d = finite_command(distance_cm, "move distance")
         if d == 0.0:
             return MoveOutcome(0.0, 0.0, False)
         heading = wrap_angle(self._pose.theta + self.rng.standard_normal() * self.noise.turn)
