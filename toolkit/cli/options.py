@@ -442,7 +442,22 @@ TurnRate = Annotated[float, typer.Option("--turn-rate", metavar="DEG/S",
                                          help="Robot model: turn-in-place rate (deg/s), for robot time.")]
 StopTurn = Annotated[float, typer.Option("--stop-turn", metavar="S",
                                          help="Robot model: fixed time of each stop-and-turn (s), for robot time.")]
+def nxt_backend(value: str) -> str:
+    """Callback of ``--nxt-backend``: one of the NXT links (`toolkit.robots.nxt_link.BACKENDS`)."""
+    from ..robots.nxt_link import BACKENDS
+
+    if value not in BACKENDS:
+        raise typer.BadParameter(f"expected one of {', '.join(BACKENDS)}, got {value!r}", param_hint="--nxt-backend")
+    return value
+
+
 # Options that several commands take with one meaning (the default stays in each command's signature).
+NxtBackend = Annotated[str, typer.Option("--nxt-backend", callback=nxt_backend,
+                                         help="How to reach the brick " + one_of("nxt backend") + ".")]
+ServerHost = Annotated[str, typer.Option("--server-host",
+                                         help="Brick server host: nxt-server or a virtual brick (socket backend).")]
+ServerPort = Annotated[int, typer.Option("--server-port", callback=port,
+                                         help="Brick server port: nxt-server or a virtual brick (socket backend).")]
 SweepSetFolder = Annotated[Path, typer.Argument(callback=shipped, help="Sweep set: a folder with sweeps.csv, the raw "
                                                                       "files and arena.yaml.")]
 SweepsMap = Annotated[str | None, typer.Option("--map", metavar="NAME|FILE",
