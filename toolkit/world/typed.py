@@ -186,7 +186,8 @@ def _problem(err: Mapping[str, Any], info: FieldInfo | None) -> str:
     if tuple_size and kind not in _BOUND_ERRORS:
         return f"expected {tuple_size} numbers, got {value!r}"
     if value is None and kind != "value_error":
-        return f"must be a {type_name(info) if info is not None else 'value'}, got null"
+        kind_text = type_name(info) if info is not None else "value"
+        return f"must be {'an' if kind_text[0] in 'aeiou' else 'a'} {kind_text}, got null"
     if info is not None and kind in _BOUND_ERRORS and range_text(info):
         return f"{value!r} is out of its range {range_text(info)}"
     if info is not None and kind == "literal_error":
