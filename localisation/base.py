@@ -21,6 +21,7 @@ import numpy as np
 
 from toolkit.world import (
     ConfigError,
+    Configurable,
     Map,
     Options,
     Pose,
@@ -29,7 +30,6 @@ from toolkit.world import (
     Scan,
     angle_diff,
     as_rng,
-    configure,
     wrap_angle,
 )
 from toolkit.world.arrays import FloatArray
@@ -211,7 +211,7 @@ class Mode:
                 "best_log_likelihood": self.best_log_likelihood, "count": self.count}
 
 
-class Localiser(ABC):
+class Localiser(Configurable, ABC):
     """Base class of localisers; subclasses set `name`, declare `options_model` and `robot_options` and
     implement the four methods.
 
@@ -263,14 +263,6 @@ class Localiser(ABC):
     def __init__(self, map: Map, *, rng: RngLike = None) -> None:
         self.map = map
         self.rng = as_rng(rng)
-
-    @classmethod
-    def configure(cls, options: Any = None, overrides: Mapping[str, Any] | None = None) -> Any:
-        """`options` (an instance of ``options_model``; None: its defaults) with `overrides` on top (dotted
-        paths, or the name of one field), validated (`toolkit.world.configure`)."""
-        if cls.options_model is None:
-            raise ConfigError(f"{cls.__qualname__} declares no options_model")
-        return configure(cls.options_model, options, overrides)
 
     @abstractmethod
     def reset(self, prior: Prior | HeadingPrior | None = None) -> None:

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from toolkit.world import (
     CollisionChecker,
-    ConfigError,
+    Configurable,
     Map,
     Options,
     PlanningError,
@@ -34,7 +34,6 @@ from toolkit.world import (
     RobotTiming,
     as_rng,
     check_objective,
-    configure,
     make_checker,
     objective_cost,
 )
@@ -212,7 +211,7 @@ class PlanResult:
         }
 
 
-class Planner(ABC):
+class Planner(Configurable, ABC):
     """Base class of planners. Subclasses set `name`, declare `options_model` and implement `_solve`.
 
     Subclasses with a `name` register themselves; `make_planner(name, **options)` builds one. The
@@ -257,14 +256,6 @@ class Planner(ABC):
         super().__init_subclass__(**kwargs)
         if "name" in cls.__dict__:
             PLANNERS.add(cls.name, cls)
-
-    @classmethod
-    def configure(cls, options: Any = None, overrides: Mapping[str, Any] | None = None) -> Any:
-        """`options` (an instance of ``options_model``; None: its defaults) with `overrides` on top (dotted
-        paths, or the name of one field), validated (`toolkit.world.configure`)."""
-        if cls.options_model is None:
-            raise ConfigError(f"{cls.__qualname__} declares no options_model")
-        return configure(cls.options_model, options, overrides)
 
     @classmethod
     def objectives_for(cls, name: str) -> tuple[str, ...]:

@@ -22,27 +22,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from toolkit.world import CollisionChecker, wrap_angle
+from toolkit.world import CollisionChecker, segment_turns
 from toolkit.world.arrays import FloatArray
 
 __all__ = ["PathMetrics", "count_turns", "heading_changes", "path_length", "path_metrics", "turn_angle"]
 
 
 _DEFAULT_TURN_THRESHOLD = math.radians(1.0)
-_EPS_CM = 1e-9
 
 
 def _as_path(path: ArrayLike) -> FloatArray:
     return np.asarray(path, dtype=float).reshape(-1, 2)
-
-
-def _segments(path: ArrayLike) -> FloatArray:
-    """Non-degenerate segment vectors of the path, shape (m, 2)."""
-    p = _as_path(path)
-    if len(p) < 2:
-        return np.empty((0, 2))
-    d = np.diff(p, axis=0)
-    return d[np.hypot(d[:, 0], d[:, 1]) > _EPS_CM]
 
 
 def path_length(path: ArrayLike) -> float:
@@ -54,13 +44,9 @@ def path_length(path: ArrayLike) -> float:
 
 
 def heading_changes(path: ArrayLike) -> FloatArray:
-    """Signed heading change (rad, in [-pi, pi)) at each interior vertex, zero-length segments skipped."""
-    d = _segments(path)
-    if len(d) < 2:
-        return np.empty(0)
-    h = np.arctan2(d[:, 1], d[:, 0])
-    dh = np.diff(h)
-    return np.asarray(wrap_angle(dh))
+    """Signed heading change (rad, in [-pi, pi)) at each interior vertex, zero-length segments skipped
+    (`toolkit.world.segment_turns`, the one the robot's cost counts)."""
+    return segment_turns(path)
 
 
 def turn_angle(path: ArrayLike) -> float:

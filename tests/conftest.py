@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import fcntl
+import importlib.util
 import os
 import shutil
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
@@ -61,6 +63,17 @@ def wait_until(condition: Callable[[], object], timeout: float, what: str) -> No
         time.sleep(0.02)  # the pause between two looks at the condition (the one poll of the suite)
 
 
+def load_tool(name: str) -> ModuleType:
+    """``tools/NAME.py`` as a module (tools/ is not a package), registered in `sys.modules` as NAME so that
+    its dataclasses and pickles resolve."""
+    spec = importlib.util.spec_from_file_location(name, Path(__file__).resolve().parents[1] / "tools" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
 def run_cli(argv: list[str]) -> int:
     """Run the `nxtnav` command in this process; its exit code."""
     from toolkit.cli import main
@@ -70,6 +83,18 @@ def run_cli(argv: list[str]) -> int:
     except SystemExit as exc:
         return int(exc.code or 0)
     return 0
+
+
+def fails_cleanly(argv: list[str], capsys: pytest.CaptureFixture[str], *needles: str) -> str:
+    """Run `argv` in this process: it must exit 2 with one line ``nxtnav: error: ...`` on stderr holding
+    every needle; that line."""
+    assert run_cli(argv) == 2
+    err = capsys.readouterr().err.strip()
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("nxtnav: error:"), err
+    for n in needles:
+        assert n in lines[0], lines[0]
+    return lines[0]
 
 
 def nxtnav_exe() -> str:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import REAL_NXT, run_cli
+from conftest import REAL_NXT, fails_cleanly, run_cli
 
 from localisation.models import MotionModel
 from toolkit.bench.routes import COLUMNS, model_headings, odometry, plan_routes
@@ -104,9 +104,7 @@ def test_bench_routes_writes_every_step(tmp_path: Path, capsys: pytest.CaptureFi
 def test_bad_options_exit_2_and_write_nothing(tmp_path: Path, args: list[str], message: str,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "out"
-    assert run_cli(["bench", "routes", str(REAL_NXT), *FEW, "--out", str(out), *args]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and message in err[0], err
+    fails_cleanly(["bench", "routes", str(REAL_NXT), *FEW, "--out", str(out), *args], capsys, message)
     assert not out.exists()
 
 

@@ -8,7 +8,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from conftest import REAL_NXT, run_cli
+from conftest import REAL_NXT, fails_cleanly, run_cli
 
 from toolkit.bench.sweeps import COLUMNS, SweepRun, summarise
 
@@ -66,9 +66,7 @@ def _broken_copy(tmp_path: Path) -> Path:
 def test_bad_options_exit_2_and_write_nothing(tmp_path: Path, args: list[str], message: str,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "out"
-    assert run_cli(["bench", "sweeps", str(REAL_NXT), "--out", str(out), *args]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and message in err[0]
+    fails_cleanly(["bench", "sweeps", str(REAL_NXT), "--out", str(out), *args], capsys, message)
     assert not out.exists()
 
 

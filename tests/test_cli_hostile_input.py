@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run_cli
+from conftest import fails_cleanly, run_cli
 
 from localisation.models import clear_range_table_cache, range_table
 from toolkit.bench.executors import TasksInterrupted, collect_tasks
@@ -21,16 +21,6 @@ boundary: [[0, 0], [80, 0], [80, 20], [120, 20], [120, 60], [40, 60], [40, 40], 
 """A room that looks the same from (x, y, h) and from (120 - x, 60 - y, h + 180 deg)."""
 
 
-def _fails_cleanly(argv: list[str], capsys: pytest.CaptureFixture[str], *needles: str) -> str:
-    assert run_cli(argv) == 2
-    err = capsys.readouterr().err.strip()
-    lines = err.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("nxtnav: error:"), err
-    for n in needles:
-        assert n in lines[0], lines[0]
-    return lines[0]
-
-
 @pytest.mark.parametrize(("argv", "option"), [
     (["brick", "serve", "--port", "70000"], "--port"),
     (["brick", "serve", "--port", "-1"], "--port"),
@@ -40,7 +30,7 @@ def _fails_cleanly(argv: list[str], capsys: pytest.CaptureFixture[str], *needles
 ])
 def test_ports_outside_their_range_are_refused(argv: list[str], option: str,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    _fails_cleanly(argv, capsys, option, "TCP port")
+    fails_cleanly(argv, capsys, option, "TCP port")
 
 
 @pytest.mark.parametrize(("argv", "option"), [
@@ -77,7 +67,7 @@ def test_numbers_out_of_range_name_their_option(argv: list[str], option: str, tm
                                                 monkeypatch: pytest.MonkeyPatch,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.chdir(tmp_path)
-    _fails_cleanly(argv, capsys, option)
+    fails_cleanly(argv, capsys, option)
     assert not any(tmp_path.iterdir())  # nothing was written
 
 
@@ -100,7 +90,7 @@ def test_numbers_out_of_range_name_their_option(argv: list[str], option: str, tm
 def test_scan_angles_are_checked(value: str, needle: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                  capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.chdir(tmp_path)
-    _fails_cleanly(["scan", "--pose", "20,20,0", "--angles", value, "--json", "s.json", "-o", "s.png"], capsys,
+    fails_cleanly(["scan", "--pose", "20,20,0", "--angles", value, "--json", "s.json", "-o", "s.png"], capsys,
                    "--angles", needle)
     assert not any(tmp_path.iterdir())  # refused before any work
 
@@ -117,12 +107,12 @@ def test_fault_options_are_checked_before_any_work(argv: list[str], needles: tup
                                                    monkeypatch: pytest.MonkeyPatch,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.chdir(tmp_path)
-    _fails_cleanly(argv, capsys, *needles)
+    fails_cleanly(argv, capsys, *needles)
     assert not any(tmp_path.iterdir())
 
 
 def test_scan_direction_is_cw_or_ccw(capsys: pytest.CaptureFixture[str]) -> None:
-    _fails_cleanly(["scan", "--pose", "20,20,0", "--angles", "0:1:360", "--direction", "clockwise"], capsys,
+    fails_cleanly(["scan", "--pose", "20,20,0", "--angles", "0:1:360", "--direction", "clockwise"], capsys,
                    "--direction", "cw or ccw", "'clockwise'")
 
 
@@ -136,13 +126,13 @@ def test_scan_direction_is_cw_or_ccw(capsys: pytest.CaptureFixture[str]) -> None
 def test_set_values_are_checked_against_the_declarations(value: str, needle: str, tmp_path: Path,
                                                         capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "b"
-    _fails_cleanly(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "1",
+    fails_cleanly(["bench", "localisers", "--maps", "map1", "--localisers", "paper-pf", "--trials", "1",
                     "--set", f"paper-pf.{value}", "--out", str(out)], capsys, needle)
     assert not out.exists()  # refused before any trial ran
 
 
 def test_localise_set_is_typed_too(capsys: pytest.CaptureFixture[str]) -> None:
-    _fails_cleanly(["localise", "--pose", "20,20,0", "--set", "n_particles=abc"], capsys,
+    fails_cleanly(["localise", "--pose", "20,20,0", "--set", "n_particles=abc"], capsys,
                    "--set paper-pf.n_particles")
 
 
@@ -152,7 +142,7 @@ def test_localise_set_is_typed_too(capsys: pytest.CaptureFixture[str]) -> None:
 ])
 def test_an_amcl_model_is_a_registered_one_that_fits_the_sonar(value: str, needle: str,
                                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    _fails_cleanly(["localise", "--pose", "20,20,0", "--localiser", "amcl", "--set", value], capsys, needle)
+    fails_cleanly(["localise", "--pose", "20,20,0", "--localiser", "amcl", "--set", value], capsys, needle)
 
 
 def test_an_integer_where_a_float_is_annotated_is_accepted(tmp_path: Path) -> None:
@@ -168,21 +158,21 @@ def test_coordinates_are_bounded(tmp_path: Path, capsys: pytest.CaptureFixture[s
         map_from_dict({"boundary": [[0, 0], [10, 0], [10, 10]], "start": [2e6, 1]})
     big = tmp_path / "big.yaml"
     big.write_text("boundary: [[0, 0], [1.0e+200, 0], [1.0e+200, 10], [0, 10]]\n")
-    _fails_cleanly(["maps", "show", str(big), "-o", str(tmp_path / "m.png")], capsys, "big.yaml", "boundary")
-    _fails_cleanly(["plan", "--start", "1e300,5", "-o", str(tmp_path / "p.png")], capsys, "--start", "within")
+    fails_cleanly(["maps", "show", str(big), "-o", str(tmp_path / "m.png")], capsys, "big.yaml", "boundary")
+    fails_cleanly(["plan", "--start", "1e300,5", "-o", str(tmp_path / "p.png")], capsys, "--start", "within")
 
 
 def test_a_bad_thin_wall_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     room = tmp_path / "stub.yaml"
     room.write_text("boundary: [[0, 0], [100, 0], [100, 60], [0, 60]]\n"
                     "walls: [[[50, 0], [50, 30]], [[20, 20], [20, 20]]]\n")
-    _fails_cleanly(["maps", "show", str(room), "-o", str(tmp_path / "m.png")], capsys, "stub.yaml",
+    fails_cleanly(["maps", "show", str(room), "-o", str(tmp_path / "m.png")], capsys, "stub.yaml",
                    "wall 1 vertex 1: zero-length segment")
     room.write_text("boundary: [[0, 0], [100, 0], [100, 60], [0, 60]]\nwalls: [[[50, 0], [50, 80]]]\n")
-    _fails_cleanly(["plan", "--map", str(room), "--start", "20,20", "--goal", "80,20", "-o", str(tmp_path / "p.png")],
+    fails_cleanly(["plan", "--map", str(room), "--start", "20,20", "--goal", "80,20", "-o", str(tmp_path / "p.png")],
                    capsys, "stub.yaml", "wall 0 vertex 1: [50.0, 80.0] is outside the free space")
     room.write_text("boundary: [[0, 0], [100, 0], [100, 60], [0, 60]]\nwalls: [[[50, 0], [50, .nan]]]\n")
-    _fails_cleanly(["scan", "--map", str(room), "--pose", "20,20,0"], capsys, "stub.yaml", "wall 0 vertex 1[1]",
+    fails_cleanly(["scan", "--map", str(room), "--pose", "20,20,0"], capsys, "stub.yaml", "wall 0 vertex 1[1]",
                    "finite")
     assert not any(p.suffix == ".png" for p in tmp_path.iterdir())
 
@@ -191,10 +181,10 @@ def test_a_range_model_too_large_for_memory_is_one_line(tmp_path: Path, capsys: 
     huge = tmp_path / "huge.yaml"
     huge.write_text("name: huge\nboundary: [[0, 0], [900000, 0], [900000, 900000], [0, 900000]]\n")
     # the bounded range model refuses it up front, naming the budget and the option that raises it
-    _fails_cleanly(["localise", "--map", str(huge), "--pose", "50,50,0"], capsys, "huge", "budget",
+    fails_cleanly(["localise", "--map", str(huge), "--pose", "50,50,0"], capsys, "huge", "budget",
                    "--range-memory-mb")
     # the mission builds its localiser on the way: still bad input (2), not a failed mission (1)
-    _fails_cleanly(["run", "--map", str(huge), "--start", "50,50", "--target", "100,100"], capsys, "huge",
+    fails_cleanly(["run", "--map", str(huge), "--start", "50,50", "--target", "100,100"], capsys, "huge",
                    "budget")
 
 
@@ -206,7 +196,7 @@ def test_memory_exhausted_anywhere_is_one_line(monkeypatch: pytest.MonkeyPatch,
         raise MemoryError("Unable to allocate 5.89 TiB for an array")
 
     monkeypatch.setattr(plan_cmds, "load_map", exhausted)
-    _fails_cleanly(["plan", "--exec-repeats", "0", "-o", "p.png"], capsys, "out of memory", "5.89 TiB")
+    fails_cleanly(["plan", "--exec-repeats", "0", "-o", "p.png"], capsys, "out of memory", "5.89 TiB")
 
 
 @pytest.mark.parametrize("option", ["--json", "--plot"])
@@ -223,7 +213,7 @@ def test_unwritable_outputs_fail_before_the_run(option: str, tmp_path: Path,
 
 
 def test_an_output_that_is_a_folder_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    _fails_cleanly(["plan", "-o", str(tmp_path)], capsys, "--output", "is a folder")
+    fails_cleanly(["plan", "-o", str(tmp_path)], capsys, "--output", "is a folder")
 
 
 def test_localise_and_scan_print_without_a_picture(tmp_path: Path, capsys: pytest.CaptureFixture[str],
@@ -333,7 +323,7 @@ def test_an_interrupted_localiser_benchmark_writes_its_finished_trials(tmp_path:
 
 
 def test_a_preset_the_robot_does_not_fit_on_is_bad_input(capsys: pytest.CaptureFixture[str]) -> None:
-    _fails_cleanly(["plan", "--radius", "1000", "--exec-repeats", "0", "-o", "p.png"], capsys,
+    fails_cleanly(["plan", "--radius", "1000", "--exec-repeats", "0", "-o", "p.png"], capsys,
                    "--start (the map's preset)", "radius 1000")
 
 
@@ -356,4 +346,4 @@ def test_a_bad_option_value_is_a_config_error_with_exit_2(capsys: pytest.Capture
     with pytest.raises(ConfigError) as err:
         MissionConfig().with_options(**{"planning.time_s": -1.0})
     assert isinstance(err.value, NxtnavError) and isinstance(err.value, ValueError)
-    _fails_cleanly(["localise", "--pose", "20,20,0", "--set", "n_particles=5"], capsys, "n_particles", "5")
+    fails_cleanly(["localise", "--pose", "20,20,0", "--set", "n_particles=5"], capsys, "n_particles", "5")

@@ -50,7 +50,8 @@ def test_a_sonar_setting_reaches_the_simulated_sonar(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("argv", "words"), [
-    (["--set", "robot.timing.drive_speed_cm_s=-5"], ["robot.timing.drive_speed_cm_s", "-5", "greater than 0"]),
+    (["--set", "robot.timing.drive_speed_cm_s=-5"],
+     ["robot.timing.drive_speed_cm_s", "-5", "out of its range (0, inf)"]),
     (["--set", "robot.timing.drive_speed_cm_s=fast"], ["robot.timing.drive_speed_cm_s", "'fast'", "number"]),
     (["--set", "robot.timing.speed=3"], ["robot.timing.speed", "drive_speed_cm_s"]),
     (["--set", "sonar.beam_width_deg=20"], ["sonar.beam_width_deg", "noise_sd"]),
@@ -94,7 +95,7 @@ def test_a_profile_file_with_a_bad_field_names_file_field_and_value(tmp_path: Pa
     path.write_text("drive_power: 150\nleft_port: A\n")
     with pytest.raises(ProfileError) as err:
         NxtProfile.load(path)
-    assert str(err.value) == f"{path}: drive_power: 150 must be less than or equal to 100"
+    assert str(err.value) == f"{path}: drive_power: 150 is out of its range [1, 100]"
     path.write_text("track_width_cm: wide\n")
     with pytest.raises(ProfileError, match=r"track_width_cm must be a number, got 'wide'"):
         NxtProfile.load(path)

@@ -8,30 +8,19 @@ rest of the suite.
 
 from __future__ import annotations
 
-import importlib.util
 import shutil
 import subprocess
 import sys
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import pytest
+from conftest import load_tool
 
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _load_runner() -> ModuleType:
-    """tools/docs_commands.py as a module (tools/ is not a package)."""
-    spec = importlib.util.spec_from_file_location("docs_commands", REPO / "tools" / "docs_commands.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["docs_commands"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-docs_commands = _load_runner()
+docs_commands = load_tool("docs_commands")
 BLOCKS, CHECKS = docs_commands.collect(REPO)
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import sys
@@ -10,16 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_tool
 
 from toolkit.recordings.recorder import Recorder
 from toolkit.world import Pose, Scan, load_map
 
 _TOOLS = Path(__file__).parents[1] / "tools"
 sys.path.insert(0, str(_TOOLS))
-_SPEC = importlib.util.spec_from_file_location("estimate_smoothing", _TOOLS / "estimate_smoothing.py")
-assert _SPEC is not None and _SPEC.loader is not None
-smoothing = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(smoothing)
+smoothing = load_tool("estimate_smoothing")
 
 STEP_CM, STEPS = 5.0, 120
 

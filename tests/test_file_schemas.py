@@ -3,14 +3,13 @@ reader; their JSON Schemas in docs/reference/schemas/ are generated from them an
 
 from __future__ import annotations
 
-import importlib.util
 import io
 import json
-import sys
 from pathlib import Path
 from types import ModuleType
 
 import pytest
+from conftest import load_tool
 
 from toolkit.recordings.format import RecordingError
 from toolkit.recordings.recorder import Recorder
@@ -26,12 +25,7 @@ RECOVERY = {"type": "recovery", "kind": "link-lost", "robot_time_s": 12.5, "deta
 
 
 def _tool() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("schemas_tool", REPO / "tools" / "schemas.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["schemas_tool"] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_tool("schemas")
 
 
 def test_committed_schemas_equal_the_models(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import pytest
+from conftest import load_tool
 
 from toolkit.mission import run_sim_mission
 
-_SPEC = importlib.util.spec_from_file_location("fix_errors", Path(__file__).parents[1] / "tools" / "fix_errors.py")
-assert _SPEC is not None and _SPEC.loader is not None
-fix_errors = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(fix_errors)
+fix_errors = load_tool("fix_errors")
 
 
 def test_the_fixes_are_read_against_the_truth_and_the_time_adds_up() -> None:

@@ -2,20 +2,16 @@
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_tool
 
 from toolkit.real_sonar.sweeps import load_sweep_set
 
-_SPEC = importlib.util.spec_from_file_location("kentheo_sweep_set",
-                                               Path(__file__).parents[1] / "tools" / "kentheo_sweep_set.py")
-assert _SPEC is not None and _SPEC.loader is not None
-tool = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(tool)
+tool = load_tool("kentheo_sweep_set")
 
 
 def _git(repo: Path, *args: str) -> str:

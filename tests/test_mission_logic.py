@@ -183,21 +183,26 @@ def test_lost_robot() -> None:
     assert 0 < len(moves) <= strategy.attempts * strategy.max_explore_moves
 
 
+def _first_fix_off(loc: OracleLocaliser, dx_cm: float = 0.0, dy_cm: float = 0.0) -> OracleLocaliser:
+    """`loc` whose first update leaves its pose off by (`dx_cm`, `dy_cm`); the later ones are true."""
+    original = loc.update
+    calls = {"n": 0}
+
+    def off_once(scan: Scan) -> None:
+        original(scan)
+        calls["n"] += 1
+        if calls["n"] == 1:
+            loc.pose = Pose(loc.pose.x + dx_cm, loc.pose.y + dy_cm, loc.pose.theta)
+
+    loc.update = off_once  # type: ignore[method-assign]
+    return loc
+
+
 def test_watchdog_stop_leads_to_turnback_relocalise_replan() -> None:
     # a first fix 20 cm short in y drives the robot at the top wall of map1: the watchdog must stop it
     m = load_map("map1")
     robot = SimRobot(m, Pose(20, 75, math.pi / 2), rng=5)
-    loc = OracleLocaliser(m, robot, sd_cm=0.2, rng=1)
-    original = loc.update
-    calls = {"n": 0}
-
-    def biased(scan: Scan) -> None:
-        original(scan)
-        calls["n"] += 1
-        if calls["n"] == 1:
-            loc.pose = Pose(loc.pose.x, loc.pose.y - 20.0, loc.pose.theta)
-
-    loc.update = biased  # type: ignore[method-assign]
+    loc = _first_fix_off(OracleLocaliser(m, robot, sd_cm=0.2, rng=1), dy_cm=-20.0)
     cfg = MissionConfig().with_options(**{"fix.relocalise_every_cm": None, "fix.first_leg_cm": None,
                                           "global_localisation.confirm": False})
     report = run_mission(robot, m, (20.0, 88.0), planner=VisibilityPlanner(), localiser=loc,
@@ -234,17 +239,7 @@ def test_a_wrong_single_place_fix_is_caught_by_the_confirmation() -> None:
     m = load_map("map3")
     assert m.start is not None and m.target is not None
     robot = SimRobot(m, Pose(*m.start, 0.5), rng=2)
-    loc = OracleLocaliser(m, robot, sd_cm=0.2, rng=3)
-    original = loc.update
-    calls = {"n": 0}
-
-    def twin(scan: Scan) -> None:
-        original(scan)
-        calls["n"] += 1
-        if calls["n"] == 1:
-            loc.pose = Pose(loc.pose.x + 90.0, loc.pose.y, loc.pose.theta)
-
-    loc.update = twin  # type: ignore[method-assign]
+    loc = _first_fix_off(OracleLocaliser(m, robot, sd_cm=0.2, rng=3), dx_cm=90.0)
     report = run_mission(robot, m, m.target, planner=VisibilityPlanner(), localiser=loc,
                          procedure=oracle_localise, rng=0, truth=robot)
     assert report.success, report.status

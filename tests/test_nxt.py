@@ -6,7 +6,7 @@ import io
 import json
 import math
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -127,17 +127,22 @@ def test_robot_time_is_brick_time(rig: Rig) -> None:
     assert rig.robot.robot_time_s == pytest.approx(rig.world.time_s - t0, abs=0.05)
 
 
-def test_ctrl_c_mid_move_stops_the_motors_and_says_so(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> None:
+def _sonar_failing_after(rig: Rig, reads: int, error: BaseException) -> Callable[[], float]:
+    """The rig's sonar read, raising `error` from the read after the first `reads`."""
     calls = {"n": 0}
     real = rig.robot.read_sonar
 
-    def interrupted() -> float:
+    def read() -> float:
         calls["n"] += 1
-        if calls["n"] > 5:
-            raise KeyboardInterrupt
+        if calls["n"] > reads:
+            raise error
         return real()
 
-    monkeypatch.setattr(rig.robot, "read_sonar", interrupted)
+    return read
+
+
+def test_ctrl_c_mid_move_stops_the_motors_and_says_so(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(rig.robot, "read_sonar", _sonar_failing_after(rig, 5, KeyboardInterrupt()))
     with pytest.raises(RobotError, match=r"interrupted by Ctrl-C; motors stopped"):
         rig.robot.move(50.0)
     assert rig.world.pose.y > 20.0  # it had started
@@ -147,16 +152,7 @@ def test_ctrl_c_mid_move_stops_the_motors_and_says_so(rig: Rig, monkeypatch: pyt
 
 
 def test_any_error_mid_scan_stops_the_motors(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> None:
-    calls = {"n": 0}
-    real = rig.robot.read_sonar
-
-    def failing() -> float:
-        calls["n"] += 1
-        if calls["n"] > 20:
-            raise ValueError("sensor exploded")
-        return real()
-
-    monkeypatch.setattr(rig.robot, "read_sonar", failing)
+    monkeypatch.setattr(rig.robot, "read_sonar", _sonar_failing_after(rig, 20, ValueError("sensor exploded")))
     with pytest.raises(RobotError, match=r"ultrascan failed: ValueError: sensor exploded; motors stopped"):
         rig.robot.ultrascan()
     assert not rig.world.moving

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
-_SPEC = importlib.util.spec_from_file_location("paper_lock", Path(__file__).parents[1] / "tools" / "paper_lock.py")
-assert _SPEC is not None and _SPEC.loader is not None
-paper_lock = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(paper_lock)
+from conftest import load_tool
+
+paper_lock = load_tool("paper_lock")
 
 _RUN = [{"sonar": "nxt", "rows": [{"map": "map1", "success_rate": 1.0, "completion_s": 0.3, "cpu_median_s": 0.2,
                                    "robot_time_s": 38.2, "robot_time_split": {"sweep_s": 22.8}}]}]

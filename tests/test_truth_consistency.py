@@ -2,21 +2,17 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_tool
 
 from toolkit.recordings.recorder import Recorder
 from toolkit.world import Pose, Scan, load_map
 
-_SPEC = importlib.util.spec_from_file_location("truth_consistency",
-                                               Path(__file__).parents[1] / "tools" / "truth_consistency.py")
-assert _SPEC is not None and _SPEC.loader is not None
-truth_consistency = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(truth_consistency)
+truth_consistency = load_tool("truth_consistency")
 
 STEP_CM, STEPS = 5.0, 120
 """A winding path driven in steps of 5 cm, each after a turn of up to 0.2 rad (`_turn`)."""

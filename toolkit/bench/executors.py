@@ -18,6 +18,8 @@ installed data and ``$NXTNAV_MAPS``.
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import multiprocessing
 import os
 import signal
@@ -29,7 +31,7 @@ from typing import Any, Generic, TypeVar, cast
 
 from toolkit.world import ConfigError, NxtnavError
 
-__all__ = ["TasksInterrupted", "WorkerDied", "collect_tasks", "default_workers", "run_tasks"]
+__all__ = ["TasksInterrupted", "WorkerDied", "collect_tasks", "default_workers", "quiet_logger", "run_tasks"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -47,6 +49,19 @@ class TasksInterrupted(KeyboardInterrupt, Generic[R]):
 class WorkerDied(NxtnavError):
     """A worker process of the pool ended without a result (a crash in a compiled library, the
     kernel's out-of-memory killer): the run stops with this instead of waiting for it forever."""
+
+
+@contextlib.contextmanager
+def quiet_logger(name: str) -> Iterator[None]:
+    """Logger `name` says only its errors while the block runs (a batch whose report counts what the
+    logger would say each time), its level restored after."""
+    logger = logging.getLogger(name)
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 def _ignore_sigint() -> None:

@@ -24,11 +24,10 @@ from __future__ import annotations
 
 import contextlib
 import io
-import logging
 import math
 import statistics
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -38,6 +37,7 @@ import numpy as np
 from ..robots.brick_faults import FAULT_KINDS, Fault, fault_class, known_fault_kinds
 from ..seeds import derive_seeds
 from ..world import ConfigError, Pose, load_map
+from .executors import quiet_logger
 
 if TYPE_CHECKING:
     from ..mission import MissionReport
@@ -171,19 +171,6 @@ def _world(task: FaultTask, faults: list[Fault], log: io.StringIO) -> Any:
                       faults=FaultSchedule(faults, rng=s_faults))
 
 
-@contextlib.contextmanager
-def _quiet(name: str) -> Iterator[None]:
-    """The warnings of logger `name` (a mission saying its faults) left out while a campaign runs: the
-    report counts them."""
-    logger = logging.getLogger(name)
-    level = logger.level
-    logger.setLevel(logging.ERROR)
-    try:
-        yield
-    finally:
-        logger.setLevel(level)
-
-
 def _mission(task: FaultTask, faults: list[Fault], record: Path | None) -> _Run:
     """One run on its own virtual brick; with `record`, its recording is written there and checked."""
     from localisation.robot_options import localiser_options
@@ -210,7 +197,7 @@ def _mission(task: FaultTask, faults: list[Fault], record: Path | None) -> _Run:
                                                           "profile": robot.profile.to_dict()},
                                     sonar={"model": "nxt", "params": NxtSonar().to_dict()}, seed=task.seed,
                                     truth=lambda: world.pose, extra={"faults": [f.to_dict() for f in faults]})
-            with _quiet("toolkit.mission.recovery"):
+            with quiet_logger("toolkit.mission.recovery"):
                 report = run_mission(robot, m, m.target, planner="min-turn", localiser="paper-pf", rng=task.seed,
                                      config=config, recorder=recorder, reconnect_timeout_s=task.reconnect_timeout_s,
                                      truth=world)

@@ -11,19 +11,27 @@ import typer
 
 from toolkit.world import MotionNoise, NxtnavError, load_map
 
-from .app import EXIT_FAILED, Interrupted, bench_app, fail
+from .app import EXIT_FAILED, bench_app, fail
+from .interrupts import run_batch
 from .options import (
     ConfigFile,
+    Force,
+    GlobalLocalisers,
+    NoiseModel,
+    OutFolder,
+    PlannerName,
+    Seeds,
+    SweepSetFolder,
+    SweepsMap,
+    SweepsNoise,
+    Workers,
     check_out_folder,
     check_writable,
     parse_floats,
     parse_list,
     shipped,
-    writable_folder,
 )
 from .options import sonar_profile as load_profile
-from .options import workers as workers_ok
-from .progress import progress
 from .run_config import configuration, given_sets, section_settings
 from .sweeps_cmds import _seeds
 
@@ -110,21 +118,18 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
 @bench_app.command("challenge")
 def bench_challenge(
     ctx: typer.Context,
-    folder: Path = typer.Argument(..., callback=shipped,
-                                  help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
-    map_name: str | None = typer.Option(None, "--map", help="The arena (default: the folder's arena.yaml)."),
-    localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated localisers."),
-    seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
-    planner: str = typer.Option("min-turn", "--planner", help="Planner between waypoints."),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise model (botsim or absolute)."),
-    noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
-                                   help="As `run` takes it; the sensor's noise is the real sweeps' (unused)."),
+    folder: SweepSetFolder,
+    map_name: SweepsMap = None,
+    localisers_text: GlobalLocalisers = "paper-pf,amcl",
+    seeds_text: Seeds = "0,1,2",
+    planner: PlannerName = "min-turn",
+    noise_model: NoiseModel = "botsim",
+    noise_text: SweepsNoise = "1,0.1,0.005",
     sonar_profile: Path | None = typer.Option(None, "--sonar-profile",
                                               help="nxt sonar model for the localisers (YAML; default: fitted)."),
-    out: Path = typer.Option(Path("out/challenge"), "--out", callback=writable_folder,
-                             help="Output folder (must be empty or new, unless --force)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+    out: OutFolder = Path("out/challenge"),
+    force: Force = False,
+    workers: Workers = 1,
     sets: ChallengeSets = [],  # noqa: B006 - typer reads the default, never mutates it
     config_file: ConfigFile = None,
 ) -> None:
@@ -139,7 +144,6 @@ def bench_challenge(
         summary_markdown,
         write_challenge_csv,
     )
-    from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.real_sonar.sweep_sonar import load_challenge_set
 
     locs = parse_list(localisers_text, "--localisers", list(LOCALISERS.names()))
@@ -152,14 +156,9 @@ def bench_challenge(
     sweeps = load_challenge_set(folder, load_map(map_ref))
     check_out_folder(out, force)
     tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise, config=settings)
-    complete = True
-    with progress(f"{len(tasks)} challenge missions", len(tasks)) as advance:
-        try:
-            runs = collect_tasks(run_challenge_task, tasks, workers=workers, on_done=advance)
-        except TasksInterrupted as exc:
-            runs, complete = list(exc.results), False
-            if not runs:
-                raise Interrupted(f"no mission had finished (of {len(tasks)}); nothing written") from None
+    batch = run_batch(run_challenge_task, tasks, "missions", label=f"{len(tasks)} challenge missions",
+                      workers=workers)
+    runs, complete = batch.results, batch.complete
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "challenge", str(folder), *(["--map", map_name] if map_name else []),
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)), "--planner", planner,
@@ -176,5 +175,4 @@ def bench_challenge(
     (out / "summary.json").write_text(summary_json(runs, **extra))
     typer.echo(text)
     typer.echo(f"wrote {csv_path}, {out / 'summary.md'}, {out / 'summary.json'}")
-    if not complete:
-        raise Interrupted(f"{len(runs)} of {len(tasks)} missions done; partial results (marked incomplete) in {out}")
+    batch.finish(f"partial results (marked incomplete) in {out}")

@@ -17,13 +17,14 @@ from .options import (
     ConfigFile,
     Dask,
     JsonOut,
+    MapList,
+    ReconnectTimeout,
+    ReplyTimeout,
     Seed,
     Workers,
     check_writable,
     count,
-    non_negative,
     parse_list,
-    positive,
     writable_folder,
 )
 from .run_config import configuration
@@ -40,13 +41,11 @@ def bench_faults(
     kinds_text: str | None = typer.Option(
         None, "--faults", metavar="KIND[,KIND]",
         help="Fault kinds to draw from " + one_of("fault kind") + " (default all)."),
-    maps_text: str = typer.Option("map1,map2,map3", "--maps", help="Maps, taken in turn."),
+    maps_text: MapList = "map1,map2,map3",
     workers: Workers = 1,
     dask: Dask = None,
-    reconnect_timeout: float = typer.Option(30.0, "--reconnect-timeout", metavar="S", callback=non_negative,
-                                            help="How long a mission tries to reach its brick again (s)."),
-    reply_timeout: float = typer.Option(3.0, "--reply-timeout", metavar="S", callback=positive,
-                                        help="A reply later than this counts as a lost link (s)."),
+    reconnect_timeout: ReconnectTimeout = 30.0,
+    reply_timeout: ReplyTimeout = 3.0,
     json_out: JsonOut = None,
     recordings: Path | None = typer.Option(None, "--recordings", callback=writable_folder, metavar="DIR",
                                            help="Keep each faulty mission's recording here (default: checked, "

@@ -7,7 +7,16 @@ from pathlib import Path
 import typer
 
 from .app import import_app
-from .options import check_writable, count, in_range, positive, repeats, shipped, writable_file
+from .options import (
+    RecordingOut,
+    SweepsMap,
+    check_writable,
+    count,
+    in_range,
+    positive,
+    repeats,
+    shipped,
+)
 
 __all__: list[str] = []
 
@@ -16,10 +25,9 @@ __all__: list[str] = []
 def import_sweeps(
     folder: Path = typer.Argument(..., metavar="DIR", callback=shipped,
                                   help="A sweep set: a folder with sweeps.csv and the sweep files."),
-    map_file: str | None = typer.Option(None, "--map", metavar="FILE",
-                                        help="The map the sweeps were taken in (default: DIR/arena.yaml)."),
-    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
-                                metavar="REC.jsonl", help="The recording to write."),
+    map_file: SweepsMap = None,
+    *,
+    output: RecordingOut,
 ) -> None:
     """A sweep set as one recording, each sweep a global-localisation episode; score it with nxtnav replay.
 
@@ -78,8 +86,8 @@ def import_bag_cmd(
                                           "stamps a sweep when it ends)."),
     truth_delay: float = typer.Option(0.0, "--truth-delay", metavar="S", callback=in_range(-10.0, 10.0),
                                       help="How late the truth's stamps are against odometry (s)."),
-    output: Path = typer.Option(..., "-o", "--output", callback=writable_file,
-                                metavar="REC.jsonl", help="The recording to write."),
+    *,
+    output: RecordingOut,
 ) -> None:
     """A ROS bag as a recording: scans, odometry as motions, ground truth as true poses (cm, base frame).
 

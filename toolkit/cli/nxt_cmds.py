@@ -11,7 +11,7 @@ from types import FrameType
 import typer
 
 from ..robots.brick_faults import Fault, FaultSchedule, Fired, parse_fault
-from ..robots.nxt import BACKENDS, NxtProfile, NxtRobot, connect_robot
+from ..robots.nxt import NxtProfile, NxtRobot, connect_robot
 from ..robots.nxt_profile import calibrated_track_width, calibrated_wheel_diameter
 from ..robots.virtual_brick import BrickServer
 from ..robots.virtual_brick_world import BrickConfig, BrickWorld
@@ -20,12 +20,15 @@ from ..world import SONAR_MODELS, ConfigError, Map, NxtnavError, Pose, RobotGeom
 from .app import brick_app, nxt_app
 from .choices import one_of
 from .options import (
-    SENSOR_NOISE_HELP,
     MapName,
+    NxtBackend,
+    ProfileFile,
+    SensorNoise,
+    ServerHost,
+    ServerPort,
     check_writable,
     count,
     non_negative,
-    port,
     port_or_zero,
     pose_on_map,
     positive,
@@ -46,16 +49,6 @@ def _echo(text: str) -> None:
     sys.stdout.flush()
 
 
-def _backend(value: str) -> str:
-    if value not in BACKENDS:
-        raise typer.BadParameter(f"expected one of {', '.join(BACKENDS)}, got {value!r}", param_hint="--nxt-backend")
-    return value
-
-
-_BACKEND_OPT = typer.Option("usb", "--nxt-backend", help="How to reach the brick " + one_of("nxt backend") + ".",
-                            callback=_backend)
-_HOST_OPT = typer.Option("127.0.0.1", "--server-host", help="Brick server host (socket backend).")
-_PORT_OPT = typer.Option(2727, "--server-port", help="Brick server port (socket backend).", callback=port)
 _ADDRESS_OPT = typer.Option(None, "--bt-address", help="Bluetooth address of the brick (00:16:53:xx:xx:xx).")
 _NAME_OPT = typer.Option(None, "--brick-name", help="Only use the brick with this name.")
 
@@ -95,7 +88,7 @@ def brick_serve(
                                  "0.02 when faster.", callback=positive),
     sonar: str = typer.Option("nxt", "--sonar", help="Sonar model " + one_of("sonar") + " (default: nxt, "
                                                      "the sensor an NXT client's localisers are told of)."),
-    sensor_noise: float = typer.Option(1.0, "--sensor-noise", help=SENSOR_NOISE_HELP, callback=non_negative),
+    sensor_noise: SensorNoise = 1.0,
     sonar_profile_path: Path | None = typer.Option(
         None, "--sonar-profile", metavar="FILE",
         help="A sonar profile (nxtnav sonar fit) for the nxt sonar: the brick's readings are drawn from its model. "
@@ -184,12 +177,12 @@ def brick_serve(
 
 @nxt_app.command("check")
 def nxt_check(
-    backend: str = _BACKEND_OPT,
-    server_host: str = _HOST_OPT,
-    server_port: int = _PORT_OPT,
+    backend: NxtBackend = "usb",
+    server_host: ServerHost = "127.0.0.1",
+    server_port: ServerPort = 2727,
     bt_address: str | None = _ADDRESS_OPT,
     brick_name: str | None = _NAME_OPT,
-    profile: Path | None = typer.Option(None, "--profile", help="Robot profile YAML (ports, calibration)."),
+    profile: ProfileFile = None,
     readings: int = typer.Option(3, "--readings", help="Sonar readings to take.", callback=count),
 ) -> None:
     """Connect to the brick; print its name, battery, firmware and a live sonar reading."""
@@ -208,9 +201,9 @@ def nxt_check(
 
 @nxt_app.command("calibrate")
 def nxt_calibrate(
-    backend: str = _BACKEND_OPT,
-    server_host: str = _HOST_OPT,
-    server_port: int = _PORT_OPT,
+    backend: NxtBackend = "usb",
+    server_host: ServerHost = "127.0.0.1",
+    server_port: ServerPort = 2727,
     bt_address: str | None = _ADDRESS_OPT,
     brick_name: str | None = _NAME_OPT,
     profile: Path = typer.Option(Path("nxt-profile.yaml"), "--profile", callback=writable_file,

@@ -445,3 +445,75 @@ TurnRate = Annotated[float, typer.Option("--turn-rate", metavar="DEG/S",
                                          help="Robot model: turn-in-place rate (deg/s), for robot time.")]
 StopTurn = Annotated[float, typer.Option("--stop-turn", metavar="S",
                                          help="Robot model: fixed time of each stop-and-turn (s), for robot time.")]
+def nxt_backend(value: str) -> str:
+    """Callback of ``--nxt-backend``: one of the NXT links (`toolkit.robots.nxt_link.BACKENDS`)."""
+    from ..robots.nxt_link import BACKENDS
+
+    if value not in BACKENDS:
+        raise typer.BadParameter(f"expected one of {', '.join(BACKENDS)}, got {value!r}", param_hint="--nxt-backend")
+    return value
+
+
+# Options that several commands take with one meaning (the default stays in each command's signature).
+NxtBackend = Annotated[str, typer.Option("--nxt-backend", callback=nxt_backend,
+                                         help="How to reach the brick " + one_of("nxt backend") + ".")]
+ServerHost = Annotated[str, typer.Option("--server-host",
+                                         help="Brick server host: nxt-server or a virtual brick (socket backend).")]
+ServerPort = Annotated[int, typer.Option("--server-port", callback=port,
+                                         help="Brick server port: nxt-server or a virtual brick (socket backend).")]
+SweepSetFolder = Annotated[Path, typer.Argument(callback=shipped, help="Sweep set: a folder with sweeps.csv, the raw "
+                                                                      "files and arena.yaml.")]
+SweepsMap = Annotated[str | None, typer.Option("--map", metavar="NAME|FILE",
+                                               help="The map of the sweeps (default: the folder's arena.yaml).")]
+GlobalLocalisers = Annotated[str, typer.Option("--localisers", metavar="A,B,...",
+                                               help="Comma-separated localisers that localise from one sweep.")]
+Seeds = Annotated[str, typer.Option("--seeds", metavar="N,N,...",
+                                    help="Comma-separated seeds (each run's random draws derive from one).")]
+SweepsNoise = Annotated[str, typer.Option(
+    "--noise", metavar="SENSOR,MOTION,TURN",
+    help="As `nxtnav run` takes it; the odometry gets the motion and turn noise (the sensor's noise is the "
+         "real sweeps').")]
+SourceProfiles = Annotated[Path | None, typer.Option(
+    "--sonar-profile", metavar="FILE|DIR",
+    help="nxt sonar model: a profile for every source, or a folder of per-source profiles (OWNER+NAME.yaml, as "
+         "`nxtnav sonar fit --per-source` writes them); default: the fitted default.")]
+RecordingOut = Annotated[Path, typer.Option("-o", "--output", callback=writable_file, metavar="REC.jsonl",
+                                            help="The recording to write.")]
+FigureOut = Annotated[Path, typer.Option("-o", "--output", callback=writable_file, metavar="FILE.png",
+                                         help="The PNG figure to write.")]
+Overwrite = Annotated[bool, typer.Option("--force", help="Overwrite the output file if it exists.")]
+JsonFlag = Annotated[bool, typer.Option("--json",
+                                        help="Print JSON instead of a table (every field whole, for scripts).")]
+PoseText = Annotated[str, typer.Option("--pose", metavar="X,Y,HEADING_DEG",
+                                       help="The robot's true pose (cm, cm, degrees).")]
+PlannerName = Annotated[str, typer.Option("--planner", help="Planner " + one_of("planner") + ".")]
+PlannerList = Annotated[str, typer.Option("--planners", help="Comma-separated planners " + one_of("planner") + ".")]
+LocaliserName = Annotated[str, typer.Option("--localiser", help="Localiser " + one_of("localiser") + ".")]
+PlanRadius = Annotated[float, typer.Option("--radius", callback=non_negative,
+                                           help="Robot radius (cm; 0: a point robot).")]
+TimeLimit = Annotated[float, typer.Option("--time-limit", metavar="SECONDS", callback=time_limit,
+                                          help="Planning budget per query (s).")]
+Queries = Annotated[str, typer.Option("--queries", metavar="presets|random",
+                                        help="presets (the map's start/target) or random.")]
+ExecRepeats = Annotated[int, typer.Option("--exec-repeats", callback=repeats,
+                                          help="Open-loop drives per query for the measured execution error "
+                                               "(0 skips it).")]
+MotionNoiseLevel = Annotated[float, typer.Option("--motion-noise", callback=non_negative,
+                                                 help="botsim: fraction; absolute: cm per move.")]
+TurnNoiseLevel = Annotated[float, typer.Option("--turn-noise", callback=non_negative,
+                                               help="botsim: fraction of a turn; absolute: rad.")]
+SensorNoise = Annotated[float, typer.Option("--sensor-noise", callback=non_negative, help=SENSOR_NOISE_HELP)]
+TrackerPrior = Annotated[str, typer.Option("--tracker-prior", help="Prior of the EKF/UKF " + one_of("tracker prior")
+                                           + " (pf: paper-pf's first estimate).")]
+ScanProcessing = Annotated[str, typer.Option("--scan-processing",
+                                             help="Scans for the localisers: paper (processed) or raw.")]
+Lobe = Annotated[str, typer.Option("--lobe", help="auto: localisers that can model it get the sonar's lobe; off: "
+                                                  "thin ray.")]
+ProfileFile = Annotated[Path | None, typer.Option("--profile", metavar="FILE",
+                                                 help="NXT robot profile YAML (ports, calibration).")]
+ReconnectTimeout = Annotated[float, typer.Option(
+    "--reconnect-timeout", metavar="S", callback=non_negative,
+    help="NXT: after a lost link, try this many seconds to reach the brick again before the mission ends.")]
+ReplyTimeout = Annotated[float, typer.Option(
+    "--reply-timeout", metavar="S", callback=positive,
+    help="NXT (socket, Bluetooth): a reply that takes longer than this counts as a lost link.")]

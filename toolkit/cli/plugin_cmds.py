@@ -11,12 +11,10 @@ from toolkit.world.params import describe
 
 from .app import localisers_app, planners_app
 from .choices import one_of
+from .options import JsonFlag
 from .tables import NEVER_CUT, print_json, print_table
 
 __all__: list[str] = []
-
-
-_JSON_HELP = "Print the declared options as JSON (every field whole, for scripts)."
 
 
 def _default_text(default: object) -> str:
@@ -53,7 +51,7 @@ def planners_list() -> None:
 
 @planners_app.command("show")
 def planners_show(name: str = typer.Argument(..., help="A planner " + one_of("planner") + "."),
-                  as_json: bool = typer.Option(False, "--json", help=_JSON_HELP)) -> None:
+                  as_json: JsonFlag = False) -> None:
     """A planner's declared options: name, type, default, range, unit, description (`--set NAME.KEY=VALUE`)."""
     from planners import PLANNERS
     from planners.declarations import planner_options
@@ -81,7 +79,7 @@ def localisers_list() -> None:
 
 @localisers_app.command("show")
 def localisers_show(name: str = typer.Argument(..., help="A localiser " + one_of("localiser") + "."),
-                    as_json: bool = typer.Option(False, "--json", help=_JSON_HELP)) -> None:
+                    as_json: JsonFlag = False) -> None:
     """A localiser's declared options and how it takes each facet of the robot model."""
     from localisation import LOCALISERS
 

@@ -16,10 +16,25 @@ from rich.table import Table
 from toolkit.number_format import cell, json_safe, percent
 from toolkit.world import NxtnavError
 
-from .app import Interrupted, bench_app
-from .options import ConfigFile, check_out_folder, parse_floats, parse_list, shipped, writable_folder
-from .options import workers as workers_ok
-from .progress import progress
+from .app import bench_app
+from .interrupts import run_batch
+from .options import (
+    ConfigFile,
+    Force,
+    GlobalLocalisers,
+    NoiseModel,
+    OutFolder,
+    PluginSets,
+    Seeds,
+    SourceProfiles,
+    SweepSetFolder,
+    SweepsMap,
+    SweepsNoise,
+    Workers,
+    check_out_folder,
+    parse_floats,
+    parse_list,
+)
 from .run_config import configuration, given_sets
 from .set_options import localiser_sets
 from .sweeps_cmds import _seeds
@@ -84,32 +99,23 @@ def _targets(summary: dict[str, Any]) -> list[str]:
 @bench_app.command("routes")
 def bench_routes(
     ctx: typer.Context,
-    folder: Path = typer.Argument(..., callback=shipped,
-                                  help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
-    map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
-    localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated global localisers."),
-    seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds (sweep draws, odometry "
-                                                           "noise, localiser)."),
+    folder: SweepSetFolder,
+    map_file: SweepsMap = None,
+    localisers_text: GlobalLocalisers = "paper-pf,amcl",
+    seeds_text: Seeds = "0,1,2",
     orders: int = typer.Option(0, "--orders", help="Seeded random orders per source, besides the course's order "
                                                   "from each waypoint."),
     order_text: str = typer.Option("listed", "--order", metavar="listed|X:Y,...", help=ORDER_HELP),
-    noise_model: str = typer.Option("botsim", "--noise-model", help="Motion noise model: botsim or absolute."),
-    noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
-                                   help="As `nxtnav run` takes it; the odometry gets the motion and turn noise "
-                                        "(the sensor's noise is the real sweeps')."),
+    noise_model: NoiseModel = "botsim",
+    noise_text: SweepsNoise = "1,0.1,0.005",
     headings: str = typer.Option("column", "--headings", metavar="column|model",
                                  help="The truth's heading at a sweep: column (sweeps.csv's heading_deg) or model "
                                       "(where the sonar model finds the sweep most likely)."),
-    sonar_profile: Path | None = typer.Option(
-        None, "--sonar-profile", metavar="FILE|DIR",
-        help="nxt sonar model: a profile for every source, or a folder of per-source profiles "
-             "(OWNER+NAME.yaml, as `nxtnav sonar fit --per-source` writes them); default: the fitted default."),
-    sets: list[str] = typer.Option([], "--set", metavar="[LOCALISER.]KEY=VALUE",
-                                   help="Localiser option (repeatable), e.g. paper-pf.n_particles=2000."),
-    out: Path = typer.Option(Path("out/routes"), "--out", callback=writable_folder,
-                             help="Output folder (must be empty or new, unless --force)."),
-    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
-    workers: int = typer.Option(1, help="Worker processes (1 = in this process).", callback=workers_ok),
+    sonar_profile: SourceProfiles = None,
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    out: OutFolder = Path("out/routes"),
+    force: Force = False,
+    workers: Workers = 1,
     config_file: ConfigFile = None,
 ) -> None:
     """Localise along routes of real sweeps: routes.csv, summary.json and route.png in --out.
@@ -167,20 +173,13 @@ def _run_and_write(tasks: list[Any], out: Path, locs: list[str], *, command: str
                    workers: int, configured: dict[str, Any]) -> None:
     """Run the route tasks, then write routes.csv, summary.json (with `configured`: the command's effective
     configuration, `toolkit.cli.run_config`) and route.png and print the summary."""
-    from toolkit.bench.executors import TasksInterrupted, collect_tasks
     from toolkit.bench.routes import run_route, summarise_steps, write_routes_csv
     from toolkit.bench.routes_plots import route_figure
 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    complete = True
-    with progress(f"{len(tasks)} routes", len(tasks)) as advance:
-        try:
-            done = collect_tasks(run_route, tasks, workers=workers, on_done=advance)
-        except TasksInterrupted as exc:
-            done, complete = list(exc.results), False
-            if not done:
-                raise Interrupted(f"no route had finished (of {len(tasks)}); nothing written") from None
+    batch = run_batch(run_route, tasks, "routes", label=f"{len(tasks)} routes", workers=workers)
+    done, complete = batch.results, batch.complete
     wall = time.perf_counter() - t0
     order = {(t.localiser, t.seed, t.route.repo, t.route.name): i for i, t in enumerate(tasks)}
     done.sort(key=lambda steps: order[(steps[0].localiser, steps[0].seed, steps[0].repo, steps[0].route)])
@@ -196,5 +195,4 @@ def _run_and_write(tasks: list[Any], out: Path, locs: list[str], *, command: str
         typer.echo(line)
     typer.echo(f"wrote {csv_path}, {out / 'summary.json'}{''.join(f', {p}' for p in figure)} "
                f"({len(steps)} steps of {len(done)} routes in {wall:.1f} s)")
-    if not complete:
-        raise Interrupted(f"{len(done)} of {len(tasks)} routes done; partial results (marked incomplete) in {out}")
+    batch.finish(f"partial results (marked incomplete) in {out}")

@@ -16,7 +16,10 @@ from .options import (
     ConfigFile,
     Dask,
     OutFolder,
+    Overwrite,
+    PlanRadius,
     Seed,
+    TimeLimit,
     Workers,
     parse_list,
     shipped,
@@ -39,7 +42,7 @@ def maps_import(
     simplify: float = typer.Option(0.0, "--simplify", metavar="CM",
                                    help="Simplify outlines by up to CM cm, growing obstacles only (0: exact)."),
     name: str | None = typer.Option(None, "--name", help="Map name (default: the file name)."),
-    force: bool = typer.Option(False, "--force", help="Overwrite OUT.yaml if it exists."),
+    force: Overwrite = False,
 ) -> None:
     """Import a grid map as an exact polygonal map YAML (free space = the free cells)."""
     if unknown not in ("occupied", "free"):
@@ -72,7 +75,7 @@ def maps_random(
                                 metavar="OUT.map", help="Moving AI .map file to write."),
     density: float = typer.Option(0.2, "--density", help="Probability that each cell is blocked."),
     seed: Seed = 0,
-    force: bool = typer.Option(False, "--force", help="Overwrite OUT.map if it exists."),
+    force: Overwrite = False,
 ) -> None:
     """Write a SIZE x SIZE grid of independently blocked cells as a Moving AI map (for scaling runs)."""
     from ..world.generated import random_occupancy
@@ -104,11 +107,11 @@ def bench_scen(
     planners_text: str = typer.Option("astar,shortest", "--planners",
                                       help="Comma-separated planners " + one_of("planner")
                                            + ", or peers (benchmark extra 'peers') " + one_of("peer") + "."),
-    radius: float = typer.Option(0.0, "--radius", help="Robot radius in cm (0: a point, as the benchmarks assume)."),
+    radius: PlanRadius = 0.0,
     collision: Collision = "index",
     cell_cm: float = typer.Option(1.0, "--cell-cm", help="Cell size in cm (lengths are compared in cells)."),
     limit: int | None = typer.Option(None, "--limit", help="Run N queries spread evenly over the file."),
-    time_limit: float = typer.Option(10.0, "--time-limit", help="Planning budget per query (s)."),
+    time_limit: TimeLimit = 10.0,
     seed: Seed = 0,
     out: OutFolder = Path("out/scen"),
     workers: Workers = 1,

@@ -9,7 +9,6 @@ held-out source, the honest test of a fitted model.
 from __future__ import annotations
 
 import json
-import logging
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict
@@ -22,6 +21,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+from ..bench.executors import quiet_logger
 from ..number_format import cell, json_safe, percent
 from ..world import NxtnavError, NxtSonar
 from .app import sonar_app
@@ -94,13 +94,8 @@ def _stuck_noted(sets: Sequence[Any]) -> Iterator[None]:
             if k:
                 typer.echo(f"{sw.label}: {k} of {len(scan)} readings are a stuck sonar (one value repeated over "
                            "a long arc the walls do not explain at its waypoint); left out", err=True)
-    logger = logging.getLogger("localisation.scan")
-    level = logger.level
-    logger.setLevel(logging.ERROR)
-    try:
+    with quiet_logger("localisation.scan"):
         yield
-    finally:
-        logger.setLevel(level)
 
 
 def _write_json(path: Path, doc: Any) -> None:

@@ -17,12 +17,16 @@ from .options import (
     ConfigFile,
     Dask,
     Force,
+    GlobalLocalisers,
     OutFolder,
+    Seeds,
+    SourceProfiles,
+    SweepSetFolder,
+    SweepsMap,
     Workers,
     check_out_folder,
     parse_heading_prior,
     parse_list,
-    shipped,
 )
 from .options import sonar_profile as load_profile
 from .run_config import configuration
@@ -44,15 +48,11 @@ def _seeds(text: str) -> list[int]:
 @bench_app.command("sweeps")
 def bench_sweeps(
     ctx: typer.Context,
-    folder: Path = typer.Argument(..., callback=shipped,
-                                  help="Sweep set: a folder with sweeps.csv, the raw files and arena.yaml."),
-    map_file: str | None = typer.Option(None, "--map", help="Map of the sweeps (default: the folder's arena.yaml)."),
-    localisers_text: str = typer.Option("paper-pf,amcl", "--localisers", help="Comma-separated global localisers."),
-    seeds_text: str = typer.Option("0,1,2", "--seeds", help="Comma-separated seeds."),
-    sonar_profile: Path | None = typer.Option(
-        None, "--sonar-profile", metavar="FILE|DIR",
-        help="nxt sonar model: a profile for every source, or a folder of per-source profiles "
-             "(OWNER+NAME.yaml, as `nxtnav sonar fit --per-source` writes them); default: the fitted default."),
+    folder: SweepSetFolder,
+    map_file: SweepsMap = None,
+    localisers_text: GlobalLocalisers = "paper-pf,amcl",
+    seeds_text: Seeds = "0,1,2",
+    sonar_profile: SourceProfiles = None,
     heading_prior_text: str | None = typer.Option(
         None, "--heading-prior", metavar="H:SD",
         help="The robot believes its heading is H degrees, give or take SD (the position stays unknown); "

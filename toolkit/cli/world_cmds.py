@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from typing import Any
 
 import typer
@@ -21,14 +20,17 @@ from ..world import (
 )
 from .app import app, bench_app, maps_app
 from .options import (
-    SENSOR_NOISE_HELP,
     Collision,
     ConfigFile,
+    FigureOut,
+    JsonFlag,
     JsonOut,
     MapName,
     PngOut,
+    PoseText,
     Radius,
     Seed,
+    SensorNoise,
     Sonar,
     SonarProfile,
     check_writable,
@@ -37,7 +39,6 @@ from .options import (
     parse_sweep,
     pose_on_map,
     sonar_profile,
-    writable_file,
 )
 from .run_config import configuration
 from .tables import NEVER_CUT, print_json, print_table
@@ -46,7 +47,7 @@ __all__: list[str] = []
 
 
 @maps_app.command("list")
-def maps_list(as_json: bool = typer.Option(False, "--json", help="Print the list as JSON (for scripts).")) -> None:
+def maps_list(as_json: JsonFlag = False) -> None:
     """List the map names that resolve, with their files and presets."""
     rows: list[dict[str, Any]] = []
     for name, path in list_maps().items():
@@ -72,7 +73,8 @@ def maps_list(as_json: bool = typer.Option(False, "--json", help="Print the list
 @maps_app.command("show")
 def maps_show(
     map_name: str = typer.Argument(..., metavar="NAME|PATH", help="Map name (map1) or YAML file."),
-    output: Path = typer.Option(..., "-o", "--output", callback=writable_file, help="PNG file to write."),
+    *,
+    output: FigureOut,
     radius: float = typer.Option(RobotGeometry().radius_cm, help="Robot radius for the c-space (cm; 0 = a point).",
                                  callback=non_negative),
 ) -> None:
@@ -94,9 +96,10 @@ def maps_show(
 @app.command("scan")
 def scan(
     map_name: MapName = "map1",
-    pose_text: str = typer.Option(..., "--pose", metavar="X,Y,HEADING_DEG", help="Robot pose (cm, cm, deg)."),
+    *,
+    pose_text: PoseText,
     sonar: Sonar = "ideal",
-    sensor_noise: float = typer.Option(1.0, help=SENSOR_NOISE_HELP, callback=non_negative),
+    sensor_noise: SensorNoise = 1.0,
     sonar_profile_path: SonarProfile = None,
     seed: Seed = 0,
     radius: Radius = None,

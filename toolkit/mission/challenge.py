@@ -67,7 +67,7 @@ class ChallengeConfig(Typed):
     move_step_cm: float = Field(default=10.0, gt=0, description="Longest move between two predictions (cm).")
     correction_cm: float = Field(default=3.0, ge=0,
                                  description="Corrections go on while the estimate is farther from the waypoint (cm).")
-    max_corrections: int = Field(default=1, ge=0, description="Corrections (and sweeps) at most per waypoint.")
+    max_corrections: int = Field(default=0, ge=0, description="Corrections (and sweeps) at most per waypoint.")
     margin_cm: float = Field(default=8.0, ge=0, description="Clearance asked of a path beyond the robot radius (cm).")
     plan_time_s: float = Field(default=0.5, gt=0, description="Planning budget per leg (s).")
     prior_std_cm: float = Field(default=3.0, gt=0, description="Spread of the belief reset at the start (cm).")
@@ -76,7 +76,7 @@ class ChallengeConfig(Typed):
     heading_span_deg: float = Field(default=30.0, ge=0,
                                     description="Headings tried around the predicted one at a waypoint (deg).")
     position_from: PositionFrom = Field(
-        default="localiser", description="Where the belief's position comes from after a waypoint's sweep.")
+        default="prediction", description="Where the belief's position comes from after a waypoint's sweep.")
     start_retries: int = Field(default=1, ge=0, description="Other start hypotheses tried when the first leg fails.")
     gate_sigmas: float = Field(default=3.0, gt=0, description=(
         "A sweep's fix is trusted when it lies within this many standard deviations of the prediction."))

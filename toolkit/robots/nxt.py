@@ -82,12 +82,6 @@ class NxtRobot(NxtActions):
         """How far (cm) `turnback` reverses (the profile's)."""
         return float(self.profile.backoff_cm)
 
-    def counters(self) -> dict[str, float]:
-        """The robot's running totals (`toolkit.world.RobotCounters`)."""
-        return {"watchdog_stops": float(self.watchdog_stops), "odometry_cm": self.odometry_cm,
-                "sweep_s": self.sweep_s, "turret_return_s": self.turret_return_s, "drive_s": self.drive_s,
-                "turn_s": self.turn_s, "readings": float(self.readings)}
-
     def set_profile(self, profile: NxtProfile) -> None:
         """Use new calibration values (the wiring must stay the same)."""
         old = self.profile

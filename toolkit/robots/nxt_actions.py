@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..world import LinkLostError, MoveOutcome, RobotError, Scan
+from .command_checks import finite_command
 from .nxt_io import NxtBrickIo
 from .nxt_link import describe_failure, link_broken
 
@@ -48,9 +49,7 @@ class NxtActions(NxtBrickIo):
 
     def move(self, distance_cm: float) -> MoveOutcome:
         """Drive `distance_cm` straight (negative = backwards); forward moves run the watchdog."""
-        d = float(distance_cm)
-        if not math.isfinite(d):
-            raise RobotError(f"move distance must be finite, got {distance_cm!r}")
+        d = finite_command(distance_cm, "move distance")
         with self._action(f"move {d:.1f} cm", "drive_s", motion=("move", d)):
             deg = self.profile.wheel_degrees(d)
             left, right, why = self._wheels(deg, deg, self.profile.drive_power, watchdog=d > 0)
@@ -64,9 +63,7 @@ class NxtActions(NxtBrickIo):
 
     def turn(self, angle_rad: float) -> None:
         """Spin in place by `angle_rad` (counter-clockwise positive)."""
-        a = float(angle_rad)
-        if not math.isfinite(a):
-            raise RobotError(f"turn angle must be finite, got {angle_rad!r}")
+        a = finite_command(angle_rad, "turn angle")
         with self._action(f"turn {math.degrees(a):.1f} deg", "turn_s", motion=("turn", a)):
             w = self.profile.spin_degrees(a)
             self._wheels(-w, w, self.profile.turn_power, watchdog=False)

@@ -20,6 +20,7 @@ from typing import Any
 from ..world import LinkLostError, RobotError
 from .nxt_link import describe_failure, import_nxt, link_broken, link_of
 from .nxt_profile import NxtProfile
+from .running_totals import RunningTotals
 
 __all__ = ["DEFAULT_REPLY_TIMEOUT_S", "NxtBrickIo"]
 
@@ -55,7 +56,7 @@ class _Pending:
     tacho_before: dict[str, int] | None = None
 
 
-class NxtBrickIo:
+class NxtBrickIo(RunningTotals):
     """The brick under an `NxtRobot`: its wiring and clock, the motor and sensor commands, the polling of
     the motors, and the guard every action runs in (`_action`). `NxtRobot` adds the paper's functions
     and reconnecting; the parameters are those of `NxtRobot`.
@@ -97,15 +98,8 @@ class NxtBrickIo:
         self._time = 0.0
         self._last_sonar = 0.0
         self._tick_ok = True
-        self.watchdog_stops = 0
-        self.odometry_cm = 0.0
         self.sonar_reads = 0
-        # the split of robot_time_s (s) and the readings of the sweeps, as the simulator keeps them
-        self.sweep_s = 0.0
-        self.turret_return_s = 0.0
-        self.drive_s = 0.0
-        self.turn_s = 0.0
-        self.readings = 0
+        self.reset_totals()  # the split of robot_time_s and the readings of the sweeps, as the simulator keeps them
         with self._action("connect"):
             self._start_sensor()
             for port in (self._left, self._right, self._turret):

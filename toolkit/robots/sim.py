@@ -43,6 +43,8 @@ from ..world import (
     wrap_angle,
 )
 from ..world.arrays import FloatArray
+from .command_checks import finite_command
+from .running_totals import RunningTotals
 
 __all__ = ["MotionNoise", "RobotTiming", "SimRobot", "simulated_sonar"]
 
@@ -65,7 +67,7 @@ def simulated_sonar(sonar: SonarModel | str, sensor_noise: float = 1.0) -> Sonar
     return make_sonar(sonar, noise_sd=sensor_noise) if sonar == "ideal" else make_sonar(sonar)
 
 
-class SimRobot:
+class SimRobot(RunningTotals):
     """A simulated NXT robot in a map (implements `toolkit.world.Robot`).
 
     Parameters
@@ -134,13 +136,7 @@ class SimRobot:
         self._pose = pose
         self._time = 0.0
         self.collisions = 0
-        self.watchdog_stops = 0
-        self.odometry_cm = 0.0
-        self.sweep_s = 0.0
-        self.turret_return_s = 0.0
-        self.drive_s = 0.0
-        self.turn_s = 0.0
-        self.readings = 0
+        self.reset_totals()
         self.last_scan_times_s: FloatArray | None = None  # robot time of each reading of the last sweep
         self.closed = False
 
@@ -159,12 +155,6 @@ class SimRobot:
     def backoff_distance_cm(self) -> float:
         """How far (cm) `turnback` reverses (`backoff_cm`)."""
         return self.backoff_cm
-
-    def counters(self) -> dict[str, float]:
-        """The simulator's running totals (`toolkit.world.RobotCounters`; collisions are the truth's)."""
-        return {"watchdog_stops": float(self.watchdog_stops), "odometry_cm": self.odometry_cm,
-                "sweep_s": self.sweep_s, "turret_return_s": self.turret_return_s, "drive_s": self.drive_s,
-                "turn_s": self.turn_s, "readings": float(self.readings)}
 
     def teleport(self, pose: Pose) -> None:
         """Put the robot at `pose` (kidnapped-robot experiments)."""
@@ -191,9 +181,7 @@ class SimRobot:
     def turn(self, angle_rad: float) -> None:
         """Spin in place by `angle_rad` (counter-clockwise positive) with turn noise."""
         self._check_open()
-        a = float(angle_rad)
-        if not math.isfinite(a):
-            raise RobotError(f"turn angle must be finite, got {angle_rad!r}")
+        a = finite_command(angle_rad, "turn angle")
         eps = self.rng.standard_normal() * self.noise.turn
         actual = a + (a * eps if self.noise.model == "botsim" else eps)
         self._pose = Pose(self._pose.x, self._pose.y, wrap_angle(self._pose.theta + actual))
@@ -204,9 +192,7 @@ class SimRobot:
     def move(self, distance_cm: float) -> MoveOutcome:
         """Drive `distance_cm` straight (negative = backwards); forward moves run the watchdog."""
         self._check_open()
-        d = float(distance_cm)
-        if not math.isfinite(d):
-            raise RobotError(f"move distance must be finite, got {distance_cm!r}")
+        d = finite_command(distance_cm, "move distance")
         if d == 0.0:
             return MoveOutcome(0.0, 0.0, False)
         heading = wrap_angle(self._pose.theta + self.rng.standard_normal() * self.noise.turn)

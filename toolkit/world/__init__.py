@@ -28,7 +28,7 @@ from .grids import OccupancyGrid, grid_to_map, polygonise
 from .importers import import_map
 from .laser import LaserScanner
 from .maps import COORDINATE_LIMIT_CM, GridSpec, Map, Region, list_maps, load_map, map_from_dict
-from .params import OptionInfo, Options, configure, option
+from .params import Configurable, OptionInfo, Options, configure, option
 from .point_collision import CHECKER_BACKENDS, PointCollisionChecker, make_checker
 from .registry import Registry
 from .robot import (
@@ -73,6 +73,7 @@ __all__ = [
     "BackoffDistance",
     "CollisionChecker",
     "ConfigError",
+    "Configurable",
     "GridSpec",
     "IdealSonar",
     "LaserScanner",

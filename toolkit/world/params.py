@@ -17,6 +17,7 @@ Options a localiser takes from the robot model (`toolkit.world.RobotModel`: moti
 sigma, lobe and range limit, the robot's radius) are marked ``robot=True`` (``json_schema_extra``): the run
 sets them from the one model every localiser is given, and ``--set`` may still override them.
 
+>>> from typing import Literal
 >>> class Search(Options):
 ...     n: int = option(10, "samples", ge=1)
 >>> class Planner(Options):
@@ -39,20 +40,20 @@ toolkit.world.errors.ConfigError: n: the options are grouped: use search.n
 from __future__ import annotations
 
 import json
-import types
-import typing
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
-from typing import Any, Literal, TypeVar, Union, get_args, get_origin
+from typing import Any, ClassVar, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 from pydantic.fields import FieldInfo
+from pydantic_core import PydanticCustomError
 
 from .errors import ConfigError
-from .typed import Typed, fields_of, parse_value
+from .typed import Choices, Typed, build, choices_of, fields_of, kinds_of, parse_value, range_text, type_name
 
 __all__ = [
     "Choices",
+    "Configurable",
     "OptionInfo",
     "Options",
     "configure",
@@ -83,20 +84,6 @@ def option(default: Any, description: str, *, unit: str = "", ge: float | None =
     return Field(default, description=description, ge=ge, le=le, json_schema_extra=extra or None)
 
 
-class Choices:
-    """Metadata of a text option whose allowed values live in a registry (read when checked, so a name
-    registered later counts): ``Annotated[str, Choices(names)]``. ``--set`` refuses another text (the
-    plug-in's constructor checks it again against its registry); the JSON Schema lists them (``enum``)."""
-
-    def __init__(self, names: Callable[[], Sequence[str]]) -> None:
-        self.names = names
-
-    def __get_pydantic_json_schema__(self, core_schema: Any, handler: Any) -> Any:
-        schema = handler(core_schema)
-        schema["enum"] = list(self.names())
-        return schema
-
-
 class Options(Typed):
     """Base of a plug-in's option model (and of its groups): a number is never a truth value and a truth
     value never a number, as ``--set KEY=true`` means one of them."""
@@ -106,28 +93,12 @@ class Options(Typed):
     @field_validator("*", mode="before")
     @classmethod
     def _no_truth_for_numbers(cls, value: Any, info: Any) -> Any:
-        kinds = _kinds(cls.model_fields[info.field_name].annotation)
+        kinds = kinds_of(cls.model_fields[info.field_name].annotation)
         if isinstance(value, bool) and bool not in kinds and kinds & {int, float}:
-            raise ValueError(f"expected {_number_text(kinds)}, got {value!r}")
+            raise PydanticCustomError("int_type" if int in kinds else "float_type", "a number, not a truth value")
         if not isinstance(value, bool) and value is not None and kinds == {bool}:
-            raise ValueError(f"expected true or false, got {value!r}")
+            raise PydanticCustomError("bool_type", "a truth value, not {value}", {"value": value})
         return value
-
-
-def _kinds(annotation: Any) -> set[Any]:
-    """The plain types an annotation admits (``int | None`` -> {int, NoneType})."""
-    origin = get_origin(annotation)
-    if origin in (Union, types.UnionType):
-        return set().union(*(_kinds(a) for a in get_args(annotation)))
-    if origin is typing.Annotated:
-        return _kinds(get_args(annotation)[0])
-    if origin is Literal:
-        return {str}
-    return {origin or annotation}
-
-
-def _number_text(kinds: set[Any]) -> str:
-    return "an integer" if int in kinds else "a finite number"
 
 
 @dataclass(frozen=True)
@@ -154,59 +125,6 @@ def _plain(value: Any) -> Any:
 def _extra(info: FieldInfo) -> dict[str, Any]:
     extra = info.json_schema_extra
     return extra if isinstance(extra, dict) else {}
-
-
-def _bounds(metadata: list[Any]) -> tuple[float | None, float | None]:
-    low = next((m.ge for m in metadata if hasattr(m, "ge")), None)
-    high = next((m.le for m in metadata if hasattr(m, "le")), None)
-    return low, high
-
-
-def _item_metadata(info: FieldInfo) -> list[Any]:
-    """The bounds of a field, or of the items of a tuple field (``tuple[Annotated[float, Field(ge=0)], ...]``)."""
-    if info.metadata:
-        return list(info.metadata)
-    args = get_args(info.annotation) if get_origin(info.annotation) is tuple else ()
-    if args and get_origin(args[0]) is typing.Annotated:
-        return [m for a in get_args(args[0])[1:] for m in getattr(a, "metadata", [a])]
-    return []
-
-
-def _choices(annotation: Any, metadata: Sequence[Any] = ()) -> tuple[str, ...]:
-    for item in metadata:
-        if isinstance(item, Choices):
-            return tuple(item.names())
-    for arg in (annotation, *get_args(annotation)):
-        if get_origin(arg) is Literal:
-            return tuple(str(c) for c in get_args(arg))
-    return ()
-
-
-def range_text(info: FieldInfo) -> str:
-    """``[1, inf)``, ``one of a, b`` or empty."""
-    choices = _choices(info.annotation, info.metadata)
-    if choices:
-        return "one of " + ", ".join(choices)
-    low, high = _bounds(_item_metadata(info))
-    if low is None and high is None:
-        return ""
-    lo = "(-inf" if low is None else f"[{low:g}"
-    hi = "inf)" if high is None else f"{high:g}]"
-    return f"{lo}, {hi}"
-
-
-def type_name(info: FieldInfo) -> str:
-    """``int``, ``float or null``, ``3 x float``, ``str``, ``model`` (an object the robot model sets)."""
-    kinds = _kinds(info.annotation)
-    optional = type(None) in kinds
-    kinds.discard(type(None))
-    names = {bool: "bool", int: "int", float: "float", str: "str"}
-    if kinds == {tuple}:
-        inner = get_args(info.annotation)
-        kind = f"{len(inner)} x {names.get(next(iter(_kinds(inner[0]))), 'model')}"
-    else:
-        kind = names.get(next(iter(kinds)), "model") if len(kinds) == 1 else "model"
-    return kind + (" or null" if optional else "")
 
 
 def describe(cls: type[BaseModel]) -> list[OptionInfo]:
@@ -309,11 +227,22 @@ def configure(cls: type[OptionsT], options: OptionsT | None = None, overrides: M
         for group in groups:
             node = node[group]
         node[leaf] = value
-    try:
-        return cls.model_validate(tree)
-    except ValidationError as exc:
-        text = "; ".join(_wording(cls, dict(e)) for e in exc.errors())
-        raise ConfigError(f"{where}: {text}" if where else text) from None
+    return build(cls, tree, where)
+
+
+class Configurable:
+    """Base of a plug-in class (a planner, a localiser) whose options are one `Options` model, its
+    ``options_model`` (None: the plug-in declares none)."""
+
+    options_model: ClassVar[type[Options] | None] = None
+
+    @classmethod
+    def configure(cls, options: Any = None, overrides: Mapping[str, Any] | None = None) -> Any:
+        """`options` (an instance of ``options_model``; None: its defaults) with `overrides` on top (dotted
+        paths, or the name of one field), validated (`configure`)."""
+        if cls.options_model is None:
+            raise ConfigError(f"{cls.__qualname__} declares no options_model")
+        return configure(cls.options_model, options, overrides)
 
 
 def parse_sets(cls: type[BaseModel], texts: Mapping[str, str]) -> dict[str, Any]:
@@ -324,41 +253,14 @@ def parse_sets(cls: type[BaseModel], texts: Mapping[str, str]) -> dict[str, Any]
     for key, text in texts.items():
         path = resolve(cls, key, bare=False)
         value = parse_value(text)
-        if _kinds(paths[path].annotation) & {str} and value is not None and not isinstance(value, str):
+        if kinds_of(paths[path].annotation) & {str} and value is not None and not isinstance(value, str):
             value = text.strip()
-        choices = _choices(None, paths[path].metadata)
+        choices = choices_of(None, paths[path].metadata)
         if choices and value not in choices:
             raise ConfigError(f"{path}: {value!r} is not one of {', '.join(choices)}")
         values[path] = value
     configure(cls, None, values)  # type: ignore[type-var]
     return values
-
-
-def _wording(cls: type[BaseModel], err: Mapping[str, Any]) -> str:
-    """A pydantic error as ``path: what is wrong`` in the toolkit's words."""
-    loc = [str(p) for p in err.get("loc", ())]
-    path, value, kind = ".".join(p for p in loc if not p.isdigit()), err.get("input"), str(err.get("type"))
-    info = dict(fields_of(cls)).get(path)
-    if info is not None and _kinds(info.annotation) == {tuple} and not kind.startswith(("greater", "less")):
-        return f"{path}: expected {len(get_args(info.annotation))} numbers, got {value!r}"
-    if value is None and kind != "value_error":
-        return f"{path}: must be a {type_name(info) if info else 'value'}, got null"
-    if kind == "extra_forbidden":
-        return f"no option {path!r}"
-    if kind in ("greater_than_equal", "less_than_equal", "greater_than", "less_than") and info is not None:
-        return f"{path}: {value!r} is out of its range {range_text(info)}"
-    if kind == "literal_error" and info is not None:
-        return f"{path}: {value!r} is not {range_text(info)}"
-    if kind.startswith("int_"):
-        return f"{path}: expected an integer, got {value!r}"
-    if kind.startswith("float_") or kind == "finite_number":
-        return f"{path}: expected a finite number, got {value!r}"
-    if kind.startswith("bool_"):
-        return f"{path}: expected true or false, got {value!r}"
-    if kind.startswith("string_"):
-        return f"{path}: expected a text, got {value!r}"
-    text = str(err.get("msg", "invalid"))
-    return f"{path}: {text.removeprefix('Value error, ')}"
 
 
 def groups(cls: type[BaseModel]) -> Iterator[str]:

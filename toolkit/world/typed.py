@@ -23,7 +23,7 @@ as YAML) to a model, nested groups included.
 >>> build(Robot, {"radius_cm": -1}, "robot.yaml")
 Traceback (most recent call last):
 ...
-toolkit.world.errors.ConfigError: robot.yaml: radius_cm: -1 must be greater than 0
+toolkit.world.errors.ConfigError: robot.yaml: radius_cm: -1 is out of its range (0, inf)
 >>> with_sets(Robot(), {"motion.speed": "3"})
 Traceback (most recent call last):
 ...
@@ -36,9 +36,10 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import types
 import typing
-from collections.abc import Callable, Iterator, Mapping
-from typing import Annotated, Any, TypeVar
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Annotated, Any, Literal, TypeVar, Union, get_args, get_origin
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict, TypeAdapter, ValidationError
 from pydantic.dataclasses import dataclass as pydantic_dataclass
@@ -48,9 +49,9 @@ from pydantic_core import ArgsKwargs, PydanticCustomError
 from .errors import ConfigError
 from .yaml_text import YAMLError, load_yaml
 
-__all__ = ["Count", "NonNegative", "Positive", "Real", "Typed", "Whole", "build", "fields_of", "group_fields",
-           "model_fields", "one_line", "parse_value", "schema_of", "typed_dataclass", "with_sets", "with_values",
-           "worded"]
+__all__ = ["Choices", "Count", "NonNegative", "Positive", "Real", "Typed", "Whole", "build", "choices_of",
+           "fields_of", "group_fields", "kinds_of", "model_fields", "one_line", "parse_value", "range_text",
+           "schema_of", "type_name", "typed_dataclass", "with_sets", "with_values", "worded"]
 
 T = TypeVar("T")
 C = TypeVar("C", bound=type)
@@ -85,7 +86,7 @@ def typed_dataclass(*, frozen: bool = True) -> Callable[[C], C]:
     >>> Wheel(-1)
     Traceback (most recent call last):
     ...
-    toolkit.world.errors.ConfigError: Wheel: diameter_cm: -1 must be greater than 0
+    toolkit.world.errors.ConfigError: Wheel: diameter_cm: -1 is out of its range (0, inf)
     """
     def wrap(cls: C) -> C:
         made: Any = pydantic_dataclass(frozen=frozen, config=_DATACLASS_CONFIG)(cls)
@@ -99,7 +100,7 @@ def typed_dataclass(*, frozen: bool = True) -> Callable[[C], C]:
             try:
                 validating_init(self, *args, **kwargs)
             except ValidationError as exc:  # built in code: the same one line as from a file, named by class
-                raise ConfigError(one_line(exc, made.__name__)) from None
+                raise ConfigError(one_line(exc, made.__name__, made)) from None
 
         made.__init__ = init
         return typing.cast(C, made)
@@ -132,6 +133,87 @@ Count = Annotated[Whole, Field(ge=0)]
 """A `Whole` >= 0."""
 
 
+class Choices:
+    """Metadata of a text option whose allowed values live in a registry (read when checked, so a name
+    registered later counts): ``Annotated[str, Choices(names)]``. ``--set`` refuses another text (the
+    plug-in's constructor checks it again against its registry); the JSON Schema lists them (``enum``)."""
+
+    def __init__(self, names: Callable[[], Sequence[str]]) -> None:
+        self.names = names
+
+    def __get_pydantic_json_schema__(self, core_schema: Any, handler: Any) -> Any:
+        schema = handler(core_schema)
+        schema["enum"] = list(self.names())
+        return schema
+
+
+def kinds_of(annotation: Any) -> set[Any]:
+    """The plain types an annotation admits (``int | None`` -> {int, NoneType}; a ``Literal`` -> {str})."""
+    origin = get_origin(annotation)
+    if origin in (Union, types.UnionType):
+        return set().union(*(kinds_of(a) for a in get_args(annotation)))
+    if origin is typing.Annotated:
+        return kinds_of(get_args(annotation)[0])
+    if origin is Literal:
+        return {str}
+    return {origin or annotation}
+
+
+def choices_of(annotation: Any, metadata: Sequence[Any] = ()) -> tuple[str, ...]:
+    """The allowed texts of a field: its `Choices`, or the members of its ``Literal``; empty for any other."""
+    for item in metadata:
+        if isinstance(item, Choices):
+            return tuple(item.names())
+    for arg in (annotation, *get_args(annotation)):
+        if get_origin(arg) is Literal:
+            return tuple(str(c) for c in get_args(arg))
+    return ()
+
+
+def _bounds(metadata: list[Any]) -> tuple[str, str]:
+    """The two ends of a field's range as written in `range_text` (``[1``, ``inf)``; ``(0`` when exclusive)."""
+    low = next((f"[{m.ge:g}" for m in metadata if getattr(m, "ge", None) is not None),
+               next((f"({m.gt:g}" for m in metadata if getattr(m, "gt", None) is not None), ""))
+    high = next((f"{m.le:g}]" for m in metadata if getattr(m, "le", None) is not None),
+                next((f"{m.lt:g})" for m in metadata if getattr(m, "lt", None) is not None), ""))
+    return low, high
+
+
+def _item_metadata(info: FieldInfo) -> list[Any]:
+    """The bounds of a field, or of the items of a tuple field (``tuple[Annotated[float, Field(ge=0)], ...]``)."""
+    if info.metadata:
+        return list(info.metadata)
+    args = get_args(info.annotation) if get_origin(info.annotation) is tuple else ()
+    if args and get_origin(args[0]) is typing.Annotated:
+        return [m for a in get_args(args[0])[1:] for m in getattr(a, "metadata", [a])]
+    return []
+
+
+def range_text(info: FieldInfo) -> str:
+    """``[1, inf)``, ``(0, 1]``, ``one of a, b`` or empty."""
+    choices = choices_of(info.annotation, info.metadata)
+    if choices:
+        return "one of " + ", ".join(choices)
+    low, high = _bounds(_item_metadata(info))
+    if not (low or high):
+        return ""
+    return f"{low or '(-inf'}, {high or 'inf)'}"
+
+
+def type_name(info: FieldInfo) -> str:
+    """``int``, ``float or null``, ``3 x float``, ``str``, ``model`` (an object the robot model sets)."""
+    kinds = kinds_of(info.annotation)
+    optional = type(None) in kinds
+    kinds.discard(type(None))
+    names = {bool: "bool", int: "int", float: "float", str: "str"}
+    if kinds == {tuple}:
+        inner = get_args(info.annotation)
+        kind = f"{len(inner)} x {names.get(next(iter(kinds_of(inner[0]))), 'model')}"
+    else:
+        kind = names.get(next(iter(kinds)), "model") if len(kinds) == 1 else "model"
+    return kind + (" or null" if optional else "")
+
+
 def worded(text: str) -> PydanticCustomError:
     """An error for a validator to raise when it words the whole message itself (the field's name and
     the value included, as a file's reader has always said it): `build` writes `text` as it is.
@@ -153,33 +235,70 @@ def worded(text: str) -> PydanticCustomError:
     return PydanticCustomError("worded", "{text}", {"text": text})
 
 
-def _message(err: Mapping[str, Any]) -> str:
-    """One pydantic error as ``path: value message`` (pydantic's own wording, lower-cased first letter),
-    or the text of a `worded` error."""
+_BOUND_ERRORS = ("greater_than_equal", "less_than_equal", "greater_than", "less_than")
+_EXPECTED = (("int_", "an integer"), ("float_", "a finite number"), ("finite_number", "a finite number"),
+             ("bool_", "true or false"), ("string_", "a text"))
+
+
+def _leaf(model: Any, loc: Sequence[str]) -> FieldInfo | None:
+    """The field an error's location names in `model` (item indexes left out), None when it names none."""
+    if model is None:
+        return None
+    return dict(fields_of(model)).get(".".join(p for p in loc if not p.isdigit()))
+
+
+def _problem(err: Mapping[str, Any], info: FieldInfo | None) -> str:
+    """What is wrong, in the toolkit's words: the value and the rule it breaks."""
+    kind, value = str(err.get("type")), err.get("input")
+    tuple_size = (len(get_args(info.annotation)) if info is not None and kinds_of(info.annotation) == {tuple}
+                  and Ellipsis not in get_args(info.annotation) else 0)
+    if kind in ("extra_forbidden", "unexpected_keyword_argument"):  # a model's, a dataclass's
+        return "unknown field"
+    if kind == "missing":
+        return "missing"
+    if tuple_size and kind not in _BOUND_ERRORS:
+        return f"expected {tuple_size} numbers, got {value!r}"
+    if value is None and kind != "value_error":
+        kind_text = type_name(info) if info is not None else "value"
+        return f"must be {'an' if kind_text[0] in 'aeiou' else 'a'} {kind_text}, got null"
+    if info is not None and kind in _BOUND_ERRORS and range_text(info):
+        return f"{value!r} is out of its range {range_text(info)}"
+    if info is not None and kind == "literal_error":
+        return f"{value!r} is not {range_text(info)}"
+    expected = next((words for prefix, words in _EXPECTED if kind.startswith(prefix)), None)
+    if expected is not None:
+        return f"expected {expected}, got {value!r}"
+    text = str(err.get("msg", "invalid")).removeprefix("Value error, ")
+    text = text[:1].lower() + text[1:]
+    if text.startswith("input should be "):  # pydantic's "Input should be a valid date"
+        text = "must be " + text[len("input should be "):]
+    if isinstance(value, dict | list | ArgsKwargs):  # a whole group failed its own check: it names the value
+        return text
+    return f"{value!r} {text}"
+
+
+def _message(err: Mapping[str, Any], model: Any = None, prefix: tuple[str, ...] = ()) -> str:
+    """One pydantic error as ``path: what is wrong`` (`_problem`), or the text of a `worded` error; the path
+    is `prefix` (where `model` sits in a larger one) and the field's dotted name in `model` (item indexes
+    left out) or, for a field it does not know, the error's whole location."""
     if err.get("type") == "worded":
         return str((err.get("ctx") or {}).get("text", err.get("msg", "")))
-    path = ".".join(str(p) for p in err.get("loc", ()))
+    loc = [str(p) for p in err.get("loc", ())]
     if err.get("type") == "needs":  # the field's kind of value: worded as the readers have always said it
-        return f"{path} {err.get('msg')}, got {err.get('input')!r}"
-    text = str(err.get("msg", "invalid"))
-    if text.startswith("Value error, "):
-        text = text[len("Value error, "):]
-    text = text[:1].lower() + text[1:]
-    if text.startswith("input should be "):  # pydantic's "Input should be greater than 0"
-        text = "must be " + text[len("input should be "):]
-    if err.get("type") in ("extra_forbidden", "unexpected_keyword_argument"):  # a model's, a dataclass's
-        return f"{path}: unknown field"
-    if err.get("type") == "missing":
-        return f"{path}: missing"
-    value = err.get("input")
-    if isinstance(value, dict | list | ArgsKwargs):  # a whole group failed its own check: it names the value
-        return f"{path}: {text}" if path else text
-    return f"{path}: {value!r} {text}" if path else f"{value!r}: {text}"
+        return f"{'.'.join((*prefix, *loc))} {err.get('msg')}, got {err.get('input')!r}"
+    info = _leaf(model, loc)
+    named = [p for p in loc if not p.isdigit()] if info is not None else loc
+    path = ".".join((*prefix, *named))
+    problem = _problem(err, info)
+    if path:
+        return f"{path}: {problem}"
+    return problem if isinstance(err.get("input"), dict | list | ArgsKwargs) else f"{err.get('input')!r}: {problem}"
 
 
-def one_line(exc: ValidationError, where: str) -> str:
-    """Every error of `exc` on one line, prefixed by `where` (a file, an option) when given."""
-    text = "; ".join(_message(e) for e in exc.errors())
+def one_line(exc: ValidationError, where: str, model: Any = None) -> str:
+    """Every error of `exc` on one line, prefixed by `where` (a file, an option) when given; `model` (the
+    class validated) names each field's range, choices and type."""
+    text = "; ".join(_message(e, model) for e in exc.errors())
     return f"{where}: {text}" if where else text
 
 
@@ -200,7 +319,7 @@ def build(cls: type[T], data: Any, where: str = "") -> T:
     try:
         return _validated(cls, data)
     except ValidationError as exc:
-        raise ConfigError(one_line(exc, where)) from None
+        raise ConfigError(one_line(exc, where, cls)) from None
 
 
 def schema_of(cls: type) -> dict[str, Any]:
@@ -295,5 +414,4 @@ def _rebuilt(group: Any, edits: _Group, where: str, path: tuple[str, ...], top: 
     try:
         return _validated(type(group), data)
     except ValidationError as exc:
-        errors = [{**e, "loc": (*path, *e.get("loc", ()))} for e in exc.errors()]
-        raise ConfigError(f"{where}: " + "; ".join(_message(e) for e in errors)) from None
+        raise ConfigError(f"{where}: " + "; ".join(_message(e, type(group), path) for e in exc.errors())) from None
