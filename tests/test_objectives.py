@@ -123,6 +123,22 @@ def test_bench_runs_csv_has_the_objective_columns(tmp_path: Path) -> None:
     assert "BUG" not in (out / "summary.md").read_text()
 
 
+def test_bench_default_planners_under_robot_time_leave_out_those_that_cannot(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The default list holds PRM (length only): asked for robot time without --planners, the bench runs
+    the others and names PRM on stderr; a list the user gave with PRM stays an error."""
+    out = tmp_path / "b"
+    assert run_cli(["bench", "planners", "--maps", "map1", "--runs", "1", "--time-limit", "0.05",
+                    "--objective", "robot-time", "--exec-repeats", "0", "--simplify", "none", "--no-plots",
+                    "--out", str(out)]) == 0
+    assert "left out of the default planners" in capsys.readouterr().err
+    with (out / "runs.csv").open(newline="") as fh:
+        ran = {r["planner"] for r in csv.DictReader(fh)}
+    assert "prm" not in ran and {"min-turn", "astar", "rrtstar"} <= ran
+    assert run_cli(["bench", "planners", "--maps", "map1", "--planners", "prm,astar", "--runs", "1",
+                    "--objective", "robot-time", "--out", str(tmp_path / "c")]) == 2
+
+
 @pytest.mark.parametrize("command", [["run", "--planner", "min-link"], ["paper", "--trials", "1",
                                                                         "--stack", "shortest/paper-pf"]])
 def test_missions_refuse_an_objective_their_planner_cannot_minimise(command: list[str],

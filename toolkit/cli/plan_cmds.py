@@ -107,6 +107,21 @@ def planner_objectives(objective: str | None, planners: list[str],
     return out
 
 
+def able_planners(names: list[str], objective: str | None) -> list[str]:
+    """The planners of a default list that can minimise `objective`; those left out are named on stderr
+    (a list the user gave is checked whole by `planner_objectives`: one it cannot minimise is an error)."""
+    from planners import PLANNERS
+
+    if objective is None:
+        return names
+    able = [n for n in names if objective in PLANNERS.class_of(n).objectives_for(n)]
+    left = [n for n in names if n not in able]
+    if left:
+        typer.echo(f"--objective {objective}: left out of the default planners (they cannot minimise it): "
+                   f"{', '.join(left)}", err=True)
+    return able
+
+
 def _noise(model: str, motion: float, turn: float) -> Any:
     from ..robots.sim import MotionNoise
 
@@ -369,6 +384,8 @@ def bench_planners(
     map_list = parse_list(maps, "--maps")
     planner_list = parse_list(planners, "--planners")
     check_planner_names(planner_list)
+    if getattr(ctx.get_parameter_source("planners"), "name", "") == "DEFAULT":  # typer's own click: by name
+        planner_list = able_planners(planner_list, objective)
     from planners.declarations import planner_options
 
     timing = robot_timing(drive_speed, turn_rate, stop_turn)
