@@ -77,7 +77,7 @@ NOISE_MODELS = ("botsim", "absolute")
 class MotionModel:
     """Sampling motion model with the simulator's noise semantics (see the module docstring).
 
-    Parameters
+    Attributes
     ----------
     model : {"botsim", "absolute"}
         Proportional (BotSim) or absolute noise.
@@ -194,7 +194,7 @@ class RangeLikelihood:
     what one beam can cost (a robust floor for outliers); ``cap = inf`` is the pure Gaussian.
     Sums of hundreds of beams stay finite (no product of small numbers is ever formed).
 
-    Parameters
+    Attributes
     ----------
     sigma_cm : float
         Standard deviation of a reading (cm).

@@ -101,8 +101,8 @@ def challenge_mission(sweeps: SweepSet, repo: str, start: int, seed: int, locali
     heading = float(np.random.default_rng(heading_seed).uniform(-math.pi, math.pi))
     motion = noise or MotionNoise()
     settings = config or ChallengeConfig()
-    sonar_of_sweeps = SweepSetSonar(sweeps, repo, radius_cm=settings.sweep_radius_cm,
-                                    offset_correction=settings.offset_correction)
+    sonar_of_sweeps = SweepSetSonar(sweeps, repo, radius_cm=settings.sonar.radius_cm,
+                                    offset_correction=settings.sonar.offset_correction)
     robot = SweepSetRobot(m, Pose(course[start][0], course[start][1], heading), sonar_of_sweeps,
                           noise=motion, rng=sim_seed)
     model = RobotModel(sonar or NxtSonar(), motion=motion, readings="real")

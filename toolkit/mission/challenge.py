@@ -14,18 +14,17 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; a straight line when no
    path exists at all), driven leg by leg: turn toward the leg's end from the estimate, then moves of
    at most `ChallengeConfig.move_step_cm`, the localiser predicting after each. No sweep on the way.
-3. **At the waypoint.** A full sweep and the localiser's update. A sweep backed by real sweeps
-   answers for where the robot stands (`toolkit.real_sonar.sweep_sonar`: each echo moved by the
-   robot's offset from the waypoint), so the update shows the drift of the leg. The belief is reset
-   around the localiser's pose (`ChallengeConfig.position_from` ``localiser``, the default) when that
-   pose is one the odometry could have reached (`plausible_update`: within
-   `ChallengeConfig.gate_sigmas` standard deviations of the prediction, its heading within
-   `ChallengeConfig.heading_span_deg`); otherwise, or with ``prediction``, around the predicted
-   position at the heading the sweep fits best at the waypoint (`WaypointSweeps.fitted_heading`).
-   With `ChallengeConfig.max_corrections` > 0 (1 by default), while a trusted estimate is more than
-   `ChallengeConfig.correction_cm` from the waypoint, a correction (turn and move toward it) and
-   another sweep. A sweep the sonar refuses (the robot is too far from the waypoint for any real
-   sweep) ends the mission there.
+3. **At the waypoint.** A full sweep and the localiser's update. A real sweep, as taken, says which
+   waypoint the robot is at, not where near it, so by default (`ChallengeFix.position_from`
+   ``prediction``) the belief is reset around the predicted position at the heading the sweep fits
+   best at the waypoint (`WaypointSweeps.fitted_heading`). With ``localiser`` it is reset around the
+   localiser's pose when that pose is one the odometry could have reached (`plausible_update`: within
+   `ChallengeFix.gate_sigmas` standard deviations of the prediction, its heading within
+   `ChallengeConfig.heading_span_deg`), else as by default; and with `ChallengeFix.max_corrections` > 0,
+   while a trusted estimate is more than `ChallengeFix.correction_cm` from the waypoint, a correction
+   (turn and move toward it) and another sweep (worth it with the hybrid sonar,
+   `ChallengeSonar.offset_correction`, whose sweeps show the robot's offset). A sweep the sonar refuses
+   (the robot is too far from the waypoint for any real sweep) ends the mission there.
 
 A move that makes no headway (the watchdog stopped it at once, or the wheels stalled against a wall
 the sonar did not hear) ends the leg: driving on would push against the wall again.
@@ -51,13 +50,35 @@ from ..world import Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_
 from ..world.arrays import FloatArray
 from ..world.typed import Typed
 
-__all__ = ["ChallengeConfig", "ChallengeReport", "WaypointSweeps", "WaypointVisit", "course_from", "fit_pose",
-           "plausible_update", "run_challenge"]
+__all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
+           "course_from", "fit_pose", "plausible_update", "run_challenge"]
 
 XY = tuple[float, float]
 
 PositionFrom = Literal["prediction", "localiser"]
-"""Where the belief's position comes from after a waypoint's sweep (`ChallengeConfig.position_from`)."""
+"""Where the belief's position comes from after a waypoint's sweep (`ChallengeFix.position_from`)."""
+
+
+class ChallengeFix(Typed):
+    """What a waypoint's sweep does to the belief (module docstring, step 3): ``--set challenge.fix.KEY=V``."""
+
+    position_from: PositionFrom = Field(
+        default="prediction", description="Where the belief's position comes from after a waypoint's sweep.")
+    gate_sigmas: float = Field(default=3.0, gt=0, description=(
+        "A sweep's fix is trusted when it lies within this many standard deviations of the prediction."))
+    correction_cm: float = Field(default=3.0, ge=0,
+                                 description="Corrections go on while the estimate is farther from the waypoint (cm).")
+    max_corrections: int = Field(default=0, ge=0, description="Corrections (and sweeps) at most per waypoint.")
+
+
+class ChallengeSonar(Typed):
+    """How the sweep-set sonar answers (`toolkit.real_sonar.sweep_sonar`): ``--set challenge.sonar.KEY=V``."""
+
+    radius_cm: float = Field(default=10.0, gt=0, description=(
+        "A real sweep answers within this distance of its waypoint (cm); farther, the sonar refuses."))
+    offset_correction: bool = Field(default=False, description=(
+        "Move each real echo by the map's change between the waypoint and the robot's true pose "
+        "(a hybrid of real and map readings, for study; off: the sweep as it was taken)."))
 
 
 class ChallengeConfig(Typed):
@@ -65,9 +86,6 @@ class ChallengeConfig(Typed):
     run it."""
 
     move_step_cm: float = Field(default=10.0, gt=0, description="Longest move between two predictions (cm).")
-    correction_cm: float = Field(default=3.0, ge=0,
-                                 description="Corrections go on while the estimate is farther from the waypoint (cm).")
-    max_corrections: int = Field(default=0, ge=0, description="Corrections (and sweeps) at most per waypoint.")
     margin_cm: float = Field(default=8.0, ge=0, description="Clearance asked of a path beyond the robot radius (cm).")
     plan_time_s: float = Field(default=0.5, gt=0, description="Planning budget per leg (s).")
     prior_std_cm: float = Field(default=3.0, gt=0, description="Spread of the belief reset at the start (cm).")
@@ -75,16 +93,9 @@ class ChallengeConfig(Typed):
     reach_cm: float = Field(default=10.0, gt=0, description="A waypoint is reached within this distance (cm).")
     heading_span_deg: float = Field(default=30.0, ge=0,
                                     description="Headings tried around the predicted one at a waypoint (deg).")
-    position_from: PositionFrom = Field(
-        default="prediction", description="Where the belief's position comes from after a waypoint's sweep.")
     start_retries: int = Field(default=1, ge=0, description="Other start hypotheses tried when the first leg fails.")
-    gate_sigmas: float = Field(default=3.0, gt=0, description=(
-        "A sweep's fix is trusted when it lies within this many standard deviations of the prediction."))
-    sweep_radius_cm: float = Field(default=10.0, gt=0, description=(
-        "A real sweep answers within this distance of its waypoint (cm); farther, the sonar refuses."))
-    offset_correction: bool = Field(default=False, description=(
-        "Move each real echo by the map's change between the waypoint and the robot's true pose "
-        "(a hybrid of real and map readings; off: the sweep as it was taken)."))
+    fix: ChallengeFix = ChallengeFix()
+    sonar: ChallengeSonar = ChallengeSonar()
 
 
 @dataclass(frozen=True)
@@ -276,7 +287,7 @@ class WaypointSweeps:
         """Sweep, update, fit the heading and correct toward `waypoint` (module docstring); a refused
         sweep ends the visit."""
         sweeps, note = 0, ""
-        for attempt in range(self.cfg.max_corrections + 1):
+        for attempt in range(self.cfg.fix.max_corrections + 1):
             try:
                 scan = self.robot.ultrascan()
             except RobotError as exc:
@@ -287,14 +298,14 @@ class WaypointSweeps:
             predicted = self.estimate
             self.localiser.update(scan)
             updated = self.localiser.estimate().pose
-            trusted = self.cfg.position_from == "localiser" and plausible_update(predicted, updated, self.cfg)
+            trusted = self.cfg.fix.position_from == "localiser" and plausible_update(predicted, updated, self.cfg)
             if trusted:
                 self._settle(updated)
             else:
                 heading = self.fitted_heading(scan, predicted.pose.theta, waypoint)
                 self._settle(Pose(predicted.pose.x, predicted.pose.y, heading))
-            if not trusted or _distance(self.estimate.pose, waypoint) <= self.cfg.correction_cm or \
-                    attempt == self.cfg.max_corrections:
+            if not trusted or _distance(self.estimate.pose, waypoint) <= self.cfg.fix.correction_cm or \
+                    attempt == self.cfg.fix.max_corrections:
                 break
             self.go_to(waypoint)
         assert self.estimate is not None
@@ -304,7 +315,7 @@ class WaypointSweeps:
 
 def plausible_update(predicted: PoseEstimate, updated: Pose, config: ChallengeConfig) -> bool:
     """Whether the localiser's pose after a sweep (`updated`) is one the odometry could have reached:
-    within `ChallengeConfig.gate_sigmas` standard deviations of the `predicted` belief (its position
+    within `ChallengeFix.gate_sigmas` standard deviations of the `predicted` belief (its position
     covariance widened by `ChallengeConfig.prior_std_cm`, how well one sweep pins a position) and its
     heading within `ChallengeConfig.heading_span_deg` of the prediction's. An update that jumps
     farther took a place the sweep fits, not one the robot can have driven to: the mission keeps the
@@ -314,7 +325,7 @@ def plausible_update(predicted: PoseEstimate, updated: Pose, config: ChallengeCo
         return False
     cov = np.asarray(predicted.cov, dtype=float)[:2, :2] + np.eye(2) * config.prior_std_cm ** 2
     v = np.array([updated.x - predicted.pose.x, updated.y - predicted.pose.y])
-    return bool(v @ np.linalg.solve(cov, v) <= config.gate_sigmas ** 2)
+    return bool(v @ np.linalg.solve(cov, v) <= config.fix.gate_sigmas ** 2)
 
 
 def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: Localiser, planner: Planner,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -60,34 +60,27 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
     sonar, sonar_model : {"ideal", "nxt"}, NxtSonar or None
         The sonar, and the ``nxt`` one's model (a fitted profile's): the simulator reads with it and the
         localiser is told it (`localisation.robot_options`). None: the model's defaults.
-    config : MissionConfig or None
-        None: `MissionConfig.for_sonar(sonar)`.
+    config : MissionConfig, optional (default: `MissionConfig.for_sonar(sonar)`)
     recorder : toolkit.recordings.recorder.Recorder, optional
     robot_radius_cm : float, optional
-        Radius of the robot disc (cm; default `RobotGeometry`'s 8 cm), a robot scaled to the map: the random
-        start keeps it plus 2 cm from the walls, and localisers that take ``clearance_cm`` get it.
+        The robot disc's radius (cm; default 8): a random start keeps it plus 2 cm from the walls, and
+        localisers that take ``clearance_cm`` get it.
     start_heading : HeadingPrior, optional
         What the mission is told of the start's heading (`run_mission`).
     robot : RobotModel, optional
-        The whole robot (sonar, motion noise, geometry, timing), as ``--set robot.*`` makes it: given, it
-        replaces the noise arguments, `sonar_model` and the default geometry (`robot_radius_cm` still says
-        how far a random start keeps from the walls).
+        The whole robot (``--set robot.*``): given, it replaces the noise, sonar and radius arguments.
     """
     from ..robots.sim import SimRobot
 
-    if sonar_model is not None and sonar != "nxt":
-        raise NxtnavError(f"a sonar model (profile) is for the nxt sonar, not {sonar!r}")
-    robot_model = robot or RobotModel.build(sonar if sonar_model is None else sonar_model, sensor_noise=sensor_noise,
-                                            noise_model=noise_model, motion_noise=motion_noise,
-                                            turn_noise=turn_noise, radius_cm=robot_radius_cm)
+    robot_model = robot or _robot_of(sonar, sonar_model, dict(sensor_noise=sensor_noise, noise_model=noise_model,
+                                                              motion_noise=motion_noise, turn_noise=turn_noise,
+                                                              radius_cm=robot_radius_cm))
     radius = robot_model.geometry.radius_cm
     m = map if isinstance(map, Map) else load_map(map)
     s_start, s_sim, s_stack = derive_seeds(seed, n=3)
     pose = _start_pose(m, start, random_start_pose, np.random.default_rng(s_start),
                        10.0 if robot_radius_cm is None else radius + 2.0)
-    target = m.target if target is None else target
-    if target is None:
-        raise NxtnavError(f"map {m.name} has no preset target: give one")
+    target = _target(m, target)
     cfg = config or MissionConfig.for_sonar(sonar)
     if isinstance(localiser, str):
         cfg = cfg.with_localiser_defaults(localiser_options(localiser, robot_model))
@@ -97,6 +90,22 @@ def run_sim_mission(map: Map | str, *, seed: int = 0, start: Pose | ArrayLike | 
     report = run_mission(simulator, m, target, planner=planner, localiser=localiser,
                          rng=s_stack, config=cfg, recorder=recorder, truth=simulator, start_heading=start_heading)
     return replace(report, seed=int(seed))
+
+
+def _robot_of(sonar: str, sonar_model: NxtSonar | None, noise: dict[str, Any]) -> RobotModel:
+    """The robot model of `sonar` (or of the ``nxt`` sonar's `sonar_model`, a fitted profile's) with
+    `noise` (`RobotModel.build`'s keyword arguments)."""
+    if sonar_model is not None and sonar != "nxt":
+        raise NxtnavError(f"a sonar model (profile) is for the nxt sonar, not {sonar!r}")
+    return RobotModel.build(sonar if sonar_model is None else sonar_model, **noise)
+
+
+def _target(m: Map, target: ArrayLike | None) -> ArrayLike:
+    """The mission's target: the one given, else the map's preset (a map without one needs it given)."""
+    chosen = m.target if target is None else target
+    if chosen is None:
+        raise NxtnavError(f"map {m.name} has no preset target: give one")
+    return chosen
 
 
 def _start_pose(m: Map, start: Pose | ArrayLike | None, random_start: bool, rng: np.random.Generator,

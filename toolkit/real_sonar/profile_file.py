@@ -15,7 +15,7 @@ A bad file is one `SonarProfileError` line naming the file, the field (``params.
 >>> load_sonar_profile(path)  # doctest: +ELLIPSIS
 Traceback (most recent call last):
 ...
-toolkit.real_sonar.profile_file.SonarProfileError: .../p.yaml: params.noise_sd: -1 must be greater than or equal to 0
+toolkit.real_sonar.profile_file.SonarProfileError: .../p.yaml: params.noise_sd: -1 is out of its range [0, 100]
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it i
 Offset. A real sweep was taken at its waypoint, while the robot stands up to `SweepSetSonar.radius_cm`
 away from it; replayed as taken, the sweep would tell the robot it stands on the waypoint wherever it
 is, and the drift of its odometry could never show (a real robot's sweep shows it). With
-`SweepSetSonar.offset_correction` (off by default: ``--set challenge.offset_correction=true``) every
+`SweepSetSonar.offset_correction` (off by default: ``--set challenge.sonar.offset_correction=true``) every
 echo is moved by what the map says the offset changes along its direction: the nearest surface of a
 40-degree lobe (`NxtSonar`'s beam width, any incidence) by exact ray casting at the robot's true pose,
 less the same at the waypoint with the same heading (`offset_corrected`). Whatever the real sensor did
@@ -52,7 +52,7 @@ SWEEPS_PREFIX = "sweeps:"
 
 WAYPOINT_RADIUS_CM = 10.0
 """The robot must stand this close (cm) to a waypoint for one of its real sweeps to answer: the
-challenge's reach. With `offset_correction` a wider radius (``--set challenge.sweep_radius_cm=20``) lets a
+challenge's reach. With `offset_correction` a wider radius (``--set challenge.sonar.radius_cm=20``) lets a
 robot that ended a leg outside the reach still sweep, see its offset and correct it; the readings are
 then partly the map's."""
 

@@ -54,7 +54,7 @@ Port = Annotated[Whole, Field(ge=0, le=2)]
 class BrickConfig:
     """Physical constants and wiring of the simulated robot.
 
-    Parameters
+    Attributes
     ----------
     geometry : RobotGeometry
         True robot constants: disc radius, wheel diameter, track width, turret gearing and sensor
