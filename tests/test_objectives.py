@@ -175,6 +175,26 @@ def test_bench_objectives_runs_each_planner_under_what_it_can_minimise(tmp_path:
     assert "BUG" not in summary
 
 
+def test_bench_objectives_takes_set_and_its_own_configuration_back(tmp_path: Path) -> None:
+    """A planner option through --set reaches the runs; --config of the written config.json runs the same
+    benchmark again (the same rows, wall-clock columns aside)."""
+    args = ["bench", "objectives", "--maps", "map1", "--planners", "astar", "--runs", "1", "--exec-repeats", "0",
+            "--no-plots"]
+    first, again, other = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    assert run_cli([*args, "--set", "astar.resolution=5", "--out", str(first)]) == 0
+    assert run_cli(["bench", "objectives", "--config", str(first / "config.json"), "--out", str(again)]) == 0
+    assert run_cli([*args, "--out", str(other)]) == 0
+
+    def rows(folder: Path) -> list[dict[str, str]]:  # planning's wall time and its collision checks left out:
+        with (folder / "objectives.csv").open(newline="") as fh:  # a second run in one process finds grids cached
+            return [{k: v for k, v in r.items() if k not in ("time_s", "collision_checks")} for r in csv.DictReader(fh)]
+
+    assert rows(first) == rows(again)
+    assert rows(first) != rows(other)  # a 5 cm grid instead of 2 cm: other paths
+    conf = json.loads((first / "config.json").read_text())["configuration"]
+    assert conf["command"] == "bench objectives" and conf["set"] == ["astar.resolution=5"]
+
+
 def test_ompl_robot_time_cost_is_asymmetric_as_the_objective_tells_ompl() -> None:
     """A motion and its reverse turn by different angles: the objective says it is not symmetric (else
     OMPL's RRT* rewires with the reverse motion's cost), and OMPL's path cost agrees with a hand count."""

@@ -62,7 +62,7 @@ from .options import (
 )
 from .options import time_limit as time_limit_ok
 from .progress import progress
-from .run_config import add_configuration, configuration, given_sets, robot_model, split_sets
+from .run_config import add_configuration, configuration, dumps, given_sets, robot_model, split_sets
 from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
@@ -439,6 +439,7 @@ OBJECTIVE_PLANNERS = ("rrtstar", "ompl:InformedRRTstar", "ompl:BITstar", "astar"
 
 @bench_app.command("objectives")
 def bench_objectives(
+    ctx: typer.Context,
     out: OutFolder,
     maps: MapList = "map1,map2,map3",
     planners: PlannerList = ",".join(OBJECTIVE_PLANNERS),  # noqa: B008 - a constant text
@@ -458,6 +459,8 @@ def bench_objectives(
     stop_turn: StopTurn = TIMING.stop_turn_s,
     plots: bool = typer.Option(True, "--plots/--no-plots",
                                help="Write the Pareto figure of each map and the cost over time under robot-time."),
+    sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
+    config_file: ConfigFile = None,
 ) -> None:
     """Every planner under every objective it can minimise: robot time, open-loop error, the targets checked."""
     from ..bench.planners import BenchmarkConfig, check_out_dir, check_planner_names
@@ -469,15 +472,20 @@ def bench_objectives(
     map_list = parse_list(maps, "--maps")
     planner_list = parse_list(planners, "--planners")
     check_planner_names(planner_list)
+    from planners.declarations import planner_options
+
+    options = checked_sets(parse_sets(given_sets(ctx, sets)), planner_list, planner_options, "planner")
     for name in map_list:
         load_map(name)
     config = BenchmarkConfig(maps=tuple(map_list), planners=tuple(planner_list), runs=runs, time_limit=time_limit,
                              seed=seed, queries=queries,  # type: ignore[arg-type]
-                             exec_repeats=exec_repeats, robot_radius=radius,
+                             exec_repeats=exec_repeats, robot_radius=radius, planner_options=options,
                              noise=_noise(noise_model, motion_noise, turn_noise), simplify="none", timing=timing)
     out_dir = check_out_dir(out, force)
     with progress("objectives: references and runs", 3 * config.n_tasks()) as advance:
         sweep = run_objectives(config, workers=workers, on_done=advance)
     files = write_objectives(sweep, out_dir, plots=plots)
+    files["config"] = out_dir / "config.json"
+    files["config"].write_text(dumps({"configuration": configuration(ctx, sets)}), encoding="utf-8")
     typer.echo(files["summary"].read_text(encoding="utf-8"))
     typer.echo(f"wrote {len(files)} files to {out_dir}")
