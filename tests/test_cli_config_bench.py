@@ -37,7 +37,8 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 
 @pytest.mark.parametrize(("command", "args", "written", "results"), [
-    ("sweeps", ["--localisers", "paper-pf", "--seeds", "1"], "config.json", "sweeps.csv"),
+    ("sweeps", ["--localisers", "paper-pf", "--seeds", "1", "--set", "sonar.noise_sd=4"], "config.json",
+     "sweeps.csv"),
     ("routes", ["--localisers", "paper-pf", "--seeds", "1", "--set", "paper-pf.n_particles=300"], "summary.json",
      "routes.csv"),
     ("challenge", ["--localisers", "paper-pf", "--seeds", "1", "--set", "challenge.move_step_cm=15"], "summary.json",
@@ -53,6 +54,22 @@ def test_a_real_sweep_benchmark_runs_again_from_its_output(tmp_path: Path, comma
     assert run_cli(["bench", command, "--config", str(first / written), "--out", str(again)]) == 0
     assert _rows(again / results) == _rows(first / results) and len(_rows(first / results)) >= 2
     assert json.loads((again / written).read_text())["configuration"] == conf
+
+
+def test_a_sweep_benchmark_tells_the_localisers_the_sonar_it_is_set(tmp_path: Path,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    folder, out = _two_sweeps(tmp_path), tmp_path / "a"
+    argv = ["bench", "sweeps", str(folder), "--localisers", "paper-pf", "--seeds", "1", "--out", str(out)]
+    assert run_cli([*argv, "--set", "sonar.noise_sd=4", "--set", "sonar.beam_width_deg=30"]) == 0
+    told = json.loads((out / "config.json").read_text())["sonar"]
+    assert told["noise_sd"] == 4.0 and told["beam_width_deg"] == 30.0
+    capsys.readouterr()
+    for bad, words in (("sonar.noise_sd=-1", "sonar: noise_sd: -1"),
+                       ("robot.timing.drive_speed_cm_s=20", "nxtnav bench sweeps takes sonar settings")):
+        assert run_cli([*argv[:-1], str(tmp_path / "c"), "--set", bad]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("nxtnav: error:") and words in err[0], err
+        assert not (tmp_path / "c").exists()
 
 
 def test_a_challenge_setting_is_applied_and_a_wrong_one_is_one_line(tmp_path: Path,

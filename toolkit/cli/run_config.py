@@ -27,7 +27,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import typer
-from pydantic import BaseModel
 
 from ..world import ConfigError, NxtnavError
 from ..world.bundled import data_path
@@ -64,7 +63,7 @@ _NOT_CONFIGURATION = frozenset({
 
 _META = "nxtnav.config.sets"
 
-M = TypeVar("M", bound=BaseModel)
+M = TypeVar("M")
 """Where `load_config` leaves the ``--set`` list of the file in the click context."""
 
 

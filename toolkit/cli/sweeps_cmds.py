@@ -29,7 +29,7 @@ from .options import (
     parse_list,
 )
 from .options import sonar_profile as load_profile
-from .run_config import configuration
+from .run_config import configuration, given_sets, section_settings
 
 
 def _seeds(text: str) -> list[int]:
@@ -61,6 +61,9 @@ def bench_sweeps(
     force: Force = False,
     workers: Workers = 1,
     dask: Dask = None,
+    sets: list[str] = typer.Option([], "--set", metavar="sonar.FIELD=VALUE",
+                                   help="A field of the nxt sonar model the localisers are told (repeatable; "
+                                        "every source's profile), e.g. sonar.noise_sd=4."),
     config_file: ConfigFile = None,
 ) -> None:
     """Global localisation from each real sweep alone: sweeps.csv and summary.md in --out."""
@@ -85,6 +88,10 @@ def bench_sweeps(
         sonar = profiles_by_source(data_path(sonar_profile), sweeps.repos)
     elif sonar_profile is not None:
         sonar = load_profile(sonar_profile, "nxt") or sonar
+    sonar_sets = given_sets(ctx, sets)
+    if sonar_sets:
+        sonar = ({repo: section_settings(m, sonar_sets, "sonar", "bench sweeps") for repo, m in sonar.items()}
+                 if isinstance(sonar, dict) else section_settings(sonar, sonar_sets, "sonar", "bench sweeps"))
     check_out_folder(out, force)
     tasks = make_sweep_tasks(sweeps, map_file, locs, seeds, sonar, heading_prior=heading_prior)
     out.mkdir(parents=True, exist_ok=True)
@@ -112,7 +119,7 @@ def bench_sweeps(
                                                  "heading_prior": heading_prior and heading_prior.to_dict(),
                                                  "complete": complete,
                                                  "runs_done": len(runs), "runs_planned": len(tasks),
-                                                 "wall_time_s": wall, "configuration": configuration(ctx, [])},
+                                                 "wall_time_s": wall, "configuration": configuration(ctx, sets)},
                                                 indent=1))
     typer.echo(md.read_text())
     typer.echo(f"wrote {csv_path}, {md} ({len(runs)} runs in {wall:.1f} s)")
