@@ -9,7 +9,7 @@ See ``docs/planners.md``.
 
 from . import astar, min_turn, ompl_planners, reference, reference_time
 from .astar import AStarPlanner
-from .base import PLANNERS, Planner, PlanningProblem, PlanResult, PlanStatus, make_planner
+from .base import PLANNERS, Planner, PlanningProblem, PlanResult, PlanStatus, can_minimise, make_planner
 from .metrics import PathMetrics, count_turns, path_length, path_metrics, turn_angle
 from .min_turn import MinTurnPlanner
 from .ompl_planners import OmplPlanner
@@ -30,6 +30,7 @@ __all__ = [
     "PlanningProblem",
     "ShortestPathPlanner",
     "astar",
+    "can_minimise",
     "count_turns",
     "make_planner",
     "min_turn",

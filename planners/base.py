@@ -39,8 +39,8 @@ from toolkit.world import (
 )
 from toolkit.world.arrays import FloatArray
 
-__all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "make_planner",
-           "status_message"]
+__all__ = ["PLANNERS", "PlanResult", "PlanStatus", "Planner", "PlanningProblem", "Solution", "can_minimise",
+           "make_planner", "status_message"]
 
 
 PLANNERS: Registry[Planner] = Registry("planner")
@@ -309,6 +309,11 @@ class Planner(Configurable, ABC):
         Start and goal are already known to be collision-free and in the same free region when this
         is called.
         """
+
+
+def can_minimise(name: str, objective: str) -> bool:
+    """Whether the registered planner `name` (``ompl:NAME`` included) can minimise `objective`."""
+    return objective in PLANNERS.class_of(name).objectives_for(name)
 
 
 def make_planner(name: str, **options: Any) -> Planner:

@@ -493,8 +493,15 @@ PlanRadius = Annotated[float, typer.Option("--radius", callback=non_negative,
                                            help="Robot radius (cm; 0: a point robot).")]
 TimeLimit = Annotated[float, typer.Option("--time-limit", metavar="SECONDS", callback=time_limit,
                                           help="Planning budget per query (s).")]
-Queries = Annotated[str, typer.Option("--queries", metavar="presets|random",
-                                        help="presets (the map's start/target) or random.")]
+def query_kind(value: str) -> str:
+    """A typer callback accepting ``--queries``: presets or random."""
+    if value not in ("presets", "random"):
+        raise NxtnavError(f"--queries must be presets or random, got {value!r}")
+    return value
+
+
+Queries = Annotated[str, typer.Option("--queries", metavar="presets|random", callback=query_kind,
+                                      help="presets (the map's start/target) or random.")]
 ExecRepeats = Annotated[int, typer.Option("--exec-repeats", callback=repeats,
                                           help="Open-loop drives per query for the measured execution error "
                                                "(0 skips it).")]

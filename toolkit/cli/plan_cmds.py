@@ -110,11 +110,11 @@ def planner_objectives(objective: str | None, planners: list[str],
 def able_planners(names: list[str], objective: str | None) -> list[str]:
     """The planners of a default list that can minimise `objective`; those left out are named on stderr
     (a list the user gave is checked whole by `planner_objectives`: one it cannot minimise is an error)."""
-    from planners import PLANNERS
+    from planners import can_minimise
 
     if objective is None:
         return names
-    able = [n for n in names if objective in PLANNERS.class_of(n).objectives_for(n)]
+    able = [n for n in names if can_minimise(n, objective)]
     left = [n for n in names if n not in able]
     if left:
         typer.echo(f"--objective {objective}: left out of the default planners (they cannot minimise it): "
@@ -374,8 +374,6 @@ def bench_planners(
         write_results,
     )
 
-    if queries not in ("presets", "random"):
-        raise NxtnavError(f"--queries must be presets or random, got {queries!r}")
     if simplify not in SIMPLIFY_METHODS:
         raise NxtnavError(f"--simplify must be one of {', '.join(SIMPLIFY_METHODS)}, got {simplify!r}")
     if budgets is not None and time_limit is not None:
@@ -466,8 +464,6 @@ def bench_objectives(
     from ..bench.planners import BenchmarkConfig, check_out_dir, check_planner_names
     from ..bench.planners.objectives import run_objectives, write_objectives
 
-    if queries not in ("presets", "random"):
-        raise NxtnavError(f"--queries must be presets or random, got {queries!r}")
     timing = robot_timing(drive_speed, turn_rate, stop_turn)
     map_list = parse_list(maps, "--maps")
     planner_list = parse_list(planners, "--planners")

@@ -91,10 +91,10 @@ def typed_dataclass(*, frozen: bool = True) -> Callable[[C], C]:
     def wrap(cls: C) -> C:
         made: Any = pydantic_dataclass(frozen=frozen, config=_DATACLASS_CONFIG)(cls)
         validating_init = made.__init__
+        names = list(made.__pydantic_fields__)
 
         @functools.wraps(validating_init)
         def init(self: Any, *args: Any, **kwargs: Any) -> None:
-            names = list(made.__pydantic_fields__)
             if len(args) <= len(names):  # by name, so that an error names the field
                 args, kwargs = (), {**dict(zip(names, args, strict=False)), **kwargs}
             try:

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from planners import PLANNERS
+from planners import PLANNERS, can_minimise
 
 from ...number_format import cell, csv_cell
 from ...world import OBJECTIVES
@@ -65,7 +65,7 @@ def run_objectives(config: BenchmarkConfig, *, workers: int = 1,
     ``objective`` option, if any, is replaced)."""
     results = {}
     for objective in OBJECTIVES:
-        able = tuple(p for p in config.planners if objective in PLANNERS.class_of(p).objectives_for(p))
+        able = tuple(p for p in config.planners if can_minimise(p, objective))
         if not able:
             continue
         options = {p: {k: v for k, v in config.planner_options.get(p, {}).items() if k != "objective"} for p in able}
