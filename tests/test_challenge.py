@@ -15,8 +15,8 @@ import pytest
 from conftest import REAL_NXT, run_cli
 
 from localisation.base import PoseEstimate
-from toolkit.bench.challenge import COLUMNS
-from toolkit.mission.challenge import ChallengeConfig, course_from, plausible_update
+from toolkit.bench.challenge import COLUMNS, challenge_mission
+from toolkit.mission.challenge import ChallengeConfig, course_from, plausible_update, weighed_heading
 from toolkit.real_sonar.sweep_sonar import SweepRefused, SweepSetSonar, load_challenge_set, rotated
 from toolkit.real_sonar.sweeps import SweepSet
 from toolkit.world import Pose, load_map
@@ -162,3 +162,32 @@ def test_run_options_a_challenge_does_not_take_are_refused(tmp_path: Path, capsy
     err = capsys.readouterr().err.strip()
     assert err.startswith("nxtnav: error: --start, --plot: not with --sonar sweeps:") and "\n" not in err
     assert not plot.exists()
+
+
+def test_a_sweeps_heading_is_weighed_against_the_prediction() -> None:
+    """Equal confidence: halfway (round the circle); a sure prediction keeps it, a loose one takes the fit;
+    the weighed heading is surer than either."""
+    def weighed(predicted_deg: float, predicted_var: float, fitted_deg: float,
+                fitted_var: float) -> tuple[float, float]:
+        h, sd = weighed_heading(math.radians(predicted_deg), predicted_var, math.radians(fitted_deg), fitted_var)
+        return math.degrees(h), sd
+
+    assert weighed(10.0, 1e-3, 20.0, 1e-3)[0] == pytest.approx(15.0)
+    assert abs(weighed(170.0, 1e-3, -170.0, 1e-3)[0]) == pytest.approx(180.0)
+    assert weighed(10.0, 1e-9, 20.0, 1e-3)[0] == pytest.approx(10.0, abs=1e-3)
+    assert weighed(10.0, 1e3, 20.0, 1e-3)[0] == pytest.approx(20.0, abs=1e-3)
+    assert weighed(10.0, 4e-3, 20.0, 1e-3)[0] == pytest.approx(18.0)  # four times as sure of the fit
+    assert weighed(10.0, 4e-3, 20.0, 1e-3)[1] ** 2 == pytest.approx(0.8e-3)
+
+
+@pytest.mark.parametrize("oracle", ["pose", "heading"])
+def test_an_oracle_gives_the_belief_the_truth_after_each_sweep(real_set: SweepSet, oracle: str) -> None:
+    """The ceiling the policy is measured against: with the truth's pose after every sweep, the belief
+    stands where the robot does (the believed and the true distance from each waypoint agree); with the
+    heading alone, only where odometry puts it."""
+    config = ChallengeConfig.model_validate({"fix": {"oracle": oracle}})
+    report = challenge_mission(real_set, "andrei-alpha/robotics", 0, 1, "paper-pf", config=config)
+    swept = [v for v in report.visits[1:] if v.sweeps]
+    assert swept
+    same = [math.isclose(v.error_cm, v.estimate_error_cm, abs_tol=0.5) for v in swept]
+    assert all(same) if oracle == "pose" else not all(same)

@@ -16,15 +16,18 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    at most `ChallengeConfig.move_step_cm`, the localiser predicting after each. No sweep on the way.
 3. **At the waypoint.** A full sweep and the localiser's update. A real sweep, as taken, says which
    waypoint the robot is at, not where near it, so by default (`ChallengeFix.position_from`
-   ``prediction``) the belief is reset around the predicted position at the heading the sweep fits
-   best at the waypoint (`WaypointSweeps.fitted_heading`). With ``localiser`` it is reset around the
-   localiser's pose when that pose is one the odometry could have reached (`plausible_update`: within
-   `ChallengeFix.gate_sigmas` standard deviations of the prediction, its heading within
-   `ChallengeConfig.heading_span_deg`), else as by default; and with `ChallengeFix.max_corrections` > 0,
-   while a trusted estimate is more than `ChallengeFix.correction_cm` from the waypoint, a correction
-   (turn and move toward it) and another sweep (worth it with the hybrid sonar,
-   `ChallengeSonar.offset_correction`, whose sweeps show the robot's offset). A sweep the sonar refuses
-   (the robot is too far from the waypoint for any real sweep) ends the mission there.
+   ``prediction``) the belief is reset around the predicted position, at the heading the sweep fits
+   best at the waypoint (`WaypointSweeps.fitted_heading`) weighed against the predicted heading by their
+   variances (`ChallengeFix.heading_from` ``fused``, `weighed_heading`; ``sweep``: the fit alone). With
+   ``localiser`` it is reset around the localiser's pose when that pose is one the odometry could have
+   reached (`plausible_update`: within `ChallengeFix.gate_sigmas` standard deviations of the
+   prediction, its heading within `ChallengeConfig.heading_span_deg`), else as by default; and with
+   `ChallengeFix.max_corrections` > 0, while a trusted estimate is more than
+   `ChallengeFix.correction_cm` from the waypoint, a correction (turn and move toward it) and another
+   sweep (worth it with the hybrid sonar, `ChallengeSonar.offset_correction`, whose sweeps show the
+   robot's offset). `ChallengeFix.oracle` gives the belief the truth's heading or pose after each sweep
+   instead: not a policy, a ceiling to measure the policy against (simulated robots only). A sweep the
+   sonar refuses (the robot is too far from the waypoint for any real sweep) ends the mission there.
 
 A move that makes no headway (the watchdog stopped it at once, or the wheels stalled against a wall
 the sonar did not hear) ends the leg: driving on would push against the wall again.
@@ -51,12 +54,18 @@ from ..world.arrays import FloatArray
 from ..world.typed import Typed
 
 __all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
-           "course_from", "fit_pose", "plausible_update", "run_challenge"]
+           "course_from", "fit_pose", "plausible_update", "run_challenge", "weighed_heading"]
 
 XY = tuple[float, float]
 
 PositionFrom = Literal["prediction", "localiser"]
 """Where the belief's position comes from after a waypoint's sweep (`ChallengeFix.position_from`)."""
+
+HeadingFrom = Literal["fused", "sweep"]
+"""Where the belief's heading comes from after a waypoint's sweep (`ChallengeFix.heading_from`)."""
+
+Oracle = Literal["none", "heading", "pose"]
+"""What the truth gives the belief after each waypoint's sweep, for measuring ceilings (`ChallengeFix.oracle`)."""
 
 
 class ChallengeFix(Typed):
@@ -69,6 +78,12 @@ class ChallengeFix(Typed):
     correction_cm: float = Field(default=3.0, ge=0,
                                  description="Corrections go on while the estimate is farther from the waypoint (cm).")
     max_corrections: int = Field(default=0, ge=0, description="Corrections (and sweeps) at most per waypoint.")
+    heading_from: HeadingFrom = Field(default="fused", description=(
+        "fused: the sweep's fitted heading and the predicted one weighed by their variances (a Kalman "
+        "update); sweep: the fitted heading alone."))
+    oracle: Oracle = Field(default="none", description=(
+        "For measuring ceilings on simulated robots only: after each waypoint's sweep the belief takes the "
+        "truth's heading (heading) or pose (pose); none: the robot's own fix."))
 
 
 class ChallengeSonar(Typed):
@@ -218,9 +233,11 @@ class WaypointSweeps:
         self._settle(Pose(instead.x + c2 * fwd - s2 * left, instead.y + s2 * fwd + c2 * left,
                           float(wrap_angle(instead.theta + turned))))
 
-    def _settle(self, pose: Pose) -> None:
-        """Reset the belief to a narrow Gaussian around `pose` (`ChallengeConfig.prior_std_cm`, `prior_std_deg`)."""
-        cov = np.diag([self.cfg.prior_std_cm ** 2] * 2 + [math.radians(self.cfg.prior_std_deg) ** 2])
+    def _settle(self, pose: Pose, heading_std_rad: float | None = None) -> None:
+        """Reset the belief to a narrow Gaussian around `pose` (`ChallengeConfig.prior_std_cm`; the heading's
+        spread `heading_std_rad`, default `ChallengeConfig.prior_std_deg`)."""
+        heading_sd = math.radians(self.cfg.prior_std_deg) if heading_std_rad is None else heading_std_rad
+        cov = np.diag([self.cfg.prior_std_cm ** 2] * 2 + [heading_sd ** 2])
         self.localiser.reset(Prior(pose, cov))
         self.estimate = self.localiser.estimate()
 
@@ -283,6 +300,30 @@ class WaypointSweeps:
         those that align them with the map by a thin ray)."""
         return fit_pose(self.map, scan, [waypoint], heading=predicted, span_deg=self.cfg.heading_span_deg).theta
 
+    def fixed_heading(self, scan: Scan, predicted: PoseEstimate, waypoint: XY) -> tuple[float, float]:
+        """The belief's heading (rad) after a waypoint's sweep and its spread (rad): the sweep's fitted heading
+        (`fitted_heading`) weighed against the `predicted` one by their variances (``heading_from`` ``fused``: the
+        prediction's from the localiser's covariance, the fit's `ChallengeConfig.prior_std_deg`, the spread
+        the mission gives a sweep's fix), or the fitted heading alone (``sweep``).
+
+        A sweep as taken pins the heading only to a few degrees: turned by whole bins (up to 2.5 degrees off
+        for 5-degree bins) and fitted at the waypoint while the robot stands up to 10 cm from it. Over a leg
+        the odometry keeps the heading about as well, so the two are averaged, each by its confidence."""
+        fitted = self.fitted_heading(scan, predicted.pose.theta, waypoint)
+        fit_var = math.radians(self.cfg.prior_std_deg) ** 2
+        if self.cfg.fix.heading_from == "sweep":
+            return fitted, math.sqrt(fit_var)
+        predicted_var = float(np.asarray(predicted.cov, dtype=float)[2, 2])
+        return weighed_heading(predicted.pose.theta, predicted_var, fitted, fit_var)
+
+    def _apply_oracle(self) -> None:
+        """With `ChallengeFix.oracle`, give the belief the truth's heading or pose (a ceiling, for study)."""
+        if self.cfg.fix.oracle == "none":
+            return
+        assert self.estimate is not None
+        truth, pose = self.robot.true_pose, self.estimate.pose
+        self._settle(truth if self.cfg.fix.oracle == "pose" else Pose(pose.x, pose.y, truth.theta))
+
     def sweep_and_correct(self, waypoint: XY) -> WaypointVisit:
         """Sweep, update, fit the heading and correct toward `waypoint` (module docstring); a refused
         sweep ends the visit."""
@@ -302,8 +343,9 @@ class WaypointSweeps:
             if trusted:
                 self._settle(updated)
             else:
-                heading = self.fitted_heading(scan, predicted.pose.theta, waypoint)
-                self._settle(Pose(predicted.pose.x, predicted.pose.y, heading))
+                heading, spread = self.fixed_heading(scan, predicted, waypoint)
+                self._settle(Pose(predicted.pose.x, predicted.pose.y, heading), spread)
+            self._apply_oracle()
             if not trusted or _distance(self.estimate.pose, waypoint) <= self.cfg.fix.correction_cm or \
                     attempt == self.cfg.fix.max_corrections:
                 break
@@ -311,6 +353,20 @@ class WaypointSweeps:
         assert self.estimate is not None
         return WaypointVisit(waypoint, round(_distance(self.robot.true_pose, waypoint), 3),
                              round(_distance(self.estimate.pose, waypoint), 3), sweeps, note)
+
+
+def weighed_heading(predicted: float, predicted_var: float, fitted: float, fitted_var: float) -> tuple[float, float]:
+    """Two estimates of one heading (rad), weighed by their variances (rad^2): the Kalman update of the
+    `predicted` heading by the `fitted` one, and its standard deviation (rad). The difference is taken
+    round the circle.
+
+    >>> h, sd = weighed_heading(math.radians(179), 1e-3, math.radians(-179), 1e-3)
+    >>> round(abs(math.degrees(h)), 6), round(sd ** 2, 6)
+    (180.0, 0.0005)
+    """
+    gain = predicted_var / (predicted_var + fitted_var)
+    heading = float(wrap_angle(predicted + gain * float(angle_diff(fitted, predicted))))
+    return heading, math.sqrt((1.0 - gain) * predicted_var)
 
 
 def plausible_update(predicted: PoseEstimate, updated: Pose, config: ChallengeConfig) -> bool:
