@@ -1,4 +1,4 @@
-"""The two checks of the study (README.md), once build.sh has built the extension.
+"""Two checks of the compiled objective (README.md), once ``make compiled`` has built it.
 
 ``python -m planners._compiled.measure equal``: the compiled objective against the Python one
 (`planners.ompl_objective.RobotTimeObjective`) on random SE(2) state pairs, with the cases the cost
@@ -7,8 +7,9 @@ fails when any cost differs by more than 1e-9 s.
 
 ``python -m planners._compiled.measure bench [MAP] [RUNS] [PLANNER]``: the OMPL planner (default
 ``ompl:RRTstar``) on the map's own query under ``length``, ``robot-time`` with the Python objective and
-``robot-time`` with the compiled one, the same seeds and the same number of iterations (the planners'
-deterministic budget), and the planning time per collision check (us) of each.
+``robot-time`` with the compiled one (the planner option ``objective_impl``), the same seeds and the same
+number of iterations (the planners' deterministic budget), and the planning time per collision check (us)
+of each.
 """
 
 from __future__ import annotations
@@ -68,38 +69,34 @@ def equal(pairs: int = 100_000) -> float:
 
 def bench(map_name: str = "map1", runs: int = 3, planner_name: str = "ompl:RRTstar") -> dict[str, float]:
     """The median planning time per collision check (us) of each variant, one line per run printed."""
-    import planners.ompl_planners as ompl_planners
     from planners import PlanningProblem, make_planner
     from toolkit.world import CollisionChecker, RobotTiming, load_map
 
-    from . import compiled_objective, load
+    from . import load
 
     if load()[0] is None:
         raise SystemExit(f"measure: error: {load()[1]}")
-    python_objective = ompl_planners.RobotTimeObjective
-    objectives = {"length": python_objective, "python": python_objective, "compiled": compiled_objective}
+    variants = {"length": {"objective": "length"}, "python": {"objective": "robot-time", "objective_impl": "python"},
+                "compiled": {"objective": "robot-time", "objective_impl": "compiled"}}
     m = load_map(map_name)
     start, target = m.start, m.target
     if start is None or target is None:
         raise SystemExit(f"measure: error: map {map_name} has no start and target")
     checker = CollisionChecker(m, robot_radius=8.0)
     timing = RobotTiming()
-    per_check: dict[str, list[float]] = {variant: [] for variant in objectives}
-    try:
-        for seed in (-1, *range(runs)):  # seed -1 warms up (the checker's index, the imports)
-            for variant, objective in objectives.items():
-                ompl_planners.RobotTimeObjective = objective  # type: ignore[assignment,misc]
-                planner = make_planner(planner_name, objective="length" if variant == "length" else "robot-time")
-                res = planner.plan(PlanningProblem(m, checker, start, target, time_limit=0.1 if seed < 0 else 1.0,
-                                                   rng=abs(seed), timing=timing))
-                if seed < 0:
-                    continue
-                per_check[variant].append(1e6 * res.time_s / max(res.collision_checks, 1))
-                print(f"{map_name} {planner_name} run {seed} {variant:8s} {res.status} cost {res.objective_cost:.4f} "
-                      f"time {res.time_s:.2f} s checks {res.collision_checks} "
-                      f"iterations {res.info.get('iterations')}: {per_check[variant][-1]:.1f} us/check", flush=True)
-    finally:
-        ompl_planners.RobotTimeObjective = python_objective  # type: ignore[misc]
+    per_check: dict[str, list[float]] = {variant: [] for variant in variants}
+    for seed in (-1, *range(runs)):  # seed -1 warms up (the checker's index, the imports)
+        for variant, options in variants.items():
+            planner = make_planner(planner_name, **options)
+            res = planner.plan(PlanningProblem(m, checker, start, target, time_limit=0.1 if seed < 0 else 1.0,
+                                               rng=abs(seed), timing=timing))
+            if seed < 0:
+                continue
+            assert res.info.get("objective_impl", "length") == variant  # length records none
+            per_check[variant].append(1e6 * res.time_s / max(res.collision_checks, 1))
+            print(f"{map_name} {planner_name} run {seed} {variant:8s} {res.status} cost {res.objective_cost:.4f} "
+                  f"time {res.time_s:.2f} s checks {res.collision_checks} "
+                  f"iterations {res.info.get('iterations')}: {per_check[variant][-1]:.1f} us/check", flush=True)
     return {variant: statistics.median(values) for variant, values in per_check.items()}
 
 
