@@ -289,10 +289,7 @@ class OmplPlanner(Planner):
         What the planner minimises: path length (cm, over the plane), or robot time (s, over SE(2),
         `planners.ompl_objective`, with the problem's `RobotTiming`).
     objective_impl : {"auto", "python", "compiled"}
-        The robot-time objective's code (`planners.ompl_objective.robot_time_objective`): ``auto`` the
-        compiled one when ``make compiled`` built it for the installed wheel (`planners._compiled`), else
-        Python (the same costs either way); ``compiled`` when it cannot be loaded is an error naming why.
-        Under robot-time ``info["objective_impl"]`` says which one planned.
+        Robot-time's code, `planners.ompl_objective.robot_time_objective`; ``info["objective_impl"]`` says which.
 
     ``info`` holds ``ompl_status`` (OMPL's own words), ``first_solution_s``,
     ``first_solution_length_cm``, ``progress`` (``[time_s, iterations, best_cost]`` samples),
@@ -407,10 +404,9 @@ class OmplPlanner(Planner):
             else:
                 state[0], state[1] = float(x), float(y)
         setup.setStartAndGoalStates(start, goal)
-        objective, self._objective_kind = (
-            robot_time_objective(si, problem.timing, (problem.start[0], problem.start[1]),
-                                 (problem.goal[0], problem.goal[1]), self.options.objective_impl)
-            if se2 else (ob.PathLengthOptimizationObjective(si), "length"))
+        objective, self._objective_kind = robot_time_objective(
+            si, problem.timing, (problem.start[0], problem.start[1]), (problem.goal[0], problem.goal[1]),
+            self.options.objective_impl) if se2 else (ob.PathLengthOptimizationObjective(si), "length")
         self._objective_impl = objective
         if self.stop_at_first:  # any solution satisfies the objective, so optimising planners stop at it
             objective.setCostThreshold(ob.Cost(math.inf))
