@@ -4,7 +4,8 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install run test test-fast docs-commands lint typecheck bench figures view-check dist-check docs clean
+.PHONY: install run test test-fast docs-commands lint typecheck bench figures view-check dist-check docs clean \
+        compiled
 
 $(BIN)/python:
 	@echo "make: creating the virtual environment $(VENV)"
@@ -52,6 +53,14 @@ test-fast: $(STAMP)
 	$(BIN)/mypy
 	$(PYTEST) -m "not slow and not docs"
 
+# opt-in, part of neither install nor test: the robot-time objective compiled against the installed ompl wheel
+# (planners/_compiled/README.md), which the OMPL planners then use (objective_impl=auto). Needs g++, cmake and
+# Eigen (Debian: g++ cmake libeigen3-dev), PyPI (nanobind's wheel) and OMPL's source at the wheel's version:
+# OMPL_SRC=DIR, a checkout of that tag, else downloaded with curl. Rebuild after any change of the ompl wheel.
+OMPL_SRC ?=
+compiled: $(STAMP)
+	PYTHON=$(BIN)/python planners/_compiled/build.sh "$(OMPL_SRC)"
+
 bench: $(STAMP)
 	$(BIN)/nxtnav bench world --map map1
 
@@ -80,4 +89,5 @@ docs: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache dist site
+	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache dist site planners/_compiled/_robot_time*.so \
+	       planners/_compiled/build_info.json

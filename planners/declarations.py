@@ -96,6 +96,9 @@ class OmplOptions(Options):
                                       "every improvement)", unit="s", ge=1e-6)
     objective: str = option("length", "What the planner minimises (length, robot-time; a planner that stops at "
                                       "its first path: length only)")
+    objective_impl: Literal["auto", "python", "compiled"] = option(
+        "auto", "The robot-time objective's code: compiled when built (make compiled), else Python; python or "
+                "compiled force one (compiled unbuilt: an error)")
 
 
 _OMPL_CLASSES = {"rrtstar": "RRTstar", "prm": "PRM"}

@@ -22,6 +22,10 @@ parent and once to rewire, hundreds of times per iteration; a call costs about 1
 dispatch and the state getters about half of it) against 0.01 us for OMPL's compiled path length. So
 the callback reads plain floats only, and the RRT* family keeps the plane's neighbour count under this
 objective (`PLANE_NEIGHBOURS`).
+
+Compiled. ``make compiled`` builds the same objective in C++ against the installed wheel
+(`planners._compiled`, an opt-in: it needs a compiler and OMPL's headers); `robot_time_objective` then
+gives that one (the same costs, to 1e-13 s), and this Python class otherwise or when asked for.
 """
 
 from __future__ import annotations
@@ -31,9 +35,16 @@ from typing import Any
 
 import ompl.base as ob
 
-from toolkit.world import CollisionChecker, RobotTiming
+from toolkit.world import CollisionChecker, ConfigError, RobotTiming
 
-__all__ = ["PLANE_NEIGHBOURS", "RobotTimeObjective", "box_bounds", "se2_space"]
+from ._compiled import compiled_objective, load
+
+__all__ = ["OBJECTIVE_IMPLS", "PLANE_NEIGHBOURS", "RobotTimeObjective", "box_bounds", "check_objective_impl",
+           "robot_time_objective", "se2_space"]
+
+OBJECTIVE_IMPLS = ("auto", "python", "compiled")
+"""The implementations of the robot-time objective one may ask for: ``auto`` (compiled when `load` gives
+it, else Python), ``python`` or ``compiled`` (an error when it cannot be loaded)."""
 
 _TAU = 2.0 * math.pi
 PLANE_NEIGHBOURS = (2.0**3 * 1.5) / (2.0**4 * (4.0 / 3.0))
@@ -101,6 +112,32 @@ class RobotTimeObjective(ob.OptimizationObjective):
 
     def motionCostHeuristic(self, s1: Any, s2: Any) -> Any:
         return ob.Cost(math.hypot(s2.getX() - s1.getX(), s2.getY() - s1.getY()) / self._speed)
+
+
+def check_objective_impl(impl: str) -> None:
+    """Raise `ConfigError` (one line, with `planners._compiled.load`'s reason) when `impl` is
+    ``compiled`` and the compiled objective cannot be loaded."""
+    if impl == "compiled" and load()[0] is None:
+        raise ConfigError(f"objective_impl 'compiled': the compiled robot-time objective is unavailable: {load()[1]}")
+
+
+def robot_time_objective(si: Any, timing: RobotTiming, start: tuple[float, float], goal: tuple[float, float],
+                         impl: str = "auto") -> tuple[Any, str]:
+    """The robot-time objective (`RobotTimeObjective`'s arguments) in the implementation `impl` asks for,
+    and the one it is: ``"compiled"`` or ``"python"``.
+
+    Parameters
+    ----------
+    si, timing, start, goal
+        As `RobotTimeObjective`.
+    impl : {"auto", "python", "compiled"}
+        ``auto``: the compiled one when `planners._compiled.load` gives it, else Python; ``compiled``
+        when it cannot be loaded: `ConfigError` (`check_objective_impl`).
+    """
+    check_objective_impl(impl)
+    if impl != "python" and load()[0] is not None:
+        return compiled_objective(si, timing, start, goal), "compiled"
+    return RobotTimeObjective(si, timing, start, goal), "python"
 
 
 class _SegmentValidatorSE2(ob.MotionValidator):

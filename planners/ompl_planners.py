@@ -76,7 +76,7 @@ from toolkit.world import CollisionChecker, ConfigError, RegistryError
 
 from .base import PLANNERS, Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import OmplOptions
-from .ompl_objective import PLANE_NEIGHBOURS, RobotTimeObjective, box_bounds, se2_space
+from .ompl_objective import PLANE_NEIGHBOURS, box_bounds, check_objective_impl, robot_time_objective, se2_space
 
 __all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "declared_params", "ompl_planner_names", "ompl_simplify"]
 
@@ -288,6 +288,8 @@ class OmplPlanner(Planner):
     objective : {"length", "robot-time"}
         What the planner minimises: path length (cm, over the plane), or robot time (s, over SE(2),
         `planners.ompl_objective`, with the problem's `RobotTiming`).
+    objective_impl : {"auto", "python", "compiled"}
+        Robot-time's code, `planners.ompl_objective.robot_time_objective`; ``info["objective_impl"]`` says which.
 
     ``info`` holds ``ompl_status`` (OMPL's own words), ``first_solution_s``,
     ``first_solution_length_cm``, ``progress`` (``[time_s, iterations, best_cost]`` samples),
@@ -320,6 +322,7 @@ class OmplPlanner(Planner):
                    "stops at its first path and optimises no objective")
             raise ConfigError(f"planner 'ompl:{planner}' {why}; it takes {', '.join(own)} only")
         self._set_objective(o.objective)
+        check_objective_impl(o.objective_impl)
         cls = getattr(og, planner)
         for key in settings or {}:
             if not hasattr(cls, f"set{key}"):
@@ -378,6 +381,8 @@ class OmplPlanner(Planner):
             # solved in the last iteration after the condition was last polled, or stopped by the objective
             first["time"], first["length"] = time.perf_counter() - t0, final
         info["first_solution_s"] = first.get("time", math.nan)
+        if self.objective == "robot-time":
+            info["objective_impl"] = self._objective_kind  # "compiled" or "python"
         self._first_solution(info, first)
         info["progress"] = progress.finish(ended["polls"], time.perf_counter(), final)
         if not exact:
@@ -399,9 +404,9 @@ class OmplPlanner(Planner):
             else:
                 state[0], state[1] = float(x), float(y)
         setup.setStartAndGoalStates(start, goal)
-        objective = (RobotTimeObjective(si, problem.timing, (problem.start[0], problem.start[1]),
-                                        (problem.goal[0], problem.goal[1]))
-                     if se2 else ob.PathLengthOptimizationObjective(si))
+        objective, self._objective_kind = robot_time_objective(
+            si, problem.timing, (problem.start[0], problem.start[1]), (problem.goal[0], problem.goal[1]),
+            self.options.objective_impl) if se2 else (ob.PathLengthOptimizationObjective(si), "length")
         self._objective_impl = objective
         if self.stop_at_first:  # any solution satisfies the objective, so optimising planners stop at it
             objective.setCostThreshold(ob.Cost(math.inf))
