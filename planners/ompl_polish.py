@@ -136,6 +136,7 @@ def _window_cost(objective: str, timing: RobotTiming) -> Callable[[Polyline], fl
         return lambda q: sum(math.dist(a, b) for a, b in itertools.pairwise(q))
 
     def robot_time(q: Polyline) -> float:
+        q = [point for k, point in enumerate(q) if k == 0 or point != q[k - 1]]  # a repeat is no turn
         total = sum(timing.move(math.dist(a, b)) for a, b in itertools.pairwise(q))
         for (ax, ay), (bx, by), (cx, cy) in zip(q, q[1:], q[2:], strict=False):
             ux, uy, vx, vy = bx - ax, by - ay, cx - bx, cy - by
@@ -206,7 +207,7 @@ def _reduce_vertices(q: Polyline, checker: CollisionChecker, cost: Callable[[Pol
     while i < len(q) - 2:
         for j in range(len(q) - 1, i + 1, -1):
             if _window_gain(q, i, j, [], cost) > tolerance and checker.segment_free(q[i], q[j]):
-                q = q[:i + 1] + q[j:]
+                q = q[:i + 1] + q[j + 1:] if q[j] == q[i] else q[:i + 1] + q[j:]  # out and back: one waypoint
                 break
         i += 1
     return q
@@ -307,6 +308,8 @@ def _pull_vertices(q: Polyline, checker: CollisionChecker, cost: Callable[[Polyl
     for k in range(1, len(q) - 1):
         (ux, uy), (vx, vy), (wx, wy) = q[k - 1], q[k], q[k + 1]
         dx, dy = wx - ux, wy - uy
+        if dx == 0.0 and dy == 0.0:
+            continue  # the path goes out and back: no chord to pull toward (a shortcut removes it)
         t = min(max(((vx - ux) * dx + (vy - uy) * dy) / (dx * dx + dy * dy), 0.0), 1.0)
         mx, my = ux + t * dx, uy + t * dy
         for s in _PULLS:
