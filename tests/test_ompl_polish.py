@@ -108,3 +108,15 @@ def test_polish_off_and_stop_at_first_leave_the_solution_as_found() -> None:
     assert first.success and "cost_after_polish" not in first.info
     connect = make_planner("ompl:RRTConnect")  # stops at its first path: no objective to polish under
     assert isinstance(connect, OmplPlanner) and connect.polish is False
+
+
+def test_an_out_and_back_spur_is_cut_and_counted_as_turns() -> None:
+    """A path that drives out and back (two half turns) loses the spur under either objective."""
+    room = map_from_dict({"name": "room", "boundary": [[0, 0], [100, 0], [100, 60], [0, 60]]})
+    checker = make_checker(room, 0.0)
+    path = np.array([[10.0, 10.0], [30.0, 10.0], [40.0, 10.0], [30.0, 10.0], [30.0, 50.0]])
+    for objective in ("length", "robot-time"):
+        out = polish_polyline(path, checker, objective, TIMING, np.random.default_rng(2))
+        assert checker.path_free(out) and out[0].tolist() == [10.0, 10.0] and out[-1].tolist() == [30.0, 50.0]
+        assert np.all(np.hypot(*np.diff(out, axis=0).T) > 0)  # no repeated waypoint
+        assert robot_time_s(out, TIMING) < robot_time_s(path, TIMING) - 2 * 180 / 60  # both half turns gone
