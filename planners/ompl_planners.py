@@ -77,6 +77,7 @@ from toolkit.world import CollisionChecker, ConfigError, RegistryError
 from .base import PLANNERS, Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import OmplOptions
 from .ompl_objective import PLANE_NEIGHBOURS, box_bounds, check_objective_impl, robot_time_objective, se2_space
+from .ompl_polish import polish_solution
 
 __all__ = ["OmplPlanner", "PrmPlanner", "RrtStarPlanner", "declared_params", "ompl_planner_names", "ompl_simplify"]
 
@@ -270,6 +271,10 @@ class OmplPlanner(Planner):
     simplify : bool
         Run OMPL's path simplifier (shortcutting, vertex reduction) on the solution; the length before
         and after is reported in ``info``. Simplification time counts in the planning time.
+    polish : bool
+        Polish an optimising planner's solution under its objective (`planners.ompl_polish`; not with
+        `stop_at_first`); its time and checks count, ``info`` holds the costs before and after
+        (``cost_before_polish``, ``cost_after_polish``, ...) and ``progress`` ends with the polished one.
     range : float or None
         Maximum edge length (cm) for planners with ``setRange`` (RRT family); None keeps OMPL's default.
     stop_at_first : bool
@@ -330,6 +335,7 @@ class OmplPlanner(Planner):
         self.options = o
         self.planner = planner
         self.simplify, self.range, self.stop_at_first = o.simplify, o.range, o.stop_at_first
+        self.polish = o.polish and planner in _OPTIMISING and not o.stop_at_first
         self.settings = dict(settings or {})
         self.log_level, self.deterministic = o.log_level, o.deterministic
         self.iterations_per_s = (_ITERATIONS_PER_S.get(planner, _DEFAULT_ITERATIONS_PER_S)
@@ -387,7 +393,7 @@ class OmplPlanner(Planner):
         info["progress"] = progress.finish(ended["polls"], time.perf_counter(), final)
         if not exact:
             return Solution(None, _STATUS.get(key, PlanStatus.ERROR), info, info["ompl_status"])
-        return self._finish(setup, problem, info)
+        return self._finish(setup, problem, info, t0)
 
     def _setup(self, problem: PlanningProblem) -> tuple[Any, Any]:
         """OMPL's `SimpleSetup` for `problem` (start, goal, path-length objective) and its planner,
@@ -539,11 +545,11 @@ class OmplPlanner(Planner):
                 return Solution(None, PlanStatus.TIMEOUT, info)
             return Solution(None, PlanStatus.NO_PATH, info, "no path in the roadmap")
         info["ompl_status"] = "Exact solution"
-        return self._finish(setup, problem, info, found)
+        return self._finish(setup, problem, info, t0, found)
 
-    def _finish(self, setup: Any, problem: PlanningProblem, info: dict[str, Any],
+    def _finish(self, setup: Any, problem: PlanningProblem, info: dict[str, Any], t0: float,
                 path: Any = None) -> Solution:
-        """Simplify (when asked), copy out and verify the solution path."""
+        """Simplify and polish (when asked), copy out and verify the solution path (`t0`: when the call began)."""
         checker = problem.checker
         si = setup.getSpaceInformation()
         if path is None:
@@ -556,6 +562,12 @@ class OmplPlanner(Planner):
             info["length_after_simplify_cm"] = _polyline_length(self._points(path))
         arr = self._points(path)
         arr[0], arr[-1] = problem.start, problem.goal  # exact end points (OMPL may copy with rounding)
+        if self.polish and checker.path_free(arr):
+            arr, polished = polish_solution(arr, self._cost_of(path), checker, self.objective, problem.timing,
+                                            info["seed"], si, self._objective_impl)
+            info.update(polished)
+            done = [time.perf_counter() - t0, float(info["iterations"]), polished["cost_after_polish"]]
+            info["progress"].append(done)
         if not checker.path_free(arr):
             return Solution(None, PlanStatus.INVALID_PATH, info)
         return Solution(arr, PlanStatus.EXACT, info)

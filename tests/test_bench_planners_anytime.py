@@ -90,12 +90,15 @@ def test_the_sampling_interval_does_not_change_the_path(name: str) -> None:
 @pytest.mark.parametrize("name", ["rrtstar", "prm", "ompl:BITstar"])
 def test_a_shorter_budget_is_the_start_of_a_longer_one(name: str) -> None:
     """The iteration-counted budget carries over to the samples: the path at half the budget has the
-    best cost the longer run had at that iteration."""
-    long, short = _plan(name, 9, budget=2 * BUDGET_S), _plan(name, 9, budget=BUDGET_S)
+    best cost the longer run had at that iteration (the polish starts from that path, and shortens it)."""
+    long, short = _plan(name, 9, budget=2 * BUDGET_S), _plan(name, 9, budget=BUDGET_S, polish=False)
+    polished = _plan(name, 9, budget=BUDGET_S)
     at = max(int(i) for _, i, _ in short.info["progress"])
     before = [c for _, i, c in long.info["progress"] if i <= at]
-    assert short.success
+    assert short.success and polished.success
     assert path_length(short.path) == pytest.approx(before[-1], abs=1e-6)
+    assert polished.info["cost_before_polish"] == pytest.approx(before[-1], abs=1e-6)
+    assert path_length(polished.path) <= path_length(short.path) + 1e-9
 
 
 def test_declared_parameters_are_reported() -> None:
@@ -246,7 +249,8 @@ def test_cost_band_is_the_quartiles_of_the_step_curves() -> None:
 
 # -- the budget sweep ---------------------------------------------------------------------------
 def test_budget_sweep_continues_the_shorter_budget_and_finds_the_time_within() -> None:
-    config = BenchmarkConfig(maps=("map2",), planners=("min-turn", "rrtstar"), runs=2, seed=1, exec_repeats=3)
+    config = BenchmarkConfig(maps=("map2",), planners=("min-turn", "rrtstar"), runs=2, seed=1, exec_repeats=3,
+                             planner_options={"rrtstar": {"polish": False}})  # the planner's own best cost
     sweep = run_budget_sweep(config, [0.1, 0.02])
     assert sweep.budgets == (0.02, 0.1) and sweep.complete
     short, long = sweep.results
