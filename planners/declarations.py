@@ -85,8 +85,9 @@ class OmplOptions(Options):
     """The wrapper round any OMPL geometric planner (``rrtstar``, ``prm``, ``ompl:NAME``)."""
 
     simplify: bool = option(False, "Run OMPL's path simplifier on the solution (its time counts)")
-    polish: bool = option(True, "Polish an optimising planner's solution under its objective: headings lined up, "
-                                "checked shortcuts that lower its cost (time and checks count)")
+    polish: bool | None = option(None, "Polish an optimising planner's solution under its objective: headings "
+                                       "lined up, checked shortcuts that lower its cost, time and checks counted "
+                                       "(null: under robot-time only, whose sampled headings need it)")
     range: float | None = option(None, "Longest edge of the RRT family (null: OMPL's default)", unit="cm", ge=1e-6)
     stop_at_first: bool = option(False, "Stop at the first exact solution, even for optimising planners")
     log_level: Literal["none", "error", "warn", "info", "debug"] = option("none", "OMPL's console log level while "

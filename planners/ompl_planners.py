@@ -271,10 +271,9 @@ class OmplPlanner(Planner):
     simplify : bool
         Run OMPL's path simplifier (shortcutting, vertex reduction) on the solution; the length before
         and after is reported in ``info``. Simplification time counts in the planning time.
-    polish : bool
-        Polish an optimising planner's solution under its objective (`planners.ompl_polish`; not with
-        `stop_at_first`); its time and checks count, ``info`` holds the costs before and after
-        (``cost_before_polish``, ``cost_after_polish``, ...) and ``progress`` ends with the polished one.
+    polish : bool or None
+        Polish an optimising planner's solution under its objective (`planners.ompl_polish`; None: under
+        robot-time only); its time and checks count, ``info`` holds the costs before and after.
     range : float or None
         Maximum edge length (cm) for planners with ``setRange`` (RRT family); None keeps OMPL's default.
     stop_at_first : bool
@@ -335,7 +334,8 @@ class OmplPlanner(Planner):
         self.options = o
         self.planner = planner
         self.simplify, self.range, self.stop_at_first = o.simplify, o.range, o.stop_at_first
-        self.polish = o.polish and planner in _OPTIMISING and not o.stop_at_first
+        polish = o.objective == "robot-time" if o.polish is None else o.polish
+        self.polish = polish and planner in _OPTIMISING and not o.stop_at_first
         self.settings = dict(settings or {})
         self.log_level, self.deterministic = o.log_level, o.deterministic
         self.iterations_per_s = (_ITERATIONS_PER_S.get(planner, _DEFAULT_ITERATIONS_PER_S)

@@ -92,7 +92,7 @@ def test_a_shorter_budget_is_the_start_of_a_longer_one(name: str) -> None:
     """The iteration-counted budget carries over to the samples: the path at half the budget has the
     best cost the longer run had at that iteration (the polish starts from that path, and shortens it)."""
     long, short = _plan(name, 9, budget=2 * BUDGET_S), _plan(name, 9, budget=BUDGET_S, polish=False)
-    polished = _plan(name, 9, budget=BUDGET_S)
+    polished = _plan(name, 9, budget=BUDGET_S, polish=True)
     at = max(int(i) for _, i, _ in short.info["progress"])
     before = [c for _, i, c in long.info["progress"] if i <= at]
     assert short.success and polished.success

@@ -24,7 +24,7 @@ TIMING = RobotTiming(drive_speed_cm_s=12.0, turn_rate_deg_s=60.0, stop_turn_s=0.
 """A robot with a fixed time per stop-and-turn: a shortcut that adds a vertex must pay for it."""
 
 
-def _plan(name: str, objective: str, polish: bool, map_name: str = "map2", seed: int = 4) -> PlanResult:
+def _plan(name: str, objective: str, polish: bool | None, map_name: str = "map2", seed: int = 4) -> PlanResult:
     m = load_map(map_name)
     budget = 0.5 if name == "ompl:FMT" else 0.1  # FMT*: polls for its batch of samples and their neighbours
     assert m.start is not None and m.target is not None
@@ -120,3 +120,12 @@ def test_an_out_and_back_spur_is_cut_and_counted_as_turns() -> None:
         assert checker.path_free(out) and out[0].tolist() == [10.0, 10.0] and out[-1].tolist() == [30.0, 50.0]
         assert np.all(np.hypot(*np.diff(out, axis=0).T) > 0)  # no repeated waypoint
         assert robot_time_s(out, TIMING) < robot_time_s(path, TIMING) - 2 * 180 / 60  # both half turns gone
+
+
+def test_by_default_only_robot_time_is_polished() -> None:
+    """Unset, the polish follows the objective: robot-time's sampled headings need it; a length run stays the
+    planner's own path, as the raw and simplified comparisons of `bench planners` report it."""
+    for objective, polished in (("robot-time", True), ("length", False)):
+        default, chosen = _plan("rrtstar", objective, None), _plan("rrtstar", objective, polished)
+        assert ("cost_after_polish" in default.info) is polished
+        assert np.array_equal(default.path, chosen.path)

@@ -68,10 +68,18 @@ def run_objectives(config: BenchmarkConfig, *, workers: int = 1,
         able = tuple(p for p in config.planners if can_minimise(p, objective))
         if not able:
             continue
-        options = {p: {k: v for k, v in config.planner_options.get(p, {}).items() if k != "objective"} for p in able}
+        options = {p: {**_polished(p), **{k: v for k, v in config.planner_options.get(p, {}).items()
+                                          if k != "objective"}} for p in able}
         cfg = replace(config, planners=able, objective=objective, planner_options=options)
         results[objective] = run_benchmark(cfg, workers=workers, on_done=on_done)
     return ObjectiveSweep(results)
+
+
+def _polished(planner: str) -> dict[str, Any]:
+    """``polish=true`` for a planner that can polish its path (OMPL's): the same post-processing under every
+    objective, so that no objective wins by it (`planners.ompl_polish`); the user's setting wins."""
+    model = PLANNERS.class_of(planner).options_model
+    return {"polish": True} if model is not None and "polish" in model.model_fields else {}
 
 
 def _median(values: Sequence[float]) -> float:
