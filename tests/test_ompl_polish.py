@@ -16,7 +16,7 @@ import shapely
 from planners import PlanningProblem, PlanResult, make_planner
 from planners.ompl_objective import RobotTimeObjective, se2_space
 from planners.ompl_planners import OmplPlanner
-from planners.ompl_polish import aligned_se2_path, aligned_yaws, polish_polyline
+from planners.ompl_polish import MAX_EMPTY, aligned_se2_path, aligned_yaws, polish_polyline
 from toolkit.world import RobotTiming, load_map, make_checker, map_from_dict, objective_cost, robot_time_s
 
 RADIUS = 8.0
@@ -129,3 +129,16 @@ def test_by_default_only_robot_time_is_polished() -> None:
         default, chosen = _plan("rrtstar", objective, None), _plan("rrtstar", objective, polished)
         assert ("cost_after_polish" in default.info) is polished
         assert np.array_equal(default.path, chosen.path)
+
+
+def test_a_straight_path_of_many_waypoints_is_one_segment_without_a_check() -> None:
+    """An informed planner's straight solution comes with hundreds of waypoints on the line (1568 on a
+    turtlebot3_world query): they go without a check, and the path is the same line."""
+    room = map_from_dict({"name": "room", "boundary": [[0, 0], [100, 0], [100, 60], [0, 60]]})
+    checker = make_checker(room, 0.0)
+    path = np.column_stack([np.linspace(10.0, 90.0, 2001), np.linspace(10.0, 50.0, 2001)])
+    for objective in ("length", "robot-time"):
+        before = checker.checks
+        out = polish_polyline(path, checker, objective, TIMING, np.random.default_rng(0))
+        assert out.tolist() == [[10.0, 10.0], [90.0, 50.0]]
+        assert checker.checks - before <= 2 * MAX_EMPTY  # the partial shortcuts' tries at most, no pair scan

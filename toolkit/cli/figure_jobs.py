@@ -113,7 +113,7 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
         "objectives",
         # defaults: planners rrtstar, ompl:InformedRRTstar, ompl:BITstar, astar, min-turn; 1 s budget;
         # 100 drives per path
-        ("bench", "objectives", "--maps", "map1,map2,map3,pillars", "--runs", "5", "--seed", "0", "--workers", "2",
+        ("bench", "objectives", "--maps", "map1,map2,map3,pillars", "--runs", "20", "--seed", "0", "--workers", "2",
          "--out", f"{WORK}/objectives"),
         {f"objectives_pareto_{m}.png": f"objectives/pareto_{m}.png" for m in ("map1", "map2", "map3", "pillars")}
         | {"objectives_cost_over_time.png": "objectives/cost_over_time.png"},
