@@ -39,12 +39,8 @@ from toolkit.world import CollisionChecker, ConfigError, RobotTiming
 
 from ._compiled import compiled_objective, load
 
-__all__ = ["OBJECTIVE_IMPLS", "PLANE_NEIGHBOURS", "RobotTimeObjective", "box_bounds", "check_objective_impl",
-           "robot_time_objective", "se2_space"]
-
-OBJECTIVE_IMPLS = ("auto", "python", "compiled")
-"""The implementations of the robot-time objective one may ask for: ``auto`` (compiled when `load` gives
-it, else Python), ``python`` or ``compiled`` (an error when it cannot be loaded)."""
+__all__ = ["PLANE_NEIGHBOURS", "RobotTimeObjective", "box_bounds", "check_objective_impl", "robot_time_objective",
+           "se2_space"]
 
 _TAU = 2.0 * math.pi
 PLANE_NEIGHBOURS = (2.0**3 * 1.5) / (2.0**4 * (4.0 / 3.0))

@@ -413,7 +413,7 @@ class OmplPlanner(Planner):
         objective, self._objective_kind = robot_time_objective(
             si, problem.timing, (problem.start[0], problem.start[1]), (problem.goal[0], problem.goal[1]),
             self.options.objective_impl) if se2 else (ob.PathLengthOptimizationObjective(si), "length")
-        self._objective_impl = objective
+        self._ompl_objective = objective
         if self.stop_at_first:  # any solution satisfies the objective, so optimising planners stop at it
             objective.setCostThreshold(ob.Cost(math.inf))
         setup.setOptimizationObjective(objective)
@@ -468,7 +468,7 @@ class OmplPlanner(Planner):
         """A solution path's cost under the objective: its length (cm) or its robot time over SE(2) (s)."""
         if self.objective == "length":
             return float(path.length())
-        return float(path.cost(self._objective_impl).value())
+        return float(path.cost(self._ompl_objective).value())
 
     def _first_solution(self, info: dict[str, Any], first: dict[str, float]) -> None:
         """The first solution's cost into `info` (``first_solution_cost``; its length when that is the cost)."""
@@ -564,7 +564,7 @@ class OmplPlanner(Planner):
         arr[0], arr[-1] = problem.start, problem.goal  # exact end points (OMPL may copy with rounding)
         if self.polish and checker.path_free(arr):
             arr, polished = polish_solution(arr, self._cost_of(path), checker, self.objective, problem.timing,
-                                            info["seed"], si, self._objective_impl)
+                                            info["seed"], si, self._ompl_objective)
             info.update(polished)
             done = [time.perf_counter() - t0, float(info["iterations"]), polished["cost_after_polish"]]
             info["progress"].append(done)
