@@ -42,6 +42,7 @@ from .astar_lattice import lattice_search, warm_up_lattice
 from .astar_search import MAX_STEPS, MOVES, Workspace, search, warm_up
 from .base import Planner, PlanningProblem, PlanStatus, Solution
 from .declarations import AStarOptions
+from .metrics import drop_straight
 
 __all__ = ["AStarPlanner"]
 
@@ -261,19 +262,4 @@ class AStarPlanner(Planner):
             return Solution(None, PlanStatus.NO_PATH, info, "no path on the grid")
         ny = len(lat.ys)
         pts = np.column_stack([lat.xs[nodes // ny], lat.ys[nodes % ny]])
-        return Solution(_drop_straight(np.vstack([start[None], pts, goal[None]])), PlanStatus.EXACT, info)
-
-
-def _drop_straight(path: NDArray[np.float64]) -> NDArray[np.float64]:
-    """`path` without its repeated waypoints and the waypoints where it goes straight on (no turn there)."""
-    keep = [0]
-    for k in range(1, len(path) - 1):
-        a, b, c = path[keep[-1]], path[k], path[k + 1]
-        if np.allclose(b, a):
-            continue
-        u, v = b - a, c - b
-        if abs(u[0] * v[1] - u[1] * v[0]) > 1e-9 * (np.hypot(*u) * np.hypot(*v) + 1e-300) or np.dot(u, v) < 0:
-            keep.append(k)
-    keep.append(len(path) - 1)
-    out = path[keep]
-    return out[np.r_[True, np.any(np.diff(out, axis=0) != 0, axis=1)]] if len(out) > 2 else out
+        return Solution(drop_straight(np.vstack([start[None], pts, goal[None]])), PlanStatus.EXACT, info)

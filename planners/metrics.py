@@ -25,7 +25,8 @@ from numpy.typing import ArrayLike
 from toolkit.world import CollisionChecker, segment_turns
 from toolkit.world.arrays import FloatArray
 
-__all__ = ["PathMetrics", "count_turns", "heading_changes", "path_length", "path_metrics", "turn_angle"]
+__all__ = ["PathMetrics", "count_turns", "drop_straight", "heading_changes", "path_length", "path_metrics",
+           "turn_angle"]
 
 
 _DEFAULT_TURN_THRESHOLD = math.radians(1.0)
@@ -152,3 +153,23 @@ def path_metrics(
         length_ratio=_ratio(length, reference_length),
         turn_ratio=_ratio(float(turns), None if reference_turns is None else float(reference_turns)),
     )
+
+
+def drop_straight(path: FloatArray) -> FloatArray:
+    """`path` (k, 2) without its repeated waypoints and the waypoints where it goes straight on (no turn
+    there): the same line, so the same length, no turn, and no new segment to check.
+
+    >>> drop_straight(np.array([[0, 0], [1, 0], [2, 0], [2, 1]], dtype=float)).tolist()
+    [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0]]
+    """
+    keep = [0]
+    for k in range(1, len(path) - 1):
+        a, b, c = path[keep[-1]], path[k], path[k + 1]
+        if np.allclose(b, a):
+            continue
+        u, v = b - a, c - b
+        if abs(u[0] * v[1] - u[1] * v[0]) > 1e-9 * (np.hypot(*u) * np.hypot(*v) + 1e-300) or np.dot(u, v) < 0:
+            keep.append(k)
+    keep.append(len(path) - 1)
+    out = path[keep]
+    return out[np.r_[True, np.any(np.diff(out, axis=0) != 0, axis=1)]] if len(out) > 2 else out

@@ -50,8 +50,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from toolkit.world import CollisionChecker, RobotTiming, objective_cost
 
+from .metrics import drop_straight
+
 __all__ = ["MAX_EMPTY", "aligned_se2_path", "aligned_yaws", "distinct_waypoints", "polish_polyline",
-           "polish_solution", "without_straight_vertices"]
+           "polish_solution"]
 
 MAX_EMPTY = 20
 """Partial shortcuts tried in a row without a change before the polish stops."""
@@ -86,26 +88,6 @@ def distinct_waypoints(points: ArrayLike) -> NDArray[np.float64]:
     if len(out) >= 2 and not keep[-1]:
         out[-1] = p[-1]  # the exact goal, not the waypoint it repeats
     return out
-
-
-def without_straight_vertices(points: NDArray[np.float64]) -> NDArray[np.float64]:
-    """`points` (k, 2) cm, distinct, without the waypoints that lie on the segment joining their neighbours
-    (within 1e-9 cm): the path is the same line, so the same length, no turn, no new segment to check.
-    An informed planner whose solution is the straight line hands over hundreds of them, on which the
-    vertex reduction would try every pair and gain nothing.
-
-    >>> without_straight_vertices(np.array([[0, 0], [1, 0], [2, 0], [2, 1]], dtype=float)).tolist()
-    [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0]]
-    """
-    kept = [points[0]]
-    for k in range(1, len(points) - 1):
-        a, b, c = kept[-1], points[k], points[k + 1]
-        ab, bc, ac = b - a, c - b, c - a
-        off_line = abs(ab[0] * ac[1] - ab[1] * ac[0]) / max(float(np.hypot(*ac)), _EPS_CM)
-        if off_line > _EPS_CM or float(ab @ bc) < 0.0:
-            kept.append(b)
-    kept.append(points[-1])
-    return np.array(kept, dtype=float)
 
 
 def aligned_yaws(points: ArrayLike) -> NDArray[np.float64]:
@@ -194,7 +176,7 @@ def polish_polyline(points: ArrayLike, checker: CollisionChecker, objective: str
     if len(p) < 3:
         return p
     before = objective_cost(objective, p, timing)
-    p = without_straight_vertices(p)
+    p = drop_straight(p)  # an informed planner's straight solution: hundreds of waypoints on the line
     tolerance = 1e-12 * max(before, 1.0)  # a smaller gain is rounding, not a gain
     cost = _window_cost(objective, timing)
     q: Polyline = [(float(x), float(y)) for x, y in p.tolist()]
