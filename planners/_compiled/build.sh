@@ -11,6 +11,7 @@
 # is missing, with what to install.
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+TOOL="$HERE/../../tools/compiled_objective.py"
 PYTHON="${PYTHON:-python3}"
 SRC="${1:-}"
 
@@ -41,7 +42,7 @@ trap 'rm -rf "$WORK"' EXIT
 read -r OMPL_VERSION OMPL_DIR < <("$PYTHON" -c '
 import importlib.metadata, pathlib, ompl
 print(importlib.metadata.version("ompl"), pathlib.Path(ompl.__file__).parent)')
-WHEEL_KEY="$("$PYTHON" "$HERE/abi_key.py" "$OMPL_DIR"/_ompl*.so)"
+WHEEL_KEY="$("$PYTHON" "$TOOL" key "$OMPL_DIR"/_ompl*.so)"
 echo "ompl $OMPL_VERSION in $OMPL_DIR, nanobind registry key $WHEEL_KEY"
 
 # nanobind's release of that registry version (OMPL pins its nanobind as a git submodule)
@@ -82,11 +83,11 @@ cmake -S "$HERE" -B "$WORK/build" -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE
 cmake --build "$WORK/build" -j 2 > "$WORK/build.log" 2>&1 \
   || { tail -n 30 "$WORK/build.log" >&2; fail "the compile failed (its log above)"; }
 BUILT="$(ls "$WORK"/build/_robot_time*.so)"
-BUILT_KEY="$("$PYTHON" "$HERE/abi_key.py" "$BUILT")"
+BUILT_KEY="$("$PYTHON" "$TOOL" key "$BUILT")"
 [[ "$BUILT_KEY" == "$WHEEL_KEY" ]] || fail "built registry key $BUILT_KEY differs from the wheel's $WHEEL_KEY"
 rm -f "$HERE"/_robot_time*.so "$HERE/build_info.json"
 cp "$BUILT" "$HERE/"
-"$PYTHON" "$HERE/abi_key.py" --record "$HERE/build_info.json" "$OMPL_VERSION" "$WHEEL_KEY" "$OMPL_DIR/libompl.so"
+"$PYTHON" "$TOOL" record "$HERE/build_info.json" "$OMPL_VERSION" "$WHEEL_KEY" "$OMPL_DIR/libompl.so"
 PYTHONPATH="$(dirname "$(dirname "$HERE")")${PYTHONPATH:+:$PYTHONPATH}" "$PYTHON" -c '
 import sys
 from planners._compiled import load

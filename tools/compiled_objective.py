@@ -1,11 +1,16 @@
-"""Two checks of the compiled objective (README.md), once ``make compiled`` has built it.
+"""The compiled robot-time objective's command line (planners/_compiled/README.md).
 
-``python -m planners._compiled.measure equal``: the compiled objective against the Python one
-(`planners.ompl_objective.RobotTimeObjective`) on random SE(2) state pairs, with the cases the cost
+``python tools/compiled_objective.py key LIBRARY``: the nanobind registry key compiled into an extension
+(`planners._compiled.abi_key.registry_key`), and ``record JSON VERSION KEY LIBOMPL``: the build's record
+that the loader checks; both run by planners/_compiled/build.sh.
+
+Two checks, once ``make compiled`` has built it. ``python tools/compiled_objective.py equal``: the
+compiled objective against the Python one (`planners.ompl_objective.RobotTimeObjective`) on random SE(2)
+state pairs, with the cases the cost
 singles out (leaving the start, reaching the goal, no displacement, a heading along the segment);
 fails when any cost differs by more than 1e-9 s.
 
-``python -m planners._compiled.measure bench [MAP] [RUNS] [PLANNER]``: the OMPL planner (default
+``python tools/compiled_objective.py bench [MAP] [RUNS] [PLANNER]``: the OMPL planner (default
 ``ompl:RRTstar``) on the map's own query under ``length``, ``robot-time`` with the Python objective and
 ``robot-time`` with the compiled one (the planner option ``objective_impl``), the same seeds and the same
 number of iterations (the planners' deterministic budget), and the planning time per collision check (us)
@@ -14,14 +19,14 @@ of each.
 
 from __future__ import annotations
 
+import json
 import math
 import statistics
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-__all__ = ["bench", "equal"]
 
 
 def _pair(rng: np.random.Generator, i: int, start: tuple[float, float], goal: tuple[float, float]) -> Any:
@@ -39,10 +44,9 @@ def equal(pairs: int = 100_000) -> float:
     """The largest difference (s) between the two objectives' costs over `pairs` pairs and two timings."""
     import ompl.base as ob
 
+    from planners._compiled import compiled_objective, load
     from planners.ompl_objective import RobotTimeObjective
     from toolkit.world import RobotTiming
-
-    from . import compiled_objective, load
 
     if load()[0] is None:
         raise SystemExit(f"measure: error: {load()[1]}")
@@ -70,9 +74,8 @@ def equal(pairs: int = 100_000) -> float:
 def bench(map_name: str = "map1", runs: int = 3, planner_name: str = "ompl:RRTstar") -> dict[str, float]:
     """The median planning time per collision check (us) of each variant, one line per run printed."""
     from planners import PlanningProblem, make_planner
+    from planners._compiled import load
     from toolkit.world import CollisionChecker, RobotTiming, load_map
-
-    from . import load
 
     if load()[0] is None:
         raise SystemExit(f"measure: error: {load()[1]}")
@@ -101,6 +104,17 @@ def bench(map_name: str = "map1", runs: int = 3, planner_name: str = "ompl:RRTst
 
 
 def _main(argv: list[str]) -> int:
+    from planners._compiled.abi_key import file_digest, registry_key
+
+    if argv[:1] == ["key"] and len(argv) == 2:
+        key = registry_key(Path(argv[1]))
+        print(key)
+        return 0 if key else 1
+    if argv[:1] == ["record"] and len(argv) == 5:
+        out, version, key, libompl = argv[1:]
+        record = {"ompl": version, "registry_key": key, "libompl_sha256": file_digest(Path(libompl))}
+        Path(out).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+        return 0
     if argv[:1] == ["equal"]:
         worst = equal()
         print(f"largest |python - compiled| cost: {worst:.3e} s")
@@ -112,7 +126,8 @@ def _main(argv: list[str]) -> int:
         ratios = ", ".join(f"{k}/length x{med[k] / med['length']:.2f}" for k in ("python", "compiled"))
         print("median us/check: " + ", ".join(f"{k} {v:.1f}" for k, v in med.items()) + "; " + ratios)
         return 0
-    print("usage: python -m planners._compiled.measure equal | bench [MAP] [RUNS] [PLANNER]", file=sys.stderr)
+    print("usage: python tools/compiled_objective.py key LIBRARY | record JSON VERSION KEY LIBOMPL | equal | "
+          "bench [MAP] [RUNS] [PLANNER]", file=sys.stderr)
     return 2
 
 
