@@ -9,7 +9,9 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
 1. **Start.** One full sweep. The robot knows it stands on a waypoint, so it tells which one and its
    heading by trying them all (`fit_pose`: every waypoint, every heading a degree apart), as the
    course's own place recognition does; the belief is reset to a narrow Gaussian there
-   (`ChallengeConfig.prior_std_cm`, `prior_std_deg`).
+   (`ChallengeConfig.prior_std_cm`, `prior_std_deg`). With `ChallengeConfig.facing_sweep` (the
+   default) the robot then turns toward its first leg and sweeps again, and the two sweeps, one turned
+   by the odometry's turn, are fitted together (`joined`): which waypoint, and the heading.
 2. **Drive.** A path from the estimate to the next waypoint (the planner, with the robot radius plus
    `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; a straight line when no
    path exists at all), driven leg by leg: turn toward the leg's end from the estimate, then moves of
@@ -28,6 +30,10 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    robot's offset). `ChallengeFix.oracle` gives the belief the truth's heading or pose after each sweep
    instead: not a policy, a ceiling to measure the policy against (simulated robots only). A sweep the
    sonar refuses (the robot is too far from the waypoint for any real sweep) ends the mission there.
+   With `ChallengeConfig.facing_sweep`, before the next leg the robot turns toward it and sweeps again:
+   the heading is then fitted on both sweeps of the waypoint together and weighed against the
+   prediction made before the first (`WaypointSweeps.face_next_leg`), so the heading the open-loop leg
+   starts from rests on twice the readings, taken from two headings.
 
 A move that makes no headway (the watchdog stopped it at once, or the wheels stalled against a wall
 the sonar did not hear) ends the leg: driving on would push against the wall again.
@@ -109,6 +115,9 @@ class ChallengeConfig(Typed):
     heading_span_deg: float = Field(default=30.0, ge=0,
                                     description="Headings tried around the predicted one at a waypoint (deg).")
     start_retries: int = Field(default=1, ge=0, description="Other start hypotheses tried when the first leg fails.")
+    facing_sweep: bool = Field(default=True, description=(
+        "After the fix at the start and at each waypoint, turn toward the next leg and sweep again; the "
+        "two sweeps are fitted together (false: one sweep a stop)."))
     fix: ChallengeFix = ChallengeFix()
     sonar: ChallengeSonar = ChallengeSonar()
 
@@ -210,6 +219,9 @@ class WaypointSweeps:
         self.checkers = [make_checker(m, radius + config.margin_cm), make_checker(m, radius)]
         self.estimate: PoseEstimate | None = None
         self.trajectory: list[Pose] = [robot.true_pose]
+        self.last_fix: tuple[Scan, PoseEstimate, XY] | None = None
+        """The sweep of the last waypoint, the prediction it corrected and the waypoint, while the
+        heading fix may still take a facing sweep (`face_next_leg`)."""
 
     # -- the start ------------------------------------------------------------------------------------
     def localise_start(self, course: list[XY]) -> list[Pose]:
@@ -218,6 +230,13 @@ class WaypointSweeps:
         scan = self.robot.ultrascan()
         ranked = [pose for _, pose in rank_places(self.map, scan, course)]
         self._settle(ranked[0])
+        if self.cfg.facing_sweep:
+            best = ranked[0]
+            turn, more = self._face_and_sweep(course_from(course, course.index((best.x, best.y)))[1])
+            if more is not None:
+                ranked = [pose for _, pose in rank_places(self.map, joined(scan, more, turn), course)]
+                best = ranked[0]
+                self._settle(Pose(best.x, best.y, float(wrap_angle(best.theta + turn))))
         return ranked
 
     def restart_from(self, believed: Pose, instead: Pose) -> None:
@@ -240,6 +259,37 @@ class WaypointSweeps:
         cov = np.diag([self.cfg.prior_std_cm ** 2] * 2 + [heading_sd ** 2])
         self.localiser.reset(Prior(pose, cov))
         self.estimate = self.localiser.estimate()
+
+    def _face_and_sweep(self, goal: XY) -> tuple[float, Scan | None]:
+        """Turn toward the first corner of the path to `goal` and sweep: the turn (rad, as commanded and
+        predicted) and the sweep (None when the sonar refuses it)."""
+        assert self.estimate is not None
+        corner, p = self._plan(goal)[1], self.estimate.pose
+        turn = float(angle_diff(math.atan2(corner[1] - p.y, corner[0] - p.x), p.theta))
+        self._act(turn, 0.0)
+        try:
+            return turn, self.robot.ultrascan()
+        except RobotError:
+            return turn, None
+
+    def face_next_leg(self, goal: XY) -> None:
+        """With `ChallengeConfig.facing_sweep`, turn toward the leg to `goal` and sweep again at the
+        waypoint just fixed: the heading is fitted on both of its sweeps together (`joined`) and
+        weighed against the prediction made before the first (`fixed_heading`), then turned by the
+        turn. Nothing to do without a pending fix (the start took its own, or the fix trusted the
+        localiser)."""
+        pending, self.last_fix = self.last_fix, None
+        if not self.cfg.facing_sweep or pending is None:
+            return
+        first, predicted, waypoint = pending
+        turn, more = self._face_and_sweep(goal)
+        if more is None:
+            return
+        heading, spread = self.fixed_heading(joined(first, more, turn), predicted, waypoint)
+        assert self.estimate is not None
+        here = self.estimate.pose
+        self._settle(Pose(here.x, here.y, float(wrap_angle(heading + turn))), spread)
+        self._apply_oracle()
 
     # -- driving ----------------------------------------------------------------------------------------
     def _plan(self, goal: XY) -> FloatArray:
@@ -345,6 +395,7 @@ class WaypointSweeps:
             else:
                 heading, spread = self.fixed_heading(scan, predicted, waypoint)
                 self._settle(Pose(predicted.pose.x, predicted.pose.y, heading), spread)
+            self.last_fix = None if trusted else (scan, predicted, waypoint)
             self._apply_oracle()
             if not trusted or _distance(self.estimate.pose, waypoint) <= self.cfg.fix.correction_cm or \
                     attempt == self.cfg.fix.max_corrections:
@@ -353,6 +404,19 @@ class WaypointSweeps:
         assert self.estimate is not None
         return WaypointVisit(waypoint, round(_distance(self.robot.true_pose, waypoint), 3),
                              round(_distance(self.estimate.pose, waypoint), 3), sweeps, note)
+
+
+def joined(first: Scan, second: Scan, turn_rad: float) -> Scan:
+    """Two sweeps taken at one place, the robot turned by `turn_rad` between them, as one sweep from the
+    heading of the `first`: the `second`'s angles are turned by `turn_rad`.
+
+    >>> a = Scan(np.array([0.0]), np.array([50.0]), np.array([True]))
+    >>> both = joined(a, Scan(np.array([0.0]), np.array([80.0]), np.array([True])), math.pi / 2)
+    >>> np.degrees(both.angles).tolist(), both.ranges.tolist()
+    ([0.0, 90.0], [50.0, 80.0])
+    """
+    return Scan(np.concatenate([first.angles, second.angles + turn_rad]),
+                np.concatenate([first.ranges, second.ranges]), np.concatenate([first.valid, second.valid]))
 
 
 def weighed_heading(predicted: float, predicted_var: float, fitted: float, fitted_var: float) -> tuple[float, float]:
@@ -403,6 +467,7 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
     route, k, retries = course_from(course, course.index(report.start_match)), 1, 0
     report.status = "done"
     while k < len(route):
+        policy.face_next_leg(route[k])
         policy.drive_to(route[k])
         visit = policy.sweep_and_correct(route[k])
         if visit.sweeps == 0 and k == 1 and retries < min(cfg.start_retries, len(hypotheses) - 1):
