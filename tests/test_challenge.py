@@ -211,7 +211,7 @@ def test_a_facing_sweep_turns_toward_the_next_leg_and_sweeps_again(real_set: Swe
         taken.clear()
         report = challenge_mission(real_set, "andrei-alpha/robotics", 1, 0, "paper-pf",
                                    noise=MotionNoise(model="absolute"), config=ChallengeConfig(facing_sweep=facing))
-        assert report.reached and len(report.visits) == 3
+        assert report.reached and len(report.visits) == 3 and report.sweeps_taken == len(taken)
         sweeps[facing] = list(taken)
     assert len(sweeps[False]) == 3 and len(sweeps[True]) == 5
     for stop, goal in zip(range(2), report.route[1:], strict=True):

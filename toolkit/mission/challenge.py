@@ -140,7 +140,8 @@ class WaypointVisit:
 
 @dataclass
 class ChallengeReport:
-    """The outcome of `run_challenge`: the visits (the start first), the truth's collisions and the robot time."""
+    """The outcome of `run_challenge`: the visits (the start first), the truth's collisions, the sweeps taken
+    (`sweeps_taken`: the facing sweeps too) and the robot time."""
 
     start: XY
     start_pose: Pose
@@ -152,6 +153,7 @@ class ChallengeReport:
     notes: list[str] = field(default_factory=list)
     collisions: int = 0
     robot_time_s: float = 0.0
+    sweeps_taken: int = 0
     status: str = ""
     reach_cm: float = 10.0
     trajectory: list[Pose] = field(default_factory=list)
@@ -176,7 +178,8 @@ class ChallengeReport:
                          + (f"; {v.note}" if v.note else ""))
         lines += [f"  {note}" for note in self.notes]
         lines.append(f"{'reached every waypoint' if self.reached else 'NOT reached'} within {self.reach_cm:g} cm: "
-                     f"worst {self.worst_error_cm:.1f} cm, {self.collisions} collision(s), robot time "
+                     f"worst {self.worst_error_cm:.1f} cm, {self.collisions} collision(s), "
+                     f"{self.sweeps_taken} sweep(s), robot time "
                      f"{self.robot_time_s:.1f} s; {self.status}")
         return "\n".join(lines)
 
@@ -185,7 +188,7 @@ class ChallengeReport:
                 "route": [list(p) for p in self.route], "localiser": self.localiser, "planner": self.planner,
                 "start_match": None if self.start_match is None else list(self.start_match),
                 "visits": [v.to_dict() for v in self.visits], "notes": list(self.notes), "reached": self.reached,
-                "worst_error_cm": self.worst_error_cm, "collisions": self.collisions,
+                "worst_error_cm": self.worst_error_cm, "collisions": self.collisions, "sweeps_taken": self.sweeps_taken,
                 "robot_time_s": self.robot_time_s, "status": self.status, "reach_cm": self.reach_cm}
 
 
@@ -219,6 +222,7 @@ class WaypointSweeps:
         self.checkers = [make_checker(m, radius + config.margin_cm), make_checker(m, radius)]
         self.estimate: PoseEstimate | None = None
         self.trajectory: list[Pose] = [robot.true_pose]
+        self.sweeps_taken = 0
         self.last_fix: tuple[Scan, PoseEstimate, XY] | None = None
         """The sweep of the last waypoint, the prediction it corrected and the waypoint, while the
         heading fix may still take a facing sweep (`face_next_leg`)."""
@@ -227,7 +231,7 @@ class WaypointSweeps:
     def localise_start(self, course: list[XY]) -> list[Pose]:
         """Which waypoint the robot stands on, and at which heading (`rank_places` over every waypoint
         and heading); the belief is reset around the best. Returns every waypoint's pose, best first."""
-        scan = self.robot.ultrascan()
+        scan = self.sweep()
         ranked = [pose for _, pose in rank_places(self.map, scan, course)]
         self._settle(ranked[0])
         if self.cfg.facing_sweep:
@@ -260,6 +264,12 @@ class WaypointSweeps:
         self.localiser.reset(Prior(pose, cov))
         self.estimate = self.localiser.estimate()
 
+    def sweep(self) -> Scan:
+        """A full sweep of the robot's sonar, counted in `sweeps_taken` when the sonar answers."""
+        scan = self.robot.ultrascan()
+        self.sweeps_taken += 1
+        return scan
+
     def _face_and_sweep(self, goal: XY) -> tuple[float, Scan | None]:
         """Turn toward the first corner of the path to `goal` and sweep: the turn (rad, as commanded and
         predicted) and the sweep (None when the sonar refuses it)."""
@@ -268,7 +278,7 @@ class WaypointSweeps:
         turn = float(angle_diff(math.atan2(corner[1] - p.y, corner[0] - p.x), p.theta))
         self._act(turn, 0.0)
         try:
-            return turn, self.robot.ultrascan()
+            return turn, self.sweep()
         except RobotError:
             return turn, None
 
@@ -380,7 +390,7 @@ class WaypointSweeps:
         sweeps, note = 0, ""
         for attempt in range(self.cfg.fix.max_corrections + 1):
             try:
-                scan = self.robot.ultrascan()
+                scan = self.sweep()
             except RobotError as exc:
                 note = f"sweep refused: {exc}"
                 break
@@ -485,6 +495,7 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
         k += 1
     report.collisions = int(robot.collisions)
     report.robot_time_s = float(robot.robot_time_s) - t0
+    report.sweeps_taken = policy.sweeps_taken
     report.trajectory = policy.trajectory
     return report
 
