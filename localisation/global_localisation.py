@@ -134,8 +134,7 @@ class RobotDriver:
 
 @typed_dataclass()
 class GlobalLocalisation:
-    """The global-localisation strategy and its settings (lengths in cm, angles in degrees; each field's
-    description: its ``Field``).
+    """The global-localisation strategy and its settings (lengths in cm, angles in degrees).
 
     The defaults are a mission's (`toolkit.mission.MissionConfig.global_localisation` is one, the
     mission's exploration policy), so the localiser benchmark measures what missions do.

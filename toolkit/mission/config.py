@@ -44,7 +44,7 @@ def _unit(unit: str) -> dict[str, Any]:
 
 
 class PlanningConfig(Typed):
-    """How paths are planned (each field's description: its ``Field``)."""
+    """How paths are planned."""
 
     time_s: float = Field(default=1.0, gt=0, json_schema_extra=_unit("s"),
                           description="Time budget of each planner query.")
@@ -72,7 +72,7 @@ class PlanningConfig(Typed):
 
 
 class DriveConfig(Typed):
-    """How a path is driven, leg by leg (each field's description: its ``Field``)."""
+    """How a path is driven, leg by leg."""
 
     move_step_cm: float = Field(default=10.0, gt=0, json_schema_extra=_unit("cm"), description=(
         "Longest single Move; the localiser predicts after each (the watchdog runs inside every Move)."))
@@ -92,8 +92,7 @@ class DriveConfig(Typed):
 
 
 class FixConfig(Typed):
-    """When and how the robot re-localises on the way (`toolkit.mission.fix_policy.FixPolicy`; each field's
-    description: its ``Field``).
+    """When and how the robot re-localises on the way (`toolkit.mission.fix_policy.FixPolicy`).
 
     A heading check (`check_turn_deg`) is one sweep of the front half, -90 to +90 degrees
     (`SweepConfig.heading_check_angles`), read against the believed heading (`localisation.heading_check`);
@@ -137,8 +136,7 @@ class FixConfig(Typed):
 
 
 class SweepConfig(Typed):
-    """How the sonar sweeps of the re-localisations read (the global ones: `GlobalLocalisation`; each field's
-    description: its ``Field``)."""
+    """How the sonar sweeps of the re-localisations read (the global ones: `GlobalLocalisation`)."""
 
     track_window_deg: float = Field(default=15.0, ge=0, le=180, json_schema_extra=_unit("deg"), description=(
         "A tracking sweep reads windows of +-this around the centres of track_windows (180: the full turn)."))
@@ -165,8 +163,7 @@ class SweepConfig(Typed):
 
 
 class FinalConfig(Typed):
-    """The final correction at the target (`toolkit.mission.final_correction.FinalCorrectionPolicy`; each
-    field's description: its ``Field``)."""
+    """The final correction at the target (`toolkit.mission.final_correction.FinalCorrectionPolicy`)."""
 
     goal_tolerance_cm: float = Field(default=0.5, gt=0, json_schema_extra=_unit("cm"),
                                      description="Corrections stop when the estimate is this close to the target.")
@@ -180,7 +177,7 @@ class FinalConfig(Typed):
 
 
 class LimitsConfig(Typed):
-    """When the mission gives up (each field's description: its ``Field``)."""
+    """When the mission gives up."""
 
     max_replans: int = Field(default=12, ge=0, description="Re-plans (after watchdog stops or deviations).")
     max_actions: int = Field(default=400, ge=1,
