@@ -205,6 +205,28 @@ def test_show_lists_the_options(capsys: pytest.CaptureFixture[str], monkeypatch:
     assert "unknown planner 'nope'" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("section", ["mission", "robot"])
+def test_settings_show_prints_the_rows_of_the_page(section: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli(["settings", "show", section, "--json"]) == 0
+    shown = {o["name"]: o for o in json.loads(capsys.readouterr().out)["settings"]}
+    rows = _documented_rows(f"{section}.")
+    assert set(shown) == set(rows)
+    assert all(rows[name][2] == o["range"] and rows[name][0] == o["type"] for name, o in shown.items())
+
+
+def test_settings_show_prints_the_chosen_sonar_models_fields(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli(["settings", "show", "sonar", "--sonar", "nxt", "--json"]) == 0
+    nxt = {o["name"] for o in json.loads(capsys.readouterr().out)["settings"]}
+    assert run_cli(["settings", "show", "sonar", "--json"]) == 0
+    ideal = {o["name"] for o in json.loads(capsys.readouterr().out)["settings"]}
+    assert ideal == {"sonar.noise_sd"} and {"sonar.noise_sd", "sonar.dropout_prob"} <= nxt
+
+
+def test_settings_show_refuses_an_unknown_section_and_a_stray_sonar(capsys: pytest.CaptureFixture[str]) -> None:
+    fails_cleanly(["settings", "show", "nope"], capsys, "no settings section 'nope'", "mission, challenge")
+    fails_cleanly(["settings", "show", "robot", "--sonar", "nxt"], capsys, "--sonar: only with the sonar section")
+
+
 @pytest.mark.parametrize(("sets", "message"), [
     (["n_samples=0"], "--set min-turn.n_samples: 0 is out of its range [1, inf)"),
     (["min-turn.n_samples=abc"], "--set min-turn.n_samples: expected an integer, got 'abc'"),

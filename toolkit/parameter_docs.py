@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["SCHEMA_FOLDER", "SCHEMA_PATTERNS", "option_schemas", "parameters_markdown"]
+__all__ = ["SCHEMA_FOLDER", "SCHEMA_PATTERNS", "SETTINGS_SECTIONS", "option_schemas", "parameters_markdown",
+           "settings_model"]
 
 SCHEMA_FOLDER = "reference/schemas"
 """Where the schemas live, relative to docs/."""
@@ -67,12 +68,31 @@ def _models() -> list[tuple[str, str, type]]:
     return out
 
 
-def _settings_models() -> dict[str, type]:
-    """The models of the settings sections that have a schema of their own here, by schema file name."""
+SETTINGS_SECTIONS = ("mission", "challenge", "robot", "sonar")
+"""The settings sections of ``--set`` besides the plug-ins' names (``--set SECTION.PATH=VALUE``)."""
+
+
+def settings_model(section: str, sonar: str = "ideal") -> tuple[type, tuple[str, ...]]:
+    """The typed model of a settings section (for ``sonar``, of the sonar model named `sonar`) and the dotted
+    fields of it that another section sets (the robot model's ``sonar``: the ``sonar`` section)."""
     from toolkit.mission import MissionConfig
     from toolkit.mission.challenge import ChallengeConfig
+    from toolkit.world import ConfigError
+    from toolkit.world.robot_model import RobotModel
+    from toolkit.world.sonar import SONAR_MODELS
 
-    return {"mission.json": MissionConfig, "challenge.json": ChallengeConfig}
+    models: dict[str, tuple[type, tuple[str, ...]]] = {
+        "mission": (MissionConfig, ()), "challenge": (ChallengeConfig, ()), "robot": (RobotModel, ("sonar",))}
+    if section == "sonar":
+        return SONAR_MODELS.get(sonar), ()
+    if section not in models:
+        raise ConfigError(f"no settings section {section!r}; sections: {', '.join(SETTINGS_SECTIONS)}")
+    return models[section]
+
+
+def _settings_models() -> dict[str, type]:
+    """The models of the settings sections that have a schema of their own here, by schema file name."""
+    return {"mission.json": settings_model("mission")[0], "challenge.json": settings_model("challenge")[0]}
 
 
 _SETTINGS_TITLES = {"mission.json": "nxtnav mission settings (--set mission.GROUP.FIELD=VALUE)",
@@ -123,29 +143,32 @@ def _shorthands() -> str:
 
 def _settings_parts() -> list[str]:
     """The settings sections of ``--set``: what each sets, the commands that take it, its fields."""
-    from toolkit.mission import MissionConfig
-    from toolkit.mission.challenge import ChallengeConfig
     from toolkit.world.params import markdown
-    from toolkit.world.robot_model import RobotModel
     from toolkit.world.sonar import SONAR_MODELS
+
+    def table(section: str, sonar: str = "ideal") -> str:
+        model, skipped = settings_model(section, sonar)
+        return markdown(model, f"{section}.", skipped)
 
     parts = [
         "## Settings sections of `--set`", "",
         "The first dotted part of a `--set` key names its section; a key whose first part is no section is "
-        "a plug-in's option (above). Each section below names the commands that take it. `--set` values are "
-        "read as YAML (`3`, `0.5`, `true`, `null`, a text) and may also come from a `--config` file.", "",
+        "a plug-in's option (above). Each section below names the commands that take it; `nxtnav settings "
+        "show SECTION` prints its table (`--sonar NAME` for a sonar model's, `--json` for scripts). `--set` "
+        "values are read as YAML (`3`, `0.5`, `true`, `null`, a text) and may also come from a `--config` "
+        "file.", "",
         "### `mission.`: how a mission runs", "",
         "`--set mission.GROUP.FIELD=VALUE` on `nxtnav run` (a simulated robot or a real NXT; not with "
         "`--sonar sweeps:DIR`, which runs the challenge) and `nxtnav paper` (every mission it runs). The "
         "defaults below are the ideal sonar's; with the nxt sonar (`--sonar nxt`, or `--robot nxt`) a "
         f"mission starts from its tuning (`MissionConfig.for_sonar`): {_nxt_tuning()}. In Python: "
         "`MissionConfig().with_options(**{\"fix.rule\": \"always\"})`.", "",
-        f"JSON Schema: {_link('mission.json')}", "", markdown(MissionConfig, "mission."), "",
+        f"JSON Schema: {_link('mission.json')}", "", table("mission"), "",
         "### `challenge.`: the challenge mission", "",
         "`--set challenge.KEY=VALUE` (groups `challenge.fix.KEY`, `challenge.sonar.KEY`) on `nxtnav run "
         "--sonar sweeps:DIR` and `nxtnav bench challenge`, which take no other section "
         "(`toolkit.mission.challenge`, [real sweeps](real-sonar.md)).", "",
-        f"JSON Schema: {_link('challenge.json')}", "", markdown(ChallengeConfig, "challenge."), "",
+        f"JSON Schema: {_link('challenge.json')}", "", table("challenge"), "",
         "### `robot.`: the robot model", "",
         "`--set robot.GROUP.FIELD=VALUE` on `nxtnav run` (a simulated robot: a real NXT's build comes from "
         "its `--profile`), `paper`, `plan`, `localise` and `bench localisers` (`toolkit.world.RobotModel`: "
@@ -153,7 +176,7 @@ def _settings_parts() -> list[str]:
         f"same fields: {_shorthands()}; a flag and a `--set` of the same field "
         "on one command line are an error. The sonar is chosen by `--sonar` and its fields are the `sonar.` "
         f"section below. JSON Schema: {_link('robot-model.json')} (the `robot` part of a run's "
-        "configuration).", "", markdown(RobotModel, "robot.", exclude=("sonar",)), "",
+        "configuration).", "", table("robot"), "",
         "### `sonar.`: the sonar model", "",
         "`--set sonar.FIELD=VALUE` on `nxtnav run` (a real NXT's too), `paper`, `plan`, `localise` and "
         "`bench localisers`, for the sonar `--sonar` chooses (`ideal` unless given, and on `plan`, which has "
@@ -161,7 +184,7 @@ def _settings_parts() -> list[str]:
         "the nxt model its localisers are told (the only section that command takes). The fields are the "
         f"sonar model's: the nxt model's are also what a sonar profile holds ({_link('sonar-profile.json')}).", ""]
     for name in SONAR_MODELS.names():
-        parts += [f"#### `{name}`", "", markdown(SONAR_MODELS.get(name), "sonar."), ""]
+        parts += [f"#### `{name}`", "", table("sonar", name), ""]
     return parts
 
 
