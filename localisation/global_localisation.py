@@ -30,13 +30,13 @@ import time
 from collections.abc import Mapping
 from dataclasses import replace
 from enum import StrEnum
-from typing import Any, Protocol
+from typing import Annotated, Any, Protocol
 
 import numpy as np
 from pydantic import Field, field_validator
 
 from toolkit.world import CollisionChecker, Map, RngLike, Robot, Scan, angle_diff, as_rng, make_checker
-from toolkit.world.typed import Count, NonNegative, Real, Whole, typed_dataclass, worded
+from toolkit.world.typed import Choices, Count, NonNegative, Real, Whole, typed_dataclass, worded
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 from .exploration import explore_direction, explore_from_modes, scan_explore_move
@@ -50,6 +50,11 @@ log = logging.getLogger(__name__)
 EXPLORATIONS = ("modes", "scan")
 """The exploration rules (`localisation.exploration`): ``modes`` (safe from every candidate pose),
 ``scan`` (the paper procedure's, from the last sweep alone)."""
+
+
+def _unit(unit: str) -> dict[str, Any]:
+    """A field's unit, as the parameter reference and the JSON Schema show it."""
+    return {"unit": unit}
 
 
 class DriveAction(StrEnum):
@@ -133,55 +138,36 @@ class GlobalLocalisation:
 
     The defaults are a mission's (`toolkit.mission.MissionConfig.global_localisation` is one, the
     mission's exploration policy), so the localiser benchmark measures what missions do.
-
-    Parameters
-    ----------
-    scan_step_deg : float
-        Turret step of the global sweeps (1: the paper's 360 readings).
-    align : bool
-        Look the paper's way (sweep, turn toward the minimum reading, sweep again, windows around the
-        axes); False: one sweep, windows around its minimum reading's direction.
-    process : bool
-        False gives the localiser every usable reading (the raw baseline) instead of the windows.
-    attempts : int
-        Attempts (each from a fresh reset) before giving up.
-    confirm : bool
-        Confirm a fix with a second, independent look from the same place.
-    confirm_all : bool
-        Confirm every fix, also those reached by exploring; False confirms single-place fixes only.
-    confirm_tolerance_cm : float
-        Two fixes further apart than this disagree.
-    max_explore_moves : int
-        Exploration moves per attempt.
-    explore_step_cm : float
-        Longest exploration move.
-    explore_heading_tolerance_deg : float
-        ``modes`` rule: a move must stay free with the candidates' headings off by this much either way
-        (three standard deviations of a belief that knows the place but not its heading, when more).
-    align_sweeps : int
-        Turn-and-sweep-again on the spot, per attempt, when no move is safe but the place is known.
-    place_cm : float
-        A belief knows the place when its position spread and all its modes are within this of its mean.
-    margin_cm : float
-        Clearance of exploration moves beyond the robot radius: half of it (``modes`` rule).
-    exploration : {"modes", "scan"}
-        The exploration rule (`EXPLORATIONS`).
     """
 
-    scan_step_deg: Real = Field(default=2.0, gt=0, le=90)
-    align: bool = False
-    process: bool = True
-    attempts: Whole = Field(default=3, ge=1)
-    confirm: bool = True
-    confirm_all: bool = True
-    confirm_tolerance_cm: NonNegative = 5.0
-    max_explore_moves: Count = 6
-    explore_step_cm: NonNegative = 30.0
-    explore_heading_tolerance_deg: NonNegative = 12.0
-    align_sweeps: Count = 2
-    place_cm: NonNegative = 4.0
-    margin_cm: NonNegative = 2.0
-    exploration: str = "modes"
+    scan_step_deg: Real = Field(default=2.0, gt=0, le=90, json_schema_extra=_unit("deg"),
+                                description="Turret step of the global sweeps (1: the paper's 360 readings).")
+    align: bool = Field(default=False, description=(
+        "Look the paper's way (sweep, turn toward the minimum reading, sweep again, windows around the axes); "
+        "false: one sweep, windows around its minimum reading's direction."))
+    process: bool = Field(default=True, description=(
+        "false gives the localiser every usable reading (the raw baseline) instead of the windows."))
+    attempts: Whole = Field(default=3, ge=1, description="Attempts (each from a fresh reset) before giving up.")
+    confirm: bool = Field(default=True,
+                          description="Confirm a fix with a second, independent look from the same place.")
+    confirm_all: bool = Field(default=True, description=(
+        "Confirm every fix, also those reached by exploring; false confirms single-place fixes only."))
+    confirm_tolerance_cm: NonNegative = Field(default=5.0, json_schema_extra=_unit("cm"),
+                                              description="Two fixes further apart than this disagree.")
+    max_explore_moves: Count = Field(default=6, description="Exploration moves per attempt.")
+    explore_step_cm: NonNegative = Field(default=30.0, json_schema_extra=_unit("cm"),
+                                         description="Longest exploration move.")
+    explore_heading_tolerance_deg: NonNegative = Field(default=12.0, json_schema_extra=_unit("deg"), description=(
+        "modes rule: a move must stay free with the candidates' headings off by this much either way (three "
+        "standard deviations of a belief that knows the place but not its heading, when more)."))
+    align_sweeps: Count = Field(default=2, description=(
+        "Turn-and-sweep-again on the spot, per attempt, when no move is safe but the place is known."))
+    place_cm: NonNegative = Field(default=4.0, json_schema_extra=_unit("cm"), description=(
+        "A belief knows the place when its position spread and all its modes are within this of its mean."))
+    margin_cm: NonNegative = Field(default=2.0, json_schema_extra=_unit("cm"), description=(
+        "Clearance of exploration moves beyond the robot radius: half of it (modes rule)."))
+    exploration: Annotated[str, Choices(lambda: EXPLORATIONS)] = Field(
+        default="modes", description="The exploration rule (localisation.exploration).")
 
     @field_validator("exploration")
     @classmethod

@@ -79,11 +79,12 @@ RANKS: dict[str, int] = {
     "toolkit.world": 0,
     "planners": 1, "localisation": 1, "toolkit.robots": 1,
     # shared services: files, formats, data sets and the plots of them
-    "toolkit.seeds": 2, "toolkit.number_format": 2, "toolkit.plotting": 2, "toolkit.parameter_docs": 2,
+    "toolkit.seeds": 2, "toolkit.number_format": 2, "toolkit.plotting": 2,
     "toolkit.real_sonar": 2, "toolkit.recordings": 2, "toolkit.ros": 2,
     "toolkit.mission": 3, "toolkit.view": 3,
     "toolkit.bench": 4,
     "toolkit.cli": 5, "toolkit": 5,  # the package's own __init__ (its version) and the CLI on top
+    "toolkit.parameter_docs": 5,  # the parameter reference: every model, the mission's and the CLI's flags
 }
 
 

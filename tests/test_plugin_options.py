@@ -1,6 +1,7 @@
 """Plug-in options (`toolkit.world.Options`): one model per planner and localiser, from which come the
 constructors' options, `--set` on `plan` and `localise`, `nxtnav planners|localisers show`, docs/parameters.md
-and the JSON Schemas of docs/reference/schemas (both kept equal to the models)."""
+and the JSON Schemas of docs/reference/schemas (both kept equal to the models). The same page documents the
+settings sections of `--set` (mission, challenge, robot, sonar) from their models."""
 
 from __future__ import annotations
 
@@ -11,13 +12,15 @@ from typing import Literal
 
 import numpy as np
 import pytest
-from conftest import run_cli
+from conftest import fails_cleanly, run_cli
 
 from localisation import LOCALISERS
 from localisation.declarations import AmclOptions, AmclSensor
 from planners import PLANNERS, PlanningProblem, make_planner
 from planners.declarations import planner_kwargs, planner_options
-from toolkit.parameter_docs import SCHEMA_FOLDER, option_schemas, parameters_markdown
+from toolkit.mission import MissionConfig
+from toolkit.mission.challenge import ChallengeConfig
+from toolkit.parameter_docs import SCHEMA_FOLDER, SCHEMA_PATTERNS, option_schemas, parameters_markdown
 from toolkit.world import ConfigError, Options, configure, load_map, make_checker, option
 from toolkit.world.params import describe, parse_sets
 
@@ -32,8 +35,8 @@ def test_docs_page_equals_the_models() -> None:
 def test_the_committed_schemas_equal_the_models() -> None:
     folder = DOCS / SCHEMA_FOLDER
     made = option_schemas()
-    # the folder also holds the file formats' schemas (tools/schemas.py): only the plug-ins' are compared
-    plugin_files = [*folder.glob("planner-*.json"), *folder.glob("localiser-*.json")]
+    # the folder also holds the file formats' schemas (tools/schemas.py): only this page's are compared
+    plugin_files = [path for pattern in SCHEMA_PATTERNS for path in folder.glob(pattern)]
     assert sorted(p.name for p in plugin_files) == sorted(made), \
         "python tools/parameter_docs.py --schemas docs/reference/schemas"
     for name, text in made.items():
@@ -43,6 +46,58 @@ def test_the_committed_schemas_equal_the_models() -> None:
     assert z_hit["minimum"] == 0.0 and z_hit["default"] == 0.95
     assert amcl["$defs"]["AmclSensor"]["properties"]["sigma_hit"]["robot"] is True
     assert amcl["properties"]["model"]["enum"] == ["auto", "beam", "field", "nxt-beam"]
+    mission = json.loads(made["mission.json"])
+    assert mission["$defs"]["DriveConfig"]["properties"]["max_legs"]["minimum"] == 1
+    assert json.loads(made["challenge.json"])["$defs"]["ChallengeFix"]["properties"]["oracle"]["default"] == "none"
+
+
+def _leaf_paths(cls: type, prefix: str) -> list[str]:
+    """Every leaf field of a pydantic model or dataclass, walked by pydantic's own field table."""
+    out = []
+    for name, info in cls.__pydantic_fields__.items():  # type: ignore[attr-defined]
+        kind = info.annotation
+        if isinstance(kind, type) and hasattr(kind, "__pydantic_fields__"):
+            out += _leaf_paths(kind, f"{prefix}{name}.")
+        else:
+            out.append(f"{prefix}{name}")
+    return out
+
+
+def _documented_rows(section: str) -> dict[str, list[str]]:
+    """The rows of docs/parameters.md whose option starts with `section` (``mission.``), by option: the cells."""
+    rows = {}
+    for line in (DOCS / "parameters.md").read_text().splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if line.startswith(f"| `{section}"):
+            rows[cells[0].strip("`")] = cells[1:]
+    return rows
+
+
+@pytest.mark.parametrize(("section", "model"), [("mission.", MissionConfig), ("challenge.", ChallengeConfig)])
+def test_every_mission_and_challenge_setting_has_a_row_under_its_set_path(section: str, model: type) -> None:
+    rows = _documented_rows(section)
+    assert sorted(rows) == sorted(_leaf_paths(model, section))
+    assert rows[f"{section}fix.rule" if section == "mission." else f"{section}fix.oracle"][2].startswith("one of ")
+
+
+@pytest.mark.parametrize(("key", "argv"), [
+    ("mission.drive.max_legs", ["run", "--map", "map1"]),
+    ("challenge.fix.gate_sigmas", ["bench", "challenge", "maps/real-nxt", "--out", "out"]),
+    ("robot.timing.drive_speed_cm_s", ["localise", "--pose", "20,20,0"]),
+    ("sonar.beam_rays", ["localise", "--pose", "20,20,0", "--sonar", "nxt"]),
+])
+def test_a_documented_setting_is_the_one_the_command_checks(key: str, argv: list[str], tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str],
+                                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    # the page's row names a key the command takes and the range it enforces: a value below it is refused
+    # with that key and that range, before anything runs or is written
+    range_text = _documented_rows(key)[key][2]
+    assert range_text.endswith("inf)") or range_text.endswith("]")
+    monkeypatch.chdir(tmp_path)
+    line = fails_cleanly([*argv, "--set", f"{key}=-1"], capsys, key.partition(".")[2], f"-1 is out of its range "
+                         f"{range_text}")
+    assert "no option" not in line
+    assert list(tmp_path.iterdir()) == []
 
 
 class _Group(Options):
@@ -148,6 +203,28 @@ def test_show_lists_the_options(capsys: pytest.CaptureFixture[str], monkeypatch:
     assert shown["sensor.z_hit"]["range"] == "[0, inf)" and shown["sensor.sigma_hit"]["robot"] is True
     assert run_cli(["planners", "show", "nope"]) == 2
     assert "unknown planner 'nope'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("section", ["mission", "robot"])
+def test_settings_show_prints_the_rows_of_the_page(section: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli(["settings", "show", section, "--json"]) == 0
+    shown = {o["name"]: o for o in json.loads(capsys.readouterr().out)["settings"]}
+    rows = _documented_rows(f"{section}.")
+    assert set(shown) == set(rows)
+    assert all(rows[name][2] == o["range"] and rows[name][0] == o["type"] for name, o in shown.items())
+
+
+def test_settings_show_prints_the_chosen_sonar_models_fields(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_cli(["settings", "show", "sonar", "--sonar", "nxt", "--json"]) == 0
+    nxt = {o["name"] for o in json.loads(capsys.readouterr().out)["settings"]}
+    assert run_cli(["settings", "show", "sonar", "--json"]) == 0
+    ideal = {o["name"] for o in json.loads(capsys.readouterr().out)["settings"]}
+    assert ideal == {"sonar.noise_sd"} and {"sonar.noise_sd", "sonar.dropout_prob"} <= nxt
+
+
+def test_settings_show_refuses_an_unknown_section_and_a_stray_sonar(capsys: pytest.CaptureFixture[str]) -> None:
+    fails_cleanly(["settings", "show", "nope"], capsys, "no settings section 'nope'", "mission, challenge")
+    fails_cleanly(["settings", "show", "robot", "--sonar", "nxt"], capsys, "--sonar: only with the sonar section")
 
 
 @pytest.mark.parametrize(("sets", "message"), [

@@ -14,7 +14,8 @@ from typer.exceptions import TyperException
 from ..world import NxtnavError
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "Interrupted", "app", "bench_app",
-           "brick_app", "click_command", "fail", "import_app", "main", "maps_app", "nxt_app", "sonar_app"]
+           "brick_app", "click_command", "fail", "import_app", "main", "maps_app", "nxt_app", "settings_app",
+           "sonar_app"]
 
 EXIT_OK = 0
 """The command did what was asked."""
@@ -50,9 +51,12 @@ planners_app = typer.Typer(help="The planners and their declared options.", no_a
                            context_settings=_SETTINGS)
 localisers_app = typer.Typer(help="The localisers, their declared options and how each takes the robot model.",
                              no_args_is_help=True, context_settings=_SETTINGS)
+settings_app = typer.Typer(help="The settings sections of --set (mission, challenge, robot, sonar) and their fields.",
+                           no_args_is_help=True, context_settings=_SETTINGS)
 app.add_typer(maps_app, name="maps")
 app.add_typer(planners_app, name="planners")
 app.add_typer(localisers_app, name="localisers")
+app.add_typer(settings_app, name="settings")
 app.add_typer(bench_app, name="bench")
 app.add_typer(nxt_app, name="nxt")
 app.add_typer(brick_app, name="brick")

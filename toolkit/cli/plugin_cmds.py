@@ -1,15 +1,17 @@
 """`nxtnav planners list|show|check` and `nxtnav localisers list|show|check`: the plug-ins, their declared
-options, and a check of a plug-in of your own against what the test suite demands."""
+options, and a check of a plug-in of your own against what the test suite demands; `nxtnav settings show`:
+the fields of a settings section of ``--set`` (mission, challenge, robot, sonar)."""
 
 from __future__ import annotations
 
 import typer
 from rich.table import Table
 
-from toolkit.world import NxtnavError, Options
+from toolkit.parameter_docs import SETTINGS_SECTIONS
+from toolkit.world import NxtnavError
 from toolkit.world.params import describe
 
-from .app import localisers_app, planners_app
+from .app import localisers_app, planners_app, settings_app
 from .choices import one_of
 from .options import JsonFlag
 from .tables import NEVER_CUT, print_json, print_table
@@ -21,17 +23,17 @@ def _default_text(default: object) -> str:
     return "null" if default is None else str(default).lower() if isinstance(default, bool) else str(default)
 
 
-def _params_doc(model: type[Options] | None) -> list[dict[str, object]]:
+def _params_doc(model: type | None, prefix: str = "", exclude: tuple[str, ...] = ()) -> list[dict[str, object]]:
     """The options as JSON-ready dicts: dotted name, type, default, range, unit, description, robot."""
-    return [o.to_dict() for o in describe(model)] if model is not None else []
+    return [o.to_dict() for o in describe(model, prefix, exclude)] if model is not None else []
 
 
-def _table(title: str, model: type[Options]) -> Table:
+def _table(title: str, model: type, prefix: str = "", exclude: tuple[str, ...] = ()) -> Table:
     table = Table(title=title)
     table.add_column("option", **NEVER_CUT)  # type: ignore[arg-type]
     for column in ("type", "default", "range", "unit", "description"):
         table.add_column(column)
-    for p in describe(model):
+    for p in describe(model, prefix, exclude):
         default = _default_text(p.default)
         table.add_row(p.name, p.type_name, default, p.range_text, p.unit,
                       p.description + (" [dim](from the robot model)[/dim]" if p.robot else ""))
@@ -104,6 +106,27 @@ def localisers_show(name: str = typer.Argument(..., help="A localiser " + one_of
     for facet, how in mapping.items():
         robot_table.add_row(facet, how if isinstance(how, str) else ", ".join(how))
     print_table(robot_table)
+
+
+@settings_app.command("show")
+def settings_show(section: str = typer.Argument(..., help=f"A settings section {{{', '.join(SETTINGS_SECTIONS)}}}."),
+                  sonar: str | None = typer.Option(None, "--sonar", help="With the sonar section: the sonar model "
+                                                   "whose fields are shown " + one_of("sonar") + " (default ideal)."),
+                  as_json: JsonFlag = False) -> None:
+    """A settings section's fields, as --set SECTION.PATH=VALUE names them: type, default, range, unit,
+    description (docs/parameters.md says which commands take each section)."""
+    from toolkit.parameter_docs import settings_model
+
+    if sonar is not None and section != "sonar":
+        raise NxtnavError(f"--sonar: only with the sonar section, not {section}")
+    sonar = sonar or "ideal"
+    model, skipped = settings_model(section, sonar)
+    if as_json:
+        print_json({"section": section, **({"sonar": sonar} if section == "sonar" else {}),
+                    "settings": _params_doc(model, f"{section}.", skipped)})
+        return
+    title = f"{section}{f' ({sonar})' if section == 'sonar' else ''}: settings (--set {section}.PATH=VALUE)"
+    print_table(_table(title, model, f"{section}.", skipped))
 
 
 def _load_plugin_class(spec: str, base: type, kind: str) -> type:

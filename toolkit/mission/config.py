@@ -1,9 +1,10 @@
 """How a mission is run: `MissionConfig`, a frozen tree of small groups.
 
-Each group documents its own fields (lengths in cm, angles in degrees unless the name says otherwise,
-times in s). `MissionConfig.with_options` sets fields from flat ``key=value`` options, as
-the mission settings of ``paper_pareto`` are written: a key is ``group.field`` (``fix.rule``) or a field
-name that only one group has (``rule``). The command line sets them with ``--set mission.group.field=V``.
+Each field declares its type, default, range, unit and description once, in its ``Field`` (lengths in
+cm, angles in degrees unless the name says otherwise, times in s); docs/parameters.md lists them,
+generated. `MissionConfig.with_options` sets fields from flat ``key=value`` options, as the mission
+settings of ``paper_pareto`` are written: a key is ``group.field`` (``fix.rule``) or a field name that
+only one group has (``rule``). The command line sets them with ``--set mission.group.field=V``.
 `MissionConfig.for_sonar` holds the tuning for the ``nxt`` sensor.
 
 Every group is a typed model (`toolkit.world.typed.Typed`): frozen, unknown fields refused, each field's
@@ -37,27 +38,25 @@ TRACKING = ("continue", "prior")
 """How a tracking re-localisation starts (`FixConfig.tracking`)."""
 
 
+def _unit(unit: str) -> dict[str, Any]:
+    """A field's unit, as `toolkit.world.params.markdown` and the JSON Schema show it."""
+    return {"unit": unit}
+
+
 class PlanningConfig(Typed):
-    """How paths are planned.
+    """How paths are planned."""
 
-    Attributes
-    ----------
-    time_s : float
-        Time budget of each planner query (s).
-    safety_margin_cm : float
-        Clearance added to the robot radius when planning; half of it, then the bare radius, when no
-        path exists with it. Starts and targets closer to a wall join the path by a short straight leg.
-    planner_options : mapping
-        Keyword arguments of `make_planner` when the planner is given by name.
-    objective : str or None
-        What the planner minimises (``length``, ``turns``, ``robot-time``; None: its own default), when
-        it is given by name; its ``objective`` in `planner_options` wins.
-    """
-
-    time_s: float = Field(default=1.0, gt=0)
-    safety_margin_cm: float = Field(default=2.0, ge=0)
-    planner_options: dict[str, Any] = Field(default_factory=dict)
-    objective: str | None = None
+    time_s: float = Field(default=1.0, gt=0, json_schema_extra=_unit("s"),
+                          description="Time budget of each planner query.")
+    safety_margin_cm: float = Field(default=2.0, ge=0, json_schema_extra=_unit("cm"), description=(
+        "Clearance added to the robot radius when planning; half of it, then the bare radius, when no path "
+        "exists with it. Starts and targets closer to a wall join the path by a short straight leg."))
+    planner_options: dict[str, Any] = Field(default_factory=dict, description=(
+        "Keyword arguments of make_planner when the planner is given by name (nxtnav run fills it from "
+        "--set PLANNER.KEY=VALUE)."))
+    objective: str | None = Field(default=None, description=(
+        "What the planner minimises (length, turns, robot-time; null: its own default), when it is given by "
+        "name; an objective in planner_options wins."))
 
     @field_validator("objective")
     @classmethod
@@ -73,112 +72,86 @@ class PlanningConfig(Typed):
 
 
 class DriveConfig(Typed):
-    """How a path is driven, leg by leg.
+    """How a path is driven, leg by leg."""
 
-    Attributes
-    ----------
-    move_step_cm : float
-        Longest single Move; the localiser predicts after each (the watchdog runs inside every Move).
-    waypoint_tolerance_cm : float
-        A waypoint is reached when the estimate is this close to it.
-    max_legs : int
-        Legs (each re-aimed from the estimate) toward one waypoint before re-planning.
-    heading_tolerance_deg : float
-        A leg ends where the straight drive would touch a wall were the heading off by this much
-        either way (the error a sonar localiser makes most).
-    min_leg_cm : float
-        Legs are never cut shorter than this.
-    leg_margin_cm : float
-        Extra clearance of that check, for the estimate's position error (from estimates that have it).
-    """
-
-    move_step_cm: float = Field(default=10.0, gt=0)
-    waypoint_tolerance_cm: float = Field(default=1.0, gt=0)
-    max_legs: int = Field(default=12, ge=1)
-    heading_tolerance_deg: float = Field(default=8.0, ge=0)
-    min_leg_cm: float = Field(default=4.0, ge=0)
-    leg_margin_cm: float = Field(default=0.0, ge=0)
+    move_step_cm: float = Field(default=10.0, gt=0, json_schema_extra=_unit("cm"), description=(
+        "Longest single Move; the localiser predicts after each (the watchdog runs inside every Move)."))
+    waypoint_tolerance_cm: float = Field(default=1.0, gt=0, json_schema_extra=_unit("cm"),
+                                         description="A waypoint is reached when the estimate is this close to it.")
+    max_legs: int = Field(default=12, ge=1,
+                          description="Legs (each re-aimed from the estimate) toward one waypoint before re-planning.")
+    heading_tolerance_deg: float = Field(default=8.0, ge=0, json_schema_extra=_unit("deg"), description=(
+        "A leg ends where the straight drive would touch a wall were the heading off by this much either way "
+        "(the error a sonar localiser makes most)."))
+    min_leg_cm: float = Field(default=4.0, ge=0, json_schema_extra=_unit("cm"),
+                              description="Legs are never cut shorter than this.")
+    leg_margin_cm: float = Field(default=0.0, ge=0, json_schema_extra=_unit("cm"), description=(
+        "Extra clearance of the heading_tolerance_deg check, for the estimate's position error (from "
+        "estimates that have it)."))
 
 
 
 class FixConfig(Typed):
     """When and how the robot re-localises on the way (`toolkit.mission.fix_policy.FixPolicy`).
 
-    Attributes
-    ----------
-    rule : {"spread", "always"}
-        Where a leg ends, ``always`` re-localises; ``spread`` only when the belief, predicted through the
-        motion, could not drive on: its position spread across the next stretch plus its heading
-        spread over the stretch's length, times `spread_sigmas`, must leave the robot disc clear of
-        the walls. A missed waypoint is passed when the belief can drive on to the next one.
-    relocalise_every_cm : float or None
-        Legs longer than this end on the way to the waypoint (None: legs end at waypoints only).
-    first_leg_cm : float or None
-        The first leg after a global fix is at most this long, so a heading error of the fix shows
-        as a sideways offset before it brings the robot to a wall (None: no short first leg).
-    spread_sigmas : float
-        Standard deviations of the belief the ``spread`` rule keeps clear of the walls.
-    spread_min_heading_deg : float
-        The ``spread`` rule takes the heading spread as at least this (a sonar belief can be
-        narrower than its heading error).
-    spread_drift : float
-        ... and the position spread as at least this fraction of the distance driven since the last fix.
-    tracking : {"continue", "prior"}
-        A re-localisation starts from the localiser's predicted belief, or from a Gaussian prior around
-        the last estimate; either falls back to the other, then to a global localisation.
-    tracking_std_cm, tracking_std_deg : float
-        Smallest standard deviations of that prior.
-    check_turn_deg : float or None
-        Once the turns toward waypoints since the heading was last checked add up to this many
-        degrees, a leg whose way to its waypoint would meet a wall were its heading off by half of
-        them (`toolkit.mission.driving.SLIP_SHARE`) is preceded by a heading check: one sweep of the
-        front half, -90 to +90 degrees (`SweepConfig.heading_check_angles`), read against the believed heading
-        (`localisation.heading_check`). A turn that slipped (wheels that skid turn the robot less
-        than the tachometers say) is seen before the leg meets a wall, and the mission re-localises
-        from the heading the sweep fits and plans again; a sweep that agrees leaves the belief as it
-        was. None: no check (the default; the ``nxt`` sonar's tuning, `MissionConfig.for_sonar`,
-        checks from 20 degrees).
+    A heading check (`check_turn_deg`) is one sweep of the front half, -90 to +90 degrees
+    (`SweepConfig.heading_check_angles`), read against the believed heading (`localisation.heading_check`);
+    the legs it guards are those whose way to the waypoint would meet a wall were the heading off by
+    half the turns (`toolkit.mission.driving.SLIP_SHARE`). A turn that slipped (wheels that skid turn the
+    robot less than the tachometers say) is seen before the leg meets a wall, and the mission
+    re-localises from the heading the sweep fits and plans again; a sweep that agrees leaves the belief
+    as it was. The ``nxt`` sonar's tuning (`MissionConfig.for_sonar`) checks from 20 degrees.
     """
 
-    rule: Literal["always", "spread"] = "spread"
-    relocalise_every_cm: float | None = Field(default=None, gt=0)
-    first_leg_cm: float | None = Field(default=6.0, gt=0)
-    spread_sigmas: float = Field(default=3.0, ge=0)
-    spread_min_heading_deg: float = Field(default=1.0, ge=0)
-    spread_drift: float = Field(default=0.05, ge=0)
-    tracking: Literal["continue", "prior"] = "continue"
-    tracking_std_cm: float = Field(default=4.0, gt=0)
-    tracking_std_deg: float = Field(default=8.0, gt=0)
-    check_turn_deg: float | None = Field(default=None, gt=0)
+    rule: Literal["always", "spread"] = Field(default="spread", description=(
+        "Where a leg ends, always re-localises; spread only when the belief, predicted through the motion, "
+        "could not drive on: its position spread across the next stretch plus its heading spread over the "
+        "stretch's length, times spread_sigmas, must leave the robot disc clear of the walls. A missed "
+        "waypoint is passed when the belief can drive on to the next one."))
+    relocalise_every_cm: float | None = Field(default=None, gt=0, json_schema_extra=_unit("cm"), description=(
+        "Legs longer than this end on the way to the waypoint (null: legs end at waypoints only)."))
+    first_leg_cm: float | None = Field(default=6.0, gt=0, json_schema_extra=_unit("cm"), description=(
+        "The first leg after a global fix is at most this long, so a heading error of the fix shows as a "
+        "sideways offset before it brings the robot to a wall (null: no short first leg)."))
+    spread_sigmas: float = Field(default=3.0, ge=0, description=(
+        "Standard deviations of the belief the spread rule keeps clear of the walls."))
+    spread_min_heading_deg: float = Field(default=1.0, ge=0, json_schema_extra=_unit("deg"), description=(
+        "The spread rule takes the heading spread as at least this (a sonar belief can be narrower than its "
+        "heading error)."))
+    spread_drift: float = Field(default=0.05, ge=0, json_schema_extra=_unit("fraction"), description=(
+        "The spread rule takes the position spread as at least this fraction of the distance driven since "
+        "the last fix."))
+    tracking: Literal["continue", "prior"] = Field(default="continue", description=(
+        "A re-localisation starts from the localiser's predicted belief (continue), or from a Gaussian prior "
+        "around the last estimate (prior); either falls back to the other, then to a global localisation."))
+    tracking_std_cm: float = Field(default=4.0, gt=0, json_schema_extra=_unit("cm"),
+                                   description="Smallest position standard deviation of the tracking prior.")
+    tracking_std_deg: float = Field(default=8.0, gt=0, json_schema_extra=_unit("deg"),
+                                    description="Smallest heading standard deviation of the tracking prior.")
+    check_turn_deg: float | None = Field(default=None, gt=0, json_schema_extra=_unit("deg"), description=(
+        "Once the turns toward waypoints since the heading was last checked add up to this, a leg that would "
+        "meet a wall were its heading off by half of them is preceded by a heading check, a sweep of the "
+        "front half (null: no check)."))
 
 
 
 class SweepConfig(Typed):
-    """How the sonar sweeps of the re-localisations read (the global ones: `GlobalLocalisation`).
+    """How the sonar sweeps of the re-localisations read (the global ones: `GlobalLocalisation`)."""
 
-    Attributes
-    ----------
-    track_window_deg : float
-        A tracking sweep reads windows of +-this around the centres of `track_windows` (180: the full turn).
-    track_scan_step_deg : float
-        Turret step inside those windows.
-    track_windows : {"sides", "axes"}
-        ``sides``: ahead and to the sides (-90, 0, 90 degrees); ``axes``: the paper's four (0, 90, 180, 270).
-    track_align : bool
-        Re-localise the paper's way (full sweep, align, full sweep); the window settings are then ignored.
-    final_window_deg, final_scan_step_deg : float
-        Window and step of the sweeps at the target (one window, ahead).
-    localise_options : mapping
-        Extra keyword arguments of every look (`localisation.procedure.look`), global or tracking.
-    """
-
-    track_window_deg: float = Field(default=15.0, ge=0, le=180)
-    track_scan_step_deg: float = Field(default=2.0, gt=0, le=90)
-    track_windows: Literal["sides", "axes"] = "sides"
-    track_align: bool = False
-    final_window_deg: float = Field(default=15.0, ge=0, le=180)
-    final_scan_step_deg: float = Field(default=1.0, gt=0, le=90)
-    localise_options: dict[str, Any] = Field(default_factory=dict)
+    track_window_deg: float = Field(default=15.0, ge=0, le=180, json_schema_extra=_unit("deg"), description=(
+        "A tracking sweep reads windows of +-this around the centres of track_windows (180: the full turn)."))
+    track_scan_step_deg: float = Field(default=2.0, gt=0, le=90, json_schema_extra=_unit("deg"),
+                                       description="Turret step inside those windows.")
+    track_windows: Literal["sides", "axes"] = Field(default="sides", description=(
+        "sides: ahead and to the sides (-90, 0, 90 degrees); axes: the paper's four (0, 90, 180, 270)."))
+    track_align: bool = Field(default=False, description=(
+        "Re-localise the paper's way (full sweep, align, full sweep); the window settings are then ignored."))
+    final_window_deg: float = Field(default=15.0, ge=0, le=180, json_schema_extra=_unit("deg"),
+                                    description="Window of the sweeps at the target (one window, ahead).")
+    final_scan_step_deg: float = Field(default=1.0, gt=0, le=90, json_schema_extra=_unit("deg"),
+                                       description="Turret step of the sweeps at the target.")
+    localise_options: dict[str, Any] = Field(default_factory=dict, description=(
+        "Extra keyword arguments of every look (localisation.procedure.look), global or tracking."))
 
 
     def heading_check_angles(self) -> NDArray[np.float64]:
@@ -190,65 +163,33 @@ class SweepConfig(Typed):
 
 
 class FinalConfig(Typed):
-    """The final correction at the target (`toolkit.mission.final_correction.FinalCorrectionPolicy`).
+    """The final correction at the target (`toolkit.mission.final_correction.FinalCorrectionPolicy`)."""
 
-    Attributes
-    ----------
-    goal_tolerance_cm : float
-        Corrections stop when the estimate is this close to the target.
-    max_corrections : int
-        Correction moves before giving up on the tolerance.
-    success_radius_cm : float
-        The mission succeeds when the estimate ends within this distance of the target.
-    reverse_cm : float
-        A correction up to this long toward a target behind the robot backs up instead of turning
-        around (0: always turn toward the target).
-    """
-
-    goal_tolerance_cm: float = Field(default=0.5, gt=0)
-    max_corrections: int = Field(default=6, ge=0)
-    success_radius_cm: float = Field(default=3.0, gt=0)
-    reverse_cm: float = Field(default=10.0, ge=0)
+    goal_tolerance_cm: float = Field(default=0.5, gt=0, json_schema_extra=_unit("cm"),
+                                     description="Corrections stop when the estimate is this close to the target.")
+    max_corrections: int = Field(default=6, ge=0, description="Correction moves before giving up on the tolerance.")
+    success_radius_cm: float = Field(default=3.0, gt=0, json_schema_extra=_unit("cm"), description=(
+        "The mission succeeds when the estimate ends within this distance of the target."))
+    reverse_cm: float = Field(default=10.0, ge=0, json_schema_extra=_unit("cm"), description=(
+        "A correction up to this long toward a target behind the robot backs up instead of turning around "
+        "(0: always turn toward the target)."))
 
 
 
 class LimitsConfig(Typed):
-    """When the mission gives up.
+    """When the mission gives up."""
 
-    Attributes
-    ----------
-    max_replans : int
-        Re-plans (after watchdog stops or deviations).
-    max_actions : int
-        Turn and Move commands (a guard against endless loops).
-    """
-
-    max_replans: int = Field(default=12, ge=0)
-    max_actions: int = Field(default=400, ge=1)
+    max_replans: int = Field(default=12, ge=0, description="Re-plans (after watchdog stops or deviations).")
+    max_actions: int = Field(default=400, ge=1,
+                             description="Turn and Move commands (a guard against endless loops).")
 
 
 
 class MissionConfig(Typed):
-    """How a mission is run: one group per concern, each documenting its fields.
-
-    Attributes
-    ----------
-    planning : PlanningConfig
-    drive : DriveConfig
-    fix : FixConfig
-    global_localisation : GlobalLocalisation
-        The global strategy, the mission's exploration policy (`localisation.global_localisation`); its
-        ``place_cm`` and ``margin_cm`` are its own settings (their defaults equal `FixConfig.tracking_std_cm`
-        and `PlanningConfig.safety_margin_cm`).
-    sweeps : SweepConfig
-    final : FinalConfig
-    limits : LimitsConfig
-    localiser_options : mapping
-        Keyword arguments of `make_localiser` when the localiser is given by name.
-    collision : {"index", "fcl"}
-        Backend of the mission's collision checks (`toolkit.world.make_checker`); the simulator's
-        watchdog and contacts use it too when the mission runs on it.
-    """
+    """How a mission is run: one group per concern, each field declared (with its description) in its
+    ``Field``. ``global_localisation`` is the global strategy, the mission's exploration policy
+    (`localisation.global_localisation`); its ``place_cm`` and ``margin_cm`` are its own settings (their
+    defaults equal `FixConfig.tracking_std_cm` and `PlanningConfig.safety_margin_cm`)."""
 
     planning: PlanningConfig = PlanningConfig()
     drive: DriveConfig = DriveConfig()
@@ -257,8 +198,12 @@ class MissionConfig(Typed):
     sweeps: SweepConfig = SweepConfig()
     final: FinalConfig = FinalConfig()
     limits: LimitsConfig = LimitsConfig()
-    localiser_options: dict[str, Any] = Field(default_factory=dict)
-    collision: Literal["index", "fcl"] = "index"
+    localiser_options: dict[str, Any] = Field(default_factory=dict, description=(
+        "Keyword arguments of make_localiser when the localiser is given by name (nxtnav run adds "
+        "--set LOCALISER.KEY=VALUE)."))
+    collision: Literal["index", "fcl"] = Field(default="index", description=(
+        "Backend of the mission's collision checks (toolkit.world.make_checker); the simulator's watchdog "
+        "and contacts use it too when the mission runs on it."))
 
 
     def with_options(self, **options: Any) -> MissionConfig:

@@ -40,7 +40,7 @@ toolkit.world.errors.ConfigError: n: the options are grouped: use search.n
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator, Mapping
+from collections.abc import Collection, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar, TypeVar
 
@@ -127,10 +127,12 @@ def _extra(info: FieldInfo) -> dict[str, Any]:
     return extra if isinstance(extra, dict) else {}
 
 
-def describe(cls: type[BaseModel]) -> list[OptionInfo]:
-    """Every option of `cls` (groups expanded, dotted names), in declaration order."""
-    return [OptionInfo(name, type_name(info), info.default, range_text(info), str(_extra(info).get("unit", "")),
-                       info.description or "", bool(_extra(info).get("robot"))) for name, info in fields_of(cls)]
+def describe(cls: type, prefix: str = "", exclude: Collection[str] = ()) -> list[OptionInfo]:
+    """Every option of `cls` (an `Options` or any `Typed` model or `typed_dataclass`; groups expanded, dotted
+    names after `prefix`), in declaration order; the dotted names of `exclude` (without `prefix`) left out."""
+    return [OptionInfo(prefix + name, type_name(info), info.get_default(call_default_factory=True), range_text(info),
+                       str(_extra(info).get("unit", "")), info.description or "", bool(_extra(info).get("robot")))
+            for name, info in fields_of(cls) if name not in exclude]
 
 
 def robot_paths(cls: type[BaseModel]) -> list[str]:
@@ -148,10 +150,10 @@ def _shown(value: Any) -> str:
     return f"`{value}`" if isinstance(value, str) else f"{value:g}" if isinstance(value, float) else str(value)
 
 
-def markdown(cls: type[BaseModel]) -> str:
-    """The options of `cls` as a Markdown table (the docs' parameter tables)."""
+def markdown(cls: type, prefix: str = "", exclude: Collection[str] = ()) -> str:
+    """The options of `cls` as a Markdown table (the docs' parameter tables), named as `describe` names them."""
     rows = ["| option | type | default | range | unit | description |", "|---|---|---|---|---|---|"]
-    for o in describe(cls):
+    for o in describe(cls, prefix, exclude):
         desc = o.description + (" *(from the robot model)*" if o.robot else "")
         rows.append(f"| `{o.name}` | {o.type_name} | {_shown(o.default)} | {o.range_text} | {o.unit} | {desc} |")
     return "\n".join(rows)

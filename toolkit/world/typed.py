@@ -201,11 +201,11 @@ def range_text(info: FieldInfo) -> str:
 
 
 def type_name(info: FieldInfo) -> str:
-    """``int``, ``float or null``, ``3 x float``, ``str``, ``model`` (an object the robot model sets)."""
+    """``int``, ``float or null``, ``3 x float``, ``str``, ``mapping``, ``model`` (an object the robot model sets)."""
     kinds = kinds_of(info.annotation)
     optional = type(None) in kinds
     kinds.discard(type(None))
-    names = {bool: "bool", int: "int", float: "float", str: "str"}
+    names = {bool: "bool", int: "int", float: "float", str: "str", dict: "mapping"}
     if kinds == {tuple}:
         inner = get_args(info.annotation)
         kind = f"{len(inner)} x {names.get(next(iter(kinds_of(inner[0]))), 'model')}"
