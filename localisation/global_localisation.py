@@ -36,7 +36,7 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from toolkit.world import CollisionChecker, Map, RngLike, Robot, Scan, angle_diff, as_rng, make_checker
-from toolkit.world.typed import Choices, Count, NonNegative, Real, Whole, typed_dataclass, worded
+from toolkit.world.typed import Choices, Count, NonNegative, Real, Whole, typed_dataclass, with_unit, worded
 
 from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
 from .exploration import explore_direction, explore_from_modes, scan_explore_move
@@ -51,10 +51,6 @@ EXPLORATIONS = ("modes", "scan")
 """The exploration rules (`localisation.exploration`): ``modes`` (safe from every candidate pose),
 ``scan`` (the paper procedure's, from the last sweep alone)."""
 
-
-def _unit(unit: str) -> dict[str, Any]:
-    """A field's unit, as the parameter reference and the JSON Schema show it."""
-    return {"unit": unit}
 
 
 class DriveAction(StrEnum):
@@ -140,7 +136,7 @@ class GlobalLocalisation:
     mission's exploration policy), so the localiser benchmark measures what missions do.
     """
 
-    scan_step_deg: Real = Field(default=2.0, gt=0, le=90, json_schema_extra=_unit("deg"),
+    scan_step_deg: Real = Field(default=2.0, gt=0, le=90, json_schema_extra=with_unit("deg"),
                                 description="Turret step of the global sweeps (1: the paper's 360 readings).")
     align: bool = Field(default=False, description=(
         "Look the paper's way (sweep, turn toward the minimum reading, sweep again, windows around the axes); "
@@ -152,19 +148,19 @@ class GlobalLocalisation:
                           description="Confirm a fix with a second, independent look from the same place.")
     confirm_all: bool = Field(default=True, description=(
         "Confirm every fix, also those reached by exploring; false confirms single-place fixes only."))
-    confirm_tolerance_cm: NonNegative = Field(default=5.0, json_schema_extra=_unit("cm"),
+    confirm_tolerance_cm: NonNegative = Field(default=5.0, json_schema_extra=with_unit("cm"),
                                               description="Two fixes further apart than this disagree.")
     max_explore_moves: Count = Field(default=6, description="Exploration moves per attempt.")
-    explore_step_cm: NonNegative = Field(default=30.0, json_schema_extra=_unit("cm"),
+    explore_step_cm: NonNegative = Field(default=30.0, json_schema_extra=with_unit("cm"),
                                          description="Longest exploration move.")
-    explore_heading_tolerance_deg: NonNegative = Field(default=12.0, json_schema_extra=_unit("deg"), description=(
+    explore_heading_tolerance_deg: NonNegative = Field(default=12.0, json_schema_extra=with_unit("deg"), description=(
         "modes rule: a move must stay free with the candidates' headings off by this much either way (three "
         "standard deviations of a belief that knows the place but not its heading, when more)."))
     align_sweeps: Count = Field(default=2, description=(
         "Turn-and-sweep-again on the spot, per attempt, when no move is safe but the place is known."))
-    place_cm: NonNegative = Field(default=4.0, json_schema_extra=_unit("cm"), description=(
+    place_cm: NonNegative = Field(default=4.0, json_schema_extra=with_unit("cm"), description=(
         "A belief knows the place when its position spread and all its modes are within this of its mean."))
-    margin_cm: NonNegative = Field(default=2.0, json_schema_extra=_unit("cm"), description=(
+    margin_cm: NonNegative = Field(default=2.0, json_schema_extra=with_unit("cm"), description=(
         "Clearance of exploration moves beyond the robot radius: half of it (modes rule)."))
     exploration: Annotated[str, Choices(lambda: EXPLORATIONS)] = Field(
         default="modes", description="The exploration rule (localisation.exploration).")

@@ -57,7 +57,7 @@ from planners.base import Planner, PlanningProblem
 
 from ..world import Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
 from ..world.arrays import FloatArray
-from ..world.typed import Typed
+from ..world.typed import Typed, with_unit
 
 __all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
            "course_from", "fit_pose", "plausible_update", "run_challenge", "weighed_heading"]
@@ -74,6 +74,7 @@ Oracle = Literal["none", "heading", "pose"]
 """What the truth gives the belief after each waypoint's sweep, for measuring ceilings (`ChallengeFix.oracle`)."""
 
 
+
 class ChallengeFix(Typed):
     """What a waypoint's sweep does to the belief (module docstring, step 3): ``--set challenge.fix.KEY=V``."""
 
@@ -81,8 +82,8 @@ class ChallengeFix(Typed):
         default="prediction", description="Where the belief's position comes from after a waypoint's sweep.")
     gate_sigmas: float = Field(default=3.0, gt=0, description=(
         "A sweep's fix is trusted when it lies within this many standard deviations of the prediction."))
-    correction_cm: float = Field(default=3.0, ge=0,
-                                 description="Corrections go on while the estimate is farther from the waypoint (cm).")
+    correction_cm: float = Field(default=3.0, ge=0, json_schema_extra=with_unit("cm"),
+                                 description="Corrections go on while the estimate is farther from the waypoint.")
     max_corrections: int = Field(default=0, ge=0, description="Corrections (and sweeps) at most per waypoint.")
     heading_from: HeadingFrom = Field(default="fused", description=(
         "fused: the sweep's fitted heading and the predicted one weighed by their variances (a Kalman "
@@ -95,8 +96,8 @@ class ChallengeFix(Typed):
 class ChallengeSonar(Typed):
     """How the sweep-set sonar answers (`toolkit.real_sonar.sweep_sonar`): ``--set challenge.sonar.KEY=V``."""
 
-    radius_cm: float = Field(default=10.0, gt=0, description=(
-        "A real sweep answers within this distance of its waypoint (cm); farther, the sonar refuses."))
+    radius_cm: float = Field(default=10.0, gt=0, json_schema_extra=with_unit("cm"), description=(
+        "A real sweep answers within this distance of its waypoint; farther, the sonar refuses."))
     offset_correction: bool = Field(default=False, description=(
         "Move each real echo by the map's change between the waypoint and the robot's true pose "
         "(a hybrid of real and map readings, for study; off: the sweep as it was taken)."))
@@ -106,14 +107,20 @@ class ChallengeConfig(Typed):
     """How the challenge mission runs (module docstring): ``--set challenge.KEY=VALUE`` on the commands that
     run it."""
 
-    move_step_cm: float = Field(default=10.0, gt=0, description="Longest move between two predictions (cm).")
-    margin_cm: float = Field(default=8.0, ge=0, description="Clearance asked of a path beyond the robot radius (cm).")
-    plan_time_s: float = Field(default=0.5, gt=0, description="Planning budget per leg (s).")
-    prior_std_cm: float = Field(default=3.0, gt=0, description="Spread of the belief reset at the start (cm).")
-    prior_std_deg: float = Field(default=2.0, gt=0, description="Heading spread of that belief (deg).")
-    reach_cm: float = Field(default=10.0, gt=0, description="A waypoint is reached within this distance (cm).")
-    heading_span_deg: float = Field(default=30.0, ge=0,
-                                    description="Headings tried around the predicted one at a waypoint (deg).")
+    move_step_cm: float = Field(default=10.0, gt=0, json_schema_extra=with_unit("cm"),
+                                description="Longest move between two predictions.")
+    margin_cm: float = Field(default=8.0, ge=0, json_schema_extra=with_unit("cm"),
+                             description="Clearance asked of a path beyond the robot radius.")
+    plan_time_s: float = Field(default=0.5, gt=0, json_schema_extra=with_unit("s"),
+                               description="Planning budget per leg.")
+    prior_std_cm: float = Field(default=3.0, gt=0, json_schema_extra=with_unit("cm"),
+                                description="Spread of the belief reset at the start, and of a sweep's fix.")
+    prior_std_deg: float = Field(default=2.0, gt=0, json_schema_extra=with_unit("deg"),
+                                 description="Heading spread of that belief.")
+    reach_cm: float = Field(default=10.0, gt=0, json_schema_extra=with_unit("cm"),
+                            description="A waypoint is reached within this distance.")
+    heading_span_deg: float = Field(default=30.0, ge=0, json_schema_extra=with_unit("deg"),
+                                    description="Headings tried around the predicted one at a waypoint.")
     start_retries: int = Field(default=1, ge=0, description="Other start hypotheses tried when the first leg fails.")
     facing_sweep: bool = Field(default=True, description=(
         "After the fix at the start and at each waypoint, turn toward the next leg and sweep again; the "

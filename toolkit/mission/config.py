@@ -23,7 +23,7 @@ from pydantic import Field, field_validator
 from localisation.global_localisation import GlobalLocalisation
 from localisation.scan import sweep_angles
 from toolkit.world import ConfigError, check_objective
-from toolkit.world.typed import Typed, build, group_fields, with_values
+from toolkit.world.typed import Typed, build, group_fields, with_unit, with_values
 
 __all__ = ["FIX_RULES", "TRACK_WINDOWS", "DriveConfig", "FinalConfig", "FixConfig", "LimitsConfig", "MissionConfig",
            "PlanningConfig", "SweepConfig"]
@@ -38,17 +38,13 @@ TRACKING = ("continue", "prior")
 """How a tracking re-localisation starts (`FixConfig.tracking`)."""
 
 
-def _unit(unit: str) -> dict[str, Any]:
-    """A field's unit, as `toolkit.world.params.markdown` and the JSON Schema show it."""
-    return {"unit": unit}
-
 
 class PlanningConfig(Typed):
     """How paths are planned."""
 
-    time_s: float = Field(default=1.0, gt=0, json_schema_extra=_unit("s"),
+    time_s: float = Field(default=1.0, gt=0, json_schema_extra=with_unit("s"),
                           description="Time budget of each planner query.")
-    safety_margin_cm: float = Field(default=2.0, ge=0, json_schema_extra=_unit("cm"), description=(
+    safety_margin_cm: float = Field(default=2.0, ge=0, json_schema_extra=with_unit("cm"), description=(
         "Clearance added to the robot radius when planning; half of it, then the bare radius, when no path "
         "exists with it. Starts and targets closer to a wall join the path by a short straight leg."))
     planner_options: dict[str, Any] = Field(default_factory=dict, description=(
@@ -74,18 +70,18 @@ class PlanningConfig(Typed):
 class DriveConfig(Typed):
     """How a path is driven, leg by leg."""
 
-    move_step_cm: float = Field(default=10.0, gt=0, json_schema_extra=_unit("cm"), description=(
+    move_step_cm: float = Field(default=10.0, gt=0, json_schema_extra=with_unit("cm"), description=(
         "Longest single Move; the localiser predicts after each (the watchdog runs inside every Move)."))
-    waypoint_tolerance_cm: float = Field(default=1.0, gt=0, json_schema_extra=_unit("cm"),
+    waypoint_tolerance_cm: float = Field(default=1.0, gt=0, json_schema_extra=with_unit("cm"),
                                          description="A waypoint is reached when the estimate is this close to it.")
     max_legs: int = Field(default=12, ge=1,
                           description="Legs (each re-aimed from the estimate) toward one waypoint before re-planning.")
-    heading_tolerance_deg: float = Field(default=8.0, ge=0, json_schema_extra=_unit("deg"), description=(
+    heading_tolerance_deg: float = Field(default=8.0, ge=0, json_schema_extra=with_unit("deg"), description=(
         "A leg ends where the straight drive would touch a wall were the heading off by this much either way "
         "(the error a sonar localiser makes most)."))
-    min_leg_cm: float = Field(default=4.0, ge=0, json_schema_extra=_unit("cm"),
+    min_leg_cm: float = Field(default=4.0, ge=0, json_schema_extra=with_unit("cm"),
                               description="Legs are never cut shorter than this.")
-    leg_margin_cm: float = Field(default=0.0, ge=0, json_schema_extra=_unit("cm"), description=(
+    leg_margin_cm: float = Field(default=0.0, ge=0, json_schema_extra=with_unit("cm"), description=(
         "Extra clearance of the heading_tolerance_deg check, for the estimate's position error (from "
         "estimates that have it)."))
 
@@ -108,27 +104,27 @@ class FixConfig(Typed):
         "could not drive on: its position spread across the next stretch plus its heading spread over the "
         "stretch's length, times spread_sigmas, must leave the robot disc clear of the walls. A missed "
         "waypoint is passed when the belief can drive on to the next one."))
-    relocalise_every_cm: float | None = Field(default=None, gt=0, json_schema_extra=_unit("cm"), description=(
+    relocalise_every_cm: float | None = Field(default=None, gt=0, json_schema_extra=with_unit("cm"), description=(
         "Legs longer than this end on the way to the waypoint (null: legs end at waypoints only)."))
-    first_leg_cm: float | None = Field(default=6.0, gt=0, json_schema_extra=_unit("cm"), description=(
+    first_leg_cm: float | None = Field(default=6.0, gt=0, json_schema_extra=with_unit("cm"), description=(
         "The first leg after a global fix is at most this long, so a heading error of the fix shows as a "
         "sideways offset before it brings the robot to a wall (null: no short first leg)."))
     spread_sigmas: float = Field(default=3.0, ge=0, description=(
         "Standard deviations of the belief the spread rule keeps clear of the walls."))
-    spread_min_heading_deg: float = Field(default=1.0, ge=0, json_schema_extra=_unit("deg"), description=(
+    spread_min_heading_deg: float = Field(default=1.0, ge=0, json_schema_extra=with_unit("deg"), description=(
         "The spread rule takes the heading spread as at least this (a sonar belief can be narrower than its "
         "heading error)."))
-    spread_drift: float = Field(default=0.05, ge=0, json_schema_extra=_unit("fraction"), description=(
+    spread_drift: float = Field(default=0.05, ge=0, json_schema_extra=with_unit("fraction"), description=(
         "The spread rule takes the position spread as at least this fraction of the distance driven since "
         "the last fix."))
     tracking: Literal["continue", "prior"] = Field(default="continue", description=(
         "A re-localisation starts from the localiser's predicted belief (continue), or from a Gaussian prior "
         "around the last estimate (prior); either falls back to the other, then to a global localisation."))
-    tracking_std_cm: float = Field(default=4.0, gt=0, json_schema_extra=_unit("cm"),
+    tracking_std_cm: float = Field(default=4.0, gt=0, json_schema_extra=with_unit("cm"),
                                    description="Smallest position standard deviation of the tracking prior.")
-    tracking_std_deg: float = Field(default=8.0, gt=0, json_schema_extra=_unit("deg"),
+    tracking_std_deg: float = Field(default=8.0, gt=0, json_schema_extra=with_unit("deg"),
                                     description="Smallest heading standard deviation of the tracking prior.")
-    check_turn_deg: float | None = Field(default=None, gt=0, json_schema_extra=_unit("deg"), description=(
+    check_turn_deg: float | None = Field(default=None, gt=0, json_schema_extra=with_unit("deg"), description=(
         "Once the turns toward waypoints since the heading was last checked add up to this, a leg that would "
         "meet a wall were its heading off by half of them is preceded by a heading check, a sweep of the "
         "front half (null: no check)."))
@@ -138,17 +134,17 @@ class FixConfig(Typed):
 class SweepConfig(Typed):
     """How the sonar sweeps of the re-localisations read (the global ones: `GlobalLocalisation`)."""
 
-    track_window_deg: float = Field(default=15.0, ge=0, le=180, json_schema_extra=_unit("deg"), description=(
+    track_window_deg: float = Field(default=15.0, ge=0, le=180, json_schema_extra=with_unit("deg"), description=(
         "A tracking sweep reads windows of +-this around the centres of track_windows (180: the full turn)."))
-    track_scan_step_deg: float = Field(default=2.0, gt=0, le=90, json_schema_extra=_unit("deg"),
+    track_scan_step_deg: float = Field(default=2.0, gt=0, le=90, json_schema_extra=with_unit("deg"),
                                        description="Turret step inside those windows.")
     track_windows: Literal["sides", "axes"] = Field(default="sides", description=(
         "sides: ahead and to the sides (-90, 0, 90 degrees); axes: the paper's four (0, 90, 180, 270)."))
     track_align: bool = Field(default=False, description=(
         "Re-localise the paper's way (full sweep, align, full sweep); the window settings are then ignored."))
-    final_window_deg: float = Field(default=15.0, ge=0, le=180, json_schema_extra=_unit("deg"),
+    final_window_deg: float = Field(default=15.0, ge=0, le=180, json_schema_extra=with_unit("deg"),
                                     description="Window of the sweeps at the target (one window, ahead).")
-    final_scan_step_deg: float = Field(default=1.0, gt=0, le=90, json_schema_extra=_unit("deg"),
+    final_scan_step_deg: float = Field(default=1.0, gt=0, le=90, json_schema_extra=with_unit("deg"),
                                        description="Turret step of the sweeps at the target.")
     localise_options: dict[str, Any] = Field(default_factory=dict, description=(
         "Extra keyword arguments of every look (localisation.procedure.look), global or tracking."))
@@ -165,12 +161,12 @@ class SweepConfig(Typed):
 class FinalConfig(Typed):
     """The final correction at the target (`toolkit.mission.final_correction.FinalCorrectionPolicy`)."""
 
-    goal_tolerance_cm: float = Field(default=0.5, gt=0, json_schema_extra=_unit("cm"),
+    goal_tolerance_cm: float = Field(default=0.5, gt=0, json_schema_extra=with_unit("cm"),
                                      description="Corrections stop when the estimate is this close to the target.")
     max_corrections: int = Field(default=6, ge=0, description="Correction moves before giving up on the tolerance.")
-    success_radius_cm: float = Field(default=3.0, gt=0, json_schema_extra=_unit("cm"), description=(
+    success_radius_cm: float = Field(default=3.0, gt=0, json_schema_extra=with_unit("cm"), description=(
         "The mission succeeds when the estimate ends within this distance of the target."))
-    reverse_cm: float = Field(default=10.0, ge=0, json_schema_extra=_unit("cm"), description=(
+    reverse_cm: float = Field(default=10.0, ge=0, json_schema_extra=with_unit("cm"), description=(
         "A correction up to this long toward a target behind the robot backs up instead of turning around "
         "(0: always turn toward the target)."))
 

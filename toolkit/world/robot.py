@@ -16,7 +16,7 @@ from pydantic import Field
 
 from .errors import ConfigError
 from .geometry import Pose
-from .typed import Real, typed_dataclass
+from .typed import Real, typed_dataclass, with_unit
 
 __all__ = [
     "NO_ECHO",
@@ -42,25 +42,23 @@ def default_scan_angles(n: int = 360) -> NDArray[np.float64]:
     return np.arange(n, dtype=np.float64) * (2.0 * np.pi / n)
 
 
-def _unit(unit: str) -> dict[str, Any]:
-    return {"unit": unit}
-
 
 @typed_dataclass()
 class RobotGeometry:
     """Physical constants of the robot (cm), with defaults for a typical NXT build (each field's
     description and unit is in its declaration)."""
 
-    radius_cm: Real = Field(default=8.0, gt=0, json_schema_extra=_unit("cm"), description=(
+    radius_cm: Real = Field(default=8.0, gt=0, json_schema_extra=with_unit("cm"), description=(
         "Radius of the disc that contains the robot, centred on the wheel axis midpoint."))
-    wheel_diameter_cm: Real = Field(default=5.6, gt=0, json_schema_extra=_unit("cm"), description=(
+    wheel_diameter_cm: Real = Field(default=5.6, gt=0, json_schema_extra=with_unit("cm"), description=(
         "Drive wheel diameter (the standard NXT wheel is 5.6 cm)."))
-    track_width_cm: Real = Field(default=12.0, gt=0, json_schema_extra=_unit("cm"), description=(
+    track_width_cm: Real = Field(default=12.0, gt=0, json_schema_extra=with_unit("cm"), description=(
         "Distance between the wheel contact points (a calibration value, 11-14 cm on typical builds)."))
-    sensor_offset_cm: Real = Field(default=0.0, json_schema_extra=_unit("cm"), description=(
+    sensor_offset_cm: Real = Field(default=0.0, json_schema_extra=with_unit("cm"), description=(
         "Distance from the turret axis to the sensor face; the paper's turret is homocentric with the wheel "
         "axis and readings are taken from the centre, so the default is 0."))
-    turret_gear_ratio: Real = Field(default=1.0, gt=0, json_schema_extra=_unit("motor deg / sensor deg"), description=(
+    turret_gear_ratio: Real = Field(default=1.0, gt=0, json_schema_extra=with_unit("motor deg / sensor deg"),
+                                    description=(
         "Turret motor degrees per degree of sensor rotation."))
 
     @property

@@ -38,7 +38,7 @@ from .edge_index import edge_index
 from .geometry import RngLike, as_rng
 from .registry import Registry
 from .robot import NO_ECHO, Scan
-from .typed import Real, Whole, typed_dataclass, worded
+from .typed import Real, Whole, typed_dataclass, with_unit, worded
 
 __all__ = ["SONAR_MODELS", "IdealSonar", "NxtSonar", "SonarModel", "make_sonar"]
 
@@ -98,12 +98,9 @@ class SonarModel(ABC):
         return {"name": self.name, **params}
 
 
-def _unit(unit: str) -> dict[str, Any]:
-    return {"unit": unit}
-
 
 def _probability(default: float, text: str) -> Any:
-    return Field(default, ge=0.0, le=1.0, json_schema_extra=_unit("probability"), description=text)
+    return Field(default, ge=0.0, le=1.0, json_schema_extra=with_unit("probability"), description=text)
 
 
 @typed_dataclass(frozen=False)
@@ -112,7 +109,7 @@ class IdealSonar(SonarModel):
 
     name: ClassVar[str] = "ideal"
     no_echo: ClassVar[float] = float("inf")
-    noise_sd: Real = Field(default=1.0, ge=0.0, json_schema_extra=_unit("cm"), description=(
+    noise_sd: Real = Field(default=1.0, ge=0.0, json_schema_extra=with_unit("cm"), description=(
         "Gaussian noise added to the x and to the y of each crossing point (the paper: 1 cm)."))
 
     crossings: ClassVar[int] = 4
@@ -160,30 +157,31 @@ class NxtSonar(SonarModel):
 
     name: ClassVar[str] = "nxt"
     no_echo: ClassVar[float] = NO_ECHO
-    noise_sd: Real = Field(default=1.188316, ge=0.0, le=100.0, json_schema_extra=_unit("cm"), description=(
+    noise_sd: Real = Field(default=1.188316, ge=0.0, le=100.0, json_schema_extra=with_unit("cm"), description=(
         "Standard deviation of a true echo's reading at zero range, before rounding."))
-    noise_per_m: Real = Field(default=0.925943, ge=0.0, le=100.0, json_schema_extra=_unit("cm/m"), description=(
+    noise_per_m: Real = Field(default=0.925943, ge=0.0, le=100.0, json_schema_extra=with_unit("cm/m"), description=(
         "Growth of that standard deviation per metre of range."))
-    bias_cm: Real = Field(default=-0.480274, ge=-50.0, le=50.0, json_schema_extra=_unit("cm"), description=(
+    bias_cm: Real = Field(default=-0.480274, ge=-50.0, le=50.0, json_schema_extra=with_unit("cm"), description=(
         "Mean offset of a true echo's reading from the echo distance."))
-    beam_width_deg: Real = Field(default=40.0, ge=0.0, le=120.0, json_schema_extra=_unit("deg"),
+    beam_width_deg: Real = Field(default=40.0, ge=0.0, le=120.0, json_schema_extra=with_unit("deg"),
                                  description="Full width of the lobe.")
     beam_rays: Whole = Field(default=17, ge=1, le=1001,
                              description="Rays sampling the lobe (odd, so one lies on the axis).")
-    critical_incidence_deg: Real = Field(default=30.0, ge=0.0, le=90.0, json_schema_extra=_unit("deg"), description=(
+    critical_incidence_deg: Real = Field(default=30.0, ge=0.0, le=90.0, json_schema_extra=with_unit("deg"),
+                                         description=(
         "Largest angle between a ray and a wall's normal that still echoes back."))
-    min_range_cm: Real = Field(default=6.0, ge=0.0, le=255.0, json_schema_extra=_unit("cm"), description=(
+    min_range_cm: Real = Field(default=6.0, ge=0.0, le=255.0, json_schema_extra=with_unit("cm"), description=(
         "Below this echo distance readings are unreliable: 255 with probability close_no_echo_prob, otherwise "
         "a uniform whole number in [0, min_range_cm)."))
-    max_range_cm: Real = Field(default=255.0, ge=1.0, le=10_000.0, json_schema_extra=_unit("cm"),
+    max_range_cm: Real = Field(default=255.0, ge=1.0, le=10_000.0, json_schema_extra=with_unit("cm"),
                                description="Readings at or beyond this are reported as 255.")
     dropout_prob: Real = _probability(0.00795, "Probability that an echo within reach is lost (255) at short range.")
     far_dropout_prob: Real = _probability(0.334932, (
         "The same far beyond reach_cm: the loss probability rises from dropout_prob to this along a logistic "
         "curve centred on reach_cm, reach_width_cm wide."))
-    reach_cm: Real = Field(default=57.853445, ge=0.0, le=10_000.0, json_schema_extra=_unit("cm"),
+    reach_cm: Real = Field(default=57.853445, ge=0.0, le=10_000.0, json_schema_extra=with_unit("cm"),
                            description="Centre of the rise of the loss probability (see far_dropout_prob).")
-    reach_width_cm: Real = Field(default=1.0, ge=0.1, le=10_000.0, json_schema_extra=_unit("cm"),
+    reach_width_cm: Real = Field(default=1.0, ge=0.1, le=10_000.0, json_schema_extra=with_unit("cm"),
                                  description="Width of the rise of the loss probability (see far_dropout_prob).")
     phantom_prob: Real = _probability(0.716444, "Probability of a (uniformly random) reading when nothing in the "
                                                 "lobe echoes.")
@@ -193,7 +191,7 @@ class NxtSonar(SonarModel):
     outlier_prob: Real = _probability(0.079517, "Share of the readings of an echo that are uniformly random in "
                                                 "[0, max_range_cm).")
     close_no_echo_prob: Real = _probability(0.5, "See min_range_cm.")
-    correlation_deg: Real = Field(default=29.47, ge=0.0, le=360.0, json_schema_extra=_unit("deg"), description=(
+    correlation_deg: Real = Field(default=29.47, ge=0.0, le=360.0, json_schema_extra=with_unit("deg"), description=(
         "Readings closer than this in turret angle are not independent evidence (neighbouring lobes overlap "
         "and share their errors): a localiser counts each reading of a sweep step degrees apart with weight "
         "min(1, step / correlation_deg)."))

@@ -51,7 +51,7 @@ from .yaml_text import YAMLError, load_yaml
 
 __all__ = ["Choices", "Count", "NonNegative", "Positive", "Real", "Typed", "Whole", "build", "choices_of",
            "fields_of", "group_fields", "kinds_of", "model_fields", "one_line", "parse_value", "range_text",
-           "schema_of", "type_name", "typed_dataclass", "with_sets", "with_values", "worded"]
+           "schema_of", "type_name", "typed_dataclass", "with_sets", "with_unit", "with_values", "worded"]
 
 T = TypeVar("T")
 C = TypeVar("C", bound=type)
@@ -415,3 +415,13 @@ def _rebuilt(group: Any, edits: _Group, where: str, path: tuple[str, ...], top: 
         return _validated(type(group), data)
     except ValidationError as exc:
         raise ConfigError(f"{where}: " + "; ".join(_message(e, type(group), path) for e in exc.errors())) from None
+
+
+def with_unit(unit: str) -> dict[str, Any]:
+    """A field's unit as its ``json_schema_extra``: ``Field(1.0, json_schema_extra=with_unit("cm"))``; the
+    parameters page, ``show`` commands and the JSON Schema show it.
+
+    >>> with_unit("cm")
+    {'unit': 'cm'}
+    """
+    return {"unit": unit}
