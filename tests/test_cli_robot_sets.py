@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import run_cli
+from conftest import fails_cleanly, run_cli
 
 from toolkit.robots.nxt_profile import NxtProfile, ProfileError
 from toolkit.world import RobotModel
@@ -107,3 +107,20 @@ def test_a_sonar_profile_with_a_bad_field_is_one_line(tmp_path: Path, capsys: py
     assert run_cli(["scan", "--pose", "50,30,0", "--sonar", "nxt", "--sonar-profile", str(bad)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(bad) in err and "params.beam_width_deg: 200" in err
+
+
+@pytest.mark.parametrize("command", [
+    ["plan", "--map", "map1", "-o", "OUT"],
+    ["localise", "--map", "map1", "--pose", "20,20,0", "--json", "OUT"],
+    ["bench", "localisers", "--maps", "map1", "--trials", "1", "--out", "OUT"],
+])
+def test_a_section_the_command_does_not_take_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                        command: list[str]) -> None:
+    """``--set mission.KEY`` on a command without a mission (it took it and ignored it): one line naming the
+    key and the sections the command takes, exit 2, nothing written."""
+    out = tmp_path / "out"
+    argv = [str(out) if a == "OUT" else a for a in command] + ["--set", "mission.drive.move_step_cm=20"]
+    err = fails_cleanly(argv, capsys, "--set mission.drive.move_step_cm:", "takes no mission settings",
+                        "robot., sonar.")
+    assert f"nxtnav {' '.join(a for a in command[:2] if not a.startswith('-'))} takes" in err
+    assert not out.exists()

@@ -45,7 +45,7 @@ from .options import (
     pose_on_map,
     sonar_profile,
 )
-from .run_config import configuration, given_sets, robot_model, robot_sets, split_sets
+from .run_config import configuration, given_sets, plugin_sets, robot_model, robot_sets
 from .set_options import localiser_sets
 
 __all__: list[str] = []
@@ -120,7 +120,7 @@ def localise_cmd(
     m = load_map(map_name)
     pose = pose_on_map(pose_text, "--pose", m)
     assert isinstance(pose, Pose)
-    plugins = split_sets(given_sets(ctx, sets))[1]
+    plugins = plugin_sets(ctx, sets, ("robot", "sonar"))
     cfg = _with_robot_sets(ctx, sets, BenchConfig(
         sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
         scan_processing=scan_processing, lobe=lobe, robot_radius_cm=radius,
@@ -244,7 +244,7 @@ def bench_localisers(
     profile = sonar_profile(sonar_profile_path, sonar)
     scenarios = _scenarios(scenario)
     _check_bench_numbers(exploration, trials, workers, sensor_noise, out, force)
-    options = localiser_sets(split_sets(given_sets(ctx, sets))[1], locs)
+    options = localiser_sets(plugin_sets(ctx, sets, ("robot", "sonar")), locs)
     cfg = _with_robot_sets(ctx, sets, BenchConfig(
         sonar=sonar, sensor_noise=sensor_noise, noise_model=noise_model, tracker_prior=tracker_prior,
         tracking_steps=tracking_steps, recovery_rounds=recovery_rounds, scan_processing=scan_processing,

@@ -62,7 +62,7 @@ from .options import (
 )
 from .options import time_limit as time_limit_ok
 from .progress import progress
-from .run_config import add_configuration, configuration, dumps, given_sets, robot_model, split_sets
+from .run_config import add_configuration, configuration, dumps, given_sets, plugin_sets, robot_model
 from .set_options import checked_sets, parse_sets
 
 __all__: list[str] = []
@@ -182,8 +182,9 @@ def plan(
                         robot_timing(drive_speed, turn_rate, stop_turn))
     nz, timing = robot.motion, robot.timing
     check_planner_names([planner])
-    options = planner_objectives(objective, [planner], checked_sets(parse_sets(split_sets(given_sets(ctx, sets))[1]),
-                                                                    [planner], planner_options, "planner"))[planner]
+    plugins = parse_sets(plugin_sets(ctx, sets, ("robot", "sonar")))
+    options = planner_objectives(objective, [planner], checked_sets(plugins, [planner], planner_options,
+                                                                    "planner"))[planner]
     check_writable(output, "--output")
     check_writable(json_out, "--json")
     m = load_map(map_name)

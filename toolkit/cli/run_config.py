@@ -38,7 +38,8 @@ if TYPE_CHECKING:
     from ..world import RobotModel
 
 __all__ = ["SECTIONS", "SHORTHANDS", "add_configuration", "configuration", "dumps", "given_sets", "load_config",
-           "mission_config", "mission_sets", "robot_model", "robot_sets", "section_settings", "split_sets"]
+           "mission_config", "mission_sets", "plugin_sets", "robot_model", "robot_sets", "section_settings",
+           "split_sets"]
 
 SECTIONS = ("mission", "robot", "sonar")
 """The settings sections ``--set`` knows besides the plug-ins' names."""
@@ -84,6 +85,20 @@ def split_sets(values: list[str]) -> tuple[dict[str, dict[str, str]], list[str]]
         else:
             rest.append(text)
     return sections, rest
+
+
+def plugin_sets(ctx: typer.Context, sets: list[str], takes: tuple[str, ...]) -> list[str]:
+    """The plug-in options among the ``--set`` values (`given_sets`) of the command `ctx` runs, which takes the
+    settings sections `takes` (read elsewhere) and no other: a section it does not take is one line naming
+    it, never silently ignored."""
+    every = given_sets(ctx, sets)
+    sections, plugins = split_sets(every)
+    for section, keys in sections.items():
+        if section not in takes:
+            key = next(iter(keys))
+            raise NxtnavError(f"--set {section}.{key}: nxtnav {_command(ctx)} takes no {section} settings"
+                              f" (it takes {', '.join(f'{t}.' for t in takes)} and the plug-ins' options)")
+    return plugins
 
 
 def mission_sets(sets: list[str]) -> dict[str, str]:
