@@ -42,8 +42,8 @@ from typing import Any, Generic, TypeVar, cast
 
 from toolkit.world import ConfigError, NxtnavError
 
-__all__ = ["TasksInterrupted", "WorkerDied", "collect_tasks", "default_workers", "exit_reason", "quiet_logger", "run_tasks",
-           "task_label"]
+__all__ = ["TasksInterrupted", "WorkerDied", "collect_tasks", "default_workers", "exit_reason", "quiet_logger",
+           "run_tasks", "task_label"]
 
 T = TypeVar("T")
 R = TypeVar("R")
