@@ -3,16 +3,25 @@
 
 from __future__ import annotations
 
+import csv
 import faulthandler
+import json
 import logging
 import os
+import re
 import signal
 import threading
 from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
 
 import pytest
+from conftest import run_cli
 
+from planners import PLANNERS, PlanningProblem, PlanResult, PlanStatus, ShortestPathPlanner
 from toolkit.bench.executors import WorkerDied, collect_tasks
+from toolkit.bench.planners import BenchmarkConfig, run_benchmark
+from toolkit.bench.planners.plots import save_cost_over_time
 
 CRASHES = 3
 """The task that kills its own process."""
@@ -115,3 +124,52 @@ def _pid(_: int) -> int:
 def test_a_task_that_raises_passes_its_exception_on() -> None:
     with pytest.raises(ArithmeticError, match="task 2 failed"):
         collect_tasks(_raise_on_two, list(range(6)), workers=2)
+
+
+class _CrashesOnMap2(ShortestPathPlanner):
+    """The shortest path, except on map2, where it kills its own process (a crash in compiled code)."""
+
+    def plan(self, problem: PlanningProblem) -> PlanResult:
+        if problem.map.name == "map2":
+            faulthandler.disable()
+            os.kill(os.getpid(), signal.SIGSEGV)
+        return super().plan(problem)
+
+
+def test_bench_planners_records_the_crashed_runs_and_writes_the_others(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture) -> None:
+    out = tmp_path / "bench"
+    with PLANNERS.added({"crashes-on-map2": _CrashesOnMap2}):  # the forked workers inherit it
+        code = run_cli(["bench", "planners", "--maps", "map1,map2", "--planners", "crashes-on-map2", "--runs", "1",
+                        "--workers", "2", "--exec-repeats", "0", "--no-plots", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    with (out / "runs.csv").open() as fh:
+        success = {(r["map"], r["run"]): r["success"] for r in csv.DictReader(fh)}
+    assert success == {("map1", "0"): "true", ("map2", "0"): "false"}
+    runs = [json.loads(line) for line in (out / "paths.jsonl").read_text().splitlines()]  # strict JSON: no NaN
+    crashed = sorted((r["map"], r["run"], r["status"], r["detail"], r["time_s"]) for r in runs if not r["success"])
+    assert crashed == [("map2", 0, "error", "crashed: killed by signal 11 (SIGSEGV)", None)]
+    warned = sorted(r.getMessage() for r in caplog.records if "crashed: its worker process" in r.getMessage())
+    assert len(warned) == 1 and "(map map2, planner crashes-on-map2, run 0, seed " in warned[0], warned
+    # the success share counts the crashed run as a failure: map1's table, then map2's
+    shares = re.findall(r"^\| crashes-on-map2 \| (\d+) % \|", (out / "summary.md").read_text(), re.MULTILINE)
+    assert shares == ["100", "0"], shares
+
+
+def test_the_cost_plot_of_a_map_whose_runs_all_crashed_has_its_panel(tmp_path: Path) -> None:
+    with PLANNERS.added({"crashes-on-map2": _CrashesOnMap2}):
+        result = run_benchmark(BenchmarkConfig(maps=("map2",), planners=("crashes-on-map2",), runs=2, exec_repeats=0),
+                               workers=2)  # two runs: one task alone would run in this process
+    assert [(r.success, r.detail) for r in result.records] == [(False, "crashed: killed by signal 11 (SIGSEGV)")] * 2
+    assert save_cost_over_time(result, tmp_path).is_file()  # no median to draw: the log axis has limits of its own
+
+
+def test_the_cost_plot_of_a_map_where_most_runs_of_an_anytime_planner_crashed(tmp_path: Path) -> None:
+    result = run_benchmark(BenchmarkConfig(maps=("map1",), planners=("rrtstar",), runs=1, exec_repeats=0,
+                                           time_limit=0.05))
+    (solved,) = result.records
+    assert solved.success and solved.progress  # a best-cost curve: the band's median is drawn from the runs'
+    crashed = replace(solved, success=False, status=PlanStatus.ERROR, progress=(), detail="crashed")
+    # two of three runs crashed: the median has no finite value anywhere, nothing is drawn on the panel
+    assert save_cost_over_time(replace(result, records=(solved, crashed, crashed)), tmp_path).is_file()

@@ -71,11 +71,12 @@ class WorkerDied(NxtnavError):
 
 def task_label(task: Any, index: int, total: int) -> str:
     """How the warnings and errors name task `index` (from 0) of `total`: its place and the fields of
-    `_LABEL_FIELDS` it has (``task 4 of 20 (map map1, planner ompl:AORRTC, run 3, seed 17)``)."""
+    `_LABEL_FIELDS` it has and the index of its ``query`` when it has no run (``task 4 of 20 (map map1,
+    planner ompl:AORRTC, run 3, seed 17)``)."""
     fields = [f"{name} {getattr(task, name)}" for name in _LABEL_FIELDS if hasattr(task, name)]
-    query = getattr(task, "query", None)
-    if not fields and query is not None:  # a task that is a query and little else
-        fields = [f"{name} {getattr(query, name)}" for name in ("map", "index") if hasattr(query, name)]
+    query: Any = getattr(task, "query", None)
+    if not hasattr(task, "run") and hasattr(query, "index"):  # a query's planning: which query
+        fields.append(f"query {query.index}")
     return f"task {index + 1} of {total}" + (f" ({', '.join(fields)})" if fields else "")
 
 
