@@ -22,9 +22,10 @@ process) becomes ``crashed(task, "killed by signal 11 (SIGSEGV)")`` with one war
 and the tasks that were pending or running on the pool's other workers (which the broken pool ends)
 run again in a fresh pool. The crashed task is not run again: a crash that comes now and then would
 otherwise count as a success on its second try. Without a factory the run ends with `WorkerDied`
-naming the task. On a Dask cluster the scheduler itself moves the tasks of a dead worker to others
-and gives up on a task whose workers died more than its allowed failures (``KilledWorker``): that
-task becomes ``crashed(task, ...)`` likewise.
+naming the task. Tasks run in this process (one worker without ``isolate``, or a single task) have no
+such guard: a crash ends this process too. On a Dask cluster the scheduler itself moves the tasks of
+a dead worker to others and gives up on a task whose workers died more than its allowed failures
+(``KilledWorker``): that task becomes ``crashed(task, ...)`` likewise.
 """
 
 from __future__ import annotations
