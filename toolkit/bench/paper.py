@@ -32,6 +32,7 @@ from toolkit.world.robot_model import with_robot_sets
 from ..mission import MissionConfig, RobotTimeSplit, run_sim_mission
 from ..robots.sim import simulated_sonar
 from ..seeds import derive_seed
+from .common import isolate_planners
 from .executors import collect_tasks
 
 __all__ = [
@@ -145,6 +146,12 @@ class PaperResult:
         return d
 
 
+def crashed_trial(task: PaperTrial, reason: str) -> PaperResult:
+    """The result of a trial that crashed (`reason`: the exception, or how its worker process died, as
+    ``killed by signal 11 (SIGSEGV)``): a failed trial, its measures unknown."""
+    return PaperResult(task, False, f"crashed: {reason}", math.nan, math.nan, math.nan, 0, math.nan, 0, 0, 0)
+
+
 def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> PaperResult:
     """Run one trial's mission on the simulator (top-level, so it pickles for process pools);
     `config` None is the task's own (`PaperTrial.config`)."""
@@ -157,8 +164,7 @@ def run_trial(task: PaperTrial, config: MissionConfig | None = None) -> PaperRes
             random_start_pose=task.random_start, robot=task.robot(),
         )
     except Exception as exc:  # a crash in one trial is a failed trial, not a lost table
-        return PaperResult(task, False, f"crashed: {type(exc).__name__}: {exc}", math.nan, math.nan, math.nan,
-                           0, math.nan, 0, 0, 0)
+        return crashed_trial(task, f"{type(exc).__name__}: {exc}")
     # success in the table is judged by the truth: the mission says it arrived AND the robot is truly
     # within the mission's success radius of the target
     cfg = config
@@ -360,7 +366,8 @@ def run_paper(
 
     Ctrl-C raises `toolkit.bench.executors.TasksInterrupted` carrying the finished trials
     (order them with `in_task_order` and summarise them with `summarise`)."""
-    results = collect_tasks(run_trial, list(tasks), workers=workers, dask_address=dask_address, on_done=on_done)
+    results = collect_tasks(run_trial, list(tasks), workers=workers, dask_address=dask_address, on_done=on_done,
+                            crashed=crashed_trial, isolate=isolate_planners(t.planner for t in tasks))
     results = in_task_order(results, tasks)
     return summarise(results), results
 

@@ -27,6 +27,7 @@ from planners.base import Planner, PlanningProblem, PlanStatus, status_message
 
 from ..number_format import MISSING, cell, csv_cell
 from ..world import CollisionChecker, Map, MapError, NxtnavError, import_map, make_checker
+from .common import finite_median, isolate_planners
 from .executors import run_tasks
 from .ompl_log import OmplExperiment, OmplPlannerData, ompl_status, write_ompl_log
 from .peers import PEER_KIND, peer_path
@@ -258,6 +259,13 @@ def _run_one(task: _Task) -> ScenRecord:
                       max(res.time_s - pre, 0.0), pre, res.status, res.detail, checker.backend)
 
 
+def _crashed_one(task: _Task, reason: str) -> ScenRecord:
+    """The record of a query whose worker process died while planning it (`reason`, as ``killed by
+    signal 11 (SIGSEGV)``): a failed plan, its time unknown."""
+    return ScenRecord(task.query, task.planner, False, math.nan, math.nan, 0.0, PlanStatus.ERROR,
+                      f"crashed: {reason}", task.config.collision)
+
+
 def _run_peer(task: _Task, m: Map) -> ScenRecord:
     c = task.config
     start, goal = task.query.world(m, c.kind)
@@ -298,7 +306,8 @@ def run_scen(config: ScenConfig, queries: Sequence[Scenario], *, workers: int = 
     started = time.time()
     complete = True
     try:
-        for r in run_tasks(_run_one, tasks, workers=workers, dask_address=dask_address, on_done=on_done):
+        for r in run_tasks(_run_one, tasks, workers=workers, dask_address=dask_address, on_done=on_done,
+                           crashed=_crashed_one, isolate=isolate_planners(config.planners)):
             records.append(r)
     except KeyboardInterrupt:
         complete = False
@@ -335,7 +344,7 @@ def summarise(result: ScenResult) -> list[PlannerSummary]:
         out.append(PlannerSummary(name, len(rs), len(ok), exact, mism, below,
                                   float(np.nanmedian(rel)) if ok else math.nan,
                                   float(np.nanmax(np.abs(rel))) if ok else math.nan,
-                                  float(np.median([r.time_s for r in rs])) if rs else math.nan,
+                                  finite_median(r.time_s for r in rs),  # a crashed query's is NaN
                                   float(sum(r.preprocess_s for r in rs))))
     return out
 

@@ -55,15 +55,18 @@ class Batch(Generic[R]):
 
 def run_batch(function: Callable[[Any], R], tasks: Sequence[Any], what: str, *, label: str | None = None,
               workers: int = 1, dask: str | None = None, keep_partial: bool = True,
-              transient: bool = False) -> Batch[R]:
-    """Run `function` on every task (`toolkit.bench.executors.collect_tasks`) under a progress bar (`label`,
-    default `what`). On Ctrl-C: the finished ones as an incomplete batch with `keep_partial`, else
-    `Interrupted` saying nothing was written; none finished is `Interrupted` either way."""
+              transient: bool = False, crashed: Callable[[Any, str], R] | None = None,
+              isolate: bool = False) -> Batch[R]:
+    """Run `function` on every task (`toolkit.bench.executors.collect_tasks`, with its `crashed` and
+    `isolate`) under a progress bar (`label`, default `what`). On Ctrl-C: the finished ones as an incomplete
+    batch with `keep_partial`, else `Interrupted` saying nothing was written; none finished is `Interrupted`
+    either way."""
     from ..bench.executors import TasksInterrupted, collect_tasks
 
     with progress(label or what, len(tasks), transient=transient) as advance:
         try:
-            results = collect_tasks(function, list(tasks), workers=workers, dask_address=dask, on_done=advance)
+            results = collect_tasks(function, list(tasks), workers=workers, dask_address=dask, on_done=advance,
+                                    crashed=crashed, isolate=isolate)
         except TasksInterrupted as exc:
             finished = list(exc.results)
             if not keep_partial:

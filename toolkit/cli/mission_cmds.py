@@ -419,7 +419,8 @@ def paper(
     objective: Objective = None,
 ) -> None:
     """The paper's Table I regenerated: completion time, final error, path length, collisions, robot time."""
-    from ..bench.paper import in_task_order, paper_tasks, run_trial, summarise
+    from ..bench.common import isolate_planners
+    from ..bench.paper import crashed_trial, in_task_order, paper_tasks, run_trial, summarise
 
     sonars = _names(sonar or ("ideal,nxt" if pareto is not None else "ideal"), "--sonar", SONAR_MODELS.names())
     profile = sonar_profile(sonar_profile_path, sonars)
@@ -449,7 +450,8 @@ def paper(
                                   random_start=random_start, options=options,
                                   robot_sets=robot_sets(given_sets(ctx, sets)),
                                   sonar_model=profile if so == "nxt" else None, collision=collision)]
-    batch = run_batch(run_trial, tasks, "missions", workers=workers, dask=dask, transient=True)
+    batch = run_batch(run_trial, tasks, "missions", workers=workers, dask=dask, transient=True,
+                      crashed=crashed_trial, isolate=isolate_planners(t.planner for t in tasks))
     results = in_task_order(batch.results, tasks)  # as `run_paper` orders and summarises them
     _write_paper(summarise(results), results, batch, configured, json_out, markdown, plot)
 

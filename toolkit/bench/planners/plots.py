@@ -206,6 +206,8 @@ def draw_cost_over_time(result: BenchmarkResult, map_name: str, ax: Axes, within
             artists.append(ax.errorbar([tm], [ym], xerr=[[tm - tq25], [tq75 - tm]], yerr=[[ym - yq25], [yq75 - ym]],
                                        fmt="o", ms=6, color=color, capsize=2, label=p))
             top = max(top, float(yq75))
+    if not any(np.size(line.get_xdata()) for line in ax.get_lines()):  # no median anywhere (runs failed, crashed):
+        ax.set_xlim(grid[0], grid[-1])  # limits of its own for the log axis, which has no data to fit
     artists.append(ax.axhline(1.0 + within, ls="--", lw=0.8, color="0.4"))
     ax.set_xscale("log")
     plain_log_axis(ax.xaxis)
@@ -223,8 +225,14 @@ def save_cost_over_time(result: BenchmarkResult, out: str | Path) -> Path:
     fig, axes = plt.subplots(1, len(maps), figsize=(4.6 * len(maps), 4.2), squeeze=False)
     for ax, m in zip(axes[0], maps, strict=True):
         draw_cost_over_time(result, m, ax)
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=8, frameon=False)
+    legend: dict[str, Any] = {}  # every planner drawn on some map (on the first, all of them unless runs failed)
+    for ax in axes[0]:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    labels = list(legend)
+    if labels:
+        fig.legend(list(legend.values()), labels, loc="lower center", ncol=min(len(labels), 5), fontsize=8,
+                   frameon=False)
     c = result.config
     what = "path length" if c.objective in (None, "length") else c.objective
     fig.suptitle(f"best {what} over time: median and interquartile range of {c.runs} runs, "

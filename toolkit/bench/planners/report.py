@@ -249,7 +249,8 @@ def write_paths_jsonl(result: BenchmarkResult, path: Path) -> None:
         for r in result.records:
             doc = {"map": r.map, "planner": r.planner, "run": r.run, "seed": r.seed, "success": r.success,
                    "path": [list(p) for p in r.path], "status": str(r.status), "detail": r.detail, "query": r.query,
-                   "start": list(r.start), "goal": list(r.goal), "time_s": r.time_s, "collision": r.collision,
+                   "start": list(r.start), "goal": list(r.goal),
+                   "time_s": r.time_s if math.isfinite(r.time_s) else None, "collision": r.collision,
                    "first_solution_s": r.first_solution_s if math.isfinite(r.first_solution_s) else None,
                    "first_solution_length_cm": (r.first_solution_length_cm
                                                 if math.isfinite(r.first_solution_length_cm) else None),

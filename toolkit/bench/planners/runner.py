@@ -31,7 +31,7 @@ from ...world import (
     predicted_error_cm,
     robot_time_s,
 )
-from ..common import cached_map
+from ..common import cached_map, isolate_planners
 from ..execution import execution_error
 from ..executors import TasksInterrupted, collect_tasks
 from .records import (
@@ -198,6 +198,17 @@ def run_reference(task: ReferenceTask) -> ReferenceResult:
     )
 
 
+def crashed_run(task: RunTask, reason: str) -> RunRecord:
+    """The record of `task` whose worker process died while running it (`reason`: how, as
+    ``killed by signal 11 (SIGSEGV)``): a failed run with status `PlanStatus.ERROR`, like a planner
+    that raised, its planning time unknown (NaN)."""
+    q = task.query
+    return RunRecord.build(map=task.map, planner=task.planner, run=task.run, seed=task.seed, query=q.index,
+                           start=q.start, goal=q.goal, collision="point" if task.robot_radius <= 0 else task.collision,
+                           simplify=task.simplify, success=False, status=PlanStatus.ERROR, detail=f"crashed: {reason}",
+                           time_s=math.nan, collision_checks=0)
+
+
 def run_task(task: RunTask) -> RunRecord:
     """Run one planner on one query (a picklable top-level function for the executors).
 
@@ -318,13 +329,15 @@ def run_benchmark(
     """Run the benchmark: the references of every query, then every planner run.
 
     Ctrl-C ends the run early: the result then holds the finished runs and ``complete`` is False
-    (the written files say so).
+    (the written files say so). A run whose worker process dies (a crash in OMPL) is a failed run
+    (`crashed_run`) and the benchmark goes on.
 
     Parameters
     ----------
     config : BenchmarkConfig
     workers : int
-        Processes (1 runs in this process).
+        Processes (1 runs in this process, unless a planner is named ``ompl:NAME``: then in one worker
+        process, `toolkit.bench.common.isolate_planners`).
     dask_address : str or None
         Dask scheduler address or ``"local"`` (see `toolkit.bench.executors.run_tasks`).
     on_done : callable or None
@@ -365,7 +378,8 @@ def run_benchmark(
                 ))
     complete = True
     try:
-        records = collect_tasks(run_task, tasks, workers=workers, dask_address=dask_address, on_done=on_done)
+        records = collect_tasks(run_task, tasks, workers=workers, dask_address=dask_address, on_done=on_done,
+                                crashed=crashed_run, isolate=isolate_planners(config.planners))
     except TasksInterrupted as exc:
         records, complete = list(exc.results), False
     records.sort(key=lambda r: (config.maps.index(r.map), config.planners.index(r.planner), r.run))
