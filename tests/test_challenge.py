@@ -4,9 +4,12 @@
 from __future__ import annotations
 
 import csv
+import faulthandler
 import json
 import math
+import os
 import shutil
+import signal
 from dataclasses import replace
 from pathlib import Path
 
@@ -15,6 +18,7 @@ import pytest
 from conftest import REAL_NXT, run_cli
 
 from localisation.base import PoseEstimate
+from planners import PLANNERS, PlanningProblem, PlanResult, ShortestPathPlanner
 from toolkit.bench.challenge import COLUMNS, challenge_mission
 from toolkit.mission.challenge import ChallengeConfig, course_from, plausible_update, weighed_heading
 from toolkit.real_sonar.sweep_sonar import SweepRefused, SweepSetSonar, load_challenge_set, rotated
@@ -220,3 +224,27 @@ def test_a_facing_sweep_turns_toward_the_next_leg_and_sweeps_again(real_set: Swe
         bearing = math.atan2(goal[1] - second.y, goal[0] - second.x)
         assert abs(math.degrees(float(angle_diff(second.theta, bearing)))) < 15.0
         assert abs(math.degrees(float(angle_diff(first.theta, bearing)))) > 15.0
+
+
+class _Crashes(ShortestPathPlanner):
+    """A planner that kills its own process (a crash in compiled code, as OMPL's AORRTC does now and then)."""
+
+    def plan(self, problem: PlanningProblem) -> PlanResult:
+        faulthandler.disable()
+        os.kill(os.getpid(), signal.SIGSEGV)
+        return super().plan(problem)
+
+
+def test_bench_challenge_records_crashed_missions(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A mission whose worker process dies is a row, not reached, its status the signal, and the summary
+    counts it as a miss; the benchmark itself ran (exit 0, as when its missions fail)."""
+    out = tmp_path / "challenge"
+    with PLANNERS.added({"crashes": _Crashes}):  # the forked workers inherit it
+        code = run_cli(["bench", "challenge", str(REAL_NXT), "--map", "co333-arena", "--seeds", "0", "--localisers",
+                        "paper-pf", "--planner", "crashes", "--workers", "2", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    with (out / "challenge.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 3 and all(r["status"] == "crashed: killed by signal 11 (SIGSEGV)" and r["reached"] == "False"
+                                  and r["robot_time_s"] == "nan" for r in rows)
+    assert "| paper-pf | all | 3 | 0% | – | – | 0 | 0 | – |" in (out / "summary.md").read_text()

@@ -23,12 +23,15 @@ from localisation.robot_options import localiser_options
 from planners.base import make_planner
 from toolkit.bench.common import write_rows_csv
 from toolkit.mission.challenge import ChallengeConfig, ChallengeReport, run_challenge
+from toolkit.number_format import cell, json_safe
 from toolkit.real_sonar.sweep_sonar import SweepSetRobot, SweepSetSonar, course_waypoints, load_challenge_set
 from toolkit.real_sonar.sweeps import SweepSet
 from toolkit.seeds import derive_seeds
 from toolkit.world import MotionNoise, NxtSonar, Pose, RobotModel, load_map
+from toolkit.world.arrays import FloatArray
 
-__all__ = ["COLUMNS", "ChallengeRun", "ChallengeTask", "challenge_mission", "challenge_tasks", "run_challenge_task",
+__all__ = ["COLUMNS", "ChallengeRun", "ChallengeTask", "challenge_mission", "challenge_tasks", "crashed_mission",
+           "run_challenge_task",
            "summarise", "summary_markdown", "write_challenge_csv"]
 
 
@@ -122,6 +125,15 @@ def run_challenge_task(task: ChallengeTask) -> ChallengeRun:
                         report.collisions, round(report.robot_time_s, 2), len(report.route), report.status)
 
 
+def crashed_mission(task: ChallengeTask, reason: str) -> ChallengeRun:
+    """The row of a mission whose worker process died (`toolkit.bench.executors.run_tasks`'s ``crashed``):
+    not reached, its status the `reason`."""
+    sweeps = _sweep_set(task.folder, task.map)
+    x, y = course_waypoints(sweeps, task.repo)[task.start]
+    return ChallengeRun(task.repo, x, y, task.seed, task.localiser, False, math.nan, 0, math.nan,
+                        len(course_waypoints(sweeps, task.repo)), f"crashed: {reason}")
+
+
 def write_challenge_csv(runs: Sequence[ChallengeRun], path: Path) -> Path:
     """`runs` as CSV with `COLUMNS` (written to a temporary file, then moved into place)."""
     return write_rows_csv((r.to_dict() for r in runs), COLUMNS, path)
@@ -139,13 +151,20 @@ def summarise(runs: Sequence[ChallengeRun]) -> dict[str, dict[str, Any]]:
     return out
 
 
+def _finite(values: Sequence[float]) -> FloatArray:
+    """The finite ones of `values` (a crashed mission has no error or robot time)."""
+    a = np.asarray(values, dtype=float)
+    return a[np.isfinite(a)]
+
+
 def _figures(runs: Sequence[ChallengeRun]) -> dict[str, Any]:
-    worst = np.array([r.worst_error_cm for r in runs], dtype=float)
+    worst, times = _finite([r.worst_error_cm for r in runs]), _finite([r.robot_time_s for r in runs])
     return {"missions": len(runs), "reached": float(np.mean([r.reached for r in runs])),
-            "median_worst_error_cm": float(np.nanmedian(worst)), "max_worst_error_cm": float(np.nanmax(worst)),
+            "median_worst_error_cm": float(np.median(worst)) if worst.size else math.nan,
+            "max_worst_error_cm": float(np.max(worst)) if worst.size else math.nan,
             "missions_with_collision": int(sum(r.collisions > 0 for r in runs)),
             "collisions": int(sum(r.collisions for r in runs)),
-            "median_robot_time_s": float(np.median([r.robot_time_s for r in runs]))}
+            "median_robot_time_s": float(np.median(times)) if times.size else math.nan}
 
 
 def summary_markdown(runs: Sequence[ChallengeRun], *, sweeps: SweepSet, seeds: Sequence[int], command: str,
@@ -159,9 +178,10 @@ def summary_markdown(runs: Sequence[ChallengeRun], *, sweeps: SweepSet, seeds: S
               "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name, groups in summarise(runs).items():
         for key, s in groups.items():
-            lines.append(f"| {name} | {key} | {s['missions']} | {s['reached']:.0%} | {s['median_worst_error_cm']:.1f} "
-                         f"| {s['max_worst_error_cm']:.1f} | {s['missions_with_collision']} | {s['collisions']} "
-                         f"| {s['median_robot_time_s']:.0f} |")
+            lines.append(f"| {name} | {key} | {s['missions']} | {s['reached']:.0%} | "
+                         f"{cell(s['median_worst_error_cm'], '.1f')} | {cell(s['max_worst_error_cm'], '.1f')} | "
+                         f"{s['missions_with_collision']} | {s['collisions']} | "
+                         f"{cell(s['median_robot_time_s'], '.0f')} |")
     lines += ["", "Each mission starts at one waypoint of a source (a seeded random heading, the waypoint unknown to "
               "the robot) and visits the others in the course's order, sweeping only at waypoints with that "
               "source's real sweeps. *Worst error*: the largest true distance from a waypoint where a visit ended.",
@@ -171,4 +191,4 @@ def summary_markdown(runs: Sequence[ChallengeRun], *, sweeps: SweepSet, seeds: S
 
 def summary_json(runs: Sequence[ChallengeRun], **extra: Any) -> str:
     """The summary (`summarise`) and `extra` as JSON text."""
-    return json.dumps({**extra, "summary": summarise(runs)}, indent=1, allow_nan=False)
+    return json.dumps(json_safe({**extra, "summary": summarise(runs)}), indent=1, allow_nan=False)

@@ -139,11 +139,13 @@ def bench_challenge(
     from planners import PLANNERS
     from toolkit.bench.challenge import (
         challenge_tasks,
+        crashed_mission,
         run_challenge_task,
         summary_json,
         summary_markdown,
         write_challenge_csv,
     )
+    from toolkit.bench.common import isolate_planners
     from toolkit.real_sonar.sweep_sonar import load_challenge_set
 
     locs = parse_list(localisers_text, "--localisers", list(LOCALISERS.names()))
@@ -157,7 +159,7 @@ def bench_challenge(
     check_out_folder(out, force)
     tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise, config=settings)
     batch = run_batch(run_challenge_task, tasks, "missions", label=f"{len(tasks)} challenge missions",
-                      workers=workers)
+                      workers=workers, crashed=crashed_mission, isolate=isolate_planners([planner]))
     runs, complete = batch.results, batch.complete
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "challenge", str(folder), *(["--map", map_name] if map_name else []),
