@@ -60,7 +60,7 @@ from ..world.arrays import FloatArray
 from ..world.typed import Typed, with_unit
 
 __all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
-           "course_from", "fit_pose", "plausible_update", "run_challenge", "weighed_heading"]
+           "course_from", "fit_pose", "joined", "plausible_update", "run_challenge", "weighed_heading"]
 
 XY = tuple[float, float]
 
@@ -72,7 +72,6 @@ HeadingFrom = Literal["fused", "sweep"]
 
 Oracle = Literal["none", "heading", "pose"]
 """What the truth gives the belief after each waypoint's sweep, for measuring ceilings (`ChallengeFix.oracle`)."""
-
 
 
 class ChallengeFix(Typed):
