@@ -247,4 +247,28 @@ def test_bench_challenge_records_crashed_missions(tmp_path: Path, capsys: pytest
         rows = list(csv.DictReader(fh))
     assert len(rows) == 3 and all(r["status"] == "crashed: killed by signal 11 (SIGSEGV)" and r["reached"] == "False"
                                   and r["robot_time_s"] == "nan" for r in rows)
-    assert "| paper-pf | all | 3 | 0% | – | – | 0 | 0 | – |" in (out / "summary.md").read_text()
+    assert "| paper-pf | all | 3 | 0% | – | – | 0 | 0 | – | – |" in (out / "summary.md").read_text()
+
+
+def test_simulated_readings_run_the_same_mission_on_the_models_sweeps(real_set: SweepSet,
+                                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """``challenge.sonar.readings=simulated``: no real sweep is read, the robot sweeps with the model at
+    its true pose, and the report scores each leg's starting heading against the truth as for real ones."""
+    taken: list[Pose] = []
+    sweep_at = SweepSetSonar.sweep_at
+
+    def recorded(self: SweepSetSonar, pose: Pose, rng: object = None) -> object:
+        taken.append(pose)
+        return sweep_at(self, pose, rng)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(SweepSetSonar, "sweep_at", recorded)
+    reports = {readings: challenge_mission(real_set, "andrei-alpha/robotics", 0, 0, "paper-pf",
+                                           noise=MotionNoise(model="absolute"),
+                                           config=ChallengeConfig.model_validate({"sonar": {"readings": readings}}))
+               for readings in ("simulated", "real")}
+    assert len(taken) == reports["real"].sweeps_taken == 5  # the real mission's sweeps only
+    assert reports["simulated"].sweeps_taken == 5
+    for report in reports.values():
+        assert len(report.leg_heading_errors_deg) == len(report.route) - 1
+        assert all(0.0 <= e <= 180.0 for e in report.leg_heading_errors_deg)
+    assert reports["real"].leg_heading_error_deg < 1.0  # two sweeps of real readings pin the heading

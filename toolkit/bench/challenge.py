@@ -26,6 +26,7 @@ from toolkit.mission.challenge import ChallengeConfig, ChallengeReport, run_chal
 from toolkit.number_format import cell, json_safe
 from toolkit.real_sonar.sweep_sonar import SweepSetRobot, SweepSetSonar, course_waypoints, load_challenge_set
 from toolkit.real_sonar.sweeps import SweepSet
+from toolkit.robots.sim import SimRobot
 from toolkit.seeds import derive_seeds
 from toolkit.world import MotionNoise, NxtSonar, Pose, RobotModel, load_map
 from toolkit.world.arrays import FloatArray
@@ -64,6 +65,7 @@ class ChallengeRun:
     worst_error_cm: float
     collisions: int
     robot_time_s: float
+    leg_heading_error_deg: float
     waypoints: int
     status: str
 
@@ -97,17 +99,23 @@ def challenge_mission(sweeps: SweepSet, repo: str, start: int, seed: int, locali
                       sonar: NxtSonar | None = None, noise: MotionNoise | None = None,
                       config: ChallengeConfig | None = None) -> ChallengeReport:
     """One challenge mission of `repo`'s sweeps from its waypoint `start` (seeded: the start heading, the
-    simulator, the sweep drawn at each waypoint, the localiser and the planner)."""
+    simulator, the sweep drawn at each waypoint, the localiser and the planner). With
+    ``challenge.sonar.readings=simulated`` the robot's sweeps are the `sonar` model's at its true pose
+    instead: the same mission, route and seeds on simulated readings."""
     m = sweeps.map
     course = course_waypoints(sweeps, repo)
     heading_seed, sim_seed, loc_seed, plan_seed = derive_seeds(seed, "challenge", repo, start, n=4)
     heading = float(np.random.default_rng(heading_seed).uniform(-math.pi, math.pi))
     motion = noise or MotionNoise()
     settings = config or ChallengeConfig()
-    sonar_of_sweeps = SweepSetSonar(sweeps, repo, radius_cm=settings.sonar.radius_cm,
-                                    offset_correction=settings.sonar.offset_correction)
-    robot = SweepSetRobot(m, Pose(course[start][0], course[start][1], heading), sonar_of_sweeps,
-                          noise=motion, rng=sim_seed)
+    start_pose = Pose(course[start][0], course[start][1], heading)
+    robot: SimRobot
+    if settings.sonar.readings == "simulated":  # the sonar model's sweeps at the true pose, for comparison
+        robot = SimRobot(m, start_pose, sonar=sonar or NxtSonar(), noise=motion, rng=sim_seed)
+    else:
+        sonar_of_sweeps = SweepSetSonar(sweeps, repo, radius_cm=settings.sonar.radius_cm,
+                                        offset_correction=settings.sonar.offset_correction)
+        robot = SweepSetRobot(m, start_pose, sonar_of_sweeps, noise=motion, rng=sim_seed)
     model = RobotModel(sonar or NxtSonar(), motion=motion, readings="real")
     loc = make_localiser(localiser, m, rng=loc_seed, **localiser_options(localiser, model))
     return run_challenge(robot, m, course, start, loc, make_planner(planner), np.random.default_rng(plan_seed),
@@ -122,7 +130,8 @@ def run_challenge_task(task: ChallengeTask) -> ChallengeRun:
                                NxtSonar(**task.sonar), noise, task.config)
     x, y = report.start
     return ChallengeRun(task.repo, x, y, task.seed, task.localiser, report.reached, round(report.worst_error_cm, 3),
-                        report.collisions, round(report.robot_time_s, 2), len(report.route), report.status)
+                        report.collisions, round(report.robot_time_s, 2), round(report.leg_heading_error_deg, 2),
+                        len(report.route), report.status)
 
 
 def crashed_mission(task: ChallengeTask, reason: str) -> ChallengeRun:
@@ -130,7 +139,7 @@ def crashed_mission(task: ChallengeTask, reason: str) -> ChallengeRun:
     not reached, its status the `reason`."""
     sweeps = _sweep_set(task.folder, task.map)
     x, y = course_waypoints(sweeps, task.repo)[task.start]
-    return ChallengeRun(task.repo, x, y, task.seed, task.localiser, False, math.nan, 0, math.nan,
+    return ChallengeRun(task.repo, x, y, task.seed, task.localiser, False, math.nan, 0, math.nan, math.nan,
                         len(course_waypoints(sweeps, task.repo)), f"crashed: {reason}")
 
 
@@ -141,7 +150,8 @@ def write_challenge_csv(runs: Sequence[ChallengeRun], path: Path) -> Path:
 
 def summarise(runs: Sequence[ChallengeRun]) -> dict[str, dict[str, Any]]:
     """Per localiser, then per source of each: missions, share reached, median and worst of the worst
-    errors (cm), missions with a collision, collisions, median robot time (s)."""
+    errors (cm), missions with a collision, collisions, median robot time (s), median of the missions' median
+    heading errors at a leg's start (deg)."""
     out: dict[str, dict[str, Any]] = {}
     for name in dict.fromkeys(r.localiser for r in runs):
         mine = [r for r in runs if r.localiser == name]
@@ -159,32 +169,39 @@ def _finite(values: Sequence[float]) -> FloatArray:
 
 def _figures(runs: Sequence[ChallengeRun]) -> dict[str, Any]:
     worst, times = _finite([r.worst_error_cm for r in runs]), _finite([r.robot_time_s for r in runs])
+    headings = _finite([r.leg_heading_error_deg for r in runs])
     return {"missions": len(runs), "reached": float(np.mean([r.reached for r in runs])),
             "median_worst_error_cm": float(np.median(worst)) if worst.size else math.nan,
             "max_worst_error_cm": float(np.max(worst)) if worst.size else math.nan,
             "missions_with_collision": int(sum(r.collisions > 0 for r in runs)),
             "collisions": int(sum(r.collisions for r in runs)),
-            "median_robot_time_s": float(np.median(times)) if times.size else math.nan}
+            "median_robot_time_s": float(np.median(times)) if times.size else math.nan,
+            "median_leg_heading_error_deg": float(np.median(headings)) if headings.size else math.nan}
 
 
 def summary_markdown(runs: Sequence[ChallengeRun], *, sweeps: SweepSet, seeds: Sequence[int], command: str,
-                     complete: bool = True) -> str:
-    """The summary as Markdown: one table, a row per localiser and source (and all sources)."""
+                     complete: bool = True, readings: str = "real") -> str:
+    """The summary as Markdown: one table, a row per localiser and source (and all sources); `readings`:
+    whose sweeps the robot read (``challenge.sonar.readings``)."""
     lines = [] if complete else [f"**INCOMPLETE**: {len(runs)} missions finished; the table covers only them.\n"]
-    lines += [f"# The challenge on real sweeps: `{sweeps.folder}`, map `{sweeps.map.name}`, seeds "
+    lines += [f"# The challenge on {readings} sweeps: `{sweeps.folder}`, map `{sweeps.map.name}`, seeds "
               f"{', '.join(map(str, seeds))}", "",
               "| localiser | source | missions | reached every waypoint (10 cm) | median worst error (cm) "
-              "| max worst error (cm) | missions with a collision | collisions | median robot time (s) |",
-              "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+              "| max worst error (cm) | missions with a collision | collisions | median robot time (s) "
+              "| median heading error at a leg's start (deg) |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, groups in summarise(runs).items():
         for key, s in groups.items():
             lines.append(f"| {name} | {key} | {s['missions']} | {s['reached']:.0%} | "
                          f"{cell(s['median_worst_error_cm'], '.1f')} | {cell(s['max_worst_error_cm'], '.1f')} | "
                          f"{s['missions_with_collision']} | {s['collisions']} | "
-                         f"{cell(s['median_robot_time_s'], '.0f')} |")
+                         f"{cell(s['median_robot_time_s'], '.0f')} | "
+                         f"{cell(s['median_leg_heading_error_deg'], '.1f')} |")
     lines += ["", "Each mission starts at one waypoint of a source (a seeded random heading, the waypoint unknown to "
               "the robot) and visits the others in the course's order, sweeping only at waypoints with that "
-              "source's real sweeps. *Worst error*: the largest true distance from a waypoint where a visit ended.",
+              "source's real sweeps. *Worst error*: the largest true distance from a waypoint where a visit ended. "
+              "*Heading error*: how far the belief's heading was from the truth's as each leg started, the median "
+              "over the missions of each mission's median.",
               "", f"Command: `{command}`", ""]
     return "\n".join(lines)
 

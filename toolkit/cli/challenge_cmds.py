@@ -168,7 +168,8 @@ def bench_challenge(
         "--out", str(out)])
     out.mkdir(parents=True, exist_ok=True)
     csv_path = write_challenge_csv(runs, out / "challenge.csv")
-    text = summary_markdown(runs, sweeps=sweeps, seeds=seeds, command=command, complete=complete)
+    text = summary_markdown(runs, sweeps=sweeps, seeds=seeds, command=command, complete=complete,
+                            readings=settings.sonar.readings)
     (out / "summary.md").write_text(text)
     extra: dict[str, Any] = {"folder": str(folder), "map": sweeps.map.name, "localisers": locs, "seeds": seeds,
                              "planner": planner, "noise": noise.to_dict(), "complete": complete,

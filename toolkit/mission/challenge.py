@@ -70,6 +70,9 @@ PositionFrom = Literal["prediction", "localiser"]
 HeadingFrom = Literal["fused", "sweep"]
 """Where the belief's heading comes from after a waypoint's sweep (`ChallengeFix.heading_from`)."""
 
+Readings = Literal["real", "simulated"]
+"""Whose sweeps the challenge's robot reads (`ChallengeSonar.readings`)."""
+
 Oracle = Literal["none", "heading", "pose"]
 """What the truth gives the belief after each waypoint's sweep, for measuring ceilings (`ChallengeFix.oracle`)."""
 
@@ -100,6 +103,9 @@ class ChallengeSonar(Typed):
     offset_correction: bool = Field(default=False, description=(
         "Move each real echo by the map's change between the waypoint and the robot's true pose "
         "(a hybrid of real and map readings, for study; off: the sweep as it was taken)."))
+    readings: Readings = Field(default="real", description=(
+        "real: the sweep set's sweeps, at its waypoints only; simulated: the sonar model's sweep at the "
+        "robot's true pose (the same mission on simulated readings, to compare with the real ones)."))
 
 
 class ChallengeConfig(Typed):
@@ -147,7 +153,9 @@ class WaypointVisit:
 @dataclass
 class ChallengeReport:
     """The outcome of `run_challenge`: the visits (the start first), the truth's collisions, the sweeps taken
-    (`sweeps_taken`: the facing sweeps too) and the robot time."""
+    (`sweeps_taken`: the facing sweeps too), the robot time, and how far the belief's heading was from the
+    truth's as each leg started (`leg_heading_errors_deg`, degrees: what the stop's sweeps left for the
+    open-loop leg)."""
 
     start: XY
     start_pose: Pose
@@ -160,6 +168,7 @@ class ChallengeReport:
     collisions: int = 0
     robot_time_s: float = 0.0
     sweeps_taken: int = 0
+    leg_heading_errors_deg: list[float] = field(default_factory=list)
     status: str = ""
     reach_cm: float = 10.0
     trajectory: list[Pose] = field(default_factory=list)
@@ -169,6 +178,11 @@ class ChallengeReport:
         """Every waypoint of the route visited, in its order, and truly reached within `reach_cm`."""
         return [v.waypoint for v in self.visits] == list(self.route) and \
             all(v.error_cm <= self.reach_cm for v in self.visits)
+
+    @property
+    def leg_heading_error_deg(self) -> float:
+        """The median of `leg_heading_errors_deg` (NaN before any leg)."""
+        return float(np.median(self.leg_heading_errors_deg)) if self.leg_heading_errors_deg else math.nan
 
     @property
     def worst_error_cm(self) -> float:
@@ -185,7 +199,8 @@ class ChallengeReport:
         lines += [f"  {note}" for note in self.notes]
         lines.append(f"{'reached every waypoint' if self.reached else 'NOT reached'} within {self.reach_cm:g} cm: "
                      f"worst {self.worst_error_cm:.1f} cm, {self.collisions} collision(s), "
-                     f"{self.sweeps_taken} sweep(s), robot time "
+                     f"{self.sweeps_taken} sweep(s), heading {self.leg_heading_error_deg:.1f} deg off at a "
+                     f"leg's start (median), robot time "
                      f"{self.robot_time_s:.1f} s; {self.status}")
         return "\n".join(lines)
 
@@ -195,6 +210,7 @@ class ChallengeReport:
                 "start_match": None if self.start_match is None else list(self.start_match),
                 "visits": [v.to_dict() for v in self.visits], "notes": list(self.notes), "reached": self.reached,
                 "worst_error_cm": self.worst_error_cm, "collisions": self.collisions, "sweeps_taken": self.sweeps_taken,
+                "leg_heading_errors_deg": list(self.leg_heading_errors_deg),
                 "robot_time_s": self.robot_time_s, "status": self.status, "reach_cm": self.reach_cm}
 
 
@@ -275,6 +291,11 @@ class WaypointSweeps:
         scan = self.robot.ultrascan()
         self.sweeps_taken += 1
         return scan
+
+    def heading_error_deg(self) -> float:
+        """How far (degrees, absolute) the belief's heading is from the truth's (scoring only)."""
+        assert self.estimate is not None
+        return round(abs(math.degrees(float(angle_diff(self.estimate.pose.theta, self.robot.true_pose.theta)))), 3)
 
     def _face_and_sweep(self, goal: XY) -> tuple[float, Scan | None]:
         """Turn toward the first corner of the path to `goal` and sweep: the turn (rad, as commanded and
@@ -484,6 +505,7 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
     report.status = "done"
     while k < len(route):
         policy.face_next_leg(route[k])
+        report.leg_heading_errors_deg.append(policy.heading_error_deg())
         policy.drive_to(route[k])
         visit = policy.sweep_and_correct(route[k])
         if visit.sweeps == 0 and k == 1 and retries < min(cfg.start_retries, len(hypotheses) - 1):
