@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import fcntl
 import importlib.util
+import json
 import os
 import shutil
+import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -124,3 +126,33 @@ def built_once(factory: pytest.TempPathFactory, name: str, build: Callable[[Path
             build(out)
             done.touch()
     return out
+
+
+def kept_run(folder: Path, name: str, argv: list[str] | None = None) -> subprocess.CompletedProcess[str]:
+    """Run `argv` (the `nxtnav` console script and its arguments) in `folder` and keep what it gave, exit code,
+    stdout and stderr, as ``NAME.run.json`` there; without `argv`, what an earlier run kept under `name`.
+
+    For a command several tests assert on: run once in a `built_once` folder, each test reads it back."""
+    kept = folder / f"{name}.run.json"
+    if argv is not None:
+        proc = subprocess.run(argv, cwd=folder, capture_output=True, text=True, timeout=600)
+        kept.write_text(json.dumps({"args": argv, "returncode": proc.returncode, "stdout": proc.stdout,
+                                    "stderr": proc.stderr}), encoding="utf-8")
+    run = json.loads(kept.read_text(encoding="utf-8"))
+    return subprocess.CompletedProcess(run["args"], run["returncode"], run["stdout"], run["stderr"])
+
+
+def _import_and_replay_the_shipped_sweeps(folder: Path) -> None:
+    kept_run(folder, "import", [nxtnav_exe(), "import", "sweeps", str(REAL_NXT), "-o", "real.jsonl"])
+    kept_run(folder, "replay", [nxtnav_exe(), "replay", "real.jsonl", "--localisers", "paper-pf,amcl",
+                                "--json", "replay.json"])
+
+
+@pytest.fixture(scope="session")
+def shipped_sweeps_replayed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder outside the repository where a user's two commands on the shipped sweeps ran, once per test run:
+    ``nxtnav import sweeps maps/real-nxt -o real.jsonl``, then ``nxtnav replay real.jsonl --localisers
+    paper-pf,amcl --json replay.json``; what each gave is ``kept_run(folder, "import")`` and ``(.., "replay")``.
+
+    Tests only read it (test_stuck_runs.py and test_replay_explains.py assert on these same two runs)."""
+    return built_once(tmp_path_factory, "shipped-sweeps-replayed", _import_and_replay_the_shipped_sweeps)
