@@ -26,6 +26,19 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     items.sort(key=lambda item: 0 if item.get_closest_marker("slow") or item.get_closest_marker("docs") else 1)
 
 
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Before pytest-xdist starts its workers, compile numba's kernels once when its cache is cold (a fresh
+    clone), so that the workers and the commands they run do not all compile the same kernels at the start
+    (tests/numba_warm_up.py says why; it returns after a second when the cache is warm). A run without
+    workers compiles each kernel once anyway and skips this."""
+    config = session.config
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+        return
+    subprocess.run([sys.executable, str(Path(__file__).with_name("numba_warm_up.py"))], cwd=Path(__file__).parents[1],
+                   stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=600,
+                   check=False)
+
+
 BOTSIM_MAPS = ("map1", "map2", "map3")
 ALL_MAPS = (*BOTSIM_MAPS, "pillars")
 
