@@ -20,11 +20,32 @@ import pytest
 from toolkit.world import Map, load_map, map_from_dict
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """The slow end-to-end checks and the documented commands first, the quick tests after (a stable
     sort: each keeps its order): pytest-xdist's workers then finish together instead of one running a
-    long notebook while the other has nothing left."""
+    long notebook while the other has nothing left. With ``--dist loadgroup``, each test of an
+    ``xdist_group`` is named after its group (`_name_groups`)."""
     items.sort(key=lambda item: 0 if item.get_closest_marker("slow") or item.get_closest_marker("docs") else 1)
+    if config.getoption("loadgroup", default=False):
+        _name_groups(items)
+
+
+def _name_groups(items: list[pytest.Item]) -> None:
+    """Give each test marked ``xdist_group(NAME)`` the node id ``ID@NAME``, by which ``--dist loadgroup`` sends
+    the tests of one group to one worker.
+
+    pytest-xdist 3.8 sets ``item._nodeid`` for this, which pytest 9 no longer reads (a node's id is its
+    ``_id``), so without this every group was spread over both workers: the Dask cluster's tests each
+    started a cluster on both, and each worker built the module fixtures of test_bench_planners,
+    test_sonar_cli and test_recording_user_paths (or waited on the other's `built_once` lock)."""
+    from _pytest.nodeid import NodeId
+
+    for item in items:
+        names = sorted({str(m.args[0] if m.args else m.kwargs.get("name", "default"))
+                        for m in item.iter_markers("xdist_group")})
+        nodeid = item.nodeid
+        if names and nodeid.rfind("@") <= nodeid.rfind("]") and isinstance(getattr(item, "_id", None), NodeId):
+            item._id = NodeId.parse(f"{nodeid}@{'_'.join(names)}")
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:
