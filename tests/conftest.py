@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import importlib.util
+import json
 import os
 import shutil
+import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -17,11 +20,46 @@ import pytest
 from toolkit.world import Map, load_map, map_from_dict
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """The slow end-to-end checks and the documented commands first, the quick tests after (a stable
     sort: each keeps its order): pytest-xdist's workers then finish together instead of one running a
-    long notebook while the other has nothing left."""
+    long notebook while the other has nothing left. With ``--dist loadgroup``, each test of an
+    ``xdist_group`` is named after its group (`_name_groups`)."""
     items.sort(key=lambda item: 0 if item.get_closest_marker("slow") or item.get_closest_marker("docs") else 1)
+    if config.getoption("loadgroup", default=False):
+        _name_groups(items)
+
+
+def _name_groups(items: list[pytest.Item]) -> None:
+    """Give each test marked ``xdist_group(NAME)`` the node id ``ID@NAME``, by which ``--dist loadgroup`` sends
+    the tests of one group to one worker.
+
+    pytest-xdist 3.8 sets ``item._nodeid`` for this, which pytest 9 no longer reads (a node's id is its
+    ``_id``), so without this every group was spread over both workers: the Dask cluster's tests each
+    started a cluster on both, and each worker built the module fixtures of test_bench_planners,
+    test_sonar_cli and test_recording_user_paths (or waited on the other's `built_once` lock)."""
+    from _pytest.nodeid import NodeId
+
+    for item in items:
+        names = sorted({str(m.args[0] if m.args else m.kwargs.get("name", "default"))
+                        for m in item.iter_markers("xdist_group")})
+        nodeid = item.nodeid
+        if names and nodeid.rfind("@") <= nodeid.rfind("]") and isinstance(getattr(item, "_id", None), NodeId):
+            item._id = NodeId.parse(f"{nodeid}@{'_'.join(names)}")
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Before pytest-xdist starts its workers, compile numba's kernels once when its cache is cold (a fresh
+    clone), so that the workers and the commands they run do not all compile the same kernels at the start
+    (tests/numba_warm_up.py says why; it returns after a second when the cache is warm). A run without
+    workers compiles each kernel once anyway and skips this."""
+    config = session.config
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+        return
+    with contextlib.suppress(subprocess.TimeoutExpired):  # it only saves time: the tests run whatever it did
+        subprocess.run([sys.executable, str(Path(__file__).with_name("numba_warm_up.py"))],
+                       cwd=Path(__file__).parents[1], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL, timeout=300, check=False)
 
 
 BOTSIM_MAPS = ("map1", "map2", "map3")
@@ -124,3 +162,33 @@ def built_once(factory: pytest.TempPathFactory, name: str, build: Callable[[Path
             build(out)
             done.touch()
     return out
+
+
+def kept_run(folder: Path, name: str, argv: list[str] | None = None) -> subprocess.CompletedProcess[str]:
+    """Run `argv` (the `nxtnav` console script and its arguments) in `folder` and keep what it gave, exit code,
+    stdout and stderr, as ``NAME.run.json`` there; without `argv`, what an earlier run kept under `name`.
+
+    For a command several tests assert on: run once in a `built_once` folder, each test reads it back."""
+    kept = folder / f"{name}.run.json"
+    if argv is not None:
+        proc = subprocess.run(argv, cwd=folder, capture_output=True, text=True, timeout=600)
+        kept.write_text(json.dumps({"args": argv, "returncode": proc.returncode, "stdout": proc.stdout,
+                                    "stderr": proc.stderr}), encoding="utf-8")
+    run = json.loads(kept.read_text(encoding="utf-8"))
+    return subprocess.CompletedProcess(run["args"], run["returncode"], run["stdout"], run["stderr"])
+
+
+def _import_and_replay_the_shipped_sweeps(folder: Path) -> None:
+    kept_run(folder, "import", [nxtnav_exe(), "import", "sweeps", str(REAL_NXT), "-o", "real.jsonl"])
+    kept_run(folder, "replay", [nxtnav_exe(), "replay", "real.jsonl", "--localisers", "paper-pf,amcl",
+                                "--json", "replay.json"])
+
+
+@pytest.fixture(scope="session")
+def shipped_sweeps_replayed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder outside the repository where a user's two commands on the shipped sweeps ran, once per test run:
+    ``nxtnav import sweeps maps/real-nxt -o real.jsonl``, then ``nxtnav replay real.jsonl --localisers
+    paper-pf,amcl --json replay.json``; what each gave is ``kept_run(folder, "import")`` and ``(.., "replay")``.
+
+    Tests only read it (test_stuck_runs.py and test_replay_explains.py assert on these same two runs)."""
+    return built_once(tmp_path_factory, "shipped-sweeps-replayed", _import_and_replay_the_shipped_sweeps)

@@ -30,6 +30,8 @@ from toolkit.bench.planners import (
 from toolkit.seeds import derive_seed
 from toolkit.world import CollisionChecker, RegistryError, load_map
 
+pytestmark = pytest.mark.xdist_group("bench-planners")  # one worker: `bench_dir` built once, none waiting on its lock
+
 MAPS = ("map1", "map2", "map3")
 WANTED = ("min-turn", "rrtstar", "prm", "astar")
 RADIUS = 8.0

@@ -6,6 +6,7 @@ and 270 degrees about its centre), so only the heading can tell the true place f
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -180,9 +181,10 @@ def test_on_a_real_sweep_the_prior_turns_the_twin_margin_round() -> None:
     (docs/real-sonar.md); weighed by the heading the robot believed (+x), the waypoint wins."""
     sweeps = load_sweep_set(REAL_NXT)
     i = [(s.x_cm, s.y_cm) for s in sweeps].index((180.0, 30.0))
-    plain = sweep_margins(SONAR, sweeps)
+    # each sweep's margin is its own: without the prior only that sweep's is looked at, so only it is scored
+    plain = sweep_margins(SONAR, dataclasses.replace(sweeps, sweeps=sweeps.sweeps[i : i + 1]))
     weighed = sweep_margins(SONAR, sweeps, heading_prior=HeadingPrior(0.0, math.radians(20.0)))
-    assert plain[i] < 0.0 < weighed[i]
+    assert plain[0] < 0.0 < weighed[i]
     assert all(w > 0.0 for w in weighed)
 
 

@@ -9,16 +9,19 @@ from __future__ import annotations
 import json
 import math
 import re
+import shutil
 import subprocess
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from conftest import nxtnav_exe, run_cli
+from conftest import built_once, kept_run, nxtnav_exe, run_cli
 
 from toolkit.recordings.recorder import scan_from_fields
 from toolkit.recordings.replay import read_recording
+
+pytestmark = pytest.mark.xdist_group("readme-recording")  # one worker: `work` built once, none waiting on its lock
 
 EXE = nxtnav_exe()
 LOCALISERS = "amcl,paper-pf,pf-systematic"
@@ -37,21 +40,33 @@ def _one_error_line(proc: subprocess.CompletedProcess[str]) -> str:
     return lines[0]
 
 
+def _record_and_replay(folder: Path) -> None:
+    """The README's two commands in `folder`, what each gave kept (`kept_run`): the recording and its replay."""
+    kept_run(folder, "run", [EXE, "run", "--map", "map1", "--localiser", "amcl", "--record", "run.jsonl"])
+    kept_run(folder, "replay", [EXE, "replay", "run.jsonl", "--localisers", LOCALISERS, "--json", "replay.json",
+                                "-o", "replay.png"])
+
+
 @pytest.fixture(scope="module")
 def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder outside the repository holding the README's recording: ``nxtnav run --map map1
-    --localiser amcl --record run.jsonl`` (a path of about 1 m, five scans)."""
+    --localiser amcl --record run.jsonl`` (a path of about 1 m, five scans), and its replay (`replayed`).
+
+    Both commands run once per test run (`built_once`); each worker's tests write in a copy of that folder."""
     folder = tmp_path_factory.mktemp("user-paths")
-    proc = _nxtnav("run", "--map", "map1", "--localiser", "amcl", "--record", "run.jsonl", cwd=folder)
+    shutil.copytree(built_once(tmp_path_factory, "readme-recording", _record_and_replay), folder, dirs_exist_ok=True)
+    proc = kept_run(folder, "run")
+    assert "Traceback" not in proc.stderr, proc.stderr
     assert proc.returncode == 0, proc.stderr
     return folder
 
 
 @pytest.fixture(scope="module")
 def replayed(work: Path) -> dict[str, Any]:
-    """The README's replay of it, as JSON (the command's output is kept under "stdout")."""
-    proc = _nxtnav("replay", "run.jsonl", "--localisers", LOCALISERS, "--json", "replay.json", "-o", "replay.png",
-                   cwd=work)
+    """The README's replay of it, ``nxtnav replay run.jsonl --localisers amcl,paper-pf,pf-systematic --json
+    replay.json -o replay.png``, as JSON (the command's output is kept under "stdout")."""
+    proc = kept_run(work, "replay")
+    assert "Traceback" not in proc.stderr, proc.stderr
     assert proc.returncode == 0, proc.stderr
     doc: dict[str, Any] = json.loads((work / "replay.json").read_text())
     doc["stdout"] = proc.stdout

@@ -11,7 +11,7 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
-from conftest import REAL_NXT, nxtnav_exe
+from conftest import kept_run, nxtnav_exe
 
 from localisation.ambiguity import CANDIDATE_RADIUS_CM
 
@@ -19,11 +19,14 @@ VERDICT_FIELDS = ("converged", "ambiguous", "candidates", "candidates_text", "tr
                   "confidently_wrong", "reason")
 
 
-def _nxtnav(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    proc = subprocess.run([nxtnav_exe(), *args], cwd=cwd, capture_output=True, text=True, timeout=600)
+def _ran_cleanly(proc: subprocess.CompletedProcess[str]) -> subprocess.CompletedProcess[str]:
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr, proc.stderr
     return proc
+
+
+def _nxtnav(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return _ran_cleanly(subprocess.run([nxtnav_exe(), *args], cwd=cwd, capture_output=True, text=True, timeout=600))
 
 
 def _summary_line(stdout: str, name: str) -> re.Match[str]:
@@ -39,12 +42,15 @@ def _judged(doc: dict[str, Any]) -> list[tuple[dict[str, Any], str, dict[str, An
             for n, e in s["estimates"].items() if e is not None]
 
 
-def test_replay_of_the_shipped_sweeps_says_why_each_large_error(tmp_path: Path) -> None:
+def test_replay_of_the_shipped_sweeps_says_why_each_large_error(shipped_sweeps_replayed: Path) -> None:
     """The trial's commands: every update more than 20 cm off gets one line with its reason, the JSON carries
-    the verdict of every estimate, and the summary lines count what the JSON holds."""
-    _nxtnav("import", "sweeps", str(REAL_NXT), "-o", "real.jsonl", cwd=tmp_path)
-    proc = _nxtnav("replay", "real.jsonl", "--localisers", "paper-pf,amcl", "--json", "replay.json", cwd=tmp_path)
-    doc = json.loads((tmp_path / "replay.json").read_text())
+    the verdict of every estimate, and the summary lines count what the JSON holds. The two commands,
+    ``nxtnav import sweeps maps/real-nxt -o real.jsonl`` and ``nxtnav replay real.jsonl --localisers
+    paper-pf,amcl --json replay.json``, run once for this test and test_stuck_runs.py (conftest)."""
+    folder = shipped_sweeps_replayed
+    _ran_cleanly(kept_run(folder, "import"))
+    proc = _ran_cleanly(kept_run(folder, "replay"))
+    doc = json.loads((folder / "replay.json").read_text())
     judged = _judged(doc)
     large = [(s, n, e) for s, n, e in judged if e["error_cm"] > CANDIDATE_RADIUS_CM]
     assert large, "no large error to explain: the test would prove nothing"

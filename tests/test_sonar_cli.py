@@ -15,6 +15,8 @@ from conftest import REAL_NXT, built_once, real_nxt_arena, run_cli
 from toolkit.real_sonar.fit import load_sonar_profile
 from toolkit.world import NxtSonar
 
+pytestmark = pytest.mark.xdist_group("sonar-fit")  # one worker: `fitted` built once, none waiting on its lock
+
 GRID = ["--widths", "20", "--criticals", "40"]
 
 

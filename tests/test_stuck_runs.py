@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REAL_NXT, nxtnav_exe, real_nxt_arena
+from conftest import REAL_NXT, kept_run, nxtnav_exe, real_nxt_arena
 
 from localisation.scan import drop_stuck, stuck_mask, sweep_fault
 from localisation.stuck import NO_MAP_STUCK_ARC_DEG, STUCK_ARC_DEG, echo_table, equal_runs, judge_runs
@@ -212,29 +212,37 @@ def test_import_and_replay_keep_a_physical_run_and_drop_a_stuck_one(tmp_path: Pa
     assert (tmp_path / "replay.json").is_file()
 
 
-def _replay(folder: Path, cwd: Path) -> tuple[subprocess.CompletedProcess[str], subprocess.CompletedProcess[str]]:
-    """The trial's commands on a sweep set: `nxtnav import sweeps`, then `nxtnav replay` with paper-pf and amcl."""
-    imported = _nxtnav("import", "sweeps", str(folder), "-o", "real.jsonl", cwd=cwd)
+def _ran_cleanly(imported: subprocess.CompletedProcess[str],
+                 replayed: subprocess.CompletedProcess[str]) -> tuple[subprocess.CompletedProcess[str],
+                                                                      subprocess.CompletedProcess[str]]:
     assert imported.returncode == 0, imported.stderr
-    replayed = _nxtnav("replay", "real.jsonl", "--localisers", "paper-pf,amcl", "--json", "replay.json", cwd=cwd)
     assert replayed.returncode == 0, replayed.stderr
     assert "Traceback" not in replayed.stderr
     return imported, replayed
 
 
+def _replay(folder: Path, cwd: Path) -> tuple[subprocess.CompletedProcess[str], subprocess.CompletedProcess[str]]:
+    """The trial's commands on a sweep set: `nxtnav import sweeps`, then `nxtnav replay` with paper-pf and amcl."""
+    imported = _nxtnav("import", "sweeps", str(folder), "-o", "real.jsonl", cwd=cwd)
+    replayed = _nxtnav("replay", "real.jsonl", "--localisers", "paper-pf,amcl", "--json", "replay.json", cwd=cwd)
+    return _ran_cleanly(imported, replayed)
+
+
 @pytest.mark.slow
-def test_import_and_replay_of_the_shipped_sweeps_keep_every_reading(tmp_path: Path) -> None:
+def test_import_and_replay_of_the_shipped_sweeps_keep_every_reading(shipped_sweeps_replayed: Path) -> None:
     """The trial's commands on the shipped set: the held repeats travel as no echo (said by the import),
     no reading is dropped as stuck and no warning is given; the two sweeps that are not at a twin of
-    their place are found, and the one at (180, 30) is not claimed as converged."""
-    imported, replayed = _replay(REAL_NXT, tmp_path)
+    their place are found, and the one at (180, 30) is not claimed as converged. The two commands are
+    `_replay`'s on REAL_NXT, run once for this test and test_replay_explains.py (conftest)."""
+    folder = shipped_sweeps_replayed
+    imported, replayed = _ran_cleanly(kept_run(folder, "import"), kept_run(folder, "replay"))
     assert "(424 no-echo, 39%; 346 of them repeat a held echo: held_runs = no-echo)" in imported.stdout
-    scans = [json.loads(line) for line in (tmp_path / "real.jsonl").read_text().splitlines()]
+    scans = [json.loads(line) for line in (folder / "real.jsonl").read_text().splitlines()]
     scans = [e for e in scans if e.get("type") == "scan"]
     assert [len(e["ranges_cm"]) for e in scans] == [360] * 3
     assert [len(e["invalid"]) for e in scans] == [108, 102, 78 + 136]
     assert "stuck" not in replayed.stderr, replayed.stderr
-    doc = json.loads((tmp_path / "replay.json").read_text())
+    doc = json.loads((folder / "replay.json").read_text())
     ups = {s["label"].rsplit("/", 1)[1]: s["estimates"] for s in doc["steps"] if s["call"] == "update"}
     for name in ("paper-pf", "amcl"):
         assert ups["loc_03.dat"][name]["error_cm"] < 10.0 and ups["loc_04.dat"][name]["error_cm"] < 10.0
