@@ -197,19 +197,24 @@ def test_an_oracle_gives_the_belief_the_truth_after_each_sweep(real_set: SweepSe
     assert all(same) if oracle == "pose" else not all(same)
 
 
-def test_a_facing_sweep_turns_toward_the_next_leg_and_sweeps_again(real_set: SweepSet,
-                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    """With the facing sweep every stop but the last sweeps twice, the second time where it stood for the
-    first, turned toward the next waypoint; without it, once. The mission still reaches every waypoint
-    (motion noise of 0.1 cm a move, so that a leg's drift cannot miss)."""
-    taken: list[Pose] = []
+@pytest.fixture
+def taken(monkeypatch: pytest.MonkeyPatch) -> list[Pose]:
+    """The true poses at which the sweep-set sonar answered, in order (it still answers as it would)."""
+    poses: list[Pose] = []
     sweep_at = SweepSetSonar.sweep_at
 
     def recorded(self: SweepSetSonar, pose: Pose, rng: object = None) -> object:
-        taken.append(pose)
+        poses.append(pose)
         return sweep_at(self, pose, rng)  # type: ignore[arg-type]
 
     monkeypatch.setattr(SweepSetSonar, "sweep_at", recorded)
+    return poses
+
+
+def test_a_facing_sweep_turns_toward_the_next_leg_and_sweeps_again(real_set: SweepSet, taken: list[Pose]) -> None:
+    """With the facing sweep every stop but the last sweeps twice, the second time where it stood for the
+    first, turned toward the next waypoint; without it, once. The mission still reaches every waypoint
+    (motion noise of 0.1 cm a move, so that a leg's drift cannot miss)."""
     sweeps = {}
     for facing in (False, True):
         taken.clear()
@@ -251,17 +256,9 @@ def test_bench_challenge_records_crashed_missions(tmp_path: Path, capsys: pytest
 
 
 def test_simulated_readings_run_the_same_mission_on_the_models_sweeps(real_set: SweepSet,
-                                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+                                                                       taken: list[Pose]) -> None:
     """``challenge.sonar.readings=simulated``: no real sweep is read, the robot sweeps with the model at
     its true pose, and the report scores each leg's starting heading against the truth as for real ones."""
-    taken: list[Pose] = []
-    sweep_at = SweepSetSonar.sweep_at
-
-    def recorded(self: SweepSetSonar, pose: Pose, rng: object = None) -> object:
-        taken.append(pose)
-        return sweep_at(self, pose, rng)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(SweepSetSonar, "sweep_at", recorded)
     reports = {readings: challenge_mission(real_set, "andrei-alpha/robotics", 0, 0, "paper-pf",
                                            noise=MotionNoise(model="absolute"),
                                            config=ChallengeConfig.model_validate({"sonar": {"readings": readings}}))

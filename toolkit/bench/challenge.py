@@ -29,7 +29,7 @@ from toolkit.real_sonar.sweeps import SweepSet
 from toolkit.robots.sim import SimRobot
 from toolkit.seeds import derive_seeds
 from toolkit.world import MotionNoise, NxtSonar, Pose, RobotModel, load_map
-from toolkit.world.arrays import FloatArray
+from toolkit.world.arrays import finite_median
 
 __all__ = ["COLUMNS", "ChallengeRun", "ChallengeTask", "challenge_mission", "challenge_tasks", "crashed_mission",
            "run_challenge_task",
@@ -161,22 +161,14 @@ def summarise(runs: Sequence[ChallengeRun]) -> dict[str, dict[str, Any]]:
     return out
 
 
-def _finite(values: Sequence[float]) -> FloatArray:
-    """The finite ones of `values` (a crashed mission has no error or robot time)."""
-    a = np.asarray(values, dtype=float)
-    return a[np.isfinite(a)]
-
-
 def _figures(runs: Sequence[ChallengeRun]) -> dict[str, Any]:
-    worst, times = _finite([r.worst_error_cm for r in runs]), _finite([r.robot_time_s for r in runs])
-    headings = _finite([r.leg_heading_error_deg for r in runs])
+    worst = [r.worst_error_cm for r in runs if math.isfinite(r.worst_error_cm)]  # a crashed mission has none
     return {"missions": len(runs), "reached": float(np.mean([r.reached for r in runs])),
-            "median_worst_error_cm": float(np.median(worst)) if worst.size else math.nan,
-            "max_worst_error_cm": float(np.max(worst)) if worst.size else math.nan,
+            "median_worst_error_cm": finite_median(worst), "max_worst_error_cm": max(worst, default=math.nan),
             "missions_with_collision": int(sum(r.collisions > 0 for r in runs)),
             "collisions": int(sum(r.collisions for r in runs)),
-            "median_robot_time_s": float(np.median(times)) if times.size else math.nan,
-            "median_leg_heading_error_deg": float(np.median(headings)) if headings.size else math.nan}
+            "median_robot_time_s": finite_median(r.robot_time_s for r in runs),
+            "median_leg_heading_error_deg": finite_median(r.leg_heading_error_deg for r in runs)}
 
 
 def summary_markdown(runs: Sequence[ChallengeRun], *, sweeps: SweepSet, seeds: Sequence[int], command: str,

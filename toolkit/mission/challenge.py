@@ -300,9 +300,8 @@ class WaypointSweeps:
     def _face_and_sweep(self, goal: XY) -> tuple[float, Scan | None]:
         """Turn toward the first corner of the path to `goal` and sweep: the turn (rad, as commanded and
         predicted) and the sweep (None when the sonar refuses it)."""
-        assert self.estimate is not None
-        corner, p = self._plan(goal)[1], self.estimate.pose
-        turn = float(angle_diff(math.atan2(corner[1] - p.y, corner[0] - p.x), p.theta))
+        corner = self._plan(goal)[1]
+        turn = self._turn_toward((float(corner[0]), float(corner[1])))
         self._act(turn, 0.0)
         try:
             return turn, self.sweep()
@@ -362,12 +361,17 @@ class WaypointSweeps:
             left -= step
         self.estimate = self.localiser.estimate()
 
+    def _turn_toward(self, xy: XY) -> float:
+        """The turn (rad) that faces the estimate toward `xy`."""
+        assert self.estimate is not None
+        p = self.estimate.pose
+        return float(angle_diff(math.atan2(xy[1] - p.y, xy[0] - p.x), p.theta))
+
     def go_to(self, xy: XY) -> None:
         """Turn toward `xy` from the estimate and drive there (no sweep)."""
         assert self.estimate is not None
         p = self.estimate.pose
-        bearing = math.atan2(xy[1] - p.y, xy[0] - p.x)
-        self._act(float(angle_diff(bearing, p.theta)), math.hypot(xy[0] - p.x, xy[1] - p.y))
+        self._act(self._turn_toward(xy), math.hypot(xy[0] - p.x, xy[1] - p.y))
 
     def drive_to(self, goal: XY) -> None:
         """Plan from the estimate to `goal` and drive the path leg by leg."""
