@@ -327,11 +327,11 @@ def _run_dask(
         raise NxtnavError("--dask needs the 'cluster' extra: pip install 'nxtnav[cluster]'") from exc
     cluster: Any = None
     if address == "local":
-        # the scheduler's HTTP server on a free port: without an address it takes 8787, and a second run on
-        # the same machine (another benchmark, another clone's tests) finds it taken and fails to start
         # one task at a time on each worker, none queued behind it: a worker that dies then takes only the
         # task it ran into the scheduler's count of suspects (KilledWorker), not an innocent one waiting
         with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+            # the scheduler's HTTP server on a free port: without an address it takes 8787, and a second run
+            # on the same machine (another benchmark, another clone's tests) finds it taken and fails to start
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
         client = Client(cluster)
     else:
