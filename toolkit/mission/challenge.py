@@ -11,7 +11,9 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    course's own place recognition does; the belief is reset to a narrow Gaussian there
    (`ChallengeConfig.prior_std_cm`, `prior_std_deg`). With `ChallengeConfig.facing_sweep` (the
    default) the robot then turns toward its first leg and sweeps again, and the two sweeps, one turned
-   by the odometry's turn, are fitted together (`joined`): which waypoint, and the heading.
+   by the odometry's turn, are fitted together (`joined`): which waypoint, and the heading. The next
+   best places (`ChallengeConfig.start_retries` of them) are kept until the first leg's sweep says which:
+   that leg is planned free wherever they would put the robot (`toolkit.world.ConformantChecker`).
 2. **Drive.** A path from the estimate to the next waypoint (the planner, with the robot radius plus
    `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; a straight line when no
    path exists at all), driven leg by leg: turn toward the leg's end from the estimate, then moves of
@@ -55,7 +57,17 @@ from localisation.base import Localiser, Motion, PoseEstimate, Prior
 from localisation.models import exact_ranges
 from planners.base import Planner, PlanningProblem
 
-from ..world import Map, Pose, RobotError, Scan, angle_diff, make_checker, wrap_angle
+from ..world import (
+    ConformantChecker,
+    Map,
+    Pose,
+    RigidMove,
+    RobotError,
+    Scan,
+    angle_diff,
+    make_checker,
+    wrap_angle,
+)
 from ..world.arrays import FloatArray
 from ..world.typed import Typed, with_unit
 
@@ -126,7 +138,8 @@ class ChallengeConfig(Typed):
                             description="A waypoint is reached within this distance.")
     heading_span_deg: float = Field(default=30.0, ge=0, json_schema_extra=with_unit("deg"),
                                     description="Headings tried around the predicted one at a waypoint.")
-    start_retries: int = Field(default=1, ge=0, description="Other start hypotheses tried when the first leg fails.")
+    start_retries: int = Field(default=1, ge=0, description=(
+        "Other start hypotheses tried when the first leg fails; the first leg is planned free at each."))
     facing_sweep: bool = Field(default=True, description=(
         "After the fix at the start and at each waypoint, turn toward the next leg and sweep again; the "
         "two sweeps are fitted together (false: one sweep a stop)."))
@@ -245,6 +258,10 @@ class WaypointSweeps:
         self.estimate: PoseEstimate | None = None
         self.trajectory: list[Pose] = [robot.true_pose]
         self.sweeps_taken = 0
+        self.unresolved: list[RigidMove] = []
+        """Until the first leg's sweep says which start was right: the rigid moves from the believed start to
+        each other start the mission may fall back to (`localise_start`); the first leg is planned to be
+        free at all of them (`ConformantChecker`)."""
         self.last_fix: tuple[Scan, PoseEstimate, XY] | None = None
         """The sweep of the last waypoint, the prediction it corrected and the waypoint, while the
         heading fix may still take a facing sweep (`face_next_leg`)."""
@@ -263,20 +280,14 @@ class WaypointSweeps:
                 ranked = [pose for _, pose in rank_places(self.map, joined(scan, more, turn), course)]
                 best = ranked[0]
                 self._settle(Pose(best.x, best.y, float(wrap_angle(best.theta + turn))))
+        self.unresolved = [RigidMove(ranked[0], other) for other in ranked[1:1 + self.cfg.start_retries]]
         return ranked
 
     def restart_from(self, believed: Pose, instead: Pose) -> None:
         """The robot started at `instead`, not at `believed`: the belief is moved as the robot's own
         motion since then moves it (the current estimate seen from `believed`, put at `instead`)."""
         assert self.estimate is not None
-        p = self.estimate.pose
-        c, s = math.cos(believed.theta), math.sin(believed.theta)
-        dx, dy = p.x - believed.x, p.y - believed.y
-        fwd, left = c * dx + s * dy, -s * dx + c * dy
-        c2, s2 = math.cos(instead.theta), math.sin(instead.theta)
-        turned = float(angle_diff(p.theta, believed.theta))
-        self._settle(Pose(instead.x + c2 * fwd - s2 * left, instead.y + s2 * fwd + c2 * left,
-                          float(wrap_angle(instead.theta + turned))))
+        self._settle(RigidMove(believed, instead).pose(self.estimate.pose))
 
     def _settle(self, pose: Pose, heading_std_rad: float | None = None) -> None:
         """Reset the belief to a narrow Gaussian around `pose` (`ChallengeConfig.prior_std_cm`; the heading's
@@ -331,7 +342,8 @@ class WaypointSweeps:
     def _plan(self, goal: XY) -> FloatArray:
         assert self.estimate is not None
         start = self.estimate.pose.xy
-        for checker in self.checkers:
+        conformant = [ConformantChecker(c, self.unresolved) for c in self.checkers] if self.unresolved else []
+        for checker in [*conformant, *self.checkers]:
             if not (checker.point_free(start) and checker.point_free(np.array(goal))):
                 continue
             result = self.planner.plan(PlanningProblem(self.map, checker, start, np.array(goal), self.cfg.plan_time_s,
@@ -419,6 +431,7 @@ class WaypointSweeps:
         """Sweep, update, fit the heading and correct toward `waypoint` (module docstring); a refused
         sweep ends the visit."""
         sweeps, note = 0, ""
+        self.unresolved = []  # the sweep answers or not: the start is settled either way (`run_challenge`)
         for attempt in range(self.cfg.fix.max_corrections + 1):
             try:
                 scan = self.sweep()

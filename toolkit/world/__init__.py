@@ -4,6 +4,7 @@ Planners and localisers import from here and nowhere else in `toolkit`.
 """
 
 from .collision import CollisionChecker
+from .conformant import ConformantChecker, RigidMove
 from .errors import (
     ConfigError,
     LinkLostError,
@@ -74,6 +75,7 @@ __all__ = [
     "CollisionChecker",
     "ConfigError",
     "Configurable",
+    "ConformantChecker",
     "GridSpec",
     "IdealSonar",
     "LaserScanner",
@@ -97,6 +99,7 @@ __all__ = [
     "Registry",
     "RegistryError",
     "Resumption",
+    "RigidMove",
     "RngLike",
     "Robot",
     "RobotCounters",
