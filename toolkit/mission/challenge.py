@@ -54,7 +54,6 @@ import numpy as np
 from pydantic import Field
 
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
-from localisation.models import exact_ranges
 from planners.base import Planner, PlanningProblem
 
 from ..world import (
@@ -70,6 +69,7 @@ from ..world import (
 )
 from ..world.arrays import FloatArray
 from ..world.typed import Typed, with_unit
+from .sweep_fit import fit_pose, joined, rank_places, weighed_heading
 
 __all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
            "course_from", "fit_pose", "joined", "plausible_update", "run_challenge", "weighed_heading"]
@@ -140,6 +140,11 @@ class ChallengeConfig(Typed):
                                     description="Headings tried around the predicted one at a waypoint.")
     start_retries: int = Field(default=1, ge=0, description=(
         "Other start hypotheses tried when the first leg fails; the first leg is planned free at each."))
+    search_probes: int = Field(default=8, ge=0, le=16, description=(
+        "Where no sweep answers at a waypoint, places around the leg's end tried in turn, a sweep at each "
+        "(0: no search)."))
+    search_step_cm: float = Field(default=12.0, gt=0, json_schema_extra=with_unit("cm"), description=(
+        "How far from the leg's end the search's places lie."))
     facing_sweep: bool = Field(default=True, description=(
         "After the fix at the start and at each waypoint, turn toward the next leg and sweep again; the "
         "two sweeps are fitted together (false: one sweep a stop)."))
@@ -283,11 +288,30 @@ class WaypointSweeps:
         self.unresolved = [RigidMove(ranked[0], other) for other in ranked[1:1 + self.cfg.start_retries]]
         return ranked
 
-    def restart_from(self, believed: Pose, instead: Pose) -> None:
+    def restart_from(self, believed: Pose, instead: Pose, others: list[Pose]) -> None:
         """The robot started at `instead`, not at `believed`: the belief is moved as the robot's own
-        motion since then moves it (the current estimate seen from `believed`, put at `instead`)."""
+        motion since then moves it (the estimate seen from `believed`, put at `instead`; the prediction
+        before a pending fix, which took the wrong waypoint). The `others` stay unresolved (`unresolved`)."""
         assert self.estimate is not None
-        self._settle(RigidMove(believed, instead).pose(self.estimate.pose))
+        pose = self.last_fix[1].pose if self.last_fix is not None else self.estimate.pose
+        self.last_fix = None
+        self._settle(RigidMove(believed, instead).pose(pose))
+        self.unresolved = [RigidMove(instead, other) for other in others]
+
+    def better_start(self, starts: list[Pose]) -> int:
+        """Which of the `starts` (the believed one first, as ranked at the start) the sweep just taken at the
+        end of the first leg fits best where that start would have put the robot (the prediction before the
+        fix, moved rigidly; `rank_places` there, the heading within `ChallengeConfig.heading_span_deg` of
+        the moved prediction's): its index, 0 when the believed start holds or no sweep is pending."""
+        if self.last_fix is None:
+            return 0
+        scan, predicted = self.last_fix[0], self.last_fix[1].pose
+        scores = []
+        for start in starts:
+            here = RigidMove(starts[0], start).pose(predicted)
+            scores.append(rank_places(self.map, scan, [(here.x, here.y)], heading=here.theta,
+                                      span_deg=self.cfg.heading_span_deg)[0][0])
+        return int(np.argmax(scores))
 
     def _settle(self, pose: Pose, heading_std_rad: float | None = None) -> None:
         """Reset the belief to a narrow Gaussian around `pose` (`ChallengeConfig.prior_std_cm`; the heading's
@@ -390,6 +414,36 @@ class WaypointSweeps:
         for corner in self._plan(goal)[1:]:
             self.go_to((float(corner[0]), float(corner[1])))
 
+    def _free(self, a: FloatArray, b: FloatArray) -> bool:
+        """Whether the move from `a` to `b` keeps the margin (`ChallengeConfig.margin_cm`), at every start
+        not yet ruled out too."""
+        checker = self.checkers[0]
+        return bool((ConformantChecker(checker, self.unresolved) if self.unresolved else checker).segment_free(a, b))
+
+    def search(self, waypoint: XY) -> WaypointVisit | None:
+        """No sweep answered at the end of the leg to `waypoint`: the robot is farther from it than a sweep
+        reaches. Try `ChallengeConfig.search_probes` places `search_step_cm` from where the leg ended, to its
+        sides first (a heading a few degrees off moves a leg's end sideways), then behind and ahead, then
+        between; a sweep at each, until one answers (its visit) or none does (None). A place the move
+        cannot reach with the margin is skipped. (A real robot's sweep always answers; this is the search
+        it would make when its sweep does not fit the waypoint.)"""
+        assert self.estimate is not None
+        centre, heading = self.estimate.pose.xy, self.estimate.pose.theta
+        offsets = [90, -90, 180, 0, 135, -135, 45, -45, 112.5, -112.5, 157.5, -157.5, 67.5, -67.5, 22.5, -22.5]
+        tried = 0
+        for deg in offsets[:self.cfg.search_probes]:
+            angle = heading + math.radians(deg)
+            probe = centre + self.cfg.search_step_cm * np.array([math.cos(angle), math.sin(angle)])
+            if not self._free(self.estimate.pose.xy, probe):
+                continue
+            tried += 1
+            self.go_to((float(probe[0]), float(probe[1])))
+            visit = self.sweep_and_correct(waypoint)
+            if visit.sweeps:
+                return WaypointVisit(visit.waypoint, visit.error_cm, visit.estimate_error_cm, visit.sweeps,
+                                     f"found by the search, place {tried}")
+        return None
+
     # -- at a waypoint ------------------------------------------------------------------------------
     def fitted_heading(self, scan: Scan, predicted: float, waypoint: XY) -> float:
         """The heading (rad) the sweep fits best at the `waypoint` the robot is visiting (`fit_pose`),
@@ -431,7 +485,6 @@ class WaypointSweeps:
         """Sweep, update, fit the heading and correct toward `waypoint` (module docstring); a refused
         sweep ends the visit."""
         sweeps, note = 0, ""
-        self.unresolved = []  # the sweep answers or not: the start is settled either way (`run_challenge`)
         for attempt in range(self.cfg.fix.max_corrections + 1):
             try:
                 scan = self.sweep()
@@ -458,33 +511,6 @@ class WaypointSweeps:
         assert self.estimate is not None
         return WaypointVisit(waypoint, round(_distance(self.robot.true_pose, waypoint), 3),
                              round(_distance(self.estimate.pose, waypoint), 3), sweeps, note)
-
-
-def joined(first: Scan, second: Scan, turn_rad: float) -> Scan:
-    """Two sweeps taken at one place, the robot turned by `turn_rad` between them, as one sweep from the
-    heading of the `first`: the `second`'s angles are turned by `turn_rad`.
-
-    >>> a = Scan(np.array([0.0]), np.array([50.0]), np.array([True]))
-    >>> both = joined(a, Scan(np.array([0.0]), np.array([80.0]), np.array([True])), math.pi / 2)
-    >>> np.degrees(both.angles).tolist(), both.ranges.tolist()
-    ([0.0, 90.0], [50.0, 80.0])
-    """
-    return Scan(np.concatenate([first.angles, second.angles + turn_rad]),
-                np.concatenate([first.ranges, second.ranges]), np.concatenate([first.valid, second.valid]))
-
-
-def weighed_heading(predicted: float, predicted_var: float, fitted: float, fitted_var: float) -> tuple[float, float]:
-    """Two estimates of one heading (rad), weighed by their variances (rad^2): the Kalman update of the
-    `predicted` heading by the `fitted` one, and its standard deviation (rad). The difference is taken
-    round the circle.
-
-    >>> h, sd = weighed_heading(math.radians(179), 1e-3, math.radians(-179), 1e-3)
-    >>> round(abs(math.degrees(h)), 6), round(sd ** 2, 6)
-    (180.0, 0.0005)
-    """
-    gain = predicted_var / (predicted_var + fitted_var)
-    heading = float(wrap_angle(predicted + gain * float(angle_diff(fitted, predicted))))
-    return heading, math.sqrt((1.0 - gain) * predicted_var)
 
 
 def plausible_update(predicted: PoseEstimate, updated: Pose, config: ChallengeConfig) -> bool:
@@ -518,21 +544,28 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
     report.start_match = (believed.x, believed.y)
     report.visits.append(WaypointVisit(truth_route[0], round(_distance(robot.true_pose, truth_route[0]), 3),
                                        round(_distance(believed, truth_route[0]), 3), 1))
-    route, k, retries = course_from(course, course.index(report.start_match)), 1, 0
+    route, k, current = course_from(course, course.index(report.start_match)), 1, 0
+    last = min(cfg.start_retries, len(hypotheses) - 1)  # the starts the first leg may still turn to
     report.status = "done"
     while k < len(route):
         policy.face_next_leg(route[k])
         report.leg_heading_errors_deg.append(policy.heading_error_deg())
         policy.drive_to(route[k])
         visit = policy.sweep_and_correct(route[k])
-        if visit.sweeps == 0 and k == 1 and retries < min(cfg.start_retries, len(hypotheses) - 1):
-            retries += 1  # no waypoint where the first leg ended: the start was another place that fits
-            policy.restart_from(believed, hypotheses[retries])
-            believed = hypotheses[retries]
-            report.notes.append(f"no sweep at ({route[k][0]:g}, {route[k][1]:g}); started at "
-                                f"({believed.x:g}, {believed.y:g}) instead, the next best fit")
-            route = course_from(course, course.index((believed.x, believed.y)))
-            continue
+        if visit.sweeps == 0:
+            visit = policy.search(route[k]) or visit
+        if k == 1 and current < last:
+            answer = current + (1 if visit.sweeps == 0 else policy.better_start(hypotheses[current:last + 1]))
+            if answer != current:  # the first leg did not end where the believed start puts it
+                report.notes.append(
+                    f"{'no sweep' if visit.sweeps == 0 else 'the sweep fits another start better'} at "
+                    f"({route[k][0]:g}, {route[k][1]:g}); started at ({hypotheses[answer].x:g}, "
+                    f"{hypotheses[answer].y:g}) instead, the next best fit")
+                policy.restart_from(hypotheses[current], hypotheses[answer], hypotheses[answer + 1:last + 1])
+                current = answer
+                route = course_from(course, course.index((hypotheses[current].x, hypotheses[current].y)))
+                continue
+        policy.unresolved = []  # the sweep answered where the believed start puts the robot
         report.visits.append(visit)
         if visit.sweeps == 0:
             report.status = f"ended at ({route[k][0]:g}, {route[k][1]:g}): {visit.note}"
@@ -543,39 +576,3 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
     report.sweeps_taken = policy.sweeps_taken
     report.trajectory = policy.trajectory
     return report
-
-
-def fit_pose(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
-             step_deg: float = 1.0) -> Pose:
-    """The pose, among the `places` (cm) and the headings `step_deg` apart (within `span_deg` of
-    `heading`; None: every heading), that the sweep `scan` fits best (`rank_places`)."""
-    return rank_places(m, scan, places, heading=heading, span_deg=span_deg, step_deg=step_deg)[0][1]
-
-
-def rank_places(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
-                step_deg: float = 1.0) -> list[tuple[float, Pose]]:
-    """Each of the `places` (cm) at the heading, `step_deg` apart (within `span_deg` of `heading`; None:
-    every heading), that the sweep `scan` fits best there, with the fit's score, best place first. The
-    score is minus the median distance (cm) between the sweep's echoes and exact (thin-ray) ray casting:
-    the fit that aligned the sweep sets' ``heading_deg`` with the map, so on a real sweep it finds the
-    heading the sweep set calls true.
-
-    The course's robot knows its waypoints: at the start it tells which one it stands on (and at what
-    heading) by trying them all, the way the course's own place recognition compares a sweep with the
-    signature of every waypoint. A thin ray and a robust score: the NXT's 40-degree lobe blurs the
-    heading (its beam model leaves 10-20 degrees of heading error on these sweeps), while the walls'
-    corners, read by the lobe's axis, pin it (a robust median, since a real sweep has a heavy tail of
-    wrong readings)."""
-    ok = scan.valid & np.isfinite(scan.ranges)
-    rel, meas = np.asarray(scan.angles[ok], dtype=float), np.asarray(scan.ranges[ok], dtype=float)
-    centre = 0.0 if heading is None else heading
-    half = 180.0 if heading is None else span_deg
-    offsets = np.radians(np.arange(-half, half, step_deg))
-    ranked: list[tuple[float, Pose]] = []
-    for x, y in places:
-        poses = np.column_stack([np.full(offsets.size, x), np.full(offsets.size, y), centre + offsets])
-        error = np.abs(exact_ranges(m, poses, rel) - meas[None, :])
-        median = np.median(np.where(np.isfinite(error), error, 1e9), axis=1)
-        k = int(np.argmin(median))
-        ranked.append((-float(median[k]), Pose(x, y, float(wrap_angle(centre + offsets[k])))))
-    return sorted(ranked, key=lambda item: -item[0])

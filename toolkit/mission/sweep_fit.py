@@ -1,0 +1,80 @@
+"""Fitting sweeps to places the robot knows: which place and heading a sweep fits best (`rank_places`,
+`fit_pose`), two sweeps of one place as one (`joined`), and two estimates of a heading weighed
+(`weighed_heading`). The challenge's fixes (`toolkit.mission.challenge`) are made of these."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from localisation.models import exact_ranges
+
+from ..world import Map, Pose, Scan, angle_diff, wrap_angle
+
+__all__ = ["fit_pose", "joined", "rank_places", "weighed_heading"]
+
+XY = tuple[float, float]
+
+
+def joined(first: Scan, second: Scan, turn_rad: float) -> Scan:
+    """Two sweeps taken at one place, the robot turned by `turn_rad` between them, as one sweep from the
+    heading of the `first`: the `second`'s angles are turned by `turn_rad`.
+
+    >>> a = Scan(np.array([0.0]), np.array([50.0]), np.array([True]))
+    >>> both = joined(a, Scan(np.array([0.0]), np.array([80.0]), np.array([True])), math.pi / 2)
+    >>> np.degrees(both.angles).tolist(), both.ranges.tolist()
+    ([0.0, 90.0], [50.0, 80.0])
+    """
+    return Scan(np.concatenate([first.angles, second.angles + turn_rad]),
+                np.concatenate([first.ranges, second.ranges]), np.concatenate([first.valid, second.valid]))
+
+
+def weighed_heading(predicted: float, predicted_var: float, fitted: float, fitted_var: float) -> tuple[float, float]:
+    """Two estimates of one heading (rad), weighed by their variances (rad^2): the Kalman update of the
+    `predicted` heading by the `fitted` one, and its standard deviation (rad). The difference is taken
+    round the circle.
+
+    >>> h, sd = weighed_heading(math.radians(179), 1e-3, math.radians(-179), 1e-3)
+    >>> round(abs(math.degrees(h)), 6), round(sd ** 2, 6)
+    (180.0, 0.0005)
+    """
+    gain = predicted_var / (predicted_var + fitted_var)
+    heading = float(wrap_angle(predicted + gain * float(angle_diff(fitted, predicted))))
+    return heading, math.sqrt((1.0 - gain) * predicted_var)
+
+
+def fit_pose(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
+             step_deg: float = 1.0) -> Pose:
+    """The pose, among the `places` (cm) and the headings `step_deg` apart (within `span_deg` of
+    `heading`; None: every heading), that the sweep `scan` fits best (`rank_places`)."""
+    return rank_places(m, scan, places, heading=heading, span_deg=span_deg, step_deg=step_deg)[0][1]
+
+
+def rank_places(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
+                step_deg: float = 1.0) -> list[tuple[float, Pose]]:
+    """Each of the `places` (cm) at the heading, `step_deg` apart (within `span_deg` of `heading`; None:
+    every heading), that the sweep `scan` fits best there, with the fit's score, best place first. The
+    score is minus the median distance (cm) between the sweep's echoes and exact (thin-ray) ray casting:
+    the fit that aligned the sweep sets' ``heading_deg`` with the map, so on a real sweep it finds the
+    heading the sweep set calls true.
+
+    The course's robot knows its waypoints: at the start it tells which one it stands on (and at what
+    heading) by trying them all, the way the course's own place recognition compares a sweep with the
+    signature of every waypoint. A thin ray and a robust score: the NXT's 40-degree lobe blurs the
+    heading (its beam model leaves 10-20 degrees of heading error on these sweeps), while the walls'
+    corners, read by the lobe's axis, pin it (a robust median, since a real sweep has a heavy tail of
+    wrong readings)."""
+    ok = scan.valid & np.isfinite(scan.ranges)
+    rel, meas = np.asarray(scan.angles[ok], dtype=float), np.asarray(scan.ranges[ok], dtype=float)
+    centre = 0.0 if heading is None else heading
+    half = 180.0 if heading is None else span_deg
+    offsets = np.radians(np.arange(-half, half, step_deg))
+    ranked: list[tuple[float, Pose]] = []
+    for x, y in places:
+        poses = np.column_stack([np.full(offsets.size, x), np.full(offsets.size, y), centre + offsets])
+        error = np.abs(exact_ranges(m, poses, rel) - meas[None, :])
+        median = np.median(np.where(np.isfinite(error), error, 1e9), axis=1)
+        k = int(np.argmin(median))
+        ranked.append((-float(median[k]), Pose(x, y, float(wrap_angle(centre + offsets[k])))))
+    return sorted(ranked, key=lambda item: -item[0])
