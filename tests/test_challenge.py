@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 from conftest import REAL_NXT, run_cli
 
-from localisation.base import PoseEstimate
+from localisation.base import PoseEstimate, make_localiser
 from planners import PLANNERS, PlanningProblem, PlanResult, ShortestPathPlanner
+from planners.base import make_planner
 from toolkit.bench.challenge import COLUMNS, challenge_mission
-from toolkit.mission.challenge import ChallengeConfig, course_from, plausible_update, weighed_heading
-from toolkit.real_sonar.sweep_sonar import SweepRefused, SweepSetSonar, load_challenge_set, rotated
+from toolkit.mission.challenge import ChallengeConfig, WaypointSweeps, course_from, plausible_update, weighed_heading
+from toolkit.real_sonar.sweep_sonar import SweepRefused, SweepSetRobot, SweepSetSonar, load_challenge_set, rotated
 from toolkit.real_sonar.sweeps import SweepSet
 from toolkit.world import MotionNoise, Pose, angle_diff, load_map
 
@@ -269,3 +270,29 @@ def test_simulated_readings_run_the_same_mission_on_the_models_sweeps(real_set: 
         assert len(report.leg_heading_errors_deg) == len(report.route) - 1
         assert all(0.0 <= e <= 180.0 for e in report.leg_heading_errors_deg)
     assert reports["real"].leg_heading_error_deg < 1.0  # two sweeps of real readings pin the heading
+
+
+def _policy(real_set: SweepSet, true_pose: Pose, believed: Pose, config: ChallengeConfig) -> WaypointSweeps:
+    """The challenge's policy for andrei-alpha's sweeps, the robot truly at `true_pose`, believing `believed`."""
+    m = real_set.map
+    robot = SweepSetRobot(m, true_pose, SweepSetSonar(real_set, "andrei-alpha/robotics"),
+                          noise=MotionNoise(model="absolute"), rng=0)
+    policy = WaypointSweeps(robot, m, make_localiser("paper-pf", m, rng=0), make_planner("min-turn"),
+                            np.random.default_rng(0), config)
+    policy._settle(believed)
+    return policy
+
+
+def test_the_first_legs_sweep_picks_the_start_it_fits(real_set: SweepSet) -> None:
+    """The sweep taken where the believed start put the robot is fitted where each start would have put it:
+    the start whose place the sweep fits wins, in either order of belief."""
+    sweep = real_set.at(126.0, 168.0)[0]
+    truth = Pose(126.0, 168.0, math.radians(sweep.heading_deg))
+    elsewhere = Pose(30.0, 54.0, math.radians(sweep.heading_deg))  # a place whose walls differ
+    for believed, starts, right in ((elsewhere, [Pose(0, 0, 0), Pose(96.0, 114.0, 0.0)], 1),
+                                    (truth, [Pose(0, 0, 0), Pose(-96.0, -114.0, 0.0)], 0)):
+        policy = _policy(real_set, truth, believed, ChallengeConfig())
+        predicted = policy.estimate
+        assert predicted is not None
+        policy.last_fix = (policy.sweep(), predicted, (believed.x, believed.y))
+        assert policy.better_start(starts) == right

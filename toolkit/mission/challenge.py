@@ -30,8 +30,10 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    `ChallengeFix.correction_cm` from the waypoint, a correction (turn and move toward it) and another
    sweep (worth it with the hybrid sonar, `ChallengeSonar.offset_correction`, whose sweeps show the
    robot's offset). `ChallengeFix.oracle` gives the belief the truth's heading or pose after each sweep
-   instead: not a policy, a ceiling to measure the policy against (simulated robots only). A sweep the
-   sonar refuses (the robot is too far from the waypoint for any real sweep) ends the mission there.
+   instead: not a policy, a ceiling to measure the policy against (simulated robots only). At the end
+   of the first leg a sweep the sonar refuses (the robot is too far from the waypoint for any real
+   sweep), or one that fits another start better (`WaypointSweeps.better_start`), moves the belief to
+   that start; later, a refused sweep ends the mission there.
    With `ChallengeConfig.facing_sweep`, before the next leg the robot turns toward it and sweeps again:
    the heading is then fitted on both sweeps of the waypoint together and weighed against the
    prediction made before the first (`WaypointSweeps.face_next_leg`), so the heading the open-loop leg
@@ -140,11 +142,6 @@ class ChallengeConfig(Typed):
                                     description="Headings tried around the predicted one at a waypoint.")
     start_retries: int = Field(default=1, ge=0, description=(
         "Other start hypotheses tried when the first leg fails; the first leg is planned free at each."))
-    search_probes: int = Field(default=8, ge=0, le=16, description=(
-        "Where no sweep answers at a waypoint, places around the leg's end tried in turn, a sweep at each "
-        "(0: no search)."))
-    search_step_cm: float = Field(default=12.0, gt=0, json_schema_extra=with_unit("cm"), description=(
-        "How far from the leg's end the search's places lie."))
     facing_sweep: bool = Field(default=True, description=(
         "After the fix at the start and at each waypoint, turn toward the next leg and sweep again; the "
         "two sweeps are fitted together (false: one sweep a stop)."))
@@ -414,36 +411,6 @@ class WaypointSweeps:
         for corner in self._plan(goal)[1:]:
             self.go_to((float(corner[0]), float(corner[1])))
 
-    def _free(self, a: FloatArray, b: FloatArray) -> bool:
-        """Whether the move from `a` to `b` keeps the margin (`ChallengeConfig.margin_cm`), at every start
-        not yet ruled out too."""
-        checker = self.checkers[0]
-        return bool((ConformantChecker(checker, self.unresolved) if self.unresolved else checker).segment_free(a, b))
-
-    def search(self, waypoint: XY) -> WaypointVisit | None:
-        """No sweep answered at the end of the leg to `waypoint`: the robot is farther from it than a sweep
-        reaches. Try `ChallengeConfig.search_probes` places `search_step_cm` from where the leg ended, to its
-        sides first (a heading a few degrees off moves a leg's end sideways), then behind and ahead, then
-        between; a sweep at each, until one answers (its visit) or none does (None). A place the move
-        cannot reach with the margin is skipped. (A real robot's sweep always answers; this is the search
-        it would make when its sweep does not fit the waypoint.)"""
-        assert self.estimate is not None
-        centre, heading = self.estimate.pose.xy, self.estimate.pose.theta
-        offsets = [90, -90, 180, 0, 135, -135, 45, -45, 112.5, -112.5, 157.5, -157.5, 67.5, -67.5, 22.5, -22.5]
-        tried = 0
-        for deg in offsets[:self.cfg.search_probes]:
-            angle = heading + math.radians(deg)
-            probe = centre + self.cfg.search_step_cm * np.array([math.cos(angle), math.sin(angle)])
-            if not self._free(self.estimate.pose.xy, probe):
-                continue
-            tried += 1
-            self.go_to((float(probe[0]), float(probe[1])))
-            visit = self.sweep_and_correct(waypoint)
-            if visit.sweeps:
-                return WaypointVisit(visit.waypoint, visit.error_cm, visit.estimate_error_cm, visit.sweeps,
-                                     f"found by the search, place {tried}")
-        return None
-
     # -- at a waypoint ------------------------------------------------------------------------------
     def fitted_heading(self, scan: Scan, predicted: float, waypoint: XY) -> float:
         """The heading (rad) the sweep fits best at the `waypoint` the robot is visiting (`fit_pose`),
@@ -552,8 +519,6 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
         report.leg_heading_errors_deg.append(policy.heading_error_deg())
         policy.drive_to(route[k])
         visit = policy.sweep_and_correct(route[k])
-        if visit.sweeps == 0:
-            visit = policy.search(route[k]) or visit
         if k == 1 and current < last:
             answer = current + (1 if visit.sweeps == 0 else policy.better_start(hypotheses[current:last + 1]))
             if answer != current:  # the first leg did not end where the believed start puts it
