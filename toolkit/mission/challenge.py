@@ -526,7 +526,8 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
                     f"{'no sweep' if visit.sweeps == 0 else 'the sweep fits another start better'} at "
                     f"({route[k][0]:g}, {route[k][1]:g}); started at ({hypotheses[answer].x:g}, "
                     f"{hypotheses[answer].y:g}) instead, the next best fit")
-                policy.restart_from(hypotheses[current], hypotheses[answer], hypotheses[answer + 1:last + 1])
+                policy.restart_from(hypotheses[current], hypotheses[answer],  # the others stay possible
+                                    [h for i, h in enumerate(hypotheses[:last + 1]) if i != answer])
                 current = answer
                 route = course_from(course, course.index((hypotheses[current].x, hypotheses[current].y)))
                 continue
