@@ -22,9 +22,16 @@ from planners import PLANNERS, PlanningProblem, PlanResult, ShortestPathPlanner
 from planners.base import make_planner
 from toolkit.bench.challenge import COLUMNS, challenge_mission
 from toolkit.mission.challenge import ChallengeConfig, WaypointSweeps, course_from, plausible_update, weighed_heading
-from toolkit.real_sonar.sweep_sonar import SweepRefused, SweepSetRobot, SweepSetSonar, load_challenge_set, rotated
+from toolkit.real_sonar.sweep_sonar import (
+    SweepRefused,
+    SweepSetRobot,
+    SweepSetSonar,
+    course_waypoints,
+    load_challenge_set,
+    rotated,
+)
 from toolkit.real_sonar.sweeps import SweepSet
-from toolkit.world import MotionNoise, Pose, angle_diff, load_map
+from toolkit.world import MotionNoise, Pose, RigidMove, angle_diff, load_map
 
 
 @pytest.fixture(scope="module")
@@ -296,3 +303,25 @@ def test_the_first_legs_sweep_picks_the_start_it_fits(real_set: SweepSet) -> Non
         assert predicted is not None
         policy.last_fix = (policy.sweep(), predicted, (believed.x, believed.y))
         assert policy.better_start(starts) == right
+
+
+def test_the_first_leg_is_planned_free_at_the_start_the_mission_may_fall_back_to(real_set: SweepSet) -> None:
+    """After the start's fit the next best start stays unresolved (``start_retries``; none with 0), and the first
+    leg is planned free where the believed start puts the robot and where that one would, when such a path
+    exists: here the other start is the same place turned by 45 degrees, where the plain path meets a wall."""
+    truth = Pose(126.0, 168.0, math.radians(real_set.at(126.0, 168.0)[0].heading_deg))
+    course = course_waypoints(real_set, "andrei-alpha/robotics")
+    policy = _policy(real_set, truth, truth, ChallengeConfig())
+    ranked = policy.localise_start(course)
+    assert [(m.source, m.target) for m in policy.unresolved] == [(ranked[0], ranked[1])]
+    no_retry = _policy(real_set, truth, truth, ChallengeConfig(start_retries=0))
+    no_retry.localise_start(course)
+    assert not no_retry.unresolved
+    policy = _policy(real_set, truth, Pose(126.0, 168.0, -math.pi / 2), ChallengeConfig())
+    plain = policy._plan((30.0, 54.0))
+    turned = RigidMove(Pose(126.0, 168.0, -math.pi / 2), Pose(126.0, 168.0, -math.pi / 4))
+    policy.unresolved = [turned]
+    both = policy._plan((30.0, 54.0))
+    checker = policy.checkers[0]
+    assert checker.path_free(plain) and not checker.path_free(turned.points(plain))
+    assert checker.path_free(both) and checker.path_free(turned.points(both))
