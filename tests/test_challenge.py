@@ -167,6 +167,26 @@ def test_bad_sweep_sets_are_one_line_and_exit_2(tmp_path: Path, capsys: pytest.C
     assert not out.exists()
 
 
+def test_a_set_without_headings_runs_with_the_headings_that_align_it(tmp_path: Path,
+                                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """``--headings aligned``: a sweep without heading_deg (refused by default, above) takes the heading that
+    aligns it with the map at its waypoint, within a degree of the one the set gave it; the summary says so.
+    An unknown choice is one line and exit 2."""
+    folder = _copy(tmp_path)
+    _drop_heading(folder)
+    out = tmp_path / "out"
+    argv = ["bench", "challenge", str(folder), "--map", "co333-arena", "--localisers", "paper-pf", "--seeds", "0"]
+    assert run_cli([*argv, "--headings", "north", "--out", str(out)]) == 2
+    assert "--headings: must be column, aligned or model, got 'north'" in capsys.readouterr().err
+    assert not out.exists()
+    assert run_cli([*argv, "--headings", "aligned", "--out", str(out)]) == 0, capsys.readouterr().err
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["headings"] == "aligned" and "--headings aligned" in doc["command"]
+    assert doc["truth_headings_deg"]["andrei-alpha/robotics/loc_03.dat"] == pytest.approx(-90.5, abs=1.0)
+    with (out / "challenge.csv").open(newline="") as fh:
+        assert len(list(csv.DictReader(fh))) == 3
+
+
 def test_run_options_a_challenge_does_not_take_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     plot = tmp_path / "mission.png"
     assert run_cli(["run", "--map", "co333-arena", "--sonar", f"sweeps:{REAL_NXT}", "--start", "30,54",

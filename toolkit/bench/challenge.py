@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, fields
 from functools import lru_cache
 from pathlib import Path
@@ -50,6 +50,8 @@ class ChallengeTask:
     sonar: dict[str, Any]
     noise: dict[str, Any]
     config: ChallengeConfig = field(default_factory=ChallengeConfig)
+    headings: tuple[tuple[str, float], ...] | None = None
+    """The sweeps' headings (degrees, by sweep label) in place of ``heading_deg`` (``--headings model``)."""
 
 
 @dataclass(frozen=True)
@@ -77,20 +79,22 @@ COLUMNS = tuple(f.name for f in fields(ChallengeRun))
 
 
 @lru_cache(maxsize=4)
-def _sweep_set(folder: str, map: str) -> SweepSet:
-    return load_challenge_set(Path(folder), load_map(map))
+def _sweep_set(folder: str, map: str, headings: tuple[tuple[str, float], ...] | None = None) -> SweepSet:
+    return load_challenge_set(Path(folder), load_map(map), None if headings is None else dict(headings))
 
 
 def challenge_tasks(sweeps: SweepSet, map: str, localisers: Sequence[str], seeds: Sequence[int], *,
                     planner: str = "min-turn", sonar: NxtSonar | None = None,
-                    noise: MotionNoise | None = None, config: ChallengeConfig | None = None) -> list[ChallengeTask]:
+                    noise: MotionNoise | None = None, config: ChallengeConfig | None = None,
+                    headings: Mapping[str, float] | None = None) -> list[ChallengeTask]:
     """Every source (with two or more waypoints) x start waypoint x seed x localiser (`config`: the missions'
-    settings, default `ChallengeConfig()`)."""
+    settings, default `ChallengeConfig()`; `headings`: the sweeps' headings in place of ``heading_deg``)."""
     folder = str(Path(sweeps.folder).absolute())
     params = asdict(sonar or NxtSonar())
     motion = (noise or MotionNoise()).to_dict()
     settings = config or ChallengeConfig()
-    return [ChallengeTask(folder, map, repo, i, int(s), name, planner, params, motion, settings)
+    given = None if headings is None else tuple(sorted(headings.items()))
+    return [ChallengeTask(folder, map, repo, i, int(s), name, planner, params, motion, settings, given)
             for name in localisers for s in seeds for repo in sweeps.repos
             for i in range(len(course_waypoints(sweeps, repo))) if len(course_waypoints(sweeps, repo)) >= 2]
 
@@ -124,7 +128,7 @@ def challenge_mission(sweeps: SweepSet, repo: str, start: int, seed: int, locali
 
 def run_challenge_task(task: ChallengeTask) -> ChallengeRun:
     """Run one `ChallengeTask` and score it."""
-    sweeps = _sweep_set(task.folder, task.map)
+    sweeps = _sweep_set(task.folder, task.map, task.headings)
     noise = MotionNoise(**task.noise)
     report = challenge_mission(sweeps, task.repo, task.start, task.seed, task.localiser, task.planner,
                                NxtSonar(**task.sonar), noise, task.config)

@@ -30,7 +30,7 @@ import itertools
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -45,8 +45,22 @@ from toolkit.real_sonar.sweeps import Sweep, SweepSet, SweepSetError, load_sweep
 from toolkit.seeds import derive_seed
 from toolkit.world import MotionNoise, NxtSonar, Pose, RobotModel, angle_diff, wrap_angle
 
-__all__ = ["COLUMNS", "WITHIN_CM", "Route", "RouteStep", "RouteTask", "course_order", "make_route_tasks",
-           "model_headings", "odometry", "plan_routes", "run_route", "summarise_steps", "write_routes_csv"]
+__all__ = [
+    "COLUMNS",
+    "WITHIN_CM",
+    "Route",
+    "RouteStep",
+    "RouteTask",
+    "aligned_headings",
+    "course_order",
+    "make_route_tasks",
+    "model_headings",
+    "odometry",
+    "plan_routes",
+    "run_route",
+    "summarise_steps",
+    "write_routes_csv",
+]
 
 COLUMNS = ("repo", "route", "step", "waypoint_x_cm", "waypoint_y_cm", "file", "localiser", "seed", "error_cm",
            "heading_error_deg", "converged", "ambiguous", "candidates", "truth_in_candidates", "time_s")
@@ -216,6 +230,17 @@ def model_headings(sweeps: SweepSet, sonars: Mapping[str, NxtSonar], repos: Sequ
         mine = SweepSet(sweeps.folder, sweeps.map, tuple(sw for sw in sweeps if sw.repo == repo))
         out.update({a.sweep.label: round(math.degrees(a.heading_rad), 2) for a in align_sweeps(sonars[repo], mine)})
     return out
+
+
+def aligned_headings(sweeps: SweepSet) -> dict[str, float]:
+    """The heading (degrees) that aligns each sweep with the map at its waypoint, by sweep label: every
+    heading a degree apart, the smallest median distance between its echoes and thin-ray casting
+    (`toolkit.mission.sweep_fit.fit_pose`, the fit a sweep set's ``heading_deg`` is made by, on every
+    reading as the sensor gave it, held runs included)."""
+    from toolkit.mission.sweep_fit import fit_pose
+
+    return {sw.label: round(math.degrees(fit_pose(sweeps.map, replace(sw, held=None).scan(),
+                                                  [(sw.x_cm, sw.y_cm)]).theta), 2) for sw in sweeps}
 
 
 def _draws(sweeps: SweepSet, task: RouteTask) -> tuple[list[Sweep], list[list[Motion]]]:

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from toolkit.world import MotionNoise, NxtnavError, load_map
+from toolkit.world import MotionNoise, NxtnavError, NxtSonar, load_map
 
 from .app import EXIT_FAILED, bench_app, fail
 from .interrupts import run_batch
@@ -24,9 +24,11 @@ from .options import (
     SweepSetFolder,
     SweepsMap,
     SweepsNoise,
+    TruthHeadings,
     Workers,
     check_out_folder,
     check_writable,
+    checked_headings,
     parse_floats,
     parse_list,
     shipped,
@@ -115,6 +117,19 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED)
 
 
+def _truth_headings(headings: str, folder: Path, map_ref: str, model: NxtSonar) -> dict[str, float] | None:
+    """The sweeps' headings (degrees, by label) of ``--headings aligned|model``; None for ``column``."""
+    from toolkit.bench.routes import aligned_headings, model_headings
+    from toolkit.real_sonar.sweeps import load_sweep_set
+
+    if checked_headings(headings) == "column":
+        return None
+    sweeps = load_sweep_set(folder, load_map(map_ref))
+    if headings == "aligned":
+        return aligned_headings(sweeps)
+    return model_headings(sweeps, dict.fromkeys(sweeps.repos, model), list(sweeps.repos))
+
+
 @bench_app.command("challenge")
 def bench_challenge(
     ctx: typer.Context,
@@ -127,6 +142,7 @@ def bench_challenge(
     noise_text: SweepsNoise = "1,0.1,0.005",
     sonar_profile: Path | None = typer.Option(None, "--sonar-profile",
                                               help="nxt sonar model for the localisers (YAML; default: fitted)."),
+    headings: TruthHeadings = "column",
     out: OutFolder = Path("out/challenge"),
     force: Force = False,
     workers: Workers = 1,
@@ -155,17 +171,20 @@ def bench_challenge(
     settings = challenge_config(given_sets(ctx, sets), "bench challenge")
     model = load_profile(sonar_profile, "nxt")
     map_ref = _map_of(folder, map_name)
-    sweeps = load_challenge_set(folder, load_map(map_ref))
+    truth = _truth_headings(headings, folder, map_ref, model or NxtSonar())
+    sweeps = load_challenge_set(folder, load_map(map_ref), truth)
     check_out_folder(out, force)
-    tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise, config=settings)
+    tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise, config=settings,
+                            headings=truth)
     batch = run_batch(run_challenge_task, tasks, "missions", label=f"{len(tasks)} challenge missions",
                       workers=workers, crashed=crashed_mission, isolate=isolate_planners([planner]))
     runs, complete = batch.results, batch.complete
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "challenge", str(folder), *(["--map", map_name] if map_name else []),
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)), "--planner", planner,
-        "--noise-model", noise_model, "--noise", noise_text, *[a for s in given_sets(ctx, sets) for a in ("--set", s)],
-        "--out", str(out)])
+        "--noise-model", noise_model, "--noise", noise_text,
+        *(["--headings", headings] if headings != "column" else []),
+        *[a for s in given_sets(ctx, sets) for a in ("--set", s)], "--out", str(out)])
     out.mkdir(parents=True, exist_ok=True)
     csv_path = write_challenge_csv(runs, out / "challenge.csv")
     text = summary_markdown(runs, sweeps=sweeps, seeds=seeds, command=command, complete=complete,
@@ -173,6 +192,7 @@ def bench_challenge(
     (out / "summary.md").write_text(text)
     extra: dict[str, Any] = {"folder": str(folder), "map": sweeps.map.name, "localisers": locs, "seeds": seeds,
                              "planner": planner, "noise": noise.to_dict(), "complete": complete,
+                             "headings": headings, "truth_headings_deg": truth,
                              "missions_done": len(runs), "missions_planned": len(tasks), "command": command,
                              "configuration": configuration(ctx, sets, challenge=settings.model_dump())}
     (out / "summary.json").write_text(summary_json(runs, **extra))

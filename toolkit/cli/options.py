@@ -473,6 +473,20 @@ SweepsNoise = Annotated[str, typer.Option(
     "--noise", metavar="SENSOR,MOTION,TURN",
     help="As `nxtnav run` takes it; the odometry gets the motion and turn noise (the sensor's noise is the "
          "real sweeps').")]
+TruthHeadings = Annotated[str, typer.Option(
+    "--headings", metavar="column|aligned|model",
+    help="The truth's heading at a sweep: column (sweeps.csv's heading_deg), aligned (the heading that aligns the "
+         "sweep with the map at its waypoint, as heading_deg is made) or model (where the sonar model finds the "
+         "sweep most likely).")]
+
+
+def checked_headings(value: str) -> str:
+    """`TruthHeadings` checked: ``column``, ``aligned`` or ``model``."""
+    if value not in ("column", "aligned", "model"):
+        raise NxtnavError(f"--headings: must be column, aligned or model, got {value!r}")
+    return value
+
+
 SourceProfiles = Annotated[Path | None, typer.Option(
     "--sonar-profile", metavar="FILE|DIR",
     help="nxt sonar model: a profile for every source, or a folder of per-source profiles (OWNER+NAME.yaml, as "

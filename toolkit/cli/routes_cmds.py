@@ -30,8 +30,10 @@ from .options import (
     SweepSetFolder,
     SweepsMap,
     SweepsNoise,
+    TruthHeadings,
     Workers,
     check_out_folder,
+    checked_headings,
     parse_floats,
     parse_list,
 )
@@ -108,9 +110,7 @@ def bench_routes(
     order_text: str = typer.Option("listed", "--order", metavar="listed|X:Y,...", help=ORDER_HELP),
     noise_model: NoiseModel = "botsim",
     noise_text: SweepsNoise = "1,0.1,0.005",
-    headings: str = typer.Option("column", "--headings", metavar="column|model",
-                                 help="The truth's heading at a sweep: column (sweeps.csv's heading_deg) or model "
-                                      "(where the sonar model finds the sweep most likely)."),
+    headings: TruthHeadings = "column",
     sonar_profile: SourceProfiles = None,
     sets: PluginSets = [],  # noqa: B006 - typer reads the default, never mutates it
     out: OutFolder = Path("out/routes"),
@@ -126,7 +126,7 @@ def bench_routes(
     candidates, truth among the candidates.
     """
     from localisation.base import LOCALISERS
-    from toolkit.bench.routes import make_route_tasks, model_headings, plan_routes
+    from toolkit.bench.routes import aligned_headings, make_route_tasks, model_headings, plan_routes
     from toolkit.real_sonar.fit import profiles_by_source
     from toolkit.real_sonar.sweeps import load_sweep_set
     from toolkit.world import NxtSonar
@@ -144,14 +144,14 @@ def bench_routes(
     noise = _noise(noise_model, noise_text)
     options = localiser_sets(given_sets(ctx, sets), locs)
     sweeps = load_sweep_set(folder, map_file)
-    if headings not in ("column", "model"):
-        raise NxtnavError(f"--headings: must be column or model, got {headings!r}")
+    checked_headings(headings)
     routes = plan_routes(sweeps, orders, order, need_headings=headings == "column")
     repos = list(dict.fromkeys(r.repo for r in routes))
     sonars = (profiles_by_source(data_path(sonar_profile), repos) if sonar_profile is not None
               else dict.fromkeys(repos, NxtSonar()))
     check_out_folder(out, force)
-    truth_headings = model_headings(sweeps, sonars, repos) if headings == "model" else None
+    truth_headings = (model_headings(sweeps, sonars, repos) if headings == "model"
+                      else aligned_headings(sweeps) if headings == "aligned" else None)
     tasks = make_route_tasks(sweeps, map_file, routes, locs, seeds, sonars, noise, options, truth_headings)
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "routes", str(folder), *(["--map", map_file] if map_file else []),
