@@ -13,7 +13,8 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    default) the robot then turns toward its first leg and sweeps again, and the two sweeps, one turned
    by the odometry's turn, are fitted together (`joined`): which waypoint, and the heading. The next
    best places (`ChallengeConfig.start_retries` of them) are kept until the first leg's sweep says which:
-   that leg is planned free wherever they would put the robot (`toolkit.world.ConformantChecker`).
+   that leg is planned free wherever they would put the robot, when such a path exists
+   (`toolkit.world.ConformantChecker`).
 2. **Drive.** A path from the estimate to the next waypoint (the planner, with the robot radius plus
    `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; a straight line when no
    path exists at all), driven leg by leg: turn toward the leg's end from the estimate, then moves of
