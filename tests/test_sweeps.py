@@ -163,7 +163,11 @@ def test_a_sweep_whose_readings_cannot_be_used_is_left_out_and_named(
 
 def test_a_byte_order_mark_crlf_and_a_negative_invalid_value_are_read(tmp_path: Path) -> None:
     folder = _copy(tmp_path)
-    _edit_table(folder, lambda r: [_set(r, k, "invalid_values", "255;-1") for k in (2, 3, 4)])
+    def minus_one_invalid(rows: list[list[str]]) -> None:
+        for line in (2, 3, 4):
+            _set(rows, line, "invalid_values", "255;-1")
+
+    _edit_table(folder, minus_one_invalid)
     table = folder / "sweeps.csv"
     table.write_bytes(b"\xef\xbb\xbf" + table.read_bytes().replace(b"\r\n", b"\n").replace(b"\n", b"\r\n"))
     raw = _raw(folder)

@@ -342,7 +342,8 @@ def _sweep(folder: Path, row: dict[str, str | None], where: str, m: Map) -> Swee
         r = SweepRow.model_validate(row, context={"map": m})
     except ValidationError as exc:
         raise SweepSetError(one_line(exc, where)) from None
-    readings = read_readings((folder / r.raw).resolve(), r.n_bins, r.invalid_values)  # checks the count before any n-sized array
+    # the count is checked before any n-sized array
+    readings = read_readings((folder / r.raw).resolve(), r.n_bins, r.invalid_values)
     known = set(SweepRow.model_fields)
     sweep = Sweep(repo=r.repo, file=r.file, x_cm=r.x_cm, y_cm=r.y_cm,
                   angles=sweep_angles(r.n_bins, r.step_deg, r.direction, r.start_deg), readings=readings,
