@@ -154,3 +154,24 @@ def test_a_sweep_far_from_its_documented_waypoint_is_named(tmp_path: Path, caplo
     named = [r.getMessage() for r in caplog.records if "does not fit its waypoint" in r.getMessage()]
     assert len(named) == 1 and "andrei-alpha/robotics/loc_01.dat" in named[0] and "(126, 54)" in named[0], named
     assert report["mean_log_likelihood"] < shipped_fit["mean_log_likelihood"]
+
+
+def test_a_source_with_one_waypoint_is_left_out_of_routes_and_challenges_and_named(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    from toolkit.real_sonar.sweep_sonar import load_challenge_set
+
+    folder = _copy(tmp_path)
+    rows = [r for r in _rows(folder) if r["file"] != "loc_04.dat"]  # two waypoints: two short routes
+    rows.append({**rows[0], "repo": "other/robot"})  # another robot that swept at (180, 30) only
+    _write(folder, rows, list(rows[0]))
+    out = tmp_path / "out"
+    with caplog.at_level(logging.WARNING):
+        code = run_cli(["bench", "routes", str(folder), "--map", str(folder / "arena.yaml"), "--localisers",
+                        "paper-pf", "--seeds", "0", "--out", str(out)])
+        load_challenge_set(folder, real_nxt_arena())
+    assert code == 0
+    with (out / "routes.csv").open() as fh:
+        assert {r["repo"] for r in csv.DictReader(fh)} == {"andrei-alpha/robotics"}
+    named = [r.getMessage() for r in caplog.records if "other/robot" in r.getMessage()]
+    assert len(named) == 2 and all("one waypoint only (180, 30)" in n and "left out" in n for n in named), named
+    assert "a route needs two" in named[0] and "a challenge needs two" in named[1]

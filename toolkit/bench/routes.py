@@ -41,7 +41,7 @@ from localisation.ambiguity import candidate_poses, confidently_wrong, truth_amo
 from localisation.base import Motion, make_localiser
 from localisation.robot_options import localiser_options
 from toolkit.bench.common import write_rows_csv
-from toolkit.real_sonar.sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set
+from toolkit.real_sonar.sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set, warn_once
 from toolkit.seeds import derive_seed
 from toolkit.world import MotionNoise, NxtSonar, Pose, RobotModel, angle_diff, wrap_angle
 
@@ -86,9 +86,12 @@ def plan_routes(sweeps: SweepSet, orders: int = 0, order: Sequence[Waypoint] | N
     Raises `SweepSetError` when no source has two waypoints, or (with `need_headings`) a sweep of a route
     has no heading."""
     routes: list[Route] = []
+    left_out: list[str] = []
     for repo in sweeps.repos:
         course = course_order(sweeps, repo, order)
         if len(course) < 2:
+            left_out.append(f"source {repo} has sweeps at one waypoint only ({course[0][0]:g}, {course[0][1]:g}); "
+                            "a route needs two: it is left out")
             continue
         for w in course if need_headings else []:
             for sw in sweeps.at(*w, repo=repo):
@@ -104,6 +107,8 @@ def plan_routes(sweeps: SweepSet, orders: int = 0, order: Sequence[Waypoint] | N
         counts = ", ".join(f"{r} {len(sweeps.waypoints(r))}" for r in sweeps.repos)
         raise SweepSetError(f"{sweeps.folder}: no source has sweeps at two or more waypoints (waypoints per "
                             f"source: {counts}); a route needs two")
+    for why in left_out:
+        warn_once(f"{sweeps.folder}: {why}")
     return routes
 
 

@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike
 
 from ..robots.sim import SimRobot
 from ..world import NO_ECHO, Map, NxtSonar, Pose, RngLike, RobotError, Scan, as_rng, load_map, wrap_angle
-from .sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set
+from .sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set, warn_once
 
 __all__ = ["SWEEPS_PREFIX", "SweepRefused", "SweepSetRobot", "SweepSetSonar", "course_waypoints",
            "load_challenge_set", "offset_corrected", "sweeps_folder"]
@@ -120,6 +120,11 @@ def load_challenge_set(folder: Path, map: Map | str) -> SweepSet:
     if not any(len(course_waypoints(sweeps, r)) >= 2 for r in sweeps.repos):
         counts = ", ".join(f"{r}: {len(course_waypoints(sweeps, r))}" for r in sweeps.repos)
         raise SweepSetError(f"sweeps:{folder}: no source has sweeps at two or more waypoints ({counts})")
+    for repo in sweeps.repos:
+        (x, y), *more = course_waypoints(sweeps, repo)
+        if not more:
+            warn_once(f"sweeps:{folder}: source {repo} has sweeps at one waypoint only ({x:g}, {y:g}); a "
+                      "challenge needs two: it is left out")
     return sweeps
 
 

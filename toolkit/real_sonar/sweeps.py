@@ -63,7 +63,7 @@ from ..world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
 from ..world.typed import Typed, one_line, worded
 
 __all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepRow", "SweepSet", "SweepSetError", "UnusableSweep",
-           "load_sweep_set", "misfit_cm", "sweep_angles"]
+           "load_sweep_set", "misfit_cm", "sweep_angles", "warn_once"]
 
 REQUIRED_COLUMNS = ("repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg")
 DEFAULT_MAP = "arena.yaml"
@@ -408,7 +408,7 @@ def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> S
 
 
 _WARNED: set[str] = set()
-"""Sweeps already reported as left out in this process (a set is read again by each bench task's cache)."""
+"""Warnings already given in this process (`warn_once`)."""
 
 
 def _usable(root: Path, table: Path, m: Map, rows: list[tuple[int, dict[str, str | None]]]) -> SweepSet:
@@ -425,17 +425,18 @@ def _usable(root: Path, table: Path, m: Map, rows: list[tuple[int, dict[str, str
         raise SweepSetError(f"{table}: no usable sweep: {left_out[0]}"
                             + (f", and {len(left_out) - 1} more" if len(left_out) > 1 else ""))
     for why in left_out:
-        _warn_once(f"{why}; that sweep is left out, the set's other {len(sweeps)} are used")
+        warn_once(f"{why}; that sweep is left out, the set's other {len(sweeps)} are used")
     for sw in sweeps:
         off = misfit_cm(sw, m)
         if off > MISFIT_CM:
-            _warn_once(f"{table}: sweep {sw.label} does not fit its waypoint ({sw.x_cm:g}, {sw.y_cm:g}) at its "
+            warn_once(f"{table}: sweep {sw.label} does not fit its waypoint ({sw.x_cm:g}, {sw.y_cm:g}) at its "
                        f"heading_deg {sw.heading_deg:g}: its echoes are {off:.0f} cm from the map's (median; a "
                        f"sweep taken there: under 10 cm); is its waypoint right?")
     return SweepSet(root, m, tuple(sweeps), tuple(left_out))
 
 
-def _warn_once(message: str) -> None:
+def warn_once(message: str) -> None:
+    """Log `message` as a warning, once a process (a set is read again by each bench task's cache)."""
     if message not in _WARNED:
         _WARNED.add(message)
         log.warning("%s", message)
