@@ -175,3 +175,17 @@ def test_a_source_with_one_waypoint_is_left_out_of_routes_and_challenges_and_nam
     named = [r.getMessage() for r in caplog.records if "other/robot" in r.getMessage()]
     assert len(named) == 2 and all("one waypoint only (180, 30)" in n and "left out" in n for n in named), named
     assert "a route needs two" in named[0] and "a challenge needs two" in named[1]
+
+
+def test_sweeps_without_headings_can_be_aligned_for_a_challenge(tmp_path: Path) -> None:
+    from toolkit.real_sonar.sweep_sonar import load_challenge_set
+    from toolkit.real_sonar.sweeps import SweepSetError
+
+    folder = _copy(tmp_path)
+    rows = _rows(folder)
+    shipped = {r["file"]: float(r["heading_deg"]) for r in rows}
+    _write(folder, rows, [c for c in rows[0] if c != "heading_deg"])  # a set like kentheo's: no headings
+    with pytest.raises(SweepSetError, match="has no heading_deg"):
+        load_challenge_set(folder, real_nxt_arena())
+    aligned = {sw.file: sw.heading_deg for sw in load_challenge_set(folder, real_nxt_arena(), headings="aligned")}
+    assert aligned == pytest.approx(shipped, abs=1.0)  # found as the shipped column was

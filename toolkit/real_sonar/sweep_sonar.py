@@ -36,13 +36,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..robots.sim import SimRobot
 from ..world import NO_ECHO, Map, NxtSonar, Pose, RngLike, RobotError, Scan, as_rng, load_map, wrap_angle
-from .sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set, warn_once
+from .sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set, warn_once, with_aligned_headings
 
 __all__ = ["SWEEPS_PREFIX", "SweepRefused", "SweepSetRobot", "SweepSetSonar", "course_waypoints",
            "load_challenge_set", "offset_corrected", "sweeps_folder"]
@@ -95,10 +96,14 @@ def arena_distance_cm(a: Map, b: Map) -> float:
     return float(shapely.hausdorff_distance(lines(a), lines(b), densify=0.05))
 
 
-def load_challenge_set(folder: Path, map: Map | str) -> SweepSet:
+def load_challenge_set(folder: Path, map: Map | str, headings: Literal["column", "aligned"] = "column") -> SweepSet:
     """The sweep set in `folder` for a challenge in `map`, checked: the folder exists, its arena (its
     ``arena.yaml``, when it has one) is `map`, every sweep has a ``heading_deg`` and is a full ring, and
-    some source has sweeps at two or more waypoints. Raises `SweepSetError` naming the problem."""
+    some source has sweeps at two or more waypoints. Raises `SweepSetError` naming the problem.
+
+    With `headings` ``aligned``, a sweep without ``heading_deg`` gets the heading that aligns it with the
+    map at its waypoint, found as a sweep set's ``heading_deg`` is (`aligned_heading_deg`), with a warning
+    naming how many; ``column``: such a sweep is an error."""
     m = map if isinstance(map, Map) else load_map(map)
     if not folder.is_dir():
         raise SweepSetError(f"sweeps:{folder}: no such folder")
@@ -110,6 +115,11 @@ def load_challenge_set(folder: Path, map: Map | str) -> SweepSet:
             raise SweepSetError(f"sweeps:{folder}: its arena {own.name!r} ({arena}) differs from the map {m.name!r} "
                                 f"(walls up to {gap:.0f} cm apart); give --map {arena}")
     sweeps = load_sweep_set(folder, m)
+    if headings == "aligned":
+        sweeps, aligned = with_aligned_headings(sweeps)
+        if aligned:
+            warn_once(f"sweeps:{folder}: {len(aligned)} sweep(s) without heading_deg ({aligned[0]} first) turned by "
+                      "the heading that aligns each with the map at its waypoint")
     for s in sweeps:
         if math.isnan(s.heading_deg):
             raise SweepSetError(f"{folder / 'sweeps.csv'}: sweep {s.label} has no heading_deg; a sweep "

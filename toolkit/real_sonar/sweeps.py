@@ -63,7 +63,8 @@ from ..world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
 from ..world.typed import Typed, one_line, worded
 
 __all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepRow", "SweepSet", "SweepSetError", "UnusableSweep",
-           "load_sweep_set", "misfit_cm", "sweep_angles", "warn_once"]
+           "aligned_heading_deg", "load_sweep_set", "misfit_cm", "sweep_angles", "warn_once",
+           "with_aligned_headings"]
 
 REQUIRED_COLUMNS = ("repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg")
 DEFAULT_MAP = "arena.yaml"
@@ -447,15 +448,51 @@ MISFIT_CM = 20.0
 ``heading_deg`` was not taken there (the well-placed sweeps of the course: at most 9 cm): a warning."""
 
 
+def _median_misfits(sweep: Sweep, m: Map, headings_deg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The median distance (cm) between the echoes of `sweep`, as the sensor gave them (held runs too: the
+    fit that aligned the sets' ``heading_deg``), and exact (thin-ray) ray casting at its waypoint, at each
+    of `headings_deg`; nan for a sweep without an echo."""
+    from localisation.models import exact_ranges
+
+    scan = replace(sweep, held=None).scan()
+    ok = scan.valid & np.isfinite(scan.ranges)
+    if not ok.any():
+        return np.full(headings_deg.size, math.nan)
+    poses = np.column_stack([np.full(headings_deg.size, sweep.x_cm), np.full(headings_deg.size, sweep.y_cm),
+                             np.radians(headings_deg)])
+    cast = exact_ranges(m, poses, scan.angles[ok])
+    return np.median(np.where(np.isfinite(cast), np.abs(cast - scan.ranges[ok][None, :]), 1e9), axis=1)
+
+
 def misfit_cm(sweep: Sweep, m: Map) -> float:
     """The median distance (cm) between the echoes of `sweep` and exact ray casting at its waypoint and
     ``heading_deg`` (the fit that aligned it); nan without a heading or an echo."""
-    from localisation.models import exact_ranges
-
-    scan = sweep.scan()
-    ok = scan.valid & np.isfinite(scan.ranges)
-    if math.isnan(sweep.heading_deg) or not ok.any():
+    if math.isnan(sweep.heading_deg):
         return math.nan
-    pose = np.array([[sweep.x_cm, sweep.y_cm, math.radians(sweep.heading_deg)]])
-    cast = exact_ranges(m, pose, scan.angles[ok])[0]
-    return float(np.median(np.where(np.isfinite(cast), np.abs(cast - scan.ranges[ok]), 1e9)))
+    return float(_median_misfits(sweep, m, np.array([sweep.heading_deg]))[0])
+
+
+ALIGN_STEP_DEG = 0.5
+"""The headings `aligned_heading_deg` tries are this far apart (degrees)."""
+
+
+def aligned_heading_deg(sweep: Sweep, m: Map) -> float:
+    """The heading (degrees, in [-180, 180)) at which `sweep`'s echoes lie closest to the map's walls at its
+    waypoint (median distance to exact thin-ray casting; `ALIGN_STEP_DEG` apart): how a sweep set's
+    ``heading_deg`` is found (the waypoint fixed, the heading brute-forced); nan without an echo."""
+    headings = np.arange(-180.0, 180.0, ALIGN_STEP_DEG)
+    misfits = _median_misfits(sweep, m, headings)
+    return math.nan if np.isnan(misfits).all() else float(headings[int(np.nanargmin(misfits))])
+
+
+def with_aligned_headings(sweeps: SweepSet) -> tuple[SweepSet, list[str]]:
+    """`sweeps` with every sweep that has no ``heading_deg`` given its `aligned_heading_deg`, and the
+    labels of those sweeps."""
+    done: list[str] = []
+    out: list[Sweep] = []
+    for sw in sweeps:
+        if math.isnan(sw.heading_deg):
+            sw = replace(sw, heading_deg=aligned_heading_deg(sw, sweeps.map))
+            done.append(sw.label)
+        out.append(sw)
+    return replace(sweeps, sweeps=tuple(out)), done
