@@ -13,7 +13,9 @@ taken at turret angle ``a`` looks at ``a + heading_deg - theta``. A full turret 
 shifted round the ring by ``round((heading_deg - theta) / step_deg)`` places and keep the sweep's own
 turret angles. The readings then lie within half a bin (0.5 degree for 1-degree sweeps, 2.5 degrees
 for 5-degree ones) of where a sensor on the robot would have taken them. A sweep that is not a full
-ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it is loaded.
+ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it is loaded (with
+``headings="aligned"``, `load_challenge_set` gives a sweep without one the heading that aligns it with
+the map at its waypoint instead, as the column was found: `toolkit.real_sonar.sweeps.aligned_heading_deg`).
 
 Offset. A real sweep was taken at its waypoint, while the robot stands up to `SweepSetSonar.radius_cm`
 away from it; replayed as taken, the sweep would tell the robot it stands on the waypoint wherever it

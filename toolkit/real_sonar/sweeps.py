@@ -43,6 +43,13 @@ sweep's waypoint. The ``held_runs`` column says what such a run is for the sourc
   (`Sweep.held`), so every use of the sweep (import, replay, bench, sonar fit) reads them so.
 
 Either way a run the map explains is an echo and is kept, and the raw file is never changed.
+
+What a set may hold that is not right. A sweep whose readings file cannot be used (missing, not text, a
+line that is not a number, more or fewer readings than ``n_bins``) is left out with a warning naming the
+file and the problem (`SweepSet.left_out`); a set with no usable sweep is refused. A sweep whose echoes
+lie more than `MISFIT_CM` (median) from the map's at its waypoint and ``heading_deg`` is named in a
+warning and kept: its waypoint is likely not where it was taken (`misfit_cm`). A set without headings
+can have them found as the column's were (`aligned_heading_deg`).
 """
 
 from __future__ import annotations
