@@ -72,12 +72,12 @@ def test_bad_options_exit_2_and_write_nothing(tmp_path: Path, args: list[str], m
 
 def test_bad_sweep_set_exits_2_naming_the_problem(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = _broken_copy(tmp_path)
-    raw = folder / "raw" / "andrei-alpha+robotics" / "loc_03.dat"
-    lines = raw.read_text().splitlines()
-    lines[7] = "twelve"
-    raw.write_text("\n".join(lines) + "\n")
+    for raw in (folder / "raw" / "andrei-alpha+robotics").glob("*.dat"):  # one unusable file is left out; all:
+        lines = raw.read_text().splitlines()
+        lines[7] = "twelve"
+        raw.write_text("\n".join(lines) + "\n")
     out = tmp_path / "out"
     assert run_cli(["bench", "sweeps", str(folder), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert "loc_03.dat:8" in err and "twelve" in err and len(err.splitlines()) == 1
+    assert "no usable sweep" in err and "loc_01.dat:8" in err and "twelve" in err and len(err.splitlines()) == 1
     assert not out.exists()

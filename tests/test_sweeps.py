@@ -109,14 +109,8 @@ BROKEN: list[tuple[str, Callable[[Path], None], str, str]] = [
      "sweeps.csv:3", "10 fields, but the header has 16 columns"),
     ("long row", lambda f: _edit_table(f, lambda r: r[3].append("x")),
      "sweeps.csv:4", "17 fields"),
-    ("non-numeric reading", _bad_line, "loc_03.dat:42", "not a number: '4O'"),
-    ("wrong number of readings", _short_file, "loc_03.dat", "359 readings, but sweeps.csv says n_bins = 360"),
-    ("raw file not text", _not_text, "loc_03.dat", "not UTF-8"),
-    ("raw file missing", lambda f: _raw(f, "loc_04.dat").unlink(), "loc_04.dat", "cannot read the sweep file"),
     ("n_bins not whole", lambda f: _edit_table(f, lambda r: _set(r, 2, "n_bins", "360.5")),
      "sweeps.csv:2", "'n_bins' must be a whole number"),
-    ("n_bins huge", lambda f: _edit_table(f, lambda r: _set(r, 2, "n_bins", "1e15")),
-     "loc_01.dat", "360 readings, but sweeps.csv says n_bins = 1000000000000000"),
     ("step zero", lambda f: _edit_table(f, lambda r: _set(r, 3, "step_deg", "0")),
      "sweeps.csv:3", "'step_deg' must be a positive number"),
     ("waypoint outside", lambda f: _edit_table(f, lambda r: _set(r, 4, "x_cm", "300")),
@@ -137,6 +131,53 @@ BROKEN: list[tuple[str, Callable[[Path], None], str, str]] = [
      "sweeps.csv:1", "column repo named more than once"),
     ("missing sweeps.csv", lambda f: (f / "sweeps.csv").unlink(), "sweeps.csv", "does not exist"),
 ]
+
+
+# (how to break one sweep's readings file, the file the message names, what else it must say)
+UNUSABLE: list[tuple[str, Callable[[Path], None], str, str]] = [
+    ("non-numeric reading", _bad_line, "loc_03.dat:42", "not a number: '4O'"),
+    ("wrong number of readings", _short_file, "loc_03.dat", "359 readings, but sweeps.csv says n_bins = 360"),
+    ("raw file not text", _not_text, "loc_03.dat", "not UTF-8"),
+    ("raw file missing", lambda f: _raw(f, "loc_04.dat").unlink(), "loc_04.dat", "cannot read the sweep file"),
+    ("n_bins huge", lambda f: _edit_table(f, lambda r: _set(r, 2, "n_bins", "1e15")),
+     "loc_01.dat", "360 readings, but sweeps.csv says n_bins = 1000000000000000"),
+]
+
+
+@pytest.mark.parametrize(("break_it", "where", "says"), [b[1:] for b in UNUSABLE], ids=[b[0] for b in UNUSABLE])
+def test_a_sweep_whose_readings_cannot_be_used_is_left_out_and_named(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture, break_it: Callable[[Path], None], where: str,
+        says: str) -> None:
+    folder = _copy(tmp_path)
+    break_it(folder)
+    sweeps = load_sweep_set(folder, map=real_nxt_arena())
+    assert len(sweeps) == 2 and where.split(":")[0] not in {Path(s.raw).name for s in sweeps}
+    (why,) = sweeps.left_out
+    assert str(folder) in why and where in why and says in why, why
+    assert any(why in r.getMessage() and "left out" in r.getMessage() for r in caplog.records), caplog.text
+    for raw in (folder / "raw" / "andrei-alpha+robotics").glob("*.dat"):  # every sweep unusable: refused
+        raw.write_text("x\n")
+    with pytest.raises(SweepSetError, match=r"sweeps\.csv: no usable sweep: .*not a number: 'x'.*, and 2 more"):
+        load_sweep_set(folder, map=real_nxt_arena())
+
+
+def test_a_byte_order_mark_crlf_and_a_negative_invalid_value_are_read(tmp_path: Path) -> None:
+    folder = _copy(tmp_path)
+    def minus_one_invalid(rows: list[list[str]]) -> None:
+        for line in (2, 3, 4):
+            _set(rows, line, "invalid_values", "255;-1")
+
+    _edit_table(folder, minus_one_invalid)
+    table = folder / "sweeps.csv"
+    table.write_bytes(b"\xef\xbb\xbf" + table.read_bytes().replace(b"\r\n", b"\n").replace(b"\n", b"\r\n"))
+    raw = _raw(folder)
+    lines = raw.read_text().splitlines()
+    lines[41] = "-1"
+    raw.write_text("\r\n".join(lines) + "\r\n")
+    sweeps = load_sweep_set(folder, map=real_nxt_arena())
+    assert [s.label for s in sweeps] == [s.label for s in load_sweep_set(REAL_NXT, map=real_nxt_arena())]
+    (at_03,) = [s for s in sweeps if s.file == "loc_03.dat"]
+    assert at_03.missing.sum() == 1 and len(at_03.scan()) == 359
 
 
 @pytest.mark.parametrize(("break_it", "where", "says"), [b[1:] for b in BROKEN], ids=[b[0] for b in BROKEN])

@@ -30,7 +30,7 @@ import itertools
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -41,7 +41,7 @@ from localisation.ambiguity import candidate_poses, confidently_wrong, truth_amo
 from localisation.base import Motion, make_localiser
 from localisation.robot_options import localiser_options
 from toolkit.bench.common import write_rows_csv
-from toolkit.real_sonar.sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set
+from toolkit.real_sonar.sweeps import Sweep, SweepSet, SweepSetError, aligned_heading_deg, load_sweep_set, warn_once
 from toolkit.seeds import derive_seed
 from toolkit.world import MotionNoise, NxtSonar, Pose, RobotModel, angle_diff, wrap_angle
 
@@ -100,9 +100,12 @@ def plan_routes(sweeps: SweepSet, orders: int = 0, order: Sequence[Waypoint] | N
     Raises `SweepSetError` when no source has two waypoints, or (with `need_headings`) a sweep of a route
     has no heading."""
     routes: list[Route] = []
+    left_out: list[str] = []
     for repo in sweeps.repos:
         course = course_order(sweeps, repo, order)
         if len(course) < 2:
+            left_out.append(f"source {repo} has sweeps at one waypoint only ({course[0][0]:g}, {course[0][1]:g}); "
+                            "a route needs two: it is left out")
             continue
         for w in course if need_headings else []:
             for sw in sweeps.at(*w, repo=repo):
@@ -118,6 +121,8 @@ def plan_routes(sweeps: SweepSet, orders: int = 0, order: Sequence[Waypoint] | N
         counts = ", ".join(f"{r} {len(sweeps.waypoints(r))}" for r in sweeps.repos)
         raise SweepSetError(f"{sweeps.folder}: no source has sweeps at two or more waypoints (waypoints per "
                             f"source: {counts}); a route needs two")
+    for why in left_out:
+        warn_once(f"{sweeps.folder}: {why}")
     return routes
 
 
@@ -233,14 +238,9 @@ def model_headings(sweeps: SweepSet, sonars: Mapping[str, NxtSonar], repos: Sequ
 
 
 def aligned_headings(sweeps: SweepSet) -> dict[str, float]:
-    """The heading (degrees) that aligns each sweep with the map at its waypoint, by sweep label: every
-    heading a degree apart, the smallest median distance between its echoes and thin-ray casting
-    (`toolkit.mission.sweep_fit.fit_pose`, the fit a sweep set's ``heading_deg`` is made by, on every
-    reading as the sensor gave it, held runs included)."""
-    from toolkit.mission.sweep_fit import fit_pose
-
-    return {sw.label: round(math.degrees(fit_pose(sweeps.map, replace(sw, held=None).scan(),
-                                                  [(sw.x_cm, sw.y_cm)]).theta), 2) for sw in sweeps}
+    """The heading (degrees) that aligns each sweep with the map at its waypoint, by sweep label: found as a
+    sweep set's ``heading_deg`` is (`toolkit.real_sonar.sweeps.aligned_heading_deg`)."""
+    return {sw.label: aligned_heading_deg(sw, sweeps.map) for sw in sweeps}
 
 
 def _draws(sweeps: SweepSet, task: RouteTask) -> tuple[list[Sweep], list[list[Motion]]]:

@@ -162,6 +162,8 @@ def write_sweeps_summary(runs: Sequence[SweepRun], path: Path, *, localisers: Se
         lines.append(f"| {name} | {s['runs']} | {s['within_10cm']:.0%} | {s['within_20cm']:.0%} | "
                      f"{s['median_error_cm']:.1f} | {s['confidently_wrong']:.0%} | {s['honest']:.0%} | "
                      f"{s['ambiguous']:.0%} | {s['median_time_s']:.2f} |")
+    if sweeps.left_out:
+        lines += ["", *(f"Left out (its readings cannot be used): {why}  " for why in sweeps.left_out)]
     lines += ["", "*Confidently wrong*: converged, not ambiguous, more than 20 cm off. *Honest*: within 20 cm, "
               "or ambiguous with a candidate within 20 cm of the waypoint. Positions only: the heading of a "
               "real sweep was not measured.", "",

@@ -13,7 +13,10 @@ taken at turret angle ``a`` looks at ``a + heading_deg - theta``. A full turret 
 shifted round the ring by ``round((heading_deg - theta) / step_deg)`` places and keep the sweep's own
 turret angles. The readings then lie within half a bin (0.5 degree for 1-degree sweeps, 2.5 degrees
 for 5-degree ones) of where a sensor on the robot would have taken them. A sweep that is not a full
-ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it is loaded.
+ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it is loaded (given
+`headings`, `load_challenge_set` takes them in its place: ``--headings aligned``, the heading that aligns
+each sweep with the map at its waypoint, as the column was found,
+`toolkit.real_sonar.sweeps.aligned_heading_deg`).
 
 Offset. A real sweep was taken at its waypoint, while the robot stands up to `SweepSetSonar.radius_cm`
 away from it; replayed as taken, the sweep would tell the robot it stands on the waypoint wherever it
@@ -43,7 +46,7 @@ from numpy.typing import ArrayLike
 
 from ..robots.sim import SimRobot
 from ..world import NO_ECHO, Map, NxtSonar, Pose, RngLike, RobotError, Scan, as_rng, load_map, wrap_angle
-from .sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set
+from .sweeps import Sweep, SweepSet, SweepSetError, load_sweep_set, warn_once
 
 __all__ = ["SWEEPS_PREFIX", "SweepRefused", "SweepSetRobot", "SweepSetSonar", "course_waypoints",
            "load_challenge_set", "offset_corrected", "sweeps_folder"]
@@ -124,6 +127,11 @@ def load_challenge_set(folder: Path, map: Map | str, headings: Mapping[str, floa
     if not any(len(course_waypoints(sweeps, r)) >= 2 for r in sweeps.repos):
         counts = ", ".join(f"{r}: {len(course_waypoints(sweeps, r))}" for r in sweeps.repos)
         raise SweepSetError(f"sweeps:{folder}: no source has sweeps at two or more waypoints ({counts})")
+    for repo in sweeps.repos:
+        (x, y), *more = course_waypoints(sweeps, repo)
+        if not more:
+            warn_once(f"sweeps:{folder}: source {repo} has sweeps at one waypoint only ({x:g}, {y:g}); a "
+                      "challenge needs two: it is left out")
     return sweeps
 
 

@@ -7,7 +7,8 @@ A sweep set is a folder::
     arena.yaml        the map (another file with ``--map``)
 
 ``sweeps.csv`` columns (the order does not matter; other columns are kept in `Sweep.extra`; blank lines
-are skipped; a row with more or fewer fields than the header is an error naming its line):
+are skipped; a byte-order mark and CRLF line ends, as spreadsheets write them, are read; a row with more
+or fewer fields than the header is an error naming its line):
 
 ==================  =========================================================================================
 ``repo``, ``file``  where the sweep comes from (a label; ``commit`` and ``licence`` are kept when present)
@@ -18,7 +19,8 @@ are skipped; a row with more or fewer fields than the header is an error naming 
 ``direction``       ``cw`` or ``ccw``: the way the turret turned
 ``start_deg``       turret angle of the first reading relative to the robot heading (degrees)
 ``heading_deg``     optional: a heading aligned with the map (not a measurement; empty when unknown)
-``invalid_values``  optional: readings that mean "no reading", separated by ``;`` or spaces (default 255)
+``invalid_values``  optional: readings that mean "no reading", separated by ``;`` or spaces (default 255;
+                    a negative one such as -1 is allowed)
 ``held_runs``       optional: what a long run of one reading that the map does not explain is, for this
                     source's sensor (`HELD_RUNS`): ``stuck`` (the default, also when empty) or ``no-echo``
 ==================  =========================================================================================
@@ -41,11 +43,19 @@ sweep's waypoint. The ``held_runs`` column says what such a run is for the sourc
   (`Sweep.held`), so every use of the sweep (import, replay, bench, sonar fit) reads them so.
 
 Either way a run the map explains is an echo and is kept, and the raw file is never changed.
+
+What a set may hold that is not right. A sweep whose readings file cannot be used (missing, not text, a
+line that is not a number, more or fewer readings than ``n_bins``) is left out with a warning naming the
+file and the problem (`SweepSet.left_out`); a set with no usable sweep is refused. A sweep whose echoes
+lie more than `MISFIT_CM` (median) from the map's at its waypoint and ``heading_deg`` is named in a
+warning and kept: its waypoint is likely not where it was taken (`misfit_cm`). A set without headings
+can have them found as the column's were (`aligned_heading_deg`).
 """
 
 from __future__ import annotations
 
 import csv
+import logging
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
@@ -59,17 +69,23 @@ from pydantic import BeforeValidator, ConfigDict, Field, ValidationError, Valida
 from ..world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
 from ..world.typed import Typed, one_line, worded
 
-__all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepRow", "SweepSet", "SweepSetError", "load_sweep_set",
-           "sweep_angles"]
+__all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepRow", "SweepSet", "SweepSetError", "UnusableSweep",
+           "aligned_heading_deg", "load_sweep_set", "misfit_cm", "sweep_angles", "warn_once"]
 
 REQUIRED_COLUMNS = ("repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg")
 DEFAULT_MAP = "arena.yaml"
+log = logging.getLogger(__name__)
 HELD_RUNS = ("stuck", "no-echo")
 """Values of the ``held_runs`` column, the default first (module docstring)."""
 
 
 class SweepSetError(NxtnavError, ValueError):
     """A sweep set that cannot be read: the message names the file, the line or field and the problem."""
+
+
+class UnusableSweep(SweepSetError):
+    """One sweep's readings file cannot be used (missing, not text, not numbers, not ``n_bins`` of them):
+    the set is read without that sweep (`load_sweep_set`)."""
 
 
 def sweep_angles(n: int, step_deg: float, direction: str = "ccw", start_deg: float = 0.0) -> NDArray[np.float64]:
@@ -166,6 +182,8 @@ class SweepSet:
     folder: Path
     map: Map
     sweeps: tuple[Sweep, ...]
+    left_out: tuple[str, ...] = ()
+    """The sweeps whose readings could not be used, each as its file and problem (`load_sweep_set`)."""
 
     def __iter__(self) -> Iterator[Sweep]:
         return iter(self.sweeps)
@@ -300,14 +318,15 @@ def _held_repeats(sweep: Sweep, m: Map) -> NDArray[np.bool_]:
     return held
 
 
-def read_readings(path: Path, n_bins: int) -> NDArray[np.float64]:
-    """The readings of one raw sweep file (one number a line; blank lines ignored), checked against `n_bins`."""
+def read_readings(path: Path, n_bins: int, invalid_values: tuple[float, ...] = ()) -> NDArray[np.float64]:
+    """The readings of one raw sweep file (one number a line; blank lines ignored), checked against `n_bins`:
+    each a non-negative number, or one of `invalid_values` (a source may mark no reading with -1)."""
     try:
-        lines = path.read_text(encoding="utf-8").splitlines()
+        lines = path.read_text(encoding="utf-8-sig").splitlines()
     except OSError as e:
-        raise SweepSetError(f"{path}: cannot read the sweep file ({e.strerror or e})") from None
+        raise UnusableSweep(f"{path}: cannot read the sweep file ({e.strerror or e})") from None
     except UnicodeDecodeError:
-        raise SweepSetError(f"{path}: not a text file of readings (not UTF-8)") from None
+        raise UnusableSweep(f"{path}: not a text file of readings (not UTF-8)") from None
     values: list[float] = []
     for i, line in enumerate(lines, 1):
         t = line.strip()
@@ -316,12 +335,12 @@ def read_readings(path: Path, n_bins: int) -> NDArray[np.float64]:
         try:
             v = float(t)
         except ValueError:
-            raise SweepSetError(f"{path}:{i}: not a number: {t!r}") from None
-        if not math.isfinite(v) or v < 0:
-            raise SweepSetError(f"{path}:{i}: a reading must be a non-negative number, got {t!r}")
+            raise UnusableSweep(f"{path}:{i}: not a number: {t!r}") from None
+        if not math.isfinite(v) or (v < 0 and v not in invalid_values):
+            raise UnusableSweep(f"{path}:{i}: a reading must be a non-negative number, got {t!r}")
         values.append(v)
     if len(values) != n_bins:
-        raise SweepSetError(f"{path}: {len(values)} readings, but sweeps.csv says n_bins = {n_bins}")
+        raise UnusableSweep(f"{path}: {len(values)} readings, but sweeps.csv says n_bins = {n_bins}")
     return np.array(values)
 
 
@@ -330,7 +349,8 @@ def _sweep(folder: Path, row: dict[str, str | None], where: str, m: Map) -> Swee
         r = SweepRow.model_validate(row, context={"map": m})
     except ValidationError as exc:
         raise SweepSetError(one_line(exc, where)) from None
-    readings = read_readings((folder / r.raw).resolve(), r.n_bins)  # checks the count before any n-sized array
+    # the count is checked before any n-sized array
+    readings = read_readings((folder / r.raw).resolve(), r.n_bins, r.invalid_values)
     known = set(SweepRow.model_fields)
     sweep = Sweep(repo=r.repo, file=r.file, x_cm=r.x_cm, y_cm=r.y_cm,
                   angles=sweep_angles(r.n_bins, r.step_deg, r.direction, r.start_deg), readings=readings,
@@ -344,7 +364,12 @@ def _sweep(folder: Path, row: dict[str, str | None], where: str, m: Map) -> Swee
 
 
 def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> SweepSet:
-    """Read and check a sweep set (module docstring). Raises `SweepSetError` naming file, line and field."""
+    """Read and check a sweep set (module docstring). Raises `SweepSetError` naming file, line and field.
+
+    A sweep whose readings file cannot be used (missing, not text, a line that is not a number, more or
+    fewer readings than ``n_bins``) is left out with a warning naming the file and the problem, and kept
+    in `SweepSet.left_out`; the set is refused only when no sweep is left. A wrong ``sweeps.csv`` (a
+    missing column, a row of the wrong length, a field that is not what its column holds) is refused."""
     root = Path(folder)
     table = root / "sweeps.csv"
     if not table.is_file():
@@ -359,7 +384,7 @@ def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> S
         m = load_map(map)
     rows: list[tuple[int, dict[str, str | None]]] = []
     try:
-        with table.open(newline="", encoding="utf-8") as fh:
+        with table.open(newline="", encoding="utf-8-sig") as fh:  # -sig: a spreadsheet's byte-order mark
             reader = csv.reader(fh)
             header = next(reader, None)
             if header is None:
@@ -386,5 +411,82 @@ def load_sweep_set(folder: str | Path, map: str | Path | Map | None = None) -> S
         raise SweepSetError(f"{table}: cannot read ({' '.join(str(e).split())})") from None
     if not rows:
         raise SweepSetError(f"{table}: no sweeps (a header and no rows)")
-    sweeps = tuple(_sweep(root, row, f"{table}:{line}", m) for line, row in rows)
-    return SweepSet(root, m, sweeps)
+    return _usable(root, table, m, rows)
+
+
+_WARNED: set[str] = set()
+"""Warnings already given in this process (`warn_once`)."""
+
+
+def _usable(root: Path, table: Path, m: Map, rows: list[tuple[int, dict[str, str | None]]]) -> SweepSet:
+    """The set of the rows whose readings can be used; every other is left out with a warning naming its
+    file and problem, and a set with none is a `SweepSetError` naming the first."""
+    sweeps: list[Sweep] = []
+    left_out: list[str] = []
+    for line, row in rows:
+        try:
+            sweeps.append(_sweep(root, row, f"{table}:{line}", m))
+        except UnusableSweep as e:
+            left_out.append(f"{e} ({table.name} line {line})")
+    if not sweeps:
+        raise SweepSetError(f"{table}: no usable sweep: {left_out[0]}"
+                            + (f", and {len(left_out) - 1} more" if len(left_out) > 1 else ""))
+    for why in left_out:
+        warn_once(f"{why}; that sweep is left out, the set's other {len(sweeps)} are used")
+    for sw in sweeps:
+        off = misfit_cm(sw, m)
+        if off > MISFIT_CM:
+            warn_once(f"{table}: sweep {sw.label} does not fit its waypoint ({sw.x_cm:g}, {sw.y_cm:g}) at its "
+                       f"heading_deg {sw.heading_deg:g}: its echoes are {off:.0f} cm from the map's (median; a "
+                       f"sweep taken there: under 10 cm); is its waypoint right?")
+    return SweepSet(root, m, tuple(sweeps), tuple(left_out))
+
+
+def warn_once(message: str) -> None:
+    """Log `message` as a warning, once a process (a set is read again by each bench task's cache)."""
+    if message not in _WARNED:
+        _WARNED.add(message)
+        log.warning("%s", message)
+
+
+MISFIT_CM = 20.0
+"""A sweep whose echoes lie farther than this (cm, median) from the map's walls at its waypoint and
+``heading_deg`` was not taken there (the well-placed sweeps of the course: at most 9 cm): a warning."""
+
+
+def _median_misfits(sweep: Sweep, m: Map, headings_deg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The median distance (cm) between the echoes of `sweep`, as the sensor gave them (held runs too: the
+    fit that aligned the sets' ``heading_deg``), and exact (thin-ray) ray casting at its waypoint, at each
+    of `headings_deg`; nan for a sweep without an echo."""
+    from localisation.models import exact_ranges
+
+    scan = replace(sweep, held=None).scan()
+    ok = scan.valid & np.isfinite(scan.ranges)
+    if not ok.any():
+        return np.full(headings_deg.size, math.nan)
+    poses = np.column_stack([np.full(headings_deg.size, sweep.x_cm), np.full(headings_deg.size, sweep.y_cm),
+                             np.radians(headings_deg)])
+    cast = exact_ranges(m, poses, scan.angles[ok])
+    return np.median(np.where(np.isfinite(cast), np.abs(cast - scan.ranges[ok][None, :]), 1e9), axis=1)
+
+
+def misfit_cm(sweep: Sweep, m: Map) -> float:
+    """The median distance (cm) between the echoes of `sweep` and exact ray casting at its waypoint and
+    ``heading_deg`` (the fit that aligned it); nan without a heading or an echo."""
+    if math.isnan(sweep.heading_deg):
+        return math.nan
+    return float(_median_misfits(sweep, m, np.array([sweep.heading_deg]))[0])
+
+
+ALIGN_STEP_DEG = 0.5
+"""The headings `aligned_heading_deg` tries are this far apart (degrees)."""
+
+
+def aligned_heading_deg(sweep: Sweep, m: Map) -> float:
+    """The heading (degrees, in [-180, 180)) at which `sweep`'s echoes lie closest to the map's walls at its
+    waypoint (median distance to exact thin-ray casting; `ALIGN_STEP_DEG` apart): how a sweep set's
+    ``heading_deg`` is found (the waypoint fixed, the heading brute-forced); nan without an echo."""
+    headings = np.arange(-180.0, 180.0, ALIGN_STEP_DEG)
+    misfits = _median_misfits(sweep, m, headings)
+    return math.nan if np.isnan(misfits).all() else float(headings[int(np.nanargmin(misfits))])
+
