@@ -169,7 +169,12 @@ def test_a_source_with_one_waypoint_is_left_out_of_routes_and_challenges_and_nam
         code = run_cli(["bench", "routes", str(folder), "--map", str(folder / "arena.yaml"), "--localisers",
                         "paper-pf", "--seeds", "0", "--out", str(out)])
         load_challenge_set(folder, real_nxt_arena())
-    assert code == 0
+        challenge = run_cli(["bench", "challenge", str(folder), "--map", str(folder / "arena.yaml"), "--localisers",
+                             "paper-pf", "--seeds", "0", "--out", str(tmp_path / "challenge")])
+    assert code == 0 and challenge == 0
+    summary = (tmp_path / "challenge" / "summary.md").read_text()
+    assert "Left out (a challenge needs sweeps at two or more waypoints): other/robot" in summary
+    assert "| paper-pf | all | 2 |" in summary  # andrei-alpha's two starts only
     with (out / "routes.csv").open() as fh:
         assert {r["repo"] for r in csv.DictReader(fh)} == {"andrei-alpha/robotics"}
     named = [r.getMessage() for r in caplog.records if "other/robot" in r.getMessage()]

@@ -193,6 +193,10 @@ def summary_markdown(runs: Sequence[ChallengeRun], *, sweeps: SweepSet, seeds: S
                          f"{s['missions_with_collision']} | {s['collisions']} | "
                          f"{cell(s['median_robot_time_s'], '.0f')} | "
                          f"{cell(s['median_leg_heading_error_deg'], '.1f')} |")
+    left = [f"Left out (a challenge needs sweeps at two or more waypoints): {r}, sweeps at one waypoint  "
+            for r in sweeps.repos if len(course_waypoints(sweeps, r)) < 2]
+    left += [f"Left out (its readings cannot be used): {why}  " for why in sweeps.left_out]
+    lines += ["", *left] if left else []
     lines += ["", "Each mission starts at one waypoint of a source (a seeded random heading, the waypoint unknown to "
               "the robot) and visits the others in the course's order, sweeping only at waypoints with that "
               "source's real sweeps. *Worst error*: the largest true distance from a waypoint where a visit ended. "
