@@ -63,7 +63,12 @@ def pytest_configure(config: pytest.Config) -> None:
         return
     folder = tempfile.mkdtemp(prefix="nxtnav-range-tables-")
     os.environ[RANGE_CACHE_ENV] = folder
-    config.add_cleanup(lambda: (os.environ.pop(RANGE_CACHE_ENV, None), shutil.rmtree(folder, ignore_errors=True)))
+
+    def remove() -> None:
+        os.environ.pop(RANGE_CACHE_ENV, None)
+        shutil.rmtree(folder, ignore_errors=True)
+
+    config.add_cleanup(remove)
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:
