@@ -127,18 +127,21 @@ class BeamLikelihood:
 def _lattice_gather(rows: Any, dirs: Any, cols: Any, by_reading: Any, out: Any) -> None:  # pragma: no cover
     n_cells, n_ang = rows.shape
     last = by_reading.shape[1] - 1  # echo distances beyond the table: nothing echoes
+    # each cell's row, clipped to the table, twice over: a shifted window of it never wraps, and the
+    # innermost loop is a plain gather (the same sums, in the same order, as shifting with a wrap)
+    clipped = np.empty(2 * n_ang, dtype=np.int64)
+    acc = np.empty(n_ang, dtype=np.float64)
     for c in range(n_cells):
         row = rows[c]
         for h in range(n_ang):
-            out[c, h] = 0.0
+            clipped[h] = clipped[h + n_ang] = min(row[h], last)
+        acc[:] = 0.0
         for j in range(dirs.size):
             cost = by_reading[cols[j]]
-            shift = dirs[j]
+            window = clipped[dirs[j] : dirs[j] + n_ang]
             for h in range(n_ang):
-                k = h + shift
-                if k >= n_ang:
-                    k -= n_ang
-                out[c, h] += cost[min(row[k], last)]
+                acc[h] += cost[window[h]]
+        out[c] = acc
 
 
 def lattice_costs(lattice: RangeLattice, rel: Any, measured: Any, model: Any, max_beams: int = 48) -> FloatArray:

@@ -10,6 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -46,6 +47,28 @@ def _name_groups(items: list[pytest.Item]) -> None:
         nodeid = item.nodeid
         if names and nodeid.rfind("@") <= nodeid.rfind("]") and isinstance(getattr(item, "_id", None), NodeId):
             item._id = NodeId.parse(f"{nodeid}@{'_'.join(names)}")
+
+
+RANGE_CACHE_ENV = "NXTNAV_CACHE_DIR"
+"""The range tables' disk cache (`localisation.range_table`): one folder for the whole run (`pytest_configure`)."""
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """One range-table cache folder for the run, unless ``$NXTNAV_CACHE_DIR`` is set already: the first
+    process that needs a map's table builds it and saves it there, and every later command of the run
+    (the CLI tests' subprocesses, the documented blocks, the process pools) loads it instead of building
+    it again (the CO333 arena's lobed table takes over a second). Set here, before pytest-xdist starts
+    its workers, so that they and every command they run inherit it; removed when the run ends."""
+    if hasattr(config, "workerinput") or os.environ.get(RANGE_CACHE_ENV) is not None:
+        return
+    folder = tempfile.mkdtemp(prefix="nxtnav-range-tables-")
+    os.environ[RANGE_CACHE_ENV] = folder
+
+    def remove() -> None:
+        os.environ.pop(RANGE_CACHE_ENV, None)
+        shutil.rmtree(folder, ignore_errors=True)
+
+    config.add_cleanup(remove)
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:

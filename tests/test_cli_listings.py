@@ -1,5 +1,8 @@
 """`maps list`, `planners show` and `localisers show` piped or saved: every name whole (the ones `--map`
-and `--set` need), and `--json` lists every registered map, option and facet."""
+and `--set` need), and `--json` lists every registered map, option and facet.
+
+The tables are read through a pipe from the console script (their width is the pipe's); the JSON of
+each plug-in, which no terminal shapes, from the command run in this process (`run_cli`)."""
 
 from __future__ import annotations
 
@@ -7,9 +10,10 @@ import json
 import os
 import subprocess
 from pathlib import Path
+from typing import Any
 
 import pytest
-from conftest import nxtnav_exe
+from conftest import nxtnav_exe, run_cli
 
 from localisation import LOCALISERS
 from planners import PLANNERS
@@ -24,6 +28,13 @@ def _piped(tmp_path: Path, *args: str) -> str:
                           env={k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")})
     assert proc.returncode == 0, proc.stderr
     return proc.stdout
+
+
+def _json(capsys: pytest.CaptureFixture[str], *args: str) -> Any:
+    """The JSON document `nxtnav ARGS` prints, the command run in this process."""
+    capsys.readouterr()
+    assert run_cli(list(args)) == 0, capsys.readouterr().err
+    return json.loads(capsys.readouterr().out)
 
 
 def _cells(text: str) -> set[str]:
@@ -60,8 +71,8 @@ def test_planners_show_piped_keeps_the_option_names(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [*PLANNERS.names(), "ompl:InformedRRTstar"])
-def test_planners_show_json_lists_every_option(name: str, tmp_path: Path) -> None:
-    doc = json.loads(_piped(tmp_path, "planners", "show", name, "--json"))
+def test_planners_show_json_lists_every_option(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    doc = _json(capsys, "planners", "show", name, "--json")
     declared = _options(planner_options(name))
     assert doc["planner"] == name
     assert [o["name"] for o in doc["options"]] == [p.name for p in declared]
@@ -77,8 +88,8 @@ def test_localisers_show_piped_keeps_the_option_names(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", LOCALISERS.names())
-def test_localisers_show_json_lists_every_option_and_facet(name: str, tmp_path: Path) -> None:
-    doc = json.loads(_piped(tmp_path, "localisers", "show", name, "--json"))
+def test_localisers_show_json_lists_every_option_and_facet(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    doc = _json(capsys, "localisers", "show", name, "--json")
     cls = LOCALISERS.get(name)
     assert doc["localiser"] == name
     assert [o["name"] for o in doc["options"]] == [p.name for p in _options(cls.options_model)]

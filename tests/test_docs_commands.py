@@ -8,20 +8,27 @@ rest of the suite.
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+import json
 import shutil
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import load_tool
+from conftest import built_once, load_tool
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 docs_commands = load_tool("docs_commands")
 BLOCKS, CHECKS = docs_commands.collect(REPO)
+SHARED_SCRIPTS = {script for script, count in Counter(docs_commands.ci_script(block) for block in BLOCKS
+                                                      if block.skip_reason is None).items() if count > 1}
+"""The CI scripts that two or more blocks run word for word (the same command on two pages)."""
 
 
 def _page(tmp_path: Path, text: str) -> Path:
@@ -30,13 +37,27 @@ def _page(tmp_path: Path, text: str) -> Path:
     return page
 
 
+def _shared_outcome(block: Any, factory: pytest.TempPathFactory) -> Any:
+    """How `block`'s script ran, run once per test run for every block that runs the same script (a
+    script in a fresh folder does the same each time); with pytest-xdist, the workers share it."""
+    script = docs_commands.ci_script(block)
+
+    def run(folder: Path) -> None:
+        outcome = docs_commands.run_block(block)
+        (folder / "outcome.json").write_text(json.dumps(dataclasses.asdict(outcome)), encoding="utf-8")
+
+    name = "docs-script-" + hashlib.sha1(script.encode()).hexdigest()[:12]
+    folder = built_once(factory, name, run)
+    return docs_commands.Outcome(**json.loads((folder / "outcome.json").read_text(encoding="utf-8")))
+
+
 @pytest.mark.docs
 @pytest.mark.parametrize("block", BLOCKS, ids=[block.where for block in BLOCKS])
-def test_documented_block_runs(block: Any) -> None:
+def test_documented_block_runs(block: Any, tmp_path_factory: pytest.TempPathFactory) -> None:
     if block.skip_reason is not None:
         pytest.skip(f"{block.where}: {block.skip_reason}")
-    outcome = docs_commands.run_block(block)
     script = docs_commands.ci_script(block)
+    outcome = _shared_outcome(block, tmp_path_factory) if script in SHARED_SCRIPTS else docs_commands.run_block(block)
     excerpt = docs_commands.output_excerpt(outcome.output)
     assert outcome.failure is None, f"{block.where}: {outcome.failure}\n{script}\n---\n{excerpt}"
 
