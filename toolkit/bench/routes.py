@@ -59,6 +59,7 @@ __all__ = [
     "plan_routes",
     "run_route",
     "summarise_steps",
+    "truth_headings",
     "write_routes_csv",
 ]
 
@@ -241,6 +242,15 @@ def aligned_headings(sweeps: SweepSet) -> dict[str, float]:
     """The heading (degrees) that aligns each sweep with the map at its waypoint, by sweep label: found as a
     sweep set's ``heading_deg`` is (`toolkit.real_sonar.sweeps.aligned_heading_deg`)."""
     return {sw.label: aligned_heading_deg(sw, sweeps.map) for sw in sweeps}
+
+
+def truth_headings(kind: str, sweeps: SweepSet, sonars: Mapping[str, NxtSonar]) -> dict[str, float] | None:
+    """The truth's heading (degrees, by sweep label) of ``--headings KIND``: ``model`` (`model_headings`, the
+    sources of `sonars` with their models), ``aligned`` (`aligned_headings`), or None for ``column`` (the
+    set's own ``heading_deg``)."""
+    if kind == "model":
+        return model_headings(sweeps, sonars, list(sonars))
+    return aligned_headings(sweeps) if kind == "aligned" else None
 
 
 def _draws(sweeps: SweepSet, task: RouteTask) -> tuple[list[Sweep], list[list[Motion]]]:

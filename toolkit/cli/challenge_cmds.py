@@ -119,15 +119,13 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
 
 def _truth_headings(headings: str, folder: Path, map_ref: str, model: NxtSonar) -> dict[str, float] | None:
     """The sweeps' headings (degrees, by label) of ``--headings aligned|model``; None for ``column``."""
-    from toolkit.bench.routes import aligned_headings, model_headings
+    from toolkit.bench.routes import truth_headings
     from toolkit.real_sonar.sweeps import load_sweep_set
 
     if checked_headings(headings) == "column":
         return None
     sweeps = load_sweep_set(folder, load_map(map_ref))
-    if headings == "aligned":
-        return aligned_headings(sweeps)
-    return model_headings(sweeps, dict.fromkeys(sweeps.repos, model), list(sweeps.repos))
+    return truth_headings(headings, sweeps, dict.fromkeys(sweeps.repos, model))
 
 
 @bench_app.command("challenge")

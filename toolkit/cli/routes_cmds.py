@@ -126,7 +126,7 @@ def bench_routes(
     candidates, truth among the candidates.
     """
     from localisation.base import LOCALISERS
-    from toolkit.bench.routes import aligned_headings, make_route_tasks, model_headings, plan_routes
+    from toolkit.bench.routes import make_route_tasks, plan_routes, truth_headings
     from toolkit.real_sonar.fit import profiles_by_source
     from toolkit.real_sonar.sweeps import load_sweep_set
     from toolkit.world import NxtSonar
@@ -150,9 +150,8 @@ def bench_routes(
     sonars = (profiles_by_source(data_path(sonar_profile), repos) if sonar_profile is not None
               else dict.fromkeys(repos, NxtSonar()))
     check_out_folder(out, force)
-    truth_headings = (model_headings(sweeps, sonars, repos) if headings == "model"
-                      else aligned_headings(sweeps) if headings == "aligned" else None)
-    tasks = make_route_tasks(sweeps, map_file, routes, locs, seeds, sonars, noise, options, truth_headings)
+    truth = truth_headings(headings, sweeps, sonars)
+    tasks = make_route_tasks(sweeps, map_file, routes, locs, seeds, sonars, noise, options, truth)
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "routes", str(folder), *(["--map", map_file] if map_file else []),
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)), "--orders", str(orders),
@@ -163,7 +162,7 @@ def bench_routes(
     _run_and_write(tasks, out, locs, command=command, config={
         "folder": str(folder), "map": map_file, "localisers": locs, "seeds": seeds, "orders": orders,
         "order": order, "noise": noise.to_dict(), "options": options, "headings": headings,
-        "truth_headings_deg": truth_headings,
+        "truth_headings_deg": truth,
         "routes": [{"repo": r.repo, "route": r.name, "waypoints": r.waypoints} for r in routes],
         "sonar": {repo: m.to_dict() for repo, m in sonars.items()}}, workers=workers,
         configured=configuration(ctx, sets))

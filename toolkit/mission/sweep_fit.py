@@ -8,8 +8,7 @@ import math
 
 import numpy as np
 
-from localisation.models import exact_ranges
-
+from ..real_sonar.sweeps import thin_ray_misfits
 from ..world import Map, Pose, Scan, angle_diff, wrap_angle
 
 __all__ = ["fit_pose", "joined", "rank_places", "weighed_heading"]
@@ -55,9 +54,9 @@ def rank_places(m: Map, scan: Scan, places: list[XY], *, heading: float | None =
                 step_deg: float = 1.0) -> list[tuple[float, Pose]]:
     """Each of the `places` (cm) at the heading, `step_deg` apart (within `span_deg` of `heading`; None:
     every heading), that the sweep `scan` fits best there, with the fit's score, best place first. The
-    score is minus the median distance (cm) between the sweep's echoes and exact (thin-ray) ray casting:
-    the fit that aligned the sweep sets' ``heading_deg`` with the map, so on a real sweep it finds the
-    heading the sweep set calls true.
+    score is minus the median distance (cm) between the sweep's echoes and exact (thin-ray) ray casting
+    (`toolkit.real_sonar.sweeps.thin_ray_misfits`): the fit that aligned the sweep sets' ``heading_deg``
+    with the map, so on a real sweep it finds the heading the sweep set calls true.
 
     The course's robot knows its waypoints: at the start it tells which one it stands on (and at what
     heading) by trying them all, the way the course's own place recognition compares a sweep with the
@@ -65,16 +64,13 @@ def rank_places(m: Map, scan: Scan, places: list[XY], *, heading: float | None =
     heading (its beam model leaves 10-20 degrees of heading error on these sweeps), while the walls'
     corners, read by the lobe's axis, pin it (a robust median, since a real sweep has a heavy tail of
     wrong readings)."""
-    ok = scan.valid & np.isfinite(scan.ranges)
-    rel, meas = np.asarray(scan.angles[ok], dtype=float), np.asarray(scan.ranges[ok], dtype=float)
     centre = 0.0 if heading is None else heading
     half = 180.0 if heading is None else span_deg
     offsets = np.radians(np.arange(-half, half, step_deg))
     ranked: list[tuple[float, Pose]] = []
     for x, y in places:
         poses = np.column_stack([np.full(offsets.size, x), np.full(offsets.size, y), centre + offsets])
-        error = np.abs(exact_ranges(m, poses, rel) - meas[None, :])
-        median = np.median(np.where(np.isfinite(error), error, 1e9), axis=1)
+        median = thin_ray_misfits(m, scan, poses)
         k = int(np.argmin(median))
         ranked.append((-float(median[k]), Pose(x, y, float(wrap_angle(centre + offsets[k])))))
     return sorted(ranked, key=lambda item: -item[0])

@@ -70,7 +70,8 @@ from ..world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
 from ..world.typed import Typed, one_line, worded
 
 __all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepRow", "SweepSet", "SweepSetError", "UnusableSweep",
-           "aligned_heading_deg", "load_sweep_set", "misfit_cm", "sweep_angles", "warn_once"]
+           "aligned_heading_deg", "load_sweep_set", "misfit_cm", "sweep_angles", "thin_ray_misfits",
+           "warn_once"]
 
 REQUIRED_COLUMNS = ("repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg")
 DEFAULT_MAP = "arena.yaml"
@@ -454,20 +455,26 @@ MISFIT_CM = 20.0
 ``heading_deg`` was not taken there (the well-placed sweeps of the course: at most 9 cm): a warning."""
 
 
-def _median_misfits(sweep: Sweep, m: Map, headings_deg: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The median distance (cm) between the echoes of `sweep`, as the sensor gave them (held runs too: the
-    fit that aligned the sets' ``heading_deg``), and exact (thin-ray) ray casting at its waypoint, at each
-    of `headings_deg`; nan for a sweep without an echo."""
+def thin_ray_misfits(m: Map, scan: Scan, poses: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The median distance (cm) between the echoes of `scan` and exact (thin-ray) ray casting in `m` from each
+    of the (n, 3) `poses` (x, y in cm, heading in rad); a ray that meets nothing counts as 1e9 cm. nan for a
+    scan without an echo. The robust score a sweep set's ``heading_deg`` is aligned by, and the challenge's
+    place and heading fits (`toolkit.mission.sweep_fit.rank_places`)."""
     from localisation.models import exact_ranges
 
-    scan = replace(sweep, held=None).scan()
     ok = scan.valid & np.isfinite(scan.ranges)
     if not ok.any():
-        return np.full(headings_deg.size, math.nan)
-    poses = np.column_stack([np.full(headings_deg.size, sweep.x_cm), np.full(headings_deg.size, sweep.y_cm),
-                             np.radians(headings_deg)])
+        return np.full(len(poses), math.nan)
     cast = exact_ranges(m, poses, scan.angles[ok])
     return np.median(np.where(np.isfinite(cast), np.abs(cast - scan.ranges[ok][None, :]), 1e9), axis=1)
+
+
+def _median_misfits(sweep: Sweep, m: Map, headings_deg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """`thin_ray_misfits` of `sweep`, as the sensor gave it (held runs too: the fit that aligned the sets'
+    ``heading_deg``), at its waypoint and each of `headings_deg`."""
+    poses = np.column_stack([np.full(headings_deg.size, sweep.x_cm), np.full(headings_deg.size, sweep.y_cm),
+                             np.radians(headings_deg)])
+    return thin_ray_misfits(m, replace(sweep, held=None).scan(), poses)
 
 
 def misfit_cm(sweep: Sweep, m: Map) -> float:
