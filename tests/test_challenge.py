@@ -20,7 +20,8 @@ from conftest import REAL_NXT, run_cli
 from localisation.base import PoseEstimate, make_localiser
 from planners import PLANNERS, PlanningProblem, PlanResult, ShortestPathPlanner
 from planners.base import make_planner
-from toolkit.bench.challenge import COLUMNS, challenge_mission
+from toolkit.bench.challenge import COLUMNS, challenge_mission, challenge_tasks, crashed_mission
+from toolkit.bench.routes import aligned_headings
 from toolkit.mission.challenge import ChallengeConfig, WaypointSweeps, course_from, plausible_update, weighed_heading
 from toolkit.real_sonar.sweep_sonar import (
     SweepRefused,
@@ -30,7 +31,7 @@ from toolkit.real_sonar.sweep_sonar import (
     load_challenge_set,
     rotated,
 )
-from toolkit.real_sonar.sweeps import SweepSet
+from toolkit.real_sonar.sweeps import SweepSet, load_sweep_set
 from toolkit.world import MotionNoise, Pose, RigidMove, angle_diff, load_map
 
 
@@ -185,6 +186,20 @@ def test_a_set_without_headings_runs_with_the_headings_that_align_it(tmp_path: P
     assert doc["truth_headings_deg"]["andrei-alpha/robotics/loc_03.dat"] == pytest.approx(-90.5, abs=1.0)
     with (out / "challenge.csv").open(newline="") as fh:
         assert len(list(csv.DictReader(fh))) == 3
+
+
+def test_a_crashed_mission_of_a_set_without_headings_is_still_a_row(tmp_path: Path) -> None:
+    """A mission whose worker died is recorded from the set as its task loads it: with the headings the task
+    carries (``--headings aligned``), not the set's missing column."""
+    folder = _copy(tmp_path)
+    _drop_heading(folder)
+    m = load_map("co333-arena")
+    headings = aligned_headings(load_sweep_set(folder, m))
+    tasks = challenge_tasks(load_challenge_set(folder, m, headings), "co333-arena", ["paper-pf"], [0],
+                            headings=headings)
+    row = crashed_mission(tasks[0], "killed by signal 11 (SIGSEGV)")
+    assert (row.reached, row.status) == (False, "crashed: killed by signal 11 (SIGSEGV)")
+    assert (row.start_x_cm, row.start_y_cm) in {(180.0, 30.0), (126.0, 168.0), (30.0, 54.0)}
 
 
 def test_run_options_a_challenge_does_not_take_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

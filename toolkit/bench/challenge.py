@@ -51,7 +51,7 @@ class ChallengeTask:
     noise: dict[str, Any]
     config: ChallengeConfig = field(default_factory=ChallengeConfig)
     headings: tuple[tuple[str, float], ...] | None = None
-    """The sweeps' headings (degrees, by sweep label) in place of ``heading_deg`` (``--headings model``)."""
+    """The sweeps' headings (degrees, by sweep label) in place of ``heading_deg`` (``--headings aligned|model``)."""
 
 
 @dataclass(frozen=True)
@@ -141,7 +141,7 @@ def run_challenge_task(task: ChallengeTask) -> ChallengeRun:
 def crashed_mission(task: ChallengeTask, reason: str) -> ChallengeRun:
     """The row of a mission whose worker process died (`toolkit.bench.executors.run_tasks`'s ``crashed``):
     not reached, its status the `reason`."""
-    sweeps = _sweep_set(task.folder, task.map)
+    sweeps = _sweep_set(task.folder, task.map, task.headings)
     x, y = course_waypoints(sweeps, task.repo)[task.start]
     return ChallengeRun(task.repo, x, y, task.seed, task.localiser, False, math.nan, 0, math.nan, math.nan,
                         len(course_waypoints(sweeps, task.repo)), f"crashed: {reason}")
