@@ -26,7 +26,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 
 from localisation.base import HeadingPrior
 from localisation.scan import drop_stuck
@@ -152,6 +151,8 @@ def _fit_mixture(model: NxtSonar, d: FloatArray, r: FloatArray) -> NxtSonar:
 
     Each evaluation computes log P(r | d) once for each distinct (d, r) pair and spreads it over the
     readings, so every reading's term, and the sum over them, are the numbers computed per reading."""
+    from scipy.optimize import minimize  # here, not with the module: scoring and profiles need no optimiser
+
     names = FIT_PARAMETERS
     lo = np.array([_BOUNDS[k][0] for k in names])
     hi = np.array([_BOUNDS[k][1] for k in names])
