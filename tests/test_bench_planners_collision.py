@@ -26,7 +26,7 @@ def _bench(out: Path, backend: str, map_name: str) -> list[dict[str, str]]:
     runner._planner.cache_clear()  # both runs start from the same empty caches (graphs, lattices, checkers)
     runner._checker.cache_clear()
     code = run_cli(["bench", "planners", "--maps", map_name, "--planners", PLANNERS, "--runs", "1",
-                    "--time-limit", "0.5", "--exec-repeats", "3", "--seed", "5", "--no-plots",
+                    "--time-limit", "0.2", "--exec-repeats", "3", "--seed", "5", "--no-plots",
                     "--collision", backend, "--out", str(out)])
     assert code == 0
     with (out / "runs.csv").open(newline="") as fh:

@@ -100,7 +100,7 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
          "planners_cost_over_time.png": "planners/cost_over_time.png"},
         "the default planners on the preset queries: paths, execution error against turns (raw and "
         "simplified), box plots, best length over time",
-        {"--runs": "2", "--time-limit": "0.05", "--exec-repeats": "5", "--workers": "1"}),
+        {"--runs": "1", "--time-limit": "0.05", "--exec-repeats": "5", "--workers": "1", "--maps": "map1"}),
     FigureJob(
         "budgets",
         ("bench", "planners", "--budgets", "0.02,0.05,0.1,0.2,0.5,1", "--runs", "10", "--seed", "0",
@@ -130,7 +130,7 @@ FIGURE_JOBS: tuple[FigureJob, ...] = (
          "localisers_errors.png": "localisers/errors.png",
          "localisers_tracking.png": "localisers/tracking.png"},
         "the localiser benchmark: success, kidnap recovery, error distributions, tracking error",
-        {"--trials": "2", "--workers": "1", "--tracking-steps": "3", "--maps": "map1"}),
+        {"--trials": "1", "--workers": "1", "--tracking-steps": "3", "--maps": "map1"}),
     FigureJob(
         "replay",
         ("replay", f"{REPO}/tests/data/recording_map1_nxt.jsonl", "--localisers", "paper-pf,amcl,pf-systematic",

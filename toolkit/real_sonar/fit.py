@@ -26,7 +26,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 
 from localisation.base import HeadingPrior
 from localisation.scan import drop_stuck
@@ -142,28 +141,36 @@ def _best_poses(model: NxtSonar, echoes: list[_EchoRows], sweeps: list[_Sweep]) 
             for e, sw in zip(echoes, sweeps, strict=True)]
 
 
-def _with(model: NxtSonar, names: Sequence[str], x: FloatArray) -> NxtSonar:
-    params = asdict(model)
-    params.update({k: float(v) for k, v in zip(names, x, strict=True)})
-    return NxtSonar(**params)
+def _with(params: dict[str, Any], names: Sequence[str], x: FloatArray) -> NxtSonar:
+    """The model of `params` (``asdict`` of one, made once by the caller) with `names` set to `x`."""
+    return NxtSonar(**{**params, **{k: float(v) for k, v in zip(names, x, strict=True)}})
 
 
 def _fit_mixture(model: NxtSonar, d: FloatArray, r: FloatArray) -> NxtSonar:
-    """The mixture parameters that maximise sum log P(r | d), starting from `model`'s."""
+    """The mixture parameters that maximise sum log P(r | d), starting from `model`'s.
+
+    Each evaluation computes log P(r | d) once for each distinct (d, r) pair and spreads it over the
+    readings, so every reading's term, and the sum over them, are the numbers computed per reading."""
+    from scipy.optimize import minimize  # here, not with the module: scoring and profiles need no optimiser
+
     names = FIT_PARAMETERS
     lo = np.array([_BOUNDS[k][0] for k in names])
     hi = np.array([_BOUNDS[k][1] for k in names])
     x0 = np.clip(np.array([getattr(model, k) for k in names], dtype=float), lo, hi)
+    params = asdict(model)
+    d_r, at = np.unique(np.stack(np.broadcast_arrays(np.asarray(d, dtype=float), np.asarray(r, dtype=float))),
+                        axis=1, return_inverse=True)
+    at = at.reshape(-1)
 
     def nll(x: FloatArray) -> float:
         if x[names.index("short_prob")] + x[names.index("outlier_prob")] >= 0.99:
             return 1e12
-        lp = _with(model, names, x).log_pmf(d, r)
+        lp = _with(params, names, x).log_pmf(d_r[0], d_r[1])[at]
         return float(-np.sum(np.maximum(lp, LOG_FLOOR)))
 
     res = minimize(nll, x0, method="L-BFGS-B", bounds=list(zip(lo, hi, strict=True)),
                    options={"maxiter": 200, "eps": 1e-5})
-    return _with(model, names, np.asarray(res.x, dtype=float))
+    return _with(params, names, np.asarray(res.x, dtype=float))
 
 
 def _gather(echoes: list[_EchoRows], headings: list[int], sweeps: list[_Sweep]) -> tuple[FloatArray, FloatArray]:
