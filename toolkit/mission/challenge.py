@@ -72,7 +72,7 @@ from ..world import (
 )
 from ..world.arrays import FloatArray
 from ..world.typed import Typed, with_unit
-from .sweep_fit import fit_pose, joined, rank_places, weighed_heading
+from .sweep_fit import Sweeps, fit_pose, joined, rank_places, weighed_heading
 
 __all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
            "course_from", "fit_pose", "joined", "plausible_update", "run_challenge", "weighed_heading"]
@@ -413,7 +413,7 @@ class WaypointSweeps:
             self.go_to((float(corner[0]), float(corner[1])))
 
     # -- at a waypoint ------------------------------------------------------------------------------
-    def fitted_heading(self, scan: Scan, predicted: float, waypoint: XY) -> float:
+    def fitted_heading(self, scan: Sweeps, predicted: float, waypoint: XY) -> float:
         """The heading (rad) the sweep fits best at the `waypoint` the robot is visiting (`fit_pose`),
         within `ChallengeConfig.heading_span_deg` of the `predicted` heading (rad).
 
@@ -425,7 +425,7 @@ class WaypointSweeps:
         those that align them with the map by a thin ray)."""
         return fit_pose(self.map, scan, [waypoint], heading=predicted, span_deg=self.cfg.heading_span_deg).theta
 
-    def fixed_heading(self, scan: Scan, predicted: PoseEstimate, waypoint: XY) -> tuple[float, float]:
+    def fixed_heading(self, scan: Sweeps, predicted: PoseEstimate, waypoint: XY) -> tuple[float, float]:
         """The belief's heading (rad) after a waypoint's sweep and its spread (rad): the sweep's fitted heading
         (`fitted_heading`) weighed against the `predicted` one by their variances (``heading_from`` ``fused``: the
         prediction's from the localiser's covariance, the fit's `ChallengeConfig.prior_std_deg`, the spread
