@@ -375,9 +375,27 @@ def test_the_first_leg_is_planned_free_at_the_start_the_mission_may_fall_back_to
     assert not no_retry.unresolved
     policy = _policy(real_set, truth, Pose(126.0, 168.0, -math.pi / 2), ChallengeConfig())
     plain = policy._plan((30.0, 54.0))
+    assert plain is not None
     turned = RigidMove(Pose(126.0, 168.0, -math.pi / 2), Pose(126.0, 168.0, -math.pi / 4))
     policy.unresolved = [turned]
     both = policy._plan((30.0, 54.0))
+    assert both is not None
     checker = policy.checkers[0]
     assert checker.path_free(plain) and not checker.path_free(turned.points(plain))
     assert checker.path_free(both) and checker.path_free(turned.points(both))
+
+
+def test_after_a_change_of_start_a_leg_is_driven_only_where_every_open_start_is_free(real_set: SweepSet) -> None:
+    """Once the mission has given up its start for another, a leg is driven only on a path free at every start
+    still open; with none, and with no free path at all, nothing is driven: no straight line into a wall."""
+    here = Pose(126.0, 168.0, 0.0)
+    policy = _policy(real_set, here, here, ChallengeConfig())
+    away = RigidMove(here, Pose(30.0, 54.0, math.pi))  # the other start: (30, 54)'s copy of the goal is outside
+    policy.unresolved = [away]
+    assert policy._plan((180.0, 30.0)) is not None  # before a change of start: the plain path, as before
+    policy.switched = True
+    assert policy._plan((180.0, 30.0)) is None
+    assert policy.drive_to((180.0, 30.0)) is False and policy.robot.true_pose == here
+    policy.unresolved, policy.switched = [], False
+    assert policy.drive_to((180.0, 30.0)) is True and policy.robot.true_pose != here
+    assert policy._plan((84.0, 150.0)) is None  # inside the stub wall's margin: no free path at all
