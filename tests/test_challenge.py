@@ -23,6 +23,7 @@ from planners.base import make_planner
 from toolkit.bench.challenge import COLUMNS, challenge_mission, challenge_tasks, crashed_mission
 from toolkit.bench.routes import aligned_headings
 from toolkit.mission.challenge import ChallengeConfig, WaypointSweeps, course_from, plausible_update, weighed_heading
+from toolkit.mission.sweep_fit import joined, misfits, rank_places
 from toolkit.real_sonar.sweep_sonar import (
     SweepRefused,
     SweepSetRobot,
@@ -31,8 +32,8 @@ from toolkit.real_sonar.sweep_sonar import (
     load_challenge_set,
     rotated,
 )
-from toolkit.real_sonar.sweeps import SweepSet, load_sweep_set
-from toolkit.world import MotionNoise, Pose, RigidMove, angle_diff, load_map
+from toolkit.real_sonar.sweeps import SweepSet, load_sweep_set, thin_ray_misfits
+from toolkit.world import MotionNoise, Pose, RigidMove, Scan, angle_diff, load_map
 
 
 @pytest.fixture(scope="module")
@@ -49,6 +50,26 @@ def test_a_sweep_turns_by_whole_bins_round_its_ring(real_set: SweepSet) -> None:
     turned = rotated(sw, math.radians(sw.heading_deg + 3.0)).ranges
     assert np.array_equal(turned, np.roll(as_read, 3))
     assert not np.array_equal(turned, own)
+
+
+def test_a_stops_sweeps_are_scored_each_on_its_own(real_set: SweepSet) -> None:
+    m, turn = real_set.map, math.radians(90.0)
+    sw, elsewhere = real_set.sweeps[0], real_set.sweeps[1]
+    heading = math.radians(sw.heading_deg)
+    first, other = rotated(sw, heading), rotated(elsewhere, heading + turn)  # two sweeps unlike each other
+    poses = np.array([[sw.x_cm, sw.y_cm, heading + math.radians(d)] for d in (-20.0, -5.0, 0.0, 7.0, 40.0)])
+    each = [thin_ray_misfits(m, first, poses), thin_ray_misfits(m, other, poses + np.array([0.0, 0.0, turn]))]
+    stop = misfits(m, joined(first, other, turn), poses)
+    assert np.allclose(stop, np.mean(each, axis=0))  # each sweep's median, averaged
+    pooled = Scan(np.concatenate([first.angles, other.angles + turn]), np.concatenate([first.ranges, other.ranges]),
+                  np.concatenate([first.valid, other.valid]))
+    assert not np.allclose(stop, thin_ray_misfits(m, pooled, poses))  # not the median of their echoes pooled
+    silent = Scan(other.angles, other.ranges, np.zeros(len(other), dtype=bool))  # no echo: adds nothing
+    assert np.allclose(misfits(m, joined(first, silent, turn), poses), each[0])
+    again = rotated(sw, heading + turn)  # the same place swept again, turned: the fit finds the heading
+    alone = rank_places(m, first, [(sw.x_cm, sw.y_cm)], step_deg=0.5)[0][1]
+    both = rank_places(m, joined(first, again, turn), [(sw.x_cm, sw.y_cm)], step_deg=0.5)[0][1]
+    assert abs(math.degrees(float(angle_diff(both.theta, alone.theta)))) <= 0.5
 
 
 def test_the_sonar_answers_near_a_waypoint_and_refuses_elsewhere(real_set: SweepSet) -> None:
@@ -354,9 +375,27 @@ def test_the_first_leg_is_planned_free_at_the_start_the_mission_may_fall_back_to
     assert not no_retry.unresolved
     policy = _policy(real_set, truth, Pose(126.0, 168.0, -math.pi / 2), ChallengeConfig())
     plain = policy._plan((30.0, 54.0))
+    assert plain is not None
     turned = RigidMove(Pose(126.0, 168.0, -math.pi / 2), Pose(126.0, 168.0, -math.pi / 4))
     policy.unresolved = [turned]
     both = policy._plan((30.0, 54.0))
+    assert both is not None
     checker = policy.checkers[0]
     assert checker.path_free(plain) and not checker.path_free(turned.points(plain))
     assert checker.path_free(both) and checker.path_free(turned.points(both))
+
+
+def test_after_a_change_of_start_a_leg_is_driven_only_where_every_open_start_is_free(real_set: SweepSet) -> None:
+    """Once the mission has given up its start for another, a leg is driven only on a path free at every start
+    still open; with none, and with no free path at all, nothing is driven: no straight line into a wall."""
+    here = Pose(126.0, 168.0, 0.0)
+    policy = _policy(real_set, here, here, ChallengeConfig())
+    away = RigidMove(here, Pose(30.0, 54.0, math.pi))  # the other start: (30, 54)'s copy of the goal is outside
+    policy.unresolved = [away]
+    assert policy._plan((180.0, 30.0)) is not None  # before a change of start: the plain path, as before
+    policy.switched = True
+    assert policy._plan((180.0, 30.0)) is None
+    assert policy.drive_to((180.0, 30.0)) is False and policy.robot.true_pose == here
+    policy.unresolved, policy.switched = [], False
+    assert policy.drive_to((180.0, 30.0)) is True and policy.robot.true_pose != here
+    assert policy._plan((84.0, 150.0)) is None  # inside the stub wall's margin: no free path at all

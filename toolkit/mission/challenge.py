@@ -16,8 +16,9 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    that leg is planned free wherever they would put the robot, when such a path exists
    (`toolkit.world.ConformantChecker`).
 2. **Drive.** A path from the estimate to the next waypoint (the planner, with the robot radius plus
-   `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; a straight line when no
-   path exists at all), driven leg by leg: turn toward the leg's end from the estimate, then moves of
+   `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; after a change of start
+   (step 3), only a path free at every start still open; when no path is free the mission ends there,
+   undriven), driven leg by leg: turn toward the leg's end from the estimate, then moves of
    at most `ChallengeConfig.move_step_cm`, the localiser predicting after each. No sweep on the way.
 3. **At the waypoint.** A full sweep and the localiser's update. A real sweep, as taken, says which
    waypoint the robot is at, not where near it, so by default (`ChallengeFix.position_from`
@@ -72,7 +73,7 @@ from ..world import (
 )
 from ..world.arrays import FloatArray
 from ..world.typed import Typed, with_unit
-from .sweep_fit import fit_pose, joined, rank_places, weighed_heading
+from .sweep_fit import Sweeps, fit_pose, joined, rank_places, weighed_heading
 
 __all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
            "course_from", "fit_pose", "joined", "plausible_update", "run_challenge", "weighed_heading"]
@@ -265,6 +266,9 @@ class WaypointSweeps:
         """Until the first leg's sweep says which start was right: the rigid moves from the believed start to
         each other start the mission may fall back to (`localise_start`); the first leg is planned to be
         free at all of them (`ConformantChecker`)."""
+        self.switched = False
+        """Whether the mission has given up its believed start for another (`restart_from`): until a sweep
+        answers, its legs are driven only where they are free at every start still open."""
         self.last_fix: tuple[Scan, PoseEstimate, XY] | None = None
         """The sweep of the last waypoint, the prediction it corrected and the waypoint, while the
         heading fix may still take a facing sweep (`face_next_leg`)."""
@@ -295,6 +299,7 @@ class WaypointSweeps:
         self.last_fix = None
         self._settle(RigidMove(believed, instead).pose(pose))
         self.unresolved = [RigidMove(instead, other) for other in others]
+        self.switched = True
 
     def better_start(self, starts: list[Pose]) -> int:
         """Which of the `starts` (the believed one first, as ranked at the start) the sweep just taken at the
@@ -333,7 +338,8 @@ class WaypointSweeps:
     def _face_and_sweep(self, goal: XY) -> tuple[float, Scan | None]:
         """Turn toward the first corner of the path to `goal` and sweep: the turn (rad, as commanded and
         predicted) and the sweep (None when the sonar refuses it)."""
-        corner = self._plan(goal)[1]
+        path = self._plan(goal)
+        corner = goal if path is None else path[1]
         turn = self._turn_toward((float(corner[0]), float(corner[1])))
         self._act(turn, 0.0)
         try:
@@ -361,18 +367,22 @@ class WaypointSweeps:
         self._apply_oracle()
 
     # -- driving ----------------------------------------------------------------------------------------
-    def _plan(self, goal: XY) -> FloatArray:
+    def _plan(self, goal: XY) -> FloatArray | None:
+        """A path (cm, from the estimate) to `goal`, free with the margin, else with the bare radius; while
+        other starts are open (`unresolved`) free at each of them first, and after a switch of start
+        (`switched`) only that. None when no path is free: a leg driven where no check holds is a leg
+        into a wall, whichever belief is wrong."""
         assert self.estimate is not None
         start = self.estimate.pose.xy
         conformant = [ConformantChecker(c, self.unresolved) for c in self.checkers] if self.unresolved else []
-        for checker in [*conformant, *self.checkers]:
+        for checker in conformant if conformant and self.switched else [*conformant, *self.checkers]:
             if not (checker.point_free(start) and checker.point_free(np.array(goal))):
                 continue
             result = self.planner.plan(PlanningProblem(self.map, checker, start, np.array(goal), self.cfg.plan_time_s,
                                                        self.rng))
             if result.success:
                 return np.asarray(result.path, dtype=float)
-        return np.array([start, goal], dtype=float)
+        return None
 
     def _act(self, turn_rad: float, distance_cm: float) -> None:
         """Turn, then drive in steps, the localiser predicting after each action."""
@@ -407,13 +417,16 @@ class WaypointSweeps:
         p = self.estimate.pose
         self._act(self._turn_toward(xy), math.hypot(xy[0] - p.x, xy[1] - p.y))
 
-    def drive_to(self, goal: XY) -> None:
-        """Plan from the estimate to `goal` and drive the path leg by leg."""
-        for corner in self._plan(goal)[1:]:
+    def drive_to(self, goal: XY) -> bool:
+        """Plan from the estimate to `goal` and drive the path leg by leg; False (nothing driven) when no
+        path is free (`_plan`)."""
+        path = self._plan(goal)
+        for corner in [] if path is None else path[1:]:
             self.go_to((float(corner[0]), float(corner[1])))
+        return path is not None
 
     # -- at a waypoint ------------------------------------------------------------------------------
-    def fitted_heading(self, scan: Scan, predicted: float, waypoint: XY) -> float:
+    def fitted_heading(self, scan: Sweeps, predicted: float, waypoint: XY) -> float:
         """The heading (rad) the sweep fits best at the `waypoint` the robot is visiting (`fit_pose`),
         within `ChallengeConfig.heading_span_deg` of the `predicted` heading (rad).
 
@@ -425,7 +438,7 @@ class WaypointSweeps:
         those that align them with the map by a thin ray)."""
         return fit_pose(self.map, scan, [waypoint], heading=predicted, span_deg=self.cfg.heading_span_deg).theta
 
-    def fixed_heading(self, scan: Scan, predicted: PoseEstimate, waypoint: XY) -> tuple[float, float]:
+    def fixed_heading(self, scan: Sweeps, predicted: PoseEstimate, waypoint: XY) -> tuple[float, float]:
         """The belief's heading (rad) after a waypoint's sweep and its spread (rad): the sweep's fitted heading
         (`fitted_heading`) weighed against the `predicted` one by their variances (``heading_from`` ``fused``: the
         prediction's from the localiser's covariance, the fit's `ChallengeConfig.prior_std_deg`, the spread
@@ -518,7 +531,10 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
     while k < len(route):
         policy.face_next_leg(route[k])
         report.leg_heading_errors_deg.append(policy.heading_error_deg())
-        policy.drive_to(route[k])
+        if not policy.drive_to(route[k]):
+            report.status = (f"ended before ({route[k][0]:g}, {route[k][1]:g}): no path to it is free"
+                             + (" at every start still open" if policy.switched and policy.unresolved else ""))
+            break
         visit = policy.sweep_and_correct(route[k])
         if k == 1 and current < last:
             answer = current + (1 if visit.sweeps == 0 else policy.better_start(hypotheses[current:last + 1]))

@@ -1,32 +1,53 @@
 """Fitting sweeps to places the robot knows: which place and heading a sweep fits best (`rank_places`,
-`fit_pose`), two sweeps of one place as one (`joined`), and two estimates of a heading weighed
+`fit_pose`), from one sweep or from the sweeps of one stop (`joined`), and two estimates of a heading weighed
 (`weighed_heading`). The challenge's fixes (`toolkit.mission.challenge`) are made of these."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from ..real_sonar.sweeps import thin_ray_misfits
 from ..world import Map, Pose, Scan, angle_diff, wrap_angle
+from ..world.arrays import FloatArray
 
-__all__ = ["fit_pose", "joined", "rank_places", "weighed_heading"]
+__all__ = ["Sweeps", "Turned", "fit_pose", "joined", "misfits", "rank_places", "weighed_heading"]
 
 XY = tuple[float, float]
 
 
-def joined(first: Scan, second: Scan, turn_rad: float) -> Scan:
-    """Two sweeps taken at one place, the robot turned by `turn_rad` between them, as one sweep from the
-    heading of the `first`: the `second`'s angles are turned by `turn_rad`.
+Turned = tuple[Scan, float]
+"""A sweep and the turn (rad) the robot made after the first sweep of its stop before taking it."""
+
+Sweeps = Scan | Sequence[Turned]
+"""What a fit scores: one sweep, or the sweeps of one stop, each with its turn from the first."""
+
+
+def joined(first: Scan, second: Scan, turn_rad: float) -> list[Turned]:
+    """Two sweeps taken at one place, the robot turned by `turn_rad` between them, fitted together from
+    the heading of the `first` (`rank_places` scores each at its own heading and averages the scores).
 
     >>> a = Scan(np.array([0.0]), np.array([50.0]), np.array([True]))
-    >>> both = joined(a, Scan(np.array([0.0]), np.array([80.0]), np.array([True])), math.pi / 2)
-    >>> np.degrees(both.angles).tolist(), both.ranges.tolist()
-    ([0.0, 90.0], [50.0, 80.0])
+    >>> [round(math.degrees(turn)) for _, turn in joined(a, a, math.pi / 2)]
+    [0, 90]
     """
-    return Scan(np.concatenate([first.angles, second.angles + turn_rad]),
-                np.concatenate([first.ranges, second.ranges]), np.concatenate([first.valid, second.valid]))
+    return [(first, 0.0), (second, turn_rad)]
+
+
+def misfits(m: Map, sweeps: Sweeps, poses: FloatArray) -> FloatArray:
+    """The fit's score at each of the (n, 3) `poses` (x, y in cm, heading in rad; lower is better): the median
+    distance (cm) between a sweep's echoes and exact (thin-ray) ray casting
+    (`toolkit.real_sonar.sweeps.thin_ray_misfits`), averaged over the `sweeps` of one stop, each at the pose
+    turned by its turn. Each sweep's own median, not the median of their echoes pooled: a sweep with a
+    heavy tail of wrong readings flattens a pooled median until any heading in 15 degrees fits it."""
+    parts = [(sweeps, 0.0)] if isinstance(sweeps, Scan) else list(sweeps)
+    each = np.array([thin_ray_misfits(m, scan, poses + np.array([0.0, 0.0, turn])) for scan, turn in parts])
+    heard = np.isfinite(each)
+    if not heard.any():
+        return np.full(len(poses), math.nan)
+    return np.where(heard, each, 0.0).sum(axis=0) / np.maximum(heard.sum(axis=0), 1)
 
 
 def weighed_heading(predicted: float, predicted_var: float, fitted: float, fitted_var: float) -> tuple[float, float]:
@@ -43,19 +64,19 @@ def weighed_heading(predicted: float, predicted_var: float, fitted: float, fitte
     return heading, math.sqrt((1.0 - gain) * predicted_var)
 
 
-def fit_pose(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
+def fit_pose(m: Map, scan: Sweeps, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
              step_deg: float = 1.0) -> Pose:
     """The pose, among the `places` (cm) and the headings `step_deg` apart (within `span_deg` of
     `heading`; None: every heading), that the sweep `scan` fits best (`rank_places`)."""
     return rank_places(m, scan, places, heading=heading, span_deg=span_deg, step_deg=step_deg)[0][1]
 
 
-def rank_places(m: Map, scan: Scan, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
+def rank_places(m: Map, scan: Sweeps, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
                 step_deg: float = 1.0) -> list[tuple[float, Pose]]:
     """Each of the `places` (cm) at the heading, `step_deg` apart (within `span_deg` of `heading`; None:
-    every heading), that the sweep `scan` fits best there, with the fit's score, best place first. The
-    score is minus the median distance (cm) between the sweep's echoes and exact (thin-ray) ray casting
-    (`toolkit.real_sonar.sweeps.thin_ray_misfits`): the fit that aligned the sweep sets' ``heading_deg``
+    every heading), that the sweep `scan` (or a stop's sweeps, `joined`) fits best there, with the fit's
+    score, best place first. The score is minus the median distance (cm) between the sweep's echoes and
+    exact (thin-ray) ray casting (`misfits`): the fit that aligned the sweep sets' ``heading_deg``
     with the map, so on a real sweep it finds the heading the sweep set calls true.
 
     The course's robot knows its waypoints: at the start it tells which one it stands on (and at what
@@ -70,7 +91,7 @@ def rank_places(m: Map, scan: Scan, places: list[XY], *, heading: float | None =
     ranked: list[tuple[float, Pose]] = []
     for x, y in places:
         poses = np.column_stack([np.full(offsets.size, x), np.full(offsets.size, y), centre + offsets])
-        median = thin_ray_misfits(m, scan, poses)
+        median = misfits(m, scan, poses)
         k = int(np.argmin(median))
         ranked.append((-float(median[k]), Pose(x, y, float(wrap_angle(centre + offsets[k])))))
     return sorted(ranked, key=lambda item: -item[0])
