@@ -173,3 +173,14 @@ def test_the_cost_plot_of_a_map_where_most_runs_of_an_anytime_planner_crashed(tm
     crashed = replace(solved, success=False, status=PlanStatus.ERROR, progress=(), detail="crashed")
     # two of three runs crashed: the median has no finite value anywhere, nothing is drawn on the panel
     assert save_cost_over_time(replace(result, records=(solved, crashed, crashed)), tmp_path).is_file()
+
+
+def _mmap_threshold(_: int) -> str | None:
+    return os.environ.get("MALLOC_MMAP_THRESHOLD_")
+
+
+def test_a_local_dask_clusters_workers_keep_glibcs_mmap_threshold_fixed() -> None:
+    """A nanny sets MALLOC_TRIM_THRESHOLD_, which pins glibc's mmap threshold at 128 KiB and doubled the
+    localisers' CPU time on Dask; ``--dask local`` starts its workers with the threshold fixed at 64 MiB."""
+    pytest.importorskip("distributed")
+    assert collect_tasks(_mmap_threshold, [0, 1], workers=1, dask_address="local") == [str(64 << 20)] * 2

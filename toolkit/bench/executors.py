@@ -48,6 +48,9 @@ __all__ = ["TasksInterrupted", "WorkerDied", "collect_tasks", "default_workers",
 
 T = TypeVar("T")
 R = TypeVar("R")
+MMAP_THRESHOLD = 64 << 20
+"""glibc's mmap threshold (bytes) in the workers of ``--dask local`` (`_run_dask`); for workers started by hand,
+``export MALLOC_MMAP_THRESHOLD_=67108864`` before ``dask worker`` (docs/cluster.md)."""
 
 log = logging.getLogger(__name__)
 
@@ -329,7 +332,11 @@ def _run_dask(
     if address == "local":
         # one task at a time on each worker, none queued behind it: a worker that dies then takes only the
         # task it ran into the scheduler's count of suspects (KilledWorker), not an innocent one waiting
-        with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+        # and glibc's mmap threshold fixed at 64 MiB in each worker: a nanny sets MALLOC_TRIM_THRESHOLD_
+        # (distributed.nanny.pre-spawn-environ), which also pins that threshold at 128 KiB, and every larger
+        # array is then mapped afresh: the localisers' tasks took twice the CPU they take in a local pool
+        with dask.config.set({"distributed.scheduler.worker-saturation": 1.0,
+                              "distributed.nanny.pre-spawn-environ.MALLOC_MMAP_THRESHOLD_": MMAP_THRESHOLD}):
             # the scheduler's HTTP server on a free port: without an address it takes 8787, and a second run
             # on the same machine (another benchmark, another clone's tests) finds it taken and fails to start
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
