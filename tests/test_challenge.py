@@ -23,7 +23,7 @@ from planners.base import make_planner
 from toolkit.bench.challenge import COLUMNS, challenge_mission, challenge_tasks, crashed_mission
 from toolkit.bench.routes import aligned_headings
 from toolkit.mission.challenge import ChallengeConfig, WaypointSweeps, course_from, plausible_update, weighed_heading
-from toolkit.mission.sweep_fit import joined, misfits, rank_places
+from toolkit.mission.sweep_fit import fit_pose, joined, misfits, rank_places
 from toolkit.real_sonar.sweep_sonar import (
     SweepRefused,
     SweepSetRobot,
@@ -32,7 +32,7 @@ from toolkit.real_sonar.sweep_sonar import (
     load_challenge_set,
     rotated,
 )
-from toolkit.real_sonar.sweeps import SweepSet, load_sweep_set, thin_ray_misfits
+from toolkit.real_sonar.sweeps import SweepSet, aligned_heading_deg, load_sweep_set, thin_ray_misfits
 from toolkit.world import MotionNoise, Pose, RigidMove, Scan, angle_diff, load_map
 
 
@@ -70,6 +70,20 @@ def test_a_stops_sweeps_are_scored_each_on_its_own(real_set: SweepSet) -> None:
     alone = rank_places(m, first, [(sw.x_cm, sw.y_cm)], step_deg=0.5)[0][1]
     both = rank_places(m, joined(first, again, turn), [(sw.x_cm, sw.y_cm)], step_deg=0.5)[0][1]
     assert abs(math.degrees(float(angle_diff(both.theta, alone.theta)))) <= 0.5
+
+
+def test_the_fit_tries_the_headings_a_sweep_set_is_aligned_on(real_set: SweepSet) -> None:
+    """A sweep turned by whole bins fits exactly where its alignment put it, turned by those bins: the fit
+    tries the lattice the alignment tried (`ALIGN_STEP_DEG` from 0), wherever the prediction it is centred on."""
+    m = real_set.map
+    for sw in real_set.sweeps:
+        aligned = aligned_heading_deg(sw, m)
+        robot = aligned + 37.3  # the sonar turns the ring by 37 whole bins of 1 degree
+        scan = rotated(replace(sw, heading_deg=aligned), math.radians(robot))
+        for predicted in (None, robot + 7.3, robot - 11.9):
+            centre = None if predicted is None else math.radians(predicted)
+            fitted = fit_pose(m, scan, [(sw.x_cm, sw.y_cm)], heading=centre, span_deg=30.0)
+            assert math.degrees(float(angle_diff(fitted.theta, math.radians(aligned + 37.0)))) == pytest.approx(0.0)
 
 
 def test_the_sonar_answers_near_a_waypoint_and_refuses_elsewhere(real_set: SweepSet) -> None:
