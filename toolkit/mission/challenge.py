@@ -7,7 +7,7 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
 `WaypointSweeps` is its policy:
 
 1. **Start.** One full sweep. The robot knows it stands on a waypoint, so it tells which one and its
-   heading by trying them all (`fit_pose`: every waypoint, every heading a degree apart), as the
+   heading by trying them all (`fit_pose`: every waypoint, every heading half a degree apart), as the
    course's own place recognition does; the belief is reset to a narrow Gaussian there
    (`ChallengeConfig.prior_std_cm`, `prior_std_deg`). With `ChallengeConfig.facing_sweep` (the
    default) the robot then turns toward its first leg and sweeps again, and the two sweeps, one turned
