@@ -38,7 +38,10 @@ from .run_config import configuration, given_sets, section_settings
 from .sweeps_cmds import _seeds
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from toolkit.mission.challenge import ChallengeConfig
+    from toolkit.real_sonar.sweeps import SweepSet
 
 __all__ = ["run_sweeps_mission"]
 
@@ -117,15 +120,13 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
         raise fail(f"mission failed: {report.status}", code=EXIT_FAILED)
 
 
-def _truth_headings(headings: str, folder: Path, map_ref: str, model: NxtSonar) -> dict[str, float] | None:
-    """The sweeps' headings (degrees, by label) of ``--headings aligned|model``; None for ``column``."""
+def _truth_headings(headings: str, model: NxtSonar) -> Callable[[SweepSet], dict[str, float] | None]:
+    """What finds the sweeps' headings (degrees, by label) of ``--headings aligned|model`` from the set once it
+    is read (`load_challenge_set`); None from it for ``column``."""
     from toolkit.bench.routes import truth_headings
-    from toolkit.real_sonar.sweeps import load_sweep_set
 
-    if checked_headings(headings) == "column":
-        return None
-    sweeps = load_sweep_set(folder, load_map(map_ref))
-    return truth_headings(headings, sweeps, dict.fromkeys(sweeps.repos, model))
+    checked_headings(headings)
+    return lambda sweeps: truth_headings(headings, sweeps, dict.fromkeys(sweeps.repos, model))
 
 
 @bench_app.command("challenge")
@@ -169,8 +170,8 @@ def bench_challenge(
     settings = challenge_config(given_sets(ctx, sets), "bench challenge")
     model = load_profile(sonar_profile, "nxt")
     map_ref = _map_of(folder, map_name)
-    truth = _truth_headings(headings, folder, map_ref, model or NxtSonar())
-    sweeps = load_challenge_set(folder, load_map(map_ref), truth)
+    sweeps = load_challenge_set(folder, load_map(map_ref), _truth_headings(headings, model or NxtSonar()))
+    truth = None if headings == "column" else {s.label: s.heading_deg for s in sweeps}
     check_out_folder(out, force)
     tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise, config=settings,
                             headings=truth)

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..real_sonar.sweeps import ALIGN_STEP_DEG, thin_ray_misfits
+from ..real_sonar.sweeps import ALIGN_STEP_DEG, heading_lattice_deg, thin_ray_misfits
 from ..world import Map, Pose, Scan, angle_diff, wrap_angle
 from ..world.arrays import FloatArray
 
@@ -44,10 +44,8 @@ def misfits(m: Map, sweeps: Sweeps, poses: FloatArray) -> FloatArray:
     heavy tail of wrong readings flattens a pooled median until any heading in 15 degrees fits it."""
     parts = [(sweeps, 0.0)] if isinstance(sweeps, Scan) else list(sweeps)
     each = np.array([thin_ray_misfits(m, scan, poses + np.array([0.0, 0.0, turn])) for scan, turn in parts])
-    heard = np.isfinite(each)
-    if not heard.any():
-        return np.full(len(poses), math.nan)
-    return np.where(heard, each, 0.0).sum(axis=0) / np.maximum(heard.sum(axis=0), 1)
+    heard = np.isfinite(each).sum(axis=0)  # a sweep without an echo (nan) does not count
+    return np.where(heard > 0, np.nansum(each, axis=0) / np.maximum(heard, 1), math.nan)
 
 
 def weighed_heading(predicted: float, predicted_var: float, fitted: float, fitted_var: float) -> tuple[float, float]:
@@ -76,7 +74,7 @@ def rank_places(m: Map, scan: Sweeps, places: list[XY], *, heading: float | None
     """Each of the `places` (cm) at the heading that the sweep `scan` (or a stop's sweeps, `joined`) fits
     best there, with the fit's score, best place first. The headings tried are the multiples of `step_deg`
     (those within `span_deg` of `heading`; None: all): the lattice a sweep set's ``heading_deg`` is aligned
-    on (`toolkit.real_sonar.sweeps.ALIGN_STEP_DEG`), not one centred on `heading`. The median is flat over
+    on (`toolkit.real_sonar.sweeps.heading_lattice_deg`), not one centred on `heading`. The median is flat over
     a few degrees of heading on many real sweeps, and a lattice half a step off lands elsewhere on the
     flat than the alignment did (at a degree apart, 6 degrees off on one of the development set's sweeps).
     The score is minus the median distance (cm) between the sweep's echoes and exact (thin-ray) ray casting
@@ -89,11 +87,7 @@ def rank_places(m: Map, scan: Sweeps, places: list[XY], *, heading: float | None
     heading (its beam model leaves 10-20 degrees of heading error on these sweeps), while the walls'
     corners, read by the lobe's axis, pin it (a robust median, since a real sweep has a heavy tail of
     wrong readings)."""
-    if heading is None:
-        headings = np.radians(np.arange(-180.0, 180.0, step_deg))
-    else:
-        centre, k = round(math.degrees(heading) / step_deg), round(span_deg / step_deg)
-        headings = np.radians(step_deg * np.arange(centre - k, centre + k))
+    headings = np.radians(heading_lattice_deg(None if heading is None else math.degrees(heading), span_deg, step_deg))
     ranked: list[tuple[float, Pose]] = []
     for x, y in places:
         poses = np.column_stack([np.full(headings.size, x), np.full(headings.size, y), headings])

@@ -37,7 +37,7 @@ every centimetre of a move, which no sweep set holds: those single readings are 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -99,11 +99,16 @@ def arena_distance_cm(a: Map, b: Map) -> float:
     return float(shapely.hausdorff_distance(lines(a), lines(b), densify=0.05))
 
 
-def load_challenge_set(folder: Path, map: Map | str, headings: Mapping[str, float] | None = None) -> SweepSet:
+Headings = Mapping[str, float] | Callable[[SweepSet], Mapping[str, float] | None]
+"""Sweeps' headings (degrees, by sweep label) in place of their ``heading_deg``, or what finds them from the
+set once it is read (``--headings aligned|model``; None from it: the column's)."""
+
+
+def load_challenge_set(folder: Path, map: Map | str, headings: Headings | None = None) -> SweepSet:
     """The sweep set in `folder` for a challenge in `map`, checked: the folder exists, its arena (its
-    ``arena.yaml``, when it has one) is `map`, every sweep has a ``heading_deg`` (`headings`, degrees by
-    sweep label, given: in its place) and is a full ring, and some source has sweeps at two or more
-    waypoints. Raises `SweepSetError` naming the problem."""
+    ``arena.yaml``, when it has one) is `map`, every sweep has a ``heading_deg`` (`headings`, given: in its
+    place) and is a full ring, and some source has sweeps at two or more waypoints. Raises `SweepSetError`
+    naming the problem."""
     m = map if isinstance(map, Map) else load_map(map)
     if not folder.is_dir():
         raise SweepSetError(f"sweeps:{folder}: no such folder")
@@ -115,8 +120,9 @@ def load_challenge_set(folder: Path, map: Map | str, headings: Mapping[str, floa
             raise SweepSetError(f"sweeps:{folder}: its arena {own.name!r} ({arena}) differs from the map {m.name!r} "
                                 f"(walls up to {gap:.0f} cm apart); give --map {arena}")
     sweeps = load_sweep_set(folder, m)
-    if headings is not None:
-        sweeps = replace(sweeps, sweeps=tuple(replace(s, heading_deg=float(headings[s.label])) for s in sweeps))
+    given = headings(sweeps) if callable(headings) else headings
+    if given is not None:
+        sweeps = replace(sweeps, sweeps=tuple(replace(s, heading_deg=float(given[s.label])) for s in sweeps))
     for s in sweeps:
         if math.isnan(s.heading_deg):
             raise SweepSetError(f"{folder / 'sweeps.csv'}: sweep {s.label} has no heading_deg; a sweep "

@@ -70,8 +70,8 @@ from ..world import NO_ECHO, ConfigError, Map, NxtnavError, Scan, load_map
 from ..world.typed import Typed, one_line, worded
 
 __all__ = ["HELD_RUNS", "REQUIRED_COLUMNS", "Sweep", "SweepRow", "SweepSet", "SweepSetError", "UnusableSweep",
-           "aligned_heading_deg", "load_sweep_set", "misfit_cm", "sweep_angles", "thin_ray_misfits",
-           "warn_once"]
+           "aligned_heading_deg", "heading_lattice_deg", "load_sweep_set", "misfit_cm", "sweep_angles",
+           "thin_ray_misfits", "warn_once"]
 
 REQUIRED_COLUMNS = ("repo", "file", "raw", "x_cm", "y_cm", "n_bins", "step_deg", "direction", "start_deg")
 DEFAULT_MAP = "arena.yaml"
@@ -489,11 +489,25 @@ ALIGN_STEP_DEG = 0.5
 """The headings `aligned_heading_deg` tries are this far apart (degrees)."""
 
 
+def heading_lattice_deg(around_deg: float | None = None, span_deg: float = 180.0,
+                        step_deg: float = ALIGN_STEP_DEG) -> NDArray[np.float64]:
+    """The multiples of `step_deg` (degrees) within `span_deg` of `around_deg` (rounded to the lattice; None:
+    every heading, -180 up to 180): the headings a sweep's alignment (`aligned_heading_deg`) and the
+    challenge's fits (`toolkit.mission.sweep_fit.rank_places`) try, one lattice for both.
+
+    >>> heading_lattice_deg(10.2, span_deg=1.0).tolist()
+    [9.0, 9.5, 10.0, 10.5]
+    """
+    centre = 0 if around_deg is None else round(around_deg / step_deg)
+    k = round((180.0 if around_deg is None else span_deg) / step_deg)
+    return step_deg * np.arange(centre - k, centre + k, dtype=float)
+
+
 def aligned_heading_deg(sweep: Sweep, m: Map) -> float:
     """The heading (degrees, in [-180, 180)) at which `sweep`'s echoes lie closest to the map's walls at its
-    waypoint (median distance to exact thin-ray casting; `ALIGN_STEP_DEG` apart): how a sweep set's
+    waypoint (median distance to exact thin-ray casting; `heading_lattice_deg`): how a sweep set's
     ``heading_deg`` is found (the waypoint fixed, the heading brute-forced); nan without an echo."""
-    headings = np.arange(-180.0, 180.0, ALIGN_STEP_DEG)
+    headings = heading_lattice_deg()
     misfits = _median_misfits(sweep, m, headings)
     return math.nan if np.isnan(misfits).all() else float(headings[int(np.nanargmin(misfits))])
 
