@@ -16,14 +16,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import REAL_NXT, run_cli
+from numpy.typing import NDArray
 
 from localisation.base import PoseEstimate, make_localiser
+from localisation.models import exact_ranges
 from planners import PLANNERS, PlanningProblem, PlanResult, ShortestPathPlanner
 from planners.base import make_planner
 from toolkit.bench.challenge import COLUMNS, challenge_mission, challenge_tasks, crashed_mission
 from toolkit.bench.routes import aligned_headings
-from toolkit.mission.challenge import ChallengeConfig, WaypointSweeps, course_from, plausible_update, weighed_heading
-from toolkit.mission.sweep_fit import fit_pose, joined, misfits, rank_places
+from toolkit.mission.challenge import ChallengeConfig, ChallengeFix, WaypointSweeps, course_from, plausible_update
+from toolkit.mission.sweep_fit import fit_pose, heading_belief, joined, misfits, rank_places
 from toolkit.real_sonar.sweep_sonar import (
     SweepRefused,
     SweepSetRobot,
@@ -246,22 +248,6 @@ def test_run_options_a_challenge_does_not_take_are_refused(tmp_path: Path, capsy
     assert not plot.exists()
 
 
-def test_a_sweeps_heading_is_weighed_against_the_prediction() -> None:
-    """Equal confidence: halfway (round the circle); a sure prediction keeps it, a loose one takes the fit;
-    the weighed heading is surer than either."""
-    def weighed(predicted_deg: float, predicted_var: float, fitted_deg: float,
-                fitted_var: float) -> tuple[float, float]:
-        h, sd = weighed_heading(math.radians(predicted_deg), predicted_var, math.radians(fitted_deg), fitted_var)
-        return math.degrees(h), sd
-
-    assert weighed(10.0, 1e-3, 20.0, 1e-3)[0] == pytest.approx(15.0)
-    assert abs(weighed(170.0, 1e-3, -170.0, 1e-3)[0]) == pytest.approx(180.0)
-    assert weighed(10.0, 1e-9, 20.0, 1e-3)[0] == pytest.approx(10.0, abs=1e-3)
-    assert weighed(10.0, 1e3, 20.0, 1e-3)[0] == pytest.approx(20.0, abs=1e-3)
-    assert weighed(10.0, 4e-3, 20.0, 1e-3)[0] == pytest.approx(18.0)  # four times as sure of the fit
-    assert weighed(10.0, 4e-3, 20.0, 1e-3)[1] ** 2 == pytest.approx(0.8e-3)
-
-
 @pytest.mark.parametrize("oracle", ["pose", "heading"])
 def test_an_oracle_gives_the_belief_the_truth_after_each_sweep(real_set: SweepSet, oracle: str) -> None:
     """The ceiling the policy is measured against: with the truth's pose after every sweep, the belief
@@ -413,3 +399,44 @@ def test_after_a_change_of_start_a_leg_is_driven_only_where_every_open_start_is_
     policy.unresolved, policy.switched = [], False
     assert policy.drive_to((180.0, 30.0)) is True and policy.robot.true_pose != here
     assert policy._plan((84.0, 150.0)) is None  # inside the stub wall's margin: no free path at all
+
+
+HERE = (180.0, 30.0)  # a waypoint 30 cm from the wall x = 210
+
+
+def _exact_sweep(angles_deg: NDArray[np.float64]) -> Scan:
+    """The arena's exact ranges from `HERE` facing +x, at `angles_deg`."""
+    m, angles = load_map("co333-arena"), np.radians(angles_deg)
+    return Scan(angles, exact_ranges(m, np.array([[*HERE, 0.0]]), angles)[0], np.ones(angles.size, dtype=bool))
+
+
+def test_a_flat_fit_leaves_the_heading_to_the_prior_and_a_sharp_one_decides() -> None:
+    """A sweep that sees one wall head-on (readings within 4 degrees of its normal) fits every heading
+    within a few degrees as well: the prior decides, and the belief stays as wide as the prior. A full
+    sweep of the arena pins the heading whatever the prior, and the belief narrows."""
+    m, here = load_map("co333-arena"), HERE
+    head_on, full = _exact_sweep(np.arange(-4.0, 4.5, 1.0)), _exact_sweep(np.arange(0.0, 360.0, 5.0))
+    sd = math.radians(2.0)
+    for prior_deg in (-3.0, 3.0):
+        around = math.radians(prior_deg)
+        heading, spread = heading_belief(m, head_on, here, around, 30.0, 0.25, sd)
+        assert math.degrees(heading) == pytest.approx(prior_deg, abs=1.0)  # not halfway to the flat fit's 0
+        assert spread == pytest.approx(sd, rel=0.2)
+        heading, spread = heading_belief(m, full, here, around, 30.0, 0.25, sd)
+        assert math.degrees(heading) == pytest.approx(0.0, abs=0.25)
+        assert spread < sd / 2
+    _, spread = heading_belief(m, head_on, here, math.radians(3.0), 30.0, 0.25)  # no prior: as wide as the flat
+    assert math.degrees(spread) > 2.0
+
+
+def test_a_waypoints_flat_sweep_does_not_turn_the_predicted_heading(real_set: SweepSet) -> None:
+    """The mission's fix (``fused``, the default) keeps a prediction a flat sweep cannot contradict; the
+    fit alone (``sweep``) takes the flat's least misfit, wherever on the flat it fell."""
+    predicted = PoseEstimate(Pose(*HERE, math.radians(3.0)), np.diag([9.0, 9.0, math.radians(2.0) ** 2]), True, 1)
+    head_on = _exact_sweep(np.arange(-4.0, 4.5, 1.0))
+    fused = _policy(real_set, Pose(*HERE, 0.0), predicted.pose, ChallengeConfig())
+    heading, spread = fused.fixed_heading(head_on, predicted, HERE)
+    assert math.degrees(heading) == pytest.approx(3.0, abs=1.0)
+    assert math.degrees(spread) == pytest.approx(2.0, rel=0.2)
+    alone = _policy(real_set, Pose(*HERE, 0.0), predicted.pose, ChallengeConfig(fix=ChallengeFix(heading_from="sweep")))
+    assert abs(math.degrees(alone.fixed_heading(head_on, predicted, HERE)[0]) - 3.0) > 2.0

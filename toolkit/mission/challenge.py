@@ -23,8 +23,9 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
 3. **At the waypoint.** A full sweep and the localiser's update. A real sweep, as taken, says which
    waypoint the robot is at, not where near it, so by default (`ChallengeFix.position_from`
    ``prediction``) the belief is reset around the predicted position, at the heading the sweep fits
-   best at the waypoint (`WaypointSweeps.fitted_heading`) weighed against the predicted heading by their
-   variances (`ChallengeFix.heading_from` ``fused``, `weighed_heading`; ``sweep``: the fit alone). With
+   best at the waypoint weighed against the predicted heading (`ChallengeFix.heading_from` ``fused``:
+   each heading's fit as a likelihood times the prediction's Gaussian, `heading_belief`; ``sweep``: the
+   fit alone, `WaypointSweeps.fitted_heading`). With
    ``localiser`` it is reset around the localiser's pose when that pose is one the odometry could have
    reached (`plausible_update`: within `ChallengeFix.gate_sigmas` standard deviations of the
    prediction, its heading within `ChallengeConfig.heading_span_deg`), else as by default; and with
@@ -73,10 +74,10 @@ from ..world import (
 )
 from ..world.arrays import FloatArray
 from ..world.typed import Typed, with_unit
-from .sweep_fit import Sweeps, fit_pose, joined, rank_places, weighed_heading
+from .sweep_fit import Sweeps, fit_pose, heading_belief, joined, rank_places
 
 __all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
-           "course_from", "fit_pose", "joined", "plausible_update", "run_challenge", "weighed_heading"]
+           "course_from", "fit_pose", "heading_belief", "joined", "plausible_update", "run_challenge"]
 
 XY = tuple[float, float]
 
@@ -104,8 +105,10 @@ class ChallengeFix(Typed):
                                  description="Corrections go on while the estimate is farther from the waypoint.")
     max_corrections: int = Field(default=0, ge=0, description="Corrections (and sweeps) at most per waypoint.")
     heading_from: HeadingFrom = Field(default="fused", description=(
-        "fused: the sweep's fitted heading and the predicted one weighed by their variances (a Kalman "
-        "update); sweep: the fitted heading alone."))
+        "fused: the most likely heading given the sweep's fit at each heading and the predicted heading "
+        "with its spread; sweep: the fitted heading alone."))
+    fit_temperature_cm: float = Field(default=0.1, gt=0, json_schema_extra=with_unit("cm"), description=(
+        "How much worse (median misfit) a heading's fit may be for its likelihood to fall by e (fused)."))
     oracle: Oracle = Field(default="none", description=(
         "For measuring ceilings on simulated robots only: after each waypoint's sweep the belief takes the "
         "truth's heading (heading) or pose (pose); none: the robot's own fix."))
@@ -439,20 +442,22 @@ class WaypointSweeps:
         return fit_pose(self.map, scan, [waypoint], heading=predicted, span_deg=self.cfg.heading_span_deg).theta
 
     def fixed_heading(self, scan: Sweeps, predicted: PoseEstimate, waypoint: XY) -> tuple[float, float]:
-        """The belief's heading (rad) after a waypoint's sweep and its spread (rad): the sweep's fitted heading
-        (`fitted_heading`) weighed against the `predicted` one by their variances (``heading_from`` ``fused``: the
-        prediction's from the localiser's covariance, the fit's `ChallengeConfig.prior_std_deg`, the spread
-        the mission gives a sweep's fix), or the fitted heading alone (``sweep``).
+        """The belief's heading (rad) after a waypoint's sweep and its spread (rad): ``heading_from`` ``fused``,
+        the most likely heading given the sweep's fit at each heading and the `predicted` heading with the
+        localiser's spread (`heading_belief`, `ChallengeFix.fit_temperature_cm`); ``sweep``, the fitted
+        heading alone (`fitted_heading`) with the spread `ChallengeConfig.prior_std_deg`.
 
         A sweep as taken pins the heading only to a few degrees: turned by whole bins (up to 2.5 degrees off
-        for 5-degree bins) and fitted at the waypoint while the robot stands up to 10 cm from it. Over a leg
-        the odometry keeps the heading about as well, so the two are averaged, each by its confidence."""
-        fitted = self.fitted_heading(scan, predicted.pose.theta, waypoint)
-        fit_var = math.radians(self.cfg.prior_std_deg) ** 2
+        for 5-degree bins) and fitted at the waypoint while the robot stands up to 10 cm from it, and on many
+        real sweeps the fit is flat over 10-16 degrees. Over a leg the odometry keeps the heading about as
+        well, so the two are weighed: a sharp fit decides, a flat one leaves the heading to the prediction
+        (a Kalman update of the fit's least misfit by a fixed spread took a flat sweep's arbitrary minimum
+        at full weight: a leg 13 degrees off, 24 cm from its waypoint)."""
         if self.cfg.fix.heading_from == "sweep":
-            return fitted, math.sqrt(fit_var)
-        predicted_var = float(np.asarray(predicted.cov, dtype=float)[2, 2])
-        return weighed_heading(predicted.pose.theta, predicted_var, fitted, fit_var)
+            return self.fitted_heading(scan, predicted.pose.theta, waypoint), math.radians(self.cfg.prior_std_deg)
+        prior_sd = math.sqrt(float(np.asarray(predicted.cov, dtype=float)[2, 2]))
+        return heading_belief(self.map, scan, waypoint, predicted.pose.theta, self.cfg.heading_span_deg,
+                              self.cfg.fix.fit_temperature_cm, prior_sd)
 
     def _apply_oracle(self) -> None:
         """With `ChallengeFix.oracle`, give the belief the truth's heading or pose (a ceiling, for study)."""

@@ -1,6 +1,7 @@
 """Fitting sweeps to places the robot knows: which place and heading a sweep fits best (`rank_places`,
-`fit_pose`), from one sweep or from the sweeps of one stop (`joined`), and two estimates of a heading weighed
-(`weighed_heading`). The challenge's fixes (`toolkit.mission.challenge`) are made of these."""
+`fit_pose`), from one sweep or from the sweeps of one stop (`joined`), and what they say of the heading with
+what the robot already believed (`heading_belief`). The challenge's fixes (`toolkit.mission.challenge`) are
+made of these."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from ..real_sonar.sweeps import ALIGN_STEP_DEG, heading_lattice_deg, thin_ray_mi
 from ..world import Map, Pose, Scan, angle_diff, wrap_angle
 from ..world.arrays import FloatArray
 
-__all__ = ["Sweeps", "Turned", "fit_pose", "joined", "misfits", "rank_places", "weighed_heading"]
+__all__ = ["Sweeps", "Turned", "fit_pose", "heading_belief", "joined", "misfits", "rank_places"]
 
 XY = tuple[float, float]
 
@@ -48,18 +49,32 @@ def misfits(m: Map, sweeps: Sweeps, poses: FloatArray) -> FloatArray:
     return np.where(heard > 0, np.nansum(each, axis=0) / np.maximum(heard, 1), math.nan)
 
 
-def weighed_heading(predicted: float, predicted_var: float, fitted: float, fitted_var: float) -> tuple[float, float]:
-    """Two estimates of one heading (rad), weighed by their variances (rad^2): the Kalman update of the
-    `predicted` heading by the `fitted` one, and its standard deviation (rad). The difference is taken
-    round the circle.
+def heading_belief(m: Map, scan: Sweeps, waypoint: XY, around: float, span_deg: float, temperature_cm: float,
+                   prior_sd: float | None = None) -> tuple[float, float]:
+    """What a sweep (or a stop's sweeps) at `waypoint` says of the heading, with what the robot already
+    believed: the most likely heading (rad) on the alignment's lattice within `span_deg` of `around` (rad),
+    and the spread (rad) of that belief.
 
-    >>> h, sd = weighed_heading(math.radians(179), 1e-3, math.radians(-179), 1e-3)
-    >>> round(abs(math.degrees(h)), 6), round(sd ** 2, 6)
-    (180.0, 0.0005)
-    """
-    gain = predicted_var / (predicted_var + fitted_var)
-    heading = float(wrap_angle(predicted + gain * float(angle_diff(fitted, predicted))))
-    return heading, math.sqrt((1.0 - gain) * predicted_var)
+    Each heading's likelihood is exp(-misfit / `temperature_cm`) (`misfits`, relative to the best), and with
+    `prior_sd` (rad) it is weighed by a Gaussian prior round `around`. A sweep whose misfit is sharp in
+    heading decides; one that is flat over 15 degrees (many real sweeps: a median moves little with the
+    heading) leaves the heading to the prior instead of to wherever on the flat its least value fell. No echo
+    at all: `around`, with the prior's spread (half a turn without one)."""
+    headings = np.radians(heading_lattice_deg(math.degrees(around), span_deg))
+    poses = np.column_stack([np.full(headings.size, waypoint[0]), np.full(headings.size, waypoint[1]), headings])
+    score = misfits(m, scan, poses)
+    if np.isnan(score).all():
+        return around, math.pi if prior_sd is None else prior_sd
+    offset = np.asarray(angle_diff(headings, around), dtype=float)
+    log_p = -(score - np.nanmin(score)) / temperature_cm
+    if prior_sd is not None:
+        log_p = log_p - 0.5 * (offset / prior_sd) ** 2
+    log_p = np.where(np.isnan(log_p), -np.inf, log_p)
+    best = int(np.argmax(log_p))
+    weight = np.exp(log_p - log_p[best])
+    spread = np.asarray(angle_diff(headings, headings[best]), dtype=float)
+    floor = math.radians(ALIGN_STEP_DEG) / 2  # the lattice pins a heading to half its step at best
+    return float(wrap_angle(headings[best])), max(floor, float(np.sqrt(weight @ spread ** 2 / weight.sum())))
 
 
 def fit_pose(m: Map, scan: Sweeps, places: list[XY], *, heading: float | None = None, span_deg: float = 180.0,
