@@ -427,6 +427,9 @@ def test_a_flat_fit_leaves_the_heading_to_the_prior_and_a_sharp_one_decides() ->
         assert spread < sd / 2
     _, spread = heading_belief(m, head_on, here, math.radians(3.0), 30.0, 0.25)  # no prior: as wide as the flat
     assert math.degrees(spread) > 2.0
+    behind = Scan(full.angles - math.pi, full.ranges, full.valid)  # the same sweep by a robot facing -x
+    heading, _ = heading_belief(m, behind, here, math.radians(178.0), 30.0, 0.25, sd)  # round the circle
+    assert abs(math.degrees(heading)) == pytest.approx(180.0, abs=0.25)
 
 
 def test_a_waypoints_flat_sweep_does_not_turn_the_predicted_heading(real_set: SweepSet) -> None:
