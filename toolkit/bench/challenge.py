@@ -123,7 +123,7 @@ def challenge_mission(sweeps: SweepSet, repo: str, start: int, seed: int, locali
     model = RobotModel(sonar or NxtSonar(), motion=motion, readings="real")
     loc = make_localiser(localiser, m, rng=loc_seed, **localiser_options(localiser, model))
     return run_challenge(robot, m, course, start, loc, make_planner(planner), np.random.default_rng(plan_seed),
-                         config)
+                         config, motion)
 
 
 def run_challenge_task(task: ChallengeTask) -> ChallengeRun:
