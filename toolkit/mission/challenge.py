@@ -505,8 +505,9 @@ class WaypointSweeps:
 
 
 def leg_move_cm(noise: MotionNoise | None, distance_cm: float, longest_cm: float) -> float:
-    """The length (cm, at most `longest_cm`) of the moves a drive of `distance_cm` is made of, that leaves
-    its end the least uncertain under the motion `noise` (None: `longest_cm`).
+    """The length (cm, at most `longest_cm`, at least the watchdog's 1 cm) of the moves a drive of
+    `distance_cm` is made of, that leaves its end the least uncertain under the motion `noise` (None:
+    `longest_cm`).
 
     Each move turns the heading by noise.turn (rad, standard deviation) and misses its length by
     noise.motion: in proportion to it (``botsim``) or by that many cm whatever it is (``absolute``).
