@@ -29,7 +29,6 @@ from toolkit.mission.challenge import (
     ChallengeFix,
     WaypointSweeps,
     course_from,
-    leg_move_cm,
     plausible_update,
 )
 from toolkit.mission.sweep_fit import fit_pose, heading_belief, joined, misfits, rank_places
@@ -455,13 +454,13 @@ def test_a_waypoints_flat_sweep_does_not_turn_the_predicted_heading(real_set: Sw
 
 def test_under_botsims_noise_a_leg_is_driven_in_the_moves_that_end_it_surest() -> None:
     """BotSim draws a move's error in proportion to it and turns the heading a little at every move:
-    shorter moves average the first and add up the second. The moves `leg_move_cm` picks for a 150 cm
+    shorter moves average the first and add up the second. The moves `MotionNoise.move_cm` picks for a 150 cm
     leg end it closer to where it was aimed, in the simulator itself, than the 10 cm moves it used to
     make; under absolute noise (an error per move whatever its length) it keeps the longest."""
     m, botsim = load_map("co333-arena"), MotionNoise("botsim", 0.1, 0.005)
-    best = leg_move_cm(botsim, 150.0, 10.0)
+    best = botsim.move_cm(150.0, 10.0)
     assert 3.0 < best < 6.0
-    assert leg_move_cm(MotionNoise("absolute", 0.1, 0.005), 150.0, 10.0) == 10.0
+    assert MotionNoise("absolute", 0.1, 0.005).move_cm(150.0, 10.0) == 10.0
 
     def rms_miss(move_cm: float) -> float:
         misses = []

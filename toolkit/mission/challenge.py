@@ -20,13 +20,13 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    (step 3), only a path free at every start still open; when no path is free the mission ends there,
    undriven), driven leg by leg: turn toward the leg's end from the estimate, then moves of
    at most `ChallengeConfig.move_step_cm` (under BotSim's noise, of the length that leaves the leg's end
-   least uncertain, `leg_move_cm`), the localiser predicting after each. No sweep on the way.
+   least uncertain, `toolkit.world.MotionNoise.move_cm`), the localiser predicting after each. No sweep on the way.
 3. **At the waypoint.** A full sweep and the localiser's update. A real sweep, as taken, says which
    waypoint the robot is at, not where near it, so by default (`ChallengeFix.position_from`
    ``prediction``) the belief is reset around the predicted position, at the heading the sweep fits
    best at the waypoint weighed against the predicted heading (`ChallengeFix.heading_from` ``fused``:
    each heading's fit as a likelihood times the prediction's Gaussian, `heading_belief`; ``sweep``: the
-   fit alone, `WaypointSweeps.fitted_heading`). With
+   fit alone). With
    ``localiser`` it is reset around the localiser's pose when that pose is one the odometry could have
    reached (`plausible_update`: within `ChallengeFix.gate_sigmas` standard deviations of the
    prediction, its heading within `ChallengeConfig.heading_span_deg`), else as by default; and with
@@ -79,7 +79,7 @@ from ..world.typed import Typed, with_unit
 from .sweep_fit import Sweeps, fit_pose, heading_belief, joined, rank_places
 
 __all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
-           "course_from", "fit_pose", "heading_belief", "joined", "leg_move_cm", "plausible_update", "run_challenge"]
+           "course_from", "fit_pose", "heading_belief", "joined", "plausible_update", "run_challenge"]
 
 XY = tuple[float, float]
 
@@ -392,8 +392,9 @@ class WaypointSweeps:
         return None
 
     def _act(self, turn_rad: float, distance_cm: float) -> None:
-        """Turn, then drive `distance_cm` in moves (`leg_move_cm`), the localiser predicting after each action."""
-        move_cm = leg_move_cm(self.motion, distance_cm, self.cfg.move_step_cm)
+        """Turn, then drive `distance_cm` in moves (`MotionNoise.move_cm`), the localiser predicting after each."""
+        move_cm = self.cfg.move_step_cm if self.motion is None else self.motion.move_cm(distance_cm,
+                                                                                          self.cfg.move_step_cm)
         if turn_rad:
             self.robot.turn(turn_rad)
             self.localiser.predict(Motion(turn_rad, 0.0))
@@ -434,23 +435,15 @@ class WaypointSweeps:
         return path is not None
 
     # -- at a waypoint ------------------------------------------------------------------------------
-    def fitted_heading(self, scan: Sweeps, predicted: float, waypoint: XY) -> float:
-        """The heading (rad) the sweep fits best at the `waypoint` the robot is visiting (`fit_pose`),
-        within `ChallengeConfig.heading_span_deg` of the `predicted` heading (rad).
-
-        The fit holds the position at the waypoint, where the real sweep was taken: a thin-ray fit's
-        median is shallow in heading, and a position 2 cm off can move its minimum by 20 degrees on a
-        72-reading sweep. The search is centred on the prediction, not on the update: odometry keeps
-        the heading to a degree or two over a leg, while a localiser's update from a real sweep can turn
-        it by 10-30 degrees (its 40-degree lobe blurs the heading, and the real sweeps' headings are
-        those that align them with the map by a thin ray)."""
-        return fit_pose(self.map, scan, [waypoint], heading=predicted, span_deg=self.cfg.heading_span_deg).theta
-
     def fixed_heading(self, scan: Sweeps, predicted: PoseEstimate, waypoint: XY) -> tuple[float, float]:
         """The belief's heading (rad) after a waypoint's sweep and its spread (rad): ``heading_from`` ``fused``,
         the most likely heading given the sweep's fit at each heading and the `predicted` heading with the
-        localiser's spread (`heading_belief`, `ChallengeFix.fit_temperature_cm`); ``sweep``, the fitted
-        heading alone (`fitted_heading`) with the spread `ChallengeConfig.prior_std_deg`.
+        localiser's spread (`heading_belief`, `ChallengeFix.fit_temperature_cm`); ``sweep``, the fit alone (the
+        same without the prior: its least misfit) with the spread `ChallengeConfig.prior_std_deg`. The fit
+        holds the position at the waypoint, where the real sweep was taken (a position 2 cm off can move a
+        72-reading sweep's minimum by 20 degrees), and tries the headings within
+        `ChallengeConfig.heading_span_deg` of the prediction, not of the localiser's update (its 40-degree
+        lobe can turn the heading by 10-30 degrees on a real sweep).
 
         A sweep as taken pins the heading only to a few degrees: turned by whole bins (up to 2.5 degrees off
         for 5-degree bins) and fitted at the waypoint while the robot stands up to 10 cm from it, and on many
@@ -458,11 +451,11 @@ class WaypointSweeps:
         well, so the two are weighed: a sharp fit decides, a flat one leaves the heading to the prediction
         (a Kalman update of the fit's least misfit by a fixed spread took a flat sweep's arbitrary minimum
         at full weight: a leg 13 degrees off, 24 cm from its waypoint)."""
-        if self.cfg.fix.heading_from == "sweep":
-            return self.fitted_heading(scan, predicted.pose.theta, waypoint), math.radians(self.cfg.prior_std_deg)
-        prior_sd = math.sqrt(float(np.asarray(predicted.cov, dtype=float)[2, 2]))
-        return heading_belief(self.map, scan, waypoint, predicted.pose.theta, self.cfg.heading_span_deg,
-                              self.cfg.fix.fit_temperature_cm, prior_sd)
+        alone = self.cfg.fix.heading_from == "sweep"
+        prior_sd = None if alone else math.sqrt(float(np.asarray(predicted.cov, dtype=float)[2, 2]))
+        heading, spread = heading_belief(self.map, scan, waypoint, predicted.pose.theta, self.cfg.heading_span_deg,
+                                         self.cfg.fix.fit_temperature_cm, prior_sd)
+        return heading, math.radians(self.cfg.prior_std_deg) if alone else spread
 
     def _apply_oracle(self) -> None:
         """With `ChallengeFix.oracle`, give the belief the truth's heading or pose (a ceiling, for study)."""
@@ -502,28 +495,6 @@ class WaypointSweeps:
         assert self.estimate is not None
         return WaypointVisit(waypoint, round(_distance(self.robot.true_pose, waypoint), 3),
                              round(_distance(self.estimate.pose, waypoint), 3), sweeps, note)
-
-
-def leg_move_cm(noise: MotionNoise | None, distance_cm: float, longest_cm: float) -> float:
-    """The length (cm, at most `longest_cm`, at least the watchdog's 1 cm) of the moves a drive of
-    `distance_cm` is made of, that leaves its end the least uncertain under the motion `noise` (None:
-    `longest_cm`).
-
-    Each move turns the heading by noise.turn (rad, standard deviation) and misses its length by
-    noise.motion: in proportion to it (``botsim``) or by that many cm whatever it is (``absolute``).
-    Moves of s cm leave the end of a drive of D cm off by variance motion^2 s D (botsim) or
-    motion^2 D / s (absolute) along it, and turn^2 D^3 / (3 s) across it: under BotSim's noise the
-    best move is D turn / (motion sqrt 3), about 4 cm for a 150 cm leg; under absolute noise the
-    longest.
-
-    >>> round(leg_move_cm(MotionNoise("botsim", 0.1, 0.005), 150.0, 10.0), 2)
-    4.33
-    >>> leg_move_cm(MotionNoise("absolute", 0.1, 0.005), 150.0, 10.0)
-    10.0
-    """
-    if noise is None or noise.model != "botsim" or noise.motion <= 0:
-        return longest_cm
-    return float(min(longest_cm, max(1.0, distance_cm * noise.turn / (noise.motion * math.sqrt(3.0)))))
 
 
 def plausible_update(predicted: PoseEstimate, updated: Pose, config: ChallengeConfig) -> bool:

@@ -37,6 +37,11 @@ def joined(first: Scan, second: Scan, turn_rad: float) -> list[Turned]:
     return [(first, 0.0), (second, turn_rad)]
 
 
+def _turned_at(place: XY, headings: FloatArray) -> FloatArray:
+    """The (n, 3) poses at `place` (cm) facing each of the `headings` (rad)."""
+    return np.column_stack([np.full(headings.size, place[0]), np.full(headings.size, place[1]), headings])
+
+
 def misfits(m: Map, sweeps: Sweeps, poses: FloatArray) -> FloatArray:
     """The fit's score at each of the (n, 3) `poses` (x, y in cm, heading in rad; lower is better): the median
     distance (cm) between a sweep's echoes and exact (thin-ray) ray casting
@@ -61,8 +66,7 @@ def heading_belief(m: Map, scan: Sweeps, waypoint: XY, around: float, span_deg: 
     heading) leaves the heading to the prior instead of to wherever on the flat its least value fell. No echo
     at all: `around`, with the prior's spread (half a turn without one)."""
     headings = np.radians(heading_lattice_deg(math.degrees(around), span_deg))
-    poses = np.column_stack([np.full(headings.size, waypoint[0]), np.full(headings.size, waypoint[1]), headings])
-    score = misfits(m, scan, poses)
+    score = misfits(m, scan, _turned_at(waypoint, headings))
     if np.isnan(score).all():
         return around, math.pi if prior_sd is None else prior_sd
     offset = np.asarray(angle_diff(headings, around), dtype=float)
@@ -105,8 +109,7 @@ def rank_places(m: Map, scan: Sweeps, places: list[XY], *, heading: float | None
     headings = np.radians(heading_lattice_deg(None if heading is None else math.degrees(heading), span_deg, step_deg))
     ranked: list[tuple[float, Pose]] = []
     for x, y in places:
-        poses = np.column_stack([np.full(headings.size, x), np.full(headings.size, y), headings])
-        median = misfits(m, scan, poses)
+        median = misfits(m, scan, _turned_at((x, y), headings))
         best = int(np.argmin(median))
         ranked.append((-float(median[best]), Pose(x, y, float(wrap_angle(headings[best])))))
     return sorted(ranked, key=lambda item: -item[0])

@@ -62,6 +62,25 @@ class MotionNoise:
     def to_dict(self) -> dict[str, object]:
         return {"model": self.model, "motion": self.motion, "turn": self.turn}
 
+    def move_cm(self, distance_cm: float, longest_cm: float) -> float:
+        """The length (cm, at most `longest_cm`, at least the watchdog's 1 cm) of the moves a drive of
+        `distance_cm` is made of, that leaves its end the least uncertain under this noise.
+
+        Each move turns the heading by `turn` (rad, standard deviation) and misses its length by `motion`:
+        in proportion to it (``botsim``) or by that many cm whatever it is (``absolute``). Moves of s cm
+        leave the end of a drive of D cm off by variance motion^2 s D (botsim) or motion^2 D / s
+        (absolute) along it, and turn^2 D^3 / (3 s) across it: under BotSim's noise the best move is
+        D turn / (motion sqrt 3), about 4 cm for a 150 cm leg; under absolute noise the longest.
+
+        >>> round(MotionNoise("botsim", 0.1, 0.005).move_cm(150.0, 10.0), 2)
+        4.33
+        >>> MotionNoise("absolute", 0.1, 0.005).move_cm(150.0, 10.0)
+        10.0
+        """
+        if self.model != "botsim" or self.motion <= 0:
+            return longest_cm
+        return float(min(longest_cm, max(1.0, distance_cm * self.turn / (self.motion * math.sqrt(3.0)))))
+
 
 def _as_sonar(value: Any) -> SonarModel:
     """A sonar model as given, or built from its ``to_dict`` form (``name`` and parameters) by its registry."""
