@@ -17,10 +17,12 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    (`toolkit.world.ConformantChecker`).
 2. **Drive.** A path from the estimate to the next waypoint (the planner, with the robot radius plus
    `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; after a change of start
-   (step 3), only a path free at every start still open; when no path is free the mission ends there,
-   undriven), driven leg by leg: turn toward the leg's end from the estimate, then moves of
-   at most `ChallengeConfig.move_step_cm` (under BotSim's noise, of the length that leaves the leg's end
-   least uncertain, `toolkit.world.MotionNoise.move_cm`), the localiser predicting after each. No sweep on the way.
+   that rests on a refused sweep alone (step 3), only a path free at every start still open; from the
+   nearest free point, at most `ChallengeConfig.escape_cm` away, when drift left the belief too near a
+   wall; when no path is free the mission ends there, undriven), driven leg by leg: turn toward the
+   leg's end from the estimate, then moves of at most `ChallengeConfig.move_step_cm` (under BotSim's
+   noise, of the length that leaves the leg's end least uncertain, `toolkit.world.MotionNoise.move_cm`),
+   the localiser predicting after each. No sweep on the way.
 3. **At the waypoint.** A full sweep and the localiser's update. A real sweep, as taken, says which
    waypoint the robot is at, not where near it, so by default (`ChallengeFix.position_from`
    ``prediction``) the belief is reset around the predicted position, at the heading the sweep fits
@@ -37,7 +39,9 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    instead: not a policy, a ceiling to measure the policy against (simulated robots only). At the end
    of the first leg a sweep the sonar refuses (the robot is too far from the waypoint for any real
    sweep), or one that fits another start better (`WaypointSweeps.better_start`), moves the belief to
-   that start; later, a refused sweep ends the mission there.
+   that start: the next best of those the drive leaves possible (`WaypointSweeps.possible_starts`: a
+   start that would have put the robot outside the arena by now was not its start); later, a refused
+   sweep ends the mission there.
    With `ChallengeConfig.facing_sweep`, before the next leg the robot turns toward it and sweeps again:
    the heading is then fitted on both sweeps of the waypoint together and weighed against the
    prediction made before the first (`WaypointSweeps.face_next_leg`), so the heading the open-loop leg
@@ -52,11 +56,13 @@ The report scores the truth: a waypoint is reached when the robot's true positio
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
+import shapely
 from pydantic import Field
 
 from localisation.base import Localiser, Motion, PoseEstimate, Prior
@@ -150,6 +156,11 @@ class ChallengeConfig(Typed):
                                     description="Headings tried around the predicted one at a waypoint.")
     start_retries: int = Field(default=1, ge=0, description=(
         "Other start hypotheses tried when the first leg fails; the first leg is planned free at each."))
+    escape_cm: float = Field(default=5.0, ge=0, json_schema_extra=with_unit("cm"), description=(
+        "A belief this close to being free plans from the nearest free point (its first leg the move out)."))
+    start_slack_cm: float = Field(default=20.0, ge=0, json_schema_extra=with_unit("cm"), description=(
+        "A start is given up for good when it would have put the robot farther than this outside the free "
+        "space by the end of the first leg."))
     facing_sweep: bool = Field(default=True, description=(
         "After the fix at the start and at each waypoint, turn toward the next leg and sweep again; the "
         "two sweeps are fitted together (false: one sweep a stop)."))
@@ -297,16 +308,29 @@ class WaypointSweeps:
         self.unresolved = [RigidMove(ranked[0], other) for other in ranked[1:1 + self.cfg.start_retries]]
         return ranked
 
-    def restart_from(self, believed: Pose, instead: Pose, others: list[Pose]) -> None:
+    def restart_from(self, believed: Pose, instead: Pose, others: list[Pose], *, answered: bool) -> None:
         """The robot started at `instead`, not at `believed`: the belief is moved as the robot's own
         motion since then moves it (the estimate seen from `believed`, put at `instead`; the prediction
-        before a pending fix, which took the wrong waypoint). The `others` stay unresolved (`unresolved`)."""
+        before a pending fix, which took the wrong waypoint). The `others` stay unresolved (`unresolved`);
+        when no sweep `answered` (the switch rests on a refusal alone), legs are driven only where they are
+        free at each of them (`switched`)."""
         assert self.estimate is not None
         pose = self.last_fix[1].pose if self.last_fix is not None else self.estimate.pose
         self.last_fix = None
         self._settle(RigidMove(believed, instead).pose(pose))
         self.unresolved = [RigidMove(instead, other) for other in others]
-        self.switched = True
+        self.switched = not answered
+
+    def possible_starts(self, believed: Pose, starts: list[Pose]) -> list[Pose]:
+        """The `starts` that could be the robot's, given its motion since the start: where each would have
+        put the robot now (the belief seen from `believed`, moved rigidly; the prediction before a pending
+        fix) lies within `ChallengeConfig.start_slack_cm` of the free space. A start that would have driven
+        the robot out of the arena, or into a wall, was not its start."""
+        assert self.estimate is not None
+        pose = self.last_fix[1].pose if self.last_fix is not None else self.estimate.pose
+        free = self.map.free_space(float(self.robot.geometry.radius_cm))
+        return [s for s in starts if free.distance(shapely.Point(*RigidMove(believed, s).pose(pose).xy))
+                <= self.cfg.start_slack_cm]
 
     def better_start(self, starts: list[Pose]) -> int:
         """Which of the `starts` (the believed one first, as ranked at the start) the sweep just taken at the
@@ -380,15 +404,18 @@ class WaypointSweeps:
         (`switched`) only that. None when no path is free: a leg driven where no check holds is a leg
         into a wall, whichever belief is wrong."""
         assert self.estimate is not None
-        start = self.estimate.pose.xy
+        here = self.estimate.pose.xy
         conformant = [ConformantChecker(c, self.unresolved) for c in self.checkers] if self.unresolved else []
-        for checker in conformant if conformant and self.switched else [*conformant, *self.checkers]:
-            if not (checker.point_free(start) and checker.point_free(np.array(goal))):
+        checkers = conformant if conformant and self.switched else [*conformant, *self.checkers]
+        for reach_cm, checker in itertools.product((0.0, self.cfg.escape_cm), checkers):
+            start = checker.nearest_free(here, reach_cm)
+            if start is None or not checker.point_free(np.array(goal)):
                 continue
             result = self.planner.plan(PlanningProblem(self.map, checker, start, np.array(goal), self.cfg.plan_time_s,
                                                        self.rng))
             if result.success:
-                return np.asarray(result.path, dtype=float)
+                path = np.asarray(result.path, dtype=float)
+                return path if start is here else np.vstack([here, path])
         return None
 
     def _act(self, turn_rad: float, distance_cm: float) -> None:
@@ -530,7 +557,6 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
     report.visits.append(WaypointVisit(truth_route[0], round(_distance(robot.true_pose, truth_route[0]), 3),
                                        round(_distance(believed, truth_route[0]), 3), 1))
     route, k, current = course_from(course, course.index(report.start_match)), 1, 0
-    last = min(cfg.start_retries, len(hypotheses) - 1)  # the starts the first leg may still turn to
     report.status = "done"
     while k < len(route):
         policy.face_next_leg(route[k])
@@ -540,17 +566,20 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
                              + (" at every start still open" if policy.switched and policy.unresolved else ""))
             break
         visit = policy.sweep_and_correct(route[k])
-        if k == 1 and current < last:
-            answer = current + (1 if visit.sweeps == 0 else policy.better_start(hypotheses[current:last + 1]))
-            if answer != current:  # the first leg did not end where the believed start puts it
+        if k == 1 and current == 0 and cfg.start_retries > 0:
+            others = policy.possible_starts(hypotheses[0], hypotheses[1:])[:cfg.start_retries]
+            answer = (None if not others else others[0] if visit.sweeps == 0
+                      else [hypotheses[0], *others][policy.better_start([hypotheses[0], *others])])
+            if answer is not None and answer is not hypotheses[0]:  # the first leg did not end where believed
                 report.notes.append(
                     f"{'no sweep' if visit.sweeps == 0 else 'the sweep fits another start better'} at "
-                    f"({route[k][0]:g}, {route[k][1]:g}); started at ({hypotheses[answer].x:g}, "
-                    f"{hypotheses[answer].y:g}) instead, the next best fit")
-                policy.restart_from(hypotheses[current], hypotheses[answer],  # the others stay possible
-                                    [h for i, h in enumerate(hypotheses[:last + 1]) if i != answer])
-                current = answer
-                route = course_from(course, course.index((hypotheses[current].x, hypotheses[current].y)))
+                    f"({route[k][0]:g}, {route[k][1]:g}); started at ({answer.x:g}, {answer.y:g}) instead, the "
+                    "next best fit that the drive leaves possible")
+                policy.restart_from(hypotheses[0], answer,  # the others stay possible
+                                    [h for h in [hypotheses[0], *others] if h is not answer],
+                                    answered=visit.sweeps > 0)
+                current = hypotheses.index(answer)
+                route = course_from(course, course.index((answer.x, answer.y)))
                 continue
         policy.unresolved = []  # the sweep answered where the believed start puts the robot
         report.visits.append(visit)

@@ -194,6 +194,26 @@ class CollisionChecker:
         self.point_checks += len(pts)
         return bool(out[0]) if p.ndim == 1 else out
 
+    def nearest_free(self, xy: ArrayLike, reach_cm: float) -> NDArray[np.float64] | None:
+        """`xy` itself when free, else the nearest free point at most `reach_cm` away, searched on rings
+        1 cm apart, 24 points each; None when none is free.
+
+        >>> from toolkit.world import load_map
+        >>> c = CollisionChecker(load_map("co333-arena"), 8.0)  # the wall y = 0: free from y = 8
+        >>> c.nearest_free([60.0, 6.0], 0.0), c.nearest_free([60.0, 6.0], 5.0).round(2).tolist()
+        (None, [60.0, 8.0])
+        """
+        p = np.asarray(xy, dtype=float)
+        if self.point_free(p):
+            return p
+        angles = np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False)
+        for r in np.arange(1.0, reach_cm + 0.5, 1.0):
+            ring = p + r * np.column_stack([np.cos(angles), np.sin(angles)])
+            free = np.flatnonzero(self.point_free(ring))
+            if len(free):
+                return np.asarray(ring[free[0]], dtype=float)
+        return None
+
     def segment_free(self, a: ArrayLike, b: ArrayLike) -> bool:
         """Whether the disc swept straight from `a` to `b` touches no wall (and stays inside)."""
         return bool(self.segments_free(np.asarray(a, float)[None], np.asarray(b, float)[None])[0])
