@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import faulthandler
+import itertools
 import json
 import math
 import os
@@ -442,6 +443,22 @@ def test_a_change_of_start_a_sweep_decided_is_not_held_to_the_start_given_up(rea
         policy.restart_from(here, here, [Pose(30.0, 54.0, math.pi)], answered=answered)
         assert policy.switched is not answered and len(policy.unresolved) == 1
         assert (policy._plan((180.0, 30.0)) is not None) is planned
+
+
+@pytest.mark.parametrize(("false_stops", "moved_cm", "stops"), [(1, 30.0, 1), (None, 0.0, 2)])
+def test_a_watchdog_stop_at_once_is_looked_at_again_before_the_leg_ends(
+        real_set: SweepSet, monkeypatch: pytest.MonkeyPatch, false_stops: int | None, moved_cm: float, stops: int,
+) -> None:
+    """A move the watchdog stops before it starts (two short readings: the real sensor gives them now and
+    then) is tried once more; a leg ends only when the sonar stops it at once twice in a row (an obstacle)."""
+    truth = Pose(60.0, 42.0, 0.0)  # 140 cm of free floor ahead
+    policy = _policy(real_set, truth, truth, ChallengeConfig())
+    robot = policy.robot  # a stop takes two short readings; None: they never end
+    readings = itertools.repeat(5.0) if false_stops is None else iter([5.0] * 2 * false_stops)
+    original = robot.read_forward
+    monkeypatch.setattr(robot, "read_forward", lambda: next(readings, None) or original())
+    policy._act(0.0, 30.0)
+    assert robot.true_pose.x - truth.x == pytest.approx(moved_cm, abs=0.5) and robot.watchdog_stops == stops
 
 
 HERE = (180.0, 30.0)  # a waypoint 30 cm from the wall x = 210

@@ -47,8 +47,12 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
    prediction made before the first (`WaypointSweeps.face_next_leg`), so the heading the open-loop leg
    starts from rests on twice the readings, taken from two headings.
 
-A move that makes no headway (the watchdog stopped it at once, or the wheels stalled against a wall
-the sonar did not hear) ends the leg: driving on would push against the wall again.
+A move that makes no headway ends the leg (driving on would push against the wall again): the wheels
+stalled against a wall the sonar did not hear, or the watchdog stopped it at once. A lone such stop
+(the move before ran its length, and the map at the belief has no wall within twice
+`ChallengeConfig.reach_cm` ahead) is tried once more: the real sensor's short readings stop a move now
+and then, and under BotSim's noise, whose moves are short, most of those stops come before a move has
+begun; a wall approached stops the moves before it too.
 
 The report scores the truth: a waypoint is reached when the robot's true position ends within
 `ChallengeConfig.reach_cm` (10 cm) of it; the mission when every waypoint is.
@@ -287,6 +291,8 @@ class WaypointSweeps:
         self.switched = False
         """Whether the mission has given up its believed start for another (`restart_from`): until a sweep
         answers, its legs are driven only where they are free at every start still open."""
+        self.ran_clean = True
+        """Whether the last move ran its length without a watchdog stop (`_act`)."""
         self.last_fix: tuple[Scan, PoseEstimate, XY] | None = None
         """The sweep of the last waypoint, the prediction it corrected and the waypoint, while the
         heading fix may still take a facing sweep (`face_next_leg`)."""
@@ -431,7 +437,11 @@ class WaypointSweeps:
             outcome = self.robot.move(step)
             self.localiser.predict(Motion(0.0, outcome.distance_cm))
             self.trajectory.append(self.robot.true_pose)
-            if abs(outcome.distance_cm) < 0.5:  # stopped at once by the watchdog, or against a wall
+            lone = self.ran_clean and outcome.watchdog and self._clear_ahead(2.0 * self.cfg.reach_cm)
+            self.ran_clean = not outcome.watchdog
+            if abs(outcome.distance_cm) < 0.5:  # stopped at once: by the watchdog, or against a wall
+                if lone:  # after a move that ran clean, where the map has no wall: the sonar may have misread
+                    continue
                 break
             if outcome.watchdog:  # a wall ahead, or the sensor's short reading twice: move on
                 left -= abs(outcome.distance_cm)
@@ -440,6 +450,12 @@ class WaypointSweeps:
                 break
             left -= step
         self.estimate = self.localiser.estimate()
+
+    def _clear_ahead(self, distance_cm: float) -> bool:
+        """Whether the map, at the localiser's pose, leaves the robot `distance_cm` of straight driving."""
+        p = self.localiser.estimate().pose
+        ahead = p.xy + distance_cm * np.array([math.cos(p.theta), math.sin(p.theta)])
+        return bool(self.checkers[1].segment_free(p.xy, ahead))
 
     def _turn_toward(self, xy: XY) -> float:
         """The turn (rad) that faces the estimate toward `xy`."""
