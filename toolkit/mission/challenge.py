@@ -209,8 +209,9 @@ class WaypointSweeps:
         each other start the mission may fall back to (`localise_start`); the first leg is planned to be
         free at all of them (`ConformantChecker`)."""
         self.switched = False
-        """Whether the mission has given up its believed start for another (`restart_from`): until a sweep
-        answers, its legs are driven only where they are free at every start still open."""
+        """Whether the mission gave up its believed start for another on a refused sweep alone
+        (`restart_from`): until a sweep answers, its legs are driven only where they are free at every
+        start still open."""
         self.ran_clean = True
         """Whether the last move ran its length without a watchdog stop (`_act`)."""
         self.last_fix: tuple[Scan, PoseEstimate, XY] | None = None
@@ -240,8 +241,7 @@ class WaypointSweeps:
         before a pending fix, which took the wrong waypoint). The `others` stay unresolved (`unresolved`);
         when no sweep `answered` (the switch rests on a refusal alone), legs are driven only where they are
         free at each of them (`switched`)."""
-        assert self.estimate is not None
-        pose = self.last_fix[1].pose if self.last_fix is not None else self.estimate.pose
+        pose = self._since_start()
         self.last_fix = None
         self._settle(RigidMove(believed, instead).pose(pose))
         self.unresolved = [RigidMove(instead, other) for other in others]
@@ -252,11 +252,16 @@ class WaypointSweeps:
         put the robot now (the belief seen from `believed`, moved rigidly; the prediction before a pending
         fix) lies within `ChallengeConfig.start_slack_cm` of the free space. A start that would have driven
         the robot out of the arena, or into a wall, was not its start."""
-        assert self.estimate is not None
-        pose = self.last_fix[1].pose if self.last_fix is not None else self.estimate.pose
+        pose = self._since_start()
         free = self.map.free_space(float(self.robot.geometry.radius_cm))
         return [s for s in starts if free.distance(shapely.Point(*RigidMove(believed, s).pose(pose).xy))
                 <= self.cfg.start_slack_cm]
+
+    def _since_start(self) -> Pose:
+        """The belief as the robot's own motion since the start left it: the prediction before a pending
+        fix (which took the waypoint the believed start implies), else the estimate."""
+        assert self.estimate is not None
+        return self.last_fix[1].pose if self.last_fix is not None else self.estimate.pose
 
     def better_start(self, starts: list[Pose]) -> int:
         """Which of the `starts` (the believed one first, as ranked at the start) the sweep just taken at the
@@ -357,11 +362,10 @@ class WaypointSweeps:
             outcome = self.robot.move(step)
             self.localiser.predict(Motion(0.0, outcome.distance_cm))
             self.trajectory.append(self.robot.true_pose)
-            lone = self.ran_clean and outcome.watchdog and self._clear_ahead(2.0 * self.cfg.reach_cm)
-            self.ran_clean = not outcome.watchdog
+            was_clean, self.ran_clean = self.ran_clean, not outcome.watchdog
             if abs(outcome.distance_cm) < 0.5:  # stopped at once: by the watchdog, or against a wall
-                if lone:  # after a move that ran clean, where the map has no wall: the sonar may have misread
-                    continue
+                if outcome.watchdog and was_clean and self._clear_ahead(2.0 * self.cfg.reach_cm):
+                    continue  # a lone stop where the map has no wall: the sonar may have misread
                 break
             if outcome.watchdog:  # a wall ahead, or the sensor's short reading twice: move on
                 left -= abs(outcome.distance_cm)
