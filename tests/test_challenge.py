@@ -28,6 +28,7 @@ from toolkit.bench.routes import aligned_headings
 from toolkit.mission.challenge import (
     ChallengeConfig,
     ChallengeFix,
+    ChallengeRecovery,
     WaypointSweeps,
     course_from,
     plausible_update,
@@ -411,26 +412,26 @@ def test_after_a_change_of_start_a_leg_is_driven_only_where_every_open_start_is_
 
 def test_a_start_the_drive_would_have_taken_out_of_the_arena_is_given_up(real_set: SweepSet) -> None:
     """Where each other start would have put the robot after its first leg must lie in the arena (within
-    ``start_slack_cm`` of the free space): (30, 54) facing +x would put a robot that drove 108 cm toward -y
+    ``recovery.start_slack_cm`` of the free space): (30, 54) facing +x would put a robot that drove 108 cm toward -y
     from (126, 168) 54 cm below the arena; facing -x, 6 cm beside it, which drift explains."""
     believed = Pose(126.0, 168.0, 0.0)
     policy = _policy(real_set, believed, Pose(126.0, 60.0, 0.0), ChallengeConfig())
     inside, outside = Pose(30.0, 54.0, math.pi), Pose(30.0, 54.0, 0.0)
     assert policy.possible_starts(believed, [outside, inside]) == [inside]
-    assert not _policy(real_set, believed, Pose(126.0, 60.0, 0.0),
-                       ChallengeConfig(start_slack_cm=1.0)).possible_starts(believed, [outside, inside])
+    strict = ChallengeConfig(recovery=ChallengeRecovery(start_slack_cm=1.0))
+    assert not _policy(real_set, believed, Pose(126.0, 60.0, 0.0), strict).possible_starts(believed, [outside, inside])
 
 
 def test_a_belief_drift_put_too_near_a_wall_plans_from_the_nearest_free_point(real_set: SweepSet) -> None:
     """A belief within the robot's radius of a wall (2 cm too near the wall y = 0) plans from the nearest
-    free point, the short move out the path's first leg; one farther in than ``escape_cm`` plans nothing."""
+    free point, the short move out the path's first leg; one farther in than ``recovery.escape_cm`` plans nothing."""
     truth = Pose(60.0, 12.0, 0.0)
     policy = _policy(real_set, truth, Pose(60.0, 6.0, 0.0), ChallengeConfig())
     bare = policy.checkers[1]
     assert policy.estimate is not None and not bare.point_free(policy.estimate.pose.xy)
     path = policy._plan((30.0, 54.0))
     assert path is not None and path[0].tolist() == policy.estimate.pose.xy.tolist()
-    assert 0.0 < math.dist(path[0], path[1]) <= ChallengeConfig().escape_cm and bare.path_free(path[1:])
+    assert 0.0 < math.dist(path[0], path[1]) <= ChallengeConfig().recovery.escape_cm and bare.path_free(path[1:])
     assert _policy(real_set, truth, Pose(60.0, -10.0, 0.0), ChallengeConfig())._plan((30.0, 54.0)) is None
 
 

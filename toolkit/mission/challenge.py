@@ -18,7 +18,7 @@ when its sonar only answers at waypoints (`toolkit.real_sonar.sweep_sonar`: real
 2. **Drive.** A path from the estimate to the next waypoint (the planner, with the robot radius plus
    `ChallengeConfig.margin_cm`; the bare radius when no path has the margin; after a change of start
    that rests on a refused sweep alone (step 3), only a path free at every start still open; from the
-   nearest free point, at most `ChallengeConfig.escape_cm` away, when drift left the belief too near a
+   nearest free point, at most `ChallengeRecovery.escape_cm` away, when drift left the belief too near a
    wall; when no path is free the mission ends there, undriven), driven leg by leg: turn toward the
    leg's end from the estimate, then moves of at most `ChallengeConfig.move_step_cm` (under BotSim's
    noise, of the length that leaves the leg's end least uncertain, `toolkit.world.MotionNoise.move_cm`),
@@ -84,11 +84,12 @@ from ..world import (
     wrap_angle,
 )
 from ..world.arrays import FloatArray
-from .challenge_config import ChallengeConfig, ChallengeFix, ChallengeSonar
+from .challenge_config import ChallengeConfig, ChallengeFix, ChallengeRecovery, ChallengeSonar
 from .sweep_fit import Sweeps, fit_pose, heading_belief, joined, rank_places
 
-__all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeReport", "ChallengeSonar", "WaypointSweeps", "WaypointVisit",
-           "course_from", "fit_pose", "heading_belief", "joined", "plausible_update", "run_challenge"]
+__all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeRecovery", "ChallengeReport", "ChallengeSonar",
+           "WaypointSweeps", "WaypointVisit", "course_from", "fit_pose", "heading_belief", "joined",
+           "plausible_update", "run_challenge"]
 
 XY = tuple[float, float]
 
@@ -250,12 +251,12 @@ class WaypointSweeps:
     def possible_starts(self, believed: Pose, starts: list[Pose]) -> list[Pose]:
         """The `starts` that could be the robot's, given its motion since the start: where each would have
         put the robot now (the belief seen from `believed`, moved rigidly; the prediction before a pending
-        fix) lies within `ChallengeConfig.start_slack_cm` of the free space. A start that would have driven
+        fix) lies within `ChallengeRecovery.start_slack_cm` of the free space. A start that would have driven
         the robot out of the arena, or into a wall, was not its start."""
         pose = self._since_start()
         free = self.map.free_space(float(self.robot.geometry.radius_cm))
         return [s for s in starts if free.distance(shapely.Point(*RigidMove(believed, s).pose(pose).xy))
-                <= self.cfg.start_slack_cm]
+                <= self.cfg.recovery.start_slack_cm]
 
     def _since_start(self) -> Pose:
         """The belief as the robot's own motion since the start left it: the prediction before a pending
@@ -338,7 +339,7 @@ class WaypointSweeps:
         here = self.estimate.pose.xy
         conformant = [ConformantChecker(c, self.unresolved) for c in self.checkers] if self.unresolved else []
         checkers = conformant if conformant and self.switched else [*conformant, *self.checkers]
-        for reach_cm, checker in itertools.product((0.0, self.cfg.escape_cm), checkers):
+        for reach_cm, checker in itertools.product((0.0, self.cfg.recovery.escape_cm), checkers):
             start = checker.nearest_free(here, reach_cm)
             if start is None or not checker.point_free(np.array(goal)):
                 continue

@@ -9,7 +9,8 @@ from pydantic import Field
 
 from ..world.typed import Typed, with_unit
 
-__all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeSonar", "HeadingFrom", "Oracle", "PositionFrom", "Readings"]
+__all__ = ["ChallengeConfig", "ChallengeFix", "ChallengeRecovery", "ChallengeSonar", "HeadingFrom", "Oracle",
+           "PositionFrom", "Readings"]
 
 PositionFrom = Literal["prediction", "localiser"]
 """Where the belief's position comes from after a waypoint's sweep (`ChallengeFix.position_from`)."""
@@ -57,6 +58,17 @@ class ChallengeSonar(Typed):
         "robot's true pose (the same mission on simulated readings, to compare with the real ones)."))
 
 
+class ChallengeRecovery(Typed):
+    """How the mission gets out of a belief gone wrong (module docstring, steps 2 and 3):
+    ``--set challenge.recovery.KEY=V``."""
+
+    escape_cm: float = Field(default=5.0, ge=0, json_schema_extra=with_unit("cm"), description=(
+        "A belief this close to being free plans from the nearest free point (its first leg the move out)."))
+    start_slack_cm: float = Field(default=20.0, ge=0, json_schema_extra=with_unit("cm"), description=(
+        "A start is given up for good when it would have put the robot farther than this outside the free "
+        "space by the end of the first leg."))
+
+
 class ChallengeConfig(Typed):
     """How the challenge mission runs (module docstring): ``--set challenge.KEY=VALUE`` on the commands that
     run it."""
@@ -78,13 +90,9 @@ class ChallengeConfig(Typed):
                                     description="Headings tried around the predicted one at a waypoint.")
     start_retries: int = Field(default=1, ge=0, description=(
         "Other start hypotheses tried when the first leg fails; the first leg is planned free at each."))
-    escape_cm: float = Field(default=5.0, ge=0, json_schema_extra=with_unit("cm"), description=(
-        "A belief this close to being free plans from the nearest free point (its first leg the move out)."))
-    start_slack_cm: float = Field(default=20.0, ge=0, json_schema_extra=with_unit("cm"), description=(
-        "A start is given up for good when it would have put the robot farther than this outside the free "
-        "space by the end of the first leg."))
     facing_sweep: bool = Field(default=True, description=(
         "After the fix at the start and at each waypoint, turn toward the next leg and sweep again; the "
         "two sweeps are fitted together (false: one sweep a stop)."))
     fix: ChallengeFix = ChallengeFix()
     sonar: ChallengeSonar = ChallengeSonar()
+    recovery: ChallengeRecovery = ChallengeRecovery()
