@@ -269,12 +269,13 @@ def stuck_mask(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = N
 def drop_stuck(scan: Scan, map: Map | None = None, *, sonar: NxtSonar | None = None,
                position: ArrayLike | None = None) -> tuple[Scan, int]:
     """`scan` without its stuck readings (`stuck_mask`, same arguments) and how many were dropped; says
-    so in the log, once per sweep (every localiser of a replay weighs the same sweep)."""
+    so in the log, once per sweep (every localiser of a replay weighs the same sweep, and the challenge
+    turns one real sweep by whole bins at every visit: the key is the readings as a multiset)."""
     stuck = stuck_mask(scan, map, sonar=sonar, position=position)
     k = int(stuck.sum())
     if not k:
         return scan, 0
-    key = hash((scan.angles.tobytes(), scan.ranges.tobytes(), k))
+    key = hash((len(scan), np.sort(scan.ranges).tobytes(), k))
     if key not in _WARNED:
         _WARNED[key] = None
         if len(_WARNED) > 256:

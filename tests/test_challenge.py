@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from localisation.base import PoseEstimate, make_localiser
 from localisation.models import exact_ranges
+from localisation.scan import drop_stuck
 from planners import PLANNERS, PlanningProblem, PlanResult, ShortestPathPlanner
 from planners.base import make_planner
 from toolkit.bench.challenge import COLUMNS, challenge_mission, challenge_tasks, crashed_mission
@@ -57,10 +58,22 @@ def test_a_sweep_turns_by_whole_bins_round_its_ring(real_set: SweepSet) -> None:
     as_read = replace(sw, held=None).scan().ranges  # the sensor's readings, held runs as read
     own = rotated(sw, math.radians(sw.heading_deg)).ranges
     assert np.array_equal(own, as_read)
-    # a robot turned 3 degrees to the left reads each wall 3 degrees further clockwise: 3 bins on
-    turned = rotated(sw, math.radians(sw.heading_deg + 3.0)).ranges
-    assert np.array_equal(turned, np.roll(as_read, 3))
-    assert not np.array_equal(turned, own)
+    # a robot turned 3 degrees to the left sees each reading's wall 3 degrees further clockwise: the same
+    # readings in the order taken, at turret angles 3 degrees (3 bins) less
+    turned = rotated(sw, math.radians(sw.heading_deg + 3.0))
+    assert np.array_equal(turned.ranges, as_read)
+    ring = np.degrees(turned.angles - rotated(sw, math.radians(sw.heading_deg)).angles)
+    assert np.allclose(ring, -3.0)
+
+
+def test_a_turned_sweep_keeps_its_runs_whole(real_set: SweepSet) -> None:
+    """However far the robot stands turned, a stuck run of a sweep stays one run: the same readings are
+    dropped as stuck (turning the readings round the ring split a run at the ring's seam)."""
+    readings = np.loadtxt(Path(__file__).parent / "data" / "real-nxt-stuck" / "loc_00.dat")  # 88 cm held 160 deg
+    sw = replace(real_set.sweeps[0], readings=readings, x_cm=84.0, y_cm=30.0, heading_deg=0.0, held=None)
+    dropped = [drop_stuck(rotated(sw, math.radians(turn)), real_set.map, position=(84.0, 30.0))[1]
+               for turn in (0.0, 7.0, 90.0, -150.0)]
+    assert dropped == [160] * 4
 
 
 def test_a_stops_sweeps_are_scored_each_on_its_own(real_set: SweepSet) -> None:

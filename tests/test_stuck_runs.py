@@ -278,3 +278,21 @@ def test_import_and_replay_catch_the_real_stuck_sweeps(tmp_path: Path) -> None:
     warnings = [line for line in replayed.stderr.splitlines() if "stuck sonar" in line]
     assert [w.split("stuck sonar: ")[1].split(" over")[0] for w in warnings] == [
         "160 readings repeat 88 cm", "250 readings repeat 55 cm"]
+
+
+def test_a_stuck_sweep_turned_by_whole_bins_is_said_once(caplog: pytest.LogCaptureFixture,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """The challenge hands back one real sweep turned by whole bins at every visit (its turret angles turned):
+    its stuck run is the same run, said once; another sweep's is said too."""
+    arena = load_map(REAL_NXT / "arena.yaml")
+    sweeps = {name: np.loadtxt(STUCK_DATA / name) for name in ("loc_00.dat", "loc_02.dat")}
+    angles = sweep_angles(360, 1.0, "cw", 0.0)
+    monkeypatch.setattr("localisation.scan._WARNED", {})  # what this process said before is not this test's
+    caplog.set_level("WARNING", logger="localisation.scan")
+    for name, (x, y) in (("loc_00.dat", (84.0, 30.0)), ("loc_02.dat", (126.0, 54.0))):
+        ranges = sweeps[name]
+        for turn in (0.0, 7.0, 90.0):  # the challenge turns a sweep's turret angles by whole bins
+            _, dropped = drop_stuck(Scan(angles + np.radians(turn), ranges, ranges < NO_ECHO), arena, position=(x, y))
+            assert dropped > 0
+    said = [r.getMessage() for r in caplog.records if "stuck sonar" in r.getMessage()]
+    assert len(said) == 2, said

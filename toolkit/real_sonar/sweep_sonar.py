@@ -9,9 +9,10 @@ waypoints. Where several sweeps of one source were taken at the waypoint, a seed
 Rotation. A sweep was taken at an unmeasured heading; ``heading_deg`` of ``sweeps.csv`` is the
 heading that aligns it with the map. Seen from a robot whose true heading is ``theta``, a reading
 taken at turret angle ``a`` looks at ``a + heading_deg - theta``. A full turret sweep
-(``n_bins * step_deg`` = 360 degrees) is a ring, so it is rotated by whole bins: the readings are
-shifted round the ring by ``round((heading_deg - theta) / step_deg)`` places and keep the sweep's own
-turret angles. The readings then lie within half a bin (0.5 degree for 1-degree sweeps, 2.5 degrees
+(``n_bins * step_deg`` = 360 degrees) is a ring, so it is rotated by whole bins: its turret angles
+turn by ``round((heading_deg - theta) / step_deg)`` bins (every angle by that many steps) and the
+readings keep the order they were taken in, so a run of them stays one run. The readings then lie
+within half a bin (0.5 degree for 1-degree sweeps, 2.5 degrees
 for 5-degree ones) of where a sensor on the robot would have taken them. A sweep that is not a full
 ring, or has no ``heading_deg``, cannot be rotated: the set is refused when it is loaded (given
 `headings`, `load_challenge_set` takes them in its place: ``--headings aligned``, the heading that aligns
@@ -158,14 +159,15 @@ def offset_corrected(scan: Scan, m: Map, waypoint: Pose, pose: Pose, beam_width_
 
 
 def rotated(sweep: Sweep, heading_rad: float) -> Scan:
-    """`sweep` as a robot whose true heading is `heading_rad` reads it: its ring of readings shifted by
-    whole bins (module docstring), its own turret angles kept. The readings are the sensor's as it gave
-    them: a run the sweep set reads as held echoes (``held_runs`` ``no-echo``) comes back as read, and
-    the localisers judge such runs themselves (`localisation.scan.drop_stuck`)."""
+    """`sweep` as a robot whose true heading is `heading_rad` reads it: the ring of its turret angles
+    turned by whole bins (module docstring), its readings in the order taken. Each reading keeps the
+    direction in the arena it was taken in, and a run of readings stays a run, whatever the turn (turning
+    the readings round the ring instead would split a run at the ring's seam). The readings are the
+    sensor's as it gave them: a run the sweep set reads as held echoes (``held_runs`` ``no-echo``) comes
+    back as read, and the localisers judge such runs themselves (`localisation.scan.drop_stuck`)."""
     delta_deg = math.degrees(wrap_angle(math.radians(sweep.heading_deg) - heading_rad))
     shift = round(delta_deg / sweep.step_deg)
-    sense = 1 if sweep.direction == "ccw" else -1
-    return replace(sweep, readings=np.roll(sweep.readings, sense * shift), held=None).scan()
+    return replace(sweep, angles=sweep.angles + math.radians(shift * sweep.step_deg), held=None).scan()
 
 
 @dataclass(frozen=True)
