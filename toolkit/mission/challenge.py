@@ -254,15 +254,25 @@ class WaypointSweeps:
         fix) lies within `ChallengeRecovery.start_slack_cm` of the free space. A start that would have driven
         the robot out of the arena, or into a wall, was not its start."""
         pose = self._since_start()
-        free = self.map.free_space(float(self.robot.geometry.radius_cm))
-        return [s for s in starts if free.distance(shapely.Point(*RigidMove(believed, s).pose(pose).xy))
-                <= self.cfg.recovery.start_slack_cm]
+        regions = self.checkers[1].free_regions()  # the bare radius's free space, made once per checker
+        return [s for s in starts if min(r.distance(shapely.Point(*RigidMove(believed, s).pose(pose).xy))
+                                         for r in regions) <= self.cfg.recovery.start_slack_cm]
 
     def _since_start(self) -> Pose:
         """The belief as the robot's own motion since the start left it: the prediction before a pending
         fix (which took the waypoint the believed start implies), else the estimate."""
         assert self.estimate is not None
         return self.last_fix[1].pose if self.last_fix is not None else self.estimate.pose
+
+    def start_after_first_leg(self, starts: list[Pose], *, answered: bool) -> Pose | None:
+        """The start the end of the first leg says the robot had, when not the believed one (`starts[0]`;
+        the others as `possible_starts` leaves them): a refused sweep gives up the believed start for the
+        next, an answered one takes the start it fits best (`better_start`). None: the believed start holds
+        (or no other is possible)."""
+        if len(starts) < 2:
+            return None
+        best = starts[self.better_start(starts)] if answered else starts[1]
+        return None if best is starts[0] else best
 
     def better_start(self, starts: list[Pose]) -> int:
         """Which of the `starts` (the believed one first, as ranked at the start) the sweep just taken at the
@@ -347,7 +357,7 @@ class WaypointSweeps:
                                                        self.rng))
             if result.success:
                 path = np.asarray(result.path, dtype=float)
-                return path if start is here else np.vstack([here, path])
+                return path if np.array_equal(start, here) else np.vstack([here, path])  # the move out first
         return None
 
     def _act(self, turn_rad: float, distance_cm: float) -> None:
@@ -497,7 +507,7 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
     report.start_match = (believed.x, believed.y)
     report.visits.append(WaypointVisit(truth_route[0], round(_distance(robot.true_pose, truth_route[0]), 3),
                                        round(_distance(believed, truth_route[0]), 3), 1))
-    route, k, current = course_from(course, course.index(report.start_match)), 1, 0
+    route, k, restarted = course_from(course, course.index(report.start_match)), 1, False
     report.status = "done"
     while k < len(route):
         policy.face_next_leg(route[k])
@@ -507,19 +517,17 @@ def run_challenge(robot: Any, m: Map, course: list[XY], start: int, localiser: L
                              + (" at every start still open" if policy.switched and policy.unresolved else ""))
             break
         visit = policy.sweep_and_correct(route[k])
-        if k == 1 and current == 0 and cfg.start_retries > 0:
-            others = policy.possible_starts(hypotheses[0], hypotheses[1:])[:cfg.start_retries]
-            answer = (None if not others else others[0] if visit.sweeps == 0
-                      else [hypotheses[0], *others][policy.better_start([hypotheses[0], *others])])
-            if answer is not None and answer is not hypotheses[0]:  # the first leg did not end where believed
+        if k == 1 and not restarted:
+            open_starts = [hypotheses[0], *policy.possible_starts(hypotheses[0], hypotheses[1:])[:cfg.start_retries]]
+            answer = policy.start_after_first_leg(open_starts, answered=visit.sweeps > 0)
+            if answer is not None:  # the first leg did not end where the believed start puts it
                 report.notes.append(
                     f"{'no sweep' if visit.sweeps == 0 else 'the sweep fits another start better'} at "
                     f"({route[k][0]:g}, {route[k][1]:g}); started at ({answer.x:g}, {answer.y:g}) instead, the "
                     "next best fit that the drive leaves possible")
-                policy.restart_from(hypotheses[0], answer,  # the others stay possible
-                                    [h for h in [hypotheses[0], *others] if h is not answer],
-                                    answered=visit.sweeps > 0)
-                current = hypotheses.index(answer)
+                policy.restart_from(hypotheses[0], answer, [h for h in open_starts if h is not answer],
+                                    answered=visit.sweeps > 0)  # the others stay possible
+                restarted = True
                 route = course_from(course, course.index((answer.x, answer.y)))
                 continue
         policy.unresolved = []  # the sweep answered where the believed start puts the robot
