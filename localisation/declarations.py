@@ -165,6 +165,9 @@ class PfTracking(Options):
     tracking_prior: bool = option(True, "Tracking moves target the predicted belief times the likelihood")
     tracking_prior_modes: bool | None = option(None, "An ambiguous belief's prior is one Gaussian per mode (null: "
                                                "with tracking_exact)")
+    surprise_mass: float = option(0.01, "A tracking update that converges where the predicted belief held less than "
+                                  "this share of its weight (within one mode) is called ambiguous, with the poses "
+                                  "the scan alone allows (0: never)", ge=0.0, le=1.0)
 
 
 class PfOptions(Options):

@@ -46,6 +46,7 @@ from toolkit.world import (
 )
 from toolkit.world.arrays import FloatArray, IntArray
 
+from .ambiguity import mass_near, other_candidates
 from .annealing import GaussianPrior, best_lattice_poses, heading_gaussian, log_prior, next_beta, predicted_prior
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .beam_model import BeamLikelihood, MeasurementModel, echo_mask, lattice_costs, scan_readings
@@ -222,7 +223,7 @@ class ParticleFilter(Localiser):
         self.per_mode_ess, self.mode_share = modes.per_mode_ess, modes.mode_share
         self.recovery_threshold = o.global_start.recovery_threshold
         self.use_table = r.use_table
-        self.tracking_prior = o.tracking.tracking_prior
+        self.tracking_prior, self.surprise_mass = o.tracking.tracking_prior, o.tracking.surprise_mass
         self.snapshot_size = o.snapshot_size
         ranges = range_setup(map, use_table=self.use_table, global_init=o.global_start.global_init,
                              clearance_cm=self.clearance_cm, table_resolution_cm=r.table_resolution_cm,
@@ -248,6 +249,7 @@ class ParticleFilter(Localiser):
         self._converged = False
         self._outliers_at_best = 0.0  # share of the beams the best particle cannot explain
         self._modes: list[Mode] = []
+        self._alternatives: list[Mode] = []  # the scan's other poses after a surprise (`_judge_surprise`)
         self._estimate: PoseEstimate | None = None
         self.reset()
 
@@ -261,7 +263,7 @@ class ParticleFilter(Localiser):
         self.snapshots = []
         self.iterations = 0
         self._converged = False
-        self._modes = []
+        self._modes, self._alternatives = [], []
         if prior is None or isinstance(prior, HeadingPrior):
             self._reset_global(prior)
         else:
@@ -316,8 +318,9 @@ class ParticleFilter(Localiser):
         # the modes move with the cloud: an ambiguous belief's estimate is its best mode's pose, which
         # otherwise stayed where the last scan left it while the robot drove on (a blind depot track
         # reported a pose 38 cm and 166 degrees off while its cloud was 3 cm wide around the truth)
-        self._modes = [replace(md, pose=Pose.from_array(self.motion_model.mean(md.pose.as_array(), motion)))
-                       for md in self._modes]
+        self._modes, self._alternatives = (
+            [replace(md, pose=Pose.from_array(self.motion_model.mean(md.pose.as_array(), motion))) for md in group]
+            for group in (self._modes, self._alternatives))
         self._converged = False
         self._estimate = self._make_estimate()
 
@@ -333,6 +336,8 @@ class ParticleFilter(Localiser):
             self.restarts += 1
             self._reset_global()
             tracking = False
+        predicted = (self.particles, self.weights) if tracking else None
+        self._alternatives = []
         if self._global and self.lattice is not None:
             self._lattice_start(rel, meas)
         self._exact = tracking and self.tracking_exact
@@ -359,6 +364,31 @@ class ParticleFilter(Localiser):
             if self.lattice is not None:
                 self._lattice_start(rel, meas)
             self._iterate(rel, meas)
+            predicted = None
+        if predicted is not None:
+            self._judge_surprise(predicted, rel, meas)
+
+    def _judge_surprise(self, predicted: tuple[FloatArray, FloatArray], rel: FloatArray, meas: FloatArray) -> None:
+        """A tracking update that converged where the `predicted` cloud (particles, weights) held less than
+        `surprise_mass` of its weight within one mode: the motion told the filter something else (a
+        twin won because the odometry or a heading was wrong). If the scan alone explains other poses
+        within `ambiguity_nats`, the belief is then called ambiguous with those as the other candidates
+        (the estimate stays the tracked pose); if it singles this one out, the fix stands."""
+        est = self.estimate()
+        if not est.converged or self.surprise_mass <= 0.0 or self.lattice is None or self.table is None:
+            return
+        held = mass_near(*predicted, est.pose, self.mode_radius_cm, self.mode_heading_rad)
+        if held >= self.surprise_mass:
+            return
+        self._alternatives = other_candidates(
+            self.lattice.xy, self.table.n_angles, lattice_costs(self.lattice, rel, meas, self.likelihood), est.pose,
+            within_nats=self.ambiguity_nats, radius_cm=self.mode_radius_cm, heading_rad=self.mode_heading_rad,
+            max_candidates=self.max_modes)
+        if self._alternatives:
+            log.info("the scan put the belief where the motion had put %.2g %% of it, and fits %d other poses: "
+                     "ambiguous", 100 * held, len(self._alternatives))
+            self._converged = False
+        self._estimate = self._make_estimate()
 
     def _lattice_start(self, rel: FloatArray, meas: FloatArray) -> None:
         """Replace the uniform cloud by the best lattice poses for this scan (see `global_init`)."""
@@ -382,12 +412,13 @@ class ParticleFilter(Localiser):
     # -- extras -------------------------------------------------------------------------------------
     @property
     def modes(self) -> list[Mode]:
-        """The plausible modes after the last update (more than one: the belief is ambiguous)."""
-        return list(self._modes)
+        """The plausible modes after the last update (more than one: the belief is ambiguous): the tracked
+        ones, then after a surprise (`surprise_mass`) the other poses the scan allows."""
+        return self._modes + self._alternatives
 
     @property
     def ambiguous(self) -> bool:
-        return len(self._modes) > 1
+        return len(self.modes) > 1
 
     @property
     def weights(self) -> FloatArray:

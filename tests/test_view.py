@@ -11,6 +11,7 @@ viewer, the whole run reaches it and the viewer stays open; `make view-check` le
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -217,7 +218,12 @@ def test_live_view_reaches_the_viewer_and_leaves_it_open(mission: Path, tmp_path
         assert group_alive(pid), "the viewer closed when the mission ended"
     finally:
         os.killpg(pid, signal.SIGINT)
-        wait_until(lambda: not group_alive(pid), 20.0, "the viewer ends on Ctrl-C")
+        try:
+            wait_until(lambda: not group_alive(pid), 20.0, "the viewer ends on Ctrl-C")
+        finally:  # a viewer that outlived Ctrl-C fails the test, and is not left running for the next one
+            if group_alive(pid):
+                with contextlib.suppress(ProcessLookupError):  # it may end between the look and the kill
+                    os.killpg(pid, signal.SIGKILL)
     with warnings.catch_warnings():  # a stream saved by the viewer has no footer; Rerun warns and scans it
         warnings.filterwarnings("ignore", message="RRD file has no footer", category=RerunWarning)
         rows = _rows(seen)

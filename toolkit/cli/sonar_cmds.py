@@ -9,6 +9,7 @@ held-out source, the honest test of a fitted model.
 from __future__ import annotations
 
 import json
+import logging
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict
@@ -40,6 +41,8 @@ from .options import (
 )
 from .options import sonar_profile as load_profile
 from .progress import progress
+
+log = logging.getLogger(__name__)
 
 __all__: list[str] = []
 
@@ -256,9 +259,10 @@ def sonar_score(
     answer; the share of sweeps the model explains best at their waypoint (no pose further than 20 cm
     explains them better: an upper bound on what any localiser using the model gets right from one sweep);
     then the same per sweep, with that margin in nats. Each sweep is taken at the heading the model finds
-    most likely.
+    most likely, shown beside the set's own heading_deg; a warning names each sweep whose two headings
+    differ by more than 45 degrees (a twin taken as the truth).
     """
-    from ..real_sonar.fit import BASELINES, score_sonar
+    from ..real_sonar.fit import BASELINES, heading_disagreements, score_sonar
 
     heading = parse_heading_prior(heading_prior_text, "--heading-prior")
     baselines = [] if baseline_text is None else parse_list(baseline_text, "--baseline", list(BASELINES))
@@ -285,16 +289,20 @@ def sonar_score(
                 pad_edge=False, collapse_padding=True)
     per.add_column("sweep", overflow="fold", ratio=1)
     per.add_column("model", no_wrap=True)
-    for name in ("heading", "log-lik", "no echo %\nreal / model", "|Δ|\ncm", "margin\nnats"):
+    for name in ("heading", "set's\nheading", "log-lik", "no echo %\nreal / model", "|Δ|\ncm", "margin\nnats"):
         per.add_column(name, justify="right", no_wrap=True)
     for i, row in enumerate(next(iter(scores.values())).per_sweep):
         for k, (label, sc) in enumerate(scores.items()):
             r = sc.per_sweep[i]
             per.add_row(row["sweep"] if k == 0 else "", label, cell(r["heading_deg"], ".1f", "°"),
+                        cell(r["set_heading_deg"], ".1f", "°"),
                         cell(r["mean_log_likelihood"], ".3f"),
                         f"{_pct(r['no_echo_real'])} / {_pct(r['no_echo_model'])}",
                         cell(r["median_abs_diff_cm"], ".1f"), cell(r["margin_nats"], "+.1f"))
     console.print(per)
+    for label, sc in scores.items():
+        for line in heading_disagreements(sc.per_sweep, label):
+            log.warning("%s", line)
     if json_out is not None:
         _write_json(json_out, {"folders": [str(d) for d in dirs],
                                "heading_prior": heading and heading.to_dict(), "models": [

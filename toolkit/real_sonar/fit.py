@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,15 +30,34 @@ import numpy as np
 from localisation.base import HeadingPrior
 from localisation.scan import drop_stuck
 
-from ..world import NO_ECHO, ConfigError, Map, NxtSonar, wrap_angle
+from ..world import NO_ECHO, ConfigError, Map, NxtSonar, angle_diff, wrap_angle
 from ..world.arrays import FloatArray, finite_median
 from .margins import sweep_margins
 from .profile_file import SonarProfileError, load_sonar_profile, save_sonar_profile
 from .sweeps import Sweep, SweepSet
 
-__all__ = ["BASELINES", "FIT_PARAMETERS", "AlignedSweep", "FitResult", "HeldOutScore", "LeaveOneOut", "RepoFold",
-           "SonarProfileError", "SweepScore", "align_sweeps", "fit_sonar", "load_sonar_profile", "profiles_by_source",
-           "repo_folds", "save_sonar_profile", "score_fold", "score_sonar", "source_profile_name"]
+__all__ = [
+    "BASELINES",
+    "FIT_PARAMETERS",
+    "TWIN_HEADING_DEG",
+    "AlignedSweep",
+    "FitResult",
+    "HeldOutScore",
+    "LeaveOneOut",
+    "RepoFold",
+    "SonarProfileError",
+    "SweepScore",
+    "align_sweeps",
+    "fit_sonar",
+    "heading_disagreements",
+    "load_sonar_profile",
+    "profiles_by_source",
+    "repo_folds",
+    "save_sonar_profile",
+    "score_fold",
+    "score_sonar",
+    "source_profile_name",
+]
 
 log = logging.getLogger(__name__)
 
@@ -325,7 +344,9 @@ def score_sonar(model: NxtSonar, sets: Sequence[SweepSet], margins: bool = True,
         real_silent = a.readings >= model.max_range_cm
         diff = np.where(~real_silent & np.isfinite(a.echo), np.abs(a.readings - (a.echo + model.bias_cm)), np.nan)
         per.append({"sweep": a.sweep.label, "offset_cm": [a.x_cm - a.sweep.x_cm, a.y_cm - a.sweep.y_cm],
-                    "heading_deg": math.degrees(a.heading_rad), "readings": int(a.readings.size),
+                    "heading_deg": math.degrees(a.heading_rad),
+                    "set_heading_deg": None if math.isnan(a.sweep.heading_deg) else a.sweep.heading_deg,
+                    "readings": int(a.readings.size),
                     "mean_log_likelihood": float(np.mean(lp)), "no_echo_real": float(np.mean(real_silent)),
                     "no_echo_model": float(np.mean(p_silent)), "median_abs_diff_cm": finite_median(diff),
                     "margin_nats": margin[len(per)]})
@@ -391,6 +412,27 @@ def score_fold(fold: RepoFold, *, widths: Sequence[float] = DEFAULT_WIDTHS,
     fit = fit_sonar(fold.train, widths=widths, criticals=criticals, progress=progress)
     base = baseline if baseline is not None else NxtSonar.hardware_facts()
     return HeldOutScore(fold.repo, score_sonar(fit.model, fold.held_out), score_sonar(base, fold.held_out), fit.model)
+
+
+TWIN_HEADING_DEG = 45.0
+"""A sweep whose ``heading_deg`` lies further than this (degrees) from the heading a sonar model finds
+it most likely at is nearer another quarter turn than its own: in a box or a square arena, the twin."""
+
+
+def heading_disagreements(per_sweep: Sequence[Mapping[str, Any]], model: str,
+                          limit_deg: float = TWIN_HEADING_DEG) -> list[str]:
+    """One line for each sweep of `per_sweep` (`SweepScore.per_sweep`) whose set heading and the heading
+    `model` finds it most likely at differ by more than `limit_deg`: a truth heading that is likely a twin."""
+    out = []
+    for r in per_sweep:
+        if r.get("set_heading_deg") is None:
+            continue
+        gap = abs(math.degrees(float(angle_diff(math.radians(r["heading_deg"]), math.radians(r["set_heading_deg"])))))
+        if gap > limit_deg:
+            out.append(f"{r['sweep']}: heading_deg {r['set_heading_deg']:g} is {gap:.0f} degrees from the heading the "
+                       f"{model} model finds the sweep most likely at ({r['heading_deg']:.1f}); a route or challenge "
+                       "that takes heading_deg as the truth drives from a heading the sweep does not show")
+    return out
 
 
 SCORE_FIELDS = ("mean_log_likelihood", "no_echo_real", "no_echo_model", "median_abs_diff_cm")
