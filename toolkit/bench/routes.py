@@ -60,6 +60,7 @@ __all__ = [
     "run_route",
     "summarise_steps",
     "truth_headings",
+    "warn_twin_headings",
     "write_routes_csv",
 ]
 
@@ -236,6 +237,18 @@ def model_headings(sweeps: SweepSet, sonars: Mapping[str, NxtSonar], repos: Sequ
         mine = SweepSet(sweeps.folder, sweeps.map, tuple(sw for sw in sweeps if sw.repo == repo))
         out.update({a.sweep.label: round(math.degrees(a.heading_rad), 2) for a in align_sweeps(sonars[repo], mine)})
     return out
+
+
+def warn_twin_headings(sweeps: SweepSet, sonars: Mapping[str, NxtSonar]) -> None:
+    """Warn (once a process) about every sweep of the sources of `sonars` whose ``heading_deg`` lies more than
+    45 degrees from the heading its source's model finds it most likely at (`model_headings`): a truth
+    heading that is the arena's twin (`toolkit.real_sonar.fit.heading_disagreements`)."""
+    from toolkit.real_sonar.fit import heading_disagreements
+
+    found = model_headings(sweeps, sonars, list(sonars))
+    for line in heading_disagreements(((sw.label, sw.heading_deg, found[sw.label]) for sw in sweeps
+                                       if sw.label in found), "sonar"):
+        warn_once(line)
 
 
 def aligned_headings(sweeps: SweepSet) -> dict[str, float]:

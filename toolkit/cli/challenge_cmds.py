@@ -161,6 +161,7 @@ def bench_challenge(
         write_challenge_csv,
     )
     from toolkit.bench.common import isolate_planners
+    from toolkit.bench.routes import warn_twin_headings
     from toolkit.real_sonar.sweep_sonar import load_challenge_set
 
     locs = parse_list(localisers_text, "--localisers", list(LOCALISERS.names()))
@@ -173,6 +174,8 @@ def bench_challenge(
     sweeps = load_challenge_set(folder, load_map(map_ref), _truth_headings(headings, model or NxtSonar()))
     truth = None if headings == "column" else {s.label: s.heading_deg for s in sweeps}
     check_out_folder(out, force)
+    if truth is None:
+        warn_twin_headings(sweeps, dict.fromkeys(sweeps.repos, model or NxtSonar()))
     tasks = challenge_tasks(sweeps, map_ref, locs, seeds, planner=planner, sonar=model, noise=noise, config=settings,
                             headings=truth)
     batch = run_batch(run_challenge_task, tasks, "missions", label=f"{len(tasks)} challenge missions",

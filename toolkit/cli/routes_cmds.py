@@ -126,7 +126,7 @@ def bench_routes(
     candidates, truth among the candidates.
     """
     from localisation.base import LOCALISERS
-    from toolkit.bench.routes import make_route_tasks, plan_routes, truth_headings
+    from toolkit.bench.routes import make_route_tasks, plan_routes, truth_headings, warn_twin_headings
     from toolkit.real_sonar.fit import profiles_by_source
     from toolkit.real_sonar.sweeps import load_sweep_set
     from toolkit.world import NxtSonar
@@ -151,6 +151,8 @@ def bench_routes(
               else dict.fromkeys(repos, NxtSonar()))
     check_out_folder(out, force)
     truth = truth_headings(headings, sweeps, sonars)
+    if truth is None:
+        warn_twin_headings(sweeps, sonars)
     tasks = make_route_tasks(sweeps, map_file, routes, locs, seeds, sonars, noise, options, truth)
     command = " ".join(shlex.quote(a) for a in [
         "nxtnav", "bench", "routes", str(folder), *(["--map", map_file] if map_file else []),

@@ -301,7 +301,8 @@ def sonar_score(
                         cell(r["median_abs_diff_cm"], ".1f"), cell(r["margin_nats"], "+.1f"))
     console.print(per)
     for label, sc in scores.items():
-        for line in heading_disagreements(sc.per_sweep, label):
+        for line in heading_disagreements(((r["sweep"], r["set_heading_deg"], r["heading_deg"])
+                                           for r in sc.per_sweep), label):
             log.warning("%s", line)
     if json_out is not None:
         _write_json(json_out, {"folders": [str(d) for d in dirs],

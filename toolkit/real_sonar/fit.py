@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -419,19 +419,20 @@ TWIN_HEADING_DEG = 45.0
 it most likely at is nearer another quarter turn than its own: in a box or a square arena, the twin."""
 
 
-def heading_disagreements(per_sweep: Sequence[Mapping[str, Any]], model: str,
+def heading_disagreements(headings: Iterable[tuple[str, float | None, float]], model: str,
                           limit_deg: float = TWIN_HEADING_DEG) -> list[str]:
-    """One line for each sweep of `per_sweep` (`SweepScore.per_sweep`) whose set heading and the heading
-    `model` finds it most likely at differ by more than `limit_deg`: a truth heading that is likely a twin."""
+    """One line for each (sweep label, the set's ``heading_deg`` or None, the heading `model` finds the sweep
+    most likely at) of `headings` whose two headings differ by more than `limit_deg` (degrees): a truth
+    heading that is likely a twin."""
     out = []
-    for r in per_sweep:
-        if r.get("set_heading_deg") is None:
+    for label, given, found in headings:
+        if given is None or math.isnan(given):
             continue
-        gap = abs(math.degrees(float(angle_diff(math.radians(r["heading_deg"]), math.radians(r["set_heading_deg"])))))
+        gap = abs(math.degrees(float(angle_diff(math.radians(found), math.radians(given)))))
         if gap > limit_deg:
-            out.append(f"{r['sweep']}: heading_deg {r['set_heading_deg']:g} is {gap:.0f} degrees from the heading the "
-                       f"{model} model finds the sweep most likely at ({r['heading_deg']:.1f}); a route or challenge "
-                       "that takes heading_deg as the truth drives from a heading the sweep does not show")
+            out.append(f"{label}: heading_deg {given:g} is {gap:.0f} degrees from the heading the {model} model "
+                       f"finds the sweep most likely at ({found:.1f}); a route or challenge that takes heading_deg "
+                       "as the truth drives from a heading the sweep does not show")
     return out
 
 
