@@ -152,10 +152,15 @@ def test_the_route_starts_at_the_start_and_goes_round_the_course() -> None:
     assert course_from([(1, 1), (2, 2), (3, 3)], 2) == [(3, 3), (1, 1), (2, 2)]
 
 
-def test_run_with_real_sweeps_visits_every_waypoint_of_the_route(tmp_path: Path) -> None:
+def test_run_with_real_sweeps_visits_every_waypoint_of_the_route(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                 caplog: pytest.LogCaptureFixture) -> None:
     report = tmp_path / "run.json"
-    code = run_cli(["run", "--map", "co333-arena", "--sonar", f"sweeps:{REAL_NXT}", "--seed", "3",
-                    "--json", str(report)])
+    monkeypatch.setattr("toolkit.real_sonar.sweeps._WARNED", set())  # said once a process: say it here
+    with caplog.at_level(logging.WARNING):
+        code = run_cli(["run", "--map", "co333-arena", "--sonar", f"sweeps:{REAL_NXT}", "--seed", "3",
+                        "--json", str(report)])
+    said = [r.getMessage() for r in caplog.records if "the sweep most likely at" in r.getMessage()]
+    assert len(said) == 1 and said[0].startswith("andrei-alpha/robotics/loc_03.dat: heading_deg -90.5")
     doc = json.loads(report.read_text())
     assert code == (0 if doc["reached"] else 1)
     waypoints = [[180.0, 30.0], [126.0, 168.0], [30.0, 54.0]]

@@ -86,6 +86,7 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
     import numpy as np
 
     from toolkit.bench.challenge import challenge_mission
+    from toolkit.bench.routes import warn_twin_headings
     from toolkit.number_format import json_safe
     from toolkit.real_sonar.sweep_sonar import course_waypoints, load_challenge_set, sweeps_folder
     from toolkit.seeds import derive_seed
@@ -107,6 +108,7 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
     pick = np.random.default_rng(derive_seed(seed, "run challenge"))
     repo = repos[int(pick.integers(len(repos)))]
     start = int(pick.integers(len(course_waypoints(sweeps, repo))))
+    warn_twin_headings(sweeps, {repo: model or NxtSonar()})
     report = challenge_mission(sweeps, repo, start, seed, localiser, planner, model, noise, settings)
     typer.echo(f"sweeps of {repo} ({folder})")
     typer.echo(report.summary())
