@@ -388,7 +388,7 @@ class ParticleFilter(Localiser):
             log.info("the scan put the belief where the motion had put %.2g %% of it, and fits %d other poses: "
                      "ambiguous", 100 * held, len(self._alternatives))
             self._converged = False
-        self._estimate = self._make_estimate()
+            self._estimate = self._make_estimate()
 
     def _lattice_start(self, rel: FloatArray, meas: FloatArray) -> None:
         """Replace the uniform cloud by the best lattice poses for this scan (see `global_init`)."""
