@@ -16,6 +16,7 @@ import numpy as np
 from toolkit.world import Pose, angle_diff, wrap_angle
 
 from .base import Localiser, Mode
+from .clusters import in_mode
 
 __all__ = ["CANDIDATE_RADIUS_CM", "candidate_poses", "confidently_wrong", "describe_candidates", "lattice_candidates",
            "mass_near", "other_candidates", "truth_among"]
@@ -107,24 +108,25 @@ def lattice_candidates(xy: Any, n_angles: int, costs: Any, *, within_nats: float
 
 def mass_near(particles: Any, weights: Any, pose: Pose, radius_cm: float, heading_rad: float) -> float:
     """The share of the weight of a cloud (`particles` (N, 3), normalised `weights` (N,)) within
-    `radius_cm` (cm) and `heading_rad` of `pose`: one mode's worth of belief around it.
+    `radius_cm` (cm) and `heading_rad` of `pose`: one mode's worth of belief around it (`in_mode`).
 
     >>> round(mass_near(np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.1], [50.0, 0.0, 0.0]]), np.array([0.5, 0.3, 0.2]),
     ...                 Pose(0.0, 0.0, 0.0), 10.0, 0.35), 6)
     0.8
     """
     p, w = np.asarray(particles, dtype=float), np.asarray(weights, dtype=float)
-    near = (np.hypot(p[:, 0] - pose.x, p[:, 1] - pose.y) <= radius_cm) & \
-        (np.abs(angle_diff(p[:, 2], pose.theta)) <= heading_rad)
-    return float(w[near].sum())
+    return float(w[in_mode(p, pose.as_array(), radius_cm, heading_rad)].sum())
 
 
 def other_candidates(xy: Any, n_angles: int, costs: Any, pose: Pose, *, within_nats: float, radius_cm: float,
                      heading_rad: float, max_candidates: int = 8) -> list[Mode]:
     """The distinct good poses of a scored lattice (`lattice_candidates`) further than `radius_cm` or
-    `heading_rad` from `pose`, as modes of no weight with their log-likelihood on the lattice."""
+    `heading_rad` from `pose` (outside its mode, `in_mode`), as modes of no weight with their
+    log-likelihood on the lattice."""
     c_best = float(np.min(costs))
     found = lattice_candidates(xy, n_angles, costs, within_nats=within_nats, radius_cm=radius_cm,
                                heading_rad=heading_rad, max_candidates=max_candidates)
-    return [Mode(p, 0.0, ll - 0.5 * c_best, 0) for p, ll in found
-            if math.hypot(p.x - pose.x, p.y - pose.y) > radius_cm or abs(angle_diff(p.theta, pose.theta)) > heading_rad]
+    if not found:
+        return []
+    outside = ~in_mode(np.array([p.as_array() for p, _ in found]), pose.as_array(), radius_cm, heading_rad)
+    return [Mode(p, 0.0, ll - 0.5 * c_best, 0) for (p, ll), out in zip(found, outside, strict=True) if out]

@@ -11,7 +11,7 @@ from toolkit.world.arrays import FloatArray, IntArray
 
 from .base import Mode
 
-__all__ = ["cloud_stats", "cluster", "describe_modes", "mode_stds"]
+__all__ = ["cloud_stats", "cluster", "describe_modes", "in_mode", "mode_stds"]
 
 
 def cloud_stats(p: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -38,6 +38,13 @@ def mode_stds(p: FloatArray, w: FloatArray, labels: IntArray, keep: IntArray) ->
     return out
 
 
+def in_mode(p: FloatArray, centre: FloatArray, radius_cm: float, heading_rad: float) -> np.ndarray:
+    """Which poses of `p` (N, 3) lie in one mode around `centre` (x, y, theta): within `radius_cm` (cm) and
+    `heading_rad` of it."""
+    near = (p[:, 0] - centre[0]) ** 2 + (p[:, 1] - centre[1]) ** 2 <= radius_cm**2
+    return near & (np.abs(angle_diff(p[:, 2], centre[2])) <= heading_rad)
+
+
 def cluster(p: FloatArray, log_w: FloatArray, radius_cm: float, heading_rad: float,
             max_modes: int) -> tuple[IntArray, FloatArray]:
     """Greedy clustering: the heaviest unassigned particle seeds a mode of its neighbours.
@@ -50,16 +57,13 @@ def cluster(p: FloatArray, log_w: FloatArray, radius_cm: float, heading_rad: flo
     log_masses: list[float] = []
     order = np.argsort(-log_w, kind="stable")
     free = np.isfinite(log_w)
-    r2 = radius_cm**2
     pos = 0
     for k in range(max_modes):
         while pos < order.size and not free[order[pos]]:
             pos += 1
         if pos >= order.size:
             break
-        seed = p[order[pos]]
-        member = free & ((p[:, 0] - seed[0]) ** 2 + (p[:, 1] - seed[1]) ** 2 <= r2)
-        member &= np.abs(angle_diff(p[:, 2], seed[2])) <= heading_rad
+        member = free & in_mode(p, p[order[pos]], radius_cm, heading_rad)
         labels[member] = k
         free &= ~member
         lw = log_w[member]

@@ -336,7 +336,7 @@ class ParticleFilter(Localiser):
             self.restarts += 1
             self._reset_global()
             tracking = False
-        predicted = (self.particles, self.weights) if tracking else None
+        predicted = (self.particles, self.log_weights) if tracking else None
         self._alternatives = []
         if self._global and self.lattice is not None:
             self._lattice_start(rel, meas)
@@ -369,7 +369,7 @@ class ParticleFilter(Localiser):
             self._judge_surprise(predicted, rel, meas)
 
     def _judge_surprise(self, predicted: tuple[FloatArray, FloatArray], rel: FloatArray, meas: FloatArray) -> None:
-        """A tracking update that converged where the `predicted` cloud (particles, weights) held less than
+        """A tracking update that converged where the `predicted` cloud (particles, log weights) held less than
         `surprise_mass` of its weight within one mode: the motion told the filter something else (a
         twin won because the odometry or a heading was wrong). If the scan alone explains other poses
         within `ambiguity_nats`, the belief is then called ambiguous with those as the other candidates
@@ -377,7 +377,8 @@ class ParticleFilter(Localiser):
         est = self.estimate()
         if not est.converged or self.surprise_mass <= 0.0 or self.lattice is None or self.table is None:
             return
-        held = mass_near(*predicted, est.pose, self.mode_radius_cm, self.mode_heading_rad)
+        held = mass_near(predicted[0], log_normalise(predicted[1]), est.pose, self.mode_radius_cm,
+                         self.mode_heading_rad)
         if held >= self.surprise_mass:
             return
         self._alternatives = other_candidates(

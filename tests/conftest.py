@@ -6,6 +6,7 @@ import contextlib
 import fcntl
 import importlib.util
 import json
+import logging
 import os
 import shutil
 import subprocess
@@ -110,6 +111,15 @@ def any_map(request: pytest.FixtureRequest) -> Map:
 @pytest.fixture(params=BOTSIM_MAPS)
 def botsim_map(request: pytest.FixtureRequest) -> Map:
     return load_map(request.param)
+
+
+@pytest.fixture
+def twin_heading_warnings(monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> Callable[[], list[str]]:
+    """What the test logged about a `heading_deg` that is a twin (`toolkit.real_sonar.fit.heading_disagreements`),
+    as a function to call after the command; a set's warnings are said once a process, so here afresh."""
+    monkeypatch.setattr("toolkit.real_sonar.sweeps._WARNED", set())
+    caplog.set_level(logging.WARNING)
+    return lambda: [r.getMessage() for r in caplog.records if "the sweep most likely at" in r.getMessage()]
 
 
 def wait_until(condition: Callable[[], object], timeout: float, what: str) -> None:

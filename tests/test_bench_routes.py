@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import csv
 import json
-import logging
 import math
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -199,14 +199,11 @@ def test_a_drive_the_odometry_did_not_predict_leaves_paper_pf_ambiguous(surprise
 
 
 @pytest.mark.parametrize(("headings", "named"), [([], 1), (["--headings", "model"], 0)])
-def test_a_twin_heading_taken_as_the_truth_is_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                                   caplog: pytest.LogCaptureFixture, headings: list[str],
-                                                   named: int) -> None:
+def test_a_twin_heading_taken_as_the_truth_is_named(
+        tmp_path: Path, twin_heading_warnings: Callable[[], list[str]], headings: list[str], named: int) -> None:
     """Routes judged by the set's heading_deg warn about a sweep whose heading is a quarter turn from where
     the model finds it (the shipped loc_03: -90.5 against about -7); with the model's headings, nothing."""
-    monkeypatch.setattr("toolkit.real_sonar.sweeps._WARNED", set())  # said once a process: say it here
-    with caplog.at_level(logging.WARNING):
-        assert run_cli(["bench", "routes", str(REAL_NXT), *FEW, *headings, "--out", str(tmp_path / "out")]) == 0
-    said = [r.getMessage() for r in caplog.records if "the sweep most likely at" in r.getMessage()]
+    assert run_cli(["bench", "routes", str(REAL_NXT), *FEW, *headings, "--out", str(tmp_path / "out")]) == 0
+    said = twin_heading_warnings()
     assert len(said) == named
     assert all(s.startswith("andrei-alpha/robotics/loc_03.dat: heading_deg -90.5 is 8") for s in said)

@@ -7,11 +7,11 @@ import csv
 import faulthandler
 import itertools
 import json
-import logging
 import math
 import os
 import shutil
 import signal
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -152,14 +152,12 @@ def test_the_route_starts_at_the_start_and_goes_round_the_course() -> None:
     assert course_from([(1, 1), (2, 2), (3, 3)], 2) == [(3, 3), (1, 1), (2, 2)]
 
 
-def test_run_with_real_sweeps_visits_every_waypoint_of_the_route(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                                                 caplog: pytest.LogCaptureFixture) -> None:
+def test_run_with_real_sweeps_visits_every_waypoint_of_the_route(
+        tmp_path: Path, twin_heading_warnings: Callable[[], list[str]]) -> None:
     report = tmp_path / "run.json"
-    monkeypatch.setattr("toolkit.real_sonar.sweeps._WARNED", set())  # said once a process: say it here
-    with caplog.at_level(logging.WARNING):
-        code = run_cli(["run", "--map", "co333-arena", "--sonar", f"sweeps:{REAL_NXT}", "--seed", "3",
-                        "--json", str(report)])
-    said = [r.getMessage() for r in caplog.records if "the sweep most likely at" in r.getMessage()]
+    code = run_cli(["run", "--map", "co333-arena", "--sonar", f"sweeps:{REAL_NXT}", "--seed", "3",
+                    "--json", str(report)])
+    said = twin_heading_warnings()
     assert len(said) == 1 and said[0].startswith("andrei-alpha/robotics/loc_03.dat: heading_deg -90.5")
     doc = json.loads(report.read_text())
     assert code == (0 if doc["reached"] else 1)
@@ -171,15 +169,13 @@ def test_run_with_real_sweeps_visits_every_waypoint_of_the_route(tmp_path: Path,
 
 
 @pytest.mark.slow
-def test_bench_challenge_writes_a_row_per_mission(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                                  caplog: pytest.LogCaptureFixture) -> None:
+def test_bench_challenge_writes_a_row_per_mission(tmp_path: Path,
+                                                  twin_heading_warnings: Callable[[], list[str]]) -> None:
     """... and warns that the set's heading at (126, 168) is a quarter turn from where the model finds it."""
     out = tmp_path / "out"
-    monkeypatch.setattr("toolkit.real_sonar.sweeps._WARNED", set())  # said once a process: say it here
-    with caplog.at_level(logging.WARNING):
-        assert run_cli(["bench", "challenge", str(REAL_NXT), "--localisers", "paper-pf", "--seeds", "0",
-                        "--out", str(out)]) == 0
-    said = [r.getMessage() for r in caplog.records if "the sweep most likely at" in r.getMessage()]
+    assert run_cli(["bench", "challenge", str(REAL_NXT), "--localisers", "paper-pf", "--seeds", "0",
+                    "--out", str(out)]) == 0
+    said = twin_heading_warnings()
     assert len(said) == 1 and said[0].startswith("andrei-alpha/robotics/loc_03.dat: heading_deg -90.5")
     with (out / "challenge.csv").open(newline="") as fh:
         rows = list(csv.DictReader(fh))

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import csv
 import json
-import logging
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -103,16 +103,15 @@ def test_score_reports_each_model_and_sweep(fitted: Path, tmp_path: Path, capsys
 
 
 def test_score_without_a_profile_is_the_default_model(fitted: Path, tmp_path: Path,
-                                                      caplog: pytest.LogCaptureFixture) -> None:
+                                                      twin_heading_warnings: Callable[[], list[str]]) -> None:
     """... and a sweep whose heading_deg is a quarter turn from where the model finds it is named: the
     shipped loc_03 (-90.5 in the set, about -7 by the model); the other two, 4 and 9 degrees apart, not."""
     out = tmp_path / "score.json"
-    with caplog.at_level(logging.WARNING):
-        assert run_cli(["sonar", "score", str(REAL_NXT), "--map", str(fitted / "arena.yaml"), "--json", str(out)]) == 0
+    assert run_cli(["sonar", "score", str(REAL_NXT), "--map", str(fitted / "arena.yaml"), "--json", str(out)]) == 0
     (only,) = json.loads(out.read_text())["models"]
     assert only["label"] == "default" and only["params"] == NxtSonar().to_dict()
     assert [r["set_heading_deg"] for r in only["per_sweep"]] == [6.0, -90.5, 10.0]  # the set's column
-    named = [r.getMessage() for r in caplog.records if "heading_deg" in r.getMessage()]
+    named = twin_heading_warnings()
     assert len(named) == 1 and named[0].startswith("andrei-alpha/robotics/loc_03.dat: heading_deg -90.5 is 8")
 
 
