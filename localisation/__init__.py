@@ -1,6 +1,7 @@
 """Localisation from ultrasonic scans: the paper's particle filter and filterpy variants.
 
-Importing the package registers every localiser (``paper-pf``, ``amcl`` and the filterpy variants) in
+Importing the package registers every localiser (``paper-pf``, ``amcl``, the filterpy variants and
+the ``grid`` reference) in
 `LOCALISERS`; `localise` runs the global-localisation strategy (`GlobalLocalisation`) that missions and
 the benchmark share, driving a robot; `look` is one look the paper's way (sweep, align, sweep, update).
 """
@@ -10,6 +11,7 @@ from .amcl import Amcl, DistanceField
 from .base import LOCALISERS, HeadingPrior, Localiser, Motion, PoseEstimate, Prior, make_localiser
 from .filterpy_variants import EkfLocaliser, UkfLocaliser, filterpy_resample
 from .global_localisation import GlobalLocalisation, localise
+from .grid_bayes import GridBayes
 from .models import MotionModel, RangeLikelihood, RangeTable, exact_ranges, range_table
 from .particle_filter import Mode, ParticleFilter, Snapshot
 from .procedure import LocalisationResult, TraceStep, look
@@ -21,6 +23,7 @@ __all__ = [
     "DistanceField",
     "EkfLocaliser",
     "GlobalLocalisation",
+    "GridBayes",
     "HeadingPrior",
     "LocalisationResult",
     "Localiser",

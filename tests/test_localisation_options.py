@@ -161,7 +161,7 @@ def test_every_bundled_localiser_has_its_familys_laser_options() -> None:
 
 def test_a_localiser_without_laser_options_is_an_error_until_its_class_registers_them() -> None:
     laser = LaserScanner(max_range_cm=800.0)
-    known = "known: amcl, ekf, paper-pf, pf-multinomial, pf-residual, pf-stratified, pf-systematic, ukf$"
+    known = "known: amcl, ekf, grid, paper-pf, pf-multinomial, pf-residual, pf-stratified, pf-systematic, ukf$"
     with LOCALISERS.added({"dead-reckoning": _DeadReckoning}):
         with pytest.raises(ConfigError, match=r"localiser 'dead-reckoning' has no options for a laser .*" + known):
             laser_localiser_options("dead-reckoning", laser)  # before: {} without a word
