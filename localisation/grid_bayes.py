@@ -23,6 +23,9 @@ predict
     the map's own prior. If every draw is lost the belief starts again uniform, with a warning.
 update
     ``log b += log p(scan | pose)`` on every pose, then normalised.
+support
+    The poses within `PRUNE_NATS` of the most probable (at most `MAX_SUPPORT`), most probable first:
+    ``particles`` (what `cloud` gives and a benchmark counts as the particles held).
 estimate, modes
     The poses of the support are clustered as the particle filters' clouds are (`cluster`: within
     `mode_radius_cm` and `mode_heading_deg`); the estimate is the heaviest cluster's mean, with the
@@ -119,7 +122,7 @@ class GridBayes(Amcl):
         flat = self._log_belief.ravel()
         src = self._support
         mass = np.exp(flat[src] - flat[src].max()) / MOTION_SAMPLES
-        moved = self.motion_model.sample(np.repeat(self._poses(src), MOTION_SAMPLES, axis=0), motion, self.rng)
+        moved = self.motion_model.sample(np.repeat(self.particles, MOTION_SAMPLES, axis=0), motion, self.rng)
         dest = self._index_of(moved)
         ok = dest >= 0
         if not ok.any():
@@ -156,8 +159,7 @@ class GridBayes(Amcl):
 
     def cloud(self) -> tuple[FloatArray, FloatArray] | None:
         """The support's poses, most probable first, and their normalised probabilities."""
-        src = self._support
-        return self._poses(src), log_normalise(self._log_belief.ravel()[src])
+        return self.particles, log_normalise(self._log_belief.ravel()[self._support])
 
     # -- internals ----------------------------------------------------------------------------------
     def _poses(self, flat: IntArray) -> FloatArray:
@@ -199,11 +201,12 @@ class GridBayes(Amcl):
         if keep.size > MAX_SUPPORT:
             keep = keep[np.argpartition(-flat[keep], MAX_SUPPORT)[:MAX_SUPPORT]]
         self._support = keep[np.argsort(-flat[keep], kind="stable")]
+        self.particles = self._poses(self._support)  # the poses the belief carries (benchmarks count them)
         self._estimate, self._modes = self._judge()
 
     def _judge(self) -> tuple[PoseEstimate, list[Mode]]:
         """The estimate (the heaviest cluster's mean, the whole belief's covariance) and the modes."""
-        p, lw = self._poses(self._support), self._log_belief.ravel()[self._support]
+        p, lw = self.particles, self._log_belief.ravel()[self._support]
         w = log_normalise(lw)
         _, cov = cloud_stats(p, w)
         labels, log_masses = cluster(p, lw, self.mode_radius_cm, self.mode_heading_rad, MAX_MODES)
