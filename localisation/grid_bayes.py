@@ -5,9 +5,10 @@ and 8.2) keeps the belief as a probability for every pose of a fixed lattice: ev
 cells of the range table in x and y, every table direction (1 degree) in heading, the cells at least
 the robot's clearance from the walls. Nothing is sampled away: an update multiplies every pose's
 probability by the scan's likelihood there, so a twin place keeps exactly the weight the sweeps give
-it. It is slow and coarse where a particle filter is quick and continuous, which makes it the
-yardstick of the particle filters: it answers "what would the Bayes posterior under these models say",
-the way the exact planners (``shortest``, ``min-link``) answer "what is the best path".
+it. It is coarse where a particle filter is continuous, and its cost grows with the map's area
+rather than with the belief's spread; what it buys is the yardstick of the particle filters: it
+answers "what would the Bayes posterior under these models say", the way the exact planners
+(``shortest``, ``min-link``) answer "what is the best path".
 
 It shares amcl's options and models (`localisation.declarations.AmclOptions`): the measurement
 model's lattice likelihood (`localisation.beam_model.lattice_costs`, every reading: the NXT beam
