@@ -92,6 +92,7 @@ class GridBayes(Amcl):
                  **overrides: Any) -> None:
         self._log_belief: FloatArray = np.zeros((0, 0))
         self._support: IntArray = np.zeros(0, dtype=np.int64)
+        self._grid_rows: IntArray | None = None
         super().__init__(map, options, rng=rng, **overrides)
 
     # -- Localiser interface ------------------------------------------------------------------------
@@ -172,7 +173,7 @@ class GridBayes(Amcl):
 
     def _cell_index(self) -> IntArray:
         """The lattice row of every (x, y) node of the lattice's grid (-1: not a lattice cell), built once."""
-        grid = getattr(self, "_grid_rows", None)
+        grid = self._grid_rows
         if grid is None:
             lat, t = self.lattice, self.table
             ij = np.rint((lat.xy - t.origin) / (t.resolution_cm * lat.step) - 0.5 / lat.step).astype(np.int64)
