@@ -26,6 +26,7 @@ from .amcl_models import model_names
 
 __all__ = [
     "AMCL_ROBOT",
+    "GRID_ROBOT",
     "KALMAN_ROBOT",
     "PF_ROBOT",
     "AmclGlobalStart",
@@ -38,6 +39,8 @@ __all__ = [
     "AnnealingOptions",
     "ConvergenceOptions",
     "EkfOptions",
+    "GridLattice",
+    "GridOptions",
     "KalmanOptions",
     "KalmanSensor",
     "ModeOptions",
@@ -301,6 +304,42 @@ AMCL_ROBOT: dict[str, tuple[str, ...] | str] = {
     "beam_mixture": ("sensor.sonar_model",),
     "clearance": ("global_start.clearance_cm",),
 }
+
+# -- grid -------------------------------------------------------------------------------------------
+
+
+class GridLattice(Options):
+    """The lattice of poses the belief is kept on."""
+
+    lattice_step: int = option(2, "Lattice spacing in range-table cells (1 cm each)", ge=1)
+    clearance_cm: float = option(8.0, "Lattice cells keep this far from the walls (the robot radius)", unit="cm",
+                                 ge=0.0, robot=True)
+
+
+class GridOptions(Options):
+    """Markov localisation on a lattice (``grid``, `localisation.grid_bayes.GridBayes`), with amcl's
+    measurement model (its sensor and lobe options) and the shared motion, convergence and mode options."""
+
+    motion: MotionOptions = MotionOptions()
+    sensor: AmclSensor = AmclSensor()
+    lobe: AmclLobe = AmclLobe()
+    lattice: GridLattice = GridLattice()
+    convergence: ConvergenceOptions = ConvergenceOptions()
+    modes: ModeOptions = ModeOptions()
+
+    def amcl(self) -> AmclOptions:
+        """amcl's options with the same models: what `GridBayes` builds its measurement model, range
+        table, lattice and motion model from."""
+        start = AmclGlobalStart(clearance_cm=self.lattice.clearance_cm, lattice_step=self.lattice.lattice_step)
+        return AmclOptions(motion=self.motion, sensor=self.sensor, lobe=self.lobe, global_start=start,
+                           convergence=self.convergence, modes=self.modes)
+
+
+GRID_ROBOT: dict[str, tuple[str, ...] | str] = {
+    **AMCL_ROBOT,
+    "clearance": ("lattice.clearance_cm",),
+}
+
 
 # -- Kalman trackers ----------------------------------------------------------------------------------
 

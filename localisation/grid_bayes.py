@@ -10,11 +10,11 @@ rather than with the belief's spread; what it buys is the yardstick of the parti
 answers "what would the Bayes posterior under these models say", the way the exact planners
 (``shortest``, ``min-link``) answer "what is the best path".
 
-It shares amcl's options and models (`localisation.declarations.AmclOptions`): the measurement
-model's lattice likelihood (`localisation.beam_model.lattice_costs`, every reading: the NXT beam
-mixture with a `sonar_model`, else the Gaussian of `sigma_hit`), the motion model and its noise, the
-clearance, `lattice_step`, the convergence and mode options. amcl's particle counts, KLD, recovery,
-update thresholds and refinement have no meaning here and are ignored.
+Its models are amcl's, built from its own options (`localisation.declarations.GridOptions`: amcl's
+sensor and lobe groups, the shared motion, convergence and mode groups, and the lattice): the
+measurement model's lattice likelihood (`localisation.beam_model.lattice_costs`, every reading: the
+NXT beam mixture with a `sonar_model`, else the Gaussian of `sigma_hit`), the range table, the motion
+model and its noise.
 
 predict
     Every pose holding probability within `PRUNE_NATS` of the most probable (at most
@@ -41,18 +41,19 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
-from toolkit.world import ConfigError, Map, Pose, RngLike, Scan, angle_diff
+from toolkit.world import ConfigError, Map, Options, Pose, RngLike, Scan, angle_diff
 from toolkit.world.arrays import FloatArray, IntArray
 
 from .amcl import Amcl
-from .base import HeadingPrior, Mode, Motion, PoseEstimate, Prior
+from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import lattice_costs
 from .clusters import cloud_stats, cluster, in_mode
-from .declarations import AmclOptions
+from .declarations import GRID_ROBOT, GridOptions
 from .resampling import log_normalise
 
 __all__ = ["MAX_SUPPORT", "MOTION_SAMPLES", "PRUNE_NATS", "GridBayes"]
@@ -73,32 +74,51 @@ MAX_POSES = 30_000_000
 predict's sums."""
 
 
-class GridBayes(Amcl):
-    """Markov localisation on a lattice (see the module docstring); amcl's options and models.
+class GridBayes(Localiser):
+    """Markov localisation on a lattice (see the module docstring).
 
     Parameters
     ----------
     map : Map
-    options : AmclOptions, optional
+    options : GridOptions, optional
+        The options (None: the defaults).
     rng : None, int or Generator
         Seed of the motion draws.
     **overrides
-        Options on top of `options`, as `Amcl` takes them.
+        Options on top of `options`, by dotted path (``**{"lattice.lattice_step": 4}``) or by the name of
+        one field (``lattice_step=4``).
     """
 
     name: ClassVar[str] = "grid"
+    options_model: ClassVar[type[Options] | None] = GridOptions
+    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = GRID_ROBOT
 
-    def __init__(self, map: Map, options: AmclOptions | None = None, *, rng: RngLike = None,
+    def __init__(self, map: Map, options: GridOptions | None = None, *, rng: RngLike = None,
                  **overrides: Any) -> None:
+        super().__init__(map, rng=rng)
+        o: GridOptions = self.configure(options, overrides)
+        self.options = o
+        models = Amcl(map, o.amcl(), rng=0)  # for its models alone: its own particles and seed are never used
+        self.measurement, self.motion_model = models.measurement, models.motion_model
+        self.table, self.lattice = models.table, models.lattice
+        self.converged_xy_cm = o.convergence.converged_xy_cm
+        self.converged_heading_rad = math.radians(o.convergence.converged_heading_deg)
+        self.mode_radius_cm, self.ambiguity_nats = o.modes.mode_radius_cm, o.modes.ambiguity_nats
+        self.mode_heading_rad = math.radians(o.modes.mode_heading_deg)
+        self.iterations = 0
+        self.particles: FloatArray = np.zeros((0, 3))
         self._log_belief: FloatArray = np.zeros((0, 0))
         self._support: IntArray = np.zeros(0, dtype=np.int64)
         self._grid_rows: IntArray | None = None
-        super().__init__(map, options, rng=rng, **overrides)
+        self._heading_prior: HeadingPrior | None = None
+        self._uniform = True
+        self._estimate: PoseEstimate | None = None
+        self._modes: list[Mode] = []
+        self.reset()
 
     # -- Localiser interface ------------------------------------------------------------------------
     def reset(self, prior: Prior | HeadingPrior | None = None) -> None:
         self.iterations = 0
-        self._updates = 0
         self._modes = []
         lat = self.lattice
         n_ang = self.table.n_angles
@@ -142,7 +162,6 @@ class GridBayes(Amcl):
             return
         costs = lattice_costs(self.lattice, rel, meas, self.measurement.lattice_model(), max_beams=0)
         self.iterations += 1
-        self._updates += 1
         if self._heading_prior is not None:
             costs = costs + self._heading_prior.direction_costs(costs.shape[1])[None, :]
             self._heading_prior = None

@@ -13,6 +13,11 @@ of precise readings over a building. What changes, per family:
     update. The field on a `FIELD_RESOLUTION_CM` grid. Fresh particles are drawn uniformly (a draw
     from the scan would cast the whole range table) and there is no ambiguity check (its lattice
     needs the table as well). No clearance: a bag's robot size is not known.
+``grid``
+    The laser's precision as amcl's (``sigma_hit`` of `SHARP_LASER`), no clearance, and a
+    `GRID_LASER_STEP_CM` lattice: a lattice pose per 2 cm of a building is more than any memory holds
+    (a belief over 30 M poses is refused, naming the option), and even this one needs the range table
+    the field model spares amcl.
 ``paper-pf`` and the filterpy particle filters
     Exact ray casting instead of the table (``use_table=False``, so a global start draws uniformly),
     the laser's noise as ``sensor_sigma_cm`` and its range limit, `PF_PARTICLES` particles.
@@ -38,10 +43,12 @@ from typing import Any
 from localisation.amcl import Amcl
 from localisation.base import LOCALISERS
 from localisation.filterpy_variants import KalmanLocaliser
+from localisation.grid_bayes import GridBayes
 from localisation.particle_filter import ParticleFilter
 from toolkit.world import ConfigError, LaserScanner, RegistryError
 
-__all__ = ["FIELD_RESOLUTION_CM", "KALMAN_BEAMS", "KALMAN_GATE_MIN_CM", "KALMAN_GATE_SD", "NAV2_LASER", "PF_PARTICLES",
+__all__ = ["FIELD_RESOLUTION_CM", "GRID_LASER_STEP_CM",
+           "KALMAN_BEAMS", "KALMAN_GATE_MIN_CM", "KALMAN_GATE_SD", "NAV2_LASER", "PF_PARTICLES",
            "SHARP_LASER", "LaserOptions", "laser_localiser_options", "laser_options_added", "laser_options_for"]
 
 LaserOptions = Callable[[LaserScanner], dict[str, Any]]
@@ -57,6 +64,8 @@ SHARP_LASER = {"sigma_hit": 5.0, "max_beams": 120, "min_particles": 3000, "max_p
 """What amcl changes from `NAV2_LASER` for a precise laser (cm): measured in docs/ros-bags.md."""
 PF_PARTICLES = 300
 """Particles of the paper's filters on a laser (their exact ray casting costs particles x readings)."""
+GRID_LASER_STEP_CM = 5
+"""Lattice spacing (range-table cells of 1 cm) of the grid on a laser's map."""
 KALMAN_BEAMS = 120
 KALMAN_GATE_SD = 5.0
 KALMAN_GATE_MIN_CM = 10.0
@@ -112,6 +121,12 @@ def _amcl(laser: LaserScanner) -> dict[str, Any]:
     return {**NAV2_LASER, **SHARP_LASER, "laser_max_range": float(laser.max_range_cm),
             "field_resolution_cm": FIELD_RESOLUTION_CM, "recovery_sampler": "uniform", "ambiguity_nats": 0.0,
             "clearance_cm": 0.0}
+
+
+@laser_options_for(GridBayes)
+def _grid(laser: LaserScanner) -> dict[str, Any]:
+    return {"sigma_hit": SHARP_LASER["sigma_hit"], "laser_max_range": float(laser.max_range_cm), "clearance_cm": 0.0,
+            "lattice_step": GRID_LASER_STEP_CM}
 
 
 @laser_options_for(ParticleFilter)

@@ -11,7 +11,7 @@ from localisation import LOCALISERS, GridBayes, HeadingPrior, Motion, Prior, mak
 from localisation.beam_model import lattice_costs
 from localisation.scan import process_scan
 from toolkit.robots.sim import SimRobot
-from toolkit.world import Map, Pose, Scan, angle_diff, load_map, map_from_dict
+from toolkit.world import ConfigError, Map, Pose, Scan, angle_diff, load_map, map_from_dict
 
 
 def _scan(m: Map, pose: Pose, seed: int = 0) -> Scan:
@@ -27,10 +27,15 @@ def map1() -> Map:
     return load_map("map1")
 
 
-def test_registered_and_shares_amcls_options(map1: Map) -> None:
+def test_registered_with_options_of_its_own(map1: Map) -> None:
     assert LOCALISERS.get("grid") is GridBayes
     g = make_localiser("grid", map1, rng=0, lattice_step=4, clearance_cm=10.0)
     assert isinstance(g, GridBayes) and g.lattice.step == 4
+    near = make_localiser("grid", map1, rng=0, lattice_step=4, clearance_cm=4.0)
+    assert isinstance(near, GridBayes) and len(near.lattice) > len(g.lattice)  # the clearance reaches the lattice
+    assert float(np.min(map1.wall_distance(g.lattice.xy))) >= 8.5
+    with pytest.raises(ConfigError, match="max_particles"):  # amcl's particle options are not the grid's
+        make_localiser("grid", map1, rng=0, max_particles=10)
     assert g.lattice.xy.shape[0] > 100 and not g.estimate().converged  # uniform before any scan
 
 
