@@ -190,21 +190,26 @@ class GridBayes(Localiser):
         xy = self.lattice.xy[cell]
         return np.column_stack([xy, direction * (2.0 * math.pi / n_ang)])
 
+    def _node(self, xy: FloatArray) -> IntArray:
+        """The (i, j) node of the lattice's grid nearest each position (N, 2): the lattice's cells lie at the
+        table's origin + (step * (i, j) + 0.5) * resolution."""
+        lat, t = self.lattice, self.table
+        return np.rint((xy - t.origin) / (t.resolution_cm * lat.step) - 0.5 / lat.step).astype(np.int64)
+
     def _cell_index(self) -> IntArray:
-        """The lattice row of every (x, y) node of the lattice's grid (-1: not a lattice cell), built once."""
+        """The lattice row of every (i, j) node of the lattice's grid (-1: not a lattice cell), built once."""
         grid = self._grid_rows
         if grid is None:
-            lat, t = self.lattice, self.table
-            ij = np.rint((lat.xy - t.origin) / (t.resolution_cm * lat.step) - 0.5 / lat.step).astype(np.int64)
+            ij = self._node(self.lattice.xy)
             grid = np.full(tuple(ij.max(axis=0) + 2), -1, dtype=np.int64)
-            grid[ij[:, 0], ij[:, 1]] = np.arange(len(lat))
+            grid[ij[:, 0], ij[:, 1]] = np.arange(len(self.lattice))
             self._grid_rows = grid
         return grid
 
     def _index_of(self, poses: FloatArray) -> IntArray:
         """The flat belief index of the lattice pose nearest each pose (N, 3); -1 off the lattice."""
-        lat, t, grid = self.lattice, self.table, self._cell_index()
-        ij = np.rint((poses[:, :2] - t.origin) / (t.resolution_cm * lat.step) - 0.5 / lat.step).astype(np.int64)
+        t, grid = self.table, self._cell_index()
+        ij = self._node(poses[:, :2])
         inside = (ij >= 0).all(axis=1) & (ij[:, 0] < grid.shape[0]) & (ij[:, 1] < grid.shape[1])
         row = np.full(poses.shape[0], -1, dtype=np.int64)
         row[inside] = grid[ij[inside, 0], ij[inside, 1]]
