@@ -77,7 +77,7 @@ from .amcl_models import MEASUREMENT_MODELS, MeasurementModel, model_class
 from .amcl_sampling import ParticleDraws
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import lattice_costs
-from .clusters import cloud_stats, cluster
+from .clusters import cloud_stats, cluster, spread
 from .declarations import AMCL_ROBOT, AmclOptions
 from .likelihood_field import DistanceField
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, range_lattice, range_table
@@ -499,7 +499,7 @@ class Amcl(ParticleDraws, Localiser):
         w = self._estimate_weights()
         p = self.particles
         mean, cov = cloud_stats(p, w)
-        spread_xy, spread_th = math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))
+        spread_xy, spread_th = spread(cov)
         converged = not self._uniform and spread_xy < self.converged_xy_cm and spread_th < self.converged_heading_rad
         if not self._uniform and (spread_xy > self.mode_radius_cm or spread_th > self.mode_heading_rad):
             # a cloud of several places: the mean of them all is no place at all; as nav2, report the

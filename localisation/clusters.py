@@ -11,7 +11,7 @@ from toolkit.world.arrays import FloatArray, IntArray
 
 from .base import Mode
 
-__all__ = ["cloud_stats", "cluster", "describe_modes", "in_mode", "mode_stds"]
+__all__ = ["cloud_stats", "cluster", "describe_modes", "in_mode", "mode_stds", "spread"]
 
 
 def cloud_stats(p: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -26,6 +26,12 @@ def cloud_stats(p: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
     return np.array([mx, my, mt]), 0.5 * (cov + cov.T)
 
 
+def spread(cov: FloatArray) -> tuple[float, float]:
+    """The spread of a pose covariance (3, 3): sqrt(var x + var y) (cm) and the heading's standard deviation
+    (rad), each at least 0."""
+    return math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))
+
+
 def mode_stds(p: FloatArray, w: FloatArray, labels: IntArray, keep: IntArray) -> FloatArray:
     """(K, 2) spread of each kept mode: sqrt(var x + var y) (cm) and heading std (rad)."""
     out = np.zeros((keep.size, 2))
@@ -34,7 +40,7 @@ def mode_stds(p: FloatArray, w: FloatArray, labels: IntArray, keep: IntArray) ->
         wk = w[members]
         wk = wk / wk.sum() if wk.sum() > 0 else np.full(wk.size, 1.0 / wk.size)
         _, c = cloud_stats(p[members], wk)
-        out[i] = math.sqrt(max(c[0, 0] + c[1, 1], 0.0)), math.sqrt(max(c[2, 2], 0.0))
+        out[i] = spread(c)
     return out
 
 

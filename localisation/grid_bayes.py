@@ -52,7 +52,7 @@ from toolkit.world.arrays import FloatArray, IntArray
 from .amcl import Amcl
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
 from .beam_model import lattice_costs
-from .clusters import cloud_stats, cluster, in_mode
+from .clusters import cloud_stats, cluster, in_mode, spread
 from .declarations import GRID_ROBOT, GridOptions
 from .resampling import log_normalise
 
@@ -247,7 +247,7 @@ class GridBayes(Localiser):
                 continue  # the edge of a heavier mode, cut off by the clusters' radius: the same place
             modes.append(Mode(Pose.from_array(mean), float(math.exp(log_masses[k])), float(lw[members].max()),
                               int(members.sum())))
-        spread_xy, spread_th = math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))
+        spread_xy, spread_th = spread(cov)
         converged = (not self._uniform and spread_xy < self.converged_xy_cm
                      and spread_th < self.converged_heading_rad)
         return PoseEstimate(modes[0].pose, cov, bool(converged), self.iterations), modes

@@ -50,7 +50,7 @@ from .ambiguity import mass_near, other_candidates
 from .annealing import GaussianPrior, best_lattice_poses, heading_gaussian, log_prior, next_beta, predicted_prior
 from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
 from .beam_model import BeamLikelihood, MeasurementModel, echo_mask, lattice_costs, scan_readings
-from .clusters import cloud_stats, describe_modes, mode_stds
+from .clusters import cloud_stats, describe_modes, mode_stds, spread
 from .declarations import PF_ROBOT, PfOptions
 from .models import MotionModel, RangeLattice, RangeLikelihood, RangeTable, exact_ranges
 from .pf_ranges import outlier_fraction, range_setup
@@ -541,7 +541,7 @@ class ParticleFilter(Localiser):
             return idx, log_w, j_std, split.labels[idx]
         idx = self.resample(w, self.n_particles)
         log_w = np.full(idx.size, -math.log(idx.size))
-        j_std = np.array([[math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)), math.sqrt(max(cov[2, 2], 0.0))]])
+        j_std = np.array([spread(cov)])
         return idx, log_w, j_std, None
 
     def _finish_scan(self, rel: FloatArray, meas: FloatArray, s_kept: FloatArray) -> None:
