@@ -129,10 +129,10 @@ class GridBayes(Localiser):
         self._heading_prior = prior if isinstance(prior, HeadingPrior) else None  # weighs the first update
         if isinstance(prior, Prior):
             poses = self._poses(np.arange(logb.size))
-            cov = np.asarray(prior.cov, dtype=float)
+            cov = self._no_narrower_than_a_cell(np.asarray(prior.cov, dtype=float))
             d = poses - prior.mean.as_array()
             d[:, 2] = angle_diff(poses[:, 2], prior.mean.theta)
-            logb = -0.5 * np.einsum("ni,ij,nj->n", d, np.linalg.inv(0.5 * (cov + cov.T)), d).reshape(logb.shape)
+            logb = -0.5 * np.einsum("ni,ij,nj->n", d, np.linalg.inv(cov), d).reshape(logb.shape)
         self._uniform = not isinstance(prior, Prior)
         self._set_belief(logb)
 
@@ -183,6 +183,19 @@ class GridBayes(Localiser):
         return self.particles, log_normalise(self._log_belief.ravel()[self._support])
 
     # -- internals ----------------------------------------------------------------------------------
+    def _no_narrower_than_a_cell(self, cov: FloatArray) -> FloatArray:
+        """A prior's covariance (3, 3), symmetrised; where it is narrower than one lattice cell in some
+        direction (a fix on one lattice pose has none: singular), widened there to the cell's own variance
+        (a uniform cell: step^2 / 12, and a direction's (2 pi / n)^2 / 12); unchanged otherwise."""
+        cov = 0.5 * (cov + cov.T)
+        cell = np.sqrt(np.array([2 * [(self.lattice.step * self.table.resolution_cm) ** 2 / 12.0]
+                                 + [(2.0 * math.pi / self.table.n_angles) ** 2 / 12.0]]).ravel())
+        scaled = cov / np.outer(cell, cell)
+        vals, vecs = np.linalg.eigh(scaled)
+        if vals.min() >= 1.0:
+            return cov
+        return (vecs * np.maximum(vals, 1.0)) @ vecs.T * np.outer(cell, cell)
+
     def _poses(self, flat: IntArray) -> FloatArray:
         """The lattice poses (N, 3) of flat indices into the belief (cell * directions + direction)."""
         n_ang = self.table.n_angles

@@ -117,3 +117,15 @@ def test_a_point_symmetric_room_leaves_two_modes() -> None:
     found = sorted(min(_off(md.pose, t) for md in modes) for t in (truth, twin))
     assert all(cm < 5.0 and deg < 5.0 for cm, deg in found), found
     assert min(md.weight for md in modes) > 0.05
+
+
+def test_a_prior_narrower_than_a_cell_is_widened_to_one(map1: Map) -> None:
+    # the global strategy restarts a fix from the localiser's own estimate, and a grid fix on one lattice
+    # pose has a zero covariance: the prior is then the cell around it, not a singular matrix
+    g = GridBayes(map1, rng=0, lattice_step=2)
+    start = Pose(20.5, 30.5, 0.0)
+    g.reset(Prior(start, np.zeros((3, 3))))
+    err_cm, err_deg = _off(g.estimate().pose, start)
+    assert err_cm < 1.5 and err_deg < 1.0
+    wide = np.diag([9.0, 9.0, 0.01])
+    assert np.array_equal(g._no_narrower_than_a_cell(wide), wide)  # a prior wider than a cell is kept as given
