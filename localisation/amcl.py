@@ -358,16 +358,16 @@ class Amcl(ParticleDraws, Localiser):
         if self._uniform:
             n = self.max_particles
             from_prior = self.global_init != "scan"
-            self.particles = self.uniform_poses(n) if from_prior else self.scan_poses(n, rel, meas)
-            self.log_weights = np.full(n, -math.log(n))
+            if from_prior:
+                self.particles, self.log_weights = self.uniform_poses(n), np.full(n, -math.log(n))
+            else:
+                self._draw_from_scan(n, rel, meas)
             self._weighed = np.ones(n, dtype=bool)
             self._uniform = False
         lik = self.log_likelihood(self.particles, rel, meas)
         if not np.isfinite(lik).any():  # every particle left the free space: nothing to weigh
             log.info("no particle inside the free space: drawing the belief from the scan")
-            n = self.max_particles
-            self.particles = self.scan_poses(n, rel, meas)
-            self.log_weights = np.full(n, -math.log(n))
+            self._draw_from_scan(self.max_particles, rel, meas)
             lik = self.log_likelihood(self.particles, rel, meas)
             self._fixing = True
             from_prior = False
@@ -377,6 +377,13 @@ class Amcl(ParticleDraws, Localiser):
         self.log_weights = self.log_weights + (lik if from_prior else post)
         self._weighed = np.ones(self.particles.shape[0], dtype=bool)
         return lik, post
+
+    def _draw_from_scan(self, n: int, rel: FloatArray, meas: FloatArray) -> None:
+        """A belief of `n` particles drawn from the scan (`scan_draws`), weighed by the inverse of the
+        probability of their draw, so that the scan's weighting then gives each place its posterior mass
+        instead of the draw's times the posterior's."""
+        self.particles, log_q = self.scan_draws(n, rel, meas)
+        self.log_weights = -log_q - np.logaddexp.reduce(-log_q)
 
     def _check_fix(self, rel: FloatArray, meas: FloatArray, post: FloatArray) -> None:
         """A new fix refined, checked for a twin explaining the scan as well, and its modes listed."""

@@ -129,8 +129,13 @@ class ParticleDraws:
 
 
     def scan_poses(self, n: int, rel: FloatArray, meas: FloatArray) -> FloatArray:
+        """`n` poses drawn from the scan (`scan_draws`)."""
+        return self.scan_draws(n, rel, meas)[0]
+
+    def scan_draws(self, n: int, rel: FloatArray, meas: FloatArray) -> tuple[FloatArray, FloatArray]:
         """`n` poses drawn from the lattice scored against the scan, tempered to about `scan_sample_ess`
-        effective candidates, jittered within their lattice cell and direction."""
+        effective candidates, jittered within their lattice cell and direction; and the log probability of
+        each one's lattice pose under that draw (an importance weight divides by it)."""
         ssd = self._lattice_costs(rel, meas).ravel()
         top = min(20000, ssd.size)
         cand = np.argpartition(ssd, top - 1)[:top]
@@ -143,10 +148,11 @@ class ParticleDraws:
             ess = w.sum() ** 2 / (w * w).sum()
             lo, hi = (mid, hi) if ess >= target else (lo, mid)
         w = np.exp(-0.5 * lo * s)
-        idx = cand[systematic_resample(w / w.sum(), n, self.rng)]
-        cell, head = np.divmod(idx, self.table.n_angles)
+        drawn = systematic_resample(w / w.sum(), n, self.rng)
+        log_q = -0.5 * lo * s[drawn] - math.log(float(w.sum()))
+        cell, head = np.divmod(cand[drawn], self.table.n_angles)
         half = 0.5 * self.lattice.step * self.table.resolution_cm
         xy = self.lattice.xy[cell] + self.rng.uniform(-half, half, size=(n, 2))
         dth = math.pi / self.table.n_angles
         theta = wrap_angle(head * (2.0 * math.pi / self.table.n_angles) + self.rng.uniform(-dth, dth, size=n))
-        return np.column_stack([xy, theta])
+        return np.column_stack([xy, theta]), log_q

@@ -295,3 +295,44 @@ def test_an_ambiguous_first_fix_draws_fresh_particles_from_the_sweep() -> None:
     assert not loc.estimate().converged and truth_among(candidate_poses(loc), 180.0, 30.0)
     assert loc.estimate().pose.distance_to(Pose(180.0, 30.0, 0.0)) > 100.0  # the twin is the estimate
     assert loc.injected > 0
+
+
+def test_a_first_fix_drawn_from_the_sweep_gives_each_place_its_posterior_mass() -> None:
+    """The sweep at (126, 168) leaves three places; the exact posterior on the lattice (`grid`) gives
+    them about 0.57 / 0.32 / 0.11. amcl draws its first particles from the sweep's tempered lattice
+    likelihood, so each must be weighed by the likelihood over the probability of its draw: weighed by
+    the likelihood alone, the places' masses were those of the likelihood squared (0.80 / 0.18 / 0.02),
+    and along real routes the heaviest place outweighed the true one the second sweep pointed to."""
+    from conftest import REAL_NXT
+
+    from localisation.clusters import cluster
+    from localisation.robot_options import localiser_options
+    from toolkit.real_sonar.sweeps import load_sweep_set
+    from toolkit.world import RobotModel
+
+    sweeps = load_sweep_set(REAL_NXT)
+    scan = sweeps.at(126.0, 168.0)[0].scan()
+    robot = RobotModel(NxtSonar(), readings="real")
+
+    def places(name: str) -> list[tuple[float, float, float]]:
+        """The three heaviest places (20 cm, 30 degrees) of the belief after the sweep: (mass, x, y)."""
+        loc = make_localiser(name, sweeps.map, rng=0, **localiser_options(name, robot))
+        loc.reset(None)
+        loc.update(scan)
+        cloud = loc.cloud()
+        assert cloud is not None
+        p, w = cloud
+        with np.errstate(divide="ignore"):
+            labels, log_mass = cluster(p, np.log(w), 20.0, math.radians(30.0), 6)
+        out = []
+        for k in np.argsort(-log_mass)[:3]:
+            at = labels == k
+            x, y = np.average(p[at, :2], axis=0, weights=w[at])
+            out.append((float(np.exp(log_mass[k])), float(x), float(y)))
+        return out
+
+    exact, drawn = places("grid"), places("amcl")
+    assert exact[0][0] < 0.75 and exact[2][0] > 0.05  # three places that matter
+    for mass, x, y in exact:
+        match = [m for m, px, py in drawn if math.hypot(px - x, py - y) < 10.0]
+        assert match and abs(match[0] - mass) < 0.1, (exact, drawn)
