@@ -41,8 +41,10 @@ Measurement models, registered by name (`model`, nav2's ``laser_model_type``)
 
 A global start (``reset(None)``) draws `max_particles` particles from the first scan (the paper-pf
 lattice of poses scored against the scan, tempered to keep about `scan_sample_ess` distinct
-candidates; ``global_init="uniform"`` draws them uniformly, as nav2 does). One update weighs the
-particles once by the scan (no annealing) and resamples every `resample_interval` updates.
+candidates, each weighed by the inverse of its draw's probability so that the scan's weighting gives
+every place its posterior mass; ``global_init="uniform"`` draws them uniformly, as nav2 does). One
+update weighs the particles once by the scan (no annealing) and resamples every `resample_interval`
+updates.
 
 Parameter names follow nav2 where they mean the same (lengths in cm, not m).
 """
