@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any, ClassVar
 
@@ -77,7 +76,7 @@ from .adaptive import kld_bound, log_blend, log_mean_exp
 from .ambiguity import lattice_candidates
 from .amcl_models import MEASUREMENT_MODELS, MeasurementModel, model_class
 from .amcl_sampling import ParticleDraws
-from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
+from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, RobotMapping
 from .beam_model import lattice_costs
 from .clusters import cloud_stats, cluster, spread
 from .declarations import AMCL_ROBOT, AmclOptions
@@ -203,7 +202,7 @@ class Amcl(ParticleDraws, Localiser):
     name: ClassVar[str] = "amcl"
     options_model: ClassVar[type[Options] | None] = AmclOptions
     _heading_prior: HeadingPrior | None = None
-    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = AMCL_ROBOT
+    robot_options: ClassVar[RobotMapping | None] = AMCL_ROBOT
 
     def __init__(self, map: Map, options: AmclOptions | None = None, *, rng: RngLike = None,
                  **overrides: Any) -> None:

@@ -15,7 +15,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeAlias
 
 import numpy as np
 
@@ -42,9 +42,15 @@ __all__ = [
     "Motion",
     "PoseEstimate",
     "Prior",
+    "RobotMapping",
     "Snapshot",
     "make_localiser",
 ]
+
+RobotMapping: TypeAlias = Mapping[str, tuple[str | None, ...] | str]
+"""A localiser's ``robot_options``: for every facet of the robot model, the dotted options its values become
+(in the facet's order; None for a value the localiser does not use), or a sentence saying why it does not
+use the facet at all."""
 
 
 LOCALISERS: Registry[Localiser] = Registry("localiser")
@@ -248,7 +254,7 @@ class Localiser(Configurable, ABC):
     options_model: ClassVar[type[Options] | None] = None
     """The options (a `toolkit.world.Options` model; `configure` builds one); None for a plug-in that
     declares none (its constructor then checks what it is given)."""
-    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = None
+    robot_options: ClassVar[RobotMapping | None] = None
     """For every facet of `toolkit.world.RobotModel`, the options it becomes (in the facet's order) or
     why the localiser does not use it (`localisation.robot_options.localiser_options`); None: the
     localiser cannot be told a robot model."""

@@ -23,6 +23,7 @@ from toolkit.world import NxtSonar, Options, option
 from toolkit.world.params import Choices
 
 from .amcl_models import model_names
+from .base import RobotMapping
 
 __all__ = [
     "AMCL_ROBOT",
@@ -43,6 +44,8 @@ __all__ = [
     "GridOptions",
     "KalmanOptions",
     "KalmanSensor",
+    "LatticeLobe",
+    "LatticeSensor",
     "ModeOptions",
     "MotionOptions",
     "PfGlobalStart",
@@ -189,7 +192,7 @@ class PfOptions(Options):
     modes: PfModes = PfModes()
 
 
-PF_ROBOT: dict[str, tuple[str, ...] | str] = {
+PF_ROBOT: RobotMapping = {
     "motion": ("motion.noise_model", "motion.motion_noise", "motion.turn_noise"),
     "sensor_sigma": ("sensor.sensor_sigma_cm",),
     "lobe": ("ranges.beam_width_deg", "ranges.critical_incidence_deg", "ranges.beam_rays"),
@@ -223,33 +226,43 @@ class AmclUpdate(Options):
     update_min_a: float = option(0.0, "... or after this much turning (nav2: 0.2 rad)", unit="rad", ge=0.0)
 
 
-class AmclSensor(Options):
-    """The measurement model's mixture and its inputs (nav2's laser model)."""
+class LatticeSensor(Options):
+    """What a lattice of poses is scored with: the readings' noise, their range limit and the sonar model."""
 
     sigma_hit: float = option(1.0, "Beam mixture: reading standard deviation", unit="cm", ge=1e-6, robot=True)
+    laser_max_range: float = option(255.0, "Largest reading: the random part's support", unit="cm", ge=1e-6,
+                                    robot=True)
+    sonar_model: SonarModel = option(None, _SONAR_TEXT, robot=True)
+
+
+class AmclSensor(LatticeSensor):
+    """The measurement model's mixture and its inputs (nav2's laser model)."""
+
     z_hit: float = option(0.95, "Beam mixture: weight of the true reading", ge=0.0)
     z_short: float = option(0.0, "Beam mixture: weight of short readings", ge=0.0)
     z_rand: float = option(0.05, "Beam mixture: weight of random readings", ge=0.0)
     lambda_short: float = option(0.1, "Beam mixture: rate of short readings", unit="1/cm", ge=0.0)
-    laser_max_range: float = option(255.0, "Largest reading: the random part's support", unit="cm", ge=1e-6,
-                                    robot=True)
     laser_likelihood_max_dist: float = option(20.0, "Field model: distances to walls capped at this", unit="cm",
                                               ge=0.0)
     max_beams: int = option(0, "Readings used per update at most (0: all)", ge=0)
     field_resolution_cm: float = option(0.5, "Node spacing of the distance field", unit="cm", ge=0.01)
     beam_interpolation: bool = option(True, "Beam model: interpolate the range table's expected ranges")
     cast_exact: bool = option(False, "Beam model: cast every beam exactly instead of reading the range table")
-    sonar_model: SonarModel = option(None, _SONAR_TEXT, robot=True)
 
 
-class AmclLobe(Options):
-    """The sonar's lobe in the beam model's range table."""
+class LatticeLobe(Options):
+    """The sonar's lobe in the range table a lattice of poses is scored with."""
 
     beam_width_deg: float = option(0.0, "Sonar lobe of the beam model's range table (0: a thin ray)", unit="deg",
                                    ge=0.0, le=180.0, robot=True)
     critical_incidence_deg: float | None = option(None, "With a lobe: rays further than this from a wall's normal "
                                                   "do not echo (null: all echo)", unit="deg", ge=0.0, le=90.0,
                                                   robot=True)
+
+
+class AmclLobe(LatticeLobe):
+    """The sonar's lobe in the beam model's range table."""
+
     lobe_rays: int = option(21, "Rays of an exactly cast lobe where the table cannot be trusted (0: table only)",
                             ge=0, robot=True)
 
@@ -296,7 +309,7 @@ class AmclOptions(Options):
     modes: ModeOptions = ModeOptions()
 
 
-AMCL_ROBOT: dict[str, tuple[str, ...] | str] = {
+AMCL_ROBOT: RobotMapping = {
     "motion": ("motion.noise_model", "motion.motion_noise", "motion.turn_noise"),
     "sensor_sigma": ("sensor.sigma_hit",),
     "lobe": ("lobe.beam_width_deg", "lobe.critical_incidence_deg", "lobe.lobe_rays"),
@@ -317,12 +330,13 @@ class GridLattice(Options):
 
 
 class GridOptions(Options):
-    """Markov localisation on a lattice (``grid``, `localisation.grid_bayes.GridBayes`), with amcl's
-    measurement model (its sensor and lobe options) and the shared motion, convergence and mode options."""
+    """Markov localisation on a lattice (``grid``, `localisation.grid_bayes.GridBayes`), with the part of
+    amcl's measurement model that scores a lattice (its sensor and lobe options of `LatticeSensor` and
+    `LatticeLobe`) and the shared motion, convergence and mode options."""
 
     motion: MotionOptions = MotionOptions()
-    sensor: AmclSensor = AmclSensor()
-    lobe: AmclLobe = AmclLobe()
+    sensor: LatticeSensor = LatticeSensor()
+    lobe: LatticeLobe = LatticeLobe()
     lattice: GridLattice = GridLattice()
     convergence: ConvergenceOptions = ConvergenceOptions()
     modes: ModeOptions = ModeOptions()
@@ -331,12 +345,15 @@ class GridOptions(Options):
         """amcl's options with the same models: what `GridBayes` builds its measurement model, range
         table, lattice and motion model from."""
         start = AmclGlobalStart(clearance_cm=self.lattice.clearance_cm, lattice_step=self.lattice.lattice_step)
-        return AmclOptions(motion=self.motion, sensor=self.sensor, lobe=self.lobe, global_start=start,
+        sensor = AmclSensor(**{k: getattr(self.sensor, k) for k in LatticeSensor.model_fields})
+        lobe = AmclLobe(**{k: getattr(self.lobe, k) for k in LatticeLobe.model_fields})
+        return AmclOptions(motion=self.motion, sensor=sensor, lobe=lobe, global_start=start,
                            convergence=self.convergence, modes=self.modes)
 
 
-GRID_ROBOT: dict[str, tuple[str, ...] | str] = {
+GRID_ROBOT: RobotMapping = {
     **AMCL_ROBOT,
+    "lobe": ("lobe.beam_width_deg", "lobe.critical_incidence_deg", None),  # the lattice's table casts no lobe rays
     "clearance": ("lattice.clearance_cm",),
 }
 
@@ -384,7 +401,7 @@ class UkfOptions(KalmanOptions):
     sigma_points: SigmaPoints = SigmaPoints()
 
 
-KALMAN_ROBOT: dict[str, tuple[str, ...] | str] = {
+KALMAN_ROBOT: RobotMapping = {
     "motion": ("motion.noise_model", "motion.motion_noise", "motion.turn_noise"),
     "sensor_sigma": ("sensor.sensor_sigma_cm",),
     "lobe": "a Kalman filter's measurement is one thin ray per reading; the lobe widens its sigma instead",

@@ -41,7 +41,7 @@ import logging
 import math
 import threading
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, ClassVar
 
@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike
 from toolkit.world import LocalisationError, Map, Options, Pose, RngLike, Scan, angle_diff, wrap_angle
 from toolkit.world.arrays import FloatArray, IntArray
 
-from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior
+from .base import HeadingPrior, Localiser, Motion, PoseEstimate, Prior, RobotMapping
 from .declarations import KALMAN_ROBOT, EkfOptions, KalmanOptions, UkfOptions
 from .models import MotionModel, exact_ranges
 from .particle_filter import ParticleFilter
@@ -286,7 +286,7 @@ class KalmanLocaliser(Localiser):
     """
 
     needs_prior: ClassVar[bool] = True
-    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = KALMAN_ROBOT
+    robot_options: ClassVar[RobotMapping | None] = KALMAN_ROBOT
 
     def __init__(self, map: Map, options: KalmanOptions | None = None, *, rng: RngLike = None,
                  **overrides: Any) -> None:

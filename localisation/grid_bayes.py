@@ -10,8 +10,9 @@ rather than with the belief's spread; what it buys is the yardstick of the parti
 answers "what would the Bayes posterior under these models say", the way the exact planners
 (``shortest``, ``min-link``) answer "what is the best path".
 
-Its models are amcl's, built from its own options (`localisation.declarations.GridOptions`: amcl's
-sensor and lobe groups, the shared motion, convergence and mode groups, and the lattice): the
+Its models are amcl's, built from its own options (`localisation.declarations.GridOptions`: the part of
+amcl's sensor and lobe groups a lattice is scored with, `LatticeSensor` and `LatticeLobe`, the shared
+motion, convergence and mode groups, and the lattice): the
 measurement model's lattice likelihood (`localisation.beam_model.lattice_costs`, every reading: the
 NXT beam mixture with a `sonar_model`, else the Gaussian of `sigma_hit`), the range table, the motion
 model and its noise.
@@ -41,7 +42,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -50,7 +50,7 @@ from toolkit.world import ConfigError, Map, Options, Pose, RngLike, Scan, angle_
 from toolkit.world.arrays import FloatArray, IntArray
 
 from .amcl import Amcl
-from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior
+from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, RobotMapping
 from .beam_model import lattice_costs
 from .clusters import cloud_stats, cluster, in_mode, spread
 from .declarations import GRID_ROBOT, GridOptions
@@ -91,7 +91,7 @@ class GridBayes(Localiser):
 
     name: ClassVar[str] = "grid"
     options_model: ClassVar[type[Options] | None] = GridOptions
-    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = GRID_ROBOT
+    robot_options: ClassVar[RobotMapping | None] = GRID_ROBOT
 
     def __init__(self, map: Map, options: GridOptions | None = None, *, rng: RngLike = None,
                  **overrides: Any) -> None:

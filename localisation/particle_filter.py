@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any, ClassVar
 
@@ -48,7 +47,7 @@ from toolkit.world.arrays import FloatArray, IntArray
 
 from .ambiguity import mass_near, other_candidates
 from .annealing import GaussianPrior, best_lattice_poses, heading_gaussian, log_prior, next_beta, predicted_prior
-from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, Snapshot
+from .base import HeadingPrior, Localiser, Mode, Motion, PoseEstimate, Prior, RobotMapping, Snapshot
 from .beam_model import BeamLikelihood, MeasurementModel, echo_mask, lattice_costs, scan_readings
 from .clusters import cloud_stats, describe_modes, mode_stds, spread
 from .declarations import PF_ROBOT, PfOptions
@@ -189,7 +188,7 @@ class ParticleFilter(Localiser):
 
     name: ClassVar[str] = "paper-pf"
     options_model: ClassVar[type[Options] | None] = PfOptions
-    robot_options: ClassVar[Mapping[str, tuple[str, ...] | str] | None] = PF_ROBOT
+    robot_options: ClassVar[RobotMapping | None] = PF_ROBOT
 
     def __init__(self, map: Map, options: PfOptions | None = None, *, rng: RngLike = None,
                  **overrides: Any) -> None:

@@ -1,10 +1,11 @@
 """The robot model as a localiser's options: one mapping per localiser class, checked, nothing dropped.
 
 `localiser_options` turns a `toolkit.world.RobotModel` into constructor options of a registered localiser
-through the class's ``robot_options`` (`localisation.declarations`): every facet of the model the
-localiser maps becomes its options, every facet it does not use has a stated reason, and a facet it
-does not mention is a `ConfigError`. Every localiser given the same model is therefore told the same
-sigma, lobe, range limit, motion noise and size, whatever its own options are called.
+through the class's ``robot_options`` (`localisation.declarations.RobotMapping`): every facet of the model
+the localiser maps becomes its options (a value it does not use is mapped to None), every facet it does
+not use has a stated reason, and a facet it does not mention is a `ConfigError`. Every localiser given the
+same model is therefore told the same sigma, lobe, range limit, motion noise and size, whatever its own
+options are called.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ def localiser_options(name: str, robot: RobotModel, *, leave_out: tuple[str, ...
         if len(how) != len(values):
             raise ConfigError(f"localiser {name} maps the robot model's {facet} to {len(how)} options, "
                               f"not {len(values)}")
-        out.update(zip(how, values.values(), strict=True))
+        out.update((own, value) for own, value in zip(how, values.values(), strict=True) if own is not None)
     return out
 
 

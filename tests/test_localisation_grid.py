@@ -36,6 +36,9 @@ def test_registered_with_options_of_its_own(map1: Map) -> None:
     assert float(np.min(map1.wall_distance(g.lattice.xy))) >= 8.5
     with pytest.raises(ConfigError, match="max_particles"):  # amcl's particle options are not the grid's
         make_localiser("grid", map1, rng=0, max_particles=10)
+    for unused in ("z_hit", "max_beams", "lobe_rays"):  # nor are the parts of its model a lattice never calls
+        with pytest.raises(ConfigError, match=unused):
+            make_localiser("grid", map1, rng=0, **{unused: 1})
     assert g.lattice.xy.shape[0] > 100 and not g.estimate().converged  # uniform before any scan
 
 

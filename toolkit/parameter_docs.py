@@ -188,6 +188,10 @@ def _settings_parts() -> list[str]:
     return parts
 
 
+def _becomes(how: tuple[str | None, ...] | str) -> str:
+    """A robot model facet's options as a table cell (a value not used says so), or the reason it is not used."""
+    return how if isinstance(how, str) else ", ".join(f"`{o}`" if o else "not used" for o in how)
+
 def parameters_markdown() -> str:
     """The whole page."""
     from localisation import LOCALISERS
@@ -215,7 +219,6 @@ def parameters_markdown() -> str:
             parts += [f"### `{name}`", "", "No options.", ""]
         if cls.robot_options is not None:
             parts += ["| robot model facet | becomes |", "|---|---|"]
-            parts += [f"| {facet} | {how if isinstance(how, str) else ', '.join(f'`{o}`' for o in how)} |"
-                      for facet, how in cls.robot_options.items()]
+            parts += [f"| {facet} | {_becomes(how)} |" for facet, how in cls.robot_options.items()]
             parts.append("")
     return "\n".join(parts + _settings_parts())

@@ -104,7 +104,7 @@ def localisers_show(name: str = typer.Argument(..., help="A localiser " + one_of
     robot_table.add_column("robot model facet", **NEVER_CUT)  # type: ignore[arg-type]
     robot_table.add_column("becomes")
     for facet, how in mapping.items():
-        robot_table.add_row(facet, how if isinstance(how, str) else ", ".join(how))
+        robot_table.add_row(facet, how if isinstance(how, str) else ", ".join(o or "not used" for o in how))
     print_table(robot_table)
 
 
