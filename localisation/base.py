@@ -255,9 +255,9 @@ class Localiser(Configurable, ABC):
     """The options (a `toolkit.world.Options` model; `configure` builds one); None for a plug-in that
     declares none (its constructor then checks what it is given)."""
     robot_options: ClassVar[RobotMapping | None] = None
-    """For every facet of `toolkit.world.RobotModel`, the options it becomes (in the facet's order) or
-    why the localiser does not use it (`localisation.robot_options.localiser_options`); None: the
-    localiser cannot be told a robot model."""
+    """For every facet of `toolkit.world.RobotModel`, the options it becomes (in the facet's order, None
+    for a value not used) or why the localiser does not use it (`RobotMapping`,
+    `localisation.robot_options.localiser_options`); None: the localiser cannot be told a robot model."""
     snapshots: Sequence[Snapshot] = ()
     """The cloud after each iteration, for localisers that keep it (the particle filters); empty otherwise."""
 
