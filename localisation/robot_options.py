@@ -1,7 +1,7 @@
 """The robot model as a localiser's options: one mapping per localiser class, checked, nothing dropped.
 
 `localiser_options` turns a `toolkit.world.RobotModel` into constructor options of a registered localiser
-through the class's ``robot_options`` (`localisation.declarations.RobotMapping`): every facet of the model
+through the class's ``robot_options`` (`localisation.base.RobotMapping`): every facet of the model
 the localiser maps becomes its options (a value it does not use is mapped to None), every facet it does
 not use has a stated reason, and a facet it does not mention is a `ConfigError`. Every localiser given the
 same model is therefore told the same sigma, lobe, range limit, motion noise and size, whatever its own

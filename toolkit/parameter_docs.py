@@ -192,6 +192,7 @@ def _becomes(how: tuple[str | None, ...] | str) -> str:
     """A robot model facet's options as a table cell (a value not used says so), or the reason it is not used."""
     return how if isinstance(how, str) else ", ".join(f"`{o}`" if o else "not used" for o in how)
 
+
 def parameters_markdown() -> str:
     """The whole page."""
     from localisation import LOCALISERS
