@@ -98,7 +98,7 @@ class ParticleDraws:
         fresh = self.rng.random(m) < p_inject if p_inject > 0 else np.zeros(m, dtype=bool)
         if fresh.any():
             k = int(fresh.sum())
-            cand[fresh] = (self.scan_poses(k, rel, meas) if o.recovery.recovery_sampler == "scan"
+            cand[fresh] = (self.scan_draws(k, rel, meas)[0] if o.recovery.recovery_sampler == "scan"
                            else self.uniform_poses(k))
         bins = np.floor(cand / self.kld_bin).astype(np.int64)
         _, first = np.unique(bins, axis=0, return_index=True)
@@ -127,10 +127,6 @@ class ParticleDraws:
         hp = self._heading_prior
         return np.column_stack([xy, self.rng.uniform(-math.pi, math.pi, n) if hp is None else hp.sample(n, self.rng)])
 
-
-    def scan_poses(self, n: int, rel: FloatArray, meas: FloatArray) -> FloatArray:
-        """`n` poses drawn from the scan (`scan_draws`)."""
-        return self.scan_draws(n, rel, meas)[0]
 
     def scan_draws(self, n: int, rel: FloatArray, meas: FloatArray) -> tuple[FloatArray, FloatArray]:
         """`n` poses drawn from the lattice scored against the scan, tempered to about `scan_sample_ess`

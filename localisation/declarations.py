@@ -345,10 +345,8 @@ class GridOptions(Options):
         """amcl's options with the same models: what `GridBayes` builds its measurement model, range
         table, lattice and motion model from."""
         start = AmclGlobalStart(clearance_cm=self.lattice.clearance_cm, lattice_step=self.lattice.lattice_step)
-        sensor = AmclSensor(**{k: getattr(self.sensor, k) for k in LatticeSensor.model_fields})
-        lobe = AmclLobe(**{k: getattr(self.lobe, k) for k in LatticeLobe.model_fields})
-        return AmclOptions(motion=self.motion, sensor=sensor, lobe=lobe, global_start=start,
-                           convergence=self.convergence, modes=self.modes)
+        return AmclOptions(motion=self.motion, sensor=AmclSensor(**dict(self.sensor)), lobe=AmclLobe(**dict(self.lobe)),
+                           global_start=start, convergence=self.convergence, modes=self.modes)
 
 
 GRID_ROBOT: RobotMapping = {
