@@ -229,13 +229,16 @@ def make_route_tasks(sweeps: SweepSet, map: str | None, routes: Sequence[Route],
 
 def model_headings(sweeps: SweepSet, sonars: Mapping[str, NxtSonar], repos: Sequence[str]) -> dict[str, float]:
     """The heading (degrees) at which each source's model finds each of its sweeps most likely
-    (`toolkit.real_sonar.fit.align_sweeps`, position within 3 cm of the waypoint), by sweep label."""
+    (`toolkit.real_sonar.fit.align_sweeps`, position within 3 cm of the waypoint), by sweep label: the
+    robot's heading, the turret's (the model's ``turret_offset_deg``) taken off."""
     from toolkit.real_sonar.fit import align_sweeps
 
     out: dict[str, float] = {}
     for repo in repos:
         mine = SweepSet(sweeps.folder, sweeps.map, tuple(sw for sw in sweeps if sw.repo == repo))
-        out.update({a.sweep.label: round(math.degrees(a.heading_rad), 2) for a in align_sweeps(sonars[repo], mine)})
+        turret = sonars[repo].turret_offset_deg
+        out.update({a.sweep.label: round(math.degrees(float(wrap_angle(a.heading_rad - math.radians(turret)))), 2)
+                    for a in align_sweeps(sonars[repo], mine)})
     return out
 
 
@@ -292,7 +295,8 @@ def run_route(task: RouteTask) -> list[RouteStep]:
     sweeps = _sweep_set(task.folder, task.map)
     drawn, moves = _draws(sweeps, task)
     noise = MotionNoise(**task.noise)
-    robot = RobotModel(NxtSonar(**task.sonar), motion=noise, readings="real")
+    sonar = NxtSonar(**task.sonar)
+    robot = RobotModel(sonar, motion=noise, readings="real")
     opts = {**localiser_options(task.localiser, robot), **task.options}
     loc = make_localiser(task.localiser, sweeps.map,
                          rng=derive_seed(task.seed, "routes-localiser", task.route.repo, task.route.name), **opts)
@@ -304,7 +308,7 @@ def run_route(task: RouteTask) -> list[RouteStep]:
         else:
             for m in moves[k - 1]:
                 loc.predict(m)
-        loc.update(sw.scan())
+        loc.update(sw.scan(sonar.turret_offset_deg))
         est = loc.estimate()
         cands = candidate_poses(loc)
         elapsed = time.perf_counter() - t0

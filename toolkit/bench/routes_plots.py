@@ -29,6 +29,7 @@ def route_figure(steps: Sequence[RouteStep], task: RouteTask, path: Path) -> Pat
     Returns the PNG written to `path`.
     """
     sweeps = _sweep_set(task.folder, task.map)
+    turret = float(task.sonar.get("turret_offset_deg", 0.0))  # the rays in the robot's frame, as the filter read them
     n = len(steps)
     cols = min(n, 3)
     rows = math.ceil(n / cols)
@@ -40,7 +41,7 @@ def route_figure(steps: Sequence[RouteStep], task: RouteTask, path: Path) -> Pat
         draw_map(sweeps.map, ax, presets=False, title=False)
         if st.cloud is not None and len(st.cloud):
             ax.scatter(st.cloud[:, 0], st.cloud[:, 1], s=2, c="0.45", alpha=0.5, zorder=3, label="particles")
-        draw_scan_rays(st.truth, _sweep(st, sweeps.sweeps).scan(), ax, color="tab:orange", every=3)
+        draw_scan_rays(st.truth, _sweep(st, sweeps.sweeps).scan(turret), ax, color="tab:orange", every=3)
         path_so_far = [(s.waypoint_x_cm, s.waypoint_y_cm) for s in steps[:k + 1]]
         ax.plot(*zip(*path_so_far, strict=True), "--", color="tab:green", lw=1, zorder=5)
         for c in st.candidate_poses:

@@ -107,12 +107,13 @@ def run_sweep(task: SweepTask) -> SweepRun:
     """Localise globally from one sweep (`SweepTask`) and score the estimate against the waypoint."""
     sweeps = _sweep_set(task.folder, task.map)
     sw = sweeps.sweeps[task.index]
-    robot = RobotModel(NxtSonar(**task.sonar), readings="real")
+    sonar = NxtSonar(**task.sonar)
+    robot = RobotModel(sonar, readings="real")
     opts = {**localiser_options(task.localiser, robot), **task.options}
     t0 = time.perf_counter()
     loc = make_localiser(task.localiser, sweeps.map, rng=derive_seed(task.seed, "sweeps", sw.label), **opts)
     loc.reset(task.heading_prior)
-    loc.update(sw.scan())
+    loc.update(sw.scan(sonar.turret_offset_deg))
     est = loc.estimate()
     cands = candidate_poses(loc)
     elapsed = time.perf_counter() - t0

@@ -12,7 +12,7 @@ import json
 import logging
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -60,7 +60,7 @@ _MODEL = typer.Option(None, "--sonar-profile", metavar="FILE",
 
 _UNITS = {"noise_sd": "cm", "noise_per_m": "cm/m", "bias_cm": "cm", "beam_width_deg": "deg", "beam_rays": "",
           "critical_incidence_deg": "deg", "min_range_cm": "cm", "max_range_cm": "cm", "reach_cm": "cm",
-          "reach_width_cm": "cm", "correlation_deg": "deg"}
+          "reach_width_cm": "cm", "correlation_deg": "deg", "turret_offset_deg": "deg"}
 
 
 def _grid(text: str, option: str, hi: float) -> list[float]:
@@ -129,7 +129,8 @@ def _params_table(model: NxtSonar, title: str) -> Table:
 
     hw = NxtSonar.hardware_facts()
     table = Table("parameter", "fitted", "hardware facts", "unit", title=title)
-    shown = ("beam_width_deg", "beam_rays", "critical_incidence_deg", *FIT_PARAMETERS, "correlation_deg")
+    shown = ("beam_width_deg", "beam_rays", "critical_incidence_deg", *FIT_PARAMETERS, "correlation_deg",
+             "turret_offset_deg")
     for k in shown:
         a, b = getattr(model, k), getattr(hw, k)
         fmt = (lambda v: f"{v:d}") if k == "beam_rays" else (lambda v: f"{v:.4g}")
@@ -216,6 +217,63 @@ def _fit_per_source(sets: Sequence[Any], dirs: Sequence[Path], folder: Path, wid
                                                  f"{fit.mean_log_likelihood:.3f} nats per reading"))
         typer.echo(f"wrote {path}")
         doc.append({"source": repo, "profile": str(path), "fit": provenance, **fit.to_dict()})
+    if json_out is not None:
+        _write_json(json_out, {"profiles": doc})
+
+
+@sonar_app.command("turret")
+def sonar_turret(
+    dirs: list[Path] = _DIRS,
+    map_file: Path | None = _MAP,
+    output: Path = typer.Option(..., "-o", "--output", metavar="DIR",
+                                help="The folder of per-source profiles to write (OWNER+NAME.yaml)."),
+    sonar_profile: Path | None = _MODEL,
+    json_out: JsonOut = None,
+) -> None:
+    """Find each source's turret zero under one sonar model; write the model with it, one profile per source.
+
+    Each sweep with a heading_deg is aligned with the model at its waypoint (the heading, and a position
+    within 3 cm, where the model finds it most likely). A source's turret_offset_deg is the circular mean
+    of the aligned headings less heading_deg, twins (more than 45 degrees apart) left out; a source with
+    no heading_deg keeps 0. bench routes and bench sweeps take the folder as --sonar-profile and turn each
+    source's readings into its robot's frame. Unlike sonar fit --per-source, nothing else of the model is
+    refitted on a source's few sweeps.
+    """
+    import math
+
+    from ..real_sonar.fit import align_sweeps, save_sonar_profile, source_profile_name, turret_offset_deg
+    from ..real_sonar.sweeps import SweepSet
+
+    problem = output_problem(output, folder=True)
+    if problem:
+        raise NxtnavError(f"--output: {problem}")
+    if output.exists() and not output.is_dir():
+        raise NxtnavError(f"--output: {output} exists and is not a folder (sonar turret writes a folder of profiles)")
+    check_writable(json_out, "--json")
+    model = load_profile(sonar_profile, "nxt") or NxtSonar()
+    sets = _load_sets(dirs, map_file)
+    table = Table("source", "sweeps", "with heading_deg", "turret_offset_deg", title="turret zero per source")
+    rows = []
+    with _stuck_noted(sets):
+        for repo in dict.fromkeys(sw.repo for s in sets for sw in s):
+            mine = [SweepSet(s.folder, s.map, tuple(sw for sw in s if sw.repo == repo)) for s in sets]
+            aligned = {a.sweep.label: math.degrees(a.heading_rad)
+                       for s in mine if len(s) for a in align_sweeps(model, s)}
+            sweeps = [sw for s in mine for sw in s]
+            offset = turret_offset_deg(sweeps, aligned)
+            rows.append((repo, sweeps, aligned, offset))
+            table.add_row(repo, str(len(sweeps)), str(sum(not math.isnan(sw.heading_deg) for sw in sweeps)),
+                          f"{offset:.2f}")
+    output.mkdir(parents=True, exist_ok=True)
+    doc = []
+    for repo, sweeps, aligned, offset in rows:
+        provenance = _rounded({"folders": [str(d) for d in dirs], "source": repo, "sweeps": len(sweeps),
+                               "model": str(sonar_profile) if sonar_profile else "default", "headings_deg": aligned})
+        path = output / source_profile_name(repo)
+        save_sonar_profile(replace(model, turret_offset_deg=offset), path, fit=provenance)
+        doc.append({"source": repo, "profile": str(path), "turret_offset_deg": offset, "fit": provenance})
+    Console().print(table)
+    typer.echo(f"wrote {len(rows)} profiles into {output}")
     if json_out is not None:
         _write_json(json_out, {"profiles": doc})
 

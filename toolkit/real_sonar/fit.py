@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -57,6 +57,7 @@ __all__ = [
     "score_fold",
     "score_sonar",
     "source_profile_name",
+    "turret_offset_deg",
 ]
 
 log = logging.getLogger(__name__)
@@ -298,9 +299,25 @@ def fit_sonar(sets: Sequence[SweepSet], *, widths: Sequence[float] = DEFAULT_WID
     assert best is not None
     ll, model, headings, echoes = best
     d_per = [e[h] for e, h in zip(echoes, headings, strict=True)]
-    model = NxtSonar(**{**asdict(model), "correlation_deg": round(_correlation_deg(model, d_per, sweeps), 2)})
     heading_deg = {sw.sweep.label: math.degrees(_pose(sw, h)[2]) for sw, h in zip(sweeps, headings, strict=True)}
+    model = NxtSonar(**{**asdict(model), "correlation_deg": round(_correlation_deg(model, d_per, sweeps), 2),
+                        "turret_offset_deg": turret_offset_deg([sw.sweep for sw in sweeps], heading_deg)})
     return FitResult(model, heading_deg, ll, int(sum(sw.readings.size for sw in sweeps)), len(sweeps), lobes)
+
+
+def turret_offset_deg(sweeps: Sequence[Sweep], fitted_deg: Mapping[str, float]) -> float:
+    """The recording robot's turret zero (degrees, `NxtSonar.turret_offset_deg`): the circular mean of each
+    sweep's fitted heading (`fitted_deg`, by label) less its ``heading_deg``, over the sweeps that have one,
+    twins (further than `TWIN_HEADING_DEG`) left out. 0 for sweeps of several sources (each robot has its
+    own) or without a ``heading_deg``."""
+    if len({s.repo for s in sweeps}) != 1:
+        return 0.0
+    gaps = [float(angle_diff(math.radians(fitted_deg[s.label]), math.radians(s.heading_deg)))
+            for s in sweeps if not math.isnan(s.heading_deg) and s.label in fitted_deg]
+    gaps = [g for g in gaps if abs(g) <= math.radians(TWIN_HEADING_DEG)]
+    if not gaps:
+        return 0.0
+    return round(math.degrees(math.atan2(sum(map(math.sin, gaps)), sum(map(math.cos, gaps)))), 2)
 
 
 @dataclass(frozen=True)

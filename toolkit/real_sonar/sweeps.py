@@ -148,15 +148,16 @@ class Sweep:
         others = [v for v in self.invalid_values if v != NO_ECHO]
         return np.isin(self.readings, others) if others else np.zeros(self.readings.size, dtype=bool)
 
-    def scan(self) -> Scan:
+    def scan(self, turret_offset_deg: float = 0.0) -> Scan:
         """The sweep as a `Scan`: no-echo readings kept (invalid, 255), the `held` ones among them, missing
-        ones left out."""
+        ones left out; each angle turned by `turret_offset_deg` (the recording robot's turret zero,
+        `toolkit.world.NxtSonar.turret_offset_deg`) into the robot's frame."""
         keep = ~self.missing
         r = self.readings[keep]
         valid = ~np.isin(r, self.invalid_values) & (r >= 0)
         if self.held is not None:
             valid &= ~self.held[keep]
-        return Scan(self.angles[keep].copy(), np.where(valid, r, NO_ECHO), valid)
+        return Scan(self.angles[keep] + math.radians(turret_offset_deg), np.where(valid, r, NO_ECHO), valid)
 
     @property
     def held_count(self) -> int:
