@@ -188,6 +188,7 @@ def bench_challenge(
         "--localisers", ",".join(locs), "--seeds", ",".join(map(str, seeds)), "--planner", planner,
         "--noise-model", noise_model, "--noise", noise_text,
         *(["--headings", headings] if headings != "column" else []),
+        *(["--sonar-profile", str(sonar_profile)] if sonar_profile else []),
         *[a for s in given_sets(ctx, sets) for a in ("--set", s)], "--out", str(out)])
     out.mkdir(parents=True, exist_ok=True)
     csv_path = write_challenge_csv(runs, out / "challenge.csv")

@@ -60,7 +60,7 @@ _MODEL = typer.Option(None, "--sonar-profile", metavar="FILE",
 
 _UNITS = {"noise_sd": "cm", "noise_per_m": "cm/m", "bias_cm": "cm", "beam_width_deg": "deg", "beam_rays": "",
           "critical_incidence_deg": "deg", "min_range_cm": "cm", "max_range_cm": "cm", "reach_cm": "cm",
-          "reach_width_cm": "cm", "correlation_deg": "deg", "turret_offset_deg": "deg"}
+          "reach_width_cm": "cm", "correlation_deg": "deg"}
 
 
 def _grid(text: str, option: str, hi: float) -> list[float]:
@@ -129,8 +129,7 @@ def _params_table(model: NxtSonar, title: str) -> Table:
 
     hw = NxtSonar.hardware_facts()
     table = Table("parameter", "fitted", "hardware facts", "unit", title=title)
-    shown = ("beam_width_deg", "beam_rays", "critical_incidence_deg", *FIT_PARAMETERS, "correlation_deg",
-             "turret_offset_deg")
+    shown = ("beam_width_deg", "beam_rays", "critical_incidence_deg", *FIT_PARAMETERS, "correlation_deg")
     for k in shown:
         a, b = getattr(model, k), getattr(hw, k)
         fmt = (lambda v: f"{v:d}") if k == "beam_rays" else (lambda v: f"{v:.4g}")
@@ -230,12 +229,13 @@ def sonar_turret(
     sonar_profile: Path | None = _MODEL,
     json_out: JsonOut = None,
 ) -> None:
-    """Find each source's turret zero under one sonar model; write the model with it, one profile per source.
+    """Find each source's heading offset under one sonar model; write the model with it, one profile per source.
 
     Each sweep with a heading_deg is aligned with the model at its waypoint (the heading, and a position
     within 3 cm, where the model finds it most likely). A source's turret_offset_deg is the circular mean
-    of the aligned headings less heading_deg, twins (more than 45 degrees apart) left out; a source with
-    no heading_deg keeps 0. bench routes and bench sweeps take the folder as --sonar-profile and turn each
+    of the aligned headings less heading_deg, twins (more than 45 degrees apart) left out: a turret set off
+    the robot's axis, or the model seeing the sweeps differently from heading_deg. A source with no
+    heading_deg keeps 0. bench routes and bench sweeps take the folder as --sonar-profile and turn each
     source's readings into its robot's frame. Unlike sonar fit --per-source, nothing else of the model is
     refitted on a source's few sweeps.
     """
@@ -252,7 +252,7 @@ def sonar_turret(
     check_writable(json_out, "--json")
     model = load_profile(sonar_profile, "nxt") or NxtSonar()
     sets = _load_sets(dirs, map_file)
-    table = Table("source", "sweeps", "with heading_deg", "turret_offset_deg", title="turret zero per source")
+    table = Table("source", "sweeps", "with heading_deg", "turret_offset_deg", title="heading offset per source")
     rows = []
     with _stuck_noted(sets):
         for repo in dict.fromkeys(sw.repo for s in sets for sw in s):

@@ -299,9 +299,8 @@ def fit_sonar(sets: Sequence[SweepSet], *, widths: Sequence[float] = DEFAULT_WID
     assert best is not None
     ll, model, headings, echoes = best
     d_per = [e[h] for e, h in zip(echoes, headings, strict=True)]
+    model = NxtSonar(**{**asdict(model), "correlation_deg": round(_correlation_deg(model, d_per, sweeps), 2)})
     heading_deg = {sw.sweep.label: math.degrees(_pose(sw, h)[2]) for sw, h in zip(sweeps, headings, strict=True)}
-    model = NxtSonar(**{**asdict(model), "correlation_deg": round(_correlation_deg(model, d_per, sweeps), 2),
-                        "turret_offset_deg": turret_offset_deg([sw.sweep for sw in sweeps], heading_deg)})
     return FitResult(model, heading_deg, ll, int(sum(sw.readings.size for sw in sweeps)), len(sweeps), lobes)
 
 

@@ -197,10 +197,11 @@ class NxtSonar(SonarModel):
         "min(1, step / correlation_deg)."))
     turret_offset_deg: Real = Field(default=0.0, ge=-180.0, le=180.0, json_schema_extra=with_unit("deg"),
                                     description=(
-        "Where the turret's zero pointed, counter-clockwise from the forward direction, on the robot whose "
-        "real sweeps this model describes: bench routes and bench sweeps turn that source's readings by it "
-        "into the robot's frame. Fitted by nxtnav sonar fit on one source's sweeps with a heading_deg; the "
-        "simulator's turret has none."))
+        "Where this model finds the turret's zero, counter-clockwise from the forward direction, on the robot "
+        "whose real sweeps it describes (a turret set by hand, or the model aligning sweeps differently from "
+        "their heading_deg): bench routes and bench sweeps turn that source's readings by it into the robot's "
+        "frame. Measured by nxtnav sonar turret against the sweeps' heading_deg (sonar fit leaves it as "
+        "it was); the simulator's turret has none."))
 
     @model_validator(mode="after")
     def _shares_add_up(self) -> NxtSonar:
