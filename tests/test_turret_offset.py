@@ -58,8 +58,8 @@ def _shifted_copy(tmp_path: Path, shift_deg: float) -> Path:
     return out
 
 
-def _turret(folder: Path, out: Path) -> float:
-    assert run_cli(["sonar", "turret", str(folder), "-o", str(out)]) == 0
+def _turret(folder: Path, out: Path, *extra: str) -> float:
+    assert run_cli(["sonar", "turret", str(folder), "-o", str(out), *extra]) == 0
     profile = load_sonar_profile(out / source_profile_name(REPO))
     assert profile == NxtSonar(turret_offset_deg=profile.turret_offset_deg)  # the default model otherwise
     return profile.turret_offset_deg
@@ -72,6 +72,14 @@ def test_sonar_turret_finds_a_moved_turret_zero(tmp_path: Path) -> None:
     assert abs(shipped) < 15.0
 
 
+def test_aligned_headings_take_the_place_of_the_column(tmp_path: Path) -> None:
+    """With --headings aligned the column is not read: a moved column changes nothing."""
+    shipped = _turret(REAL_NXT, tmp_path / "shipped", "--headings", "aligned")
+    moved = _turret(_shifted_copy(tmp_path, -10.0), tmp_path / "moved", "--headings", "aligned")
+    assert moved == shipped
+    assert abs(shipped - _turret(REAL_NXT, tmp_path / "column")) < 5.0  # the column was made the same way
+
+
 def test_sonar_turret_refuses_a_file_as_its_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     target = tmp_path / "profiles"
     target.write_text("mine\n")
@@ -79,6 +87,9 @@ def test_sonar_turret_refuses_a_file_as_its_folder(tmp_path: Path, capsys: pytes
     err = capsys.readouterr().err
     assert "--output" in err and str(target) in err
     assert target.read_text() == "mine\n"
+    assert run_cli(["sonar", "turret", str(REAL_NXT), "-o", str(tmp_path / "new"), "--headings", "model"]) == 2
+    assert "--headings: must be column or aligned, got 'model'" in capsys.readouterr().err
+    assert not (tmp_path / "new").exists()
 
 
 def test_the_model_heading_is_the_robots() -> None:

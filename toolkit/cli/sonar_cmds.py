@@ -227,6 +227,10 @@ def sonar_turret(
     output: Path = typer.Option(..., "-o", "--output", metavar="DIR",
                                 help="The folder of per-source profiles to write (OWNER+NAME.yaml)."),
     sonar_profile: Path | None = _MODEL,
+    headings: str = typer.Option("column", "--headings", metavar="column|aligned",
+                                 help="The headings to measure against: column (sweeps.csv's heading_deg) or "
+                                      "aligned (the heading that aligns each sweep with the map at its waypoint, "
+                                      "as heading_deg is made: for a set without the column)."),
     json_out: JsonOut = None,
 ) -> None:
     """Find each source's heading offset under one sonar model; write the model with it, one profile per source.
@@ -235,15 +239,17 @@ def sonar_turret(
     within 3 cm, where the model finds it most likely). A source's turret_offset_deg is the circular mean
     of the aligned headings less heading_deg, twins (more than 45 degrees apart) left out: a turret set off
     the robot's axis, or the model seeing the sweeps differently from heading_deg. A source with no
-    heading_deg keeps 0. bench routes and bench sweeps take the folder as --sonar-profile and turn each
-    source's readings into its robot's frame. Unlike sonar fit --per-source, nothing else of the model is
-    refitted on a source's few sweeps.
+    heading_deg keeps 0 (with --headings aligned every sweep has one). bench routes and bench sweeps take
+    the folder as --sonar-profile and turn each source's readings into its robot's frame. Unlike sonar fit
+    --per-source, nothing else of the model is refitted on a source's few sweeps.
     """
     import math
 
     from ..real_sonar.fit import align_sweeps, save_sonar_profile, source_profile_name, turret_offset_deg
-    from ..real_sonar.sweeps import SweepSet
+    from ..real_sonar.sweeps import SweepSet, aligned_heading_deg
 
+    if headings not in ("column", "aligned"):
+        raise NxtnavError(f"--headings: must be column or aligned, got {headings!r}")
     problem = output_problem(output, folder=True)
     if problem:
         raise NxtnavError(f"--output: {problem}")
@@ -259,7 +265,8 @@ def sonar_turret(
             mine = [SweepSet(s.folder, s.map, tuple(sw for sw in s if sw.repo == repo)) for s in sets]
             aligned = {a.sweep.label: math.degrees(a.heading_rad)
                        for s in mine if len(s) for a in align_sweeps(model, s)}
-            sweeps = [sw for s in mine for sw in s]
+            sweeps = [sw if headings == "column" else replace(sw, heading_deg=aligned_heading_deg(sw, s.map))
+                      for s in mine for sw in s]
             offset = turret_offset_deg(sweeps, aligned)
             rows.append((repo, sweeps, aligned, offset))
             table.add_row(repo, str(len(sweeps)), str(sum(not math.isnan(sw.heading_deg) for sw in sweeps)),
@@ -268,7 +275,8 @@ def sonar_turret(
     doc = []
     for repo, sweeps, aligned, offset in rows:
         provenance = _rounded({"folders": [str(d) for d in dirs], "source": repo, "sweeps": len(sweeps),
-                               "model": str(sonar_profile) if sonar_profile else "default", "headings_deg": aligned})
+                               "model": str(sonar_profile) if sonar_profile else "default", "against": headings,
+                               "headings_deg": aligned})
         path = output / source_profile_name(repo)
         save_sonar_profile(replace(model, turret_offset_deg=offset), path, fit=provenance)
         doc.append({"source": repo, "profile": str(path), "turret_offset_deg": offset, "fit": provenance})
