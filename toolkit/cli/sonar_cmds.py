@@ -38,6 +38,7 @@ from .options import (
     parse_heading_prior,
     parse_list,
     shipped,
+    writable_folder,
 )
 from .options import sonar_profile as load_profile
 from .progress import progress
@@ -224,7 +225,7 @@ def _fit_per_source(sets: Sequence[Any], dirs: Sequence[Path], folder: Path, wid
 def sonar_turret(
     dirs: list[Path] = _DIRS,
     map_file: Path | None = _MAP,
-    output: Path = typer.Option(..., "-o", "--output", metavar="DIR",
+    output: Path = typer.Option(..., "-o", "--output", metavar="DIR", callback=writable_folder,
                                 help="The folder of per-source profiles to write (OWNER+NAME.yaml)."),
     sonar_profile: Path | None = _MODEL,
     headings: str = typer.Option("column", "--headings", metavar="column|aligned",
@@ -250,11 +251,6 @@ def sonar_turret(
 
     if headings not in ("column", "aligned"):
         raise NxtnavError(f"--headings: must be column or aligned, got {headings!r}")
-    problem = output_problem(output, folder=True)
-    if problem:
-        raise NxtnavError(f"--output: {problem}")
-    if output.exists() and not output.is_dir():
-        raise NxtnavError(f"--output: {output} exists and is not a folder (sonar turret writes a folder of profiles)")
     check_writable(json_out, "--json")
     model = load_profile(sonar_profile, "nxt") or NxtSonar()
     sets = _load_sets(dirs, map_file)
