@@ -31,6 +31,7 @@ a dead worker to others and gives up on a task whose workers died more than its 
 from __future__ import annotations
 
 import contextlib
+import gc
 import logging
 import multiprocessing
 import os
@@ -329,6 +330,10 @@ def _run_dask(
 
         raise NxtnavError("--dask needs the 'cluster' extra: pip install 'nxtnav[cluster]'") from exc
     cluster: Any = None
+    # an earlier run's Client, closed but held in a reference cycle, is finalised now: collected later, while
+    # the new cluster's IO loop starts under distributed's LoopRunner lock, its __del__ (which closes its
+    # own loop runner under the same lock) would wait on that lock for ever (seen once in a test run)
+    gc.collect()
     if address == "local":
         # one task at a time on each worker, none queued behind it: a worker that dies then takes only the
         # task it ran into the scheduler's count of suspects (KilledWorker), not an innocent one waiting
