@@ -29,7 +29,7 @@ def route_figure(steps: Sequence[RouteStep], task: RouteTask, path: Path) -> Pat
     Returns the PNG written to `path`.
     """
     sweeps = _sweep_set(task.folder, task.map)
-    turret = float(task.sonar.get("turret_offset_deg", 0.0))  # the rays in the robot's frame, as the filter read them
+    turret = task.sonar["turret_offset_deg"]  # the rays in the robot's frame, as the filter read them
     n = len(steps)
     cols = min(n, 3)
     rows = math.ceil(n / cols)

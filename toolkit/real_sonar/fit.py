@@ -30,7 +30,7 @@ import numpy as np
 from localisation.base import HeadingPrior
 from localisation.scan import drop_stuck
 
-from ..world import NO_ECHO, ConfigError, Map, NxtSonar, angle_diff, wrap_angle
+from ..world import NO_ECHO, ConfigError, Map, NxtSonar, angle_diff, circular_mean, wrap_angle
 from ..world.arrays import FloatArray, finite_median
 from .margins import sweep_margins
 from .profile_file import SonarProfileError, load_sonar_profile, save_sonar_profile
@@ -314,9 +314,7 @@ def turret_offset_deg(sweeps: Sequence[Sweep], fitted_deg: Mapping[str, float]) 
     gaps = [float(angle_diff(math.radians(fitted_deg[s.label]), math.radians(s.heading_deg)))
             for s in sweeps if not math.isnan(s.heading_deg) and s.label in fitted_deg]
     gaps = [g for g in gaps if abs(g) <= math.radians(TWIN_HEADING_DEG)]
-    if not gaps:
-        return 0.0
-    return round(math.degrees(math.atan2(sum(map(math.sin, gaps)), sum(map(math.cos, gaps)))), 2)
+    return round(math.degrees(float(circular_mean(gaps))), 2) if gaps else 0.0
 
 
 @dataclass(frozen=True)
