@@ -12,10 +12,15 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-# pip's own progress (one line per package) instead of --quiet: the first install takes minutes
+# uv (from PyPI, through pip) installs the same releases as pip in a fraction of the time (about 30 s on a
+# fresh machine, where pip takes about 2 minutes), bytecode compiled as pip would; where uv cannot be had
+# or fails, pip does it (one line per package)
+EXTRAS := dev,nxt,cluster,viz,docs
 $(STAMP): pyproject.toml setup.py | $(BIN)/python
-	@echo "make: installing nxtnav and its dependencies into $(VENV) (about 2 minutes the first time)"
-	$(BIN)/python -m pip install --progress-bar off -e ".[dev,nxt,cluster,viz,docs]"
+	@echo "make: installing nxtnav and its dependencies into $(VENV)"
+	$(BIN)/python -m pip install --quiet uv || echo "make: uv not installed; pip installs instead"
+	$(BIN)/python -m uv pip install --python $(BIN)/python --compile-bytecode -e ".[$(EXTRAS)]" \
+	    || $(BIN)/python -m pip install --progress-bar off -e ".[$(EXTRAS)]"
 	touch $(STAMP)
 	@echo "make: nxtnav installed: $(BIN)/nxtnav"
 

@@ -46,7 +46,9 @@ docs/real-sonar.md). A sweep set says so per source (``held_runs`` ``no-echo`` i
 
 from __future__ import annotations
 
+import logging
 import math
+import os
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -56,7 +58,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from localisation.range_table import _default_cache_dir, _map_key
 from toolkit.world import NO_ECHO, Map, NxtSonar, Scan, angle_diff
+
+log = logging.getLogger(__name__)
 
 __all__ = [
     "ECHO_TOLERANCE_CM",
@@ -188,21 +193,55 @@ def _grid_positions(map: Map) -> tuple[NDArray[np.float64], float]:
         spacing *= math.sqrt(len(xy) / MAX_GRID_POSITIONS) * 1.01
 
 
-def _lobe(map: Map, xy: NDArray[np.float64], beam_width_deg: float,
-          critical_incidence_deg: float) -> NDArray[np.float32]:
-    """`NxtSonar.echo_distance` at every position along 360 directions with its lobe sampled every
-    degree: one ray a degree (lost beyond `critical_incidence_deg`), then the minimum over the lobe."""
+def _lobes(map: Map, xy: NDArray[np.float64], beam_width_deg: float,
+           critical_incidence_deg: float) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """At every position along 360 directions, with a lobe of `beam_width_deg` sampled every degree (one
+    ray a degree, then the minimum over the lobe): the nearest surface at any incidence, and
+    `NxtSonar.echo_distance` (rays lost beyond `critical_incidence_deg`); both from one cast."""
     ray = NxtSonar(beam_width_deg=0.0, beam_rays=1, critical_incidence_deg=critical_incidence_deg)
-    per_ray = np.asarray(ray.echo_distance(map.walls, xy, np.radians(np.arange(360.0))), dtype=np.float64)
-    lobe = per_ray.copy()
-    for k in range(1, round(beam_width_deg / 2.0) + 1):
-        lobe = np.minimum(lobe, np.minimum(np.roll(per_ray, k, axis=1), np.roll(per_ray, -k, axis=1)))
-    return lobe.astype(np.float32)
+    first, cos_inc = ray.ray_hits(map.walls, xy, np.radians(np.arange(360.0)))
+    any_incidence = NxtSonar(beam_width_deg=0.0, beam_rays=1, critical_incidence_deg=90.0)
+    lobes = []
+    for sonar in (any_incidence, ray):
+        rays = sonar.echoes(first, cos_inc)[..., 0]
+        lobe = rays.copy()
+        for k in range(1, round(beam_width_deg / 2.0) + 1):
+            lobe = np.minimum(lobe, np.minimum(np.roll(rays, k, axis=1), np.roll(rays, -k, axis=1)))
+        lobes.append(lobe.astype(np.float32))
+    return lobes[0], lobes[1]
 
 
 _TABLES: dict[tuple[bytes, float, float], EchoTable] = {}
 _LOCK = threading.Lock()
 _MAX_TABLES = 4
+
+
+def _cached_echo_table(map: Map, beam_width_deg: float, critical_incidence_deg: float) -> EchoTable:
+    """The table built, or read from the disk cache (``$NXTNAV_CACHE_DIR``, as the range tables) when
+    there; a table built is written there (atomically: processes may share the folder)."""
+    folder = _default_cache_dir()
+    path = None if folder is None else \
+        folder / f"echo_table_{_map_key(map)}_{beam_width_deg:g}_{critical_incidence_deg:g}.npz"
+    if path is not None and path.is_file():
+        try:
+            with np.load(path) as f:
+                table = EchoTable(f["xy"], f["nearest_cm"], f["echo_cm"], float(f["spacing_cm"]))
+            if table.nearest_cm.shape == table.echo_cm.shape == (len(table.xy), 360):
+                return table
+        except (OSError, ValueError, KeyError) as exc:
+            log.warning("ignoring unreadable echo table cache %s: %s", path, exc)
+    xy, spacing = _grid_positions(map)
+    table = EchoTable(xy, *_lobes(map, xy, beam_width_deg, critical_incidence_deg), spacing)
+    if path is not None:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+            np.savez(tmp, xy=table.xy, nearest_cm=table.nearest_cm, echo_cm=table.echo_cm,
+                     spacing_cm=table.spacing_cm)
+            os.replace(tmp, path)
+        except OSError as exc:
+            log.warning("could not write echo table cache %s: %s", path, exc)
+    return table
 
 
 def echo_table(map: Map, sonar: NxtSonar | None = None) -> EchoTable:
@@ -213,9 +252,7 @@ def echo_table(map: Map, sonar: NxtSonar | None = None) -> EchoTable:
     with _LOCK:
         table = _TABLES.get(key)
         if table is None:
-            xy, spacing = _grid_positions(map)
-            table = EchoTable(xy, _lobe(map, xy, s.beam_width_deg, 90.0),
-                              _lobe(map, xy, s.beam_width_deg, s.critical_incidence_deg), spacing)
+            table = _cached_echo_table(map, s.beam_width_deg, s.critical_incidence_deg)
             if len(_TABLES) >= _MAX_TABLES:
                 _TABLES.pop(next(iter(_TABLES)))
             _TABLES[key] = table

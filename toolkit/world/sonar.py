@@ -226,26 +226,36 @@ class NxtSonar(SonarModel):
         shares another's error (`correlation_deg` 0). Real readings keep the fitted correlation."""
         return replace(self, correlation_deg=0.0)
 
-    def echo_distance(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike) -> Any:
-        """Noise-free distance of the nearest echo in the lobe (inf when every ray is lost)."""
+    def ray_hits(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike) -> tuple[Any, Any]:
+        """Every ray of the lobe of each (origin, angle): the distance to the first wall it meets (inf:
+        none) and the cosine of its incidence on that wall, each (..., beam_rays) in `angles`' shape."""
         index = edge_index(walls)
         w = index.walls
         o, a, shape = _flatten(origins, angles)
         half = np.radians(self.beam_width_deg) / 2.0
         offsets = np.linspace(-half, half, self.beam_rays) if self.beam_rays > 1 else np.zeros(1)
         ang = (a[:, None] + offsets[None, :]).ravel()
-        dx, dy = np.cos(ang), np.sin(ang)
+        out_shape = (*shape, offsets.size)
+        if len(w) == 0:
+            return np.full(out_shape, np.inf), np.ones(out_shape)
         t, hit = index.cast(np.repeat(o[:, 0], offsets.size), np.repeat(o[:, 1], offsets.size), ang)
         first, idx = t[:, 0], np.maximum(hit[:, 0], 0)
-        if len(w) == 0:
-            return np.full(shape, np.inf)
         # incidence: angle between the ray and the normal of the wall it meets first
         ex, ey = w[idx, 2] - w[idx, 0], w[idx, 3] - w[idx, 1]
         norm = np.hypot(ex, ey)
-        cos_inc = np.abs(dx * ey - dy * ex) / np.where(norm > 0, norm, 1.0)
+        cos_inc = np.abs(np.cos(ang) * ey - np.sin(ang) * ex) / np.where(norm > 0, norm, 1.0)
+        return first.reshape(out_shape), cos_inc.reshape(out_shape)
+
+    def echo_distance(self, walls: ArrayLike, origins: ArrayLike, angles: ArrayLike) -> Any:
+        """Noise-free distance of the nearest echo in the lobe (inf when every ray is lost)."""
+        first, cos_inc = self.ray_hits(walls, origins, angles)
+        return self.echoes(first, cos_inc).min(axis=-1)
+
+    def echoes(self, first: Any, cos_inc: Any) -> Any:
+        """`ray_hits`' distances where the ray's echo comes back (inf where it meets its wall beyond the
+        critical incidence, or none)."""
         echo = np.isfinite(first) & (cos_inc >= np.cos(np.radians(self.critical_incidence_deg)))
-        per_ray = np.where(echo, first, np.inf).reshape(-1, offsets.size)
-        return per_ray.min(axis=1).reshape(shape)
+        return np.where(echo, first, np.inf)
 
     # -- the beam mixture ---------------------------------------------------------------------------
     def loss_probability(self, d: ArrayLike) -> FloatArray:
