@@ -7,7 +7,9 @@
 
 A block is a fenced ```bash, ```sh, ```shell or ```console block (of ```console, only the ``$ `` lines run). Each
 runs on its own, in a fresh temporary folder outside the repository, under ``bash -e -o pipefail``,
-with the ``nxtnav`` of the Python that runs this file first on PATH, ``$DOCS_REPO`` naming the
+with the ``nxtnav`` of the Python that runs this file first on PATH (warm: its entry point forked from a
+process that has imported the toolkit once, tools/warm_nxtnav.py; ``NXTNAV_DOCS_WARM=0`` starts the
+console script itself every time), ``$DOCS_REPO`` naming the
 repository (for its ``tools/``) and ``MPLBACKEND=Agg``. It fails on a nonzero exit or a Python
 traceback in its output. A block is self-contained: a file it reads is one it made earlier, or one
 shipped with nxtnav (``maps/...``). Processes it leaves in the background are stopped when it ends.
@@ -44,6 +46,8 @@ a fence without a language: every block says what it holds (```bash for commands
 from __future__ import annotations
 
 import argparse
+import atexit
+import importlib.util
 import json
 import operator
 import os
@@ -56,6 +60,7 @@ import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 SHELL_LANGUAGES = ("bash", "sh", "console", "shell")
@@ -336,6 +341,26 @@ def command_environment(repo: Path = REPO) -> dict[str, str]:
     return env
 
 
+_WARM: list[Any] = []
+"""The warm `nxtnav` server of this process, once started (tools/warm_nxtnav.py)."""
+
+
+def block_environment() -> dict[str, str]:
+    """`command_environment` with the warm `nxtnav` stand-in first on PATH (tools/warm_nxtnav.py; its
+    server starts with the first block of this process), unless ``NXTNAV_DOCS_WARM=0``."""
+    env = command_environment()
+    if os.environ.get("NXTNAV_DOCS_WARM", "1") == "0":
+        return env
+    if not _WARM:
+        spec = importlib.util.spec_from_file_location("warm_nxtnav", Path(__file__).with_name("warm_nxtnav.py"))
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        _WARM.append(module.WarmServer(env))
+        atexit.register(_WARM[0].stop)
+    return dict(_WARM[0].environment(env))
+
+
 def run_script(script: str, folder: Path, timeout_s: float = DEFAULT_TIMEOUT_S) -> Outcome:
     """Run `script` under ``bash -e -o pipefail`` in `folder`; stop what it left running when it ends.
 
@@ -351,7 +376,7 @@ def run_script(script: str, folder: Path, timeout_s: float = DEFAULT_TIMEOUT_S) 
         process = subprocess.Popen(
             ["bash", "-e", "-o", "pipefail", "-c", script],
             cwd=folder,
-            env=command_environment(),
+            env=block_environment(),
             stdin=subprocess.DEVNULL,
             stdout=log,
             stderr=subprocess.STDOUT,
