@@ -18,6 +18,7 @@ def _both(script: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple
     """The outcome of `script` with the warm stand-in, then with the real console script."""
     (tmp_path / "warm").mkdir()
     (tmp_path / "real").mkdir()
+    monkeypatch.setenv("NXTNAV_DOCS_WARM", "1")
     warm = docs_commands.run_script(script, tmp_path / "warm")
     monkeypatch.setenv("NXTNAV_DOCS_WARM", "0")
     real = docs_commands.run_script(script, tmp_path / "real")
@@ -57,7 +58,7 @@ def test_a_signal_reaches_the_warm_command_and_a_dead_stand_in_takes_it_along(
         assert "stopped:" in outcome.output, outcome.output
     assert [x for x in warm.output.splitlines() if x.startswith("brick=")] == \
         [x for x in real.output.splitlines() if x.startswith("brick=")]
-    monkeypatch.delenv("NXTNAV_DOCS_WARM")
+    monkeypatch.setenv("NXTNAV_DOCS_WARM", "1")
     # SIGKILL to the stand-in (nothing to forward): the server ends its command, the port is free again
     script = ("nxtnav brick serve --port 2742 --time-factor 1000 &\n"
               "for try in $(seq 100); do (exec 3<>/dev/tcp/127.0.0.1/2742) 2>/dev/null && break; sleep 0.1; done\n"

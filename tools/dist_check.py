@@ -5,7 +5,8 @@
 
 Steps, each timed: `python -m build` (the sdist, then the wheel built from the sdist) into ``dist/``;
 both archives hold every file of ``maps/`` and the LICENSE; a virtual environment is made in a
-temporary folder outside the repository and the wheel installed in it (with its dependencies);
+temporary folder outside the repository and the wheel installed in it (with its dependencies; by uv
+when `make install` put it beside this Python, else by pip, as the README's `pip install` would);
 from that folder, with ``$NXTNAV_MAPS`` and ``$PYTHONPATH`` unset, ``nxtnav --version`` prints the
 version, ``nxtnav maps list`` lists the same maps as the clone (read from the installed package, not
 from the clone), every data notice of ``maps/NOTICES.md`` is installed, ``nxtnav import sweeps
@@ -16,6 +17,7 @@ with one line naming the step and exit status 1.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import re
@@ -57,6 +59,11 @@ def run(argv: list[str], cwd: Path, env: dict[str, str] | None = None) -> str:
     return proc.stdout
 
 
+UV = importlib.util.find_spec("uv") is not None
+"""Whether uv is installed beside this Python (`make install` puts it there): the archives' build
+environments and the fresh venv's install then go through it."""
+
+
 def data_files() -> list[str]:
     """The files of ``maps/`` (relative paths), as the distributions must carry them."""
     return sorted(str(p.relative_to(DATA)) for p in DATA.rglob("*")
@@ -75,7 +82,8 @@ def version() -> str:
 def build(dist: Path) -> tuple[Path, Path]:
     """`python -m build` into `dist` (emptied first): the sdist and the wheel."""
     shutil.rmtree(dist, ignore_errors=True)
-    run([sys.executable, "-m", "build", "--outdir", str(dist), str(REPO)], cwd=REPO)
+    installer = ["--installer", "uv"] if UV else []  # the build environments made by uv: the same, faster
+    run([sys.executable, "-m", "build", *installer, "--outdir", str(dist), str(REPO)], cwd=REPO)
     sdists, wheels = sorted(dist.glob("*.tar.gz")), sorted(dist.glob("*.whl"))
     if len(sdists) != 1 or len(wheels) != 1:
         raise CheckFailed(f"expected one sdist and one wheel in {dist}, found {[p.name for p in dist.iterdir()]}")
@@ -169,7 +177,11 @@ def main() -> int:
         venv = tmp / "venv"
         with step(f"fresh venv in {tmp}, pip install the wheel"):
             run([sys.executable, "-m", "venv", str(venv)], tmp)
-            run([str(venv / "bin" / "python"), "-m", "pip", "install", "--quiet", "--no-compile", str(wheel)], tmp)
+            python = str(venv / "bin" / "python")
+            if UV:  # what pip would install (the wheel's own requirements), in a fraction of pip's time
+                run([sys.executable, "-m", "uv", "pip", "install", "--quiet", "--python", python, str(wheel)], tmp)
+            else:
+                run([python, "-m", "pip", "install", "--quiet", "--no-compile", str(wheel)], tmp)
         work = tmp / "work"
         work.mkdir()
         check_installed(venv, work, version())
