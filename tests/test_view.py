@@ -211,7 +211,11 @@ def test_live_view_reaches_the_viewer_and_leaves_it_open(mission: Path, tmp_path
     script.write_text(f'#!/bin/sh\necho $$ > "{pid_file}"\nexec "{viewer_binary()}" --save "{seen}" "$@"\n')
     script.chmod(0o755)
     env = {**NO_DISPLAY_ENV, "DISPLAY": _dead_display(), "RERUN_CLI_PATH": str(script)}
-    proc = _nxtnav(["run", "--map", "map1", "--view"], tmp_path, env)
+    # Ctrl-C as a terminal gives it: not ignored from the start, as it is for whatever a shell starts in
+    # the background without job control (pytest itself so started would hand that on to the viewer)
+    proc = subprocess.run([nxtnav_exe(), "run", "--map", "map1", "--view"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=HANG_S,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert proc.returncode == 0, proc.stderr
     pid = int(pid_file.read_text())
     try:
