@@ -90,8 +90,30 @@ def test_bench_routes_writes_every_step(tmp_path: Path, capsys: pytest.CaptureFi
     assert sorted(steps) == ["1", "2", "3"] and all(s["runs"] == 3 for s in steps.values())
     step2 = [float(r["error_cm"]) <= 10.0 for r in rows if r["step"] == "2"]
     assert doc["localisers"]["paper-pf"]["within_10cm_after_second"] == pytest.approx(sum(step2) / 3)
+    assert doc["localisers"]["paper-pf"]["within_10cm_after_second_by_source"] == \
+        {"andrei-alpha/robotics": pytest.approx(sum(step2) / 3)}  # the shipped set's one source
     assert (out / "route.png").stat().st_size > 10_000
     assert "within 10 cm after the second sweep" in capsys.readouterr().out
+
+
+def test_the_second_sweeps_share_is_given_per_source(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = _copy(tmp_path)
+    with (folder / "sweeps.csv").open(newline="") as fh:
+        table = list(csv.DictReader(fh))
+    with (folder / "sweeps.csv").open("a", newline="") as fh:  # the same sweeps again, from a second robot
+        csv.DictWriter(fh, fieldnames=list(table[0])).writerows([{**row, "repo": "other/robot"} for row in table])
+    out = tmp_path / "out"
+    assert run_cli(["bench", "routes", str(folder), *FEW, "--out", str(out)]) == 0
+    with (out / "routes.csv").open(newline="") as fh:
+        second = [r for r in csv.DictReader(fh) if r["step"] == "2"]
+    doc = json.loads((out / "summary.json").read_text())["localisers"]["paper-pf"]
+    by_source = doc["within_10cm_after_second_by_source"]
+    want = {repo: np.mean([float(r["error_cm"]) <= 10.0 for r in second if r["repo"] == repo])
+            for repo in ("andrei-alpha/robotics", "other/robot")}
+    assert by_source == pytest.approx(want)
+    assert doc["within_10cm_after_second"] == pytest.approx(np.mean(list(want.values())))  # 3 routes each
+    shown = ", ".join(f"{repo} {share:.0%}" for repo, share in want.items())
+    assert f"after the second sweep, by source: {shown}" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(("args", "message"), [

@@ -350,7 +350,8 @@ def _shares(mine: Sequence[RouteStep]) -> dict[str, float]:
 
 def summarise_steps(steps: Sequence[RouteStep], localisers: Sequence[str]) -> dict[str, Any]:
     """Per localiser: the shares of `_shares` at each step (over the routes that have it), and per route
-    whether any step was confidently wrong; the three figures the issue sets targets for."""
+    whether any step was confidently wrong; the three figures the issue sets targets for, the first of them
+    also per source (which robot's sweeps hold the share down)."""
     out: dict[str, Any] = {}
     for name in localisers:
         mine = [s for s in steps if s.localiser == name]
@@ -362,8 +363,12 @@ def summarise_steps(steps: Sequence[RouteStep], localisers: Sequence[str]) -> di
             runs.setdefault((s.repo, s.route, s.seed), []).append(s)
         wrong_routes = float(np.mean([any(s.confidently_wrong for s in r) for r in runs.values()]))
         second = by_step.get(2, {})
+        at_second = [s for s in mine if s.step == 2]
         out[name] = {"routes": len(runs), "steps": by_step,
                      "within_10cm_after_second": second.get("within_10cm", math.nan),
+                     "within_10cm_after_second_by_source": {
+                         repo: _mean([s.within for s in at_second if s.repo == repo])
+                         for repo in sorted({s.repo for s in at_second})},
                      "within_10cm_from_second_on": float(np.mean([s.within for s in mine if s.step >= 2])),
                      "confidently_wrong_routes": wrong_routes,
                      "first_honest": by_step[1]["honest"]}

@@ -95,6 +95,10 @@ def _targets(summary: dict[str, Any]) -> list[str]:
         lines.append(f"{name}: within 10 cm after the second sweep {s['within_10cm_after_second']:.0%} "
                      f"(target >= 95 %), routes confidently wrong at any step {s['confidently_wrong_routes']:.0%} "
                      f"(target 0 %), first sweep honest {s['first_honest']:.0%} (target >= 95 %)")
+        by_source = s["within_10cm_after_second_by_source"]
+        if len(by_source) > 1:
+            lines.append("  after the second sweep, by source: "
+                         + ", ".join(f"{repo} {share:.0%}" for repo, share in by_source.items()))
     return lines
 
 
