@@ -12,8 +12,8 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-# uv (from PyPI, through pip) installs the same releases as pip in a fraction of the time (about 30 s on a
-# fresh machine, where pip takes about 2 minutes), bytecode compiled as pip would; where uv cannot be had
+# uv (from PyPI, through pip) installs the same releases as pip in a fraction of the time (40-50 s on a
+# fresh machine, where pip takes about 100 s), bytecode compiled as pip would; where uv cannot be had
 # or fails, pip does it (one line per package)
 EXTRAS := dev,nxt,cluster,viz,docs
 $(STAMP): pyproject.toml setup.py | $(BIN)/python

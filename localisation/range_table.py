@@ -26,8 +26,10 @@ __all__ = [
     "RangeLattice",
     "RangeTable",
     "TablePlan",
+    "cache_dir_from_env",
     "clear_range_table_cache",
     "lobe_minimum",
+    "map_geometry_key",
     "plan_range_table",
     "range_lattice",
     "range_memory_budget",
@@ -39,7 +41,8 @@ log = logging.getLogger(__name__)
 TWO_PI = 2.0 * math.pi
 
 
-def _default_cache_dir() -> Path | None:
+def cache_dir_from_env() -> Path | None:
+    """The disk cache folder of the map tables, ``$NXTNAV_CACHE_DIR``; None (memory only) when unset or empty."""
     env = os.environ.get("NXTNAV_CACHE_DIR")
     if env is not None:
         return Path(env) if env else None
@@ -406,7 +409,8 @@ _TABLES: dict[tuple[Any, ...], RangeTable] = {}
 _TABLES_LOCK = threading.Lock()
 
 
-def _map_key(map: Map) -> str:
+def map_geometry_key(map: Map) -> str:
+    """A short hash of `map`'s walls and bounds: the name of its tables in the disk cache."""
     h = hashlib.sha1(np.ascontiguousarray(map.walls, dtype=np.float64).tobytes())
     h.update(np.asarray(map.bounds, dtype=np.float64).tobytes())
     return h.hexdigest()[:16]
@@ -446,12 +450,12 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
     plan = plan_range_table(map, n_angles, range_memory_budget(memory_mb), resolution_cm, lattice_step)
     lobe = float(beam_width_deg) if beam_width_deg > 0 else 0.0
     crit = critical_incidence_deg if lobe > 0 else None
-    key = (_map_key(map), plan.resolution_cm, int(n_angles), plan.dtype, lobe, crit, max_range_cm)
+    key = (map_geometry_key(map), plan.resolution_cm, int(n_angles), plan.dtype, lobe, crit, max_range_cm)
     with _TABLES_LOCK:
         table = _TABLES.get(key)
         if table is not None:
             return table
-        folder = Path(cache_dir) if cache_dir is not None else _default_cache_dir()
+        folder = Path(cache_dir) if cache_dir is not None else cache_dir_from_env()
         ranges = None
         path = None
         if folder is not None:

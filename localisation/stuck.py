@@ -58,7 +58,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from localisation.range_table import _default_cache_dir, _map_key
+from localisation.range_table import cache_dir_from_env, map_geometry_key
 from toolkit.world import NO_ECHO, Map, NxtSonar, Scan, angle_diff
 
 log = logging.getLogger(__name__)
@@ -219,9 +219,9 @@ _MAX_TABLES = 4
 def _cached_echo_table(map: Map, beam_width_deg: float, critical_incidence_deg: float) -> EchoTable:
     """The table built, or read from the disk cache (``$NXTNAV_CACHE_DIR``, as the range tables) when
     there; a table built is written there (atomically: processes may share the folder)."""
-    folder = _default_cache_dir()
+    folder = cache_dir_from_env()
     path = None if folder is None else \
-        folder / f"echo_table_{_map_key(map)}_{beam_width_deg:g}_{critical_incidence_deg:g}.npz"
+        folder / f"echo_table_{map_geometry_key(map)}_{beam_width_deg:g}_{critical_incidence_deg:g}.npz"
     if path is not None and path.is_file():
         try:
             with np.load(path) as f:

@@ -296,3 +296,28 @@ def test_a_stuck_sweep_turned_by_whole_bins_is_said_once(caplog: pytest.LogCaptu
             assert dropped > 0
     said = [r.getMessage() for r in caplog.records if "stuck sonar" in r.getMessage()]
     assert len(said) == 2, said
+
+
+def test_an_echo_table_is_kept_on_disk_and_read_back(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                     caplog: pytest.LogCaptureFixture) -> None:
+    """With ``$NXTNAV_CACHE_DIR``, a table built is written there and a new process (here: an empty memory
+    cache) reads the same arrays back; an unreadable file is said and built again."""
+    from localisation import stuck
+
+    monkeypatch.setenv("NXTNAV_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(stuck, "_TABLES", {})
+    m = load_map("map1")
+    built = stuck.echo_table(m)
+    files = list(tmp_path.glob("echo_table_*.npz"))
+    assert len(files) == 1
+    monkeypatch.setattr(stuck, "_TABLES", {})
+    read = stuck.echo_table(m)
+    assert read is not built
+    for field in ("xy", "nearest_cm", "echo_cm"):
+        assert np.array_equal(getattr(read, field), getattr(built, field)), field
+    assert read.spacing_cm == built.spacing_cm
+    files[0].write_bytes(b"not a table")
+    monkeypatch.setattr(stuck, "_TABLES", {})
+    again = stuck.echo_table(m)
+    assert np.array_equal(again.echo_cm, built.echo_cm)
+    assert any("ignoring unreadable echo table cache" in r.getMessage() for r in caplog.records)
