@@ -8,7 +8,9 @@ themselves, over a Unix socket) to a server which has imported everything once; 
 the child runs the console script's own entry point (`toolkit.cli.main`, sys.argv as typed) in that
 folder, with that environment and those streams, in a session of its own. The stand-in waits for the
 child and exits as it did (the same code, or the same signal); a signal sent to the stand-in (``kill
-%1``, Ctrl-C) goes to the child, and a stand-in that dies takes its child with it.
+%1``, Ctrl-C) goes to the child, and a stand-in that dies takes its child with it. When the child
+ends, whatever it left running in its session ends too (a real command's leftovers end with the
+block's process group).
 
 What differs from a fresh process is only what the imports leave behind: modules already loaded, and
 numba's compiled kernels already in memory. ``NXTNAV_DOCS_WARM=0`` runs every block with the real
@@ -163,10 +165,16 @@ def serve(path: str) -> None:
         _serve(listener, selector, children, parent)
     finally:
         for pid in children:
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+            _end_group(pid)
+
+
+def _end_group(pid: int) -> None:
+    """SIGKILL to the process group of the child `pid` (its own session): it and whatever it started and
+    left there, as the block's end stops what a real command left in the block's group."""
+    try:
+        os.killpg(pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
 
 
 def _serve(listener: socket.socket, selector: selectors.BaseSelector, children: dict[int, socket.socket],
@@ -179,7 +187,7 @@ def _serve(listener: socket.socket, selector: selectors.BaseSelector, children: 
                 pid = key.data
                 try:
                     if not key.fileobj.recv(1):  # type: ignore[union-attr]
-                        os.kill(pid, signal.SIGKILL)
+                        _end_group(pid)
                         selector.unregister(key.fileobj)
                 except OSError:
                     selector.unregister(key.fileobj)
@@ -217,6 +225,7 @@ def _reap(selector: selectors.BaseSelector, children: dict[int, socket.socket]) 
             return
         if pid == 0:
             return
+        _end_group(pid)  # what the command left running (pool workers, a cluster) goes with it
         conn = children.pop(pid, None)
         if conn is None:
             continue
