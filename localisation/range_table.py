@@ -9,6 +9,7 @@ import logging
 import math
 import os
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,7 @@ __all__ = [
     "range_lattice",
     "range_memory_budget",
     "range_table",
+    "write_cache_file",
 ]
 
 log = logging.getLogger(__name__)
@@ -409,6 +411,18 @@ _TABLES: dict[tuple[Any, ...], RangeTable] = {}
 _TABLES_LOCK = threading.Lock()
 
 
+def write_cache_file(path: Path, save: Callable[[Path], object], what: str) -> None:
+    """`save` a table into the disk cache at `path`: into a file of this process first, then moved into
+    place (processes share the folder); a failure is a warning, since the table is still in memory."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp{path.suffix}")
+        save(tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        log.warning("could not write %s cache %s: %s", what, path, exc)
+
+
 def map_geometry_key(map: Map) -> str:
     """A short hash of `map`'s walls and bounds: the name of its tables in the disk cache."""
     h = hashlib.sha1(np.ascontiguousarray(map.walls, dtype=np.float64).tobytes())
@@ -479,13 +493,7 @@ def range_table(map: Map, resolution_cm: float = 1.0, n_angles: int = 360,
             table = RangeTable(map, plan.resolution_cm, n_angles, None, lobe, crit, plan.dtype, plan.quantum_cm,
                                max_range_cm)
         if path is not None and ranges is None:
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = path.with_suffix(f".{os.getpid()}.tmp.npy")
-                np.save(tmp, table.ranges)
-                os.replace(tmp, path)
-            except OSError as exc:
-                log.warning("could not write range table cache %s: %s", path, exc)
+            write_cache_file(path, lambda tmp: np.save(tmp, table.ranges), "range table")
         _TABLES[key] = table
         log.debug("range table for %s: %d cells of %g cm x %d directions, %s (%.1f MB)", map.name,
                   table.ranges.shape[0], plan.resolution_cm, n_angles, plan.dtype, table.nbytes / 1e6)

@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -58,7 +57,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from localisation.range_table import cache_dir_from_env, map_geometry_key
+from localisation.range_table import cache_dir_from_env, map_geometry_key, write_cache_file
 from toolkit.world import NO_ECHO, Map, NxtSonar, Scan, angle_diff
 
 log = logging.getLogger(__name__)
@@ -233,14 +232,9 @@ def _cached_echo_table(map: Map, beam_width_deg: float, critical_incidence_deg: 
     xy, spacing = _grid_positions(map)
     table = EchoTable(xy, *_lobes(map, xy, beam_width_deg, critical_incidence_deg), spacing)
     if path is not None:
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-            np.savez(tmp, xy=table.xy, nearest_cm=table.nearest_cm, echo_cm=table.echo_cm,
-                     spacing_cm=table.spacing_cm)
-            os.replace(tmp, path)
-        except OSError as exc:
-            log.warning("could not write echo table cache %s: %s", path, exc)
+        write_cache_file(path, lambda tmp: np.savez(tmp, xy=table.xy, nearest_cm=table.nearest_cm,
+                                                    echo_cm=table.echo_cm, spacing_cm=table.spacing_cm),
+                         "echo table")
     return table
 
 

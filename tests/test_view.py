@@ -122,7 +122,10 @@ def _dead_display() -> str:
 
 
 def _nxtnav(args: list[str], cwd: Path, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([nxtnav_exe(), *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=HANG_S)
+    # Ctrl-C as a terminal gives it: not ignored from the start, as it is for whatever a shell starts in the
+    # background without job control (pytest itself so started would hand that on to the viewer)
+    return subprocess.run([nxtnav_exe(), *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=HANG_S,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def _fails_fast(args: list[str], cwd: Path, env: dict[str, str], *needles: str) -> str:
@@ -211,11 +214,7 @@ def test_live_view_reaches_the_viewer_and_leaves_it_open(mission: Path, tmp_path
     script.write_text(f'#!/bin/sh\necho $$ > "{pid_file}"\nexec "{viewer_binary()}" --save "{seen}" "$@"\n')
     script.chmod(0o755)
     env = {**NO_DISPLAY_ENV, "DISPLAY": _dead_display(), "RERUN_CLI_PATH": str(script)}
-    # Ctrl-C as a terminal gives it: not ignored from the start, as it is for whatever a shell starts in
-    # the background without job control (pytest itself so started would hand that on to the viewer)
-    proc = subprocess.run([nxtnav_exe(), "run", "--map", "map1", "--view"], cwd=tmp_path, env=env,
-                          capture_output=True, text=True, timeout=HANG_S,
-                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = _nxtnav(["run", "--map", "map1", "--view"], tmp_path, env)
     assert proc.returncode == 0, proc.stderr
     pid = int(pid_file.read_text())
     try:

@@ -175,7 +175,7 @@ def main() -> int:
         with step("archives hold LICENSE and every file of maps/"):
             check_archives(sdist, wheel)
         venv = tmp / "venv"
-        with step(f"fresh venv in {tmp}, pip install the wheel"):
+        with step(f"fresh venv in {tmp}, the wheel installed"):
             run([sys.executable, "-m", "venv", str(venv)], tmp)
             python = str(venv / "bin" / "python")
             if UV:  # what pip would install (the wheel's own requirements), in a fraction of pip's time

@@ -37,7 +37,6 @@ from typing import Any
 
 SOCKET_ENV = "NXTNAV_WARM_SOCKET"
 SWITCH_ENV = "NXTNAV_DOCS_WARM"
-REAL_ENV = "NXTNAV_WARM_REAL"
 HEADER = struct.Struct("!I")
 STATUS = struct.Struct("!i")
 START_TIMEOUT_S = 120.0
@@ -46,7 +45,7 @@ START_TIMEOUT_S = 120.0
 # socket and json, without site-packages (-S); with no server it becomes the real console script
 SHIM = '''#!{python} -IS
 import json, os, signal, socket, struct, sys
-real = os.environ.get("{real_env}") or "{real}"
+real = "{real}"
 try:
     conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     conn.connect(os.environ["{socket_env}"])
@@ -105,17 +104,21 @@ def _preload() -> None:
 
 
 def _receive(conn: socket.socket) -> tuple[dict[str, Any], list[int]]:
+    """The stand-in's request (a length, then JSON) and the descriptors that came with its first bytes."""
     data, fds, _, _ = socket.recv_fds(conn, 1 << 16, 3)
-    while len(data) < HEADER.size:
-        data += conn.recv(HEADER.size - len(data))
+    data = _exactly(conn, data, HEADER.size)
     (size,) = HEADER.unpack(data[: HEADER.size])
-    body = data[HEADER.size :]
-    while len(body) < size:
-        part = conn.recv(size - len(body))
+    return json.loads(_exactly(conn, data, HEADER.size + size)[HEADER.size :]), list(fds)
+
+
+def _exactly(conn: socket.socket, data: bytes, n: int) -> bytes:
+    """`data` read on from `conn` until it holds `n` bytes."""
+    while len(data) < n:
+        part = conn.recv(n - len(data))
         if not part:
             raise OSError("the stand-in closed its connection")
-        body += part
-    return json.loads(body), list(fds)
+        data += part
+    return data
 
 
 def _run_child(request: dict[str, Any], fds: list[int]) -> None:
@@ -249,7 +252,7 @@ class WarmServer:
         real = Path(sys.executable).parent / "nxtnav"
         shim = self.folder / "bin" / "nxtnav"
         shim.parent.mkdir()
-        shim.write_text(SHIM.format(python=sys.executable, real=real, real_env=REAL_ENV, socket_env=SOCKET_ENV))
+        shim.write_text(SHIM.format(python=sys.executable, real=real, socket_env=SOCKET_ENV))
         shim.chmod(0o755)
         self.process = subprocess.Popen([sys.executable, __file__, "serve", self.socket], env=env,
                                         stdin=subprocess.DEVNULL, start_new_session=True)
