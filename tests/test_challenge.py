@@ -255,6 +255,26 @@ def test_a_set_without_headings_runs_with_the_headings_that_align_it(tmp_path: P
         assert len(list(csv.DictReader(fh))) == 3
 
 
+def test_run_takes_the_aligned_headings_of_a_set_without_them(tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """`nxtnav run --sonar sweeps:DIR --headings aligned` runs a set without heading_deg (refused without it,
+    the error naming the option), the report says which headings it took; `--headings` with a simulated
+    sonar is one line and exit 2."""
+    folder = _copy(tmp_path)
+    _drop_heading(folder)
+    report = tmp_path / "r.json"
+    argv = ["run", "--map", "co333-arena", "--sonar", f"sweeps:{folder}", "--seed", "0", "--json", str(report)]
+    assert run_cli(argv) == 2
+    assert "--headings aligned finds it" in capsys.readouterr().err
+    assert run_cli([*argv, "--headings", "aligned"]) in (0, 1)
+    doc = json.loads(report.read_text())
+    assert doc["headings"] == "aligned" and doc["visits"]
+    assert run_cli(["run", "--map", "map1", "--headings", "aligned", "--json", str(tmp_path / "s.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("--headings aligned: only with --sonar sweeps:DIR (a real sweep's heading)")
+    assert not (tmp_path / "s.json").exists()
+
+
 def test_a_crashed_mission_of_a_set_without_headings_is_still_a_row(tmp_path: Path) -> None:
     """A mission whose worker died is recorded from the set as its task loads it: with the headings the task
     carries (``--headings aligned``), not the set's missing column."""

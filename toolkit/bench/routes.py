@@ -114,7 +114,7 @@ def plan_routes(sweeps: SweepSet, orders: int = 0, order: Sequence[Waypoint] | N
                 if math.isnan(sw.heading_deg):
                     raise SweepSetError(f"{sweeps.folder / 'sweeps.csv'}: sweep {sw.label} has no heading_deg; "
                                         "a route's truth is the waypoint at the sweep's aligned heading "
-                                        "(or give --headings model)")
+                                        "(or give --headings aligned or model)")
         routes += [Route(repo, f"course-{k}", tuple(course[k:] + course[:k])) for k in range(len(course))]
         for j in range(orders):
             perm = np.random.default_rng(derive_seed(0, "routes-order", repo, j)).permutation(len(course))

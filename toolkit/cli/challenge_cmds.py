@@ -77,12 +77,12 @@ def _map_of(folder: Path, map_name: str | None) -> str:
 def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, seed: int, noise_model: str,
                        noise_text: str, profile: Path | None, json_out: Path | None,
                        not_here: dict[str, Any] | None = None, ctx: typer.Context | None = None,
-                       sets: list[str] | None = None) -> None:
+                       sets: list[str] | None = None, headings: str = "column") -> None:
     """`nxtnav run --sonar sweeps:DIR`: one challenge mission (`toolkit.mission.challenge`) on a seeded
     source of the set, from a seeded waypoint; exit 1 when a waypoint was not reached within 10 cm.
     `not_here`: options of `run` a challenge does not take, with their values (any set one is an error);
     `ctx` and `sets`: the command and its ``--set`` values (``challenge.KEY=VALUE`` only), for the settings
-    and the configuration the report carries."""
+    and the configuration the report carries; `headings`: ``--headings`` (as `bench challenge` takes it)."""
     import numpy as np
 
     from toolkit.bench.challenge import challenge_mission
@@ -103,17 +103,19 @@ def run_sweeps_mission(sonar: str, map_name: str, planner: str, localiser: str, 
     noise = _noise(noise_model, noise_text)
     model = load_profile(profile, "nxt")
     check_writable(json_out, "--json")
-    sweeps = load_challenge_set(folder, load_map(map_name))
+    sweeps = load_challenge_set(folder, load_map(map_name), _truth_headings(headings, model or NxtSonar()))
     repos = [r for r in sweeps.repos if len(course_waypoints(sweeps, r)) >= 2]
     pick = np.random.default_rng(derive_seed(seed, "run challenge"))
     repo = repos[int(pick.integers(len(repos)))]
     start = int(pick.integers(len(course_waypoints(sweeps, repo))))
-    warn_twin_headings(sweeps, {repo: model or NxtSonar()})
+    if headings == "column":
+        warn_twin_headings(sweeps, {repo: model or NxtSonar()})
     report = challenge_mission(sweeps, repo, start, seed, localiser, planner, model, noise, settings)
     typer.echo(f"sweeps of {repo} ({folder})")
     typer.echo(report.summary())
     if json_out is not None:
-        doc = {**report.to_dict(), "repo": repo, "sweeps": str(folder), "seed": seed, "noise": noise.to_dict()}
+        doc = {**report.to_dict(), "repo": repo, "sweeps": str(folder), "seed": seed, "noise": noise.to_dict(),
+               "headings": headings}
         if ctx is not None:
             doc["configuration"] = configuration(ctx, sets or [], challenge=settings.model_dump())
         json_out.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))

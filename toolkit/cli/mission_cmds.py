@@ -36,6 +36,7 @@ from .options import (
     ServerHost,
     ServerPort,
     SonarProfile,
+    TruthHeadings,
     Workers,
     check_writable,
     count,
@@ -143,6 +144,7 @@ def run(
                                        "sweeps:DIR: real sweeps at a sweep set's waypoints (the course's "
                                        "challenge).")] = "ideal",
     sonar_profile_path: SonarProfile = None,
+    headings: TruthHeadings = "column",
     noise_model: NoiseModel = "botsim",
     noise_text: str = typer.Option("1,0.1,0.005", "--noise", metavar="SENSOR,MOTION,TURN",
                                    help="Noise of the ideal sonar (cm; the nxt sonar's comes from its model), "
@@ -186,7 +188,9 @@ def run(
                                       "--robot": robot_kind != "sim", "--start": start_text, "--random-start":
                                       random_start, "--target": target_text, "--start-heading": start_heading_text,
                                       "--radius": radius, "--plot": plot, "--animate": animate, "--record": record,
-                                      "--view": view, "--view-save": view_save}, ctx, sets)
+                                      "--view": view, "--view-save": view_save}, ctx, sets, headings)
+    if headings != "column":
+        raise NxtnavError(f"--headings {headings}: only with --sonar sweeps:DIR (a real sweep's heading)")
     m = load_map(map_name)
     planner = _check_name(planner, "--planner", _planner_names(), allow_ompl=True)
     localiser = _check_name(localiser, "--localiser", _localiser_names())

@@ -127,7 +127,8 @@ def load_challenge_set(folder: Path, map: Map | str, headings: Headings | None =
     for s in sweeps:
         if math.isnan(s.heading_deg):
             raise SweepSetError(f"{folder / 'sweeps.csv'}: sweep {s.label} has no heading_deg; a sweep "
-                                "cannot be turned to the robot's heading without it")
+                                "cannot be turned to the robot's heading without it (--headings aligned finds it "
+                                "as heading_deg is made)")
         if not math.isclose(s.readings.size * s.step_deg, 360.0, abs_tol=1e-6):
             raise SweepSetError(f"{folder / 'sweeps.csv'}: sweep {s.label} covers {s.readings.size * s.step_deg:g} "
                                 "degrees; only a full turn (n_bins x step_deg = 360) can be turned by whole bins")
