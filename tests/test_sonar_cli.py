@@ -156,6 +156,46 @@ def test_loo_holds_out_each_repository(fitted: Path, tmp_path: Path, capsys: pyt
     assert doc["folds"][0]["model"] != doc["folds"][1]["model"]
 
 
+def _kept(folder: Path, name: str, files: set[str], repos: dict[str, str] | None = None) -> Path:
+    """A copy of the shipped set with only the sweeps of `files`, those named in `repos` from that source."""
+    out = folder / name
+    shutil.copytree(REAL_NXT, out)
+    with (out / "sweeps.csv").open(newline="") as fh:
+        rows = [{**r, "repo": (repos or {}).get(r["file"], r["repo"])} for r in csv.DictReader(fh)]
+    with (out / "sweeps.csv").open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(r for r in rows if r["file"] in files)
+    return out
+
+
+def test_loo_per_source_holds_out_each_sweep_of_its_source(fitted: Path, tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    """`sonar loo --per-source`: one fold per sweep of a source with two or more (a source with one is left
+    out), each model fitted on the source's other sweeps alone: the same model `sonar fit` makes of those."""
+    arena = str(fitted / "arena.yaml")
+    ones = _kept(tmp_path, "ones", {"loc_01.dat", "loc_03.dat"}, {"loc_03.dat": "someone/else"})  # a sweep each
+    assert run_cli(["sonar", "loo", str(ones), "--map", arena, *GRID, "--per-source"]) == 2
+    assert "needs a source with two or more sweeps" in capsys.readouterr().err
+    out = tmp_path / "loo.json"
+    folder = _two_sources(tmp_path)  # andrei-alpha: loc_01, loc_03; someone/else: loc_04
+    assert run_cli(["sonar", "loo", str(folder), "--map", arena, *GRID, "--per-source", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "leave one sweep out of its source" in text and "no-echo gap per held-out sweep: median" in text
+    doc = json.loads(out.read_text())
+    assert doc["per_source"] is True
+    assert [f["repo"] for f in doc["folds"]] == ["andrei-alpha/robotics/loc_01.dat", "andrei-alpha/robotics/loc_03.dat"]
+    assert [f["sweeps"] for f in doc["folds"]] == [1, 1]
+    gaps = sorted(abs(f["fitted"]["no_echo_model"] - f["fitted"]["no_echo_real"]) for f in doc["folds"])
+    assert f"median {(gaps[0] + gaps[1]) / 2:.3f}, largest {gaps[1]:.3f}" in text
+    alone = _kept(tmp_path, "alone", {"loc_03.dat"})
+    assert run_cli(["sonar", "fit", str(alone), "--map", arena, *GRID, "-o", str(tmp_path / "p.yaml")]) == 0
+    model, written = doc["folds"][0]["model"], load_sonar_profile(tmp_path / "p.yaml").to_dict()
+    assert model.keys() == written.keys()
+    for key, value in written.items():  # the profile file keeps about six figures
+        assert model[key] == (pytest.approx(value, rel=1e-4) if isinstance(value, float) else value), key
+
+
 def test_loo_needs_two_repositories(fitted: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert run_cli(["sonar", "loo", str(REAL_NXT), "--map", str(fitted / "arena.yaml"), *GRID]) == 2
     err = capsys.readouterr().err

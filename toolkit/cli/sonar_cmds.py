@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import logging
+import statistics
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, replace
@@ -386,21 +387,26 @@ def sonar_loo(
     criticals_text: str = _CRITICALS,
     workers: Workers = 1,
     json_out: JsonOut = None,
+    per_source: bool = typer.Option(
+        False, "--per-source", help="Leave one sweep out of its source instead: fit on the source's other sweeps, "
+                                    "score the sweep (the test of `sonar fit --per-source`)."),
 ) -> None:
     """Leave one repository out: fit without each source of sweeps, score its sweeps.
 
     For each source (the `repo` column) the model is fitted on the other sources' sweeps; the held-out
     sweeps are scored with that fit and with the hardware-facts model. Reports each held-out source and
     the means weighted by their readings, whether the fitted models explain held-out readings better than
-    the hardware facts, and whether they expect a no-echo share within 0.05 of the real one.
+    the hardware facts, and whether they expect a no-echo share within 0.05 of the real one. With
+    --per-source, one fold per sweep of every source with two or more: a robot's own model, fitted on
+    its other sweeps.
     """
-    from ..real_sonar.fit import LeaveOneOut, repo_folds, score_fold
+    from ..real_sonar.fit import LeaveOneOut, repo_folds, score_fold, sweep_folds
 
     widths = _grid(widths_text, "--widths", 120.0)
     criticals = _grid(criticals_text, "--criticals", 90.0)
     check_writable(json_out, "--json")
     sets = _load_sets(dirs, map_file)
-    folds = repo_folds(sets)
+    folds = sweep_folds(sets) if per_source else repo_folds(sets)
     lobes = len(widths) * len(criticals)
     with _stuck_noted(sets):
         if workers == 1:
@@ -413,8 +419,9 @@ def sonar_loo(
             order = {f.repo: i for i, f in enumerate(folds)}
             held = sorted(done, key=lambda h: order[h.repo])
     loo = LeaveOneOut.of(held)
-    table = Table(title="leave one repository out (log-lik: nats per reading, higher is better; |Δ|: "
-                        "|real - model| where both answer)")
+    what = "leave one sweep out of its source" if per_source else "leave one repository out"
+    table = Table(title=f"{what} (log-lik: nats per reading, higher is better; |Δ|: |real - model| where both "
+                        "answer)")
     table.add_column("held out", overflow="fold")
     for name in ("sweeps", "readings", "log-lik fitted / hardware", "no echo real / fitted / hardware",
                  "median |Δ| fitted / hardware"):
@@ -437,9 +444,14 @@ def sonar_loo(
     close = loo.no_echo_gap <= 0.05
     typer.echo(f"fitted no-echo share within 0.05 of the real one: {'yes' if close else 'no'} "
                f"({f['no_echo_model']:.3f} against {f['no_echo_real']:.3f}, gap {loo.no_echo_gap:.3f})")
+    gaps = [g for g in loo.fold_no_echo_gaps if g == g]  # nan: a fold without a valid reading
+    if gaps:
+        typer.echo(f"no-echo gap per held-out {'sweep' if per_source else 'source'}: median "
+                   f"{statistics.median(gaps):.3f}, largest {max(gaps):.3f}")
     if json_out is not None:
         _write_json(json_out, {"folders": [str(d) for d in dirs], "widths_deg": widths, "criticals_deg": criticals,
-                               "baseline": NxtSonar.hardware_facts().to_dict(), **loo.to_dict()})
+                               "per_source": per_source, "baseline": NxtSonar.hardware_facts().to_dict(),
+                               **loo.to_dict()})
 
 
 @sonar_app.command("plot")

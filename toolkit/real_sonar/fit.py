@@ -57,6 +57,7 @@ __all__ = [
     "score_fold",
     "score_sonar",
     "source_profile_name",
+    "sweep_folds",
     "turret_offset_deg",
 ]
 
@@ -400,9 +401,31 @@ def repo_folds(sets: Sequence[SweepSet]) -> list[RepoFold]:
     return [RepoFold(repo, pick(repo, False), pick(repo, True)) for repo in repos]
 
 
+def sweep_folds(sets: Sequence[SweepSet]) -> list[RepoFold]:
+    """One fold per sweep of every source with two or more sweeps: that sweep held out, its source's other
+    sweeps to fit on (the test of a per-source profile, `sonar fit --per-source`: a robot's model scored on
+    a sweep it was not fitted on). Each fold is named by the held-out sweep's label. Raises `ConfigError`
+    when no source has two sweeps."""
+    folds = []
+    for repo in dict.fromkeys(sw.repo for s in sets for sw in s):
+        mine = [(s, sw) for s in sets for sw in s if sw.repo == repo]
+        if len(mine) < 2:
+            continue
+        for held_set, held in mine:
+            train = [SweepSet(s.folder, s.map, tuple(sw for sw in s if sw.repo == repo and sw is not held))
+                     for s in sets]
+            folds.append(RepoFold(held.label, [t for t in train if len(t)],
+                                  [SweepSet(held_set.folder, held_set.map, (held,))]))
+    if not folds:
+        raise ConfigError("leaving one sweep out of its source needs a source with two or more sweeps; every "
+                          "source here has one")
+    return folds
+
+
 @dataclass(frozen=True)
 class HeldOutScore:
-    """The sweeps of one source scored by the model fitted without them and by a baseline model."""
+    """The sweeps of one fold (a source, or one sweep: `repo` names what was held out) scored by the model fitted
+    without them and by a baseline model."""
 
     repo: str
     fitted: SweepScore
@@ -492,6 +515,11 @@ class LeaveOneOut:
     @property
     def no_echo_gap(self) -> float:
         return abs(self.fitted["no_echo_model"] - self.fitted["no_echo_real"])
+
+    @property
+    def fold_no_echo_gaps(self) -> list[float]:
+        """Each fold's own gap between the no-echo share its fitted model expects and the real one."""
+        return [abs(f.fitted.no_echo_model - f.fitted.no_echo_real) for f in self.folds]
 
     def to_dict(self) -> dict[str, Any]:
         return {"folds": [f.to_dict() for f in self.folds], "readings": self.readings,
