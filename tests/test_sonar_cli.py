@@ -6,7 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import shutil
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import pytest
@@ -19,6 +19,8 @@ from toolkit.world import NxtSonar
 pytestmark = pytest.mark.xdist_group("sonar-fit")  # one worker: `fitted` built once, none waiting on its lock
 
 GRID = ["--widths", "20", "--criticals", "40"]
+SHIPPED = ("loc_01.dat", "loc_03.dat", "loc_04.dat")
+"""The shipped set's sweep files."""
 
 
 def _arena(folder: Path) -> Path:
@@ -71,7 +73,8 @@ def test_score_reports_each_model_and_sweep(fitted: Path, tmp_path: Path, capsys
                                             monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("COLUMNS", "80")  # a narrow terminal: names may fold, numbers may not be cut
     out = tmp_path / "score.json"
-    folder = _relabelled(tmp_path, "a-student-with-a-long-name/robotics-coursework-2016")
+    long_name = "a-student-with-a-long-name/robotics-coursework-2016"
+    folder = _shipped_copy(tmp_path, "relabelled", dict.fromkeys(SHIPPED, long_name))
     assert run_cli(["sonar", "score", str(folder), "--map", str(fitted / "arena.yaml"), "--sonar-profile",
                     str(fitted / "profile.yaml"), "--baseline", "hardware", "--json", str(out)]) == 0
     text = capsys.readouterr().out
@@ -115,22 +118,24 @@ def test_score_without_a_profile_is_the_default_model(fitted: Path, tmp_path: Pa
     assert len(named) == 1 and named[0].startswith("andrei-alpha/robotics/loc_03.dat: heading_deg -90.5 is 8")
 
 
-def _relabelled(folder: Path, repo: str, last_only: bool = False) -> Path:
-    """A copy of the shipped set whose sweeps (or only its last) are said to come from repository `repo`."""
-    out = folder / "relabelled"
+def _shipped_copy(folder: Path, name: str, repos: dict[str, str] | None = None,
+                  keep: Iterable[str] = SHIPPED) -> Path:
+    """A copy of the shipped set in `folder / name` with only the sweeps of `keep`, those named in `repos` said
+    to come from that repository instead."""
+    out = folder / name
     shutil.copytree(REAL_NXT, out)
     with (out / "sweeps.csv").open(newline="") as fh:
-        rows = list(csv.reader(fh))
-    for row in rows[-1:] if last_only else rows[1:]:
-        row[rows[0].index("repo")] = repo
+        rows = [{**r, "repo": (repos or {}).get(r["file"], r["repo"])} for r in csv.DictReader(fh)]
     with (out / "sweeps.csv").open("w", newline="") as fh:
-        csv.writer(fh).writerows(rows)
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(r for r in rows if r["file"] in set(keep))
     return out
 
 
 def _two_sources(folder: Path) -> Path:
     """A copy of the shipped set whose last sweep is relabelled as coming from a second repository."""
-    return _relabelled(folder, "someone/else", last_only=True)
+    return _shipped_copy(folder, "relabelled", {"loc_04.dat": "someone/else"})
 
 
 def test_loo_holds_out_each_repository(fitted: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -156,25 +161,12 @@ def test_loo_holds_out_each_repository(fitted: Path, tmp_path: Path, capsys: pyt
     assert doc["folds"][0]["model"] != doc["folds"][1]["model"]
 
 
-def _kept(folder: Path, name: str, files: set[str], repos: dict[str, str] | None = None) -> Path:
-    """A copy of the shipped set with only the sweeps of `files`, those named in `repos` from that source."""
-    out = folder / name
-    shutil.copytree(REAL_NXT, out)
-    with (out / "sweeps.csv").open(newline="") as fh:
-        rows = [{**r, "repo": (repos or {}).get(r["file"], r["repo"])} for r in csv.DictReader(fh)]
-    with (out / "sweeps.csv").open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(r for r in rows if r["file"] in files)
-    return out
-
-
 def test_loo_per_source_holds_out_each_sweep_of_its_source(fitted: Path, tmp_path: Path,
                                                            capsys: pytest.CaptureFixture[str]) -> None:
     """`sonar loo --per-source`: one fold per sweep of a source with two or more (a source with one is left
     out), each model fitted on the source's other sweeps alone: the same model `sonar fit` makes of those."""
     arena = str(fitted / "arena.yaml")
-    ones = _kept(tmp_path, "ones", {"loc_01.dat", "loc_03.dat"}, {"loc_03.dat": "someone/else"})  # a sweep each
+    ones = _shipped_copy(tmp_path, "ones", {"loc_03.dat": "someone/else"}, keep=SHIPPED[:2])  # a sweep each
     assert run_cli(["sonar", "loo", str(ones), "--map", arena, *GRID, "--per-source"]) == 2
     assert "needs a source with two or more sweeps" in capsys.readouterr().err
     out = tmp_path / "loo.json"
@@ -188,7 +180,7 @@ def test_loo_per_source_holds_out_each_sweep_of_its_source(fitted: Path, tmp_pat
     assert [f["sweeps"] for f in doc["folds"]] == [1, 1]
     gaps = sorted(abs(f["fitted"]["no_echo_model"] - f["fitted"]["no_echo_real"]) for f in doc["folds"])
     assert f"median {(gaps[0] + gaps[1]) / 2:.3f}, largest {gaps[1]:.3f}" in text
-    alone = _kept(tmp_path, "alone", {"loc_03.dat"})
+    alone = _shipped_copy(tmp_path, "alone", keep=["loc_03.dat"])
     assert run_cli(["sonar", "fit", str(alone), "--map", arena, *GRID, "-o", str(tmp_path / "p.yaml")]) == 0
     model, written = doc["folds"][0]["model"], load_sonar_profile(tmp_path / "p.yaml").to_dict()
     assert model.keys() == written.keys()

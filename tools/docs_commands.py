@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import argparse
 import atexit
+import functools
 import importlib.util
 import json
 import operator
@@ -341,8 +342,16 @@ def command_environment(repo: Path = REPO) -> dict[str, str]:
     return env
 
 
-_WARM: list[Any] = []
-"""The warm `nxtnav` server of this process, once started (tools/warm_nxtnav.py)."""
+@functools.cache
+def _warm_server() -> Any:
+    """The warm `nxtnav` server of this process (tools/warm_nxtnav.py), started on first use and stopped at exit."""
+    spec = importlib.util.spec_from_file_location("warm_nxtnav", Path(__file__).with_name("warm_nxtnav.py"))
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    server = module.WarmServer(command_environment())
+    atexit.register(server.stop)
+    return server
 
 
 def block_environment() -> dict[str, str]:
@@ -351,14 +360,7 @@ def block_environment() -> dict[str, str]:
     env = command_environment()
     if os.environ.get("NXTNAV_DOCS_WARM", "1") == "0":
         return env
-    if not _WARM:
-        spec = importlib.util.spec_from_file_location("warm_nxtnav", Path(__file__).with_name("warm_nxtnav.py"))
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        _WARM.append(module.WarmServer(env))
-        atexit.register(_WARM[0].stop)
-    return dict(_WARM[0].environment(env))
+    return dict(_warm_server().environment(env))
 
 
 def run_script(script: str, folder: Path, timeout_s: float = DEFAULT_TIMEOUT_S) -> Outcome:

@@ -36,7 +36,6 @@ from pathlib import Path
 from typing import Any
 
 SOCKET_ENV = "NXTNAV_WARM_SOCKET"
-SWITCH_ENV = "NXTNAV_DOCS_WARM"
 HEADER = struct.Struct("!I")
 STATUS = struct.Struct("!i")
 START_TIMEOUT_S = 120.0

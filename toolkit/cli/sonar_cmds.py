@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import statistics
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -444,7 +445,7 @@ def sonar_loo(
     close = loo.no_echo_gap <= 0.05
     typer.echo(f"fitted no-echo share within 0.05 of the real one: {'yes' if close else 'no'} "
                f"({f['no_echo_model']:.3f} against {f['no_echo_real']:.3f}, gap {loo.no_echo_gap:.3f})")
-    gaps = [g for g in loo.fold_no_echo_gaps if g == g]  # nan: a fold without a valid reading
+    gaps = [g for g in loo.fold_no_echo_gaps if not math.isnan(g)]  # nan: a fold without a valid reading
     if gaps:
         typer.echo(f"no-echo gap per held-out {'sweep' if per_source else 'source'}: median "
                    f"{statistics.median(gaps):.3f}, largest {max(gaps):.3f}")
